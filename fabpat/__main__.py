@@ -1,0 +1,3 @@
+from fabpat.cli import main
+
+main()

@@ -1,0 +1,63 @@
+"""The ``fabpat`` command line: each subcommand parses its options and calls the library.
+
+Errors never show a traceback: a :class:`~fabpat.errors.FabpatError` or a usage error becomes one
+line on stderr (``fabpat: error: …``) and exit code 2.
+"""
+
+from __future__ import annotations
+
+import sys
+from typing import Any
+
+import click
+
+from fabpat import __version__
+from fabpat.errors import FabpatError
+
+
+class FabpatGroup(click.Group):
+    """A click group whose errors are one line on stderr and exit code 2."""
+
+    def main(self, *args: Any, **kwargs: Any) -> Any:  # noqa: D102 - click's signature
+        kwargs["standalone_mode"] = False
+        try:
+            rv = super().main(*args, **kwargs)
+        except click.exceptions.UsageError as e:
+            _fail(e.format_message())
+        except FabpatError as e:
+            _fail(str(e))
+        except click.exceptions.Abort:
+            click.echo("fabpat: aborted", err=True)
+            sys.exit(1)
+        sys.exit(rv if isinstance(rv, int) else 0)
+
+
+def _fail(message: str) -> None:
+    line = " ".join(message.split())
+    click.echo(f"fabpat: error: {line}", err=True)
+    sys.exit(2)
+
+
+@click.group(cls=FabpatGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="fabpat")
+def cli() -> None:
+    """Design, simulate and export fabricable geometric patterns for flat mechanical metamaterials."""
+
+
+# Each module under fabpat/cli/ exposes COMMANDS; one line here adds a module's commands.
+_COMMAND_MODULES = ("library_cmds",)
+
+
+def _register() -> None:
+    import importlib
+
+    for name in _COMMAND_MODULES:
+        for cmd in importlib.import_module(f"fabpat.cli.{name}").COMMANDS:
+            cli.add_command(cmd)
+
+
+_register()
+
+
+def main() -> None:
+    cli.main(prog_name="fabpat")

@@ -1,0 +1,37 @@
+"""Options shared by several commands, so each is spelled and checked the same way everywhere."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import click
+
+from fabpat.pattern import DEFAULT_EDGE
+
+
+def _at_least(minimum: float, what: str, strict: bool = False) -> Callable[..., Any]:
+    def check(ctx: click.Context, param: click.Parameter, value: Any) -> Any:
+        if value is None:
+            return value
+        bad = value <= minimum if strict else value < minimum
+        if bad:
+            op = ">" if strict else "≥"
+            raise click.BadParameter(f"{what} must be {op} {minimum:g}, got {value:g}", ctx, param)
+        return value
+
+    return check
+
+
+sides_option = click.option(
+    "--sides", type=int, default=6, show_default=True, callback=_at_least(3, "sides"),
+    help="Number of polygon sides (≥ 3).",
+)
+depth_option = click.option(
+    "--depth", type=int, default=2, show_default=True, callback=_at_least(1, "depth"),
+    help="Subdivision depth of the slice (≥ 1); depth ≥ 3 needs --sample.",
+)
+edge_option = click.option(
+    "--edge", type=float, default=DEFAULT_EDGE, show_default=True, callback=_at_least(0, "edge", True),
+    help="Polygon edge length in mm.",
+)

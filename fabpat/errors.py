@@ -1,0 +1,28 @@
+"""One error hierarchy for the whole package.
+
+The library raises; only the CLI turns an error into a one-line message and exit code 2.
+"""
+
+
+class FabpatError(Exception):
+    """Base of every error fabpat raises on purpose."""
+
+
+class PatternError(FabpatError, ValueError):
+    """A bad pattern ID, polygon or depth."""
+
+
+class GeometryError(FabpatError):
+    """An outline that is not closed, not simple, or cannot be filleted."""
+
+
+class ExportError(FabpatError):
+    """A file that cannot be written in the requested format."""
+
+
+class SolverError(FabpatError):
+    """A simulation that did not converge or is ill-posed."""
+
+
+class SpecError(FabpatError, ValueError):
+    """An invalid assembly spec."""

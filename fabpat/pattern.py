@@ -1,0 +1,144 @@
+"""Patterns: a slice replicated by rotation into every fan triangle of a regular n-gon (paper §3.1).
+
+A pattern is the labelled triangulation ``V, F, c`` of the polygon; the *solid pattern* is the
+sub-complex of the faces with ``c = True``. Fan triangle ``f`` has its apex at the centre and its base
+on polygon edge ``f`` (see :func:`fabpat.lattice.polygon_vertices`); the slice is mapped linearly into
+it, so the same slice fits every n (exchangeability).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cache, cached_property
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fabpat.lattice import Slice, check_depth, check_sides, polygon_vertices, slice_lattice
+from fabpat.metrics import RegionMetrics, triangle_metrics
+
+DEFAULT_EDGE = 36.0  # mm: the paper's hexagon edge (§4.1)
+
+
+@dataclass(frozen=True, eq=False)
+class PatternTopology:
+    """Combinatorics shared by every pattern with the same ``sides`` and ``depth``.
+
+    ``point_fan``, ``point_ij``: (nv,) fan and (nv, 2) lattice coordinates of one representative of
+    each merged vertex; ``F`` (n·4**depth, 3) global faces; ``slice_face`` (n·4**depth,) the slice face
+    each pattern face copies; ``E`` (ne, 2) unique edges and ``FE`` (nf, 3) the edge of each face side.
+    """
+
+    sides: int
+    depth: int
+    point_fan: NDArray[np.int64]
+    point_ij: NDArray[np.int64]
+    F: NDArray[np.int64]
+    slice_face: NDArray[np.int64]
+    E: NDArray[np.int64]
+    FE: NDArray[np.int64]
+
+    @property
+    def n_vertices(self) -> int:
+        return int(self.point_fan.size)
+
+    def vertices(self, edge: float = DEFAULT_EDGE) -> NDArray[np.float64]:
+        """(nv, 2) vertex positions in mm for a polygon of the given edge length."""
+        corners = polygon_vertices(self.sides, edge)
+        N = 2**self.depth
+        B = corners[self.point_fan]
+        C = corners[(self.point_fan + 1) % self.sides]
+        return (self.point_ij[:, :1] * B + self.point_ij[:, 1:] * C) / N
+
+
+@cache
+def pattern_topology(sides: int, depth: int) -> PatternTopology:
+    n, d = check_sides(sides), check_depth(depth)
+    IJ, Fs = slice_lattice(d)
+    on_ab = IJ[:, 0] >= 1  # points owned by this fan; the AC side belongs to the next fan's AB side
+    K = int(on_ab.sum())
+    rank = np.full(len(IJ), -1, dtype=np.int64)
+    rank[on_ab] = np.arange(K)
+    local_of = {(int(i), int(j)): k for k, (i, j) in enumerate(IJ)}
+    glob = np.empty((n, len(IJ)), dtype=np.int64)
+    for f in range(n):
+        for k, (i, j) in enumerate(IJ):
+            if i == 0 and j == 0:
+                glob[f, k] = 0
+            elif i >= 1:
+                glob[f, k] = 1 + f * K + rank[k]
+            else:
+                glob[f, k] = 1 + ((f + 1) % n) * K + rank[local_of[int(j), 0]]
+    point_fan = np.zeros(1 + n * K, dtype=np.int64)
+    point_ij = np.zeros((1 + n * K, 2), dtype=np.int64)
+    for f in range(n):
+        point_fan[1 + f * K : 1 + (f + 1) * K] = f
+        point_ij[1 + f * K : 1 + (f + 1) * K] = IJ[on_ab]
+    F = np.concatenate([glob[f][Fs] for f in range(n)])
+    slice_face = np.tile(np.arange(len(Fs)), n)
+    sides_ = np.sort(np.stack([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]], axis=1), axis=2)
+    E, inv = np.unique(sides_.reshape(-1, 2), axis=0, return_inverse=True)
+    FE = inv.reshape(-1, 3)
+    for a in (point_fan, point_ij, F, slice_face, E, FE):
+        a.setflags(write=False)
+    return PatternTopology(n, d, point_fan, point_ij, F, slice_face, E, FE)
+
+
+@dataclass(frozen=True, eq=False)
+class Pattern:
+    """A slice in a regular polygon: ``V`` (nv, 2) mm, ``F`` (nf, 3), ``c`` (nf,) solid labels."""
+
+    slice: Slice
+    sides: int = 6
+    edge: float = DEFAULT_EDGE
+
+    @classmethod
+    def from_id(cls, pattern_id: str, sides: int = 6, depth: int = 2, edge: float = DEFAULT_EDGE) -> Pattern:
+        return cls(Slice.from_id(pattern_id, depth), check_sides(sides), float(edge))
+
+    @property
+    def id(self) -> str:
+        return self.slice.id
+
+    @property
+    def depth(self) -> int:
+        return self.slice.depth
+
+    @property
+    def topology(self) -> PatternTopology:
+        return pattern_topology(self.sides, self.depth)
+
+    @cached_property
+    def V(self) -> NDArray[np.float64]:
+        V = self.topology.vertices(self.edge)
+        V.setflags(write=False)
+        return V
+
+    @property
+    def F(self) -> NDArray[np.int64]:
+        return self.topology.F
+
+    @cached_property
+    def c(self) -> NDArray[np.bool_]:
+        c = self.slice.solid[self.topology.slice_face]
+        c.setflags(write=False)
+        return c
+
+    @property
+    def solid_faces(self) -> NDArray[np.int64]:
+        """F̃: (k, 3) the faces of the solid pattern."""
+        return self.F[self.c]
+
+    @cached_property
+    def boundary_edges(self) -> NDArray[np.int64]:
+        """(b, 2) vertex pairs of edges with solid on exactly one side (incl. the polygon border)."""
+        topo = self.topology
+        count = np.bincount(topo.FE[self.c].ravel(), minlength=len(topo.E))
+        return topo.E[count == 1]
+
+    @cached_property
+    def metrics(self) -> RegionMetrics:
+        area, J = triangle_metrics(self.V, self.solid_faces)
+        e = self.boundary_edges
+        perimeter = float(np.linalg.norm(self.V[e[:, 0]] - self.V[e[:, 1]], axis=1).sum())
+        return RegionMetrics.from_values(area, perimeter, J)

@@ -1,0 +1,134 @@
+"""Pictures of patterns: SVG of one pattern, contact sheets of a library (SVG and PNG).
+
+Solid is black on white, the polygon outline is drawn thin in grey. SVG coordinates are millimetres
+(y flipped so the picture is the pattern seen from above), so an SVG opens at true size.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fabpat.lattice import polygon_vertices
+from fabpat.pattern import Pattern
+
+_SEAM = 0.04  # mm: a same-colour stroke that hides anti-aliasing seams between solid triangles
+
+
+def _fmt(x: float) -> str:
+    return f"{x:.4f}".rstrip("0").rstrip(".")
+
+
+def _points(P: NDArray[np.float64]) -> str:
+    return " ".join(f"{_fmt(x)},{_fmt(-y)}" for x, y in P)
+
+
+def pattern_group(pattern: Pattern, outline_path: str | None = None) -> str:
+    """SVG elements (no ``<svg>`` wrapper) drawing a pattern centred at the origin, y up.
+
+    ``outline_path``: SVG path data of the filleted outline (y up, mm); if given it is drawn instead
+    of the lattice triangles, with the even-odd rule so holes stay empty.
+    """
+    corners = polygon_vertices(pattern.sides, pattern.edge)
+    parts = []
+    if outline_path is None:
+        tris = pattern.V[pattern.solid_faces]
+        parts.append(
+            f'<g fill="black" stroke="black" stroke-width="{_SEAM}" stroke-linejoin="round">'
+            + "".join(f'<polygon points="{_points(t)}"/>' for t in tris)
+            + "</g>"
+        )
+    else:
+        parts.append(f'<path transform="scale(1,-1)" fill="black" fill-rule="evenodd" d="{outline_path}"/>')
+    width = pattern.edge / 200
+    parts.append(
+        f'<polygon points="{_points(corners)}" fill="none" stroke="#888" stroke-width="{_fmt(width)}"/>'
+    )
+    return "".join(parts)
+
+
+def _extent(pattern: Pattern) -> float:
+    return float(np.abs(polygon_vertices(pattern.sides, pattern.edge)).max()) * 1.05
+
+
+def pattern_svg(pattern: Pattern, outline_path: str | None = None, title: str | None = None) -> str:
+    """A standalone SVG document of one pattern at true size (mm)."""
+    r = _extent(pattern)
+    label = title or f"{pattern.id} ({pattern.sides}-gon, edge {pattern.edge:g} mm)"
+    return (
+        '<?xml version="1.0" encoding="UTF-8"?>\n'
+        f'<svg xmlns="http://www.w3.org/2000/svg" width="{_fmt(2 * r)}mm" height="{_fmt(2 * r)}mm" '
+        f'viewBox="{_fmt(-r)} {_fmt(-r)} {_fmt(2 * r)} {_fmt(2 * r)}">\n'
+        f"<title>{label}</title>\n"
+        f'<rect x="{_fmt(-r)}" y="{_fmt(-r)}" width="{_fmt(2 * r)}" height="{_fmt(2 * r)}" fill="white"/>\n'
+        f"{pattern_group(pattern, outline_path)}\n</svg>\n"
+    )
+
+
+def _grid(count: int) -> tuple[int, int]:
+    cols = max(1, math.ceil(math.sqrt(count * 1.2)))
+    return cols, math.ceil(count / cols)
+
+
+def contact_sheet_svg(patterns: Sequence[Pattern]) -> str:
+    """All patterns in a grid, each labelled with its ID."""
+    if not patterns:
+        raise ValueError("a contact sheet needs at least one pattern")
+    r = _extent(patterns[0])
+    cell_w, cell_h = 2 * r, 2 * r + r * 0.35
+    cols, rows = _grid(len(patterns))
+    W, H = cols * cell_w, rows * cell_h
+    font = r * 0.22
+    cells = []
+    for k, p in enumerate(patterns):
+        cx, cy = (k % cols) * cell_w + r, (k // cols) * cell_h + r
+        cells.append(
+            f'<g transform="translate({_fmt(cx)},{_fmt(cy)})">{pattern_group(p)}'
+            f'<text x="0" y="{_fmt(r + font)}" font-size="{_fmt(font)}" text-anchor="middle" '
+            f'font-family="monospace">{p.id}</text></g>'
+        )
+    return (
+        '<?xml version="1.0" encoding="UTF-8"?>\n'
+        f'<svg xmlns="http://www.w3.org/2000/svg" width="{_fmt(W)}mm" height="{_fmt(H)}mm" '
+        f'viewBox="0 0 {_fmt(W)} {_fmt(H)}">\n<rect width="{_fmt(W)}" height="{_fmt(H)}" fill="white"/>\n'
+        + "\n".join(cells)
+        + "\n</svg>\n"
+    )
+
+
+def contact_sheet_png(patterns: Sequence[Pattern], path: str | Path, dpi: int = 100) -> None:
+    """All patterns in a grid with IDs, rendered by matplotlib (one collection for all triangles)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import PolyCollection
+
+    if not patterns:
+        raise ValueError("a contact sheet needs at least one pattern")
+    r = _extent(patterns[0])
+    cell_w, cell_h = 2 * r, 2 * r + r * 0.35
+    cols, rows = _grid(len(patterns))
+    tris, outlines, offsets = [], [], []
+    for k, p in enumerate(patterns):
+        off = np.array([(k % cols) * cell_w + r, -((k // cols) * cell_h + r)])
+        offsets.append(off)
+        tris.append(p.V[p.solid_faces] + off)
+        outlines.append(polygon_vertices(p.sides, p.edge) + off)
+    inch = 1.1  # inches per cell: IDs stay legible
+    fig = plt.figure(figsize=(cols * inch, rows * inch * cell_h / cell_w))
+    ax = fig.add_axes((0, 0, 1, 1))
+    ax.add_collection(PolyCollection(np.concatenate(tris), facecolors="black", edgecolors="black", linewidths=0.1))
+    ax.add_collection(PolyCollection(outlines, facecolors="none", edgecolors="#888888", linewidths=0.4))
+    for p, off in zip(patterns, offsets, strict=True):
+        ax.text(off[0], off[1] - r * 1.12, p.id, ha="center", va="center", fontsize=6, family="monospace")
+    ax.set_xlim(0, cols * cell_w)
+    ax.set_ylim(-rows * cell_h, 0)
+    ax.set_aspect("equal")
+    ax.axis("off")
+    fig.savefig(path, dpi=dpi, facecolor="white", format="png")
+    plt.close(fig)

@@ -1,0 +1,71 @@
+import json
+from pathlib import Path
+from xml.etree import ElementTree
+
+import pytest
+
+from tests.conftest import run_cli
+
+
+def test_library_json_fields() -> None:
+    r = run_cli("library", "--sides", "5", "--format", "json")
+    assert r.returncode == 0, r.stderr
+    rows = json.loads(r.stdout)
+    assert len(rows) == 430
+    assert {"id", "sides", "area", "perimeter", "ratio", "polar_moment"} <= set(rows[0])
+    assert all(row["sides"] == 5 for row in rows)
+
+
+def test_library_csv_and_table() -> None:
+    r = run_cli("library", "--depth", "1", "--format", "csv")
+    assert r.returncode == 0
+    lines = r.stdout.strip().splitlines()
+    assert lines[0].startswith("id,sides")
+    assert len(lines) == 3
+    t = run_cli("library", "--depth", "1")
+    assert "0xa" in t.stdout and "2 patterns" in t.stdout
+
+
+def test_library_sample_depth3() -> None:
+    r = run_cli("library", "--depth", "3", "--sample", "5", "--seed", "3", "--format", "json")
+    assert r.returncode == 0, r.stderr
+    ids = [row["id"] for row in json.loads(r.stdout)]
+    assert len(set(ids)) == 5 and all(len(i) == 18 for i in ids)
+
+
+def test_show_writes_svg(tmp_path: Path) -> None:
+    out = tmp_path / "p.svg"
+    r = run_cli("show", "0x0688", "--sides", "7", "--edge", "20", "--svg", str(out))
+    assert r.returncode == 0, r.stderr
+    root = ElementTree.parse(out).getroot()
+    assert root.tag.endswith("svg") and root.get("width") is not None
+
+
+def test_sheet_png_and_svg(tmp_path: Path) -> None:
+    png, svg = tmp_path / "s.png", tmp_path / "s.svg"
+    assert run_cli("sheet", "--depth", "1", "--out", str(png)).returncode == 0
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert run_cli("sheet", "--out", str(svg)).returncode == 0
+    assert svg.read_text().count("<text") == 430
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["show", "0xzz", "--svg", "{out}"], "not hexadecimal"),
+        (["show", "0x12345", "--svg", "{out}"], "hex digits"),
+        (["show", "0x0001", "--svg", "{out}"], "not in the"),
+        (["show", "0x0488", "--sides", "2", "--svg", "{out}"], "sides"),
+        (["show", "0x0488", "--depth", "0", "--svg", "{out}"], "depth"),
+        (["sheet", "--sides", "1", "--out", "{out}"], "sides"),
+        (["sheet", "--out", "{dir}/x.gif"], ".svg or .png"),
+        (["library", "--format", "xml"], "table"),
+        (["library", "--depth", "3"], "--sample"),
+    ],
+)
+def test_bad_input_is_one_line_exit_2_no_file(tmp_path: Path, args: list[str], words: str) -> None:
+    out = tmp_path / "out.svg"
+    r = run_cli(*(a.format(out=out, dir=tmp_path) for a in args))
+    assert r.returncode == 2
+    assert r.stderr.count("\n") == 1 and words in r.stderr
+    assert list(tmp_path.iterdir()) == []
