@@ -1,0 +1,418 @@
+"""Filleting: the exact, fabricable outline of a solid pattern (paper §3.3).
+
+The solid pattern is a union of lattice triangles; its boundary has *problematic vertices*:
+
+* **non-manifold** — the link is disconnected (two or more solid runs around the vertex);
+* **sharp** — one solid run whose angle is not a straight angle (decided by the actual angle, so
+  at fan boundaries of non-hexagons a three-triangle run can be a real corner, and a vertex whose run
+  is exactly 180° is straight);
+* **interface** — the polygon-edge midpoint where the pattern meets its neighbour.
+
+The paper refines the mesh once (1-to-4) so that the open stars of problematic vertices are disjoint,
+then replaces pairs of boundary half-edges at each problematic vertex by a quadratic rational Bézier
+arc with control polygon (midpoint of one edge, the vertex, midpoint of the other). We do exactly that,
+working on the boundary directly: every boundary edge is split at its midpoint, the half next to a
+vertex belongs to that vertex's star, and the arc at a vertex spans the two halves it joins.
+
+The lookup rule (one rule that covers every star — see :data:`HEXAGON_STAR_TABLE` for the table it
+gives on the hexagon lattice). Walking the boundary with the solid on the left, each incoming boundary
+edge at a vertex is joined to the outgoing edge **across its void run** (never around a solid run):
+
+* one solid run (sharp vertex): that is the only choice; the arc lies in the wedge narrower than 180°,
+  so a convex corner is **rounded** (material removed) and a concave one **filled** (material added);
+* two or more solid runs (non-manifold vertex): every void run is **bridged** — narrower than 180°:
+  an arc fills its corner; exactly 180°: the boundary passes straight; wider than 180° (only at fan
+  boundaries of non-hexagons, where the other runs together make a convex corner): the arc rounds that
+  convex corner, which is narrower than the bridges next to it, so the solid stays connected.
+  Only material is added at void runs ≤ 180°, so the pattern stays connected and no vertex stays pinched.
+* each half-edge carries at most one arc (it belongs to exactly one vertex star), and two arcs ending
+  at the same edge midpoint are both tangent to that edge: G1 by construction.
+* interior arcs have weights (1, 1, 1) (parabolic arcs, as in the paper).
+
+Interface vertices (notes, "A consistent interface geometry"): the bow-tie that forms when a
+neighbour is attached is bridged with the arc (P0, M, P0') of weights (1, w, 1), where P0 is the
+midpoint of the solid sub-triangle's side leaving M and P0' its mirror image across the polygon edge.
+The arc crosses the edge at its parameter midpoint, at right angles, at distance
+``d = (edge/16) / (1 + w)`` from M (1.875 mm for edge 36, w = 0.2, every n). Each pattern keeps its own
+half (an exact de Casteljau split at t = ½, stored in standard form with middle weight √((1 + w)/2)),
+and the outline runs straight along the polygon edge from M − d to M + d: the **interface segment**,
+identical for every pattern and every n with the same edge length, so any two patterns connect.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from itertools import groupby
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fabpat.curves import split_quad
+from fabpat.errors import GeometryError
+from fabpat.lattice import polygon_vertices
+from fabpat.outline import Line, Loop, Outline, OutlineReport, RationalQuad, Segment
+from fabpat.pattern import Pattern
+
+DEFAULT_WEIGHT = 0.2  # interface weight of the paper (§3.3)
+_ANGLE_EPS = 1e-9  # rad: runs this close to 180° are straight
+_LEN_EPS = 1e-9  # mm
+
+
+@dataclass(frozen=True)
+class StarRun:
+    """A maximal run of solid or void triangles around a vertex, with its total angle (rad)."""
+
+    solid: bool
+    triangles: int
+    angle: float
+
+
+@dataclass(frozen=True)
+class VertexStar:
+    """Classification of one boundary vertex of the solid pattern."""
+
+    vertex: int
+    kind: str  # "non-manifold", "sharp", "straight" or "interface"
+    runs: tuple[StarRun, ...]  # counter-clockwise, starting with a solid run
+
+
+@dataclass(frozen=True, eq=False)
+class FilletedPattern:
+    """A pattern's exact outline and the data that explains it.
+
+    ``interface_segments`` (n, 2, 2): the straight piece of the outline on each polygon edge, from
+    M − d to M + d (counter-clockwise). ``interface_arcs``: for each polygon edge the two full bow-tie
+    arcs (P0, M, P0', w) whose halves the outline keeps — their middle weight is the configured w.
+    """
+
+    pattern: Pattern
+    weight: float
+    outline: Outline
+    interface_segments: NDArray[np.float64]
+    interface_arcs: tuple[tuple[RationalQuad, RationalQuad], ...]
+
+    def polygon_edges(self) -> list[tuple[NDArray[np.float64], NDArray[np.float64]]]:
+        corners = polygon_vertices(self.pattern.sides, self.pattern.edge)
+        return [(corners[i], corners[(i + 1) % len(corners)]) for i in range(len(corners))]
+
+    def validate(self, tol: float = 1e-2, *, raise_on_error: bool = True, width: bool = True) -> OutlineReport:
+        """:meth:`Outline.validate` with the polygon edges exempt from the G1 check.
+
+        The interface arcs meet the interface segment at right angles by design: across the joint
+        the neighbour's arc continues with the same tangent, so the assembled boundary is G1.
+        """
+        return self.outline.validate(
+            tol, raise_on_error=raise_on_error, g1_exempt_lines=self.polygon_edges(), width=width
+        )
+
+    @property
+    def interface_half_length(self) -> float:
+        """d = (edge/16)/(1 + w) for depth 2; in general half the sub-edge over 2(1 + w)."""
+        seg = self.interface_segments
+        return float(np.linalg.norm(seg[0, 1] - seg[0, 0]) / 2)
+
+
+def interface_half_length(edge: float, depth: int = 2, weight: float = DEFAULT_WEIGHT) -> float:
+    """Distance from the edge midpoint to each end of the interface segment (mm).
+
+    The solid sub-triangle's side leaving M has its midpoint P0 whose projection on the edge lies
+    half of half a sub-triangle base, edge / 2**(depth+2), from M; the arc crosses at that over (1 + w).
+    """
+    return edge / 2 ** (depth + 2) / (1.0 + weight)
+
+
+def _angle(d: NDArray[np.float64]) -> float:
+    return math.atan2(float(d[1]), float(d[0]))
+
+
+def _ccw(a: float, b: float) -> float:
+    """Counter-clockwise angle from direction a to direction b, in (0, 2π]."""
+    t = (b - a) % (2 * math.pi)
+    return t if t > 1e-12 else 2 * math.pi
+
+
+def _boundary_half_edges(F: NDArray[np.int64], nv: int) -> NDArray[np.int64]:
+    """(b, 2) directed edges of the solid faces with no twin: the boundary, solid on the left."""
+    H = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+    key = H[:, 0] * nv + H[:, 1]
+    twin = H[:, 1] * nv + H[:, 0]
+    return H[~np.isin(key, twin)]
+
+
+def _interface_vertices(pattern: Pattern) -> dict[int, int]:
+    """Vertex index of each polygon-edge midpoint → polygon edge index."""
+    corners = polygon_vertices(pattern.sides, pattern.edge)
+    mids = (corners + np.roll(corners, -1, axis=0)) / 2
+    out = {}
+    for i, m in enumerate(mids):
+        d = np.linalg.norm(pattern.V - m, axis=1)
+        k = int(np.argmin(d))
+        if d[k] < 1e-9 * pattern.edge:
+            out[k] = i
+    return out
+
+
+def star_runs(pattern: Pattern, v: int) -> tuple[StarRun, ...]:
+    """Runs of the star of vertex v, counter-clockwise, starting with a solid run.
+
+    Outside the polygon counts as one void run of zero triangles (it matters only at polygon-boundary
+    vertices).
+    """
+    V, F, c = pattern.V, pattern.F, pattern.c
+    items = []  # (start direction, angle, solid)
+    for f in np.flatnonzero((F == v).any(axis=1)):
+        k = int(np.flatnonzero(F[f] == v)[0])
+        a, b = F[f][(k + 1) % 3], F[f][(k + 2) % 3]  # counter-clockwise: v → a → b
+        start = _angle(V[a] - V[v])
+        items.append((start % (2 * math.pi), _ccw(start, _angle(V[b] - V[v])), bool(c[f])))
+    items.sort()
+    labels, angles, counts = [], [], []
+    for i, (start, ang, solid) in enumerate(items):
+        labels.append(solid)
+        angles.append(ang)
+        counts.append(1)
+        gap = (items[(i + 1) % len(items)][0] - (start + ang)) % (2 * math.pi)
+        if 1e-9 < gap < 2 * math.pi - 1e-9:  # outside the polygon
+            labels.append(False)
+            angles.append(gap)
+            counts.append(0)
+    return runs_of_labels(tuple(labels), tuple(angles), tuple(counts))
+
+
+def classify(runs: tuple[StarRun, ...], interface: bool = False) -> str:
+    """Kind of a boundary vertex from its runs (see the module docstring)."""
+    if interface:
+        return "interface"
+    solid = [r for r in runs if r.solid]
+    if len(solid) >= 2:
+        return "non-manifold"
+    if abs(solid[0].angle - math.pi) < _ANGLE_EPS:
+        return "straight"
+    return "sharp"
+
+
+def star_actions(runs: tuple[StarRun, ...], interface: bool = False) -> tuple[str, ...]:
+    """What the filleting rule does to each run of a star (the lookup table's row).
+
+    ``"round"`` a convex solid corner (material removed), ``"fill"`` a concave corner (material
+    added), ``"bridge"`` a void run between two solid runs (material added), ``"straight"`` a 180° run
+    the boundary crosses without an arc, ``"round-across"`` a void run wider than 180° at a
+    non-manifold vertex (the arc rounds the convex corner made by the other runs), ``"interface"``
+    the solid run at a polygon-edge midpoint, ``"keep"`` a run left as it is.
+    """
+    if interface:
+        return tuple("interface" if r.solid else "keep" for r in runs)
+    n_solid = sum(r.solid for r in runs)
+    acts = []
+    for r in runs:
+        straight = abs(r.angle - math.pi) < _ANGLE_EPS
+        if n_solid == 1:
+            if straight:
+                acts.append("straight")
+            elif r.solid:
+                acts.append("round" if r.angle < math.pi else "keep")
+            else:
+                acts.append("fill" if r.angle < math.pi else "keep")
+        elif r.solid:
+            acts.append("keep")
+        else:
+            acts.append("straight" if straight else "bridge" if r.angle < math.pi else "round-across")
+    return tuple(acts)
+
+
+def _necklaces(k: int) -> list[tuple[bool, ...]]:
+    """Solid/void labelings of a k-star up to rotation, one representative each."""
+    seen, out = set(), []
+    for m in range(2**k):
+        lab = tuple(bool((m >> (k - 1 - i)) & 1) for i in range(k))
+        canon = max(lab[i:] + lab[:i] for i in range(k))
+        if canon not in seen:
+            seen.add(canon)
+            out.append(canon)
+    return out
+
+
+def runs_of_labels(
+    labels: tuple[bool, ...], angles: tuple[float, ...] | None = None, counts: tuple[int, ...] | None = None
+) -> tuple[StarRun, ...]:
+    """Runs of a cyclic labeling (angles default to equal shares of 360°), starting with a solid run.
+
+    ``counts``: triangles per item (default 1 each; 0 for the outside of the polygon).
+    """
+    k = len(labels)
+    angles = angles or (2 * math.pi / k,) * k
+    counts = counts or (1,) * k
+    first = next((i for i in range(k) if labels[i] and not labels[i - 1]), 0)
+    order = [(first + i) % k for i in range(k)]
+    runs = []
+    for solid, group in groupby(order, key=lambda i: labels[i]):
+        g = list(group)
+        runs.append(StarRun(solid, sum(counts[i] for i in g), math.fsum(angles[i] for i in g)))
+    return tuple(runs)
+
+
+def star_table(k: int = 6) -> list[tuple[str, str, tuple[str, ...]]]:
+    """The lookup table of a regular k-star: (labels as S/V string, kind, action per run).
+
+    For the hexagon lattice (k = 6) this lists the 14 labelings up to rotation: 2 trivial (all solid,
+    all void), 1 straight, the 4 sharp and the 7 non-manifold configurations of the paper's Figs 9–10.
+    """
+    rows = []
+    for labels in _necklaces(k):
+        if all(labels) or not any(labels):
+            rows.append(("".join("S" if x else "V" for x in labels), "interior" if all(labels) else "empty", ()))
+            continue
+        runs = runs_of_labels(labels)
+        rows.append(("".join("S" if x else "V" for x in labels), classify(runs), star_actions(runs)))
+    return rows
+
+
+HEXAGON_STAR_TABLE = star_table(6)
+
+
+def _bowtie(P0: NDArray[np.float64], M: NDArray[np.float64], t: NDArray[np.float64], w: float) -> RationalQuad:
+    """The full interface arc (P0, M, mirror of P0 across the edge line through M along t)."""
+    rel = P0 - M
+    mirror = M + 2 * (rel @ t) * t - rel
+    return RationalQuad(P0, M, mirror, w)
+
+
+def _halves(arc: RationalQuad) -> tuple[RationalQuad, RationalQuad]:
+    """Exact de Casteljau split of a (1, w, 1) arc at t = ½, both halves in standard form."""
+    (PL, wl), (PR, wr) = split_quad(arc.control_points, arc.w, 0.5)
+    return RationalQuad(*PL, wl), RationalQuad(*PR, wr)
+
+
+def _merge_collinear(segs: list[Segment]) -> list[Segment]:
+    """Join consecutive collinear lines (the boundary passing straight through a vertex)."""
+
+    def joinable(a: Segment, b: Segment) -> bool:
+        if not (isinstance(a, Line) and isinstance(b, Line)):
+            return False
+        u, v = a.p1 - a.p0, b.p1 - b.p0
+        return abs(u[0] * v[1] - u[1] * v[0]) < 1e-12 * max(1.0, u @ u) * max(1.0, v @ v) ** 0.5 and u @ v > 0
+
+    out: list[Segment] = []
+    for s in segs:
+        if out and joinable(out[-1], s):
+            out[-1] = Line(out[-1].p0, s.p1)
+        else:
+            out.append(s)
+    while len(out) > 1 and joinable(out[-1], out[0]):
+        out[0] = Line(out[-1].p0, out[0].p1)
+        out.pop()
+    return out
+
+
+def fillet_solid(
+    V: NDArray[np.float64],
+    F: NDArray[np.int64],
+    interfaces: dict[int, NDArray[np.float64]] | None = None,
+    weight: float = DEFAULT_WEIGHT,
+) -> tuple[Outline, dict[int, tuple[RationalQuad, RationalQuad]]]:
+    """Exact outline of the union of solid triangles ``F`` (k, 3, counter-clockwise) over ``V`` (n, 2).
+
+    ``interfaces`` maps a vertex (a polygon-edge midpoint) to the unit tangent of its polygon edge
+    (counter-clockwise); those vertices get the interface treatment with weight ``weight``. Returns
+    the outline and, per interface vertex, the two full bow-tie arcs whose halves the outline keeps.
+    Raises :class:`GeometryError` if the boundary cannot be traced into one outer loop plus holes.
+    """
+    interfaces = interfaces or {}
+    H = _boundary_half_edges(F, len(V))
+    if len(H) == 0:
+        raise GeometryError("the solid region has no boundary")
+    out_by_vertex: dict[int, list[int]] = {}
+    for h, (a, _) in enumerate(H):
+        out_by_vertex.setdefault(int(a), []).append(h)
+    nxt = np.empty(len(H), dtype=np.int64)
+    arc_at_end = np.zeros(len(H), dtype=bool)  # the connection at the head of h is an arc (or interface)
+    for h, (a, b) in enumerate(H):
+        d_in = _angle(V[a] - V[b])
+        choices = out_by_vertex.get(int(b), [])
+        if not choices:
+            raise GeometryError(f"boundary is open at vertex {b}")
+        # across the void run: the first outgoing edge counter-clockwise from the incoming one
+        turns = [_ccw(d_in, _angle(V[H[g, 1]] - V[b])) for g in choices]
+        k = int(np.argmin(turns))
+        nxt[h] = choices[k]
+        arc_at_end[h] = int(b) in interfaces or abs(turns[k] - math.pi) > _ANGLE_EPS
+
+    prev_arc = np.zeros(len(H), dtype=bool)
+    prev_arc[nxt] = arc_at_end
+    mid = (V[H[:, 0]] + V[H[:, 1]]) / 2
+
+    bowties: dict[int, tuple[RationalQuad, RationalQuad]] = {}
+    segments_of: list[list[Segment]] = []
+    for h, (a, b) in enumerate(H):
+        p = mid[h] if prev_arc[h] else V[a]
+        q = mid[h] if arc_at_end[h] else V[b]
+        segs: list[Segment] = []
+        if np.linalg.norm(q - p) > _LEN_EPS:
+            segs.append(Line(p, q))
+        g = int(nxt[h])
+        if int(b) in interfaces:
+            t, M = interfaces[int(b)], V[b]
+            into, out_of = _bowtie(mid[h], M, t, weight), _bowtie(mid[g], M, t, weight).reversed()
+            first, second = _halves(into)[0], _halves(out_of)[1]
+            bowties[int(b)] = (into, out_of)
+            segs += [first, Line(first.P2, second.P0), second]
+        elif arc_at_end[h]:
+            segs.append(RationalQuad(mid[h], V[b], mid[g], 1.0))
+        segments_of.append(segs)
+
+    loops: list[Loop] = []
+    seen = np.zeros(len(H), dtype=bool)
+    for start in range(len(H)):
+        if seen[start]:
+            continue
+        segs = []
+        h = start
+        while not seen[h]:
+            seen[h] = True
+            segs += segments_of[h]
+            h = int(nxt[h])
+        if h != start:
+            raise GeometryError("boundary walk did not close")
+        loops.append(Loop(tuple(_merge_collinear(segs))))
+
+    outer = [k for k, lp in enumerate(loops) if lp.signed_area > 0]
+    if len(outer) != 1:
+        raise GeometryError(f"filleted outline has {len(outer)} outer loops, expected 1 (the solid is not one piece)")
+    holes = tuple(lp for k, lp in enumerate(loops) if k != outer[0])
+    return Outline(loops[outer[0]], holes), bowties
+
+
+def fillet_pattern(pattern: Pattern, weight: float = DEFAULT_WEIGHT) -> FilletedPattern:
+    """The exact outline of a library pattern: lines and quadratic rational Bézier arcs.
+
+    ``weight``: the middle weight w of the interface arcs (the paper's 0.2); must be > 0.
+    Raises :class:`GeometryError` if the pattern cannot be filleted (not expected for library patterns).
+    """
+    if not weight > 0:
+        raise GeometryError(f"interface weight must be > 0, got {weight}")
+    corners = polygon_vertices(pattern.sides, pattern.edge)
+    tangents = np.roll(corners, -1, axis=0) - corners
+    tangents /= np.linalg.norm(tangents, axis=1)[:, None]
+    iface = _interface_vertices(pattern)
+    try:
+        outline, bowties = fillet_solid(
+            pattern.V, pattern.solid_faces, {v: tangents[i] for v, i in iface.items()}, weight
+        )
+    except GeometryError as e:
+        raise GeometryError(f"pattern {pattern.id} ({pattern.sides}-gon): {e}") from e
+    if len(bowties) != pattern.sides:
+        raise GeometryError(f"pattern {pattern.id} does not reach every polygon edge")
+    arcs = tuple(bowties[v] for v, _ in sorted(iface.items(), key=lambda kv: kv[1]))
+    seg = np.array([[_halves(a)[0].P2, _halves(b)[1].P0] for a, b in arcs])
+    return FilletedPattern(pattern, float(weight), outline, seg, arcs)
+
+
+def vertex_stars(pattern: Pattern) -> tuple[VertexStar, ...]:
+    """Classification of every boundary vertex of the solid pattern (paper Fig. 8a)."""
+    H = _boundary_half_edges(pattern.solid_faces, len(pattern.V))
+    iface = _interface_vertices(pattern)
+    return tuple(
+        VertexStar(v, classify(runs := star_runs(pattern, v), v in iface), runs)
+        for v in sorted({int(x) for x in H.ravel()})
+    )
