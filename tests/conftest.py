@@ -21,5 +21,5 @@ def hex_library() -> Library:
 
 def run_cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
     """Run the real ``fabpat`` entry point in a subprocess (as a user would)."""
-    env = dict(os.environ, COLUMNS="160")
+    env = dict(os.environ, COLUMNS="160", FABPAT_CACHE="off")
     return subprocess.run([*FABPAT, *args], capture_output=True, text=True, cwd=cwd, env=env, timeout=600)

@@ -8,7 +8,7 @@ from tests.conftest import run_cli
 
 
 def test_library_json_fields() -> None:
-    r = run_cli("library", "--sides", "5", "--format", "json")
+    r = run_cli("library", "--sides", "5", "--format", "json", "--no-fillet")
     assert r.returncode == 0, r.stderr
     rows = json.loads(r.stdout)
     assert len(rows) == 430
@@ -16,18 +16,33 @@ def test_library_json_fields() -> None:
     assert all(row["sides"] == 5 for row in rows)
 
 
+def test_library_filleted_columns() -> None:
+    r = run_cli("library", "--sample", "6", "--seed", "2", "--format", "json", "--weight", "0.3")
+    assert r.returncode == 0, r.stderr
+    rows = json.loads(r.stdout)
+    assert len(rows) == 6
+    for row in rows:
+        assert row["weight"] == 0.3
+        assert 1.0 < row["min_width"] < 10.0
+        # filleting changes the area by a few percent (see test_fillet for the accounting)
+        assert 0 < row["filleted_area"] / row["area"] - 1 < 0.25
+        assert row["filleted_ratio"] == pytest.approx(
+            4 * 3.141592653589793 * row["filleted_area"] / row["filleted_perimeter"] ** 2, rel=1e-6
+        )
+
+
 def test_library_csv_and_table() -> None:
-    r = run_cli("library", "--depth", "1", "--format", "csv")
+    r = run_cli("library", "--depth", "1", "--format", "csv", "--no-fillet")
     assert r.returncode == 0
     lines = r.stdout.strip().splitlines()
     assert lines[0].startswith("id,sides")
     assert len(lines) == 3
     t = run_cli("library", "--depth", "1")
-    assert "0xa" in t.stdout and "2 patterns" in t.stdout
+    assert "0xa" in t.stdout and "2 patterns" in t.stdout and "min_width" in t.stdout
 
 
 def test_library_sample_depth3() -> None:
-    r = run_cli("library", "--depth", "3", "--sample", "5", "--seed", "3", "--format", "json")
+    r = run_cli("library", "--depth", "3", "--sample", "5", "--seed", "3", "--format", "json", "--no-fillet")
     assert r.returncode == 0, r.stderr
     ids = [row["id"] for row in json.loads(r.stdout)]
     assert len(set(ids)) == 5 and all(len(i) == 18 for i in ids)
@@ -39,6 +54,16 @@ def test_show_writes_svg(tmp_path: Path) -> None:
     assert r.returncode == 0, r.stderr
     root = ElementTree.parse(out).getroot()
     assert root.tag.endswith("svg") and root.get("width") is not None
+
+
+def test_show_filleted_draws_true_curves(tmp_path: Path) -> None:
+    out = tmp_path / "f.svg"
+    r = run_cli("show", "0x2d88", "--filleted", "--svg", str(out))
+    assert r.returncode == 0, r.stderr
+    root = ElementTree.parse(out).getroot()
+    paths = [e.get("d") for e in root.iter() if e.tag.endswith("path")]
+    assert len(paths) == 1
+    assert " A" in paths[0] or "A " in paths[0] or " Q" in paths[0]  # arcs stay curves, not polylines
 
 
 def test_sheet_png_and_svg(tmp_path: Path) -> None:

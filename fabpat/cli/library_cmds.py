@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import io
 import json
@@ -9,7 +10,7 @@ from pathlib import Path
 
 import click
 
-from fabpat.cli.options import depth_option, edge_option, sides_option
+from fabpat.cli.options import depth_option, edge_option, sides_option, weight_option
 from fabpat.errors import PatternError
 from fabpat.io import atomic_outputs
 from fabpat.library import Library, enumerate_library, get_pattern, sample_library
@@ -22,7 +23,31 @@ def load_library(sides: int, depth: int, sample: int | None = None, seed: int = 
     return enumerate_library(sides, depth)
 
 
-def library_rows(lib: Library, edge: float = DEFAULT_EDGE) -> list[dict[str, object]]:
+def _filleted_row(args: tuple[str, int, int, float, float]) -> dict[str, float]:
+    from fabpat.fillet import fillet_pattern
+
+    pid, sides, depth, edge, weight = args
+    fp = fillet_pattern(Pattern.from_id(pid, sides, depth, edge), weight)
+    report = fp.validate(1e-2)
+    m = fp.outline.metrics()
+    return {
+        "filleted_area": round(m.area, 6),
+        "filleted_perimeter": round(m.perimeter, 6),
+        "filleted_ratio": round(m.ratio, 8),
+        "filleted_polar_moment": round(m.polar_moment, 4),
+        "min_width": round(report.min_width, 4),
+    }
+
+
+def library_rows(
+    lib: Library, edge: float = DEFAULT_EDGE, weight: float | None = 0.2, workers: int | None = None
+) -> list[dict[str, object]]:
+    """One row per pattern: lattice metrics and, unless ``weight`` is None, filleted metrics.
+
+    Filleting and validating a pattern takes a few milliseconds (min_width by ray casting at
+    0.01 mm flattening), so the filleted columns are computed in a process pool with a progress bar
+    on stderr.
+    """
     rows: list[dict[str, object]] = []
     for p in lib.patterns(edge):
         m = p.metrics
@@ -38,7 +63,69 @@ def library_rows(lib: Library, edge: float = DEFAULT_EDGE) -> list[dict[str, obj
                 "polar_moment": round(m.polar_moment, 4),
             }
         )
+    if weight is None:
+        return rows
+    jobs = [(str(r["id"]), lib.sides, lib.depth, edge, weight) for r in rows]
+    cache = _cache_path(jobs)
+    extras = None
+    if cache is not None and cache.exists():
+        with contextlib.suppress(ValueError, OSError):
+            extras = json.loads(cache.read_text())
+    if not isinstance(extras, list) or len(extras) != len(rows):
+        extras = _map_with_progress(_filleted_row, jobs, "filleting", workers)
+        if cache is not None:
+            with contextlib.suppress(OSError):
+                cache.parent.mkdir(parents=True, exist_ok=True)
+                with atomic_outputs(cache) as (tmp,):
+                    tmp.write_text(json.dumps(extras))
+    for row, extra in zip(rows, extras, strict=True):
+        row["weight"] = weight
+        row.update(extra)
     return rows
+
+
+def _cache_path(jobs: list[tuple[str, int, int, float, float]]) -> Path | None:
+    """Where the filleted columns of this exact list are cached (keyed by fabpat's version).
+
+    ``$FABPAT_CACHE`` (or ``$XDG_CACHE_HOME/fabpat``, default ``~/.cache/fabpat``); set
+    ``FABPAT_CACHE=off`` to disable. A cache is a convenience: it is recomputed when missing or broken.
+    """
+    import hashlib
+    import os
+
+    from fabpat import __version__
+
+    root = os.environ.get("FABPAT_CACHE")
+    if root == "off":
+        return None
+    base = Path(root) if root else Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "fabpat"
+    key = hashlib.sha1(repr((__version__, jobs)).encode()).hexdigest()[:20]
+    return base / f"library-{key}.json"
+
+
+def _map_with_progress(fn, jobs: list, what: str, workers: int | None = None) -> list:  # noqa: ANN001
+    import os
+    from concurrent.futures import ProcessPoolExecutor
+
+    from rich.console import Console
+    from rich.progress import Progress
+
+    workers = workers or min(len(jobs) // 50 + 1, os.cpu_count() or 1)
+    console = Console(stderr=True)
+    with Progress(console=console, transient=True, disable=not console.is_terminal) as bar:
+        task = bar.add_task(what, total=len(jobs))
+        if workers <= 1:
+            out = []
+            for j in jobs:
+                out.append(fn(j))
+                bar.advance(task)
+            return out
+        with ProcessPoolExecutor(workers) as pool:
+            out = []
+            for r in pool.map(fn, jobs, chunksize=16):
+                out.append(r)
+                bar.advance(task)
+            return out
 
 
 def _print_rows(rows: list[dict[str, object]], fmt: str, title: str) -> None:
@@ -71,13 +158,20 @@ def _print_rows(rows: list[dict[str, object]], fmt: str, title: str) -> None:
               help="Output format.")
 @click.option("--sample", type=int, default=None, help="Draw N random valid patterns instead of listing all.")
 @click.option("--seed", type=int, default=0, show_default=True, help="Random seed for --sample.")
-def library_cmd(sides: int, depth: int, edge: float, fmt: str, sample: int | None, seed: int) -> None:
+@weight_option
+@click.option("--no-fillet", is_flag=True, help="Lattice metrics only (skip the filleted columns; instant).")
+def library_cmd(
+    sides: int, depth: int, edge: float, fmt: str, sample: int | None, seed: int, weight: float, no_fillet: bool
+) -> None:
     """List the connected, tileable patterns with their geometric metrics.
+
+    Columns: lattice metrics of the solid pattern (area mm², perimeter mm, ratio = 4πA/P², polar
+    moment mm⁴ about the centre) and the same for the filleted outline, plus its min_width (mm).
 
     Example: fabpat library --sides 6 --format json > library.json
     """
     lib = load_library(sides, depth, sample, seed)
-    rows = library_rows(lib, edge)
+    rows = library_rows(lib, edge, None if no_fillet else weight)
     title = f"{len(rows)} patterns, {sides}-gon, depth {depth}, edge {edge:g} mm ({lib.candidates} candidates)"
     _print_rows(rows, fmt, title)
 
@@ -92,15 +186,22 @@ def _pattern(pattern_id: str, sides: int, depth: int, edge: float) -> Pattern:
 @depth_option
 @edge_option
 @click.option("--svg", "svg", type=click.Path(dir_okay=False), required=True, help="SVG file to write.")
-def show_cmd(pattern_id: str, sides: int, depth: int, edge: float, svg: str) -> None:
+@click.option("--filleted", is_flag=True, help="Draw the exact filleted outline (true curves) instead of the lattice.")
+@weight_option
+def show_cmd(pattern_id: str, sides: int, depth: int, edge: float, svg: str, filleted: bool, weight: float) -> None:
     """Draw one pattern as an SVG at true size (mm).
 
-    Example: fabpat show 0x0488 --sides 6 --svg pattern.svg
+    Example: fabpat show 0x0488 --sides 6 --filleted --svg pattern.svg
     """
     from fabpat.pictures import pattern_svg
 
     p = _pattern(pattern_id, sides, depth, edge)
-    text = pattern_svg(p)
+    if filleted:
+        from fabpat.fillet import fillet_pattern
+
+        text = pattern_svg(p, outline_path=fillet_pattern(p, weight).outline.to_svg_path())
+    else:
+        text = pattern_svg(p)
     with atomic_outputs(svg) as (tmp,):
         tmp.write_text(text)
     click.echo(f"wrote {svg}")

@@ -35,3 +35,7 @@ edge_option = click.option(
     "--edge", type=float, default=DEFAULT_EDGE, show_default=True, callback=_at_least(0, "edge", True),
     help="Polygon edge length in mm.",
 )
+weight_option = click.option(
+    "--weight", type=float, default=0.2, show_default=True, callback=_at_least(0, "weight", True),
+    help="Middle weight w of the interface fillet arcs (the paper's 0.2).",
+)
