@@ -1,0 +1,53 @@
+"""PNG of a deformed pattern coloured by element strain energy (the paper's Fig. 12 look)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from fabpat.errors import ExportError
+from fabpat.shell.results import ShellResult
+
+
+def write_png(path: str | Path, V: np.ndarray, F: np.ndarray, result: ShellResult, *, title: str = "",
+              dpi: int = 150, elev: float = 28.0, azim: float = -60.0) -> Path:
+    """Render the deformed mesh in a 3D view, faces coloured by strain-energy density (N·mm/mm²,
+    log scale so that the narrow, highly loaded necks and the quiet parts are both visible)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import LogNorm
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    V = np.asarray(V, dtype=np.float64)
+    X = np.column_stack([V, np.zeros(len(V))]) if V.shape[1] == 2 else V
+    x = X + result.displacement
+    P = x[F]
+    P0 = X[F]
+    area = 0.5 * np.linalg.norm(np.cross(P0[:, 1] - P0[:, 0], P0[:, 2] - P0[:, 0]), axis=1)
+    dens = result.element_energy.sum(axis=1) / area
+    pos = dens[dens > 0]
+    lo = float(np.percentile(pos, 2)) if pos.size else 1e-12
+    norm = LogNorm(vmin=max(lo, 1e-12), vmax=max(float(dens.max()), lo * 10))
+    cmap = plt.get_cmap("turbo")
+    fig = plt.figure(figsize=(7, 6))
+    ax = fig.add_subplot(projection="3d")
+    ax.add_collection3d(Poly3DCollection(P, facecolors=cmap(norm(np.clip(dens, norm.vmin, None))), linewidths=0))
+    lo3, hi3 = x.min(axis=0), x.max(axis=0)
+    c, r = 0.5 * (lo3 + hi3), 0.5 * float(np.max(hi3 - lo3))
+    ax.set(xlim=(c[0] - r, c[0] + r), ylim=(c[1] - r, c[1] + r), zlim=(c[2] - r, c[2] + r),
+           xlabel="x (mm)", ylabel="y (mm)", zlabel="z (mm)")
+    ax.view_init(elev=elev, azim=azim)
+    sm = plt.cm.ScalarMappable(norm=norm, cmap=cmap)
+    fig.colorbar(sm, ax=ax, shrink=0.6, label="strain energy density (N·mm/mm²)")
+    ax.set_title(title or f"U = {result.energy:.4g} N·mm, max |u| = {result.max_displacement:.3g} mm")
+    path = Path(path)
+    try:
+        fig.savefig(path, dpi=dpi, bbox_inches="tight")
+    except OSError as exc:
+        raise ExportError(f"cannot write {path}: {exc}") from exc
+    finally:
+        plt.close(fig)
+    return path

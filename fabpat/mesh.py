@@ -1,0 +1,271 @@
+"""Quality triangle meshes of flat patterns for the shell solver.
+
+:func:`mesh_polygons` meshes polygon loops (outer loop first, then holes) with Shewchuk's Triangle
+(``triangle`` package): every boundary edge is first cut into pieces of length ≤ h (so both sides of a
+shared boundary see the same nodes and curves are followed consistently), then a constrained,
+quality (minimum angle) Delaunay mesh whose mean edge length is ≈ h is built.
+:func:`mesh_outline` flattens an exact :class:`fabpat.outline.Outline` with a chord tolerance
+tied to h and tags the interface node sets of the regular n-gon the pattern lives in.
+
+Lengths are millimetres. Node arrays are float64, triangles int64, counter-clockwise.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fabpat.errors import GeometryError
+
+#: Chord tolerance used to flatten curves, as a fraction of the target edge length h. With h = 1.5 mm
+#: the outline is followed to 0.03 mm; the sagitta of a chord c on radius r is c²/8r, so arcs of
+#: 2 mm radius get chords of ≈0.7 mm (finer than h, which is what the narrow necks need).
+FLATTEN_TOL_PER_H = 0.02
+
+#: Distance (mm) within which a node counts as lying on an interface segment.
+INTERFACE_TOL = 1e-6
+
+#: Triangle's area bound is a maximum, so its triangles come out smaller than the bound; 1.5 × the
+#: area of an equilateral triangle of edge h makes the *mean* edge length ≈ h (measured: 1.01–1.53–2.03
+#: mm for h = 1, 1.5, 2 on the solid hexagon).
+AREA_FACTOR = 1.5
+
+#: Default fillet weight w of the interface vertex (notes: crossing at (edge/16)/(1 + w) from M).
+INTERFACE_WEIGHT = 0.2
+
+
+@dataclass(frozen=True, eq=False)
+class ShellMesh:
+    """A flat triangle mesh with tagged interfaces.
+
+    V: (n, 2) float64 node coordinates (mm). F: (m, 3) int64 triangles, counter-clockwise.
+    interfaces: one int64 array per polygon edge i, the nodes on interface segment i ordered along the
+    edge's counter-clockwise tangent (empty if the pattern does not reach that edge).
+    """
+
+    V: NDArray[np.float64]
+    F: NDArray[np.int64]
+    interfaces: tuple[NDArray[np.int64], ...] = field(default_factory=tuple)
+
+    def __post_init__(self) -> None:
+        V = np.ascontiguousarray(self.V, dtype=np.float64)
+        F = np.ascontiguousarray(self.F, dtype=np.int64)
+        if V.ndim != 2 or V.shape[1] != 2 or F.ndim != 2 or F.shape[1] != 3:
+            raise ValueError(f"expected V (n, 2) and F (m, 3), got {V.shape} and {F.shape}")
+        ifs = tuple(np.ascontiguousarray(i, dtype=np.int64) for i in self.interfaces)
+        for a in (V, F, *ifs):
+            a.setflags(write=False)
+        object.__setattr__(self, "V", V)
+        object.__setattr__(self, "F", F)
+        object.__setattr__(self, "interfaces", ifs)
+
+    @property
+    def n_nodes(self) -> int:
+        return int(self.V.shape[0])
+
+    @property
+    def n_elements(self) -> int:
+        return int(self.F.shape[0])
+
+    @property
+    def areas(self) -> NDArray[np.float64]:
+        """(m,) signed triangle areas (mm²), positive for counter-clockwise triangles."""
+        a = self.V[self.F[:, 1]] - self.V[self.F[:, 0]]
+        b = self.V[self.F[:, 2]] - self.V[self.F[:, 0]]
+        return 0.5 * (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
+
+    def min_angle(self) -> float:
+        """Smallest interior angle of all triangles, degrees."""
+        P = self.V[self.F]  # (m, 3, 2)
+        ang = []
+        for k in range(3):
+            u = P[:, (k + 1) % 3] - P[:, k]
+            v = P[:, (k + 2) % 3] - P[:, k]
+            c = np.einsum("ij,ij->i", u, v) / (np.linalg.norm(u, axis=1) * np.linalg.norm(v, axis=1))
+            ang.append(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
+        return float(np.min(ang))
+
+    def edge_lengths(self) -> NDArray[np.float64]:
+        """(3m,) lengths of the triangle sides (interior sides counted twice), mm."""
+        P = self.V[self.F]
+        return np.linalg.norm(P[:, [1, 2, 0]] - P, axis=2).ravel()
+
+
+def _signed_area(loop: NDArray[np.float64]) -> float:
+    x, y = loop[:, 0], loop[:, 1]
+    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+
+
+def _clean_loop(loop: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Drop a repeated closing point and consecutive duplicates."""
+    P = np.asarray(loop, dtype=np.float64).reshape(-1, 2)
+    keep = np.linalg.norm(P - np.roll(P, 1, axis=0), axis=1) > 1e-9
+    P = P[keep]
+    if P.shape[0] < 3:
+        raise GeometryError(f"a loop needs at least 3 distinct points, got {P.shape[0]}")
+    return P
+
+
+def _subdivide(loop: NDArray[np.float64], h: float) -> NDArray[np.float64]:
+    """Cut every side of a closed loop into equal pieces of length ≤ h (corners kept)."""
+    nxt = np.roll(loop, -1, axis=0)
+    out = []
+    for p, q in zip(loop, nxt, strict=True):
+        k = max(1, math.ceil(float(np.linalg.norm(q - p)) / h - 1e-9))
+        t = np.arange(k)[:, None] / k
+        out.append(p + t * (q - p))
+    return np.concatenate(out)
+
+
+def _point_inside(loop: NDArray[np.float64]) -> NDArray[np.float64]:
+    """A point strictly inside a simple polygon: centroid of the largest triangle of its CDT."""
+    import triangle
+
+    n = loop.shape[0]
+    seg = np.stack([np.arange(n), (np.arange(n) + 1) % n], axis=1)
+    t = triangle.triangulate({"vertices": loop, "segments": seg}, "p")
+    P = t["vertices"][t["triangles"]]
+    u, v = P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]
+    a = np.abs(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0])
+    return P[int(np.argmax(a))].mean(axis=0)
+
+
+def tag_segments(
+    V: NDArray[np.float64], segments: Sequence[tuple[NDArray[np.float64], NDArray[np.float64]] | None],
+    tol: float = INTERFACE_TOL,
+) -> tuple[NDArray[np.int64], ...]:
+    """Nodes on each segment (p0, p1): within ``tol`` of its line and between its ends, ordered p0→p1.
+
+    V: (n, 2); each segment a pair of (2,) points or None (→ empty set).
+    """
+    out = []
+    for s in segments:
+        if s is None:
+            out.append(np.zeros(0, dtype=np.int64))
+            continue
+        p0, p1 = (np.asarray(p, dtype=np.float64) for p in s)
+        d = p1 - p0
+        L = float(np.linalg.norm(d))
+        t = d / L
+        rel = V - p0
+        along = rel @ t
+        off = np.abs(rel[:, 0] * t[1] - rel[:, 1] * t[0])
+        idx = np.flatnonzero((off <= tol) & (along >= -tol) & (along <= L + tol))
+        out.append(idx[np.argsort(along[idx])].astype(np.int64))
+    return tuple(out)
+
+
+def mesh_polygons(
+    loops: Sequence[NDArray[np.float64]],
+    h: float,
+    min_angle: float = 25.0,
+    *,
+    interfaces: Sequence[tuple[NDArray[np.float64], NDArray[np.float64]] | None] = (),
+    max_steiner: int | None = None,
+) -> ShellMesh:
+    """Quality triangle mesh of a polygonal region.
+
+    loops: outer boundary first (any orientation, made counter-clockwise), then holes, each a (k, 2)
+        array of corners (closing point optional). Loops must be simple and must not cross.
+    h: target (mean) edge length (mm); boundary sides are cut to ≤ h, triangle areas bounded by
+        AREA_FACTOR·√3/4·h².
+    min_angle: Triangle's quality bound in degrees (≤ ~33 is safe).
+    interfaces: optional segments (p0, p1) whose nodes are tagged (see :func:`tag_segments`).
+
+    Raises GeometryError if the loops are degenerate or Triangle fails.
+    """
+    import triangle
+
+    if not h > 0:
+        raise ValueError(f"h must be positive, got {h}")
+    if len(loops) == 0:
+        raise GeometryError("no loops to mesh")
+    verts, segs, holes = [], [], []
+    offset = 0
+    for k, raw in enumerate(loops):
+        P = _clean_loop(raw)
+        area = _signed_area(P)
+        if k == 0 and area < 0 or k > 0 and area > 0:
+            P = P[::-1]  # outer CCW, holes CW (only for a consistent tangent order; Triangle ignores it)
+        if k > 0:
+            holes.append(_point_inside(P))
+        P = _subdivide(P, h)
+        n = P.shape[0]
+        verts.append(P)
+        segs.append(offset + np.stack([np.arange(n), (np.arange(n) + 1) % n], axis=1))
+        offset += n
+    data: dict[str, NDArray] = {"vertices": np.concatenate(verts), "segments": np.concatenate(segs)}
+    if holes:
+        data["holes"] = np.array(holes)
+    amax = AREA_FACTOR * math.sqrt(3.0) / 4.0 * h * h
+    opts = f"pq{min_angle:g}a{amax:.10g}"
+    if max_steiner is not None:
+        opts += f"S{max_steiner}"
+    try:
+        t = triangle.triangulate(data, opts)
+    except Exception as exc:  # Triangle raises RuntimeError/ValueError on bad input
+        raise GeometryError(f"Triangle failed to mesh the region: {exc}") from exc
+    if "triangles" not in t or len(t["triangles"]) == 0:
+        raise GeometryError("Triangle produced no triangles (open or inverted loops?)")
+    V = np.asarray(t["vertices"], dtype=np.float64)
+    F = np.asarray(t["triangles"], dtype=np.int64)
+    # drop vertices no triangle uses (e.g. a stray point inside a hole)
+    used = np.zeros(V.shape[0], dtype=bool)
+    used[F.ravel()] = True
+    if not used.all():
+        new = np.cumsum(used) - 1
+        V, F = V[used], new[F]
+    a = V[F[:, 1]] - V[F[:, 0]]
+    b = V[F[:, 2]] - V[F[:, 0]]
+    cw = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0] < 0
+    F[cw] = F[cw][:, [0, 2, 1]]
+    return ShellMesh(V, F, tag_segments(V, interfaces))
+
+
+def interface_segments(
+    sides: int, edge: float = 36.0, *, half_length: float | None = None, weight: float = INTERFACE_WEIGHT,
+) -> list[tuple[NDArray[np.float64], NDArray[np.float64]]]:
+    """The n interface segments [M − d·t, M + d·t] of a regular n-gon, t the CCW edge tangent.
+
+    d defaults to (edge/16)/(1 + weight) (1.875 mm for a 36 mm edge); ``half_length = edge/2`` gives
+    whole edges (a solid polygon).
+    """
+    from fabpat.lattice import polygon_vertices
+
+    P = polygon_vertices(sides, edge)
+    d = (edge / 16.0) / (1.0 + weight) if half_length is None else half_length
+    out = []
+    for i in range(sides):
+        a, b = P[i], P[(i + 1) % sides]
+        m, t = 0.5 * (a + b), (b - a) / np.linalg.norm(b - a)
+        out.append((m - d * t, m + d * t))
+    return out
+
+
+def mesh_outline(
+    outline: object, h: float = 1.5, sides: int = 6, edge: float = 36.0, *, min_angle: float = 25.0,
+) -> ShellMesh:
+    """Mesh an exact :class:`fabpat.outline.Outline` and tag its n interface node sets.
+
+    Curves are flattened with chord tolerance ``FLATTEN_TOL_PER_H · h`` (0.03 mm at h = 1.5), then
+    every flattened side is cut to ≤ h. Interface i is the segment of polygon edge i described in
+    :func:`interface_segments`. Raises GeometryError if an interface gets fewer than 2 nodes.
+    """
+    loops = outline.flatten(FLATTEN_TOL_PER_H * h)  # type: ignore[attr-defined]
+    mesh = mesh_polygons(loops, h, min_angle, interfaces=interface_segments(sides, edge))
+    for i, nodes in enumerate(mesh.interfaces):
+        if nodes.size < 2:
+            raise GeometryError(f"interface {i} has {nodes.size} mesh nodes (need ≥ 2): h = {h} too coarse?")
+    return mesh
+
+
+def solid_polygon_mesh(sides: int = 6, edge: float = 36.0, h: float = 1.5) -> ShellMesh:
+    """A solid regular n-gon whose interfaces are the whole edges (the notes' CalculiX reference)."""
+    from fabpat.lattice import polygon_vertices
+
+    segs = interface_segments(sides, edge, half_length=edge / 2)
+    return mesh_polygons([polygon_vertices(sides, edge)], h, interfaces=segs)

@@ -1,0 +1,141 @@
+"""The paper's three load scenarios (§4.1) on a meshed pattern of a regular n-gon.
+
+Loads and supports act on interface nodes only (``ShellMesh.interfaces[i]`` = nodes on polygon edge i).
+Interface 0 is the bottom edge; the *opposite* interface is ``n // 2`` (for odd n the edge across the
+polygon, i + n//2 with i = 0). t_i is the unit tangent of edge i taken counter-clockwise.
+
+* **cantilever**: interface 0 fully fixed (6 dofs); force F = +1.5 N along +z at the opposite interface.
+* **cylinder**: pins (ux, uy, uz) on interface 0, rollers (uz) on the opposite interface; moment vector
+  M·t_i with M = −50 N·mm on both (Mx = −50 at interface 0, the paper's value; the two moments are
+  opposite in the global frame, so the load is self-equilibrated and the rollers slide toward the pins).
+* **dome**: pins on interface 0, rollers (uz) on every other interface; moment M·t_i with M = −100 N·mm
+  on every interface (Σ t_i = 0: self-equilibrated).
+
+With this sign the interfaces turn so that the pattern curls up from its supported edges (the edge
+region rises relative to the interior); −M mirrors the shape in z and leaves the energy unchanged.
+
+Distribution: each interface's force or moment is a uniform line load over the interface segment; a
+node's share is its tributary length along the edge (half of each adjacent node gap) over the segment
+length. This is the consistent load of the linear-edge membrane and of the DKMT normal rotation, which
+is linear along a side. Loads keep their global direction during deformation (no follower loads, as
+Abaqus/CalculiX ``*CLOAD``).
+
+Rigid-body motion: with ≥ 2 nodes on every interface (``mesh_outline`` guarantees it) these supports
+already remove all six rigid motions (cylinder: the pins' line is locked against rotation by the
+rollers; dome: likewise by the other rollers), so no extra constraint is added; a singular system
+raises :class:`fabpat.errors.SolverError`.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fabpat.errors import SolverError
+from fabpat.mesh import ShellMesh
+from fabpat.shell.element import Material
+from fabpat.shell.results import ShellResult
+from fabpat.shell.solve import ShellProblem, solve_linear, solve_nonlinear
+
+SCENARIOS = ("cantilever", "cylinder", "dome")
+
+#: the paper's load magnitudes: force (N) and moments (N·mm, signed as described above)
+CANTILEVER_FORCE = 1.5
+CYLINDER_MOMENT = -50.0
+DOME_MOMENT = -100.0
+
+
+@dataclass(frozen=True, eq=False)
+class ScenarioResult:
+    """Summary of one pattern-scenario run; ``result`` and ``problem`` hold the full fields."""
+
+    scenario: str
+    energy: float  # N·mm
+    max_displacement: float  # mm
+    converged: bool
+    iterations: int
+    seconds: float
+    nodes: int
+    elements: int
+    nonlinear: bool
+    result: ShellResult
+    problem: ShellProblem
+
+    def summary(self) -> dict[str, object]:
+        """JSON-ready dict of the scalar fields."""
+        return {"scenario": self.scenario, "energy": self.energy, "max_displacement": self.max_displacement,
+                "converged": self.converged, "iterations": self.iterations, "seconds": self.seconds,
+                "nodes": self.nodes, "elements": self.elements, "nonlinear": self.nonlinear}
+
+
+def opposite(i: int, sides: int) -> int:
+    """Index of the interface across the polygon from interface i: (i + n//2) mod n."""
+    return (i + sides // 2) % sides
+
+
+def edge_tangents(sides: int) -> NDArray[np.float64]:
+    """(n, 3) unit tangents of the polygon edges, counter-clockwise, z = 0."""
+    phi = -np.pi / 2 + 2 * np.pi * np.arange(sides) / sides  # direction of edge i's midpoint
+    return np.column_stack([-np.sin(phi), np.cos(phi), np.zeros(sides)])
+
+
+def tributary_weights(V: NDArray[np.float64], nodes: NDArray[np.int64]) -> NDArray[np.float64]:
+    """(k,) shares (summing to 1) of a uniform line load over the polyline through ``nodes`` (ordered)."""
+    if nodes.size < 2:
+        raise SolverError(f"an interface needs at least 2 nodes to carry a line load, got {nodes.size}")
+    seg = np.linalg.norm(np.diff(V[nodes], axis=0), axis=1)
+    w = np.zeros(nodes.size)
+    w[:-1] += 0.5 * seg
+    w[1:] += 0.5 * seg
+    return w / w.sum()
+
+
+def build_problem(mesh: ShellMesh, scenario: str, *, sides: int, thickness: float = 2.0, E: float = 1000.0,
+                  nu: float = 0.35) -> ShellProblem:
+    """Supports and nodal loads of ``scenario`` on ``mesh`` (see module docstring)."""
+    if scenario not in SCENARIOS:
+        raise ValueError(f"unknown scenario {scenario!r}; expected one of {', '.join(SCENARIOS)}")
+    if len(mesh.interfaces) != sides:
+        raise SolverError(f"mesh has {len(mesh.interfaces)} interface sets, expected {sides}")
+    for i, nodes in enumerate(mesh.interfaces):
+        if nodes.size < 2:
+            raise SolverError(f"interface {i} has {nodes.size} nodes; the scenarios need ≥ 2 per interface")
+    n = mesh.n_nodes
+    fixed = np.zeros((n, 6), dtype=bool)
+    loads = np.zeros((n, 6))
+    t = edge_tangents(sides)
+    o = opposite(0, sides)
+    ifs = mesh.interfaces
+
+    def moment(i: int, M: float) -> None:
+        w = tributary_weights(mesh.V, ifs[i])
+        np.add.at(loads, (ifs[i][:, None], np.arange(3, 6)[None, :]), M * w[:, None] * t[i][None, :])
+
+    if scenario == "cantilever":
+        fixed[ifs[0]] = True
+        np.add.at(loads[:, 2], ifs[o], CANTILEVER_FORCE * tributary_weights(mesh.V, ifs[o]))
+    elif scenario == "cylinder":
+        fixed[ifs[0], :3] = True
+        fixed[ifs[o], 2] = True
+        moment(0, CYLINDER_MOMENT)
+        moment(o, CYLINDER_MOMENT)
+    else:
+        for i in range(sides):
+            fixed[ifs[i], 2] = True
+            moment(i, DOME_MOMENT)
+        fixed[ifs[0], :3] = True
+    return ShellProblem(mesh.V, mesh.F, Material(E, nu, thickness), fixed, loads)
+
+
+def run_scenario(mesh: ShellMesh, scenario: str, *, sides: int, edge: float = 36.0, thickness: float = 2.0,
+                 E: float = 1000.0, nu: float = 0.35, nonlinear: bool = True) -> ScenarioResult:
+    """Run one scenario; raises SolverError if it does not converge. ``edge`` is accepted for the
+    record (the mesh already carries the geometry)."""
+    t0 = time.perf_counter()
+    p = build_problem(mesh, scenario, sides=sides, thickness=thickness, E=E, nu=nu)
+    r = solve_nonlinear(p) if nonlinear else solve_linear(p)
+    return ScenarioResult(scenario, r.energy, r.max_displacement, r.converged, r.iterations,
+                          time.perf_counter() - t0, mesh.n_nodes, mesh.n_elements, nonlinear, r, p)

@@ -1,0 +1,64 @@
+"""Finite rotations, vectorised over leading axes: exp/log maps and the inverse tangent operator.
+
+A rotation vector θ (…, 3) maps to R = exp([θ]×) (…, 3, 3) by Rodrigues' formula. Nodal rotations
+are updated by a *spatial* spin ω: R ← exp([ω]×) R, so variations are δR Rᵀ = [δω]×.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+Arr = NDArray[np.float64]
+
+
+def skew(v: Arr) -> Arr:
+    """[v]× (…, 3, 3) of vectors v (…, 3)."""
+    S = np.zeros((*v.shape[:-1], 3, 3))
+    S[..., 0, 1], S[..., 0, 2] = -v[..., 2], v[..., 1]
+    S[..., 1, 0], S[..., 1, 2] = v[..., 2], -v[..., 0]
+    S[..., 2, 0], S[..., 2, 1] = -v[..., 1], v[..., 0]
+    return S
+
+
+def expmap(theta: Arr) -> Arr:
+    """Rotation matrices (…, 3, 3) of rotation vectors (…, 3) (Rodrigues; series below 1e-4 rad)."""
+    t2 = np.einsum("...i,...i->...", theta, theta)
+    t = np.sqrt(t2)
+    small = t < 1e-4
+    ts = np.where(small, 1.0, t)
+    a = np.where(small, 1.0 - t2 / 6.0, np.sin(ts) / ts)
+    b = np.where(small, 0.5 - t2 / 24.0, (1.0 - np.cos(ts)) / (ts * ts))
+    K = skew(theta)
+    return np.eye(3) + a[..., None, None] * K + b[..., None, None] * (K @ K)
+
+
+def logmap(R: Arr) -> Arr:
+    """Rotation vectors (…, 3) of rotation matrices (…, 3, 3), angle in [0, π).
+
+    Uses atan2(sin, cos) for accuracy at small angles; valid away from π, which the deformational
+    rotations of the corotational element never approach.
+    """
+    w = 0.5 * np.stack([R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0],
+                        R[..., 1, 0] - R[..., 0, 1]], axis=-1)
+    s = np.linalg.norm(w, axis=-1)
+    c = 0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0)
+    t = np.arctan2(s, c)
+    small = s < 1e-7
+    f = np.where(small, 1.0 + s * s / 6.0, t / np.where(small, 1.0, s))
+    return f[..., None] * w
+
+
+def dexp_inv(theta: Arr) -> Arr:
+    """H⁻¹(θ) (…, 3, 3) with δθ = H⁻¹(θ) δψ when δR Rᵀ = [δψ]×, R = exp([θ]×).
+
+    H⁻¹ = I − ½Θ + η Θ², η = (1 − (t/2) cot(t/2)) / t² (series 1/12 + t²/720 for small t).
+    """
+    t2 = np.einsum("...i,...i->...", theta, theta)
+    t = np.sqrt(t2)
+    small = t < 1e-3
+    ts = np.where(small, 1.0, t)
+    eta = np.where(small, 1.0 / 12.0 + t2 / 720.0, (1.0 - 0.5 * ts / np.tan(0.5 * ts)) / (ts * ts))
+    # Θ² = θθᵀ − |θ|² I avoids a batched matrix product
+    K2 = theta[..., :, None] * theta[..., None, :] - t2[..., None, None] * np.eye(3)
+    return np.eye(3) - 0.5 * skew(theta) + eta[..., None, None] * K2

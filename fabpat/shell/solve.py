@@ -1,0 +1,206 @@
+"""Linear and geometrically nonlinear static analysis of flat triangle shells.
+
+Loads are nodal forces (N) and moments (N·mm) in global axes that keep their direction (no
+follower loads; this is also what Abaqus/CalculiX ``*CLOAD`` does). Supports fix global dofs.
+The nonlinear solve is load-controlled Newton–Raphson on the proportional load λ·F (λ: 0 → 1) with
+the corotational tangent, automatic step growth after easy steps and step halving after a failed
+one; a run that cannot reach λ = 1 raises :class:`fabpat.errors.SolverError`.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse.linalg as spla
+from numpy.typing import NDArray
+
+from fabpat.errors import SolverError
+from fabpat.shell.assembly import Assembler
+from fabpat.shell.corotational import CorotationalTriangles
+from fabpat.shell.element import Material
+from fabpat.shell.results import ShellResult
+from fabpat.shell.rotations import expmap, logmap
+
+Arr = NDArray[np.float64]
+
+
+@dataclass(frozen=True, eq=False)
+class ShellProblem:
+    """A static shell problem.
+
+    X: (n, 3) or (n, 2) node coordinates (mm; 2D means z = 0). F: (m, 3) triangles.
+    fixed: (n, 6) bool, constrained global dofs (ux, uy, uz, rx, ry, rz) held at 0.
+    loads: (n, 6) nodal forces (N) and moments (N·mm), global axes, fixed directions.
+    """
+
+    X: Arr
+    F: NDArray[np.int64]
+    material: Material
+    fixed: NDArray[np.bool_]
+    loads: Arr
+
+    def __post_init__(self) -> None:
+        X = np.asarray(self.X, dtype=np.float64)
+        if X.shape[1] == 2:
+            X = np.column_stack([X, np.zeros(X.shape[0])])
+        object.__setattr__(self, "X", X)
+        object.__setattr__(self, "F", np.asarray(self.F, dtype=np.int64))
+        object.__setattr__(self, "fixed", np.asarray(self.fixed, dtype=bool).reshape(-1, 6))
+        object.__setattr__(self, "loads", np.asarray(self.loads, dtype=np.float64).reshape(-1, 6))
+
+
+def _lu(K: object) -> object:
+    try:
+        # the Assembler already numbers the dofs in a fill-reducing order: no reordering here
+        # (symmetric mode keeps it); partial pivoting stays on for the thin strips
+        return spla.splu(K, permc_spec="NATURAL", diag_pivot_thresh=1.0, options={"SymmetricMode": True})
+    except RuntimeError as exc:  # "Factor is exactly singular"
+        raise SolverError(f"singular stiffness matrix ({exc}): supports leave a rigid-body motion free?") from exc
+
+
+def _setup(p: ShellProblem) -> tuple[CorotationalTriangles, Assembler, Arr]:
+    model = CorotationalTriangles(p.X, p.F, p.material)
+    asm = Assembler(model.edofs, ~p.fixed.ravel())
+    return model, asm, p.loads.ravel()
+
+
+def solve_linear(p: ShellProblem) -> ShellResult:
+    """Small-displacement solution K u = f. Raises SolverError if K is singular."""
+    t0 = time.perf_counter()
+    model, asm, f = _setup(p)
+    Ke = model.linear_element_matrices()
+    K = asm.matrix(Ke)
+    t1 = time.perf_counter()
+    u = np.zeros(asm.n_dofs)
+    u[asm.free] = _lu(K).solve(f[asm.free])
+    if not np.all(np.isfinite(u)):
+        raise SolverError("linear solve produced non-finite displacements (ill-posed supports?)")
+    t2 = time.perf_counter()
+    U6 = u.reshape(-1, 6)
+    d = model.linear_local_dofs(U6)
+    ee = model.energy_split(d)
+    fint = asm.vector(np.einsum("mij,mj->mi", Ke, u[model.edofs]))
+    react = np.where(p.fixed.ravel(), fint - f, 0.0).reshape(-1, 6)
+    return ShellResult(U6[:, :3].copy(), U6[:, 3:].copy(), float(ee.sum()), ee, react, float(0.5 * f @ u),
+                       1, 1, 0, True, False,
+                       {"assemble": t1 - t0, "solve": t2 - t1, "total": time.perf_counter() - t0})
+
+
+def solve_nonlinear(
+    p: ShellProblem,
+    *,
+    rtol: float = 1e-8,
+    max_iter: int = 25,
+    initial_step: float = 1.0,
+    min_step: float = 1.0 / 1024,
+    max_rotation_step: float = 0.5,
+    predictor: bool = False,
+    reuse_ratio: float = 0.1,
+) -> ShellResult:
+    """Geometrically nonlinear (corotational) solution under the loads ``p.loads`` at λ = 1.
+
+    Convergence: ‖r_free‖ ≤ rtol·‖λ f_free‖ (forces and moments in one norm). A Newton correction whose
+    largest nodal rotation exceeds ``max_rotation_step`` (rad) is scaled down (a crude line search that
+    keeps the iteration inside the basin where rotations are resolved). The tangent and its LU are
+    reused while the residual drops by at least ``reuse_ratio`` per iteration (0 → full Newton).
+    A step that fails (no convergence in ``max_iter``, growing residual or non-finite values) is
+    halved; below ``min_step`` of the load a SolverError is raised. Steps double after ≤ 4 iterations.
+    """
+    t0 = time.perf_counter()
+    model, asm, f = _setup(p)
+    fnorm = float(np.linalg.norm(f[asm.free]))
+    if fnorm == 0.0:
+        raise SolverError("no load applied to free dofs")
+    n = p.X.shape[0]
+    x, R = p.X.copy(), np.broadcast_to(np.eye(3), (n, 3, 3)).copy()
+    lam, dlam = 0.0, float(initial_step)
+    its_total, steps, cuts = 0, 0, 0
+    work, t_tan, t_lu = 0.0, 0.0, 0.0
+    n_fact = 0
+    fe = U = d = None
+    prev: tuple[Arr, Arr, float] | None = None  # last converged (Δx, spin, Δλ)
+    while lam < 1.0 - 1e-12:
+        target = min(1.0, lam + dlam)
+        x_try, R_try = x.copy(), R.copy()
+        step_disp = np.zeros(asm.n_dofs)
+        if predictor and prev is not None:  # secant predictor: extrapolate the last converged increment
+            s_ = (target - lam) / prev[2]
+            x_try += s_ * prev[0]
+            R_try = np.einsum("nij,njk->nik", expmap(s_ * prev[1]), R_try)
+            step_disp[:] = s_ * np.concatenate([prev[0], prev[1]], axis=1).ravel()
+        ok, its, last_res = False, 0, np.inf
+        lu = None
+        growth = 0
+        for its in range(1, max_iter + 1):  # noqa: B007 (its used after the loop)
+            xe, Re = model.gather(x_try, R_try)
+            fe, U, d = model.element_forces(xe, Re)
+            r = target * f - asm.vector(fe)
+            res = float(np.linalg.norm(r[asm.free]))
+            if not np.isfinite(res):
+                break
+            if res <= rtol * target * fnorm:
+                ok = True
+                break
+            growth = growth + 1 if res > last_res else 0
+            if growth >= 3 or res > 1e6 * fnorm:
+                break
+            # keep the factorization while the residual falls fast (≥ reuse_ratio per iteration):
+            # one back-substitution is ~50× cheaper than a new tangent + LU
+            reuse = lu is not None and res < reuse_ratio * last_res
+            last_res = res
+            ta = time.perf_counter()
+            if not reuse:  # at the unstressed start the tangent is exactly the linear stiffness
+                Ke = model.linear_element_matrices() if steps == 0 and its == 1 else \
+                    model.element_tangents(xe, Re, d)
+                K = asm.matrix(Ke)
+            tb = time.perf_counter()
+            du = np.zeros(asm.n_dofs)
+            try:
+                if not reuse:
+                    lu = _lu(K)
+                    n_fact += 1
+                du[asm.free] = lu.solve(r[asm.free])
+            except SolverError:
+                break
+            t_tan += tb - ta
+            t_lu += time.perf_counter() - tb
+            if not np.all(np.isfinite(du)):
+                break
+            D = du.reshape(-1, 6)
+            rot = float(np.max(np.linalg.norm(D[:, 3:], axis=1)))
+            if rot > max_rotation_step:
+                D *= max_rotation_step / rot
+            x_try += D[:, :3]
+            R_try = np.einsum("nij,njk->nik", expmap(D[:, 3:]), R_try)
+            step_disp += D.ravel()
+        its_total += its
+        if ok:
+            work += 0.5 * (lam + target) * float(f @ step_disp)
+            spin = logmap(np.einsum("nij,nkj->nik", R_try, R))
+            prev = (x_try - x, spin, target - lam)
+            x, R, lam = x_try, R_try, target
+            steps += 1
+            if its <= 4:
+                dlam *= 2.0
+            elif its >= 10:
+                dlam *= 0.5
+        else:
+            cuts += 1
+            dlam *= 0.5
+            prev = None  # the extrapolation may be what failed
+            if dlam < min_step:
+                raise SolverError(
+                    f"Newton–Raphson did not converge: load step fell below {min_step:g} of the load at "
+                    f"λ = {lam:.4f} after {its_total} iterations and {cuts} step cuts (residual "
+                    f"{last_res:.3e} vs tolerance {rtol * target * fnorm:.3e}); the structure may buckle "
+                    f"or snap, or the loads may be too large for a load-controlled analysis")
+    assert fe is not None and d is not None
+    fint = asm.vector(fe)
+    react = np.where(p.fixed.ravel(), fint - f, 0.0).reshape(-1, 6)
+    ee = model.energy_split(d)
+    seconds = {"tangent": t_tan, "factor_solve": t_lu, "factorizations": float(n_fact),
+               "total": time.perf_counter() - t0}
+    return ShellResult(x - p.X, logmap(R), float(ee.sum()), ee, react, work, its_total, steps, cuts, True, True,
+                       seconds)
