@@ -45,7 +45,8 @@ def atomic_outputs(*paths: str | os.PathLike[str]) -> Iterator[list[Path]]:
     temps: list[Path] = []
     try:
         for t in targets:
-            fd, name = tempfile.mkstemp(prefix=f".{t.name}.", suffix=".part", dir=t.parent or ".")
+            # keep the real suffix last: writers that pick the format from the suffix still work
+            fd, name = tempfile.mkstemp(prefix=f".{t.stem}.", suffix=f".part{t.suffix}", dir=t.parent or ".")
             os.close(fd)
             temps.append(Path(name))
         yield temps

@@ -1,0 +1,106 @@
+"""``fabpat simulate``: fillet, mesh and load one pattern in the paper's scenarios (§4.1)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import click
+
+from fabpat.cli.options import depth_option, edge_option, sides_option, weight_option
+from fabpat.errors import FabpatError
+from fabpat.io import atomic_outputs
+
+SCENARIO_CHOICES = ("cantilever", "cylinder", "dome", "all")
+
+
+def _per_scenario(path: str | None, scenario: str, many: bool) -> str | None:
+    """``out.vtu`` → ``out-dome.vtu`` when several scenarios are written to one name."""
+    if path is None or not many:
+        return path
+    p = Path(path)
+    return str(p.with_name(f"{p.stem}-{scenario}{p.suffix}"))
+
+
+@click.command("simulate")
+@click.argument("pattern_id", metavar="ID")
+@sides_option
+@depth_option
+@edge_option
+@weight_option
+@click.option("--scenario", type=click.Choice(SCENARIO_CHOICES), default="all", show_default=True,
+              help="Load case of the paper (all = the three in turn).")
+@click.option("--linear", is_flag=True, help="Linear analysis instead of geometrically nonlinear.")
+@click.option("--h", "h", type=float, default=1.5, show_default=True, help="Target mesh edge length in mm.")
+@click.option("--thickness", type=float, default=2.0, show_default=True, help="Plate thickness in mm.")
+@click.option("--youngs-modulus", "E", type=float, default=1000.0, show_default=True,
+              help="Young's modulus in N/mm² (PLA: 1000).")
+@click.option("--poisson", "nu", type=float, default=0.35, show_default=True, help="Poisson's ratio.")
+@click.option("--vtu", type=click.Path(dir_okay=False), help="Deformed mesh with fields for ParaView (.vtu).")
+@click.option("--png", type=click.Path(dir_okay=False), help="Picture of the deformed pattern coloured by energy.")
+@click.option("--export-inp", "inp", type=click.Path(dir_okay=False),
+              help="Abaqus/CalculiX input deck of the same mesh, loads and supports (S6 elements).")
+@click.option("--json", "as_json", is_flag=True, help="Print the results as JSON.")
+def simulate_cmd(
+    pattern_id: str, sides: int, depth: int, edge: float, weight: float, scenario: str, linear: bool, h: float,
+    thickness: float, E: float, nu: float, vtu: str | None, png: str | None, inp: str | None, as_json: bool,
+) -> None:
+    """Simulate one pattern in the Cantilever, Cylinder and/or Dome scenario.
+
+    Prints the total strain energy (N·mm), the largest displacement (mm), Newton iterations and
+    time. With --scenario all, file options get the scenario appended (out.vtu → out-dome.vtu).
+
+    Example: fabpat simulate 0x2d88 --scenario dome --vtu dome.vtu --png dome.png --json
+    """
+    from fabpat.exchange.inp import write_inp
+    from fabpat.exchange.png_result import write_png
+    from fabpat.exchange.vtu import write_vtu
+    from fabpat.fillet import fillet_pattern
+    from fabpat.library import get_pattern
+    from fabpat.mesh import mesh_outline
+    from fabpat.scenarios import SCENARIOS, run_scenario
+
+    for name, value in (("--h", h), ("--thickness", thickness), ("--youngs-modulus", E)):
+        if not value > 0:
+            raise click.BadParameter(f"{name} must be > 0, got {value:g}")
+    if not -1.0 < nu < 0.5:
+        raise click.BadParameter(f"--poisson must be in (-1, 0.5), got {nu:g}")
+    scenarios = SCENARIOS if scenario == "all" else (scenario,)
+    many = len(scenarios) > 1
+    outputs = {
+        (kind, sc): _per_scenario(path, sc, many)
+        for kind, path in (("vtu", vtu), ("png", png), ("inp", inp))
+        for sc in scenarios
+        if path is not None
+    }
+    pattern = get_pattern(pattern_id, sides, depth, edge)
+    mesh = mesh_outline(fillet_pattern(pattern, weight).outline, h, sides, edge)
+    rows = []
+    with atomic_outputs(*outputs.values()) as temps:
+        tmp_of = dict(zip(outputs, temps, strict=True))
+        for sc in scenarios:
+            r = run_scenario(mesh, sc, sides=sides, edge=edge, thickness=thickness, E=E, nu=nu, nonlinear=not linear)
+            if not r.converged:  # run_scenario raises on nonconvergence; this guards the contract
+                raise FabpatError(f"{sc}: the solver did not converge")
+            rows.append({"id": pattern.id, "sides": sides, **r.summary()})
+            if ("vtu", sc) in tmp_of:
+                write_vtu(tmp_of["vtu", sc], mesh.V, mesh.F, r.result)
+            if ("png", sc) in tmp_of:
+                write_png(tmp_of["png", sc], mesh.V, mesh.F, r.result, title=f"{pattern.id} {sc}")
+            if ("inp", sc) in tmp_of:
+                write_inp(tmp_of["inp", sc], mesh, sc, sides=sides, thickness=thickness, E=E, nu=nu,
+                          nonlinear=not linear)
+    if as_json:
+        click.echo(json.dumps(rows if many else rows[0], indent=1))
+    else:
+        for row in rows:
+            click.echo(
+                f"{row['id']} {row['scenario']:<10} energy {row['energy']:.6g} N·mm  "
+                f"max displacement {row['max_displacement']:.4g} mm  {row['iterations']} iterations  "
+                f"{row['seconds']:.2f} s  ({row['nodes']} nodes, {row['elements']} elements)"
+            )
+    for path in outputs.values():
+        click.echo(f"wrote {path}", err=as_json)
+
+
+COMMANDS = [simulate_cmd]

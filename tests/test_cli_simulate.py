@@ -1,0 +1,53 @@
+import json
+from pathlib import Path
+
+import pytest
+
+from tests.conftest import run_cli
+
+
+def test_simulate_json_and_files(tmp_path: Path) -> None:
+    import meshio
+
+    vtu, png, inp = tmp_path / "c.vtu", tmp_path / "c.png", tmp_path / "c.inp"
+    r = run_cli(
+        "simulate", "0x7f88", "--scenario", "cantilever", "--h", "3", "--json",
+        "--vtu", str(vtu), "--png", str(png), "--export-inp", str(inp),
+    )
+    assert r.returncode == 0, r.stderr
+    row = json.loads(r.stdout)
+    for key in ("id", "scenario", "energy", "max_displacement", "converged", "iterations", "seconds", "nodes",
+                "elements"):
+        assert key in row
+    assert row["id"] == "0x7f88" and row["scenario"] == "cantilever" and row["converged"] is True
+    # a dense pattern is softer than the solid hexagon (2.6 N·mm) but of the same order
+    assert 2.6 < row["energy"] < 30
+    m = meshio.read(vtu)
+    assert len(m.points) == row["nodes"]
+    assert abs(m.point_data["displacement"][:, 2]).max() == pytest.approx(row["max_displacement"], rel=0.05)
+    assert png.read_bytes()[:4] == b"\x89PNG"
+    assert "*NODE" in inp.read_text().upper()
+
+
+def test_simulate_all_names_files_per_scenario(tmp_path: Path) -> None:
+    r = run_cli("simulate", "0x7f88", "--linear", "--h", "4", "--json", "--vtu", str(tmp_path / "r.vtu"))
+    assert r.returncode == 0, r.stderr
+    rows = json.loads(r.stdout)
+    assert [x["scenario"] for x in rows] == ["cantilever", "cylinder", "dome"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r-cantilever.vtu", "r-cylinder.vtu", "r-dome.vtu"]
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["--scenario", "twist"], "cantilever"),
+        (["--h", "0"], "--h"),
+        (["--poisson", "0.7"], "--poisson"),
+        (["--sides", "2"], "sides"),
+    ],
+)
+def test_simulate_bad_input(tmp_path: Path, args: list[str], words: str) -> None:
+    r = run_cli("simulate", "0x7f88", *args, "--vtu", str(tmp_path / "x.vtu"))
+    assert r.returncode == 2
+    assert r.stderr.count("\n") == 1 and words in r.stderr
+    assert list(tmp_path.iterdir()) == []
