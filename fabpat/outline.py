@@ -169,6 +169,12 @@ class RationalQuad:
 
     def tangent(self, t: ArrayLike) -> NDArray[np.float64]:
         """Unit tangent in the direction of travel: (2,) or (m, 2)."""
+        # At the ends a Bézier curve is tangent to its control polygon (w > 0): no evaluation needed,
+        # and the G1 check asks only for end tangents.
+        if np.ndim(t) == 0 and float(t) in (0.0, 1.0):  # type: ignore[arg-type]
+            d = self.P1 - self.P0 if float(t) == 0.0 else self.P2 - self.P1  # type: ignore[arg-type]
+            if np.any(d):
+                return _unit(d)
         return _unit(self.derivative(t))
 
     @cached_property
