@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.lattice import polygon_vertices
+from fabpat.outline import Line, Loop, Outline, RationalQuad
 from fabpat.pattern import Pattern
 
 _SEAM = 0.04  # mm: a same-colour stroke that hides anti-aliasing seams between solid triangles
@@ -132,3 +133,56 @@ def contact_sheet_png(patterns: Sequence[Pattern], path: str | Path, dpi: int = 
     ax.axis("off")
     fig.savefig(path, dpi=dpi, facecolor="white", format="png")
     plt.close(fig)
+
+
+def _only_arcs_at(outline: Outline, centre: NDArray[np.float64]) -> Outline:
+    """The outline with every arc not centred on ``centre`` put back to its two control-polygon legs."""
+
+    def keep(loop: Loop) -> Loop:
+        segs: list[Line | RationalQuad] = []
+        for s in loop.segments:
+            if isinstance(s, RationalQuad) and not np.allclose(s.P1, centre):
+                segs += [Line(s.P0, s.P1), Line(s.P1, s.P2)]
+            else:
+                segs.append(s)
+        return Loop(tuple(segs))
+
+    return Outline(keep(outline.outer), tuple(keep(h) for h in outline.holes))
+
+
+def star_table_svg(k: int = 6, radius: float = 9.0, columns: int = 3) -> str:
+    """The filleting lookup table as a figure: each star configuration before (lattice triangles) and
+    after filleting its centre vertex (exact arcs), with kind and actions — the paper's Figs 9–10."""
+    from fabpat.fillet import fillet_solid, star_table
+
+    rows = [r for r in star_table(k) if r[1] not in ("empty", "interior")]
+    cell = 2.5 * radius
+    cols = columns
+    W, H = 2 * cell * cols, cell * math.ceil(len(rows) / cols)
+    angles = 2 * math.pi * np.arange(k) / k
+    V = np.vstack([[0.0, 0.0], radius * np.stack([np.cos(angles), np.sin(angles)], axis=1)])
+    F = np.array([[0, 1 + i, 1 + (i + 1) % k] for i in range(k)])
+    font = radius * 0.14
+    parts = []
+    for n, (labels, kind, actions) in enumerate(rows):
+        solid = np.array([c == "S" for c in labels])
+        outline = _only_arcs_at(fillet_solid(V, F[solid])[0], V[0])
+        x0, cy = (n % cols) * 2 * cell, (n // cols) * cell + cell / 2 - radius * 0.1
+        ring = f'<polygon points="{_points(V[1:])}" fill="none" stroke="#bbb" stroke-width="0.08"/>'
+        before = "".join(f'<polygon points="{_points(V[f])}"/>' for f in F[solid])
+        acts = " ".join(a for a in actions if a != "keep")
+        parts.append(
+            f'<g transform="translate({_fmt(x0 + cell / 2)},{_fmt(cy)})">{ring}'
+            f'<g fill="black" stroke="black" stroke-width="{_SEAM}">{before}</g></g>'
+            f'<g transform="translate({_fmt(x0 + 1.5 * cell)},{_fmt(cy)})">{ring}'
+            f'<path transform="scale(1,-1)" fill="black" fill-rule="evenodd" d="{outline.to_svg_path()}"/></g>'
+            f'<text x="{_fmt(x0 + cell)}" y="{_fmt(cy + radius * 1.15)}" font-size="{_fmt(font)}" '
+            f'text-anchor="middle" font-family="monospace">{labels} {kind}: {acts}</text>'
+        )
+    return (
+        '<?xml version="1.0" encoding="UTF-8"?>\n'
+        f'<svg xmlns="http://www.w3.org/2000/svg" width="{_fmt(W * 4)}" height="{_fmt(H * 4)}" '
+        f'viewBox="0 0 {_fmt(W)} {_fmt(H)}">\n<rect width="{_fmt(W)}" height="{_fmt(H)}" fill="white"/>\n'
+        + "\n".join(parts)
+        + "\n</svg>\n"
+    )

@@ -265,3 +265,14 @@ def test_area_change_is_explained_by_the_arcs(filleted) -> None:
     # bridges and fills add material, rounding removes a little: the net change is positive and
     # stays below a quarter of the area (distribution reported in the README)
     assert 0 < min(change) and max(change) < 0.25
+
+
+def test_star_table_figure() -> None:
+    from xml.etree import ElementTree
+
+    from fabpat.pictures import star_table_svg
+
+    root = ElementTree.fromstring(star_table_svg())
+    texts = [e.text for e in root.iter() if e.tag.endswith("text")]
+    assert len(texts) == 12 and sum("non-manifold" in t for t in texts) == 7
+    assert sum(e.tag.endswith("path") for e in root.iter()) == 12
