@@ -1,0 +1,177 @@
+"""``fabpat export``: fabrication files (STEP, STL, 3MF, DXF, SVG) for one pattern or the library.
+
+The command parses options, builds the filleted outline and calls :mod:`fabpat.exchange.registry`;
+all files of one command are written through one :func:`fabpat.io.atomic_outputs` block, so an error
+leaves no file. Width warnings go to stderr and do not change the exit code.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import click
+
+from fabpat.cli.options import _at_least, edge_option, sides_option
+from fabpat.errors import ExportError
+from fabpat.exchange.registry import FORMATS, ExportSettings, Job, Part, export_parts, parse_formats, width_warnings
+
+if TYPE_CHECKING:  # pragma: no cover
+    from fabpat.pattern import Pattern
+
+DEFAULT_ALL_FORMATS = "step,stl,dxf"
+_DEPTH_OF_DIGITS = {1: 1, 4: 2, 16: 3}  # hex digits of an ID → subdivision depth (4**depth bits)
+
+
+def _depth_of(pattern_id: str) -> int:
+    digits = pattern_id.strip().lower().removeprefix("0x")
+    return _DEPTH_OF_DIGITS.get(len(digits), 2)  # a malformed ID is reported by the library
+
+
+def make_part(pattern: Pattern, thickness: float, weight: float) -> Part:
+    """The filleted pattern as an exportable part named by its ID and parameters.
+
+    The interface bow-tie arcs go along as ``support``, so STEP carries their weights (1, w, 1).
+    """
+    from fabpat.cad import part_name
+    from fabpat.fillet import fillet_pattern
+
+    filleted = fillet_pattern(pattern, weight)
+    name = part_name(pattern.id, pattern.sides, pattern.edge, thickness, weight)
+    support = tuple(arc for pair in filleted.interface_arcs for arc in pair)
+    return Part(filleted.outline, thickness, name, label=pattern.id, support=support)
+
+
+def _warn(message: str) -> None:
+    click.echo(f"fabpat: warning: {message}", err=True)
+
+
+def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> list[Path]:
+    """Build each part and write its files in one atomic block, with width warnings and a progress bar."""
+    narrow: list[tuple[str | None, list[str]]] = []
+    bar = None
+    if progress:
+        from rich.console import Console
+        from rich.progress import Progress
+
+        bar = Progress(console=Console(stderr=True), transient=True)
+        task = bar.add_task("exporting", total=len(jobs))
+
+    def on_part(part: Part, formats: list[str]) -> None:
+        messages = width_warnings(part.outline, formats, settings.kerf)
+        if messages:
+            narrow.append((part.label, messages))
+        if bar is not None:
+            bar.advance(task)
+
+    if bar is not None:
+        bar.start()
+    try:
+        paths = export_parts(jobs, settings, on_part)
+    finally:
+        if bar is not None:
+            bar.stop()
+    if len(jobs) == 1:
+        for message in narrow[0][1] if narrow else []:
+            _warn(message)
+    elif narrow:
+        label, messages = narrow[0]
+        _warn(f"{len(narrow)} patterns have features too narrow for their process, e.g. {label}: {messages[0]}")
+    return paths
+
+
+@click.command("export")
+@click.argument("pattern_id", metavar="[ID]", required=False)
+@sides_option
+@edge_option
+@click.option("--thickness", type=float, default=2.0, show_default=True, callback=_at_least(0, "thickness", True),
+              help="Plate thickness in mm (> 0).")
+@click.option("--weight", type=float, default=0.2, show_default=True, callback=_at_least(0, "weight", True),
+              help="Middle weight w of the interface fillet arcs (> 0).")
+@click.option("--step", "step", type=click.Path(dir_okay=False), help="STEP AP214 file (exact solid).")
+@click.option("--stl", "stl", type=click.Path(dir_okay=False), help="Binary STL file (0.01 mm chord).")
+@click.option("--3mf", "threemf", type=click.Path(dir_okay=False), help="3MF file (mesh for slicers).")
+@click.option("--dxf", "dxf", type=click.Path(dir_okay=False), help="DXF file (CUT and ENGRAVE layers).")
+@click.option("--svg", "svg", type=click.Path(dir_okay=False), help="SVG file (exact outline, true size).")
+@click.option("--curves", type=click.Choice(["arcs", "spline", "lines"]), default="arcs", show_default=True,
+              help="DXF curves: circular arcs within 0.01 mm, exact rational splines, or polylines.")
+@click.option("--kerf", type=float, default=0.0, show_default=True, callback=_at_least(0, "kerf"),
+              help="Laser kerf in mm: DXF/SVG loops move out by kerf/2.")
+@click.option("--dxf-version", type=click.Choice(["R2010", "R2000", "R12"]), default="R2010", show_default=True,
+              help="DXF version; R12 writes POLYLINE entities for old software.")
+@click.option("--all", "all_", is_flag=True, help="Export every pattern of the library (needs --out).")
+@click.option("--out", type=click.Path(file_okay=False), help="Folder for --all (created if missing).")
+@click.option("--formats", default=None, help=f"Formats for --all, comma-separated [default: {DEFAULT_ALL_FORMATS}].")
+def export_cmd(pattern_id: str | None, sides: int, edge: float, thickness: float, weight: float,
+               step: str | None, stl: str | None, threemf: str | None, dxf: str | None, svg: str | None,
+               curves: str, kerf: float, dxf_version: str, all_: bool, out: str | None,
+               formats: str | None) -> None:
+    """Write fabrication files for one pattern (ID) or, with --all, for the whole library.
+
+    Warns on stderr when the narrowest feature is below the process limit: 0.8 mm for printing
+    (STEP/STL/3MF), 2 × kerf for laser cutting (DXF/SVG).
+
+    \b
+    Examples:
+      fabpat export 0x0488 --step p.step --stl p.stl --dxf p.dxf --kerf 0.15
+      fabpat export --all --out parts --formats step,dxf
+    """
+    settings = ExportSettings(curves=curves, kerf=kerf, dxf_version=dxf_version)
+    settings.check()
+    files = {"step": step, "stl": stl, "3mf": threemf, "dxf": dxf, "svg": svg}
+    if all_:
+        if pattern_id is not None:
+            raise click.UsageError("give either an ID or --all, not both")
+        if any(files.values()):
+            raise click.UsageError("--all writes into --out; single-file options (--step, …) need an ID")
+        if out is None:
+            raise click.UsageError("--all needs --out DIR")
+        _export_library(sides, edge, thickness, weight, parse_formats(formats or DEFAULT_ALL_FORMATS), Path(out),
+                        settings)
+        return
+    if pattern_id is None:
+        raise click.UsageError("missing pattern ID (or --all)")
+    if out is not None or formats is not None:
+        raise click.UsageError("--out and --formats go with --all; for one pattern use --step, --stl, …")
+    targets = {name: Path(p) for name, p in files.items() if p}
+    if not targets:
+        raise ExportError("no output requested: give at least one of --step, --stl, --3mf, --dxf, --svg")
+    from fabpat.cli.library_cmds import _pattern
+
+    pattern = _pattern(pattern_id, sides, _depth_of(pattern_id), edge)
+    jobs = [(lambda: make_part(pattern, thickness, weight), targets)]
+    for path in _write_all(jobs, settings, progress=False):
+        click.echo(f"wrote {path}")
+
+
+def _export_library(sides: int, edge: float, thickness: float, weight: float, names: list[str], out: Path,
+                    settings: ExportSettings) -> None:
+    from fabpat.library import enumerate_library
+
+    created = not out.exists()
+    if out.exists() and not out.is_dir():
+        raise ExportError(f"--out {out} exists and is not a folder")
+    lib = enumerate_library(sides, 2)
+    ids = list(lib.ids)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise ExportError(f"cannot create folder {out}: {e.strerror}") from e
+
+    def job(pid: str) -> Job:
+        return (lambda: make_part(lib.pattern(pid, edge), thickness, weight),
+                {n: out / f"{pid}{FORMATS[n].suffix}" for n in names})
+
+    try:
+        paths = _write_all([job(pid) for pid in ids], settings, progress=True)
+    except BaseException:
+        if created:  # leave nothing behind: the folder is empty again, remove it
+            try:
+                out.rmdir()
+            except OSError:
+                pass
+        raise
+    click.echo(f"wrote {len(paths)} files for {len(ids)} patterns to {out}")
+
+
+COMMANDS = [export_cmd]

@@ -1,0 +1,188 @@
+"""The export formats in one place, and one atomic export of a part to several files.
+
+A format is a name, a file suffix and a module under ``fabpat.exchange`` with a function
+``write(part, path, settings)``; adding a format is one new module and one :func:`register_format`
+line. Modules are imported only when a file of their format is written, so OCP (≈ 1 s) and ezdxf
+(≈ 0.4 s) load only when needed.
+
+Process limits for the minimum-feature-width warning (documented defaults):
+
+* printing (STEP, STL, 3MF): ``PRINT_MIN_WIDTH`` = 0.8 mm, two perimeters of a 0.4 mm nozzle;
+* laser cutting (DXF, SVG): ``LASER_WIDTH_FACTOR`` × kerf = 2 × kerf — a bar narrower than two
+  kerfs is burnt through or too weak to survive the cut. No laser check when kerf = 0.
+"""
+
+from __future__ import annotations
+
+import importlib
+import math
+import os
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+from fabpat.cad import DEFAULT_ANGULAR, DEFAULT_THICKNESS, make_solid
+from fabpat.errors import ExportError
+from fabpat.io import atomic_outputs
+from fabpat.outline import Outline, RationalQuad
+
+PRINT_MIN_WIDTH = 0.8  # mm
+LASER_WIDTH_FACTOR = 2.0  # × kerf
+WIDTH_TOL = 0.01  # mm: flattening tolerance of the min-width check (accurate to ≈ 2 × this)
+
+
+@dataclass(frozen=True)
+class ExportSettings:
+    """Format options, all lengths in mm.
+
+    ``mesh_tolerance``: STL/3MF chord height; ``angular_tolerance``: BRepMesh angle (rad);
+    ``curves``: DXF curve mode (arcs, spline, lines); ``curve_tolerance``: DXF/SVG fit tolerance;
+    ``kerf``: laser kerf width (DXF/SVG loops move out by kerf / 2); ``dxf_version``: R2010, R12, …;
+    ``timestamp``: fixed STEP header time (ISO 8601) for reproducible files.
+    """
+
+    mesh_tolerance: float = 0.01
+    angular_tolerance: float = DEFAULT_ANGULAR
+    curves: str = "arcs"
+    curve_tolerance: float = 0.01
+    kerf: float = 0.0
+    dxf_version: str = "R2010"
+    timestamp: str | None = None
+
+    def check(self) -> None:
+        """Raise :class:`ExportError` for an option no writer could honour."""
+        from fabpat.exchange.dxf import check_options
+
+        check_options(self.curves, self.curve_tolerance, self.kerf, self.dxf_version)
+        for what, v in (("mesh tolerance", self.mesh_tolerance), ("angular tolerance", self.angular_tolerance)):
+            if not (v > 0 and math.isfinite(v)):
+                raise ExportError(f"{what} must be > 0, got {v:g}")
+
+
+@dataclass(eq=False)
+class Part:
+    """What gets exported: the exact outline, plate thickness (mm), product name and engraved label.
+
+    ``support``: whole interface arcs whose halves the outline keeps (see :func:`fabpat.cad.make_face`).
+    ``solid`` (a ``TopoDS_Solid``) is built on first use and shared by every 3D format.
+    """
+
+    outline: Outline
+    thickness: float = DEFAULT_THICKNESS
+    name: str = "fabpat part"
+    label: str | None = None
+    support: tuple[RationalQuad, ...] = ()
+
+    def __post_init__(self) -> None:
+        if not (self.thickness > 0 and math.isfinite(self.thickness)):
+            raise ExportError(f"thickness must be > 0 mm, got {self.thickness:g}")
+
+    @cached_property
+    def solid(self) -> Any:
+        return make_solid(self.outline, self.thickness, self.support)
+
+
+@dataclass(frozen=True)
+class Format:
+    """One file format: ``name`` (CLI spelling), ``suffix``, writer module, ``process`` (print/laser)."""
+
+    name: str
+    suffix: str
+    module: str
+    process: str
+    description: str
+
+    @property
+    def write(self) -> Callable[[Part, Path, ExportSettings], None]:
+        return importlib.import_module(f"fabpat.exchange.{self.module}").write  # type: ignore[no-any-return]
+
+
+FORMATS: dict[str, Format] = {}
+
+
+def register_format(name: str, suffix: str, module: str, process: str, description: str) -> None:
+    """Add a format; ``module`` is a module name under ``fabpat.exchange`` that defines ``write``."""
+    FORMATS[name] = Format(name, suffix, module, process, description)
+
+
+register_format("step", ".step", "step", "print", "STEP AP214 exact solid (mm)")
+register_format("stl", ".stl", "stl", "print", "binary STL mesh (mm)")
+register_format("3mf", ".3mf", "threemf", "print", "3MF mesh (mm)")
+register_format("dxf", ".dxf", "dxf", "laser", "DXF outline: CUT and ENGRAVE layers (mm)")
+register_format("svg", ".svg", "svg", "laser", "SVG outline at true size (mm)")
+
+
+def parse_formats(text: str) -> list[str]:
+    """``"step,stl,dxf"`` → ``["step", "stl", "dxf"]``; :class:`ExportError` for unknown or none."""
+    names = [s.strip().lower() for s in text.split(",") if s.strip()]
+    unknown = [n for n in names if n not in FORMATS]
+    if unknown:
+        raise ExportError(f"unknown format {unknown[0]!r}: choose from {', '.join(FORMATS)}")
+    if not names:
+        raise ExportError("no format given")
+    return list(dict.fromkeys(names))
+
+
+def width_warnings(outline: Outline, formats: list[str], kerf: float) -> list[str]:
+    """One message per process whose limit the outline's minimum feature width is below."""
+    processes = {FORMATS[f].process for f in formats}
+    limits = {"print": PRINT_MIN_WIDTH, "laser": LASER_WIDTH_FACTOR * kerf}
+    if not any(limits[p] > 0 for p in processes):
+        return []
+    validate = getattr(outline, "validate", None)
+    if validate is None:
+        return []
+    width = validate(WIDTH_TOL, raise_on_error=False).min_width
+    out = []
+    for process in sorted(processes):
+        if width < limits[process]:
+            what = "printing" if process == "print" else f"laser cutting with a {kerf:g} mm kerf"
+            out.append(f"min feature width {width:.3g} mm is below {limits[process]:.3g} mm for {what}")
+    return out
+
+
+Job = tuple[Part | Callable[[], Part], Mapping[str, str | os.PathLike[str]]]
+
+
+def export_parts(
+    jobs: Sequence[Job],
+    settings: ExportSettings | None = None,
+    on_part: Callable[[Part, list[str]], None] | None = None,
+) -> list[Path]:
+    """Write every job's part to its ``{format: path}`` targets in one atomic block.
+
+    A job's part may be a callable that builds it, so a whole library is built one part at a time.
+    All options, formats and folders are checked before any file is created, and on any error (in
+    any part) no file is left. ``on_part(part, formats)`` runs after each part is written (progress,
+    warnings). Returns the paths written.
+    """
+    settings = settings or ExportSettings()
+    settings.check()
+    paths: list[Path] = []
+    for _, targets in jobs:
+        if not targets:
+            raise ExportError("no output file requested")
+        for name in targets:
+            if name not in FORMATS:
+                raise ExportError(f"unknown format {name!r}: choose from {', '.join(FORMATS)}")
+        paths += [Path(p) for p in targets.values()]
+    if len({os.path.abspath(p) for p in paths}) != len(paths):
+        raise ExportError("two outputs would write the same file")
+    with atomic_outputs(*paths) as temps:
+        tmp = iter(temps)
+        for job, targets in jobs:
+            part = job() if callable(job) else job
+            for name in targets:
+                FORMATS[name].write(part, next(tmp), settings)
+            if on_part is not None:
+                on_part(part, list(targets))
+    return paths
+
+
+def export_part(
+    part: Part, targets: Mapping[str, str | os.PathLike[str]], settings: ExportSettings | None = None
+) -> list[Path]:
+    """Write one part to every ``{format: path}`` atomically (see :func:`export_parts`)."""
+    return export_parts([(part, targets)], settings)

@@ -1,0 +1,150 @@
+"""``fabpat export``: every file it writes read back by an independent reader; bad input → exit 2."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.conftest import run_cli
+from tests.test_cad import curve_weights, edge_curves
+from tests.test_exchange_dxf import bulge_area, cut_loops, read
+
+
+def _outline(pattern_id: str, sides: int = 6, edge: float = 36.0, weight: float = 0.2):  # noqa: ANN202
+    from fabpat.fillet import fillet_pattern
+    from fabpat.library import enumerate_library
+
+    return fillet_pattern(enumerate_library(sides, 2).pattern(pattern_id, edge), weight).outline
+
+
+def test_export_one_pattern_every_format(tmp_path: Path) -> None:
+    trimesh = pytest.importorskip("trimesh")
+    from build123d import import_step
+
+    f = {k: tmp_path / f"p.{k}" for k in ("step", "stl", "3mf", "dxf", "svg")}
+    r = run_cli("export", "0x0488", *[a for k, p in f.items() for a in (f"--{k}", str(p))])
+    assert r.returncode == 0, r.stderr
+    assert r.stderr == ""  # 0x0488 is wide enough for printing; no kerf, no laser check
+    area = _outline("0x0488").area
+
+    solids = import_step(str(f["step"])).solids()
+    assert len(solids) == 1 and solids[0].is_valid
+    assert solids[0].volume == pytest.approx(2.0 * area, rel=1e-6)
+    weights = [w for c in edge_curves(solids[0]) for w in curve_weights(c)]
+    assert any(abs(w - 0.2) < 1e-12 for w in weights)  # the interface fillets' configured weight
+    assert "PRODUCT('fabpat 0x0488 n6 e36mm t2mm w0.2'" in " ".join(f["step"].read_text().split())
+
+    stl = trimesh.load(f["stl"], file_type="stl")
+    assert stl.is_watertight and stl.is_winding_consistent and stl.volume == pytest.approx(2.0 * area, rel=1e-3)
+    assert f["3mf"].read_bytes()[:2] == b"PK"
+
+    doc = read(f["dxf"])
+    loops = cut_loops(doc)
+    assert sum(bulge_area(lp) for lp in loops) == pytest.approx(area, abs=_outline("0x0488").perimeter * 0.01)
+    assert f["svg"].read_text().count("<path") == 1
+
+
+def test_export_weight_thickness_sides_and_spline_kerf(tmp_path: Path) -> None:
+    from build123d import import_step
+
+    step, dxf = tmp_path / "p.step", tmp_path / "p.dxf"
+    r = run_cli("export", "0xd488", "--sides", "5", "--edge", "30", "--thickness", "1.5", "--weight", "0.3",
+                "--step", str(step), "--dxf", str(dxf), "--curves", "spline", "--kerf", "0.2")
+    assert r.returncode == 0, r.stderr
+    outline = _outline("0xd488", 5, 30.0, 0.3)
+    (solid,) = import_step(str(step)).solids()
+    assert solid.volume == pytest.approx(1.5 * outline.area, rel=1e-6)
+    assert any(abs(w - 0.3) < 1e-12 for c in edge_curves(solid) for w in curve_weights(c))
+    splines = list(read(dxf).modelspace().query("SPLINE"))
+    assert len(splines) == len(outline.loops)
+    areas = []
+    for s in splines:
+        x, y = np.array([(p.x, p.y) for p in s.construction_tool().flattening(0.001)]).T
+        areas.append(abs(0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))))
+    grown = areas[0] - sum(areas[1:])
+    # Kerf 0.2: every loop moves 0.1 mm into the void, area grows by ≈ perimeter × 0.1.
+    assert grown - outline.area == pytest.approx(outline.perimeter * 0.1, rel=0.05)
+
+
+def test_width_warnings_go_to_stderr(tmp_path: Path) -> None:
+    # At edge 12 mm the 1.95 mm necks of 0x0488 (edge 36) are 0.65 mm: below the 0.8 mm print limit.
+    r = run_cli("export", "0x0488", "--edge", "12", "--stl", str(tmp_path / "s.stl"))
+    assert r.returncode == 0 and (tmp_path / "s.stl").exists()
+    assert r.stderr.startswith("fabpat: warning:") and "0.8 mm" in r.stderr and "printing" in r.stderr
+    r = run_cli("export", "0x0488", "--dxf", str(tmp_path / "k.dxf"), "--kerf", "1.0")
+    assert r.returncode == 0 and "laser" in r.stderr and "2 mm" in r.stderr
+
+
+def test_export_all_in_one_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``--all`` on a three-pattern library (the whole one is timed by benchmarks/bench_export.py)."""
+    from click.testing import CliRunner
+
+    import fabpat.library
+    from fabpat.cli import cli
+    from fabpat.library import Library, enumerate_library
+
+    full = enumerate_library(6, 2)
+    monkeypatch.setattr(fabpat.library, "enumerate_library", lambda s, d: Library(s, d, full.bits[:3], 3))
+    out = tmp_path / "parts"
+    result = CliRunner().invoke(cli, ["export", "--all", "--out", str(out), "--formats", "dxf,svg,3mf"])
+    assert result.exit_code == 0, result.output
+    names = sorted(p.name for p in out.iterdir())
+    assert len(names) == 9 and names[:3] == sorted(f"{i}{s}" for i in full.ids[:1] for s in (".3mf", ".dxf", ".svg"))
+    assert "wrote 9 files for 3 patterns" in result.output
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["0x0488", "--thickness", "0", "--step", "{dir}/a.step"], "thickness"),
+        (["0x0488", "--thickness", "-1", "--stl", "{dir}/a.stl"], "thickness"),
+        (["0x0488", "--weight", "0", "--stl", "{dir}/a.stl"], "weight"),
+        (["0x0488", "--kerf", "-0.1", "--dxf", "{dir}/a.dxf"], "kerf"),
+        (["0x0488", "--curves", "bezier", "--dxf", "{dir}/a.dxf"], "bezier"),
+        (["0x0488", "--curves", "spline", "--dxf-version", "R12", "--dxf", "{dir}/a.dxf"], "R12"),
+        (["0x0488"], "no output"),
+        (["0x0488", "--stl", "{dir}/ok.stl", "--step", "{dir}/missing/a.step"], "does not exist"),
+        (["0x0488", "--stl", "{dir}/a.stl", "--3mf", "{dir}/a.stl"], "same file"),
+        (["0x0001", "--stl", "{dir}/a.stl"], "not in the"),
+        (["--all", "--out", "{dir}/lib", "--formats", "step,obj"], "obj"),
+        (["--all", "--out", "{dir}/lib", "--formats", ","], "no format"),
+        (["--all"], "--out"),
+        (["0x0488", "--all", "--out", "{dir}/lib"], "not both"),
+        (["--stl", "{dir}/a.stl"], "ID"),
+    ],
+)
+def test_bad_input_is_one_line_exit_2_no_file(tmp_path: Path, args: list[str], words: str) -> None:
+    r = run_cli("export", *(a.format(dir=tmp_path) for a in args))
+    assert r.returncode == 2, r.stderr
+    assert r.stderr.count("\n") == 1 and r.stderr.startswith("fabpat: error:") and words in r.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_unwritable_path(tmp_path: Path) -> None:
+    """A target under a regular file, a target that is a folder, and (unless root) a read-only folder."""
+    import os
+
+    (tmp_path / "file.txt").write_text("x")
+    (tmp_path / "folder.dxf").mkdir()
+    targets = [str(tmp_path / "file.txt" / "a.dxf"), str(tmp_path / "folder.dxf")]
+    if os.geteuid() != 0:  # root may write anywhere
+        locked = tmp_path / "locked"
+        locked.mkdir(mode=0o500)
+        targets.append(str(locked / "a.dxf"))
+    before = sorted(tmp_path.iterdir())
+    for target in targets:
+        r = run_cli("export", "0x0488", "--svg", str(tmp_path / "a.svg"), "--dxf", target)
+        assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+        assert sorted(tmp_path.iterdir()) == before  # not even the SVG
+
+
+def test_cli_start_up_does_not_load_cad_libraries() -> None:
+    """``fabpat library`` must stay fast: OCP, build123d, ezdxf and trimesh load only when exporting."""
+    import subprocess
+    import sys
+
+    code = "import sys, fabpat.cli; print(sorted({'OCP', 'build123d', 'ezdxf', 'trimesh'} & set(sys.modules)))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
