@@ -1,0 +1,133 @@
+"""Bill of materials: parts, counts, material, time estimates (CSV and Markdown), and the joint table.
+
+Estimates, stated with their assumptions so a reader can redo them with their own machine:
+
+* laser cutting time = cut length / ``estimates.cut_speed`` (default 15 mm/s, a usual speed for 2 mm
+  acrylic or plywood on a 40–60 W CO2 laser); travel and engraving are not counted;
+* printing time = volume / ``estimates.print_rate`` (default 3 mm³/s: a 0.4 mm nozzle at 0.2 mm
+  layers extrudes 4–8 mm³/s while printing, and small parts spend about half their time travelling
+  and changing layers). Slicers give better numbers; these are for planning.
+
+Masses use ``plates.density`` (default PLA, 1.24 g/cm³) for every part.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from dataclasses import dataclass
+
+from fabpat.assembly.nesting import Nesting
+from fabpat.assembly.parts import PartLibrary
+
+COLUMNS = ("part", "kind", "process", "count", "file", "unit_area_mm2", "unit_volume_mm3", "unit_mass_g",
+           "total_mass_g", "unit_cut_length_mm", "total_time_min")
+
+
+@dataclass(frozen=True)
+class BomRow:
+    """One line of the BOM; ``None`` where a value does not apply (e.g. cut length of a printed part)."""
+
+    part: str
+    kind: str
+    process: str
+    count: int
+    file: str
+    unit_area_mm2: float | None
+    unit_volume_mm3: float | None
+    unit_mass_g: float | None
+    total_mass_g: float | None
+    unit_cut_length_mm: float | None
+    total_time_min: float | None
+
+
+def bom_rows(lib: PartLibrary, files: dict[str, str], nesting: Nesting | None) -> list[BomRow]:
+    """Rows for every distinct part (plates, then sleeves) and, if nested, the sheets."""
+    asm = lib.assembly
+    spec = asm.spec
+    counts = asm.counts()
+    rho = spec.plates.density / 1000.0  # g/cm³ → g/mm³
+    rows = []
+    for key in lib.keys:
+        n = counts[key]
+        pt = lib.plate_type(key)
+        if pt is not None:
+            outline = lib.filleted[pt].outline
+            area, vol = outline.area, outline.area * spec.plates.thickness
+            process = spec.plates.process
+            cut = outline.perimeter if process == "laser" else None
+            unit_s = cut / spec.estimates.cut_speed if cut is not None else vol / spec.estimates.print_rate
+            kind = "plate"
+        else:
+            area, vol = None, asm.sleeve_types[key].volume()
+            process, cut, unit_s, kind = "print", None, vol / spec.estimates.print_rate, "sleeve"
+        rows.append(BomRow(key, kind, process, n, files.get(key, ""), area, vol, vol * rho, n * vol * rho, cut,
+                           n * unit_s / 60.0))
+    if nesting is not None:
+        s = spec.sheet
+        what = "laser sheet" if spec.plates.process == "laser" else "print bed"
+        rows.append(BomRow(f"{what} {s.width:g} × {s.height:g} mm", "sheet", spec.plates.process,
+                           nesting.n_sheets, "sheets/", s.width * s.height, None, None, None, None, None))
+    return rows
+
+
+def _fmt(v: float | int | str | None, digits: int = 2) -> str:
+    if v is None:
+        return ""
+    if isinstance(v, float):
+        return f"{v:.{digits}f}"
+    return str(v)
+
+
+def bom_csv(rows: list[BomRow]) -> str:
+    """CSV text with :data:`COLUMNS` (lengths mm, areas mm², volumes mm³, masses g, times min)."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(COLUMNS)
+    for r in rows:
+        w.writerow([_fmt(getattr(r, c), 3) for c in COLUMNS])
+    return buf.getvalue()
+
+
+def bom_markdown(lib: PartLibrary, rows: list[BomRow], nesting: Nesting | None, checks: list[str]) -> str:
+    """The BOM as Markdown: parts table, totals, assumptions, sheets, joints (what joins what), checks."""
+    asm = lib.assembly
+    spec = asm.spec
+    out = [f"# Bill of materials — {spec.name}", "",
+           f"Tiling: {spec.tiling.kind}, plate edge {asm.plate_edge:g} mm, skeleton edge "
+           f"{asm.skeleton.edge_length():.3f} mm, thickness {spec.plates.thickness:g} mm; plates by "
+           f"{spec.plates.process}, sleeves printed.", "",
+           "| part | kind | process | count | file | area (mm²) | volume (mm³) | mass each (g) | mass total (g) "
+           "| cut length (mm) | time total (min) |",
+           "|---|---|---|---:|---|---:|---:|---:|---:|---:|---:|"]
+    for r in rows:
+        out.append(f"| {r.part} | {r.kind} | {r.process} | {r.count} | {r.file} | {_fmt(r.unit_area_mm2, 1)} | "
+                   f"{_fmt(r.unit_volume_mm3, 1)} | {_fmt(r.unit_mass_g)} | {_fmt(r.total_mass_g)} | "
+                   f"{_fmt(r.unit_cut_length_mm, 1)} | {_fmt(r.total_time_min, 1)} |")
+    mass = math.fsum(r.total_mass_g or 0.0 for r in rows)
+    time = math.fsum(r.total_time_min or 0.0 for r in rows)
+    out += ["", f"Total: {sum(r.count for r in rows if r.kind != 'sheet')} parts, {mass:.1f} g, "
+            f"about {time / 60:.1f} h of machine time.", "",
+            f"Estimates: cutting = cut length / {spec.estimates.cut_speed:g} mm/s; printing = volume / "
+            f"{spec.estimates.print_rate:g} mm³/s (effective rate, travel included); masses at "
+            f"{spec.plates.density:g} g/cm³. Change them under [estimates] and [plates] in the spec.", ""]
+    if nesting is not None:
+        out += ["## Sheets", "", "| sheet | plates | utilisation |", "|---|---|---:|"]
+        for s in range(nesting.n_sheets):
+            labels = ", ".join(asm.plates[i].label for i in nesting.on_sheet(s))
+            out.append(f"| {s + 1} | {labels} | {100 * nesting.utilisation(s):.0f} % |")
+        out.append("")
+    out += ["## Joints", "",
+            "A joint's label is engraved on both plates it joins, next to the interface its sleeve grips.", "",
+            "| joint | sleeve | dihedral (°) | plate A (edge) | plate B (edge) |", "|---|---|---:|---|---|"]
+    for s in asm.sleeves:
+        (pa, ia), (pb, ib) = s.plates
+        phi = math.degrees(asm.sleeve_types[s.kind].dihedral)
+        a, b = asm.plates[pa].label, asm.plates[pb].label
+        out.append(f"| {s.label} | {s.kind} | {phi:.2f} | {a} ({ia}) | {b} ({ib}) |")
+    if asm.pins:
+        pins = ", ".join(f"{asm.plates[f].label} ({i})" for f, i in asm.pins)
+        out += ["", f"Pinned interfaces (both ends of the strip): {pins}."]
+    out += ["", "## Checks", ""] + [f"- {line}" for line in checks] + [""]
+    return "\n".join(out)

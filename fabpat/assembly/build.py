@@ -1,0 +1,299 @@
+"""``assemble``: one spec in, a folder with everything needed to fabricate and assemble out.
+
+Order of work: choose the patterns (the catalog only if the spec names a rule), fillet each distinct
+plate, place plates and sleeves, nest the sheets, unfold the net, run every check — all before the
+first file is written, so a bad spec costs no disk writes. Files are then written into a temporary
+folder next to ``--out`` and renamed to it at the very end: on any error the temporary folder is
+removed and ``--out`` is left as it was (an earlier ``assemble`` output there is replaced only on
+success; any other existing folder is refused).
+
+Folder contents: ``assembly.step``, ``parts/*.stl``, ``assembly.glb``, ``sheets/sheet-NN.dxf``,
+``net.svg``, ``assembly.png``, ``bom.csv``, ``bom.md`` (each as the spec's formats ask) and
+``manifest.json`` (files, counts, check results).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+import shutil
+import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from fabpat.assembly.checks import CheckReport, check_assembly
+from fabpat.assembly.placement import Assembly, PlateType, build_tiling, check_necks, place
+from fabpat.assembly.spec import AssemblySpec, load_spec
+from fabpat.errors import ExportError, FabpatError, SpecError
+
+MANIFEST = "manifest.json"
+GENERATOR = "fabpat assemble"
+
+
+@dataclass(frozen=True)
+class AssembleResult:
+    """What :func:`assemble` wrote: ``out`` folder, ``files`` relative to it, the checks' report."""
+
+    out: Path
+    files: tuple[str, ...]
+    report: CheckReport
+    sheets: int
+
+
+# -- choosing the patterns --------------------------------------------------------------------------
+
+
+def _energies(spec: AssemblySpec, sides: int) -> dict[str, float]:
+    """Energies of the spec's scenario from the catalog (imported only here: it is optional)."""
+    try:
+        from fabpat import catalog as cat
+    except ImportError as e:
+        raise SpecError(
+            f"{spec.source}: patterns.rule = {spec.patterns.rule!r} needs the pattern catalog (fabpat.catalog), "
+            f"which cannot be imported ({e}); name the patterns instead (patterns.pattern, groups, tiles or "
+            "hexagon + pentagon)"
+        ) from e
+    source = spec.patterns.catalog  # None: the built-in catalog
+    pl = spec.plates
+    try:
+        found = cat.energies(source, spec.patterns.scenario, sides=sides, edge=spec.tiling.edge,
+                             thickness=pl.thickness, weight=pl.weight)
+        if not found and sides == 6:
+            # Energies rank patterns; a catalog simulated at the default plate setup ranks them just as well.
+            found = cat.energies(source, spec.patterns.scenario, sides=sides)
+    except FabpatError as e:
+        raise SpecError(f"{spec.source}: patterns.rule = {spec.patterns.rule!r} needs catalog energies, but {e} "
+                        "(or name the patterns instead: patterns.groups / patterns.hexagon + pentagon)") from e
+    if not found and sides == 6:
+        raise SpecError(f"{spec.source}: the catalog has no {spec.patterns.scenario!r} energies for hexagons "
+                        f"(patterns.scenario); run `fabpat sweep` for it or name the patterns explicitly")
+    return dict(found)
+
+
+def face_patterns(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | None = None) -> list[str]:
+    """Pattern ID of every face of the spec's tiling (face order of :func:`build_tiling`).
+
+    ``energies(sides)`` supplies ``{ID: energy}`` for the spec's scenario when a rule is used
+    (default: the catalog). Graded strips go stiff (small energy) at column 0 → soft at the end.
+    """
+    from fabpat.assembly import rules
+
+    p = spec.patterns
+    tiling = build_tiling(spec)
+    get = energies or (lambda n: _energies(spec, n))
+    try:
+        if p.rule == "graded":
+            groups = rules.graded(get(6), p.count)
+        elif p.rule == "similar-energy":
+            hexagon = get(6)
+            try:
+                pentagon: dict[str, float] | None = get(5) or None
+            except (FabpatError, KeyError, ValueError):
+                pentagon = None  # a catalog of hexagons only: compare in the hexagon scenario
+            hid, pid = rules.similar_pair(hexagon, pentagon)
+            return [hid if len(f) == 6 else pid for f in tiling.faces]
+        else:
+            groups = list(p.groups)
+    except SpecError as e:
+        if str(e).startswith(spec.source):
+            raise
+        raise SpecError(f"{spec.source}: patterns.rule = {p.rule!r}, scenario {p.scenario!r}: {e}") from e
+    out = []
+    for f, loop in enumerate(tiling.faces):
+        if p.pattern:
+            out.append(p.pattern)
+        elif p.hexagon or p.pentagon:
+            out.append(p.hexagon if len(loop) == 6 else p.pentagon)  # type: ignore[arg-type]
+        else:
+            assert tiling.grid is not None
+            r, c = (int(x) for x in tiling.grid[f])
+            out.append(p.tiles[r][c] if p.tiles else groups[c // p.group_columns])
+    return out
+
+
+def plan(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | None = None,
+         progress: Callable[[str], None] | None = None) -> tuple[Assembly, dict[PlateType, Any]]:
+    """The placed assembly and the filleted outline of each distinct plate; no B-rep, no files.
+
+    Raises :class:`SpecError` when a plate's neck does not fit the sleeve's slot.
+    """
+    from fabpat.fillet import fillet_pattern
+    from fabpat.library import get_pattern
+
+    tell = progress or (lambda _step: None)
+    tell("patterns")
+    ids = face_patterns(spec, energies)
+    tell("placement")
+    assembly = place(spec, ids)
+    filleted = {pt: fillet_pattern(get_pattern(pt.pattern_id, pt.sides, pt.depth, assembly.plate_edge),
+                                   spec.plates.weight) for pt in assembly.plate_types}
+    check_necks(assembly, filleted)
+    return assembly, filleted
+
+
+# -- the output folder ------------------------------------------------------------------------------
+
+
+def _replaceable(out: Path) -> bool:
+    """True if ``out`` may be replaced: missing, empty, or an earlier ``assemble`` output."""
+    if not out.exists():
+        return True
+    if not out.is_dir():
+        return False
+    if not any(out.iterdir()):
+        return True
+    with contextlib.suppress(OSError, ValueError):
+        return json.loads((out / MANIFEST).read_text(encoding="utf-8")).get("generator") == GENERATOR
+    return False
+
+
+def check_out(out: Path) -> None:
+    """Raise :class:`ExportError` unless ``out`` can receive an assembly (before any work is done)."""
+    parent = out.parent if str(out.parent) else Path(".")
+    if not parent.is_dir():
+        raise ExportError(f"cannot write {out}: folder {parent} does not exist")
+    if not os.access(parent, os.W_OK):
+        raise ExportError(f"cannot write {out}: folder {parent} is not writable")
+    if not _replaceable(out):
+        raise ExportError(f"--out {out} exists and is not an earlier `fabpat assemble` output: choose a new folder")
+
+
+def _swap_in(tmp: Path, out: Path) -> None:
+    """Rename the finished ``tmp`` folder to ``out``, replacing an earlier output only now."""
+    old = None
+    if out.exists():
+        old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=out.parent))
+        os.replace(out, old / out.name)
+    os.replace(tmp, out)
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
+
+
+# -- the whole thing --------------------------------------------------------------------------------
+
+
+def steps(spec: AssemblySpec) -> list[str]:
+    """Names of the progress steps for this spec, in order."""
+    f = spec.formats
+    names = ["patterns", "placement", "nesting", "net", "checks"]
+    names += [n for n, want in (("STEP", "step"), ("STL", "stl"), ("GLB", "glb"), ("sheets", "dxf"),
+                                ("net SVG", "svg"), ("PNG", "png"), ("BOM", "bom")) if want in f]
+    return names
+
+
+def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike[str],
+             progress: Callable[[str], None] | None = None, timestamp: str | None = None,
+             energies: Callable[[int], dict[str, float]] | None = None) -> AssembleResult:
+    """Build and check the assembly of ``spec``, then write every requested output into ``out``.
+
+    ``progress(step)`` is called as each step of :func:`steps` starts. ``timestamp`` fixes the
+    STEP header time. Raises :class:`SpecError` / :class:`GeometryError` / :class:`ExportError`;
+    on any error ``out`` is untouched and no temporary folder is left.
+    """
+    from fabpat.assembly.nesting import check_nesting
+    from fabpat.assembly.net import unfold
+    from fabpat.assembly.parts import PartLibrary
+    from fabpat.assembly.sheets import nest_plates
+
+    if not isinstance(spec, AssemblySpec):
+        spec = load_spec(spec)
+    out = Path(out)
+    check_out(out)
+    tell = progress or (lambda _step: None)
+    f = spec.formats
+
+    assembly, filleted = plan(spec, energies, tell)
+    lib = PartLibrary(assembly, filleted)
+    tell("nesting")
+    nesting = nest_plates(assembly) if ("dxf" in f or "bom" in f) else None
+    sheet_gap = check_nesting(nesting) if nesting is not None else math.inf
+    tell("net")
+    net = unfold(assembly.skeleton) if "svg" in f else None
+    tell("checks")
+    report = check_assembly(lib)
+    check_lines = report.lines()
+    if nesting is not None:
+        gap = f"{sheet_gap:.2f} mm" if math.isfinite(sheet_gap) else "one plate per sheet"
+        check_lines.append(f"{nesting.n_sheets} sheet(s), no overlaps: smallest gap between plates {gap}")
+    if net is not None:
+        check_lines.append(f"net without overlaps ({len(net.folds)} folds)")
+
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".part", dir=out.parent if str(out.parent) else "."))
+    try:
+        files = _write_all(spec, lib, nesting, net, check_lines, tmp, tell, timestamp)
+        manifest = {"generator": GENERATOR, "spec": spec.name, "source": spec.source, "files": files,
+                    "counts": assembly.counts(), "sheets": nesting.n_sheets if nesting else 0,
+                    "skeleton_edge_mm": round(assembly.skeleton.edge_length(), 6), "checks": check_lines}
+        (tmp / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
+        os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes 0700 folders; give the user's usual permissions
+        _swap_in(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return AssembleResult(out, (*files, MANIFEST), report, nesting.n_sheets if nesting else 0)
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def _write_all(spec: AssemblySpec, lib: Any, nesting: Any, net: Any, check_lines: list[str], tmp: Path,
+               tell: Callable[[str], None], timestamp: str | None) -> list[str]:
+    """Write every requested file into ``tmp``; returns their paths relative to it."""
+    from fabpat.assembly import export
+
+    asm: Assembly = lib.assembly
+    f = spec.formats
+    files: list[str] = []
+    stl_files: dict[str, str] = {}
+    if "step" in f:
+        tell("STEP")
+        export.write_step_assembly(lib, tmp / "assembly.step", spec.name, timestamp)
+        files.append("assembly.step")
+    if "stl" in f:
+        tell("STL")
+        (tmp / "parts").mkdir()
+        for key, path in export.write_part_stls(lib, tmp / "parts").items():
+            stl_files[key] = f"parts/{path.name}"
+        files += list(stl_files.values())
+    if "glb" in f:
+        tell("GLB")
+        export.write_glb(lib, tmp / "assembly.glb")
+        files.append("assembly.glb")
+    if "dxf" in f:
+        tell("sheets")
+        from fabpat.assembly.sheets import write_sheets
+
+        (tmp / "sheets").mkdir()
+        files += [f"sheets/{n}" for n in write_sheets(asm, nesting, tmp / "sheets", lib.filleted)]
+    if "svg" in f:
+        tell("net SVG")
+        from fabpat.assembly.export import colours
+        from fabpat.assembly.net import net_svg
+
+        cols = colours(lib)
+        svg = net_svg(net, [p.label for p in asm.plates], [p.edge_labels for p in asm.plates],
+                      f"{spec.name}: net", [cols[p.type.label] for p in asm.plates])
+        (tmp / "net.svg").write_text(svg, encoding="utf-8")
+        files.append("net.svg")
+    if "png" in f:
+        tell("PNG")
+        from fabpat.assembly.render import render_png
+
+        render_png(lib, tmp / "assembly.png", spec.name)
+        files.append("assembly.png")
+    if "bom" in f:
+        tell("BOM")
+        from fabpat.assembly.bom import bom_csv, bom_markdown, bom_rows
+
+        rows = bom_rows(lib, stl_files, nesting)
+        (tmp / "bom.csv").write_text(bom_csv(rows), encoding="utf-8")
+        (tmp / "bom.md").write_text(bom_markdown(lib, rows, nesting, check_lines), encoding="utf-8")
+        files += ["bom.csv", "bom.md"]
+    return files

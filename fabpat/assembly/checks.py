@@ -1,0 +1,146 @@
+"""Checks of an assembled kit: counts, sleeves on the interface midpoints, no part inside another.
+
+The interference test meshes each distinct part once (0.02 mm chords), places copies with the
+assembly's transforms and intersects every pair whose bounding boxes overlap with manifold3d's
+exact mesh booleans. Plates must not intersect each other or any sleeve, and sleeves must not
+intersect each other; the smallest plate–sleeve gap is reported (the slot clearance, 0.1 mm a side
+by default).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fabpat.assembly.parts import CHECK_TOLERANCE, PartLibrary, apply
+from fabpat.assembly.placement import Assembly, setback
+from fabpat.errors import GeometryError
+
+OVERLAP_VOLUME = 1e-6  # mm³: intersections below this are rounding, not material
+MIDPOINT_TOL = 1e-6  # mm
+GAP_SEARCH = 1.0  # mm: how far manifold3d looks for the smallest gap between a plate and a sleeve
+
+
+@dataclass(frozen=True)
+class CheckReport:
+    """What :func:`check_assembly` measured. Lengths mm, volumes mm³."""
+
+    plates: int
+    sleeves: int
+    vertices: int
+    edges: int
+    pairs_tested: int
+    max_overlap: float
+    min_plate_sleeve_gap: float
+    midpoint_error: float
+    min_insertion: float
+
+    def lines(self) -> list[str]:
+        return [
+            f"{self.plates} plates, {self.sleeves} sleeves, {self.vertices} skeleton vertices, {self.edges} edges",
+            f"{self.pairs_tested} part pairs intersected: largest overlap {self.max_overlap:.2e} mm³",
+            f"smallest plate–sleeve gap {self.min_plate_sleeve_gap:.3f} mm",
+            f"sleeves on interface midpoints within {self.midpoint_error:.1e} mm; "
+            f"plates enter their slots ≥ {self.min_insertion:.2f} mm",
+        ]
+
+
+def expected_counts(assembly: Assembly) -> tuple[int, int]:
+    """(plates, sleeves) the tiling calls for: one plate per face, one sleeve per shared edge."""
+    t = assembly.skeleton
+    return len(t.faces), len(t.interior_edges)
+
+
+def check_counts(assembly: Assembly) -> None:
+    """Raise :class:`GeometryError` unless there is one plate per face and one sleeve per shared edge."""
+    plates, sleeves = expected_counts(assembly)
+    if (len(assembly.plates), len(assembly.sleeves)) != (plates, sleeves):
+        raise GeometryError(f"assembly has {len(assembly.plates)} plates and {len(assembly.sleeves)} sleeves, "
+                            f"the tiling needs {plates} and {sleeves}")
+    if assembly.skeleton.name == "truncated-icosahedron":
+        t = assembly.skeleton
+        got = (len(t.V), len(t.edges), int((t.sides == 6).sum()), int((t.sides == 5).sum()))
+        if got != (60, 90, 20, 12):
+            raise GeometryError(f"truncated icosahedron has (V, E, hexagons, pentagons) = {got}, not (60, 90, 20, 12)")
+
+
+def interface_midpoints(lib: PartLibrary) -> tuple[float, float]:
+    """(largest offset of an interface midpoint from its slot's centre line, smallest insertion depth), mm.
+
+    In the sleeve's frame, a plate's interface midpoint must lie on the slot's centre line (X = 0 and on
+    the slot's mid-plane) between the slot bottom and its mouth; its distance to the mouth is how deep
+    the plate enters. Raises :class:`GeometryError` if a midpoint is off the line or outside the slot.
+    """
+    asm = lib.assembly
+    worst, shallow = 0.0, math.inf
+    for s in asm.sleeves:
+        sleeve = asm.sleeve_types[s.kind]
+        inv = np.linalg.inv(s.transform)
+        for side, (p, i) in enumerate(s.plates):
+            plate = asm.plates[p]
+            seg = lib.filleted[plate.type].interface_segments[i]
+            mid = np.array([*seg.mean(axis=0), 0.5 * asm.spec.plates.thickness])
+            local = apply(inv, apply(plate.transform, mid[None]))[0]
+            d, n = sleeve.direction(side), sleeve.plate_normal(side)
+            along = float(local[1:] @ d)
+            off = max(abs(local[0]), abs(float(local[1:] @ n)))
+            expect = setback(plate.type.sides, asm.skeleton.edge_length(), asm.plate_edge)
+            off = max(off, abs(along - expect))
+            worst = max(worst, off)
+            if off > MIDPOINT_TOL or not (sleeve.setback - 1e-9 <= along < sleeve.arm_end):
+                raise GeometryError(f"sleeve {s.label} is not on the interface midpoint of plate {plate.label} "
+                                    f"(off by {off:.3g} mm, {along:.3f} mm from the edge)")
+            shallow = min(shallow, sleeve.arm_end - along)
+    return worst, shallow
+
+
+def _manifold(V: NDArray[np.float64], F: NDArray[np.int64]):  # type: ignore[no-untyped-def]
+    import manifold3d
+
+    m = manifold3d.Manifold(manifold3d.Mesh64(vert_properties=np.ascontiguousarray(V, dtype=np.float64),
+                                              tri_verts=np.ascontiguousarray(F, dtype=np.uint64)))
+    if m.status() != manifold3d.Error.NoError:
+        raise GeometryError(f"a part's mesh is not a closed 2-manifold ({m.status()})")
+    return m
+
+
+def intersections(lib: PartLibrary, tolerance: float = CHECK_TOLERANCE) -> tuple[int, float, float]:
+    """(pairs tested, largest overlap volume mm³, smallest plate–sleeve gap mm) over all placed parts.
+
+    Raises :class:`GeometryError` naming the first pair of parts that overlap by more than
+    :data:`OVERLAP_VOLUME`.
+    """
+    base = {key: lib.mesh(key, tolerance) for key in lib.keys}
+    protos = {key: _manifold(*vf) for key, vf in base.items()}
+    items = []
+    for label, key, T in lib.placed():
+        W = apply(T, base[key][0])
+        items.append((label, lib.is_plate(key), protos[key].transform(T[:3, :4]), W.min(axis=0), W.max(axis=0)))
+    tested, worst, gap = 0, 0.0, math.inf
+    for a in range(len(items)):
+        la, pa, ma, loa, hia = items[a]
+        for b in range(a + 1, len(items)):
+            lb, pb, mb, lob, hib = items[b]
+            if np.any(loa > hib + GAP_SEARCH) or np.any(lob > hia + GAP_SEARCH):
+                continue
+            tested += 1
+            vol = (ma ^ mb).volume()
+            worst = max(worst, vol)
+            if vol > OVERLAP_VOLUME:
+                raise GeometryError(f"parts {la} and {lb} intersect ({vol:.3g} mm³)")
+            if pa != pb:
+                gap = min(gap, ma.min_gap(mb, GAP_SEARCH))
+    return tested, worst, gap
+
+
+def check_assembly(lib: PartLibrary) -> CheckReport:
+    """Every check above; raises :class:`GeometryError` on the first failure."""
+    asm = lib.assembly
+    check_counts(asm)
+    err, depth = interface_midpoints(lib) if asm.sleeves else (0.0, math.inf)
+    tested, worst, gap = intersections(lib)
+    t = asm.skeleton
+    return CheckReport(len(asm.plates), len(asm.sleeves), len(t.V), len(t.edges), tested, worst, gap, err, depth)

@@ -1,0 +1,148 @@
+"""The distinct parts of an assembly as exact solids and meshes, each built once and reused.
+
+A sphere has 122 placed parts but only four distinct ones (two plates, two sleeves): every writer
+and check asks this library for a part's ``TopoDS_Solid`` or mesh by its key (the plate type label,
+e.g. ``"hex 0x0488"``, or the sleeve kind, e.g. ``"S-HH"``) and places it with a 4 × 4 transform.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fabpat.assembly.placement import Assembly, PlateType
+
+CHECK_TOLERANCE = 0.02  # mm: chord height of the meshes used for the checks and the GLB preview
+PICTURE_TOLERANCE = 0.1  # mm: coarse meshes for the PNG (60 k triangles for a sphere)
+
+
+@dataclass(eq=False)
+class PartLibrary:
+    """Solids and meshes of ``assembly``'s distinct parts; ``filleted`` maps plate type → FilletedPattern."""
+
+    assembly: Assembly
+    filleted: dict[PlateType, Any]
+    _solids: dict[str, Any] = field(default_factory=dict)
+    _meshes: dict[tuple[str, float], tuple[NDArray[np.float64], NDArray[np.int64]]] = field(default_factory=dict)
+
+    @property
+    def keys(self) -> list[str]:
+        """Distinct part keys: plate types first (order of use), then sleeve kinds."""
+        return [pt.label for pt in self.assembly.plate_types] + list(self.assembly.sleeve_types)
+
+    def plate_type(self, key: str) -> PlateType | None:
+        return next((pt for pt in self.assembly.plate_types if pt.label == key), None)
+
+    def is_plate(self, key: str) -> bool:
+        return self.plate_type(key) is not None
+
+    def name(self, key: str) -> str:
+        """Product name with every parameter that changes the part's geometry."""
+        from fabpat.cad import part_name
+
+        pt = self.plate_type(key)
+        if pt is None:
+            return self.assembly.sleeve_types[key].name
+        spec = self.assembly.spec
+        return part_name(pt.pattern_id, pt.sides, self.assembly.plate_edge, spec.plates.thickness, spec.plates.weight)
+
+    def support(self, pt: PlateType) -> tuple[Any, ...]:
+        """The whole interface arcs whose halves the plate outline keeps (exact STEP weights)."""
+        return tuple(arc for pair in self.filleted[pt].interface_arcs for arc in pair)
+
+    def solid(self, key: str) -> Any:
+        """``TopoDS_Solid`` of the part in its own frame: plates z ∈ [0, t]; sleeves in the joint frame."""
+        if key not in self._solids:
+            from fabpat.cad import make_solid
+
+            pt = self.plate_type(key)
+            if pt is None:
+                self._solids[key] = self.assembly.sleeve_types[key].solid()
+            else:
+                self._solids[key] = make_solid(self.filleted[pt].outline, self.assembly.spec.plates.thickness,
+                                               self.support(pt))
+        return self._solids[key]
+
+    def mesh(self, key: str, tolerance: float = CHECK_TOLERANCE) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+        """``V`` (n, 3) mm, ``F`` (m, 3) of the part in its own frame (closed, outward)."""
+        if (key, tolerance) not in self._meshes:
+            from fabpat.cad import make_solid
+
+            # Mesh a fresh copy: BRepMesh stores its triangulation in the shape, and the exact solid
+            # is also written to STEP and STL at other tolerances.
+            pt = self.plate_type(key)
+            shape = (self.assembly.sleeve_types[key].solid() if pt is None else
+                     make_solid(self.filleted[pt].outline, self.assembly.spec.plates.thickness, self.support(pt)))
+            self._meshes[key, tolerance] = triangulate(shape, tolerance)
+        return self._meshes[key, tolerance]
+
+    def placed(self) -> list[tuple[str, str, NDArray[np.float64]]]:
+        """(instance label, part key, 4 × 4 transform) of every placed part: plates, then sleeves."""
+        out = [(p.label, p.type.label, p.transform) for p in self.assembly.plates]
+        out += [(s.label, s.kind, s.transform) for s in self.assembly.sleeves]
+        return out
+
+
+def triangulate(shape: Any, tolerance: float) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """Mesh ``shape`` within ``tolerance`` mm: ``V`` (n, 3) mm, ``F`` (m, 3) int, outward, welded.
+
+    Uses :func:`fabpat.cad.mesh` (absolute chord tolerance). Faces share their edge discretisation,
+    so welding coincident nodes (1e-9 mm grid) gives the closed surface manifold3d needs.
+    """
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_FACE, TopAbs_REVERSED
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopLoc import TopLoc_Location
+    from OCP.TopoDS import TopoDS
+
+    from fabpat.cad import mesh
+    from fabpat.errors import GeometryError
+
+    mesh(shape, tolerance)
+    Vs, Fs, offset = [], [], 0
+    ex = TopExp_Explorer(shape, TopAbs_FACE)
+    while ex.More():
+        face = TopoDS.Face(ex.Current())
+        ex.Next()
+        loc = TopLoc_Location()
+        tri = BRep_Tool.Triangulation_s(face, loc)
+        if tri is None:
+            raise GeometryError("a face of the part has no triangulation")
+        trsf = loc.Transformation()
+        V = np.array([tri.Node(i).Transformed(trsf).Coord() for i in range(1, tri.NbNodes() + 1)])
+        F = np.array([tri.Triangle(i).Get() for i in range(1, tri.NbTriangles() + 1)], dtype=np.int64) - 1
+        if face.Orientation() == TopAbs_REVERSED:
+            F = F[:, ::-1]  # the face uses its surface reversed: flip to keep normals outward
+        Vs.append(V)
+        Fs.append(F + offset)
+        offset += len(V)
+    V, F = np.vstack(Vs), np.vstack(Fs)
+    _, first, inverse = np.unique(np.round(V / 1e-9).astype(np.int64), axis=0, return_index=True,
+                                  return_inverse=True)
+    F = inverse.reshape(-1)[F]
+    F = F[(F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 2] != F[:, 0])]
+    return V[first], F
+
+
+def transformed(shape: Any, T: NDArray[np.float64]) -> Any:
+    """A copy of ``shape`` moved by the rigid 4 × 4 transform ``T``."""
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_Transform
+
+    return BRepBuilderAPI_Transform(shape, gp_trsf(T), True).Shape()
+
+
+def gp_trsf(T: NDArray[np.float64]) -> Any:
+    """OCCT ``gp_Trsf`` of a rigid 4 × 4 transform."""
+    from OCP.gp import gp_Trsf
+
+    trsf = gp_Trsf()
+    trsf.SetValues(*(float(v) for v in T[:3, :4].ravel()))
+    return trsf
+
+
+def apply(T: NDArray[np.float64], V: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(n, 3) points moved by the 4 × 4 transform ``T``."""
+    return V @ T[:3, :3].T + T[:3, 3]

@@ -1,0 +1,257 @@
+"""Where every part goes: plates on the faces of a skeleton tiling, sleeves on its shared edges.
+
+Plates of polygon edge ``e`` (the spec's edge) cannot sit exactly on a polyhedron of edge ``e``: at a
+folded joint two 2 mm plates meeting at the edge line would overlap on the concave side, and the
+sleeve needs a web between its slots. So the **skeleton** (the tiling whose faces carry the plates)
+has a slightly longer edge ``E`` and each plate sits centred in its face, its mid-surface on the face
+plane, every polygon edge parallel to the skeleton edge and set back by ``g_n = (E − e) / (2 tan(π/n))``
+(the difference of the apothems). ``E`` is the smallest value for which every sleeve's web is at
+least the wall thickness (:func:`skeleton_edge`). Sleeves are symmetric: both slots are set back by the
+smaller ``g`` of the joint, so a sleeve cannot be mounted the wrong way round; the plate with the
+larger setback simply enters a fraction of a millimetre less deep.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fabpat.assembly.sleeve import Sleeve, required_setback
+from fabpat.assembly.spec import AssemblySpec
+from fabpat.assembly.tiling import Tiling, honeycomb_strip, truncated_icosahedron
+from fabpat.errors import SpecError
+
+POLYGON_NAMES = {3: "triangle", 4: "square", 5: "pentagon", 6: "hexagon", 8: "octagon"}
+SHORT_NAMES = {5: "pent", 6: "hex"}
+SLEEVE_KINDS = {(6, 6): "HH", (5, 6): "HP", (5, 5): "PP"}
+NECK_CLEARANCE = 0.05  # mm: least gap required between the neck and a slot's end wall
+
+
+def setback(sides: int, skeleton: float, plate: float) -> float:
+    """Distance (mm) between a plate's polygon edge and the skeleton edge: the apothem difference."""
+    return (skeleton - plate) / (2.0 * math.tan(math.pi / sides))
+
+
+def skeleton_edge(tiling: Tiling, plate_edge: float, thickness: float, clearance: float, wall: float) -> float:
+    """Smallest skeleton edge (mm) for which every joint's slots are separated by ``wall`` mm."""
+    need = 0.0
+    for k in tiling.interior_edges:
+        g = required_setback(float(tiling.dihedral[k]), thickness, clearance, wall)
+        for f, _ in tiling.edge_faces[k]:
+            need = max(need, 2.0 * g * math.tan(math.pi / len(tiling.faces[f])))
+    return plate_edge + need
+
+
+@dataclass(frozen=True)
+class PlateType:
+    """One distinct plate: polygon ``sides`` and pattern ID; ``label`` like "hex 0x0488"."""
+
+    sides: int
+    pattern_id: str
+
+    @property
+    def label(self) -> str:
+        return f"{SHORT_NAMES.get(self.sides, f'{self.sides}-gon')} {self.pattern_id}"
+
+    @property
+    def depth(self) -> int:
+        return {1: 1, 4: 2, 16: 3}[len(self.pattern_id) - 2]
+
+
+@dataclass(frozen=True, eq=False)
+class PlacedPlate:
+    """Plate ``label`` on face ``face``: ``transform`` (4, 4) maps its solid (z from 0 to t) to the world.
+
+    ``edge_labels[i]``: the joint label on polygon edge i ("E07"), "PIN" for a pinned end, "" if free.
+    """
+
+    label: str
+    face: int
+    type: PlateType
+    transform: NDArray[np.float64]
+    edge_labels: tuple[str, ...]
+
+
+@dataclass(frozen=True, eq=False)
+class PlacedSleeve:
+    """Sleeve ``label`` (the joint's label) on skeleton edge ``edge``.
+
+    ``kind``: key of its :class:`Sleeve` type; ``transform`` (4, 4) maps the sleeve's local frame to
+    the world; ``plates``: ((plate index, polygon edge) of slot A, same for slot B).
+    """
+
+    label: str
+    edge: int
+    kind: str
+    transform: NDArray[np.float64]
+    plates: tuple[tuple[int, int], tuple[int, int]]
+
+
+@dataclass(frozen=True, eq=False)
+class Assembly:
+    """Every part of the assembly, placed. Lengths in mm."""
+
+    spec: AssemblySpec
+    skeleton: Tiling
+    plate_edge: float
+    plates: tuple[PlacedPlate, ...]
+    sleeves: tuple[PlacedSleeve, ...]
+    sleeve_types: dict[str, Sleeve]
+    pins: tuple[tuple[int, int], ...] = field(default=())
+
+    @cached_property
+    def plate_types(self) -> tuple[PlateType, ...]:
+        """Distinct plates, in order of first use."""
+        return tuple(dict.fromkeys(p.type for p in self.plates))
+
+    def counts(self) -> dict[str, int]:
+        """How many of each distinct part (plate type label or sleeve kind)."""
+        out: dict[str, int] = {}
+        for p in self.plates:
+            out[p.type.label] = out.get(p.type.label, 0) + 1
+        for s in self.sleeves:
+            out[s.kind] = out.get(s.kind, 0) + 1
+        return out
+
+
+def build_tiling(spec: AssemblySpec) -> Tiling:
+    """The unit skeleton of the spec (edge 1; scaled once the sleeve geometry fixes ``E``)."""
+    t = spec.tiling
+    if t.kind == "truncated-icosahedron":
+        return truncated_icosahedron(1.0)
+    return honeycomb_strip(t.rows, t.columns, 1.0)
+
+
+def _sleeve_frame(skel: Tiling, k: int, sleeve: Sleeve) -> NDArray[np.float64]:
+    """(4, 4) sleeve local → world for edge k, slot A towards the edge's first face."""
+    a, b = skel.edges[k]
+    (fa, _), (fb, _) = skel.edge_faces[k]
+    m = 0.5 * (skel.V[a] + skel.V[b])
+    X = skel.V[b] - skel.V[a]
+    X /= np.linalg.norm(X)
+    Z = skel.normals[fa] + skel.normals[fb]
+    Z /= np.linalg.norm(Z)
+    into_a = skel.centroids[fa] - m
+    into_a -= (into_a @ X) * X
+    into_a /= np.linalg.norm(into_a)
+    dA = sleeve.direction(0)
+    if np.linalg.norm(into_a - (dA[0] * np.cross(Z, X) + dA[1] * Z)) > 1e-6:
+        X = -X  # the other orientation of the edge puts slot A on face fa
+    Y = np.cross(Z, X)
+    if np.linalg.norm(into_a - (dA[0] * Y + dA[1] * Z)) > 1e-6:
+        raise AssertionError(f"cannot orient the sleeve of edge {k}")
+    T = np.eye(4)
+    T[:3, :3] = np.stack([X, Y, Z], axis=1)
+    T[:3, 3] = m
+    return T
+
+
+def _pins(skel: Tiling) -> list[tuple[int, int]]:
+    """(face, polygon edge) of the free interfaces at both ends of a strip (first and last column)."""
+    if skel.grid is None:
+        return []
+    last = int(skel.grid[:, 1].max())
+    out = []
+    for k in skel.boundary_edges:
+        f, i = (int(x) for x in skel.edge_faces[k, 0])
+        col = int(skel.grid[f, 1])
+        # Flat-topped hexagon: edges 4, 5 face −x (left end), edges 1, 2 face +x (right end).
+        if (col == 0 and i in (4, 5)) or (col == last and i in (1, 2)):
+            out.append((f, i))
+    return out
+
+
+def place(spec: AssemblySpec, face_patterns: list[str]) -> Assembly:
+    """Place one plate per face (pattern ``face_patterns[f]``) and one sleeve per shared edge."""
+    unit = build_tiling(spec)
+    if len(face_patterns) != len(unit.faces):
+        raise ValueError(f"need {len(unit.faces)} pattern IDs, got {len(face_patterns)}")
+    t, s = spec.plates.thickness, spec.sleeve
+    e = spec.tiling.edge
+    E = skeleton_edge(unit, e, t, s.clearance, s.wall)
+    skel = unit.scaled(E)
+    slot_length = 2.0 * e / 16.0 / (1.0 + spec.plates.weight) + s.margin  # interface segment 2d + margin
+
+    kinds: dict[str, Sleeve] = {}
+    kind_of: dict[int, str] = {}
+    for k in skel.interior_edges:
+        phi = float(skel.dihedral[k])
+        ns = tuple(sorted(len(skel.faces[f]) for f, _ in skel.edge_faces[k]))
+        g = min(setback(n, E, e) for n in ns)
+        key = "flat" if abs(phi - math.pi) < 1e-9 else SLEEVE_KINDS.get(ns, f"{ns[0]}-{ns[1]}")  # type: ignore[index]
+        key = f"S-{key}"
+        if key not in kinds:
+            kinds[key] = Sleeve(phi, g, t, s.clearance, slot_length, s.wall, s.depth)
+        kind_of[int(k)] = key
+
+    width = len(str(len(skel.interior_edges)))
+    joint = {int(k): f"E{n + 1:0{width}d}" for n, k in enumerate(skel.interior_edges)}
+    pins = _pins(skel)
+    pin_set = set(pins)
+
+    counters: dict[str, int] = {}
+    labels = []
+    for loop in skel.faces:
+        prefix = {6: "H", 5: "P"}.get(len(loop), "F") if skel.grid is None else "T"
+        counters[prefix] = counters.get(prefix, 0) + 1
+        labels.append(prefix)
+    digits = {p: len(str(c)) for p, c in counters.items()}
+    seen: dict[str, int] = {}
+    shift = np.eye(4)
+    shift[2, 3] = -0.5 * t  # plate solids span z ∈ [0, t]: centre the mid-surface on the face plane
+    frames = skel.frames()
+    plates = []
+    for f, loop in enumerate(skel.faces):
+        p = labels[f]
+        seen[p] = seen.get(p, 0) + 1
+        edge_labels = tuple(
+            joint.get(k, "PIN" if (f, i) in pin_set else "") for i, k in enumerate(skel.face_edges[f])
+        )
+        plates.append(PlacedPlate(f"{p}{seen[p]:0{digits[p]}d}", f, PlateType(len(loop), face_patterns[f]),
+                                  frames[f] @ shift, edge_labels))
+    sleeves = []
+    for k in skel.interior_edges:
+        key = kind_of[int(k)]
+        (fa, ia), (fb, ib) = (tuple(int(x) for x in pair) for pair in skel.edge_faces[k])
+        sleeves.append(PlacedSleeve(joint[int(k)], int(k), key, _sleeve_frame(skel, int(k), kinds[key]),
+                                    ((fa, ia), (fb, ib))))
+    return Assembly(spec, skel, e, tuple(plates), tuple(sleeves), kinds, tuple(pins))
+
+
+def neck_half_width(outline: Any, edge_y: float, depth: float, reach: float) -> float:
+    """Largest |x| of the plate outline within ``depth`` mm of polygon edge 0 and |x| ≤ ``reach``.
+
+    ``edge_y`` is the y of edge 0 (−apothem); edge 0 is centred on x = 0, so this is how far the
+    material spreads along the edge inside the slot region (flattened within 0.005 mm).
+    """
+    best = 0.0
+    for P in outline.flatten(0.005):
+        d = P[:, 1] - edge_y
+        m = (d <= depth) & (np.abs(P[:, 0]) <= reach)
+        if m.any():
+            best = max(best, float(np.abs(P[m, 0]).max()))
+    return best
+
+
+def check_necks(assembly: Assembly, filleted: dict[PlateType, Any]) -> None:
+    """SpecError if a plate's neck is wider than its slot anywhere within the slot's depth."""
+    skel, e = assembly.skeleton, assembly.plate_edge
+    for key, sleeve in assembly.sleeve_types.items():
+        for pt in assembly.plate_types:
+            fp = filleted[pt]
+            inside = sleeve.arm_end - setback(pt.sides, skel.edge_length(), e)  # depth of the plate in the slot
+            apothem = e / (2.0 * math.tan(math.pi / pt.sides))
+            half = neck_half_width(fp.outline, -apothem, inside, 0.5 * sleeve.length + 1.0)
+            room = 0.5 * sleeve.slot_length - NECK_CLEARANCE
+            if half > room:
+                raise SpecError(
+                    f"{assembly.spec.source}: the {pt.label} neck is {2 * half:.2f} mm wide {inside:.2f} mm into "
+                    f"the {key} slot, longer than the slot ({sleeve.slot_length:.2f} mm): raise sleeve.margin to "
+                    f"≥ {2 * (half + NECK_CLEARANCE) - sleeve.slot_length + assembly.spec.sleeve.margin:.2f} "
+                    "or lower sleeve.depth"
+                )

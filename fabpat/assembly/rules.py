@@ -1,0 +1,112 @@
+"""Stiffness-based pattern choices (paper §5), as pure functions of ``{pattern ID: strain energy}``.
+
+Every scenario applies the same load to every pattern, so a smaller strain energy (N·mm) means a
+stiffer pattern. The catalog supplies the energies; these functions only choose, so they are tested
+on small hand-made dictionaries.
+
+* :func:`graded` — ``count`` patterns with well-separated energies, ordered stiff → soft (the graded
+  strip of Fig. 15 left: five patterns, Cylinder scenario).
+* :func:`similar_pair` — a hexagon and a pentagon pattern with similar energies (the sphere of
+  Fig. 15 right: two patterns, Dome scenario).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import numpy as np
+
+from fabpat.errors import SpecError
+
+TRIM = 0.05  # fraction of the catalog ignored at each end: extreme energies are near-mechanisms or outliers
+MIN_SEPARATION = 1.25  # smallest energy ratio between consecutive graded patterns called "well separated"
+
+
+def _clean(energies: Mapping[str, float]) -> tuple[list[str], np.ndarray]:
+    """IDs and log-energies of the finite, positive entries, sorted by energy then ID."""
+    items = sorted(((float(e), str(k)) for k, e in energies.items() if e is not None and math.isfinite(e) and e > 0))
+    return [k for _, k in items], np.log([e for e, _ in items])
+
+
+def _max_min_gap(logs: np.ndarray, count: int) -> list[int]:
+    """Indices of ``count`` sorted values whose smallest consecutive gap is as large as possible.
+
+    Binary search on the gap; greedy from the smallest value decides feasibility (optimal in 1D).
+    """
+    def greedy(gap: float) -> list[int]:
+        picks = [0]
+        for i in range(1, len(logs)):
+            if logs[i] - logs[picks[-1]] >= gap:
+                picks.append(i)
+        return picks
+
+    lo, hi = 0.0, float(logs[-1] - logs[0]) / max(count - 1, 1)
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if len(greedy(mid)) >= count else (lo, mid)
+    return greedy(lo)[:count]
+
+
+def graded(energies: Mapping[str, float], count: int, trim: float = TRIM,
+           min_separation: float = MIN_SEPARATION) -> list[str]:
+    """``count`` pattern IDs spread over the catalog's energies, stiff → soft (ascending energy).
+
+    First choice: ``count`` equally spaced log-energies between the extremes (after dropping the
+    ``trim`` fraction at each end, when that is at least one pattern), each taking the nearest
+    unused pattern. If two consecutive picks then differ by less than ``min_separation`` ×, the
+    picks that maximise the smallest ratio are used instead. Raises :class:`SpecError` if there are
+    fewer than ``count`` usable patterns or even the best picks are closer than ``min_separation``.
+    """
+    ids, logs = _clean(energies)
+    if count < 2:
+        raise SpecError(f"a graded strip needs at least 2 patterns, got count = {count}")
+    if len(ids) < count:
+        raise SpecError(f"the catalog has {len(ids)} patterns with an energy, fewer than patterns.count = {count}")
+    cut = int(trim * len(ids))
+    if len(ids) - 2 * cut >= count and cut > 0:
+        ids, logs = ids[cut:-cut], logs[cut:-cut]
+    used: set[int] = set()
+    picks = []
+    for target in np.linspace(logs[0], logs[-1], count):
+        order = np.argsort(np.abs(logs - target), kind="stable")
+        k = next(int(i) for i in order if int(i) not in used)
+        used.add(k)
+        picks.append(k)
+    picks.sort()
+    if np.exp(np.diff(logs[picks])).min() < min_separation:
+        picks = _max_min_gap(logs, count)
+    ratio = float(np.exp(np.diff(logs[picks])).min())
+    if ratio < min_separation:
+        raise SpecError(f"the catalog's energies are too close for {count} well-separated patterns "
+                        f"(best consecutive ratio {ratio:.2f} < {min_separation}); lower patterns.count")
+    return [ids[i] for i in picks]
+
+
+def separation(energies: Mapping[str, float], ids: list[str]) -> float:
+    """Smallest ratio between consecutive energies of ``ids`` (≥ 1; larger = better separated)."""
+    e = sorted(energies[i] for i in ids)
+    return min(b / a for a, b in zip(e, e[1:], strict=False))
+
+
+def similar_pair(hexagon: Mapping[str, float], pentagon: Mapping[str, float] | None = None,
+                 quantile: float = 0.5) -> tuple[str, str]:
+    """(hexagon ID, pentagon ID): two different patterns with similar energy.
+
+    The hexagon pattern is the one nearest the ``quantile`` of the hexagon log-energies (the median:
+    a typical stiffness, away from outliers); the pentagon pattern is the other ID whose energy —
+    in the pentagon scenario if ``pentagon`` is given, else in the hexagon one — is nearest to it.
+    Ties go to the smaller ID, so the choice is reproducible.
+    """
+    ids, logs = _clean(hexagon)
+    if len(ids) < 2:
+        raise SpecError("the catalog needs at least two patterns with an energy to pick a similar pair")
+    target = float(np.quantile(logs, quantile))
+    h = min(range(len(ids)), key=lambda i: (abs(logs[i] - target), ids[i]))
+    hid, e = ids[h], math.exp(logs[h])
+    pool = dict(pentagon) if pentagon else dict(hexagon)
+    pids, plogs = _clean({k: v for k, v in pool.items() if k != hid})
+    if not pids:
+        raise SpecError("the catalog has no second pattern with a pentagon energy")
+    p = min(range(len(pids)), key=lambda i: (abs(plogs[i] - math.log(e)), pids[i]))
+    return hid, pids[p]

@@ -1,0 +1,146 @@
+"""Laser sheets (or print-bed layouts) of an assembly's plates: one DXF per sheet.
+
+Each plate's exact outline is fitted by circular arcs within 0.01 mm (:func:`fabpat.cad.bulge_loops`),
+offset by kerf/2 into the void when a kerf is given, turned and moved to its nested place, and written
+as closed LWPOLYLINEs with bulges on layer ``CUT`` (a rigid motion keeps every bulge). Layer ``ENGRAVE``
+carries, inside the solid sub-triangle that every pattern has at each interface, the label of the
+sleeve joint on that edge and the plate's own label, written along the edge (a central label would
+often fall on a void: many patterns are open in the middle). Layer ``SHEET`` (not cut) outlines the sheet.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fabpat.assembly.nesting import Nesting, nest
+from fabpat.assembly.placement import Assembly, PlateType
+from fabpat.errors import ExportError
+
+SHEET_LAYER = "SHEET"
+SHEET_COLOR = 8  # ACI grey: reference only, not cut
+JOINT_DEPTH, PLATE_DEPTH = 0.6, 0.85  # × edge-row height: the two label lines inside the interface sub-triangle
+EDGE_LABEL_HEIGHT = 1.4  # mm (capped by the sub-triangle's size)
+CHAR_WIDTH = 0.9  # text width per character / text height (as fabpat.exchange.dxf)
+ARC_TOLERANCE = 0.01  # mm
+
+
+def plate_polygon(pt: PlateType, edge: float) -> NDArray[np.float64]:
+    """(n, 2) polygon that contains the plate (the plate's frame, mm)."""
+    from fabpat.lattice import polygon_vertices
+
+    return polygon_vertices(pt.sides, edge)
+
+
+def nest_plates(assembly: Assembly) -> Nesting:
+    """Nest every plate of the assembly (one item per plate, in plate order) on the spec's sheets.
+
+    The polygons grow by kerf/2, since the cut path of a plate lies that far outside it.
+    """
+    s = assembly.spec.sheet
+    polys = []
+    for p in assembly.plates:
+        P = plate_polygon(p.type, assembly.plate_edge)
+        if s.kerf > 0:
+            apothem = assembly.plate_edge / (2 * math.tan(math.pi / p.type.sides))
+            P = P * (1.0 + 0.5 * s.kerf / apothem)  # similar polygon whose edges lie kerf/2 further out
+        polys.append(P)
+    return nest(polys, s.width, s.height, s.margin, s.spacing)
+
+
+def edge_label_spots(pt: PlateType, edge: float) -> list[tuple[NDArray[np.float64], NDArray[np.float64], float, float]]:
+    """Per polygon edge: (joint label position (2,), plate label position (2,), angle rad, height mm).
+
+    Plate frame. Every pattern has a solid sub-triangle at each interface (apex at the edge midpoint,
+    top side one edge row = apothem / 2**depth in); two lines fit in it, baseline along the edge: the
+    joint label nearer the edge, the plate label above it, so each interface says what joins what.
+    """
+    n, depth = pt.sides, pt.depth
+    apothem = edge / (2 * math.tan(math.pi / n))
+    row = apothem / 2**depth
+    base = edge / 2**depth  # width of the sub-triangle's top side
+    height = min(EDGE_LABEL_HEIGHT, 0.16 * row, JOINT_DEPTH * base / (CHAR_WIDTH * 3.5))
+    out = []
+    for i in range(n):
+        a = -math.pi / 2 + 2 * math.pi * i / n  # direction of edge i's midpoint
+        u = np.array([math.cos(a), math.sin(a)])
+        out.append(((apothem - JOINT_DEPTH * row) * u, (apothem - PLATE_DEPTH * row) * u, 2 * math.pi * i / n,
+                    height))
+    return out
+
+
+def sheet_document(assembly: Assembly, nesting: Nesting, sheet: int, filleted: dict[PlateType, Any]) -> Any:
+    """The ezdxf drawing of one sheet (mm; layers CUT, ENGRAVE, SHEET)."""
+    import ezdxf
+    from ezdxf.enums import TextEntityAlignment
+
+    from fabpat.cad import bulge_loops, offset_bulge_loops
+    from fabpat.exchange.dxf import CUT_COLOR, CUT_LAYER, ENGRAVE_COLOR, ENGRAVE_LAYER
+
+    kerf = assembly.spec.sheet.kerf
+    doc = ezdxf.new("R2010", units=ezdxf.units.MM)
+    doc.layers.add(CUT_LAYER, color=CUT_COLOR)
+    doc.layers.add(ENGRAVE_LAYER, color=ENGRAVE_COLOR)
+    doc.layers.add(SHEET_LAYER, color=SHEET_COLOR)
+    msp = doc.modelspace()
+    W, H = nesting.width, nesting.height
+    msp.add_lwpolyline([(0, 0), (W, 0), (W, H), (0, H)], close=True, dxfattribs={"layer": SHEET_LAYER})
+    loops_of: dict[PlateType, list[Any]] = {}
+    for item in nesting.on_sheet(sheet):
+        plate = assembly.plates[item]
+        pt = plate.type
+        if pt not in loops_of:
+            loops = bulge_loops(filleted[pt].outline, ARC_TOLERANCE)
+            loops_of[pt] = offset_bulge_loops(loops, 0.5 * kerf) if kerf > 0 else loops
+        place = nesting.placements[item]
+        for lp in loops_of[pt]:
+            V = place.apply(lp.V)
+            msp.add_lwpolyline([(float(x), float(y), float(b)) for (x, y), b in zip(V, lp.bulges, strict=True)],
+                               format="xyb", close=True, dxfattribs={"layer": CUT_LAYER})
+        deg = math.degrees(place.angle)
+        spots = edge_label_spots(pt, assembly.plate_edge)
+        for (joint, own, ang, h), label in zip(spots, plate.edge_labels, strict=True):
+            for text, pos in ((label, joint), (plate.label, own)):
+                if not text:
+                    continue
+                q = place.apply(pos[None])[0]
+                rot = deg + math.degrees(ang)
+                t = msp.add_text(text, height=h, dxfattribs={"layer": ENGRAVE_LAYER, "rotation": rot})
+                t.set_placement((float(q[0]), float(q[1])), align=TextEntityAlignment.MIDDLE_CENTER)
+    return doc
+
+
+def write_sheets(assembly: Assembly, nesting: Nesting, folder: os.PathLike[str] | str,
+                 filleted: dict[PlateType, Any]) -> list[str]:
+    """Write ``sheet-01.dxf`` … into ``folder``; returns the file names."""
+    names = []
+    digits = max(2, len(str(nesting.n_sheets)))
+    for s in range(nesting.n_sheets):
+        name = f"sheet-{s + 1:0{digits}d}.dxf"
+        try:
+            sheet_document(assembly, nesting, s, filleted).saveas(os.path.join(folder, name))
+        except OSError as e:
+            raise ExportError(f"cannot write {name}: {e.strerror}") from e
+        names.append(name)
+    return names
+
+
+def read_sheet(path: os.PathLike[str] | str, tolerance: float = 0.05) -> tuple[list[NDArray[np.float64]], list[str]]:
+    """Re-read a sheet DXF: (closed CUT loops flattened within ``tolerance`` mm, ENGRAVE texts)."""
+    import ezdxf
+    from ezdxf import path as dxfpath
+
+    doc = ezdxf.readfile(os.fspath(path))
+    loops, texts = [], []
+    for e in doc.modelspace():
+        layer = e.dxf.layer
+        if e.dxftype() == "LWPOLYLINE" and layer == "CUT":
+            pts = np.array([(v.x, v.y) for v in dxfpath.make_path(e).flattening(tolerance)])
+            loops.append(pts[:-1] if np.allclose(pts[0], pts[-1]) else pts)
+        elif e.dxftype() == "TEXT" and layer == "ENGRAVE":
+            texts.append(e.dxf.text)
+    return loops, texts

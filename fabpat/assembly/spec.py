@@ -1,0 +1,382 @@
+"""Assembly spec files (TOML): what to build, with every value checked before anything is built.
+
+A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented examples):
+
+* ``[tiling]``  ``kind`` ("honeycomb-strip" | "truncated-icosahedron"), ``edge`` (plate polygon edge),
+  ``rows`` and ``columns`` (strip only).
+* ``[patterns]`` one of: ``pattern`` (every tile); ``groups`` (one ID per group of ``group_columns``
+  columns, stiff → soft) or ``tiles`` (rows × columns IDs) on a strip; ``hexagon`` + ``pentagon`` on the
+  truncated icosahedron; or ``rule`` = "graded" (strip: ``count`` patterns with well-separated energies
+  in ``scenario``) / "similar-energy" (sphere: two patterns with similar energy in ``scenario``), both
+  read from the catalog (``catalog`` = path, default the built-in one).
+* ``[plates]``  ``thickness``, ``weight`` (interface fillet weight), ``process`` ("print" | "laser"),
+  ``density`` (g/cm³, for masses).
+* ``[sleeve]``  ``clearance`` (slot width = thickness + clearance), ``margin`` (slot length =
+  interface segment + margin), ``wall``, ``depth`` (how far a plate enters its slot).
+* ``[sheet]``  ``width``, ``height`` (laser sheet or print bed), ``margin``, ``spacing``, ``kerf``.
+* ``[estimates]`` ``cut_speed`` (mm/s), ``print_rate`` (mm³/s).
+* ``[output]``  ``formats``: any of step, stl, glb, dxf, svg, bom, png.
+
+Every error is a :class:`~fabpat.errors.SpecError` whose one line names the file, the key and what
+is allowed.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from fabpat.errors import PatternError, SpecError
+
+TILINGS = ("honeycomb-strip", "truncated-icosahedron")
+PROCESSES = ("print", "laser")
+FORMATS = ("step", "stl", "glb", "dxf", "svg", "bom", "png")
+STRIP_RULES = ("graded",)
+SPHERE_RULES = ("similar-energy",)
+SCENARIOS = ("cantilever", "cylinder", "dome")
+_DEPTH_OF_DIGITS = {1: 1, 4: 2, 16: 3}  # hex digits of an ID → subdivision depth
+
+
+@dataclass(frozen=True)
+class TilingSpec:
+    kind: str
+    edge: float  # mm: plate polygon edge
+    rows: int = 1
+    columns: int = 1
+
+
+@dataclass(frozen=True)
+class PatternSpec:
+    """How patterns are chosen; exactly one way is set (see the module docstring)."""
+
+    pattern: str | None = None
+    groups: tuple[str, ...] = ()
+    group_columns: int = 1
+    tiles: tuple[tuple[str, ...], ...] = ()
+    hexagon: str | None = None
+    pentagon: str | None = None
+    rule: str | None = None
+    scenario: str = "cylinder"
+    count: int = 5
+    catalog: str | None = None
+
+
+@dataclass(frozen=True)
+class PlateSpec:
+    thickness: float = 2.0  # mm
+    weight: float = 0.2  # interface fillet weight (paper §3.3)
+    process: str = "print"
+    density: float = 1.24  # g/cm³: PLA (notes, §4.1)
+
+
+@dataclass(frozen=True)
+class SleeveSpec:
+    clearance: float = 0.2  # mm: slot width − plate thickness
+    margin: float = 1.0  # mm: slot length − interface segment length
+    wall: float = 1.2  # mm: three 0.4 mm perimeters
+    depth: float = 3.0  # mm: how far a plate enters the slot
+
+
+@dataclass(frozen=True)
+class SheetSpec:
+    width: float = 600.0  # mm
+    height: float = 400.0  # mm
+    margin: float = 5.0  # mm: border kept free on every side
+    spacing: float = 3.0  # mm: minimum gap between two plates' polygons
+    kerf: float = 0.0  # mm: laser kerf (cut loops move out by kerf/2)
+
+
+@dataclass(frozen=True)
+class EstimateSpec:
+    cut_speed: float = 15.0  # mm/s: 2 mm acrylic or plywood on a 40–60 W CO2 laser
+    print_rate: float = 3.0  # mm³/s: effective rate of a 0.4 mm nozzle at 0.2 mm layers, travel included
+
+
+@dataclass(frozen=True)
+class AssemblySpec:
+    """A validated spec; ``source`` is the file it came from (for messages)."""
+
+    name: str
+    source: str
+    tiling: TilingSpec
+    patterns: PatternSpec
+    plates: PlateSpec
+    sleeve: SleeveSpec
+    sheet: SheetSpec
+    estimates: EstimateSpec
+    formats: tuple[str, ...]
+
+    @property
+    def polygon_sides(self) -> tuple[int, ...]:
+        """Polygons used by the tiling (6 for strips; 5 and 6 for the truncated icosahedron)."""
+        return (6,) if self.tiling.kind == "honeycomb-strip" else (5, 6)
+
+
+# -- small typed readers ----------------------------------------------------------------------------
+
+
+class _Table:
+    """One TOML table being read: remembers the keys used so unknown keys can be reported."""
+
+    def __init__(self, source: str, name: str, data: Any, allowed: tuple[str, ...]) -> None:
+        if not isinstance(data, Mapping):
+            raise SpecError(f"{source}: [{name}] must be a table")
+        self.source, self.name, self.data = source, name, dict(data)
+        for key in self.data:
+            if key not in allowed:
+                raise SpecError(f"{source}: unknown key {name}.{key} (allowed: {', '.join(allowed)})")
+
+    def fail(self, key: str, message: str) -> SpecError:
+        return SpecError(f"{self.source}: {self.name}.{key} {message}")
+
+    def has(self, key: str) -> bool:
+        return key in self.data
+
+    def number(self, key: str, default: float | None, minimum: float = 0.0, strict: bool = True) -> float:
+        if key not in self.data:
+            if default is None:
+                raise SpecError(f"{self.source}: missing key {self.name}.{key} (a number > {minimum:g}, mm)")
+            return default
+        v = self.data[key]
+        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+            raise self.fail(key, f"= {v!r} must be a number")
+        if v < minimum or (strict and v == minimum):
+            raise self.fail(key, f"= {v:g} must be {'>' if strict else '≥'} {minimum:g}")
+        return float(v)
+
+    def integer(self, key: str, default: int | None, minimum: int = 1) -> int:
+        if key not in self.data:
+            if default is None:
+                raise SpecError(f"{self.source}: missing key {self.name}.{key} (an integer ≥ {minimum})")
+            return default
+        v = self.data[key]
+        if isinstance(v, bool) or not isinstance(v, int) or v < minimum:
+            raise self.fail(key, f"= {v!r} must be an integer ≥ {minimum}")
+        return int(v)
+
+    def choice(self, key: str, allowed: tuple[str, ...], default: str | None) -> str:
+        if key not in self.data:
+            if default is None:
+                raise SpecError(f"{self.source}: missing key {self.name}.{key} (one of: {', '.join(allowed)})")
+            return default
+        v = self.data[key]
+        if v not in allowed:
+            raise self.fail(key, f"= {v!r} is not allowed: choose one of {', '.join(allowed)}")
+        return str(v)
+
+    def string(self, key: str) -> str | None:
+        v = self.data.get(key)
+        if v is not None and not isinstance(v, str):
+            raise self.fail(key, f"= {v!r} must be a string")
+        return v
+
+
+def _pattern_id(source: str, key: str, pid: Any, sides: tuple[int, ...]) -> str:
+    """The canonical ID if it is a library pattern for every polygon in ``sides``; SpecError otherwise."""
+    from fabpat.lattice import normalize_id
+    from fabpat.library import get_pattern
+
+    if not isinstance(pid, str):
+        raise SpecError(f"{source}: {key} = {pid!r} must be a pattern ID string such as \"0x0488\"")
+    digits = pid.strip().lower().removeprefix("0x")
+    depth = _DEPTH_OF_DIGITS.get(len(digits))
+    if depth is None:
+        raise SpecError(f"{source}: {key} = {pid!r} is not a pattern ID (0x + 1, 4 or 16 hex digits)")
+    try:
+        for n in sides:
+            get_pattern(pid, n, depth)
+        return normalize_id(pid, depth)
+    except PatternError as e:
+        raise SpecError(f"{source}: {key} = {pid!r}: unknown pattern — {e}") from e
+
+
+# -- the tables -------------------------------------------------------------------------------------
+
+
+def _tiling(source: str, data: Any) -> TilingSpec:
+    t = _Table(source, "tiling", data, ("kind", "edge", "rows", "columns"))
+    kind = t.choice("kind", TILINGS, None)
+    edge = t.number("edge", None)
+    if kind == "honeycomb-strip":
+        return TilingSpec(kind, edge, t.integer("rows", None), t.integer("columns", None))
+    for key in ("rows", "columns"):
+        if t.has(key):
+            raise t.fail(key, "is only for kind = \"honeycomb-strip\"")
+    return TilingSpec(kind, edge)
+
+
+def _patterns(source: str, data: Any, tiling: TilingSpec) -> PatternSpec:
+    allowed = ("pattern", "groups", "group_columns", "tiles", "hexagon", "pentagon", "rule", "scenario",
+               "count", "catalog")
+    t = _Table(source, "patterns", data, allowed)
+    strip = tiling.kind == "honeycomb-strip"
+    sides = (6,) if strip else (5, 6)
+    ways = [k for k in ("pattern", "groups", "tiles", "hexagon", "rule") if t.has(k)]
+    if t.has("pentagon") and "hexagon" not in ways:
+        ways.append("pentagon")
+    options = "pattern, groups, tiles or rule" if strip else "pattern, hexagon + pentagon, or rule"
+    if not ways:
+        raise SpecError(f"{source}: [patterns] needs one of: {options}")
+    if len(ways) > 1:
+        raise SpecError(f"{source}: [patterns] sets both {ways[0]} and {ways[1]}: use one of {options}")
+    way = ways[0]
+    only_strip = {"groups", "tiles", "group_columns"}
+    only_sphere = {"hexagon", "pentagon"}
+    for key in t.data:
+        if (strip and key in only_sphere) or (not strip and key in only_strip):
+            raise t.fail(key, f"does not apply to tiling.kind = {tiling.kind!r}")
+    catalog = t.string("catalog")
+    if catalog and not Path(catalog).is_absolute() and Path(source).parent != Path(""):
+        catalog = str(Path(source).parent / catalog)  # a relative catalog path is relative to the spec file
+    if way == "pattern":
+        return PatternSpec(pattern=_pattern_id(source, "patterns.pattern", t.data["pattern"], sides))
+    if way == "hexagon" or way == "pentagon":
+        for key in ("hexagon", "pentagon"):
+            if not t.has(key):
+                raise SpecError(f"{source}: missing key patterns.{key} (a pattern ID, e.g. \"0x0488\")")
+        return PatternSpec(hexagon=_pattern_id(source, "patterns.hexagon", t.data["hexagon"], (6,)),
+                           pentagon=_pattern_id(source, "patterns.pentagon", t.data["pentagon"], (5,)))
+    if way == "rule":
+        rules = STRIP_RULES if strip else SPHERE_RULES
+        rule = t.choice("rule", rules, None)
+        scenario = t.choice("scenario", SCENARIOS, "cylinder" if strip else "dome")
+        count = t.integer("count", 5, 2) if strip else 2
+        if not strip and t.has("count"):
+            raise t.fail("count", "does not apply to rule = \"similar-energy\" (it picks two patterns)")
+        group_columns = t.integer("group_columns", max(1, tiling.columns // count)) if strip else 1
+        if strip and math.ceil(tiling.columns / group_columns) != count:
+            raise t.fail("group_columns", f"= {group_columns} makes {math.ceil(tiling.columns / group_columns)} "
+                         f"groups of tiling.columns = {tiling.columns}, but patterns.count = {count}")
+        return PatternSpec(rule=rule, scenario=scenario, count=count, group_columns=group_columns, catalog=catalog)
+    if way == "groups":
+        groups = t.data["groups"]
+        if not isinstance(groups, list) or not groups:
+            raise t.fail("groups", "must be a non-empty list of pattern IDs (stiff → soft)")
+        ids = tuple(_pattern_id(source, f"patterns.groups[{i}]", g, sides) for i, g in enumerate(groups))
+        gc = t.integer("group_columns", None)
+        need = math.ceil(tiling.columns / gc)
+        if need != len(ids):
+            raise t.fail("groups", f"has {len(ids)} IDs but tiling.columns = {tiling.columns} in groups of "
+                         f"patterns.group_columns = {gc} makes {need} groups")
+        return PatternSpec(groups=ids, group_columns=gc)
+    tiles = t.data["tiles"]
+    if (not isinstance(tiles, list) or len(tiles) != tiling.rows
+            or any(not isinstance(r, list) or len(r) != tiling.columns for r in tiles)):
+        raise t.fail("tiles", f"must be {tiling.rows} rows (tiling.rows) of {tiling.columns} IDs (tiling.columns)")
+    cache: dict[str, str] = {}
+    rows = []
+    for r, row in enumerate(tiles):
+        out = []
+        for c, pid in enumerate(row):
+            if pid not in cache:
+                cache[pid] = _pattern_id(source, f"patterns.tiles[{r}][{c}]", pid, sides)
+            out.append(cache[pid])
+        rows.append(tuple(out))
+    return PatternSpec(tiles=tuple(rows))
+
+
+def _plates(source: str, data: Any) -> PlateSpec:
+    t = _Table(source, "plates", data, ("thickness", "weight", "process", "density"))
+    return PlateSpec(t.number("thickness", 2.0), t.number("weight", 0.2), t.choice("process", PROCESSES, "print"),
+                     t.number("density", 1.24))
+
+
+def _sleeve(source: str, data: Any) -> SleeveSpec:
+    t = _Table(source, "sleeve", data, ("clearance", "margin", "wall", "depth"))
+    return SleeveSpec(t.number("clearance", 0.2, strict=False), t.number("margin", 1.0, strict=False),
+                      t.number("wall", 1.2), t.number("depth", 3.0))
+
+
+def _sheet(source: str, data: Any, process: str) -> SheetSpec:
+    t = _Table(source, "sheet", data, ("width", "height", "margin", "spacing", "kerf"))
+    kerf = t.number("kerf", 0.15 if process == "laser" else 0.0, strict=False)
+    return SheetSpec(t.number("width", None), t.number("height", None), t.number("margin", 5.0, strict=False),
+                     t.number("spacing", 3.0, strict=False), kerf)
+
+
+def _estimates(source: str, data: Any) -> EstimateSpec:
+    t = _Table(source, "estimates", data, ("cut_speed", "print_rate"))
+    return EstimateSpec(t.number("cut_speed", 15.0), t.number("print_rate", 3.0))
+
+
+def _formats(source: str, data: Any) -> tuple[str, ...]:
+    t = _Table(source, "output", data, ("formats",))
+    formats = t.data.get("formats", list(FORMATS))
+    if not isinstance(formats, list) or not formats:
+        raise t.fail("formats", f"must be a non-empty list of: {', '.join(FORMATS)}")
+    for f in formats:
+        if f not in FORMATS:
+            raise t.fail("formats", f"contains {f!r}: allowed values are {', '.join(FORMATS)}")
+    return tuple(dict.fromkeys(formats))
+
+
+def check_sheet_fits(spec: AssemblySpec) -> None:
+    """Raise SpecError if a plate (plus kerf, the sheet margin and one nesting step) cannot lie on the sheet.
+
+    Tries the two turns the nesting uses (0 and π/n); the 1 mm slack is the nesting grid's step.
+    """
+    from fabpat.assembly.nesting import DEFAULT_RESOLUTION
+    from fabpat.lattice import polygon_vertices
+
+    s = spec.sheet
+    room = (s.width - 2 * s.margin - DEFAULT_RESOLUTION, s.height - 2 * s.margin - DEFAULT_RESOLUTION)
+    for n in spec.polygon_sides:
+        P = polygon_vertices(n, spec.tiling.edge)
+        sizes = []
+        for a in (0.0, math.pi / n):
+            Q = P @ [[math.cos(a), math.sin(a)], [-math.sin(a), math.cos(a)]]
+            sizes.append(Q.max(axis=0) - Q.min(axis=0) + s.kerf)
+        if not any(w <= room[0] + 1e-9 and h <= room[1] + 1e-9 for w, h in sizes):
+            name = {5: "pentagon", 6: "hexagon"}.get(n, f"{n}-gon")
+            w, h = min(sizes, key=lambda v: max(v[0] - room[0], v[1] - room[1]))
+            raise SpecError(
+                f"{spec.source}: sheet.width × sheet.height = {s.width:g} × {s.height:g} mm is smaller than a "
+                f"{name} plate ({w:.1f} × {h:.1f} mm plus sheet.margin = {s.margin:g} mm on each side)"
+            )
+
+
+def parse_spec(data: Mapping[str, Any], source: str = "<spec>") -> AssemblySpec:
+    """Validate a decoded TOML document; raises :class:`SpecError` naming the key and allowed values."""
+    top = ("name", "tiling", "patterns", "plates", "sleeve", "sheet", "estimates", "output")
+    for key in data:
+        if key not in top:
+            raise SpecError(f"{source}: unknown key {key} (allowed: {', '.join(top)})")
+    for key in ("tiling", "patterns", "sheet"):
+        if key not in data:
+            raise SpecError(f"{source}: missing table [{key}]")
+    name = data.get("name", Path(source).stem)
+    if not isinstance(name, str) or not name.strip():
+        raise SpecError(f"{source}: name = {name!r} must be a non-empty string")
+    tiling = _tiling(source, data["tiling"])
+    plates = _plates(source, data.get("plates", {}))
+    readers: dict[str, Callable[[], Any]] = {
+        "sleeve": lambda: _sleeve(source, data.get("sleeve", {})),
+        "sheet": lambda: _sheet(source, data["sheet"], plates.process),
+        "estimates": lambda: _estimates(source, data.get("estimates", {})),
+        "output": lambda: _formats(source, data.get("output", {})),
+    }
+    values = {k: f() for k, f in readers.items()}
+    spec = AssemblySpec(name.strip(), source, tiling, _patterns(source, data["patterns"], tiling), plates,
+                        values["sleeve"], values["sheet"], values["estimates"], values["output"])
+    check_sheet_fits(spec)
+    return spec
+
+
+def load_spec(path: str | Path) -> AssemblySpec:
+    """Read and validate a spec file; :class:`SpecError` (one line) if it cannot be read or is invalid."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as e:
+        raise SpecError(f"cannot read spec {p}: {e.strerror or e}") from e
+    except UnicodeDecodeError as e:
+        raise SpecError(f"{p}: not a UTF-8 text file") from e
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise SpecError(f"{p}: invalid TOML: {e}") from e
+    return parse_spec(data, str(p))

@@ -1,0 +1,192 @@
+"""`fabpat assemble`: every output of the small spec exists and re-reads; bad specs leave nothing."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+from pathlib import Path
+from xml.etree import ElementTree
+
+import numpy as np
+import pytest
+
+from tests.conftest import run_cli
+
+ROOT = Path(__file__).resolve().parents[1]
+SMALL = ROOT / "assemblies" / "test-small.toml"
+
+
+@pytest.fixture(scope="module")
+def kit(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[str]]:
+    out = tmp_path_factory.mktemp("assemble") / "kit"
+    r = run_cli("assemble", str(SMALL), "--out", str(out), "--no-progress", "--timestamp", "2026-01-01T00:00:00")
+    assert r.returncode == 0, r.stderr
+    return out, r.stdout.splitlines()
+
+
+def test_lists_the_files_written(kit: tuple[Path, list[str]]) -> None:
+    out, lines = kit
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["generator"] == "fabpat assemble"
+    assert [Path(line) for line in lines] == [out / f for f in manifest["files"]] + [out / "manifest.json"]
+    on_disk = sorted(str(p.relative_to(out)) for p in out.rglob("*") if p.is_file())
+    assert on_disk == sorted([*manifest["files"], "manifest.json"])
+    assert {"assembly.step", "assembly.glb", "assembly.png", "net.svg", "bom.csv", "bom.md"} <= set(manifest["files"])
+    assert manifest["counts"] == {"hex 0x0488": 1, "hex 0x0508": 1, "hex 0x0588": 1, "S-flat": 2}
+    assert not [p for p in out.parent.iterdir() if p.name.startswith(".")]  # no temporary folders left
+
+
+def test_step_assembly_reimports(kit: tuple[Path, list[str]]) -> None:
+    from fabpat.assembly.export import read_step_solids
+
+    count, names = read_step_solids(kit[0] / "assembly.step")
+    assert count == 5  # 3 plates + 2 sleeves
+    assert sorted(names) == ["E1", "E2", "T1", "T2", "T3"]
+    text = (kit[0] / "assembly.step").read_text(errors="replace")
+    assert "fabpat 0x0488 n6 e36mm t2mm w0.2" in text and "fabpat sleeve 180.00deg" in text
+    assert "RATIONAL_B_SPLINE_CURVE" in text  # exact fillets, not facets
+
+
+def test_part_stls(kit: tuple[Path, list[str]]) -> None:
+    import trimesh
+
+    stls = sorted((kit[0] / "parts").glob("*.stl"))
+    assert [p.name for p in stls] == ["plate-hex-0x0488.stl", "plate-hex-0x0508.stl", "plate-hex-0x0588.stl",
+                                      "sleeve-S-flat.stl"]
+    for p in stls:
+        m = trimesh.load(p)
+        assert m.is_watertight and m.volume > 0
+        assert m.bounds[0, 2] == pytest.approx(0.0, abs=1e-6)  # lies on the bed
+    plate = trimesh.load(stls[0])
+    assert plate.bounds[1, 2] - plate.bounds[0, 2] == pytest.approx(2.0, abs=1e-6)
+
+
+def test_glb_preview(kit: tuple[Path, list[str]]) -> None:
+    import trimesh
+
+    scene = trimesh.load(kit[0] / "assembly.glb")
+    assert len(scene.graph.nodes_geometry) == 5
+    lo, hi = scene.bounds
+    assert hi[0] - lo[0] > 2 * 1.5 * 36.8 + 36.0  # three columns 1.5 E apart, each plate wider than one edge
+
+
+def test_sheets_reread_without_overlaps(kit: tuple[Path, list[str]]) -> None:
+    import manifold3d
+
+    from fabpat.assembly.sheets import read_sheet
+
+    sheets = sorted((kit[0] / "sheets").glob("*.dxf"))
+    assert len(sheets) == 2
+    plates = []
+    texts_all: list[str] = []
+    for path in sheets:
+        loops, texts = read_sheet(path)
+        texts_all += texts
+        boxes = [(P.min(axis=0), P.max(axis=0)) for P in loops]
+        # outer loops: not inside another loop's box (holes are); oriented counter-clockwise
+        outer = [P if manifold3d.CrossSection([P]).area() > 0 else P[::-1] for i, P in enumerate(loops)
+                 if not any(j != i and np.all(boxes[j][0] <= boxes[i][0]) and np.all(boxes[i][1] <= boxes[j][1])
+                            for j in range(len(loops)))]
+        for P in outer:
+            assert P.min() >= 5.0 - 0.2 and P[:, 0].max() <= 165.0 + 0.2 and P[:, 1].max() <= 85.0 + 0.2
+        for i, P in enumerate(outer):
+            for Q in outer[i + 1:]:
+                both = manifold3d.CrossSection([P]) ^ manifold3d.CrossSection([Q])
+                assert both.area() == pytest.approx(0.0, abs=1e-9)
+        plates += outer
+    assert len(plates) == 3
+    for label in ("T1", "T2", "T3", "E1", "E2", "PIN"):
+        assert label in texts_all
+
+
+def test_net_svg(kit: tuple[Path, list[str]]) -> None:
+    root = ElementTree.parse(kit[0] / "net.svg").getroot()
+    ns = "{http://www.w3.org/2000/svg}"
+    texts = [e.text for e in root.iter(f"{ns}text")]
+    assert {"T1", "T2", "T3"} <= set(texts) and texts.count("E1") == 2 and texts.count("PIN") == 4
+    assert root.get("width", "").endswith("mm")
+
+
+def test_bom(kit: tuple[Path, list[str]]) -> None:
+    rows = list(csv.DictReader((kit[0] / "bom.csv").open()))
+    by = {r["part"]: r for r in rows}
+    assert int(by["S-flat"]["count"]) == 2 and by["S-flat"]["process"] == "print"
+    assert by["hex 0x0488"]["process"] == "laser" and float(by["hex 0x0488"]["unit_cut_length_mm"]) > 100
+    assert float(by["hex 0x0488"]["unit_volume_mm3"]) == pytest.approx(2.0 * float(by["hex 0x0488"]["unit_area_mm2"]))
+    assert int(by["laser sheet 170 × 90 mm"]["count"]) == 2
+    md = (kit[0] / "bom.md").read_text()
+    assert "| E1 | S-flat | 180.00 | T1 (2) | T2 (5) |" in md and "Pinned interfaces" in md
+
+
+def test_png(kit: tuple[Path, list[str]]) -> None:
+    import matplotlib.image as mpimg
+
+    img = mpimg.imread(kit[0] / "assembly.png")
+    assert img.shape[0] > 400 and img.shape[1] > 400
+    assert np.ptp(img[..., :3]) > 0.5  # not blank
+
+
+def test_rerun_replaces_an_earlier_output(tmp_path: Path) -> None:
+    from fabpat.assembly.build import assemble
+    from fabpat.assembly.spec import parse_spec
+
+    out = tmp_path / "again"
+    small = parse_spec({"tiling": {"kind": "honeycomb-strip", "edge": 36.0, "rows": 1, "columns": 2},
+                        "patterns": {"pattern": "0x0488"}, "sheet": {"width": 170.0, "height": 90.0},
+                        "output": {"formats": ["bom", "svg"]}}, "two.toml")
+    first = assemble(small, out)
+    assert sorted(first.files) == ["bom.csv", "bom.md", "manifest.json", "net.svg"]
+    (out / "stale.txt").write_text("from the earlier run")
+    second = assemble(small, out)
+    assert not (out / "stale.txt").exists() and second.report.plates == 2
+    assert sorted(os.listdir(tmp_path)) == ["again"]
+
+
+def test_refuses_a_foreign_folder(tmp_path: Path) -> None:
+    foreign = tmp_path / "mine"
+    foreign.mkdir()
+    (foreign / "notes.txt").write_text("keep me")
+    r = run_cli("assemble", str(SMALL), "--out", str(foreign), "--no-progress")
+    assert r.returncode == 2 and "not an earlier `fabpat assemble` output" in r.stderr
+    assert (foreign / "notes.txt").read_text() == "keep me"
+
+
+BAD = {
+    "unknown-pattern": ('[patterns]\npattern = "0x9999"\n', "patterns.pattern = '0x9999': unknown pattern"),
+    "missing-key": ("", "missing key tiling.edge"),
+    "small-sheet": ('[patterns]\npattern = "0x0488"\n', "smaller than a hexagon plate"),
+}
+
+
+@pytest.mark.parametrize("case", list(BAD))
+def test_bad_specs_fail_cleanly(case: str, tmp_path: Path) -> None:
+    patterns, message = BAD[case]
+    edge = "" if case == "missing-key" else "edge = 36.0\n"
+    sheet = "width = 60.0\nheight = 60.0\n" if case == "small-sheet" else "width = 170.0\nheight = 90.0\n"
+    text = (f'[tiling]\nkind = "honeycomb-strip"\n{edge}rows = 1\ncolumns = 2\n'
+            f'{patterns or chr(10).join(["[patterns]", "pattern = " + chr(34) + "0x0488" + chr(34), ""])}'
+            f"[sheet]\n{sheet}")
+    spec = tmp_path / f"{case}.toml"
+    spec.write_text(text)
+    out = tmp_path / "out"
+    r = run_cli("assemble", str(spec), "--out", str(out))
+    assert r.returncode == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("fabpat: error: ") and message in lines[0], r.stderr
+    assert not out.exists()
+    assert sorted(os.listdir(tmp_path)) == [spec.name]  # no half-filled or temporary folder
+
+
+def test_failure_after_start_leaves_nothing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from fabpat.assembly import build
+    from fabpat.assembly.spec import load_spec
+    from fabpat.errors import ExportError
+
+    def broken(*args: object, **kwargs: object) -> None:
+        raise ExportError("disk full (simulated)")
+
+    monkeypatch.setattr("fabpat.assembly.export.write_glb", broken)
+    with pytest.raises(ExportError, match="simulated"):
+        build.assemble(load_spec(SMALL), tmp_path / "kit")
+    assert os.listdir(tmp_path) == []

@@ -1,0 +1,112 @@
+"""Spec files: the shipped specs load; every bad value is one clear line naming the key."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from fabpat.assembly.spec import load_spec, parse_spec
+from fabpat.errors import SpecError
+
+ROOT = Path(__file__).resolve().parents[1]
+SPECS = ROOT / "assemblies"
+
+
+def base(**tables: dict) -> dict:
+    data = {
+        "tiling": {"kind": "honeycomb-strip", "edge": 36.0, "rows": 1, "columns": 3},
+        "patterns": {"pattern": "0x0488"},
+        "sheet": {"width": 170.0, "height": 90.0},
+    }
+    data.update(tables)
+    return data
+
+
+@pytest.mark.parametrize("name", ["graded-strip.toml", "truncated-icosahedron.toml", "test-small.toml"])
+def test_shipped_specs_load(name: str) -> None:
+    spec = load_spec(SPECS / name)
+    assert spec.tiling.edge == 36.0
+    assert spec.sleeve.clearance == pytest.approx(0.2)
+
+
+def test_shipped_spec_contents() -> None:
+    strip = load_spec(SPECS / "graded-strip.toml")
+    assert (strip.tiling.rows, strip.tiling.columns) == (2, 15)
+    assert strip.patterns.rule == "graded" and strip.patterns.count == 5 and strip.patterns.group_columns == 3
+    assert strip.patterns.scenario == "cylinder"
+    sphere = load_spec(SPECS / "truncated-icosahedron.toml")
+    assert sphere.patterns.hexagon and sphere.patterns.pentagon
+    assert sphere.polygon_sides == (5, 6)
+
+
+def test_defaults() -> None:
+    spec = parse_spec(base())
+    assert spec.plates.thickness == 2.0 and spec.plates.process == "print"
+    assert spec.sleeve.wall == 1.2 and spec.sleeve.depth == 3.0 and spec.sleeve.margin == 1.0
+    assert spec.formats == ("step", "stl", "glb", "dxf", "svg", "bom", "png")
+    assert spec.sheet.kerf == 0.0
+    assert parse_spec(base(plates={"process": "laser"})).sheet.kerf == pytest.approx(0.15)
+
+
+@pytest.mark.parametrize(
+    ("change", "words"),
+    [
+        ({"tiling": {"kind": "cube", "edge": 36.0}}, ["tiling.kind", "honeycomb-strip", "truncated-icosahedron"]),
+        ({"tiling": {"kind": "honeycomb-strip", "rows": 1, "columns": 3}}, ["missing key tiling.edge"]),
+        ({"tiling": {"kind": "honeycomb-strip", "edge": 36.0, "columns": 3}}, ["missing key tiling.rows"]),
+        ({"tiling": {"kind": "truncated-icosahedron", "edge": 36.0, "rows": 2}}, ["tiling.rows", "honeycomb-strip"]),
+        ({"tiling": {"kind": "honeycomb-strip", "edge": -1, "rows": 1, "columns": 3}}, ["tiling.edge", "> 0"]),
+        ({"patterns": {"pattern": "0x9999"}}, ["patterns.pattern", "0x9999", "unknown pattern"]),
+        ({"patterns": {"pattern": "hello"}}, ["patterns.pattern", "not a pattern ID"]),
+        ({"patterns": {}}, ["[patterns] needs one of", "groups"]),
+        ({"patterns": {"pattern": "0x0488", "groups": ["0x0488"]}}, ["both"]),
+        ({"patterns": {"groups": ["0x0488", "0x0508"], "group_columns": 1}}, ["patterns.groups", "3 groups"]),
+        ({"patterns": {"rule": "random"}}, ["patterns.rule", "graded"]),
+        ({"patterns": {"rule": "graded", "scenario": "twist"}}, ["patterns.scenario", "cylinder", "dome"]),
+        ({"patterns": {"hexagon": "0x0488", "pentagon": "0x0508"}}, ["patterns.hexagon", "does not apply"]),
+        ({"plates": {"process": "cnc"}}, ["plates.process", "print", "laser"]),
+        ({"sleeve": {"clerance": 0.2}}, ["unknown key sleeve.clerance", "clearance, margin, wall, depth"]),
+        ({"sheet": {"width": 170.0}}, ["missing key sheet.height"]),
+        ({"sheet": {"width": 50.0, "height": 50.0}}, ["sheet.width × sheet.height", "smaller than a hexagon plate"]),
+        ({"output": {"formats": ["step", "obj"]}}, ["output.formats", "'obj'", "step, stl, glb"]),
+        ({"colour": "red"}, ["unknown key colour"]),
+    ],
+)
+def test_bad_specs_name_the_key(change: dict, words: list[str]) -> None:
+    with pytest.raises(SpecError) as e:
+        parse_spec(base(**change), "x.toml")
+    msg = str(e.value)
+    assert "\n" not in msg and msg.startswith("x.toml")
+    for w in words:
+        assert w in msg
+
+
+def test_missing_table_and_sphere_patterns() -> None:
+    data = base()
+    del data["sheet"]
+    with pytest.raises(SpecError, match=r"missing table \[sheet\]"):
+        parse_spec(data)
+    sphere = {"kind": "truncated-icosahedron", "edge": 36.0}
+    with pytest.raises(SpecError, match="missing key patterns.pentagon"):
+        parse_spec(base(tiling=sphere, patterns={"hexagon": "0x0488"}, sheet={"width": 600, "height": 400}))
+    spec = parse_spec(base(tiling=sphere, patterns={"rule": "similar-energy"}, sheet={"width": 600, "height": 400}))
+    assert spec.patterns.scenario == "dome"
+
+
+def test_relative_catalog_path_is_next_to_the_spec(tmp_path: Path) -> None:
+    spec = tmp_path / "s.toml"
+    spec.write_text('[tiling]\nkind = "honeycomb-strip"\nedge = 36.0\nrows = 1\ncolumns = 4\n'
+                    '[patterns]\nrule = "graded"\ncount = 2\ncatalog = "cat.sqlite"\n'
+                    "[sheet]\nwidth = 600.0\nheight = 400.0\n")
+    p = load_spec(spec).patterns
+    assert p.catalog == str(tmp_path / "cat.sqlite") and p.group_columns == 2 and p.scenario == "cylinder"
+
+
+def test_unreadable_and_invalid_toml(tmp_path: Path) -> None:
+    with pytest.raises(SpecError, match="cannot read spec"):
+        load_spec(tmp_path / "nope.toml")
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[tiling\nkind = 1\n")
+    with pytest.raises(SpecError, match="invalid TOML"):
+        load_spec(bad)
