@@ -89,12 +89,18 @@ def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> lis
 @click.option("--weight", type=float, default=0.2, show_default=True, callback=_at_least(0, "weight", True),
               help="Middle weight w of the interface fillet arcs (> 0).")
 @click.option("--step", "step", type=click.Path(dir_okay=False), help="STEP AP214 file (exact solid).")
-@click.option("--stl", "stl", type=click.Path(dir_okay=False), help="Binary STL file (0.01 mm chord).")
+@click.option("--stl", "stl", type=click.Path(dir_okay=False), help="Binary STL file (chord --mesh-tolerance).")
 @click.option("--3mf", "threemf", type=click.Path(dir_okay=False), help="3MF file (mesh for slicers).")
 @click.option("--dxf", "dxf", type=click.Path(dir_okay=False), help="DXF file (CUT and ENGRAVE layers).")
 @click.option("--svg", "svg", type=click.Path(dir_okay=False), help="SVG file (exact outline, true size).")
 @click.option("--curves", type=click.Choice(["arcs", "spline", "lines"]), default="arcs", show_default=True,
-              help="DXF curves: circular arcs within 0.01 mm, exact rational splines, or polylines.")
+              help="DXF curves: circular arcs or polylines within --curve-tolerance, or exact rational splines.")
+@click.option("--mesh-tolerance", type=float, default=0.01, show_default=True,
+              callback=_at_least(0, "mesh tolerance", True),
+              help="STL/3MF: largest distance in mm between the triangles and the exact surface.")
+@click.option("--curve-tolerance", type=float, default=0.01, show_default=True,
+              callback=_at_least(0, "curve tolerance", True),
+              help="DXF arcs/lines and kerf-offset SVG: largest deviation in mm from the exact outline.")
 @click.option("--kerf", type=float, default=0.0, show_default=True, callback=_at_least(0, "kerf"),
               help="Laser kerf in mm: DXF/SVG loops move out by kerf/2.")
 @click.option("--dxf-version", type=click.Choice(["R2010", "R2000", "R12"]), default="R2010", show_default=True,
@@ -104,8 +110,8 @@ def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> lis
 @click.option("--formats", default=None, help=f"Formats for --all, comma-separated [default: {DEFAULT_ALL_FORMATS}].")
 def export_cmd(pattern_id: str | None, sides: int, edge: float, thickness: float, weight: float,
                step: str | None, stl: str | None, threemf: str | None, dxf: str | None, svg: str | None,
-               curves: str, kerf: float, dxf_version: str, all_: bool, out: str | None,
-               formats: str | None) -> None:
+               curves: str, mesh_tolerance: float, curve_tolerance: float, kerf: float, dxf_version: str,
+               all_: bool, out: str | None, formats: str | None) -> None:
     """Write fabrication files for one pattern (ID) or, with --all, for the whole library.
 
     Warns on stderr when the narrowest feature is below the process limit: 0.8 mm for printing
@@ -116,7 +122,8 @@ def export_cmd(pattern_id: str | None, sides: int, edge: float, thickness: float
       fabpat export 0x0488 --step p.step --stl p.stl --dxf p.dxf --kerf 0.15
       fabpat export --all --out parts --formats step,dxf
     """
-    settings = ExportSettings(curves=curves, kerf=kerf, dxf_version=dxf_version)
+    settings = ExportSettings(curves=curves, kerf=kerf, dxf_version=dxf_version, mesh_tolerance=mesh_tolerance,
+                              curve_tolerance=curve_tolerance)
     settings.check()
     files = {"step": step, "stl": stl, "3mf": threemf, "dxf": dxf, "svg": svg}
     if all_:

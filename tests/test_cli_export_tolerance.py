@@ -1,0 +1,50 @@
+"""The user-set tolerances of ``fabpat export`` reach the files: coarser = fewer pieces, within bound."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.conftest import run_cli
+from tests.test_exchange_dxf import bulge_area, cut_loops, read
+
+
+def _outline():  # noqa: ANN202
+    from fabpat.fillet import fillet_pattern
+    from fabpat.library import get_pattern
+
+    return fillet_pattern(get_pattern("0x2d88")).outline
+
+
+@pytest.mark.parametrize("tol", [0.002, 0.05])
+def test_dxf_curve_tolerance(tmp_path: Path, tol: float) -> None:
+    out = tmp_path / "p.dxf"
+    r = run_cli("export", "0x2d88", "--dxf", str(out), "--curves", "lines", "--curve-tolerance", str(tol))
+    assert r.returncode == 0, r.stderr
+    loops = cut_loops(read(out))
+    outline = _outline()
+    area = sum(bulge_area(lp) for lp in loops)
+    # every chord stays within tol of the exact outline, so the area differs by at most perimeter × tol
+    assert abs(area - outline.area) <= outline.perimeter * tol
+    vertices = sum(len(lp) for lp in loops)
+    exact = sum(len(p) for p in outline.flatten(tol))
+    assert vertices == pytest.approx(exact, rel=0.2)
+
+
+def test_stl_mesh_tolerance(tmp_path: Path) -> None:
+    trimesh = pytest.importorskip("trimesh")
+    counts, errors = [], []
+    outline = _outline()
+    for tol in (0.002, 0.05):
+        out = tmp_path / f"p{tol}.stl"
+        r = run_cli("export", "0x2d88", "--stl", str(out), "--mesh-tolerance", str(tol))
+        assert r.returncode == 0, r.stderr
+        m = trimesh.load(out, file_type="stl")
+        assert m.is_watertight
+        counts.append(len(m.faces))
+        errors.append(abs(m.volume - 2.0 * outline.area) / (2.0 * outline.perimeter))  # mean chord offset, mm
+        assert errors[-1] <= tol
+    assert counts[0] > 2 * counts[1]
+    assert np.all(np.isfinite(errors))
