@@ -1,0 +1,106 @@
+"""Sweep benchmark: time per pattern-scenario, the share spent meshing / assembling / solving, and the
+estimated full-library sweep (430 patterns × 3 nonlinear scenarios) on this machine.
+
+Run: ``python benchmarks/bench_sweep.py [--patterns K] [--seed S] [--h MM] [--workers N]``.
+Part 1 runs K random patterns one after the other in this process and splits the time by phase
+(fillet + mesh once per pattern, shared by its three scenarios; tangent assembly; internal forces /
+residual; LU factorisation + back-substitution). Part 2 runs the same K patterns through ``run_sweep``
+with N worker processes into a temporary catalog, which measures the real parallel throughput
+(including process start-up and catalog commits); the estimate scales that to 430 × 3.
+Prints Markdown tables.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+from fabpat.fillet import fillet_pattern
+from fabpat.library import enumerate_library, sample_library
+from fabpat.mesh import mesh_outline
+from fabpat.scenarios import SCENARIOS, run_scenario
+from fabpat.sweep import SweepSetup, run_sweep
+
+
+def sequential(ids: list[str], h: float) -> list[dict[str, float | str]]:
+    """One dict per pattern-scenario with the seconds of each phase (meshing split over the scenarios)."""
+    lib = enumerate_library(6, 2)
+    rows: list[dict[str, float | str]] = []
+    for pid in ids:
+        t0 = time.perf_counter()
+        fp = fillet_pattern(lib.pattern(pid), 0.2)
+        fp.validate(1e-2)  # the sweep stores min_width: part of the per-pattern geometry cost
+        mesh = mesh_outline(fp.outline, h, 6, 36.0)
+        t_mesh = time.perf_counter() - t0
+        for sc in SCENARIOS:
+            r = run_scenario(mesh, sc, sides=6)
+            s = r.result.seconds
+            tangent, solve = s.get("tangent", 0.0), s.get("factor_solve", 0.0)
+            rows.append({"id": pid, "scenario": sc, "nodes": mesh.n_nodes, "iterations": r.iterations,
+                         "mesh": t_mesh / len(SCENARIOS), "tangent": tangent, "solve": solve,
+                         "residual": max(r.seconds - tangent - solve, 0.0), "energy": r.energy})
+    return rows
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--patterns", type=int, default=6, help="random patterns to time (default 6)")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--h", type=float, default=1.5, help="mesh size in mm (the sweep's default 1.5)")
+    ap.add_argument("--workers", type=int, default=2, help="worker processes for part 2 (default 2)")
+    a = ap.parse_args()
+    ids = list(sample_library(6, 2, a.patterns, a.seed).ids)
+
+    rows = sequential(ids, a.h)
+    phases = ("mesh", "tangent", "residual", "solve")
+    totals = {p: sum(float(r[p]) for r in rows) for p in phases}
+    grand = sum(totals.values())
+    print(f"## Part 1: {len(ids)} patterns × {len(SCENARIOS)} scenarios, one process, h = {a.h:g} mm\n")
+    print("| scenario | runs | mean nodes | mean Newton its | mean s / run | min s | max s |")
+    print("|---|---|---|---|---|---|---|")
+    for sc in SCENARIOS:
+        rs = [r for r in rows if r["scenario"] == sc]
+        t = [sum(float(r[p]) for p in phases) for r in rs]
+        print(f"| {sc} | {len(rs)} | {statistics.mean(float(r['nodes']) for r in rs):.0f} | "
+              f"{statistics.mean(float(r['iterations']) for r in rs):.1f} | {statistics.mean(t):.2f} | "
+              f"{min(t):.2f} | {max(t):.2f} |")
+    per = grand / len(rows)
+    print(f"| all | {len(rows)} | | | {per:.2f} | | |\n")
+    print("| phase | what | share |")
+    print("|---|---|---|")
+    what = {"mesh": "fillet + validate + mesh (once per pattern)", "tangent": "assembling tangent matrices",
+            "residual": "assembling internal forces / residuals, energies", "solve": "LU factorisation + solves"}
+    for p in phases:
+        print(f"| {p} | {what[p]} | {100 * totals[p] / grand:.1f} % |")
+    n_rows = 430 * len(SCENARIOS)
+    print(f"\nIdeal estimate, 430 × 3 on {a.workers} cores: {n_rows * per / a.workers / 60:.1f} min\n")
+
+    with tempfile.TemporaryDirectory() as d:
+        cpu0 = _children_cpu()
+        t0 = time.perf_counter()
+        rep = run_sweep(Path(d) / "bench.sqlite", ids, SweepSetup(h=a.h), workers=a.workers)
+        wall = time.perf_counter() - t0
+        cpu = _children_cpu() - cpu0  # CPU seconds of the (finished) worker processes
+    per_par = wall / rep.computed
+    print(f"## Part 2: run_sweep, {a.workers} workers, load average {os.getloadavg()[0]:.1f}\n")
+    print("Wall time is what this (possibly shared) machine gave; worker CPU time / cores is what "
+          f"{a.workers} dedicated cores would take.\n")
+    print("| pattern-scenarios | wall s | wall s per pattern-scenario | estimate 430 × 3 (wall) | "
+          "worker CPU s | estimate 430 × 3 (CPU / cores) |")
+    print("|---|---|---|---|---|---|")
+    print(f"| {rep.computed} | {wall:.1f} | {per_par:.2f} | {n_rows * per_par / 60:.1f} min | {cpu:.1f} | "
+          f"{n_rows * cpu / rep.computed / a.workers / 60:.1f} min |")
+
+
+def _children_cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,130 @@
+"""The browsing page (paper §4.2, Figs 13–14): one self-contained, offline HTML file of scatter plots.
+
+Dots are patterns; every plot's axes can be switched among all metrics of the catalog (energies and
+displacements on log axes). Hovering a dot shows the pattern's picture; a box/lasso selection in any
+plot highlights the same patterns in every plot and lists them with pictures, numbers and
+ready-to-copy ``fabpat export`` lines. plotly.js is inlined (what ``include_plotlyjs=True`` does), the
+pictures are SVG data made from the filleted outlines stored in the catalog, so the page makes no
+network request at all.
+
+The page is a template (``fabpat/data/browse_template.html``) filled with one JSON document; the
+JavaScript in the template draws the plots (plotly.js is driven directly, which keeps selection
+linking in one place).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from importlib import resources
+
+import numpy as np
+
+from fabpat.catalog import DEFAULT_SETUP, Catalog, CatalogError
+
+_LABELS = {
+    "area": ("area", "mm²"), "perimeter": ("perimeter", "mm"), "ratio": ("ratio 4πA/P²", ""),
+    "polar_moment": ("polar moment", "mm⁴"), "filleted_area": ("filleted area", "mm²"),
+    "filleted_perimeter": ("filleted perimeter", "mm"), "filleted_ratio": ("filleted ratio 4πA/P²", ""),
+    "filleted_polar_moment": ("filleted polar moment", "mm⁴"), "min_width": ("min width", "mm"),
+}
+#: the paper's four plots (Figs 13–14): (x, y) metric keys; energies fall back if not simulated
+DEFAULT_PLOTS = (("area", "perimeter"), ("polar_moment", "energy_cantilever"), ("polar_moment", "energy_cylinder"),
+                 ("polar_moment", "energy_dome"))
+_NUMBER = re.compile(r"-?\d+\.\d+(?:e-?\d+)?")
+
+
+def metric_info(key: str) -> dict[str, object]:
+    """Label, unit and whether the axis is logarithmic for a metric column of the wide rows."""
+    if key in _LABELS:
+        label, unit = _LABELS[key]
+        return {"key": key, "label": label, "unit": unit, "log": False}
+    for prefix, label, unit in (("energy_", "energy", "N·mm"), ("max_displacement_", "max displacement", "mm")):
+        if key.startswith(prefix):
+            return {"key": key, "label": f"{label}, {key[len(prefix):]}", "unit": unit, "log": True}
+    return {"key": key, "label": key, "unit": "", "log": False}
+
+
+def choose_setup(cat: Catalog, sides: int | None = None) -> dict[str, object]:
+    """The set-up to show: the default one if present (and matching ``sides``), else the largest."""
+    setups = [s for s in cat.setups() if sides is None or s["sides"] == sides]
+    if not setups:
+        raise CatalogError(f"catalog {cat.path} has no patterns" + (f" with {sides} sides" if sides else ""))
+    for s in setups:
+        if all(s[k] == v for k, v in DEFAULT_SETUP.items()):
+            return {k: s[k] for k in DEFAULT_SETUP}
+    best = max(setups, key=lambda s: s["patterns"])  # type: ignore[arg-type, return-value]
+    return {k: best[k] for k in DEFAULT_SETUP}
+
+
+def _short_path(d: str) -> str:
+    """SVG path data with numbers rounded to 0.01 mm (a 100-px thumbnail needs no more; ~3× smaller)."""
+    return _NUMBER.sub(lambda m: f"{float(m.group()):.2f}".rstrip("0").rstrip("."), d)
+
+
+def _lattice_path(pattern_id: str, sides: int, depth: int, edge: float) -> str:
+    """Fallback picture: the solid lattice triangles as path data (for rows without an outline)."""
+    from fabpat.pattern import Pattern
+
+    try:
+        p = Pattern.from_id(pattern_id, sides, depth, edge)
+    except Exception:  # noqa: BLE001 - a bad ID in a foreign catalog: no picture rather than no page
+        return ""
+    tris = p.V[p.solid_faces]
+    return " ".join("M " + " L ".join(f"{x:.2f} {y:.2f}" for x, y in t) + " Z" for t in tris)
+
+
+def page_data(cat: Catalog, sides: int | None = None) -> dict[str, object]:
+    """Everything the page shows, as one JSON-ready dict (columnar values, one entry per pattern)."""
+    from fabpat.lattice import polygon_vertices
+
+    setup = choose_setup(cat, sides)
+    rows = cat.pattern_rows(pictures=True, **setup)
+    keys = [k for k in rows[0] if k not in ("id", "sides", "depth", "edge", "thickness", "weight", "svg_path")
+            and not k.startswith("converged_")] if rows else []
+    keys = [k for k in keys if any(isinstance(r[k], int | float) for r in rows)]  # drop never-computed ones
+    values = {k: [None if r[k] is None else float(r[k]) for r in rows] for k in keys}  # type: ignore[arg-type]
+    n, d, edge = int(setup["sides"]), int(setup["depth"]), float(setup["edge"])  # type: ignore[arg-type]
+    paths = [_short_path(str(r["svg_path"])) if r["svg_path"] else _lattice_path(str(r["id"]), n, d, edge)
+             for r in rows]
+    plots = []
+    for x, y in DEFAULT_PLOTS:
+        if y not in values:  # a geometry-only catalog: show other geometric pairs instead
+            y = {"energy_cantilever": "min_width", "energy_cylinder": "filleted_ratio"}.get(y, "filleted_area")
+        plots.append({"x": x if x in values else keys[0], "y": y if y in values else keys[-1]})
+    corners = polygon_vertices(n, edge)
+    r = float(np.abs(corners).max()) * 1.04
+    from fabpat import __version__
+
+    versions = sorted({str(q["solver_version"]) for q in cat.query(
+        "SELECT DISTINCT solver_version FROM results WHERE sides = ? AND depth = ? AND edge = ?", (n, d, edge))})
+    return {
+        "setup": setup, "ids": [str(r_["id"]) for r_ in rows], "paths": paths, "values": values,
+        "metrics": [metric_info(k) for k in keys], "plots": plots,
+        "polygon": " ".join(f"{x:.3f},{-y:.3f}" for x, y in corners), "viewbox": [-r, -r, 2 * r, 2 * r],
+        "source": {"catalog": cat.path.name, "fabpat": __version__, "solver": versions},
+    }
+
+
+def render_page(data: dict[str, object]) -> str:
+    """The HTML document: the template with plotly.js and the data inlined."""
+    from plotly.offline import get_plotlyjs  # the exact script that include_plotlyjs=True embeds
+
+    template = (resources.files("fabpat") / "data" / "browse_template.html").read_text(encoding="utf-8")
+    # "</" inside a <script> would end it early: escape it in the JSON (still valid JSON)
+    blob = json.dumps(data, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
+    title = f"fabpat library: {len(data['ids'])} patterns"  # type: ignore[arg-type]
+    return (template.replace("{{TITLE}}", title)
+            .replace("{{DATA}}", blob)
+            .replace("{{PLOTLYJS}}", get_plotlyjs()))
+
+
+def write_page(cat: Catalog, out: str, sides: int | None = None) -> int:
+    """Write the browsing page to ``out`` atomically; returns the number of patterns shown."""
+    from fabpat.io import atomic_outputs
+
+    data = page_data(cat, sides)
+    html = render_page(data)
+    with atomic_outputs(out) as (tmp,):
+        tmp.write_text(html, encoding="utf-8")
+    return len(data["ids"])  # type: ignore[arg-type]

@@ -1,0 +1,356 @@
+"""The simulation catalog: an SQLite database of patterns and their scenario results (paper §4.2).
+
+Two tables (stdlib :mod:`sqlite3`, no pandas):
+
+* ``patterns``: one row per pattern and set-up — key ``(id, sides, depth, edge, thickness, weight)``;
+  lattice metrics (area mm², perimeter mm, ratio, polar moment mm⁴), the same for the filleted
+  outline, its ``min_width`` (mm), its SVG path data (``svg_path``, mm, y up; pictures in the browsing
+  page) and ``error`` if filleting failed.
+* ``results``: one row per pattern × scenario — the same key plus ``scenario``; material (E N/mm², nu),
+  mesh size h (mm), ``energy`` (N·mm), ``max_displacement`` (mm), ``converged``, ``iterations``,
+  ``seconds``, mesh size in nodes/elements, ``error`` (message of a deterministic failure: no
+  convergence, unmeshable outline), ``solver_version`` and ``input_hash``.
+
+``input_hash`` digests every input that affects a result (the key, the material, h, nonlinear, the
+solver version — which includes a digest of the source of every module the pipeline imports, see
+:func:`pipeline_modules`): a sweep skips a row whose stored hash equals the one it would compute, so
+changing any input or the solver code recomputes exactly the affected rows.
+
+Readers: :func:`open_catalog` (``None`` → the built-in catalog shipped in ``fabpat/data``),
+:meth:`Catalog.pattern_rows` (one plain dict per pattern with ``energy_<scenario>`` columns),
+:meth:`Catalog.query` and :func:`energies`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import sqlite3
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from dataclasses import dataclass
+from functools import cache
+from importlib import resources
+from pathlib import Path
+
+from fabpat.errors import FabpatError
+
+SCHEMA_VERSION = "1"
+BUILTIN_NAME = "catalog.sqlite"
+
+#: the default set-up of the built-in catalog (paper §4.1: hexagon of 36 mm edge, 2 mm PLA)
+DEFAULT_SETUP = {"sides": 6, "depth": 2, "edge": 36.0, "thickness": 2.0, "weight": 0.2}
+
+KEY = ("id", "sides", "depth", "edge", "thickness", "weight")
+
+PATTERN_COLUMNS: dict[str, str] = {
+    "id": "TEXT NOT NULL", "sides": "INTEGER NOT NULL", "depth": "INTEGER NOT NULL", "edge": "REAL NOT NULL",
+    "thickness": "REAL NOT NULL", "weight": "REAL NOT NULL",
+    "area": "REAL", "perimeter": "REAL", "ratio": "REAL", "polar_moment": "REAL",
+    "filleted_area": "REAL", "filleted_perimeter": "REAL", "filleted_ratio": "REAL",
+    "filleted_polar_moment": "REAL", "min_width": "REAL", "svg_path": "TEXT", "error": "TEXT",
+    "input_hash": "TEXT NOT NULL",
+}
+RESULT_COLUMNS: dict[str, str] = {
+    "id": "TEXT NOT NULL", "sides": "INTEGER NOT NULL", "depth": "INTEGER NOT NULL", "edge": "REAL NOT NULL",
+    "thickness": "REAL NOT NULL", "weight": "REAL NOT NULL", "scenario": "TEXT NOT NULL",
+    "E": "REAL NOT NULL", "nu": "REAL NOT NULL", "h": "REAL NOT NULL", "nonlinear": "INTEGER NOT NULL",
+    "energy": "REAL", "max_displacement": "REAL", "converged": "INTEGER NOT NULL", "iterations": "INTEGER",
+    "seconds": "REAL", "nodes": "INTEGER", "elements": "INTEGER", "error": "TEXT",
+    "solver_version": "TEXT NOT NULL", "input_hash": "TEXT NOT NULL", "computed_at": "TEXT NOT NULL",
+}
+#: metrics copied from ``patterns`` into the wide rows of :meth:`Catalog.pattern_rows`
+METRICS = ("area", "perimeter", "ratio", "polar_moment", "filleted_area", "filleted_perimeter", "filleted_ratio",
+           "filleted_polar_moment", "min_width")
+
+# The results depend on the code of these modules and of every fabpat module they import (found by
+# reading their import statements): that code's digest is part of the solver version, so a code change
+# invalidates stored results instead of silently mixing them, and an unrelated module does not.
+_PIPELINE_ROOTS = ("fabpat.library", "fabpat.fillet", "fabpat.mesh", "fabpat.scenarios")
+
+
+class CatalogError(FabpatError):
+    """A catalog file that is missing, not a fabpat catalog, or from an incompatible schema."""
+
+
+def pipeline_modules(roots: Sequence[str] = _PIPELINE_ROOTS) -> list[Path]:
+    """Source files of ``roots`` and of every fabpat module they import, directly or not (sorted).
+
+    Imports are read from the source (``ast``), including the lazy ones inside functions.
+    """
+    import ast
+
+    base = Path(str(resources.files("fabpat")))
+
+    def path_of(module: str) -> Path | None:
+        parts = module.split(".")[1:]
+        if not parts:
+            return base / "__init__.py"
+        for cand in (base.joinpath(*parts[:-1], parts[-1] + ".py"), base.joinpath(*parts, "__init__.py")):
+            if cand.is_file():
+                return cand
+        return None
+
+    seen: dict[str, Path] = {}
+    todo = list(roots)
+    while todo:
+        mod = todo.pop()
+        path = path_of(mod)
+        if mod in seen or path is None:
+            continue
+        seen[mod] = path
+        parts = mod.split(".")
+        todo.extend(".".join(parts[:k]) for k in range(2, len(parts)))  # importing a.b.c runs a.b's __init__
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("fabpat"):
+                todo.append(node.module)
+                todo.extend(f"{node.module}.{a.name}" for a in node.names)  # `from fabpat.shell import solve`
+            elif isinstance(node, ast.Import):
+                todo.extend(a.name for a in node.names if a.name.startswith("fabpat"))
+    return sorted(set(seen.values()))
+
+
+@cache
+def solver_version() -> str:
+    """``fabpat <version>+<digest>``: the package version and a digest of the pipeline's source files
+    (:func:`pipeline_modules`) and of the mesher's version (another Delaunay mesh, another energy)."""
+    from fabpat import __version__
+
+    base = Path(str(resources.files("fabpat")))
+    h = hashlib.sha256()
+    for f in pipeline_modules():
+        h.update(f.relative_to(base).as_posix().encode())
+        h.update(f.read_bytes())
+    try:
+        from importlib.metadata import version
+
+        h.update(version("triangle").encode())
+    except Exception:  # noqa: BLE001 - metadata missing in odd installs: the digest still covers the code
+        pass
+    return f"fabpat {__version__}+{h.hexdigest()[:12]}"
+
+
+def input_hash(inputs: Mapping[str, object]) -> str:
+    """A 16-hex-digit SHA-256 of a flat mapping of inputs (keys sorted; floats by ``repr``)."""
+    text = json.dumps({k: inputs[k] for k in sorted(inputs)}, sort_keys=True, default=repr)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def builtin_path() -> Path:
+    """Path of the catalog shipped with the package (``fabpat/data/catalog.sqlite``)."""
+    return Path(str(resources.files("fabpat") / "data" / BUILTIN_NAME))
+
+
+def _create_sql() -> list[str]:
+    def table(name: str, cols: dict[str, str], key: Sequence[str]) -> str:
+        body = ", ".join(f"{c} {t}" for c, t in cols.items())
+        return f"CREATE TABLE IF NOT EXISTS {name} ({body}, PRIMARY KEY ({', '.join(key)}))"
+
+    return [
+        "CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)",
+        table("patterns", PATTERN_COLUMNS, KEY),
+        table("results", RESULT_COLUMNS, (*KEY, "scenario")),
+    ]
+
+
+@dataclass(eq=False)
+class Catalog:
+    """An open catalog database. Use as a context manager or call :meth:`close`."""
+
+    path: Path
+    conn: sqlite3.Connection
+    writable: bool
+
+    # ------------------------------------------------------------------------------ reading
+
+    def query(self, sql: str, params: Sequence[object] | Mapping[str, object] = ()) -> list[dict[str, object]]:
+        """Run a read query; one plain dict per row (column name → value)."""
+        cur = self.conn.execute(sql, params)
+        names = [d[0] for d in cur.description or ()]
+        return [dict(zip(names, row, strict=True)) for row in cur.fetchall()]
+
+    def scenarios(self) -> list[str]:
+        """Scenario names present in ``results``, in the paper's order first."""
+        from fabpat.scenarios import SCENARIOS
+
+        found = {r["scenario"] for r in self.query("SELECT DISTINCT scenario FROM results")}
+        return [s for s in SCENARIOS if s in found] + sorted(str(s) for s in found - set(SCENARIOS))
+
+    def setups(self) -> list[dict[str, object]]:
+        """Distinct (sides, depth, edge, thickness, weight) set-ups with their pattern counts."""
+        return self.query("SELECT sides, depth, edge, thickness, weight, COUNT(*) AS patterns FROM patterns "
+                          "GROUP BY sides, depth, edge, thickness, weight ORDER BY sides, depth, edge")
+
+    def results(self, scenario: str | None = None, **setup: object) -> list[dict[str, object]]:
+        """Rows of ``results`` (long form), optionally filtered by scenario and key columns."""
+        where, params = _where({**setup, **({"scenario": scenario} if scenario else {})})
+        return self.query(f"SELECT * FROM results{where} ORDER BY sides, depth, edge, thickness, weight, id, "
+                          "scenario", params)
+
+    def pattern_rows(self, *, pictures: bool = False, **setup: object) -> list[dict[str, object]]:
+        """One dict per pattern (wide form): key, metrics and, per scenario, ``energy_<s>`` (N·mm),
+        ``max_displacement_<s>`` (mm) and ``converged_<s>``; None where no result is stored.
+
+        ``setup`` filters by key columns (e.g. ``sides=6``); ``pictures`` adds ``svg_path``.
+        """
+        where, params = _where(setup)
+        cols = ", ".join([*KEY, *METRICS, *(("svg_path",) if pictures else ())])
+        rows = self.query(f"SELECT {cols} FROM patterns{where} ORDER BY sides, depth, edge, thickness, weight, id",
+                          params)
+        scen = self.scenarios()
+        by_key = {tuple(r[k] for k in KEY): r for r in rows}
+        for r in rows:
+            for s in scen:
+                r[f"energy_{s}"] = r[f"max_displacement_{s}"] = r[f"converged_{s}"] = None
+        res = self.query(f"SELECT {', '.join(KEY)}, scenario, energy, max_displacement, converged FROM results"
+                         f"{where}", params)
+        for q in res:
+            r = by_key.get(tuple(q[k] for k in KEY))
+            if r is not None:
+                s = q["scenario"]
+                r[f"energy_{s}"] = q["energy"] if q["converged"] else None
+                r[f"max_displacement_{s}"] = q["max_displacement"] if q["converged"] else None
+                r[f"converged_{s}"] = bool(q["converged"])
+        return rows
+
+    def stored_hashes(self, sides: int, depth: int, edge: float, thickness: float,
+                      weight: float) -> tuple[dict[str, str], dict[tuple[str, str], str]]:
+        """Input hashes of one set-up: {id: pattern hash}, {(id, scenario): result hash}."""
+        p = (sides, depth, edge, thickness, weight)
+        cond = "sides = ? AND depth = ? AND edge = ? AND thickness = ? AND weight = ?"
+        pats = {str(a): str(b) for a, b in self.conn.execute(f"SELECT id, input_hash FROM patterns WHERE {cond}", p)}
+        res = {(str(a), str(s)): str(b) for a, s, b in
+               self.conn.execute(f"SELECT id, scenario, input_hash FROM results WHERE {cond}", p)}
+        return pats, res
+
+    # ------------------------------------------------------------------------------ writing
+
+    def write_rows(self, rows: Iterable[Mapping[str, object]]) -> int:
+        """Insert or replace rows in ONE transaction (all or nothing); returns how many.
+
+        Each row names its table in ``row["table"]`` ("patterns" or "results"); other keys are columns.
+        A SIGKILL during the call leaves either all of these rows or none of them (SQLite atomic commit).
+        """
+        if not self.writable:
+            raise CatalogError(f"catalog {self.path} is open read-only")
+        n = 0
+        with self.conn:  # BEGIN … COMMIT, or ROLLBACK on error
+            for row in rows:
+                table = row["table"]
+                cols = PATTERN_COLUMNS if table == "patterns" else RESULT_COLUMNS if table == "results" else None
+                if cols is None:
+                    raise ValueError(f"unknown table {table!r}")
+                names = [c for c in cols if c in row]
+                self.conn.execute(f"INSERT OR REPLACE INTO {table} ({', '.join(names)}) "
+                                  f"VALUES ({', '.join('?' * len(names))})", [row[c] for c in names])
+                n += 1
+        return n
+
+    def finish(self) -> None:
+        """Fold the write-ahead log into the main file and leave WAL mode, so the catalog is ONE file
+        that opens read-only anywhere (a WAL-mode file needs a writable ``-shm`` next to it)."""
+        if self.writable:
+            # a reader still open elsewhere keeps WAL mode (busy): harmless, the next finish() retries
+            with contextlib.suppress(sqlite3.OperationalError):
+                self.conn.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+                self.conn.execute("PRAGMA journal_mode=DELETE")
+
+    def close(self) -> None:
+        self.conn.close()
+
+    def __enter__(self) -> Catalog:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _where(filters: Mapping[str, object]) -> tuple[str, list[object]]:
+    allowed = set(KEY) | {"scenario"}
+    bad = set(filters) - allowed
+    if bad:
+        raise ValueError(f"cannot filter by {', '.join(sorted(bad))}; use {', '.join(sorted(allowed))}")
+    items = [(k, v) for k, v in filters.items() if v is not None]
+    if not items:
+        return "", []
+    return " WHERE " + " AND ".join(f"{k} = ?" for k, _ in items), [v for _, v in items]
+
+
+def open_catalog(path: str | Path | None = None, *, write: bool = False) -> Catalog:
+    """Open a catalog: ``None`` → the built-in one (read-only); ``write=True`` creates it if missing.
+
+    Writable catalogs use WAL journaling with ``synchronous=NORMAL``: every commit survives a crash
+    or kill of the process (only a power loss can lose the last commits), and readers never block the
+    writer. Raises :class:`CatalogError` if the file is missing (read mode) or is not a catalog.
+    """
+    p = builtin_path() if path is None else Path(path)
+    if write:
+        if path is None:
+            raise CatalogError("the built-in catalog is read-only here; give --db FILE")
+        if p.is_dir() or not (p.parent if str(p.parent) else Path(".")).is_dir():
+            raise CatalogError(f"cannot create catalog {p}: folder {p.parent} does not exist")
+        try:
+            conn = sqlite3.connect(p, timeout=30.0)
+            conn.execute("PRAGMA journal_mode=WAL")
+            conn.execute("PRAGMA synchronous=NORMAL")
+            for sql in _create_sql():
+                conn.execute(sql)
+            with conn:
+                conn.execute("INSERT OR IGNORE INTO meta VALUES ('schema_version', ?)", (SCHEMA_VERSION,))
+        except sqlite3.DatabaseError as e:
+            raise CatalogError(f"{p} is not a fabpat catalog ({e})") from e
+    else:
+        if not p.is_file():
+            what = "the built-in catalog" if path is None else "catalog"
+            raise CatalogError(f"{what} {p} does not exist; create one with `fabpat sweep --db {p}`")
+        try:
+            # mode=ro: a reader never creates or modifies the file
+            conn = sqlite3.connect(f"{p.resolve().as_uri()}?mode=ro", uri=True, timeout=30.0)
+        except sqlite3.DatabaseError as e:  # pragma: no cover - connect is lazy; see the check below
+            raise CatalogError(f"cannot open catalog {p}: {e}") from e
+    cat = Catalog(p, conn, write)
+    try:
+        version = cat.query("SELECT value FROM meta WHERE key = 'schema_version'")
+    except sqlite3.DatabaseError as e:
+        conn.close()
+        raise CatalogError(f"{p} is not a fabpat catalog ({e})") from e
+    if not version or version[0]["value"] != SCHEMA_VERSION:
+        conn.close()
+        raise CatalogError(f"{p} has catalog schema {version[0]['value'] if version else '?'}, expected "
+                           f"{SCHEMA_VERSION}; re-create it with `fabpat sweep --db {p} --force`")
+    return cat
+
+
+@cache
+def _builtin_energies(scenario: str, sides: int, depth: int, edge: float, thickness: float,
+                      weight: float) -> tuple[tuple[str, float], ...]:
+    with open_catalog(None) as cat:
+        return tuple(_energy_items(cat, scenario, sides, depth, edge, thickness, weight))
+
+
+def _energy_items(cat: Catalog, scenario: str, sides: int, depth: int, edge: float, thickness: float,
+                  weight: float) -> Iterator[tuple[str, float]]:
+    for r in cat.query("SELECT id, energy FROM results WHERE scenario = ? AND sides = ? AND depth = ? AND edge = ? "
+                       "AND thickness = ? AND weight = ? AND converged = 1 ORDER BY id",
+                       (scenario, sides, depth, edge, thickness, weight)):
+        yield str(r["id"]), float(r["energy"])  # type: ignore[arg-type]
+
+
+def energies(catalog: Catalog | str | Path | None, scenario: str, sides: int = 6, *, depth: int = 2,
+             edge: float = 36.0, thickness: float = 2.0, weight: float = 0.2) -> dict[str, float]:
+    """Total strain energy (N·mm) of every converged pattern in one scenario: {pattern ID: energy}.
+
+    ``catalog``: an open :class:`Catalog`, a path, or None for the built-in catalog (cached).
+    Lower energy = stiffer pattern (constant loads, paper §5). Empty if the scenario was not simulated.
+    """
+    from fabpat.scenarios import SCENARIOS
+
+    if scenario not in SCENARIOS:
+        raise ValueError(f"unknown scenario {scenario!r}; expected one of {', '.join(SCENARIOS)}")
+    args = (scenario, sides, depth, float(edge), float(thickness), float(weight))
+    if catalog is None:
+        return dict(_builtin_energies(*args))
+    if isinstance(catalog, Catalog):
+        return dict(_energy_items(catalog, *args))
+    with open_catalog(catalog) as cat:
+        return dict(_energy_items(cat, *args))

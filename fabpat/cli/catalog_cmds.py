@@ -1,0 +1,192 @@
+"""``fabpat sweep``, ``fabpat catalog``, ``fabpat browse`` and ``fabpat plot``: simulate the library into a
+catalog, print it, browse it as linked scatter plots, draw its static figures."""
+
+from __future__ import annotations
+
+import os
+import time
+from pathlib import Path
+
+import click
+
+from fabpat.cli.options import _at_least, depth_option, edge_option, sides_option, weight_option
+
+DEFAULT_DB = "catalog.sqlite"
+_db_help = "Catalog file (SQLite) [default: the built-in catalog of the default library]."
+
+
+@click.command("sweep")
+@sides_option
+@depth_option
+@click.option("--sample", type=int, default=None, help="Simulate N random valid patterns (needed for depth ≥ 3).")
+@click.option("--seed", type=int, default=0, show_default=True, help="Random seed for --sample.")
+@click.option("--db", type=click.Path(dir_okay=False), default=DEFAULT_DB, show_default=True,
+              help="Catalog file to create or complete.")
+@click.option("--workers", type=int, default=None, callback=_at_least(1, "workers"),
+              help="Local worker processes [default: all cores].")
+@click.option("--dask", "dask_address", metavar="ADDRESS", default=None,
+              help="Send the tasks to this dask.distributed scheduler (e.g. tcp://host:8786) instead.")
+@click.option("--force", is_flag=True, help="Recompute rows already in the catalog.")
+@edge_option
+@click.option("--thickness", type=float, default=2.0, show_default=True, callback=_at_least(0, "thickness", True),
+              help="Plate thickness in mm.")
+@weight_option
+@click.option("--youngs-modulus", "modulus", type=float, default=1000.0, show_default=True,
+              callback=_at_least(0, "Young's modulus", True), help="Young's modulus in N/mm² (PLA: 1000).")
+@click.option("--poisson", type=float, default=0.35, show_default=True, help="Poisson's ratio (PLA: 0.35).")
+@click.option("--h", "--mesh-size", "h", type=float, default=1.5, show_default=True,
+              callback=_at_least(0, "mesh size", True), help="Target mesh edge length in mm.")
+def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, workers: int | None,
+              dask_address: str | None, force: bool, edge: float, thickness: float, weight: float, modulus: float,
+              poisson: float, h: float) -> int:
+    """Simulate every pattern (fillet → mesh → cantilever, cylinder, dome, nonlinear) into a catalog.
+
+    Each pattern's results are committed as soon as they are computed; re-running resumes (rows whose
+    input hash matches are skipped), so an interrupted sweep loses only the patterns in progress.
+
+    Example: fabpat sweep --db catalog.sqlite --workers 2
+    """
+    from rich.console import Console
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    from fabpat.cli.library_cmds import load_library
+    from fabpat.sweep import SweepSetup, run_sweep
+
+    if not -1.0 < poisson < 0.5:
+        raise click.BadParameter(f"must be in (-1, 0.5), got {poisson:g}", param_hint="--poisson")
+    if dask_address and workers:
+        raise click.UsageError("--workers is for local processes; the dask cluster decides with --dask")
+    ids = load_library(sides, depth, sample, seed).ids
+    setup = SweepSetup(sides, depth, edge, thickness, weight, modulus, poisson, h)
+    console = Console(stderr=True)
+    columns = (TextColumn("simulating"), BarColumn(), MofNCompleteColumn(), TextColumn("pattern-scenarios"),
+               TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn())
+    with Progress(*columns, console=console, transient=True, disable=not console.is_terminal) as bar:
+        task = bar.add_task("sweep", total=None)
+
+        last = [time.monotonic()]
+
+        def progress(done: int, total: int) -> None:
+            bar.update(task, completed=done, total=total)
+            # no terminal (a background run, a log file): one plain line a minute instead of the bar
+            if not console.is_terminal and done and (time.monotonic() - last[0] > 60 or done == total):
+                last[0] = time.monotonic()
+                eta = bar.tasks[0].time_remaining
+                click.echo(f"simulated {done}/{total} pattern-scenarios"
+                           + (f", ETA {eta / 60:.1f} min" if eta else ""), err=True)
+
+        try:
+            report = run_sweep(db, ids, setup, workers=workers, dask=dask_address, force=force, progress=progress)
+        except KeyboardInterrupt:
+            click.echo(f"fabpat: interrupted; every finished pattern is stored in {db}: run the same command "
+                       "again to resume", err=True)
+            return 130
+    click.echo(f"{db}: {report.computed} pattern-scenarios computed ({report.failed_rows} did not converge), "
+               f"{report.skipped} already up to date, {len(ids)} patterns, {report.seconds:.1f} s")
+    if report.crashed:
+        click.echo(f"fabpat: warning: {len(report.crashed)} patterns raised and were not stored (re-run to retry): "
+                   f"{report.crashed[0]}", err=True)
+        return 1
+    return 0
+
+
+_TABLE_COLUMNS = ("id", "area", "perimeter", "polar_moment", "min_width")
+
+
+@click.command("catalog")
+@click.option("--db", type=click.Path(dir_okay=False), default=None, help=_db_help)
+@click.option("--format", "fmt", type=click.Choice(["table", "csv", "json"]), default="table", show_default=True,
+              help="Output format.")
+@click.option("--long", "long_", is_flag=True, help="One row per pattern × scenario with every stored column.")
+@click.option("--sides", type=int, default=None, help="Only patterns of this polygon.")
+def catalog_cmd(db: str | None, fmt: str, long_: bool, sides: int | None) -> None:
+    """Print a catalog: one row per pattern with its metrics and energies (N·mm) per scenario.
+
+    Columns: area (mm²), perimeter (mm), ratio, polar_moment (mm⁴), the filleted ones, min_width (mm),
+    energy_<scenario> (N·mm), max_displacement_<scenario> (mm); table format shows the main ones.
+
+    Example: fabpat catalog --format csv > catalog.csv
+    """
+    from fabpat.catalog import open_catalog
+    from fabpat.cli.library_cmds import _print_rows
+
+    with open_catalog(db) as cat:
+        if long_:
+            rows = cat.results(sides=sides)
+        else:
+            rows = cat.pattern_rows(sides=sides)
+            for r in rows:
+                for k in [k for k in r if k.startswith("converged_")]:
+                    del r[k]
+        title = f"{cat.path}: {len(rows)} rows"
+        if fmt == "table" and not long_:
+            keep = [*_TABLE_COLUMNS, *(f"energy_{s}" for s in cat.scenarios())]
+            if len(cat.setups()) > 1:
+                keep[1:1] = ["sides", "depth", "edge", "thickness", "weight"]
+            rows = [{k: r[k] for k in keep} for r in rows]
+        elif fmt == "table":
+            keep = ["id", "sides", "scenario", "energy", "max_displacement", "converged", "iterations", "seconds",
+                    "nodes", "error"]
+            rows = [{k: "" if r[k] is None else r[k] for k in keep} for r in rows]
+    if not rows and fmt == "table":
+        click.echo(f"{title} (empty catalog)")
+        return
+    _print_rows(rows, fmt, title)
+
+
+@click.command("browse")
+@click.option("--db", type=click.Path(dir_okay=False), default=None, help=_db_help)
+@click.option("--out", type=click.Path(dir_okay=False), required=True, help="HTML file to write.")
+@click.option("--open", "open_", is_flag=True, help="Open the page in the default web browser.")
+@click.option("--sides", type=int, default=None, help="Polygon to show if the catalog holds several.")
+def browse_cmd(db: str | None, out: str, open_: bool, sides: int | None) -> None:
+    """Write the browsing page: linked scatter plots of the catalog in one offline HTML file.
+
+    Hover a dot for the pattern's picture; box/lasso-select in any plot to highlight the patterns in
+    all plots and list them with `fabpat export` lines.
+
+    Example: fabpat browse --out library.html --open
+    """
+    from fabpat.browse import write_page
+    from fabpat.catalog import open_catalog
+
+    with open_catalog(db) as cat:
+        n = write_page(cat, out, sides)
+    size = os.path.getsize(out) / 1e6
+    click.echo(f"wrote {out} ({n} patterns, {size:.1f} MB, works offline)")
+    if open_:
+        import webbrowser
+
+        webbrowser.open(Path(out).resolve().as_uri())
+
+
+@click.command("plot")
+@click.option("--db", type=click.Path(dir_okay=False), default=None, help=_db_help)
+@click.option("--out", type=click.Path(file_okay=False), required=True, help="Folder for the figures.")
+@click.option("--highlight", default="", help="Comma-separated IDs to colour in every figure (a cluster).")
+@click.option("--sides", type=int, default=None, help="Polygon to show if the catalog holds several.")
+def plot_cmd(db: str | None, out: str, highlight: str, sides: int | None) -> None:
+    """Write the static scatter plots (paper Figs 13–14) as PNG and SVG.
+
+    Example: fabpat plot --out figures --highlight 0x0488,0x0688
+    """
+    from fabpat.catalog import open_catalog
+    from fabpat.errors import ExportError
+    from fabpat.plots import plot_catalog
+
+    if Path(out).exists() and not Path(out).is_dir():
+        raise ExportError(f"--out {out} exists and is not a folder")
+    ids = [h.strip() for h in highlight.split(",") if h.strip()]
+    with open_catalog(db) as cat:
+        paths = plot_catalog(cat, out, ids, sides)
+    click.echo(f"wrote {len(paths)} files to {out}: " + ", ".join(p.name for p in paths))
+
+
+COMMANDS = [sweep_cmd, catalog_cmd, browse_cmd, plot_cmd]

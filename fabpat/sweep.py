@@ -1,0 +1,288 @@
+"""The library sweep: fillet → mesh → every scenario (nonlinear) for each pattern, into a catalog.
+
+One task per pattern (:func:`simulate_pattern`) runs in a worker process (``--workers``) or on a
+dask.distributed cluster (``--dask``); it returns plain row dicts, and only the parent process writes
+the catalog — one transaction per finished pattern, committed as soon as it arrives. So a sweep killed
+at any point (even SIGKILL) keeps every finished pattern and leaves no half-written one, and the next
+run resumes: a row is skipped when its stored ``input_hash`` equals the one it would get now.
+
+A pattern's scenarios share one mesh, which is why the task is a pattern, not a pattern-scenario
+(meshing is ~3 % of a solve, but would be repeated three times).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import time
+import uuid
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+
+from fabpat.catalog import Catalog, input_hash, open_catalog, solver_version
+from fabpat.errors import FabpatError
+
+#: the paper's PLA: E = 1 GPa (§4.1); ν is not given, 0.35 is usual for PLA (notes)
+PLA_E = 1000.0  # N/mm²
+PLA_NU = 0.35
+DEFAULT_H = 1.5  # mm: mesh size (fabpat.mesh.mesh_outline default; within 0.4 % of h = 1 on the hexagon)
+
+
+@dataclass(frozen=True)
+class SweepSetup:
+    """Every input of a sweep that affects the numbers (lengths mm, E N/mm²)."""
+
+    sides: int = 6
+    depth: int = 2
+    edge: float = 36.0
+    thickness: float = 2.0
+    weight: float = 0.2
+    E: float = PLA_E
+    nu: float = PLA_NU
+    h: float = DEFAULT_H
+    scenarios: tuple[str, ...] = ("cantilever", "cylinder", "dome")
+
+    def key(self, pattern_id: str) -> dict[str, object]:
+        return {"id": pattern_id, "sides": self.sides, "depth": self.depth, "edge": float(self.edge),
+                "thickness": float(self.thickness), "weight": float(self.weight)}
+
+
+def pattern_hash(pattern_id: str, sides: int, depth: int, edge: float, thickness: float, weight: float,
+                 version: str) -> str:
+    """Input hash of a ``patterns`` row (geometry only: thickness is part of the key, not the shape)."""
+    return input_hash({"id": pattern_id, "sides": sides, "depth": depth, "edge": float(edge),
+                       "thickness": float(thickness), "weight": float(weight), "solver": version})
+
+
+def result_hash(pattern_id: str, sides: int, depth: int, edge: float, thickness: float, weight: float,
+                E: float, nu: float, h: float, scenario: str, version: str) -> str:
+    """Input hash of a ``results`` row: the key, material, mesh size, nonlinear flag, solver version."""
+    return input_hash({"id": pattern_id, "sides": sides, "depth": depth, "edge": float(edge),
+                       "thickness": float(thickness), "weight": float(weight), "E": float(E), "nu": float(nu),
+                       "h": float(h), "nonlinear": True, "scenario": scenario, "solver": version})
+
+
+def simulate_pattern(pattern_id: str, sides: int, depth: int, edge: float, thickness: float, weight: float,
+                     E: float, nu: float, h: float, scenarios: Sequence[str]) -> list[dict[str, object]]:
+    """Fillet, mesh and run ``scenarios`` (nonlinear) on one pattern; the catalog rows to store.
+
+    Returns one ``patterns`` row (``"table": "patterns"``) and one ``results`` row per scenario.
+    Deterministic failures (:class:`~fabpat.errors.FabpatError`: an outline that cannot be filleted
+    or meshed, a solve that does not converge) become rows with ``converged = 0`` and ``error``, so a
+    resumed sweep does not retry them; anything else propagates (a bug: nothing is stored).
+    Hashes use the solver version of the process that computes (a dask worker with other code gets
+    a different hash, and a later sweep recomputes its rows).
+    """
+    from fabpat.fillet import fillet_pattern
+    from fabpat.library import get_pattern
+    from fabpat.mesh import mesh_outline
+    from fabpat.scenarios import run_scenario
+
+    version = solver_version()
+    key = {"id": pattern_id, "sides": sides, "depth": depth, "edge": float(edge), "thickness": float(thickness),
+           "weight": float(weight)}
+    prow: dict[str, object] = {"table": "patterns", **key,
+                               "input_hash": pattern_hash(pattern_id, sides, depth, edge, thickness, weight,
+                                                          version)}
+    rows: list[dict[str, object]] = [prow]
+    mesh = None
+    geometry_error: str | None = None
+    try:
+        pattern = get_pattern(pattern_id, sides, depth, edge)
+        m = pattern.metrics
+        prow.update(area=m.area, perimeter=m.perimeter, ratio=m.ratio, polar_moment=m.polar_moment)
+        filleted = fillet_pattern(pattern, weight)
+        fm = filleted.outline.metrics()
+        prow.update(filleted_area=fm.area, filleted_perimeter=fm.perimeter, filleted_ratio=fm.ratio,
+                    filleted_polar_moment=fm.polar_moment,
+                    # 0.01 mm flattening, as `fabpat library`; an invalid outline raises GeometryError
+                    min_width=filleted.validate(1e-2).min_width)
+        prow["svg_path"] = filleted.outline.to_svg_path()
+        mesh = mesh_outline(filleted.outline, h, sides, edge)
+    except FabpatError as e:
+        geometry_error = f"{type(e).__name__}: {e}"
+        prow["error"] = geometry_error
+    for scenario in scenarios:
+        row: dict[str, object] = {"table": "results", **key, "scenario": scenario, "E": float(E), "nu": float(nu),
+                                  "h": float(h), "nonlinear": 1, "converged": 0, "solver_version": version,
+                                  "input_hash": result_hash(pattern_id, sides, depth, edge, thickness, weight, E,
+                                                            nu, h, scenario, version),
+                                  "error": geometry_error}
+        if mesh is not None:
+            t0 = time.perf_counter()
+            row.update(nodes=mesh.n_nodes, elements=mesh.n_elements)
+            try:
+                r = run_scenario(mesh, scenario, sides=sides, edge=edge, thickness=thickness, E=E, nu=nu,
+                                 nonlinear=True)
+                row.update(energy=float(r.energy), max_displacement=float(r.max_displacement),
+                           converged=int(r.converged), iterations=int(r.iterations), seconds=float(r.seconds))
+            except FabpatError as e:
+                row.update(error=f"{type(e).__name__}: {e}", seconds=time.perf_counter() - t0)
+        row["computed_at"] = datetime.now(UTC).isoformat(timespec="seconds")
+        rows.append(row)
+    return rows
+
+
+Task = Callable[..., list[dict[str, object]]]
+
+
+@dataclass
+class SweepReport:
+    """What a sweep did: counts are pattern-scenario rows unless named otherwise."""
+
+    patterns: int  # patterns in the library (or sample)
+    rows: int  # pattern-scenario rows wanted
+    skipped: int  # already in the catalog with a matching hash
+    computed: int  # newly stored
+    failed_rows: int  # stored with converged = 0 (deterministic failures)
+    crashed: list[str] = field(default_factory=list)  # "ID: error" of tasks that raised (nothing stored)
+    seconds: float = 0.0
+
+
+def plan(cat: Catalog, ids: Sequence[str], setup: SweepSetup, force: bool) -> list[tuple[str, tuple[str, ...]]]:
+    """(pattern ID, scenarios to compute) for every pattern that needs work."""
+    version = solver_version()
+    s = setup
+    pats, res = cat.stored_hashes(s.sides, s.depth, float(s.edge), float(s.thickness), float(s.weight))
+    jobs = []
+    for pid in ids:
+        todo = tuple(sc for sc in s.scenarios if force or res.get((pid, sc)) != result_hash(
+            pid, s.sides, s.depth, s.edge, s.thickness, s.weight, s.E, s.nu, s.h, sc, version))
+        pattern_stale = pats.get(pid) != pattern_hash(pid, s.sides, s.depth, s.edge, s.thickness, s.weight, version)
+        if todo or pattern_stale:
+            jobs.append((pid, todo))
+    return jobs
+
+
+def _worker_init() -> None:
+    """Worker processes: one BLAS thread each (the pool already uses every core), and die with the
+    parent — a SIGKILLed sweep must not leave orphans computing results nobody will store."""
+    import contextlib
+    import signal
+
+    with contextlib.suppress(Exception):
+        import ctypes
+
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG (Linux)
+    with contextlib.suppress(ImportError):
+        from threadpoolctl import threadpool_limits
+
+        threadpool_limits(1)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle (it stops the workers)
+
+
+def _run_local(task: Task, jobs: list[tuple[tuple, str]], workers: int) -> Iterator[tuple[str, object]]:
+    """Yield (pattern ID, rows or exception) as tasks finish, in worker processes (or inline if 1)."""
+    if workers <= 1:
+        for args, pid in jobs:
+            try:
+                yield pid, task(*args)
+            except Exception as e:  # noqa: BLE001 - reported per pattern; the sweep goes on
+                yield pid, e
+        return
+    import multiprocessing as mp
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+
+    # fork: workers start instantly and inherit the imports; prctl above ties them to the parent
+    ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else None
+    pool = ProcessPoolExecutor(workers, mp_context=ctx, initializer=_worker_init)
+    finished = False
+    try:
+        pending = {pool.submit(task, *args): pid for args, pid in jobs}
+        while pending:
+            done, _ = wait(pending, return_when=FIRST_COMPLETED)
+            for fut in done:
+                pid = pending.pop(fut)
+                exc = fut.exception()
+                yield pid, exc if exc is not None else fut.result()
+        finished = True
+    finally:
+        # interrupted (Ctrl-C, an error while storing): stop the workers now rather than wait for the
+        # patterns in progress, whose results could no longer be stored anyway
+        procs = list((getattr(pool, "_processes", None) or {}).values())  # shutdown() forgets them
+        pool.shutdown(wait=finished, cancel_futures=True)
+        if not finished:
+            for proc in procs:
+                proc.terminate()
+
+
+def _run_dask(task: Task, jobs: list[tuple[tuple, str]], address: str,
+              timeout: float) -> Iterator[tuple[str, object]]:
+    """Yield (pattern ID, rows or exception) from a dask.distributed scheduler at ``address``.
+
+    The workers need fabpat installed (same version, or their rows get other hashes).
+    """
+    try:
+        from dask.distributed import Client, as_completed
+    except ImportError as e:
+        raise FabpatError("--dask needs dask.distributed: pip install 'dask[distributed]'") from e
+    try:
+        client = Client(address, timeout=timeout)
+    except OSError as e:
+        raise FabpatError(f"cannot connect to the dask scheduler at {address}: {e}") from e
+    try:
+        # pure=False: the same pattern asked twice (with --force) must run again, not be deduplicated
+        run = uuid.uuid4().hex[:8]
+        futures = {client.submit(task, *args, pure=False, key=f"fabpat-{pid}-{run}"): pid for args, pid in jobs}
+        for fut in as_completed(list(futures)):
+            pid = futures[fut]
+            if fut.status == "error":
+                yield pid, fut.exception()
+            else:
+                yield pid, fut.result()
+            fut.release()
+    finally:
+        client.close()
+
+
+def run_sweep(db: str | Path, ids: Sequence[str], setup: SweepSetup = SweepSetup(), *, workers: int | None = None,
+              dask: str | None = None, dask_timeout: float = 10.0, force: bool = False, task: Task = simulate_pattern,
+              progress: Callable[[int, int], None] | None = None) -> SweepReport:
+    """Simulate every pattern of ``ids`` that is not already in catalog ``db``; commit each as it ends.
+
+    workers: local processes (default all cores; 1 runs inline); dask: a scheduler address instead
+    (connection timeout ``dask_timeout`` s).
+    task: the per-pattern function (default :func:`simulate_pattern`; tests inject a fake).
+    progress: called with (rows done, rows total) after each stored pattern.
+    Raises CatalogError for an unusable ``db`` and FabpatError for an unreachable dask scheduler.
+    """
+    t0 = time.perf_counter()
+    s = setup
+    if task is simulate_pattern:
+        # import the pipeline before forking workers: they all run the code the version digest describes,
+        # even if a source file is edited while the sweep runs
+        import fabpat.fillet  # noqa: F401
+        import fabpat.mesh  # noqa: F401
+        import fabpat.scenarios  # noqa: F401
+    with open_catalog(db, write=True) as cat:
+        jobs = plan(cat, ids, s, force)
+        total = sum(len(sc) for _, sc in jobs)
+        report = SweepReport(len(ids), len(ids) * len(s.scenarios), len(ids) * len(s.scenarios) - total, 0, 0)
+        if progress is not None:
+            progress(0, total)
+        work = [((pid, s.sides, s.depth, s.edge, s.thickness, s.weight, s.E, s.nu, s.h, sc), pid)
+                for pid, sc in jobs]
+        if dask:
+            stream = _run_dask(task, work, dask, dask_timeout)
+        else:
+            stream = _run_local(task, work, max(1, workers or os.cpu_count() or 1))
+        done = 0
+        wanted = dict(jobs)
+        with contextlib.closing(stream):  # on an interrupt, the executor's cleanup runs now
+            for pid, out in stream:
+                if isinstance(out, BaseException):
+                    report.crashed.append(f"{pid}: {type(out).__name__}: {out}")
+                else:
+                    rows = list(out)  # type: ignore[call-overload]
+                    cat.write_rows(rows)  # one transaction per pattern: all its rows or none
+                    results = [r for r in rows if r.get("table") == "results"]
+                    report.computed += len(results)
+                    report.failed_rows += sum(1 for r in results if not r.get("converged"))
+                done += len(wanted[pid])
+                if progress is not None:
+                    progress(done, total)
+        cat.finish()
+    report.seconds = time.perf_counter() - t0
+    return report

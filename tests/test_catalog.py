@@ -1,0 +1,152 @@
+"""The catalog database and the built-in catalog shipped with the package."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+import random
+import sqlite3
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner, Result
+
+from fabpat.catalog import CatalogError, builtin_path, energies, open_catalog, pipeline_modules, solver_version
+from fabpat.scenarios import SCENARIOS
+from fabpat.sweep import simulate_pattern
+
+REGENERATE = "stale built-in catalog: regenerate it with `fabpat sweep --db fabpat/data/catalog.sqlite`"
+
+
+def invoke(*args: str) -> Result:
+    """Run a fabpat command in this process (the real CLI group; no 3-s interpreter start-up)."""
+    from fabpat.cli import cli
+
+    return CliRunner().invoke(cli, list(args))
+
+
+def test_builtin_catalog_is_the_default_library(hex_library) -> None:
+    with open_catalog() as cat:
+        assert cat.setups() == [{"sides": 6, "depth": 2, "edge": 36.0, "thickness": 2.0, "weight": 0.2,
+                                 "patterns": 430}]
+        assert cat.scenarios() == list(SCENARIOS)
+        rows = cat.pattern_rows(pictures=True)
+        results = cat.results()
+    assert [r["id"] for r in rows] == sorted(hex_library.ids)
+    assert all(r["svg_path"] and r["min_width"] > 1.5 for r in rows)  # notes: necks ≈ 1.95 mm at the narrowest
+    assert len(results) == 3 * 430
+    assert {(r["E"], r["nu"], r["nonlinear"]) for r in results} == {(1000.0, 0.35, 1)}  # PLA, nonlinear
+    assert len({r["h"] for r in results}) == 1 and len({r["solver_version"] for r in results}) == 1
+    failed = [f"{r['id']} {r['scenario']}: {r['error']}" for r in results if not r["converged"]]
+    assert not failed, failed[:3]
+    for s in SCENARIOS:
+        e = energies(None, s)
+        assert len(e) == 430 and min(e.values()) > 0
+    # the notes' solid hexagon (the stiffest possible plate) has cantilever energy 2.6 N·mm: every pattern,
+    # having less material, is softer
+    assert min(energies(None, "cantilever").values()) > 2.6
+
+
+def test_builtin_rows_recompute_to_the_same_numbers() -> None:
+    """Three random result rows (one per scenario) recomputed now agree with the shipped ones."""
+    seed = int(os.environ.get("FABPAT_CATALOG_SEED", "2024"))
+    rng = random.Random(seed)
+    with open_catalog() as cat:
+        rows = [rng.choice(cat.results(scenario=s)) for s in SCENARIOS]
+        pats = {r["id"]: r for r in cat.pattern_rows()}
+    for r in rows:
+        new = simulate_pattern(r["id"], r["sides"], r["depth"], r["edge"], r["thickness"], r["weight"], r["E"],
+                               r["nu"], r["h"], [r["scenario"]])
+        p, q = new
+        where = f"{r['id']} {r['scenario']} (seed {seed}); {REGENERATE}"
+        assert q["converged"] == 1, where
+        assert q["energy"] == pytest.approx(r["energy"], rel=1e-6), where
+        assert q["max_displacement"] == pytest.approx(r["max_displacement"], rel=1e-6), where
+        assert q["nodes"] == r["nodes"], where
+        for k in ("area", "perimeter", "polar_moment", "filleted_area", "filleted_polar_moment", "min_width"):
+            assert p[k] == pytest.approx(pats[r["id"]][k], rel=1e-9), f"{k}: {where}"
+
+
+def test_builtin_version_is_reported() -> None:
+    with open_catalog() as cat:
+        stored = cat.query("SELECT DISTINCT solver_version FROM results")[0]["solver_version"]
+    assert stored.startswith("fabpat ") and solver_version().startswith("fabpat ")
+
+
+def test_solver_version_covers_exactly_the_pipeline_code() -> None:
+    names = {p.relative_to(builtin_path().parents[1]).as_posix() for p in pipeline_modules()}
+    assert {"fillet.py", "mesh.py", "scenarios.py", "shell/solve.py", "shell/element.py", "shell/__init__.py",
+            "lattice.py", "curves.py"} <= names
+    assert not {n for n in names if n.startswith("cli/") or n in ("catalog.py", "sweep.py", "browse.py")}
+    assert solver_version() == solver_version() and solver_version().startswith("fabpat ")
+
+
+def _tiny(path: Path) -> Path:
+    rows = simulate_pattern("0xf608", 6, 2, 36.0, 2.0, 0.2, 1000.0, 0.35, 1.5, [])  # geometry only: fast
+    rows.append({"table": "results", "id": "0xf608", "sides": 6, "depth": 2, "edge": 36.0, "thickness": 2.0,
+                 "weight": 0.2, "scenario": "dome", "E": 1000.0, "nu": 0.35, "h": 1.5, "nonlinear": 1,
+                 "energy": 140.0, "max_displacement": 4.5, "converged": 1, "solver_version": "test",
+                 "input_hash": "x", "computed_at": "now"})
+    with open_catalog(path, write=True) as cat:
+        cat.write_rows(rows)
+        cat.finish()
+    return path
+
+
+def test_read_api_plain_rows(tmp_path: Path) -> None:
+    db = _tiny(tmp_path / "c.sqlite")
+    with open_catalog(db) as cat:
+        (row,) = cat.pattern_rows()
+        assert row["id"] == "0xf608" and row["energy_dome"] == 140.0 and row["converged_dome"] is True
+        assert "energy_cantilever" not in row  # scenarios that were never run are not columns
+        assert cat.query("SELECT COUNT(*) AS n FROM results WHERE scenario = ?", ["dome"]) == [{"n": 1}]
+        assert energies(cat, "dome") == {"0xf608": 140.0}
+        assert energies(cat, "cylinder") == {}
+        with pytest.raises(ValueError, match="cannot filter"):
+            cat.pattern_rows(colour="red")
+        with pytest.raises(CatalogError, match="read-only"):
+            cat.write_rows([])
+    assert energies(db, "dome", 6) == {"0xf608": 140.0}
+    assert energies(db, "dome", 5) == {}
+    with pytest.raises(ValueError, match="unknown scenario"):
+        energies(db, "twist")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.sqlite"]  # readers create no -wal/-shm files
+
+
+def test_open_errors(tmp_path: Path) -> None:
+    with pytest.raises(CatalogError, match="does not exist"):
+        open_catalog(tmp_path / "missing.sqlite")
+    junk = tmp_path / "junk.sqlite"
+    junk.write_bytes(os.urandom(4096))
+    with pytest.raises(CatalogError, match="not a fabpat catalog"):
+        open_catalog(junk)
+    other = tmp_path / "other.sqlite"
+    with sqlite3.connect(other) as c:
+        c.execute("CREATE TABLE t (x)")
+    with pytest.raises(CatalogError, match="not a fabpat catalog"):
+        open_catalog(other)
+    db = _tiny(tmp_path / "c.sqlite")
+    with sqlite3.connect(db) as c:
+        c.execute("UPDATE meta SET value = '99' WHERE key = 'schema_version'")
+    with pytest.raises(CatalogError, match="schema 99"):
+        open_catalog(db)
+    with pytest.raises(CatalogError, match="read-only"):
+        open_catalog(None, write=True)
+    assert builtin_path().name == "catalog.sqlite"
+
+
+def test_cli_catalog_formats(tmp_path: Path) -> None:
+    res = invoke("catalog", "--format", "json")
+    assert res.exit_code == 0, res.stderr
+    rows = json.loads(res.stdout)
+    assert len(rows) == 430 and {"energy_cantilever", "energy_cylinder", "energy_dome", "min_width"} <= set(rows[0])
+    db = _tiny(tmp_path / "c.sqlite")
+    res = invoke("catalog", "--db", str(db), "--format", "csv", "--long")
+    (row,) = list(csv.DictReader(io.StringIO(res.stdout)))
+    assert row["scenario"] == "dome" and float(row["energy"]) == 140.0
+    res = invoke("catalog", "--db", str(db))
+    assert res.exit_code == 0 and "0xf608" in res.stdout and "energy_dome" in res.stdout
+    res = invoke("catalog", "--db", str(tmp_path / "nope.sqlite"))
+    assert res.exit_code == 2 and res.stderr.startswith("fabpat: error:") and res.stderr.count("\n") == 1
