@@ -62,3 +62,27 @@ def dexp_inv(theta: Arr) -> Arr:
     # Θ² = θθᵀ − |θ|² I avoids a batched matrix product
     K2 = theta[..., :, None] * theta[..., None, :] - t2[..., None, None] * np.eye(3)
     return np.eye(3) - 0.5 * skew(theta) + eta[..., None, None] * K2
+
+
+def dexp_inv_t_jacobian(theta: Arr, m: Arr) -> Arr:
+    """∂(H⁻ᵀ(θ) m)/∂θ (…, 3, 3) at fixed m (…, 3): the variation of a local moment sent through H⁻ᵀ.
+
+    H⁻ᵀ m = m + ½ θ×m + η (θ(θ·m) − |θ|² m), so the derivative is −½[m]× + η (θ mᵀ + (θ·m) I − 2 m θᵀ)
+    + (θ(θ·m) − |θ|² m)(η'/t) θᵀ, with η'/t → 1/360 + t²/7560 below t = 10⁻² (where the closed form
+    starts to cancel).
+    """
+    t2 = np.einsum("...i,...i->...", theta, theta)
+    t = np.sqrt(t2)
+    small = t < 1e-2
+    ts = np.where(small, 1.0, t)
+    half = 0.5 * ts
+    c = half / np.tan(half)
+    eta = np.where(small, 1.0 / 12.0 + t2 / 720.0, (1.0 - c) / (ts * ts))
+    dc = 0.5 / np.tan(half) - 0.25 * ts / np.sin(half) ** 2
+    deta_t = np.where(small, 1.0 / 360.0 + t2 / 7560.0, -dc / ts**3 - 2.0 * (1.0 - c) / ts**4)
+    tm = np.einsum("...i,...i->...", theta, m)
+    J = -0.5 * skew(m) + eta[..., None, None] * (theta[..., :, None] * m[..., None, :]
+                                                 + tm[..., None, None] * np.eye(3)
+                                                 - 2.0 * m[..., :, None] * theta[..., None, :])
+    J += (theta * tm[..., None] - t2[..., None] * m)[..., :, None] * (deta_t[..., None] * theta)[..., None, :]
+    return J
