@@ -45,22 +45,14 @@ def colours(lib: PartLibrary) -> dict[str, str]:
 def write_step_assembly(lib: PartLibrary, path: str | os.PathLike[str], name: str,
                         timestamp: str | None = None) -> None:
     """Write the placed parts as a STEP AP214 assembly (mm) with named products and instances."""
-    from OCP.APIHeaderSection import APIHeaderSection_MakeHeader
-    from OCP.IFSelect import IFSelect_ReturnStatus
-    from OCP.Interface import Interface_Static
-    from OCP.Message import Message, Message_Gravity
-    from OCP.STEPCAFControl import STEPCAFControl_Writer
-    from OCP.STEPControl import STEPControl_StepModelType
-    from OCP.TCollection import TCollection_ExtendedString, TCollection_HAsciiString
+    from OCP.TCollection import TCollection_ExtendedString
     from OCP.TDataStd import TDataStd_Name
     from OCP.TDocStd import TDocStd_Document
     from OCP.TopLoc import TopLoc_Location
     from OCP.XCAFDoc import XCAFDoc_DocumentTool
 
-    from fabpat.exchange.step import ORIGINATING_SYSTEM, SCHEMA
+    from fabpat.exchange.step import write_document
 
-    for printer in Message.DefaultMessenger_s().Printers():  # keep OCCT's transfer statistics off stdout
-        printer.SetTraceLevel(Message_Gravity.Message_Fail)
     doc = TDocStd_Document(TCollection_ExtendedString("XmlOcaf"))
     XCAFDoc_DocumentTool.SetLengthUnit_s(doc, 0.001)  # metres per model unit: the model is in mm
     tool = XCAFDoc_DocumentTool.ShapeTool_s(doc.Main())
@@ -75,19 +67,7 @@ def write_step_assembly(lib: PartLibrary, path: str | os.PathLike[str], name: st
         TDataStd_Name.Set_s(comp, TCollection_ExtendedString(label))
     tool.UpdateAssemblies()
 
-    Interface_Static.SetCVal_s("write.step.schema", SCHEMA)
-    Interface_Static.SetCVal_s("write.step.unit", "MM")
-    writer = STEPCAFControl_Writer()
-    writer.SetNameMode(True)
-    if not writer.Transfer(doc, STEPControl_StepModelType.STEPControl_AsIs):
-        raise ExportError(f"OCCT could not translate the assembly {name!r} to STEP")
-    header = APIHeaderSection_MakeHeader(writer.ChangeWriter().Model())
-    header.SetName(TCollection_HAsciiString(name))
-    header.SetOriginatingSystem(TCollection_HAsciiString(ORIGINATING_SYSTEM))
-    if timestamp is not None:
-        header.SetTimeStamp(TCollection_HAsciiString(timestamp))
-    if writer.Write(os.fsdecode(path)) != IFSelect_ReturnStatus.IFSelect_RetDone:
-        raise ExportError(f"OCCT could not write the STEP file {path}")
+    write_document(doc, path, name, timestamp)
 
 
 def read_step_solids(path: str | os.PathLike[str]) -> tuple[int, list[str]]:

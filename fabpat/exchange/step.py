@@ -37,12 +37,7 @@ def dump_step(shape: Any, path: str | os.PathLike[str], name: str, timestamp: st
     header time stamp for reproducible files. Not atomic: use :func:`write_step` or call it on a
     temporary path from :func:`fabpat.io.atomic_outputs`. Raises :class:`ExportError`.
     """
-    from OCP.APIHeaderSection import APIHeaderSection_MakeHeader
-    from OCP.IFSelect import IFSelect_ReturnStatus
-    from OCP.Interface import Interface_Static
-    from OCP.STEPCAFControl import STEPCAFControl_Writer
-    from OCP.STEPControl import STEPControl_StepModelType
-    from OCP.TCollection import TCollection_ExtendedString, TCollection_HAsciiString
+    from OCP.TCollection import TCollection_ExtendedString
     from OCP.TDataStd import TDataStd_Name
     from OCP.TDocStd import TDocStd_Document
     from OCP.XCAFDoc import XCAFDoc_DocumentTool
@@ -54,6 +49,19 @@ def dump_step(shape: Any, path: str | os.PathLike[str], name: str, timestamp: st
     label = XCAFDoc_DocumentTool.ShapeTool_s(doc.Main()).AddShape(shape, False)
     TDataStd_Name.Set_s(label, TCollection_ExtendedString(name))
 
+    write_document(doc, path, name, timestamp)
+
+
+def write_document(doc: Any, path: str | os.PathLike[str], name: str, timestamp: str | None = None) -> None:
+    """Write an XDE document (a part or an assembly) to ``path`` as STEP AP214 in mm. Not atomic."""
+    from OCP.APIHeaderSection import APIHeaderSection_MakeHeader
+    from OCP.IFSelect import IFSelect_ReturnStatus
+    from OCP.Interface import Interface_Static
+    from OCP.STEPCAFControl import STEPCAFControl_Writer
+    from OCP.STEPControl import STEPControl_StepModelType
+    from OCP.TCollection import TCollection_HAsciiString
+
+    _quiet_occt()
     # Interface_Static is global OCCT state: set everything we rely on before every write.
     Interface_Static.SetCVal_s("write.step.schema", SCHEMA)
     Interface_Static.SetCVal_s("write.step.unit", "MM")
