@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.assembly.placement import Assembly, PlateType
+from fabpat.exchange.threemf import triangulate
 
 CHECK_TOLERANCE = 0.02  # mm: chord height of the meshes used for the checks and the GLB preview
 PICTURE_TOLERANCE = 0.1  # mm: coarse meshes for the PNG (60 k triangles for a sphere)
@@ -84,47 +85,6 @@ class PartLibrary:
         out = [(p.label, p.type.label, p.transform) for p in self.assembly.plates]
         out += [(s.label, s.kind, s.transform) for s in self.assembly.sleeves]
         return out
-
-
-def triangulate(shape: Any, tolerance: float) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-    """Mesh ``shape`` within ``tolerance`` mm: ``V`` (n, 3) mm, ``F`` (m, 3) int, outward, welded.
-
-    Uses :func:`fabpat.cad.mesh` (absolute chord tolerance). Faces share their edge discretisation,
-    so welding coincident nodes (1e-9 mm grid) gives the closed surface manifold3d needs.
-    """
-    from OCP.BRep import BRep_Tool
-    from OCP.TopAbs import TopAbs_FACE, TopAbs_REVERSED
-    from OCP.TopExp import TopExp_Explorer
-    from OCP.TopLoc import TopLoc_Location
-    from OCP.TopoDS import TopoDS
-
-    from fabpat.cad import mesh
-    from fabpat.errors import GeometryError
-
-    mesh(shape, tolerance)
-    Vs, Fs, offset = [], [], 0
-    ex = TopExp_Explorer(shape, TopAbs_FACE)
-    while ex.More():
-        face = TopoDS.Face(ex.Current())
-        ex.Next()
-        loc = TopLoc_Location()
-        tri = BRep_Tool.Triangulation_s(face, loc)
-        if tri is None:
-            raise GeometryError("a face of the part has no triangulation")
-        trsf = loc.Transformation()
-        V = np.array([tri.Node(i).Transformed(trsf).Coord() for i in range(1, tri.NbNodes() + 1)])
-        F = np.array([tri.Triangle(i).Get() for i in range(1, tri.NbTriangles() + 1)], dtype=np.int64) - 1
-        if face.Orientation() == TopAbs_REVERSED:
-            F = F[:, ::-1]  # the face uses its surface reversed: flip to keep normals outward
-        Vs.append(V)
-        Fs.append(F + offset)
-        offset += len(V)
-    V, F = np.vstack(Vs), np.vstack(Fs)
-    _, first, inverse = np.unique(np.round(V / 1e-9).astype(np.int64), axis=0, return_index=True,
-                                  return_inverse=True)
-    F = inverse.reshape(-1)[F]
-    F = F[(F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 2] != F[:, 0])]
-    return V[first], F
 
 
 def transformed(shape: Any, T: NDArray[np.float64]) -> Any:
