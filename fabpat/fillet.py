@@ -106,6 +106,22 @@ class FilletedPattern:
             tol, raise_on_error=raise_on_error, g1_exempt_lines=self.polygon_edges(), width=width
         )
 
+    def metrics(self, tol: float = 1e-2) -> dict[str, float]:
+        """The filleted columns of the library and the catalog: exact area (mm²), perimeter (mm),
+        ratio, polar moment (mm⁴) and ``min_width`` (mm, on a ``tol`` mm flattening).
+
+        Validates the outline first: an invalid one raises :class:`GeometryError`.
+        """
+        width = self.validate(tol).min_width
+        m = self.outline.metrics()
+        return {
+            "filleted_area": m.area,
+            "filleted_perimeter": m.perimeter,
+            "filleted_ratio": m.ratio,
+            "filleted_polar_moment": m.polar_moment,
+            "min_width": width,
+        }
+
     @property
     def interface_half_length(self) -> float:
         """d = (edge/16)/(1 + w) for depth 2; in general half the sub-edge over 2(1 + w)."""

@@ -94,11 +94,7 @@ def simulate_pattern(pattern_id: str, sides: int, depth: int, edge: float, thick
         m = pattern.metrics
         prow.update(area=m.area, perimeter=m.perimeter, ratio=m.ratio, polar_moment=m.polar_moment)
         filleted = fillet_pattern(pattern, weight)
-        fm = filleted.outline.metrics()
-        prow.update(filleted_area=fm.area, filleted_perimeter=fm.perimeter, filleted_ratio=fm.ratio,
-                    filleted_polar_moment=fm.polar_moment,
-                    # 0.01 mm flattening, as `fabpat library`; an invalid outline raises GeometryError
-                    min_width=filleted.validate(1e-2).min_width)
+        prow.update(filleted.metrics())  # as `fabpat library`; an invalid outline raises GeometryError
         prow["svg_path"] = filleted.outline.to_svg_path()
         mesh = mesh_outline(filleted.outline, h, sides, edge)
     except FabpatError as e:

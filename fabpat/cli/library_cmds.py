@@ -28,15 +28,8 @@ def _filleted_row(args: tuple[str, int, int, float, float]) -> dict[str, float]:
 
     pid, sides, depth, edge, weight = args
     fp = fillet_pattern(Pattern.from_id(pid, sides, depth, edge), weight)
-    report = fp.validate(1e-2)
-    m = fp.outline.metrics()
-    return {
-        "filleted_area": round(m.area, 6),
-        "filleted_perimeter": round(m.perimeter, 6),
-        "filleted_ratio": round(m.ratio, 8),
-        "filleted_polar_moment": round(m.polar_moment, 4),
-        "min_width": round(report.min_width, 4),
-    }
+    digits = {"filleted_polar_moment": 4, "min_width": 4, "filleted_ratio": 8}
+    return {k: round(v, digits.get(k, 6)) for k, v in fp.metrics().items()}
 
 
 def library_rows(
