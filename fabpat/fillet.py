@@ -48,7 +48,6 @@ from itertools import groupby
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.curves import split_quad
 from fabpat.errors import GeometryError
 from fabpat.lattice import polygon_vertices
 from fabpat.outline import Line, Loop, Outline, OutlineReport, RationalQuad, Segment
@@ -294,10 +293,23 @@ def _bowtie(P0: NDArray[np.float64], M: NDArray[np.float64], t: NDArray[np.float
     return RationalQuad(P0, M, mirror, w)
 
 
+def _midpoint(arc: RationalQuad) -> NDArray[np.float64]:
+    """B(½) of a (1, w, 1) arc: (P0 + 2w P1 + P2) / (2 + 2w)."""
+    return (arc.P0 + 2 * arc.w * arc.P1 + arc.P2) / (2 + 2 * arc.w)
+
+
 def _halves(arc: RationalQuad) -> tuple[RationalQuad, RationalQuad]:
-    """Exact de Casteljau split of a (1, w, 1) arc at t = ½, both halves in standard form."""
-    (PL, wl), (PR, wr) = split_quad(arc.control_points, arc.w, 0.5)
-    return RationalQuad(*PL, wl), RationalQuad(*PR, wr)
+    """Exact de Casteljau split of a (1, w, 1) arc at t = ½, both halves in standard form.
+
+    In homogeneous coordinates the left half has control points P0, (P0 + w P1)/2 and the midpoint,
+    weights 1, (1 + w)/2, (1 + w)/2; bringing it to standard form gives the middle weight
+    √((1 + w)/2) (see :func:`fabpat.curves.standardize_quad`, which the tests use to check this).
+    """
+    w, mid = arc.w, _midpoint(arc)
+    ws = math.sqrt((1 + w) / 2)
+    left = RationalQuad(arc.P0, (arc.P0 + w * arc.P1) / (1 + w), mid, ws)
+    right = RationalQuad(mid, (w * arc.P1 + arc.P2) / (1 + w), arc.P2, ws)
+    return left, right
 
 
 def _merge_collinear(segs: list[Segment]) -> list[Segment]:
@@ -420,7 +432,7 @@ def fillet_pattern(pattern: Pattern, weight: float = DEFAULT_WEIGHT) -> Filleted
     if len(bowties) != pattern.sides:
         raise GeometryError(f"pattern {pattern.id} does not reach every polygon edge")
     arcs = tuple(bowties[v] for v, _ in sorted(iface.items(), key=lambda kv: kv[1]))
-    seg = np.array([[_halves(a)[0].P2, _halves(b)[1].P0] for a, b in arcs])
+    seg = np.array([[_midpoint(a), _midpoint(b)] for a, b in arcs])
     return FilletedPattern(pattern, float(weight), outline, seg, arcs)
 
 

@@ -225,6 +225,22 @@ class RationalQuad:
 Segment = Line | RationalQuad
 
 
+def _start_direction(s: Segment) -> NDArray[np.float64]:
+    """A (not normalised) tangent at the start: a Bézier curve leaves along its first control leg."""
+    if isinstance(s, Line):
+        return s.p1 - s.p0
+    d = s.P1 - s.P0
+    return d if d.any() else s.derivative(0.0)
+
+
+def _end_direction(s: Segment) -> NDArray[np.float64]:
+    """A (not normalised) tangent at the end."""
+    if isinstance(s, Line):
+        return s.p1 - s.p0
+    d = s.P2 - s.P1
+    return d if d.any() else s.derivative(1.0)
+
+
 @dataclass(frozen=True, eq=False)
 class Loop:
     """A closed chain of segments (outer: counter-clockwise, hole: clockwise)."""
@@ -479,29 +495,28 @@ class Outline:
         self, exempt_lines: Sequence[tuple[ArrayLike, ArrayLike]]
     ) -> tuple[float, NDArray[np.float64] | None, int]:
         """Largest tangent angle (rad) at arc joints, where, and how many joints were exempt."""
-        lines = [(np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)) for a, b in exempt_lines]
-
-        def on_exempt_line(p: NDArray[np.float64]) -> bool:
-            for a, b in lines:
-                d = b - a
-                if abs(float(d[0] * (p - a)[1] - d[1] * (p - a)[0])) <= 1e-6 * float(np.hypot(*d)):
-                    return True
-            return False
-
-        worst, worst_at, exempt = 0.0, None, 0
+        at, u, v = [], [], []
         for loop in self.loops:
             segs = loop.segments
             for s, nxt in zip(segs, segs[1:] + segs[:1], strict=True):
-                if not (isinstance(s, RationalQuad) or isinstance(nxt, RationalQuad)):
-                    continue
-                if lines and on_exempt_line(s.end):
-                    exempt += 1
-                    continue
-                u, v = s.tangent(1.0), nxt.tangent(0.0)
-                angle = math.atan2(abs(float(u[0] * v[1] - u[1] * v[0])), float(u @ v))
-                if angle >= worst:
-                    worst, worst_at = angle, s.end
-        return worst, worst_at, exempt
+                if isinstance(s, RationalQuad) or isinstance(nxt, RationalQuad):
+                    at.append(s.end)
+                    u.append(_end_direction(s))
+                    v.append(_start_direction(nxt))
+        if not at:
+            return 0.0, None, 0
+        P, U, W = np.array(at), _unit(np.array(u)), _unit(np.array(v))
+        exempt_mask = np.zeros(len(P), dtype=bool)
+        for a, b in exempt_lines:
+            a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+            d = b - a
+            exempt_mask |= np.abs(d[0] * (P[:, 1] - a[1]) - d[1] * (P[:, 0] - a[0])) <= 1e-6 * float(np.hypot(*d))
+        angle = np.arctan2(np.abs(U[:, 0] * W[:, 1] - U[:, 1] * W[:, 0]), np.einsum("ij,ij->i", U, W))
+        angle[exempt_mask] = -1.0
+        k = int(np.argmax(angle))
+        if angle[k] < 0:
+            return 0.0, None, int(exempt_mask.sum())
+        return float(angle[k]), P[k], int(exempt_mask.sum())
 
     # ---------------------------------------------------------------------------------- export
 

@@ -276,3 +276,16 @@ def test_star_table_figure() -> None:
     texts = [e.text for e in root.iter() if e.tag.endswith("text")]
     assert len(texts) == 12 and sum("non-manifold" in t for t in texts) == 7
     assert sum(e.tag.endswith("path") for e in root.iter()) == 12
+
+
+def test_closed_form_halves_match_de_casteljau() -> None:
+    from fabpat.curves import split_quad
+    from fabpat.fillet import _halves
+    from fabpat.outline import RationalQuad
+
+    for w in (0.05, 0.2, 1.0, 3.0):
+        arc = RationalQuad([0.3, -1.0], [1.0, 2.0], [2.5, 0.2], w)
+        mine = _halves(arc)
+        ref = split_quad(arc.control_points, w, 0.5)
+        for half, (P, wr) in zip(mine, ref, strict=True):
+            assert np.allclose(half.control_points, P, atol=1e-14) and half.w == pytest.approx(wr, rel=1e-14)
