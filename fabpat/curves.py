@@ -795,6 +795,10 @@ def _subdivide(A: FloatArray, B: FloatArray, max_len: float) -> tuple[FloatArray
     return A[e] + (k / m[e])[:, None] * D[e], A[e] + ((k + 1) / m[e])[:, None] * D[e]
 
 
+REFINE_CANDIDATES = 16
+REFINE_SAMPLES = 65
+
+
 def _ray_hits(
     origin: FloatArray,
     direction: FloatArray,
@@ -821,7 +825,15 @@ def _ray_hits(
     return t_best
 
 
-def ray_min_width(loops: list[ArrayLike], spacing: float) -> tuple[float, FloatArray, FloatArray]:
+def _in_sector(P: FloatArray, symmetry: int) -> NDArray[np.bool_]:
+    """Points (m, 2) whose polar angle lies in [0, 2π/symmetry], with 1e-9 rad of overlap."""
+    angle = np.mod(np.arctan2(P[:, 1], P[:, 0]) + 1e-9, 2.0 * math.pi)
+    return angle <= 2.0 * math.pi / symmetry + 2e-9
+
+
+def ray_min_width(
+    loops: list[ArrayLike], spacing: float, *, symmetry: int = 1
+) -> tuple[float, FloatArray, FloatArray]:
     """Narrowest bar or neck of a region bounded by closed polylines, mm.
 
     loops: closed polylines (k, 2), oriented with the solid on their left (outer counter-clockwise,
@@ -839,6 +851,10 @@ def ray_min_width(loops: list[ArrayLike], spacing: float) -> tuple[float, FloatA
     every edge first give an upper bound U; then each ray is only tested against the edge pieces near
     its first U mm (k-d tree on piece midpoints), which cannot miss a hit shorter than U.
 
+    ``symmetry`` = n > 1 declares that the region is invariant under rotation by 2π/n about the
+    origin (the caller checks it): every boundary point then has an image in the sector of polar
+    angles [0, 2π/n], so rays start there only - n times fewer - and still hit every edge.
+
     Returns (width, p (2,), q (2,)) with p, q the ends of the narrowest ray.
     """
     from scipy.spatial import cKDTree
@@ -851,11 +867,14 @@ def ray_min_width(loops: list[ArrayLike], spacing: float) -> tuple[float, FloatA
     normal = np.zeros_like(D)
     normal[nz] = _rot90(D[nz] / length[nz, None])
     # vertex i of a loop starts edge i; its incoming edge is the loop's previous edge
-    first = np.concatenate([[0], np.cumsum([len(V) for V in Ls])[:-1]])
-    prev = np.where(eid == 0, first[lid] + np.array([len(V) for V in Ls])[lid] - 1, np.arange(len(A)) - 1)
+    sizes = np.array([len(V) for V in Ls])
+    first = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+    prev = np.where(eid == 0, first[lid] + sizes[lid] - 1, np.arange(len(A)) - 1)
     bis = normal + normal[prev]
     bl = np.hypot(*bis.T)
     vok = bl > 1e-9
+    if symmetry > 1:
+        vok &= _in_sector(A, symmetry)
     v_orig, v_dir = A[vok], bis[vok] / bl[vok, None]
 
     m = np.where(nz, np.maximum(1, np.ceil(length / spacing)), 0).astype(np.int64)
@@ -863,9 +882,13 @@ def ray_min_width(loops: list[ArrayLike], spacing: float) -> tuple[float, FloatA
     k = np.arange(m.sum()) - np.repeat(np.cumsum(m) - m, m)
     f = (k + 0.5) / m[e]
     e_orig, e_dir = A[e] + f[:, None] * D[e], normal[e]
+    # One sample of overlap past the sector's ends keeps a minimum there a local minimum below.
+    cast_from = np.ones(len(e), dtype=bool) if symmetry == 1 else _in_sector(e_orig, symmetry)
+    cast_from |= np.roll(cast_from, 1) | np.roll(cast_from, -1)
+    ce = np.flatnonzero(cast_from)
 
     # Upper bound from a subset of rays against all edges.
-    sub = np.arange(0, len(e), max(1, len(e) // 32))
+    sub = ce[:: max(1, len(ce) // 8)]
     ri = np.repeat(np.arange(len(sub)), len(A))
     ej = np.tile(np.arange(len(A)), len(sub))
     U = float(_ray_hits(e_orig[sub], e_dir[sub], A, B, ri, ej).min())
@@ -879,20 +902,23 @@ def ray_min_width(loops: list[ArrayLike], spacing: float) -> tuple[float, FloatA
         pairs = cKDTree(o + 0.5 * U * n).sparse_distance_matrix(tree, 0.5 * (U + piece_len), output_type="ndarray")
         return _ray_hits(o, n, PA, PB, pairs["i"].astype(np.int64), pairs["j"].astype(np.int64))
 
-    t = cast(e_orig, e_dir)
-    tmin = float(t.min())
+    t_first = cast(np.vstack([e_orig[ce], v_orig]), np.vstack([e_dir[ce], v_dir]))
+    t = np.full(len(e), np.inf)
+    t[ce] = t_first[: len(ce)]
+    t_vertex = t_first[len(ce) :]
+    tmin = float(t_first.min())
     # Refine around local minima of the thickness along the boundary that could beat the best one
     # (the sampled minimum overestimates a smooth one by O(curvature · spacing²) < spacing).
     local = (t <= np.roll(t, 1)) & (t <= np.roll(t, -1)) & (t <= tmin + spacing) & np.isfinite(t)
     cand = np.flatnonzero(local)
-    cand = cand[np.argsort(t[cand])][:32]
-    sub_f = np.linspace(-1.0, 1.0, 65)
+    cand = cand[np.argsort(t[cand])][:REFINE_CANDIDATES]
+    sub_f = np.linspace(-1.0, 1.0, REFINE_SAMPLES)
     e2 = np.repeat(e[cand], len(sub_f))
     f2 = np.clip((f[cand][:, None] + sub_f[None] / m[e[cand]][:, None]).ravel(), 0.0, 1.0)
     o2, n2 = A[e2] + f2[:, None] * D[e2], normal[e2]
-    origin = np.vstack([e_orig, o2, v_orig])
-    direction = np.vstack([e_dir, n2, v_dir])
-    t_all = np.concatenate([t, cast(o2, n2), cast(v_orig, v_dir)])
+    origin = np.vstack([e_orig, v_orig, o2])
+    direction = np.vstack([e_dir, v_dir, n2])
+    t_all = np.concatenate([t, t_vertex, cast(o2, n2)])
     i = int(np.argmin(t_all))
     if not math.isfinite(t_all[i]):
         return math.inf, np.full(2, np.nan), np.full(2, np.nan)

@@ -99,10 +99,15 @@ class FilletedPattern:
         """:meth:`Outline.validate` with the polygon edges exempt from the G1 check.
 
         The interface arcs meet the interface segment at right angles by design: across the joint
-        the neighbour's arc continues with the same tangent, so the assembled boundary is G1.
+        the neighbour's arc continues with the same tangent, so the assembled boundary is G1. The
+        pattern's n-fold symmetry is checked and lets min_width cast rays from one fan sector.
         """
         return self.outline.validate(
-            tol, raise_on_error=raise_on_error, g1_exempt_lines=self.polygon_edges(), width=width
+            tol,
+            raise_on_error=raise_on_error,
+            g1_exempt_lines=self.polygon_edges(),
+            width=width,
+            symmetry=self.pattern.sides,
         )
 
     def metrics(self, tol: float = 1e-2) -> dict[str, float]:
@@ -350,21 +355,25 @@ def fillet_solid(
     H = _boundary_half_edges(F, len(V))
     if len(H) == 0:
         raise GeometryError("the solid region has no boundary")
-    out_by_vertex: dict[int, list[int]] = {}
-    for h, (a, _) in enumerate(H):
-        out_by_vertex.setdefault(int(a), []).append(h)
-    nxt = np.empty(len(H), dtype=np.int64)
-    arc_at_end = np.zeros(len(H), dtype=bool)  # the connection at the head of h is an arc (or interface)
-    for h, (a, b) in enumerate(H):
-        d_in = _angle(V[a] - V[b])
-        choices = out_by_vertex.get(int(b), [])
-        if not choices:
-            raise GeometryError(f"boundary is open at vertex {b}")
-        # across the void run: the first outgoing edge counter-clockwise from the incoming one
-        turns = [_ccw(d_in, _angle(V[H[g, 1]] - V[b])) for g in choices]
-        k = int(np.argmin(turns))
-        nxt[h] = choices[k]
-        arc_at_end[h] = int(b) in interfaces or abs(turns[k] - math.pi) > _ANGLE_EPS
+    # Each incoming boundary half-edge continues with the first outgoing one counter-clockwise
+    # from it at its head, i.e. across the void run; all heads at once, grouped by sort.
+    order = np.argsort(H[:, 0], kind="stable")
+    lo = np.searchsorted(H[order, 0], H[:, 1], side="left")
+    count = np.searchsorted(H[order, 0], H[:, 1], side="right") - lo
+    if not count.all():
+        raise GeometryError(f"boundary is open at vertex {int(H[np.argmin(count), 1])}")
+    hh = np.repeat(np.arange(len(H)), count)
+    gg = order[lo[hh] + np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)]
+    d_in, d_out = V[H[:, 0]] - V[H[:, 1]], V[H[:, 1]] - V[H[:, 0]]
+    a_in, a_out = np.arctan2(d_in[:, 1], d_in[:, 0]), np.arctan2(d_out[:, 1], d_out[:, 0])
+    turn = np.mod(a_out[gg] - a_in[hh], 2 * math.pi)
+    turn[turn <= 1e-12] = 2 * math.pi
+    pick = np.lexsort((turn, hh))
+    pick = pick[np.searchsorted(hh[pick], np.arange(len(H)))]
+    nxt = gg[pick]
+    is_interface = np.isin(H[:, 1], np.fromiter(interfaces, dtype=np.int64, count=len(interfaces)))
+    # the connection at the head of h is an arc (or interface) unless the boundary runs straight on
+    arc_at_end = is_interface | (np.abs(turn[pick] - math.pi) > _ANGLE_EPS)
 
     prev_arc = np.zeros(len(H), dtype=bool)
     prev_arc[nxt] = arc_at_end

@@ -146,10 +146,12 @@ class RationalQuad:
     def end(self) -> Point:
         return self.P2
 
-    @property
+    @cached_property
     def control_points(self) -> NDArray[np.float64]:
-        """(3, 2) float."""
-        return np.stack([self.P0, self.P1, self.P2])
+        """(3, 2) float, read-only."""
+        P = np.stack([self.P0, self.P1, self.P2])
+        P.setflags(write=False)
+        return P
 
     @property
     def weights(self) -> NDArray[np.float64]:
@@ -394,6 +396,7 @@ class Outline:
         g1_exempt_lines: Sequence[tuple[ArrayLike, ArrayLike]] = (),
         min_width_required: float | None = None,
         width: bool = True,
+        symmetry: int = 1,
     ) -> OutlineReport:
         """Check that the outline is a valid, fabricable region; return an :class:`OutlineReport`.
 
@@ -403,7 +406,10 @@ class Outline:
         meets another segment, except joints lying (within 1e-6 mm) on one of ``g1_exempt_lines``
         (each given by two points), where a corner is intended - e.g. the polygon edges, which the
         interface arcs meet at right angles. ``min_width_required`` turns a too-narrow neck into a
-        problem; ``width=False`` skips the (most expensive) width computation.
+        problem; ``width=False`` skips the (most expensive) width computation. ``symmetry`` = n > 1
+        declares n-fold rotational symmetry about the origin: it is checked on the segments' end and
+        control points (1e-6 mm; a violation is a problem) and lets min_width cast rays from one
+        sector of the boundary only, n times fewer.
 
         Raises GeometryError listing every problem if ``raise_on_error`` and the outline is invalid.
         """
@@ -459,6 +465,10 @@ class Outline:
                 f"({worst_at[0]:.4f}, {worst_at[1]:.4f})"  # type: ignore[index]
             )
 
+        if symmetry > 1 and not self._has_symmetry(symmetry):
+            problems.append(f"not {symmetry}-fold symmetric about the origin (to 1e-6 mm)")
+            symmetry = 1
+
         min_width, min_width_at = math.inf, None
         if width:
             # The solid must lie on the left of every edge, whatever the loops' given orientation.
@@ -466,7 +476,7 @@ class Outline:
                 P if (a > 0) == (i == 0) else P[::-1] for i, (P, a) in enumerate(zip(polys, areas, strict=True))
             ]
             spacing = max(self.perimeter / 1500.0, 2.0 * tol)
-            min_width, p, q = curves.ray_min_width(oriented, spacing)
+            min_width, p, q = curves.ray_min_width(oriented, spacing, symmetry=symmetry)
             if math.isfinite(min_width):
                 min_width_at = ((float(p[0]), float(p[1])), (float(q[0]), float(q[1])))
             if min_width_required is not None and not min_width >= min_width_required:
@@ -490,6 +500,18 @@ class Outline:
         if raise_on_error and problems:
             raise GeometryError("invalid outline: " + "; ".join(problems))
         return report
+
+    def _has_symmetry(self, n: int, atol: float = 1e-6) -> bool:
+        """Whether rotating every segment's start (and arc control) point by 2π/n lands on one."""
+        from scipy.spatial import cKDTree
+
+        P = np.array(
+            [s.start for loop in self.loops for s in loop.segments]
+            + [s.P1 for loop in self.loops for s in loop.segments if isinstance(s, RationalQuad)]
+        )
+        c, s_ = math.cos(2 * math.pi / n), math.sin(2 * math.pi / n)
+        R = P @ np.array([[c, s_], [-s_, c]])
+        return bool(cKDTree(P).query(R)[0].max() <= atol)
 
     def _worst_g1(
         self, exempt_lines: Sequence[tuple[ArrayLike, ArrayLike]]

@@ -289,3 +289,15 @@ def test_closed_form_halves_match_de_casteljau() -> None:
         ref = split_quad(arc.control_points, w, 0.5)
         for half, (P, wr) in zip(mine, ref, strict=True):
             assert np.allclose(half.control_points, P, atol=1e-14) and half.w == pytest.approx(wr, rel=1e-14)
+
+
+@pytest.mark.parametrize("sides", [3, 5, 6])
+def test_min_width_from_one_fan_sector_equals_whole_boundary(sides: int) -> None:
+    # FilletedPattern.validate declares the n-fold symmetry and casts rays from one fan sector only;
+    # the result must equal casting from the whole boundary
+    for p in enumerate_library(sides, 2).patterns()[::37]:
+        fp = fillet_pattern(p)
+        sector = fp.validate(1e-2)
+        full = fp.outline.validate(1e-2, g1_exempt_lines=fp.polygon_edges())
+        assert sector.ok and full.ok
+        assert sector.min_width == pytest.approx(full.min_width, abs=1e-9)

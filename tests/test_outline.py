@@ -448,3 +448,43 @@ def test_svg_path_ellipse_parabola_hyperbola() -> None:
     pts = np.array([args for c, args in cmds if c == "L"])
     assert len(pts) > 5
     assert np.abs(pts[:-1, 0] * pts[:-1, 1] - 1).max() < 1e-5  # flattened vertices on xy = 1
+
+
+# ------------------------------------------------------------------------------ symmetry
+
+
+def rotated(loop: Loop, angle: float) -> Loop:
+    c, s_ = math.cos(angle), math.sin(angle)
+    R = np.array([[c, -s_], [s_, c]])
+    return Loop(tuple(
+        Line(R @ g.p0, R @ g.p1) if isinstance(g, Line) else RationalQuad(R @ g.P0, R @ g.P1, R @ g.P2, g.w)
+        for g in loop.segments
+    ))
+
+
+def test_declared_symmetry_gives_the_same_min_width_on_a_symmetric_outline() -> None:
+    # a hexagon-symmetric region: a disc of six 60° arcs with six round holes near its rim (rotated
+    # copies, since the check is on segments); the neck between hole and rim is the min width
+    R, w = 10.0, math.cos(math.pi / 6)
+    arcs = []
+    for k in range(6):
+        a0, a1, am = k * math.pi / 3, (k + 1) * math.pi / 3, (k + 0.5) * math.pi / 3
+        arcs.append(RationalQuad(R * np.array([math.cos(a0), math.sin(a0)]),
+                                 R / w * np.array([math.cos(am), math.sin(am)]),
+                                 R * np.array([math.cos(a1), math.sin(a1)]), w))
+    hole = disc(1.5, (7.0 * math.cos(0.3), 7.0 * math.sin(0.3))).reversed()
+    outline = Outline(Loop(tuple(arcs)), tuple(rotated(hole, k * math.pi / 3) for k in range(6)))
+    full = outline.validate(1e-3)
+    sector = outline.validate(1e-3, symmetry=6)
+    assert full.ok and sector.ok
+    assert sector.min_width == pytest.approx(10.0 - 7.0 - 1.5, abs=2e-3)
+    assert sector.min_width == pytest.approx(full.min_width, abs=1e-12)
+
+
+def test_declared_symmetry_is_checked() -> None:
+    # a square is 4-fold symmetric but not 6-fold: the claim is a problem, and the width still found
+    rep = Outline(square(4.0)).validate(1e-3, symmetry=6, raise_on_error=False)
+    assert not rep.ok
+    assert any("not 6-fold symmetric" in p for p in rep.problems)
+    assert rep.min_width == pytest.approx(4.0, abs=1e-9)
+    assert Outline(square(4.0)).validate(1e-3, symmetry=4).min_width == pytest.approx(4.0, abs=1e-9)
