@@ -324,9 +324,10 @@ def quad_area(P: ArrayLike, w: float) -> float:
     plus the signed area between the arc and its chord, f(w) times the signed control-triangle area
     (:func:`segment_area_ratio`, closed form).
     """
-    P = np.asarray(P, dtype=np.float64)
-    tri = 0.5 * float(_cross(P[1] - P[0], P[2] - P[0]))
-    return 0.5 * float(_cross(P[0], P[2])) + segment_area_ratio(w) * tri
+    # plain floats: the same IEEE operations as the array form, without its per-call overhead
+    (x0, y0), (x1, y1), (x2, y2) = np.asarray(P, dtype=np.float64).tolist()
+    tri = 0.5 * ((x1 - x0) * (y2 - y0) - (y1 - y0) * (x2 - x0))
+    return 0.5 * (x0 * y2 - y0 * x2) + segment_area_ratio(w) * tri
 
 
 @lru_cache(maxsize=4)
