@@ -79,8 +79,9 @@ def main() -> None:
             "fillet (exact outline)": lambda: make_part(pattern, 2.0, 0.2),
             "solid (B-rep + BRepCheck)": lambda: make_part(pattern, 2.0, 0.2).solid,
             "STEP write": lambda: FORMATS["step"].write(part, tmp / "s.step", settings),
-            "STL mesh 0.01 mm + write": lambda: FORMATS["stl"].write(make_part(pattern, 2.0, 0.2), tmp / "s.stl",
-                                                                    settings),
+            f"STL mesh {settings.mesh_tolerance:g} mm + write": lambda: FORMATS["stl"].write(
+                make_part(pattern, 2.0, 0.2), tmp / "s.stl", settings
+            ),
             "DXF write (arcs)": lambda: FORMATS["dxf"].write(part, tmp / "s.dxf", settings),
             "min-width check (warning)": lambda: width_warnings(part.outline, ["stl"], 0.0),
         }

@@ -48,3 +48,18 @@ def test_stl_mesh_tolerance(tmp_path: Path) -> None:
         assert errors[-1] <= tol
     assert counts[0] > 2 * counts[1]
     assert np.all(np.isfinite(errors))
+
+
+def test_default_stl_of_the_curviest_pattern_is_within_0_1_percent_volume(tmp_path: Path) -> None:
+    # 0x2508 has the largest STL volume error of the library (benchmarks/study_stl_volume.py: +0.107 %
+    # at a 0.01 mm chord, +0.051 % at the 0.005 mm default); the issue asks for 0.1 % at the default
+    trimesh = pytest.importorskip("trimesh")
+    from fabpat.fillet import fillet_pattern
+    from fabpat.library import get_pattern
+
+    out = tmp_path / "p.stl"
+    r = run_cli("export", "0x2508", "--stl", str(out))
+    assert r.returncode == 0, r.stderr
+    m = trimesh.load(out, file_type="stl")
+    assert m.is_watertight and m.is_winding_consistent
+    assert m.volume == pytest.approx(2.0 * fillet_pattern(get_pattern("0x2508")).outline.area, rel=1e-3)

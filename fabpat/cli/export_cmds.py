@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 
 import click
 
+from fabpat.cad import DEFAULT_CHORD
 from fabpat.cli.options import _at_least, edge_option, sides_option
 from fabpat.errors import ExportError
 from fabpat.exchange.registry import FORMATS, ExportSettings, Job, Part, export_parts, parse_formats, width_warnings
@@ -95,7 +96,7 @@ def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> lis
 @click.option("--svg", "svg", type=click.Path(dir_okay=False), help="SVG file (exact outline, true size).")
 @click.option("--curves", type=click.Choice(["arcs", "spline", "lines"]), default="arcs", show_default=True,
               help="DXF curves: circular arcs or polylines within --curve-tolerance, or exact rational splines.")
-@click.option("--mesh-tolerance", type=float, default=0.01, show_default=True,
+@click.option("--mesh-tolerance", type=float, default=DEFAULT_CHORD, show_default=True,
               callback=_at_least(0, "mesh tolerance", True),
               help="STL/3MF: largest distance in mm between the triangles and the exact surface.")
 @click.option("--curve-tolerance", type=float, default=0.01, show_default=True,

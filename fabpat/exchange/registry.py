@@ -23,7 +23,7 @@ from functools import cached_property
 from pathlib import Path
 from typing import Any
 
-from fabpat.cad import DEFAULT_ANGULAR, DEFAULT_THICKNESS, make_solid
+from fabpat.cad import DEFAULT_ANGULAR, DEFAULT_CHORD, DEFAULT_THICKNESS, make_solid
 from fabpat.errors import ExportError
 from fabpat.io import atomic_outputs
 from fabpat.outline import Outline, RationalQuad
@@ -43,7 +43,7 @@ class ExportSettings:
     ``timestamp``: fixed STEP header time (ISO 8601) for reproducible files.
     """
 
-    mesh_tolerance: float = 0.01
+    mesh_tolerance: float = DEFAULT_CHORD
     angular_tolerance: float = DEFAULT_ANGULAR
     curves: str = "arcs"
     curve_tolerance: float = 0.01

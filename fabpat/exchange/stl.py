@@ -12,14 +12,14 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from fabpat.cad import DEFAULT_ANGULAR, mesh
+from fabpat.cad import DEFAULT_ANGULAR, DEFAULT_CHORD, mesh
 from fabpat.errors import ExportError
 from fabpat.io import atomic_outputs
 
 if TYPE_CHECKING:  # pragma: no cover
     from fabpat.exchange.registry import ExportSettings, Part
 
-DEFAULT_TOLERANCE = 0.01  # mm: max distance between a facet and the exact surface (chord height)
+DEFAULT_TOLERANCE = DEFAULT_CHORD  # mm: max distance between a facet and the exact surface (chord height)
 
 
 def dump_stl(

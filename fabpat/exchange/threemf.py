@@ -18,7 +18,7 @@ from xml.sax.saxutils import escape, quoteattr
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.cad import DEFAULT_ANGULAR, mesh
+from fabpat.cad import DEFAULT_ANGULAR, DEFAULT_CHORD, mesh
 from fabpat.errors import ExportError, GeometryError
 from fabpat.io import atomic_outputs
 
@@ -127,7 +127,11 @@ def write(part: Part, path: Path, settings: ExportSettings) -> None:
 
 
 def write_3mf(
-    shape: Any, path: str | os.PathLike[str], name: str, tolerance: float = 0.01, angular: float = DEFAULT_ANGULAR
+    shape: Any,
+    path: str | os.PathLike[str],
+    name: str,
+    tolerance: float = DEFAULT_CHORD,
+    angular: float = DEFAULT_ANGULAR,
 ) -> Path:
     """Mesh a solid within ``tolerance`` mm and write it as 3MF atomically; returns the path."""
     V, F = triangulate(getattr(shape, "wrapped", shape), tolerance, angular)
