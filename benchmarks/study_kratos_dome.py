@@ -192,7 +192,7 @@ def section_convergence(hs: list[float], thin: bool, thin_min_h: float) -> None:
     print("| h | nodes | fabpat linear | Kratos thick linear | fabpat NL | max u | s | Kratos thick NL | max u | s "
           "| Kratos thin NL | max u | s |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
-    cols: dict[str, list[tuple[float, float]]] = {"fl": [], "kl": [], "fn": [], "kn": [], "tn": []}
+    cols: dict[str, list[tuple[float, float]]] = {"fl": [], "kl": [], "fn": [], "kn": [], "tn": [], "tl": []}
     for h in hs:
         m = lacy_mesh(h)
         p = build_problem(m, "dome", sides=6)
@@ -209,6 +209,7 @@ def section_convergence(hs: list[float], thin: bool, thin_min_h: float) -> None:
         if thin and h >= thin_min_h:
             t, tt = timed(solve_kratos, p, steps=20, element=THIN)
             cols["tn"].append((h, t.energy))
+            cols["tl"].append((h, kratos_linear(p, THIN)))
             line += f"| {t.energy:.2f} | {np.linalg.norm(t.displacement, axis=1).max():.2f} | {tt:.1f} |"
         else:
             line += "| – | – | – |"
@@ -217,12 +218,20 @@ def section_convergence(hs: list[float], thin: bool, thin_min_h: float) -> None:
     print("| series | E∞ | observed order p |")
     print("|---|---|---|")
     names = {"fl": "fabpat linear", "kl": "Kratos thick linear", "fn": "fabpat NL", "kn": "Kratos thick NL",
-             "tn": "Kratos thin NL"}
+             "tn": "Kratos thin NL", "tl": "Kratos thin linear"}
     for key, name in names.items():
         pts = cols[key]
         ext = richardson([a for a, _ in pts], [b for _, b in pts])
         print(f"| {name} | {'n/a' if ext is None else f'{ext[0]:.2f}'} | "
               f"{'n/a (non-monotone or < 3 meshes)' if ext is None else f'{ext[1]:.2f}'} |")
+    print("\nNonlinear / linear energy of the same element on the same mesh (cancels the Kirchhoff-vs-"
+          "Mindlin bending difference, which is a linear effect):\n")
+    print("| h | fabpat | Kratos thick | Kratos thin |")
+    print("|---|---|---|---|")
+    thin_nl, thin_lin = dict(cols["tn"]), dict(cols["tl"])
+    for (h, fl), (_, kl), (_, fn), (_, kn) in zip(cols["fl"], cols["kl"], cols["fn"], cols["kn"], strict=True):
+        tr = f"{thin_nl[h] / thin_lin[h]:.3f}" if h in thin_nl else "–"
+        print(f"| {h} | {fn / fl:.3f} | {kn / kl:.3f} | {tr} |")
     print()
 
 

@@ -20,7 +20,7 @@ from functools import cached_property, lru_cache
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from fabpat import curves
+from fabpat import curves, polyline
 from fabpat.errors import GeometryError
 from fabpat.metrics import RegionMetrics
 
@@ -301,7 +301,7 @@ class OutlineReport:
     tolerance). ``orientation_ok``: outer counter-clockwise, holes clockwise. ``holes_inside``: every
     hole inside the outer loop and outside the other holes. ``worst_g1_angle``: the largest angle
     between the tangents at a joint where an arc meets another segment (exempt joints excluded).
-    ``min_width``: see :func:`fabpat.curves.ray_min_width`; ``min_width_at`` are the two ends of the
+    ``min_width``: see :func:`fabpat.polyline.ray_min_width`; ``min_width_at`` are the two ends of the
     narrowest chord. ``problems`` lists every failure; empty means valid.
     """
 
@@ -432,7 +432,7 @@ class Outline:
             )
 
         polys = [_dedupe(loop.flatten(tol), 1e-12) for loop in self.loops]
-        hits = curves.polyline_intersections(polys, eps=1e-9)
+        hits = polyline.polyline_intersections(polys, eps=1e-9)
         simple = len(hits) == 0
         if not simple:
             li, ei = int(hits[0, 0]), int(hits[0, 1])
@@ -444,11 +444,11 @@ class Outline:
 
         # With no crossings, one vertex per hole decides containment for the whole hole.
         probes = np.array([P[0] for P in polys[1:]]).reshape(-1, 2)
-        outside = np.flatnonzero(~curves.points_in_polygon(probes, polys[0]))
+        outside = np.flatnonzero(~polyline.points_in_polygon(probes, polys[0]))
         nested = [
             (int(i), j)
             for j in range(len(probes))
-            for i in np.flatnonzero(curves.points_in_polygon(probes, polys[j + 1]))
+            for i in np.flatnonzero(polyline.points_in_polygon(probes, polys[j + 1]))
             if i != j
         ]
         holes_inside = outside.size == 0 and not nested
@@ -476,7 +476,7 @@ class Outline:
                 P if (a > 0) == (i == 0) else P[::-1] for i, (P, a) in enumerate(zip(polys, areas, strict=True))
             ]
             spacing = max(self.perimeter / 1500.0, 2.0 * tol)
-            min_width, p, q = curves.ray_min_width(oriented, spacing, symmetry=symmetry)
+            min_width, p, q = polyline.ray_min_width(oriented, spacing, symmetry=symmetry)
             if math.isfinite(min_width):
                 min_width_at = ((float(p[0]), float(p[1])), (float(q[0]), float(q[1])))
             if min_width_required is not None and not min_width >= min_width_required:

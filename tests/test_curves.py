@@ -418,32 +418,3 @@ def test_fit_arcs_of_circle_is_one_exact_arc() -> None:
     assert arcs[0][2] == pytest.approx(math.tan(2.0 / 4), rel=1e-12)
     X = bulge_points(*arcs[0])
     assert np.abs(np.linalg.norm(X - (1.0, 2.0), axis=1) - 3.0).max() < 1e-12
-
-
-# ------------------------------------------------------------------------------ polyline geometry
-
-
-def test_polyline_intersections_and_point_in_polygon() -> None:
-    square = np.array([[0.0, 0], [4, 0], [4, 4], [0, 4]])
-    inner = np.array([[1.0, 1], [1, 3], [3, 3], [3, 1]])
-    assert len(curves.polyline_intersections([square, inner])) == 0
-    crossing = inner + [2.5, 0]
-    assert len(curves.polyline_intersections([square, crossing])) == 2
-    touching = np.array([[4.0, 1], [5, 1], [5, 2]])  # touches the square's right edge at (4, 1)
-    assert len(curves.polyline_intersections([square, touching])) >= 1
-    bowtie = np.array([[0.0, 0], [2, 0], [0, 2], [2, 2]])
-    assert len(curves.polyline_intersections([bowtie])) == 1
-    inside = curves.points_in_polygon([[2, 2], [5, 5], [0.5, 3.9], [-1, 2]], square)
-    assert inside.tolist() == [True, False, True, False]
-
-
-def test_ray_min_width_of_rectangle_and_annulus() -> None:
-    rect = np.array([[0.0, 0], [10, 0], [10, 3], [0, 3]])
-    width, p, q = curves.ray_min_width([rect], 0.1)
-    assert width == pytest.approx(3.0, abs=1e-12)
-    assert abs(p[1] - q[1]) == pytest.approx(3.0)
-    phi = np.linspace(0, 2 * np.pi, 2000, endpoint=False)
-    outer = 5 * np.column_stack([np.cos(phi), np.sin(phi)])
-    hole = 4 * np.column_stack([np.cos(phi), np.sin(phi)])[::-1]
-    width, _, _ = curves.ray_min_width([outer, hole], 0.05)
-    assert width == pytest.approx(1.0, abs=1e-4)

@@ -171,7 +171,7 @@ def label_placement(outline: Outline, text: str) -> tuple[tuple[float, float], f
     of a 0.1 mm flattening; the text box must fit in that clearance circle. If the largest height
     that fits is below MIN_TEXT_HEIGHT, the label goes 2 mm under the part instead (on the sheet).
     """
-    from fabpat.curves import points_in_polygon
+    from fabpat.polyline import points_in_polygon
 
     flat = 0.1  # mm: coarse is enough, the clearance is reduced by it below
     polys = [polyline(loop, flat) for loop in outline.loops]
