@@ -94,3 +94,21 @@ def test_bad_input_is_one_line_exit_2_no_file(tmp_path: Path, args: list[str], w
     assert r.returncode == 2
     assert r.stderr.count("\n") == 1 and words in r.stderr
     assert list(tmp_path.iterdir()) == []
+
+
+def test_filleted_columns_cache_follows_the_pipeline_code(tmp_path, monkeypatch) -> None:  # noqa: ANN001
+    import fabpat.catalog
+    from fabpat.cli.library_cmds import _cache_path, library_rows
+    from fabpat.library import enumerate_library
+
+    monkeypatch.setenv("FABPAT_CACHE", str(tmp_path))
+    lib = enumerate_library(6, 1)
+    first = library_rows(lib)
+    assert len(list(tmp_path.glob("library-*.json"))) == 1
+    assert library_rows(lib) == first  # read back from the cache
+    jobs = [(r["id"], 6, 1, 36.0, 0.2) for r in first]
+    before = _cache_path(jobs)
+    monkeypatch.setattr(fabpat.catalog, "solver_version", lambda: "fabpat 0+edited")
+    assert _cache_path(jobs) != before  # edited pipeline code: another cache file
+    monkeypatch.setenv("FABPAT_CACHE", "off")
+    assert _cache_path(jobs) is None

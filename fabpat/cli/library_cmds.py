@@ -78,7 +78,10 @@ def library_rows(
 
 
 def _cache_path(jobs: list[tuple[str, int, int, float, float]]) -> Path | None:
-    """Where the filleted columns of this exact list are cached (keyed by fabpat's version).
+    """Where the filleted columns of this exact list are cached.
+
+    Keyed by the list and by :func:`fabpat.catalog.solver_version` (the version plus a digest of the
+    pipeline's source), so an edited fillet or min-width code never reads an old cache.
 
     ``$FABPAT_CACHE`` (or ``$XDG_CACHE_HOME/fabpat``, default ``~/.cache/fabpat``); set
     ``FABPAT_CACHE=off`` to disable. A cache is a convenience: it is recomputed when missing or broken.
@@ -86,13 +89,13 @@ def _cache_path(jobs: list[tuple[str, int, int, float, float]]) -> Path | None:
     import hashlib
     import os
 
-    from fabpat import __version__
+    from fabpat.catalog import solver_version
 
     root = os.environ.get("FABPAT_CACHE")
     if root == "off":
         return None
     base = Path(root) if root else Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "fabpat"
-    key = hashlib.sha1(repr((__version__, jobs)).encode()).hexdigest()[:20]
+    key = hashlib.sha1(repr((solver_version(), jobs)).encode()).hexdigest()[:20]
     return base / f"library-{key}.json"
 
 
