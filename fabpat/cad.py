@@ -266,7 +266,7 @@ class BulgeLoop:
 
     def flatten(self, tol: float) -> NDArray[np.float64]:
         """(m, 2) points of a closed polyline within ``tol`` mm of the loop (last point not repeated)."""
-        from fabpat.curves import arc_points
+        from fabpat.conics import arc_points
 
         out: list[NDArray[np.float64]] = []
         E = np.roll(self.V, -1, axis=0)
@@ -290,7 +290,7 @@ _ARC_CACHE_SIZE = 8192
 def fitted_arcs(seg: RationalQuad, tol: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Starts (k, 2) and bulges (k,) of circular arcs within ``tol`` mm of a rational arc.
 
-    :func:`fabpat.curves.fit_arcs` on the arc moved to a canonical position (P0 at the origin, chord
+    :func:`fabpat.conics.fit_arcs` on the arc moved to a canonical position (P0 at the origin, chord
     along +x), cached: an arc fit is invariant under rigid motions, and a pattern — let alone a
     library — repeats the same few arcs many times, so this makes DXF export several times faster.
     """
@@ -307,7 +307,7 @@ def fitted_arcs(seg: RationalQuad, tol: float) -> tuple[NDArray[np.float64], NDA
     key = (round(float(q[0]), 10), round(float(q[1]), 10), round(length, 10), seg.w, tol)
     arcs = _ARC_CACHE.get(key)
     if arcs is None:
-        from fabpat.curves import fit_arcs
+        from fabpat.conics import fit_arcs
 
         Q = np.array([[0.0, 0.0], q, [length, 0.0]])
         arcs = np.array([(s_[0], s_[1], b) for s_, _e, b in fit_arcs(Q, seg.w, tol)])
@@ -322,7 +322,7 @@ def fitted_arcs(seg: RationalQuad, tol: float) -> tuple[NDArray[np.float64], NDA
 def bulge_loops(outline: Outline, tol: float) -> list[BulgeLoop]:
     """Every loop (outer first) with each rational arc fitted by circular arcs within ``tol`` mm.
 
-    G1 biarcs from :func:`fabpat.curves.fit_arcs` (one exact arc for a circular Bézier arc).
+    G1 biarcs from :func:`fabpat.conics.fit_arcs` (one exact arc for a circular Bézier arc).
     """
     loops = []
     for loop in outline.loops:
@@ -344,7 +344,7 @@ def bulge_loops(outline: Outline, tol: float) -> list[BulgeLoop]:
 def _bulge_wire(loop: BulgeLoop) -> Any:
     from OCP.GC import GC_MakeArcOfCircle
 
-    from fabpat.curves import arc_points
+    from fabpat.conics import arc_points
 
     E = np.roll(loop.V, -1, axis=0)
     curves = [

@@ -20,7 +20,7 @@ from functools import cached_property, lru_cache
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from fabpat import curves, polyline
+from fabpat import conics, curves, polyline
 from fabpat.errors import GeometryError
 from fabpat.metrics import RegionMetrics
 
@@ -215,13 +215,13 @@ class RationalQuad:
         (PL, wL), (PR, wR) = curves.split_quad(self.control_points, self.w, t)
         return RationalQuad(*PL, w=wL), RationalQuad(*PR, w=wR)
 
-    def to_conic(self) -> curves.Conic:
+    def to_conic(self) -> conics.Conic:
         """The conic carrying the arc (ellipse with DXF parameters, or implicit coefficients)."""
-        return curves.quad_to_conic(self.control_points, self.w)
+        return conics.quad_to_conic(self.control_points, self.w)
 
-    def fit_arcs(self, tol: float) -> list[curves.ArcTriple]:
+    def fit_arcs(self, tol: float) -> list[conics.ArcTriple]:
         """Circular arcs within tol mm as (start, end, bulge) triples for a DXF LWPOLYLINE."""
-        return curves.fit_arcs(self.control_points, self.w, tol)
+        return conics.fit_arcs(self.control_points, self.w, tol)
 
 
 Segment = Line | RationalQuad

@@ -14,7 +14,7 @@ from scipy.integrate import quad
 from scipy.spatial import cKDTree
 from scipy.special import ellipe
 
-from fabpat import curves
+from fabpat import conics, curves
 from fabpat.errors import GeometryError
 
 RNG = np.random.default_rng(20240611)
@@ -334,7 +334,7 @@ def test_ellipse_conversion_reproduces_points(ccw: bool, rot_deg: float) -> None
     mid = phi0 + h
     P = np.array([E(phi0), c + Rm @ np.array([a * math.cos(mid), b * math.sin(mid)]) / math.cos(h), E(phi0 + span)])
     w = math.cos(h)
-    con = curves.quad_to_conic(P, w)
+    con = conics.quad_to_conic(P, w)
     assert con.kind == "ellipse"
     e = con.ellipse
     assert e is not None
@@ -363,7 +363,7 @@ def test_ellipse_conversion_reproduces_points(ccw: bool, rot_deg: float) -> None
 
 def test_circle_conversion() -> None:
     P, w = circle_arc(2.0, 0.5, 1.2, (1.0, 1.0))
-    e = curves.quad_to_conic(P, w).ellipse
+    e = conics.quad_to_conic(P, w).ellipse
     assert e is not None
     assert e.ratio == pytest.approx(1.0, abs=1e-12)
     assert e.semi_axes[0] == pytest.approx(2.0, rel=1e-12)
@@ -371,11 +371,11 @@ def test_circle_conversion() -> None:
 
 
 def test_parabola_and_hyperbola_implicit_coefficients() -> None:
-    par = curves.quad_to_conic(np.array([[-1.0, 1.0], [0.5, -2.0], [2.0, 4.0]]), 1.0)
+    par = conics.quad_to_conic(np.array([[-1.0, 1.0], [0.5, -2.0], [2.0, 4.0]]), 1.0)
     assert par.kind == "parabola" and par.ellipse is None
     k = np.array(par.coefficients) / par.coefficients[0]
     assert np.allclose(k, [1, 0, 0, 0, -1, 0], atol=1e-12)  # x² − y = 0
-    hyp = curves.quad_to_conic(np.array([[1.0, 1.0], [4 / 3, 2 / 3], [2.0, 0.5]]), 3 * math.sqrt(2) / 4)
+    hyp = conics.quad_to_conic(np.array([[1.0, 1.0], [4 / 3, 2 / 3], [2.0, 0.5]]), 3 * math.sqrt(2) / 4)
     assert hyp.kind == "hyperbola"
     k = np.array(hyp.coefficients) / hyp.coefficients[1]
     assert np.allclose(k, [0, 1, 0, 0, 0, -1], atol=1e-12)  # xy − 1 = 0
@@ -383,7 +383,7 @@ def test_parabola_and_hyperbola_implicit_coefficients() -> None:
 
 def test_conic_of_straight_arc_raises() -> None:
     with pytest.raises(GeometryError):
-        curves.quad_to_conic(np.array([[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]]), 0.5)
+        conics.quad_to_conic(np.array([[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]]), 0.5)
 
 
 # ------------------------------------------------------------------------------------ arc fitting
@@ -393,7 +393,7 @@ def test_conic_of_straight_arc_raises() -> None:
 @pytest.mark.parametrize("tol", [1e-2, 1e-3])
 def test_fit_arcs_within_tolerance(w: float, tol: float) -> None:
     P = np.array([[0.0, 0.0], [4.0, 6.0], [9.0, 1.0]])  # turns clockwise
-    arcs = curves.fit_arcs(P, w, tol)
+    arcs = conics.fit_arcs(P, w, tol)
     assert np.allclose(arcs[0][0], P[0], atol=0) and np.allclose(arcs[-1][1], P[2], atol=0)
     for (_, e1, _), (s2, _, _) in zip(arcs[:-1], arcs[1:], strict=True):
         assert e1 == s2
@@ -413,7 +413,7 @@ def test_fit_arcs_within_tolerance(w: float, tol: float) -> None:
 
 def test_fit_arcs_of_circle_is_one_exact_arc() -> None:
     P, w = circle_arc(3.0, 0.2, 2.0, (1.0, 2.0))
-    arcs = curves.fit_arcs(P, w, 1e-6)
+    arcs = conics.fit_arcs(P, w, 1e-6)
     assert len(arcs) == 1
     assert arcs[0][2] == pytest.approx(math.tan(2.0 / 4), rel=1e-12)
     X = bulge_points(*arcs[0])

@@ -4,7 +4,7 @@ One closed entity per outline loop, coordinates in millimetres (``$INSUNITS`` = 
 no units variable, so R12 files are mm by convention only). Curve modes:
 
 * ``"arcs"`` (default): every rational arc fitted by circular arcs within ``tolerance`` mm (G1
-  biarcs from :func:`fabpat.curves.fit_arcs`) in an LWPOLYLINE with bulges — what every laser and
+  biarcs from :func:`fabpat.conics.fit_arcs`) in an LWPOLYLINE with bulges — what every laser and
   CNC program reads. Lines stay exact.
 * ``"spline"``: one exact rational SPLINE per loop: degree 2, each segment a Bézier piece between
   double knots, with its control points and weights (1, w, 1) (lines as straight degree-2 pieces).
