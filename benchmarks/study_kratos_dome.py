@@ -2,7 +2,7 @@
 
 Run (from the repository root, Kratos installed)::
 
-    .venv/bin/python benchmarks/study_kratos_dome.py            # everything, ≈ 15 min on 2 shared cores
+    .venv/bin/python benchmarks/study_kratos_dome.py            # everything, ≈ 10 min on 2 shared cores
     .venv/bin/python benchmarks/study_kratos_dome.py --quick    # h = 2, 1 only, no thin-shell sweep, ≈ 3 min
     .venv/bin/python benchmarks/study_kratos_dome.py --h 2 1 0.5 --no-thin
 
