@@ -20,6 +20,7 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
+from typing import Any
 
 from fabpat.catalog import Catalog, input_hash, open_catalog, solver_version
 from fabpat.errors import FabpatError
@@ -204,20 +205,25 @@ def _run_local(task: Task, jobs: list[tuple[tuple, str]], workers: int) -> Itera
                 proc.terminate()
 
 
-def _run_dask(task: Task, jobs: list[tuple[tuple, str]], address: str,
-              timeout: float) -> Iterator[tuple[str, object]]:
-    """Yield (pattern ID, rows or exception) from a dask.distributed scheduler at ``address``.
-
-    The workers need fabpat installed (same version, or their rows get other hashes).
-    """
+def _dask_client(address: str, timeout: float) -> Any:
+    """A connected dask.distributed client; FabpatError if dask is missing or the scheduler is not there."""
     try:
-        from dask.distributed import Client, as_completed
+        from dask.distributed import Client
     except ImportError as e:
         raise FabpatError("--dask needs dask.distributed: pip install 'dask[distributed]'") from e
     try:
-        client = Client(address, timeout=timeout)
+        return Client(address, timeout=timeout)
     except OSError as e:
         raise FabpatError(f"cannot connect to the dask scheduler at {address}: {e}") from e
+
+
+def _run_dask(task: Task, jobs: list[tuple[tuple, str]], client: Any) -> Iterator[tuple[str, object]]:
+    """Yield (pattern ID, rows or exception) from a connected dask.distributed client; closes it.
+
+    The workers need fabpat installed (same version, or their rows get other hashes).
+    """
+    from dask.distributed import as_completed
+
     try:
         # pure=False: the same pattern asked twice (with --force) must run again, not be deduplicated
         run = uuid.uuid4().hex[:8]
@@ -252,7 +258,12 @@ def run_sweep(db: str | Path, ids: Sequence[str], setup: SweepSetup = SweepSetup
         import fabpat.fillet  # noqa: F401
         import fabpat.mesh  # noqa: F401
         import fabpat.scenarios  # noqa: F401
-    with open_catalog(db, write=True) as cat:
+    # connect first: an unreachable scheduler must not leave a new, empty catalog behind
+    client = _dask_client(dask, dask_timeout) if dask else None
+    with contextlib.ExitStack() as stack:
+        if client is not None:
+            stack.callback(client.close)
+        cat = stack.enter_context(open_catalog(db, write=True))
         jobs = plan(cat, ids, s, force)
         total = sum(len(sc) for _, sc in jobs)
         report = SweepReport(len(ids), len(ids) * len(s.scenarios), len(ids) * len(s.scenarios) - total, 0, 0)
@@ -260,8 +271,8 @@ def run_sweep(db: str | Path, ids: Sequence[str], setup: SweepSetup = SweepSetup
             progress(0, total)
         work = [((pid, s.sides, s.depth, s.edge, s.thickness, s.weight, s.E, s.nu, s.h, sc), pid)
                 for pid, sc in jobs]
-        if dask:
-            stream = _run_dask(task, work, dask, dask_timeout)
+        if client is not None:
+            stream = _run_dask(task, work, client)
         else:
             stream = _run_local(task, work, max(1, workers or os.cpu_count() or 1))
         done = 0

@@ -74,6 +74,8 @@ def test_static_plots(tmp_path: Path) -> None:
         assert ET.parse(out / f"{s}.svg").getroot().tag.endswith("svg")
     res = invoke("plot", "--out", str(tmp_path / "x"), "--highlight", "0x0001")
     assert res.exit_code == 2 and "0x0001" in res.stderr and not (tmp_path / "x").exists()
+    res = invoke("plot", "--out", str(tmp_path / "missing" / "figs"))
+    assert res.exit_code == 2 and "does not exist" in res.stderr and not (tmp_path / "missing").exists()
 
 
 def test_in_chromium_offline(page_file: Path, tmp_path: Path) -> None:

@@ -110,6 +110,8 @@ def test_export_all_in_one_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatc
         (["0x0001", "--stl", "{dir}/a.stl"], "not in the"),
         (["--all", "--out", "{dir}/lib", "--formats", "step,obj"], "obj"),
         (["--all", "--out", "{dir}/lib", "--formats", ","], "no format"),
+        (["--all", "--out", "{dir}/missing/lib", "--formats", "svg"], "does not exist"),  # no tree of folders
+        (["0x0488", "--stl", "/proc/fabpat-test.stl"], "cannot write"),  # a folder that takes no files
         (["--all"], "--out"),
         (["0x0488", "--all", "--out", "{dir}/lib"], "not both"),
         (["--stl", "{dir}/a.stl"], "ID"),

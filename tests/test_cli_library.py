@@ -86,6 +86,9 @@ def test_sheet_png_and_svg(tmp_path: Path) -> None:
         (["sheet", "--out", "{dir}/x.gif"], ".svg or .png"),
         (["library", "--format", "xml"], "table"),
         (["library", "--depth", "3"], "--sample"),
+        (["show", "0x0488", "--svg", "/proc/fabpat-test.svg"], "cannot write"),  # a folder that takes no files
+        (["show", "0x0488", "--svg", "/proc/version/a.svg"], "not a folder"),  # the parent is a file
+        (["sheet", "--out", "{dir}/missing/x.svg"], "does not exist"),
     ],
 )
 def test_bad_input_is_one_line_exit_2_no_file(tmp_path: Path, args: list[str], words: str) -> None:

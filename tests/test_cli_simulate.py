@@ -51,3 +51,27 @@ def test_simulate_bad_input(tmp_path: Path, args: list[str], words: str) -> None
     assert r.returncode == 2
     assert r.stderr.count("\n") == 1 and words in r.stderr
     assert list(tmp_path.iterdir()) == []
+
+
+def test_simulate_text_output_uses_the_json_field_names() -> None:
+    r = run_cli("simulate", "0x7f88", "--scenario", "cantilever", "--linear", "--h", "4")
+    assert r.returncode == 0, r.stderr
+    line = r.stdout.strip().splitlines()[0]
+    fields = dict(tok.split("=", 1) for tok in line.split() if "=" in tok)
+    assert {"energy", "max_displacement", "converged", "iterations", "seconds", "nodes", "elements"} <= set(fields)
+    assert fields["converged"] == "true" and float(fields["energy"]) > 0
+
+
+@pytest.mark.parametrize("element, per_element", [("S6", 6), ("S3", 3), ("STRI3", 3)])
+def test_export_inp_element_choice(tmp_path: Path, element: str, per_element: int) -> None:
+    inp = tmp_path / "c.inp"
+    r = run_cli("simulate", "0x7f88", "--scenario", "dome", "--linear", "--h", "4", "--export-inp", str(inp),
+                "--inp-element", element, "--json")
+    assert r.returncode == 0, r.stderr
+    lines = inp.read_text().splitlines()
+    k = next(i for i, ln in enumerate(lines) if ln.upper().startswith("*ELEMENT"))
+    assert f"TYPE={element}" in lines[k].upper()
+    assert len(lines[k + 1].split(",")) == 1 + per_element  # element id, then its nodes
+    end = next(i for i in range(k + 1, len(lines)) if lines[i].startswith("*"))
+    assert end - k - 1 == json.loads(r.stdout)["elements"]  # one line per element of the solver's mesh
+    assert all(len(ln.split(",")) == 1 + per_element for ln in lines[k + 1:end])

@@ -176,6 +176,11 @@ def test_dask_local_cluster(tmp_path: Path) -> None:
     assert _count(db) == (5, 15)
     with pytest.raises(FabpatError, match="cannot connect to the dask scheduler"):
         run_sweep(db, IDS[:1], dask="tcp://127.0.0.1:1", dask_timeout=0.5, task=fake_task)
+    # an unreachable scheduler leaves no new (empty) catalog behind
+    new = tmp_path / "new.sqlite"
+    with pytest.raises(FabpatError, match="cannot connect to the dask scheduler"):
+        run_sweep(new, IDS[:1], dask="tcp://127.0.0.1:1", dask_timeout=0.5, task=fake_task)
+    assert not new.exists()
 
 
 def test_real_pipeline_two_patterns_coarse(tmp_path: Path) -> None:

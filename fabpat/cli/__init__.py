@@ -26,6 +26,8 @@ class FabpatGroup(click.Group):
             _fail(e.format_message())
         except FabpatError as e:
             _fail(str(e))
+        except OSError as e:  # a file system refusal no check foresaw: still one line, not a traceback
+            _fail(f"{e.filename}: {e.strerror}" if e.filename and e.strerror else str(e))
         except click.exceptions.Abort:
             click.echo("fabpat: aborted", err=True)
             sys.exit(1)

@@ -178,11 +178,10 @@ def plot_cmd(db: str | None, out: str, highlight: str, sides: int | None) -> Non
     Example: fabpat plot --out figures --highlight 0x0488,0x0688
     """
     from fabpat.catalog import open_catalog
-    from fabpat.errors import ExportError
+    from fabpat.io import check_output_folder
     from fabpat.plots import plot_catalog
 
-    if Path(out).exists() and not Path(out).is_dir():
-        raise ExportError(f"--out {out} exists and is not a folder")
+    check_output_folder(out)
     ids = [h.strip() for h in highlight.split(",") if h.strip()]
     with open_catalog(db) as cat:
         paths = plot_catalog(cat, out, ids, sides)

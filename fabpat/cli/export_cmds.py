@@ -16,6 +16,7 @@ from fabpat.cad import DEFAULT_CHORD
 from fabpat.cli.options import _at_least, edge_option, sides_option
 from fabpat.errors import ExportError
 from fabpat.exchange.registry import FORMATS, ExportSettings, Job, Part, export_parts, parse_formats, width_warnings
+from fabpat.io import check_output_folder
 
 if TYPE_CHECKING:  # pragma: no cover
     from fabpat.pattern import Pattern
@@ -157,12 +158,11 @@ def _export_library(sides: int, edge: float, thickness: float, weight: float, na
     from fabpat.library import enumerate_library
 
     created = not out.exists()
-    if out.exists() and not out.is_dir():
-        raise ExportError(f"--out {out} exists and is not a folder")
+    check_output_folder(out)
     lib = enumerate_library(sides, 2)
     ids = list(lib.ids)
     try:
-        out.mkdir(parents=True, exist_ok=True)
+        out.mkdir(exist_ok=True)
     except OSError as e:
         raise ExportError(f"cannot create folder {out}: {e.strerror}") from e
 

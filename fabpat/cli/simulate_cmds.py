@@ -39,11 +39,14 @@ def _per_scenario(path: str | None, scenario: str, many: bool) -> str | None:
 @click.option("--vtu", type=click.Path(dir_okay=False), help="Deformed mesh with fields for ParaView (.vtu).")
 @click.option("--png", type=click.Path(dir_okay=False), help="Picture of the deformed pattern coloured by energy.")
 @click.option("--export-inp", "inp", type=click.Path(dir_okay=False),
-              help="Abaqus/CalculiX input deck of the same mesh, loads and supports (S6 elements).")
+              help="Abaqus/CalculiX input deck of the same mesh, loads and supports.")
+@click.option("--inp-element", type=click.Choice(["S6", "S3", "STRI3"], case_sensitive=False), default="S6",
+              show_default=True, help="Element of --export-inp: S6 (CalculiX), or S3/STRI3 for Abaqus.")
 @click.option("--json", "as_json", is_flag=True, help="Print the results as JSON.")
 def simulate_cmd(
     pattern_id: str, sides: int, depth: int, edge: float, weight: float, scenario: str, linear: bool, h: float,
-    thickness: float, E: float, nu: float, vtu: str | None, png: str | None, inp: str | None, as_json: bool,
+    thickness: float, E: float, nu: float, vtu: str | None, png: str | None, inp: str | None, inp_element: str,
+    as_json: bool,
 ) -> None:
     """Simulate one pattern in the Cantilever, Cylinder and/or Dome scenario.
 
@@ -89,15 +92,17 @@ def simulate_cmd(
                 write_png(tmp_of["png", sc], mesh.V, mesh.F, r.result, title=f"{pattern.id} {sc}")
             if ("inp", sc) in tmp_of:
                 write_inp(tmp_of["inp", sc], mesh, sc, sides=sides, thickness=thickness, E=E, nu=nu,
-                          nonlinear=not linear)
+                          nonlinear=not linear, element=inp_element.upper())
     if as_json:
         click.echo(json.dumps(rows if many else rows[0], indent=1))
     else:
         for row in rows:
+            # the JSON field names, so a reader of one format can read the other
             click.echo(
-                f"{row['id']} {row['scenario']:<10} energy {row['energy']:.6g} N·mm  "
-                f"max displacement {row['max_displacement']:.4g} mm  {row['iterations']} iterations  "
-                f"{row['seconds']:.2f} s  ({row['nodes']} nodes, {row['elements']} elements)"
+                f"{row['id']} {row['scenario']:<10} energy={row['energy']:.6g} N·mm  "
+                f"max_displacement={row['max_displacement']:.4g} mm  converged={str(bool(row['converged'])).lower()}  "
+                f"iterations={row['iterations']}  seconds={row['seconds']:.2f}  nodes={row['nodes']}  "
+                f"elements={row['elements']}"
             )
     for path in outputs.values():
         click.echo(f"wrote {path}", err=as_json)

@@ -1,7 +1,8 @@
 """Abaqus / CalculiX input deck of a pattern scenario (same mesh, material, supports and loads).
 
 * Elements: **S6** by default (a mid-side node is added on every triangle side; CalculiX expands S3 to
-  wedges that lock badly), or ``element="S3"`` for Abaqus users.
+  wedges that lock badly), or ``element="S3"`` / ``"STRI3"`` (Abaqus' thin triangle; CalculiX has
+  no STRI3) for Abaqus users: three-node connectivity, loads with the (1/2, 1/2) side weights.
 * Numbers are written with ``%.12e`` (≤ 19 characters): CalculiX silently cuts fields longer than 20.
 * Interface loads are the same uniform line loads as :mod:`fabpat.scenarios`, with the *consistent*
   weights of the element side: (1/6, 4/6, 1/6)·length for S6 (corner, mid-side, corner), (1/2, 1/2)
@@ -59,8 +60,8 @@ def deck_text(mesh: ShellMesh, scenario: str, *, sides: int, thickness: float = 
     if scenario not in SCENARIOS:
         raise ValueError(f"unknown scenario {scenario!r}")
     element = element.upper()
-    if element not in ("S6", "S3"):
-        raise ValueError(f"element must be S6 or S3, got {element!r}")
+    if element not in ("S6", "S3", "STRI3"):
+        raise ValueError(f"element must be S6, S3 or STRI3, got {element!r}")
     V = mesh.V
     n = mesh.n_nodes
     X = np.column_stack([V, np.zeros(n)])
