@@ -39,6 +39,7 @@ def test_library_csv_and_table() -> None:
     assert len(lines) == 3
     t = run_cli("library", "--depth", "1")
     assert "0xa" in t.stdout and "2 patterns" in t.stdout and "min_width" in t.stdout
+    assert "filleted_polar_moment" in t.stdout and "…" not in t.stdout  # piped: nothing truncated
 
 
 def test_library_sample_depth3() -> None:

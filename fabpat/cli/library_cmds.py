@@ -139,11 +139,15 @@ def _print_rows(rows: list[dict[str, object]], fmt: str, title: str) -> None:
         from rich.table import Table
 
         table = Table(title=title)
-        for key in rows[0] if rows else []:
-            table.add_column(key, justify="left" if key == "id" else "right")
-        for r in rows:
-            table.add_row(*(f"{v:.6g}" if isinstance(v, float) else str(v) for v in r.values()))
-        Console(width=160).print(table)
+        cells = [[f"{v:.6g}" if isinstance(v, float) else str(v) for v in r.values()] for r in rows]
+        keys = list(rows[0]) if rows else []
+        for key in keys:
+            table.add_column(key, justify="left" if key == "id" else "right", no_wrap=True)
+        for c in cells:
+            table.add_row(*c)
+        # wide enough for every header and cell: a table piped to a file must not truncate column names
+        need = sum(max([len(k)] + [len(c[i]) for c in cells]) + 3 for i, k in enumerate(keys)) + 1
+        Console(width=max(80, need)).print(table)
 
 
 @click.command("library")
