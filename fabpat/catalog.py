@@ -298,7 +298,9 @@ def open_catalog(path: str | Path | None = None, *, write: bool = False) -> Cata
             with conn:
                 conn.execute("INSERT OR IGNORE INTO meta VALUES ('schema_version', ?)", (SCHEMA_VERSION,))
         except sqlite3.DatabaseError as e:
-            raise CatalogError(f"{p} is not a fabpat catalog ({e})") from e
+            # a new file that cannot be created is a path problem, not a broken catalog
+            problem = f"cannot create catalog {p} ({e})" if not p.exists() else f"{p} is not a fabpat catalog ({e})"
+            raise CatalogError(problem) from e
     else:
         if not p.is_file():
             what = "the built-in catalog" if path is None else "catalog"

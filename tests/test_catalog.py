@@ -122,6 +122,10 @@ def test_open_errors(tmp_path: Path) -> None:
     junk.write_bytes(os.urandom(4096))
     with pytest.raises(CatalogError, match="not a fabpat catalog"):
         open_catalog(junk)
+    with pytest.raises(CatalogError, match="not a fabpat catalog"):
+        open_catalog(junk, write=True)
+    with pytest.raises(CatalogError, match="cannot create catalog"):  # a folder that takes no files
+        open_catalog("/proc/fabpat-test.sqlite", write=True)
     other = tmp_path / "other.sqlite"
     with sqlite3.connect(other) as c:
         c.execute("CREATE TABLE t (x)")
