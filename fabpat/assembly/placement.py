@@ -151,7 +151,7 @@ def _sleeve_frame(skel: Tiling, k: int, sleeve: Sleeve) -> NDArray[np.float64]:
     return T
 
 
-def _pins(skel: Tiling) -> list[tuple[int, int]]:
+def end_interfaces(skel: Tiling) -> list[tuple[int, int]]:
     """(face, polygon edge) of the free interfaces at both ends of a strip (first and last column)."""
     if skel.grid is None:
         return []
@@ -191,7 +191,7 @@ def place(spec: AssemblySpec, face_patterns: list[str]) -> Assembly:
 
     width = len(str(len(skel.interior_edges)))
     joint = {int(k): f"E{n + 1:0{width}d}" for n, k in enumerate(skel.interior_edges)}
-    pins = _pins(skel)
+    pins = end_interfaces(skel)
     pin_set = set(pins)
 
     counters: dict[str, int] = {}

@@ -60,4 +60,83 @@ def assemble_cmd(spec: str, out: str, progress: bool, timestamp: str | None) -> 
         click.echo(os.path.join(out, name) if not Path(out).is_absolute() else str(Path(out) / name))
 
 
-COMMANDS = [assemble_cmd]
+@click.command("simulate-strip")
+@click.argument("spec", type=click.Path(dir_okay=False))
+@click.option("--h", "h", type=float, default=3.0, show_default=True, help="Target mesh edge length in mm.")
+@click.option("--load-factor", type=float, default=0.8, show_default=True,
+              help="Compression as a fraction of the Rayleigh estimate of the strip's buckling load.")
+@click.option("--compression", type=float, default=None, help="Compression in N (instead of --load-factor).")
+@click.option("--imperfection", type=float, default=0.01, show_default=True,
+              help="Out-of-plane perturbation force as a fraction of the compression.")
+@click.option("--youngs-modulus", "E", type=float, default=1000.0, show_default=True, help="N/mm² (PLA: 1000).")
+@click.option("--poisson", "nu", type=float, default=0.35, show_default=True, help="Poisson's ratio.")
+@click.option("--vtu", type=click.Path(dir_okay=False), help="Deformed strip with fields for ParaView (.vtu).")
+@click.option("--png", type=click.Path(dir_okay=False), help="Side view of the deflection profile (.png).")
+@click.option("--json", "as_json", is_flag=True, help="Print the results (with the profile) as JSON.")
+def simulate_strip_cmd(spec: str, h: float, load_factor: float, compression: float | None, imperfection: float,
+                       E: float, nu: float, vtu: str | None, png: str | None, as_json: bool) -> None:
+    """Compress a whole flat strip (a honeycomb-strip SPEC) between pins and report how it bends.
+
+    Tiles are welded on their interface segments; the first column's end interfaces are pinned, the
+    last column's slide along x and carry the compression. Prints the buckling-load estimate, the
+    load, where the strip is highest (fraction of its length) and the deflection area of the first
+    (stiff) half over the second: a graded strip bends asymmetrically, stiff end flatter.
+
+    Example: fabpat simulate-strip assemblies/graded-strip.toml --png strip.png --vtu strip.vtu
+    """
+    import json
+    import time
+
+    from fabpat.assembly.build import face_patterns
+    from fabpat.assembly.spec import load_spec
+    from fabpat.assembly.strip_sim import critical_load, simulate_strip, strip_model, strip_tiling, write_profile_png
+    from fabpat.errors import SpecError
+    from fabpat.exchange.vtu import write_vtu
+    from fabpat.io import atomic_outputs
+
+    for name, value in (("--h", h), ("--load-factor", load_factor), ("--imperfection", imperfection),
+                        ("--youngs-modulus", E)) + ((("--compression", compression),) if compression is not None
+                                                     else ()):
+        if not value > 0:
+            raise click.BadParameter(f"{name} must be > 0, got {value:g}")
+    if not -1.0 < nu < 0.5:
+        raise click.BadParameter(f"--poisson must be in (-1, 0.5), got {nu:g}")
+    parsed = load_spec(spec)
+    t = parsed.tiling
+    if t.kind != "honeycomb-strip":
+        raise SpecError(f"{spec}: simulate-strip needs tiling.kind = \"honeycomb-strip\", got {t.kind!r}")
+    t0 = time.perf_counter()
+    ids = face_patterns(parsed)
+    model = strip_model(strip_tiling(t.rows, t.columns, t.edge), ids, edge=t.edge, h=h,
+                        thickness=parsed.plates.thickness, weight=parsed.plates.weight, E=E, nu=nu)
+    estimate = critical_load(model)
+    P = compression if compression is not None else load_factor * estimate
+    outputs = [p for p in (vtu, png) if p is not None]
+    with atomic_outputs(*outputs) as temps:
+        r = simulate_strip(model, P, imperfection)
+        tmp = dict(zip(outputs, temps, strict=True))
+        if vtu is not None:
+            write_vtu(tmp[vtu], model.V, model.F, r.result)
+        if png is not None:
+            write_profile_png(tmp[png], r)
+    row = {
+        "spec": parsed.name, "patterns": list(dict.fromkeys(ids)), "nodes": len(model.V), "elements": len(model.F),
+        "length": model.length, "critical_load_estimate": estimate, "compression": P, "imperfection": imperfection,
+        "max_deflection": float(r.w.max()), "peak": r.peak, "half_ratio": r.half_ratio,
+        "amplification": r.amplification, "implied_critical_load": r.implied_critical_load,
+        "converged": r.result.converged, "iterations": r.result.iterations,
+        "seconds": time.perf_counter() - t0,
+    }
+    if as_json:
+        click.echo(json.dumps({**row, "profile": {"x": r.x.tolist(), "w": r.w.tolist()}}, indent=1))
+    else:
+        def text(v: object) -> str:
+            return f"{v:.4g}" if isinstance(v, float) else str(v).lower() if isinstance(v, bool) else str(v)
+
+        click.echo(" ".join(f"{k}={text(v)}" for k, v in row.items() if k != "patterns")
+                   + " patterns=" + ",".join(row["patterns"]))
+    for path in outputs:
+        click.echo(f"wrote {path}", err=as_json)
+
+
+COMMANDS = [assemble_cmd, simulate_strip_cmd]
