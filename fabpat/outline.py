@@ -46,6 +46,9 @@ def _arc_length(P: bytes, w: float) -> float:
 
 
 def _point(p: object) -> Point:
+    # A point is immutable once made: another segment's end point can be shared, not copied.
+    if type(p) is np.ndarray and p.shape == (2,) and p.dtype == np.float64 and not p.flags.writeable:
+        return p
     a = np.array(p, dtype=np.float64).reshape(2)
     a.setflags(write=False)
     return a
@@ -149,7 +152,7 @@ class RationalQuad:
     @cached_property
     def control_points(self) -> NDArray[np.float64]:
         """(3, 2) float, read-only."""
-        P = np.stack([self.P0, self.P1, self.P2])
+        P = np.array([self.P0, self.P1, self.P2])
         P.setflags(write=False)
         return P
 
