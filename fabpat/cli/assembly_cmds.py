@@ -105,20 +105,31 @@ def simulate_strip_cmd(spec: str, h: float, load_factor: float, compression: flo
     t = parsed.tiling
     if t.kind != "honeycomb-strip":
         raise SpecError(f"{spec}: simulate-strip needs tiling.kind = \"honeycomb-strip\", got {t.kind!r}")
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
     t0 = time.perf_counter()
-    ids = face_patterns(parsed)
-    model = strip_model(strip_tiling(t.rows, t.columns, t.edge), ids, edge=t.edge, h=h,
-                        thickness=parsed.plates.thickness, weight=parsed.plates.weight, E=E, nu=nu)
-    estimate = critical_load(model)
-    P = compression if compression is not None else load_factor * estimate
+    console = Console(stderr=True)
     outputs = [p for p in (vtu, png) if p is not None]
-    with atomic_outputs(*outputs) as temps:
-        r = simulate_strip(model, P, imperfection)
-        tmp = dict(zip(outputs, temps, strict=True))
-        if vtu is not None:
-            write_vtu(tmp[vtu], model.V, model.F, r.result)
-        if png is not None:
-            write_profile_png(tmp[png], r)
+    with Progress(TextColumn("{task.description:<22}"), BarColumn(), TimeElapsedColumn(), console=console,
+                  transient=True, disable=not console.is_terminal) as bar:
+        task = bar.add_task("meshing the tiles", total=4)
+        ids = face_patterns(parsed)
+        model = strip_model(strip_tiling(t.rows, t.columns, t.edge), ids, edge=t.edge, h=h,
+                            thickness=parsed.plates.thickness, weight=parsed.plates.weight, E=E, nu=nu)
+        bar.update(task, advance=1, description="buckling-load estimate")
+        estimate = critical_load(model)
+        P = compression if compression is not None else load_factor * estimate
+        bar.update(task, advance=1, description=f"nonlinear solve ({len(model.V)} nodes)")
+        with atomic_outputs(*outputs) as temps:
+            r = simulate_strip(model, P, imperfection)
+            bar.update(task, advance=1, description="writing files")
+            tmp = dict(zip(outputs, temps, strict=True))
+            if vtu is not None:
+                write_vtu(tmp[vtu], model.V, model.F, r.result)
+            if png is not None:
+                write_profile_png(tmp[png], r)
+        bar.update(task, advance=1)
     row = {
         "spec": parsed.name, "patterns": list(dict.fromkeys(ids)), "nodes": len(model.V), "elements": len(model.F),
         "length": model.length, "critical_load_estimate": estimate, "compression": P, "imperfection": imperfection,
