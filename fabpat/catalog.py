@@ -287,7 +287,9 @@ def open_catalog(path: str | Path | None = None, *, write: bool = False) -> Cata
     if write:
         if path is None:
             raise CatalogError("the built-in catalog is read-only here; give --db FILE")
-        if p.is_dir() or not (p.parent if str(p.parent) else Path(".")).is_dir():
+        if p.is_dir():
+            raise CatalogError(f"cannot use {p} as a catalog: it is a folder")
+        if not (p.parent if str(p.parent) else Path(".")).is_dir():
             raise CatalogError(f"cannot create catalog {p}: folder {p.parent} does not exist")
         try:
             conn = sqlite3.connect(p, timeout=30.0)

@@ -248,15 +248,17 @@ def interface_segments(
 
 def mesh_outline(
     outline: object, h: float = 1.5, sides: int = 6, edge: float = 36.0, *, min_angle: float = 25.0,
+    weight: float = INTERFACE_WEIGHT,
 ) -> ShellMesh:
     """Mesh an exact :class:`fabpat.outline.Outline` and tag its n interface node sets.
 
     Curves are flattened with chord tolerance ``FLATTEN_TOL_PER_H · h`` (0.03 mm at h = 1.5), then
     every flattened side is cut to ≤ h. Interface i is the segment of polygon edge i described in
-    :func:`interface_segments`. Raises GeometryError if an interface gets fewer than 2 nodes.
+    :func:`interface_segments`, whose length depends on the interface ``weight`` the outline was
+    filleted with (pass the same one). Raises GeometryError if an interface gets fewer than 2 nodes.
     """
     loops = outline.flatten(FLATTEN_TOL_PER_H * h)  # type: ignore[attr-defined]
-    mesh = mesh_polygons(loops, h, min_angle, interfaces=interface_segments(sides, edge))
+    mesh = mesh_polygons(loops, h, min_angle, interfaces=interface_segments(sides, edge, weight=weight))
     for i, nodes in enumerate(mesh.interfaces):
         if nodes.size < 2:
             raise GeometryError(f"interface {i} has {nodes.size} mesh nodes (need ≥ 2): h = {h} too coarse?")

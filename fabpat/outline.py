@@ -46,10 +46,13 @@ def _arc_length(P: bytes, w: float) -> float:
 
 
 def _point(p: object) -> Point:
-    # A point is immutable once made: another segment's end point can be shared, not copied.
-    if type(p) is np.ndarray and p.shape == (2,) and p.dtype == np.float64 and not p.flags.writeable:
+    # A point made here owns its read-only data, so a segment may share another one's end point
+    # instead of copying it (a read-only *view* could still change through its base: copied).
+    if type(p) is np.ndarray and p.shape == (2,) and p.base is None and not p.flags.writeable and p.dtype == np.float64:
         return p
-    a = np.array(p, dtype=np.float64).reshape(2)
+    a = np.array(p, dtype=np.float64)
+    if a.shape != (2,):
+        a = a.reshape(2).copy()
     a.setflags(write=False)
     return a
 
@@ -468,6 +471,8 @@ class Outline:
                 f"({worst_at[0]:.4f}, {worst_at[1]:.4f})"  # type: ignore[index]
             )
 
+        if symmetry < 1:
+            raise ValueError(f"symmetry must be a positive integer, got {symmetry}")
         if symmetry > 1 and not self._has_symmetry(symmetry):
             problems.append(f"not {symmetry}-fold symmetric about the origin (to 1e-6 mm)")
             symmetry = 1
@@ -505,12 +510,17 @@ class Outline:
         return report
 
     def _has_symmetry(self, n: int, atol: float = 1e-6) -> bool:
-        """Whether rotating every segment's start (and arc control) point by 2π/n lands on one."""
+        """Whether rotating every segment's start point, middle point (t = ½, which carries an arc's
+        weight) and arc control point by 2π/n lands on one of those points."""
         from scipy.spatial import cKDTree
 
+        segs = [s for loop in self.loops for s in loop.segments]
+        arcs = [s for s in segs if isinstance(s, RationalQuad)]
         P = np.array(
-            [s.start for loop in self.loops for s in loop.segments]
-            + [s.P1 for loop in self.loops for s in loop.segments if isinstance(s, RationalQuad)]
+            [s.start for s in segs]
+            + [s.P1 for s in arcs]
+            + [(s.P0 + 2.0 * s.w * s.P1 + s.P2) / (2.0 + 2.0 * s.w) for s in arcs]  # C(½), exact
+            + [0.5 * (s.p0 + s.p1) for s in segs if isinstance(s, Line)]
         )
         c, s_ = math.cos(2 * math.pi / n), math.sin(2 * math.pi / n)
         R = P @ np.array([[c, s_], [-s_, c]])

@@ -178,6 +178,8 @@ def ray_min_width(
     """
     from scipy.spatial import cKDTree
 
+    if symmetry < 1:
+        raise ValueError(f"symmetry must be a positive integer, got {symmetry}")
     Ls = [np.asarray(V, dtype=np.float64) for V in loops]
     A, B, lid, eid = _closed_edges(Ls)
     D = B - A

@@ -97,7 +97,7 @@ def simulate_pattern(pattern_id: str, sides: int, depth: int, edge: float, thick
         filleted = fillet_pattern(pattern, weight)
         prow.update(filleted.metrics())  # as `fabpat library`; an invalid outline raises GeometryError
         prow["svg_path"] = filleted.outline.to_svg_path()
-        mesh = mesh_outline(filleted.outline, h, sides, edge)
+        mesh = mesh_outline(filleted.outline, h, sides, edge, weight=weight)
     except FabpatError as e:
         geometry_error = f"{type(e).__name__}: {e}"
         prow["error"] = geometry_error

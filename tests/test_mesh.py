@@ -67,3 +67,24 @@ def test_tag_segments_tolerance() -> None:
 def test_bad_input_raises() -> None:
     with pytest.raises(GeometryError):
         mesh_polygons([np.array([[0.0, 0.0], [1.0, 0.0]])], 0.5)
+
+
+@pytest.mark.parametrize("weight", [0.1, 0.2, 0.5])
+def test_filleted_pattern_interfaces_follow_the_fillet_weight(weight: float) -> None:
+    # the interface segment is (edge/16)/(1 + w) either side of the midpoint: every mesh node on it
+    # must be tagged, whatever w the outline was filleted with
+    from fabpat.fillet import fillet_pattern
+    from fabpat.library import get_pattern
+    from fabpat.mesh import mesh_outline
+
+    fp = fillet_pattern(get_pattern("0x0488"), weight)
+    mesh = mesh_outline(fp.outline, 1.0, 6, 36.0, weight=weight)
+    corners = polygon_vertices(6, 36.0)
+    for i, nodes in enumerate(mesh.interfaces):
+        a, b = corners[i], corners[(i + 1) % 6]
+        t = (b - a) / np.linalg.norm(b - a)
+        dist = np.abs((mesh.V - a) @ np.array([-t[1], t[0]]))
+        on_edge = np.flatnonzero(dist < 1e-9)
+        assert sorted(nodes.tolist()) == sorted(on_edge.tolist())
+        span = (mesh.V[nodes] - 0.5 * (a + b)) @ t
+        assert span.max() - span.min() == pytest.approx(2 * fp.interface_half_length, abs=1e-9)

@@ -488,3 +488,24 @@ def test_declared_symmetry_is_checked() -> None:
     assert any("not 6-fold symmetric" in p for p in rep.problems)
     assert rep.min_width == pytest.approx(4.0, abs=1e-9)
     assert Outline(square(4.0)).validate(1e-3, symmetry=4).min_width == pytest.approx(4.0, abs=1e-9)
+
+
+def test_symmetry_check_sees_a_different_arc_weight() -> None:
+    # four lens-shaped holes, rotated copies except that one bulges more: same end and control points,
+    # another weight - not 4-fold symmetric, and the narrowest neck is only found from all sides
+    def lens(w: float) -> Loop:
+        a, b, c = np.array([3.0, -1.0]), np.array([3.0, 1.0]), np.array([2.0, 0.0])
+        return Loop((RationalQuad(a, c + [2.0, 0.0], b, w), RationalQuad(b, c, a, w))).reversed()
+
+    holes = [rotated(lens(0.3), k * math.pi / 2) for k in range(4)]
+    symmetric = Outline(square(9.0), tuple(holes))
+    lenient = {"g1_tol": 4.0}  # the lenses have corners
+    assert symmetric.validate(1e-3, symmetry=4, **lenient).ok
+    holes[2] = rotated(lens(0.95), math.pi)
+    odd = Outline(square(9.0), tuple(holes))
+    rep = odd.validate(1e-3, symmetry=4, raise_on_error=False, **lenient)
+    assert rep.problems == ("not 4-fold symmetric about the origin (to 1e-6 mm)",)
+    assert rep.min_width == pytest.approx(odd.validate(1e-3, **lenient).min_width, abs=1e-12)
+    assert rep.min_width < symmetric.validate(1e-3, **lenient).min_width - 0.1  # the fat lens is the neck
+    with pytest.raises(ValueError, match="symmetry"):
+        odd.validate(1e-3, symmetry=0)

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from fabpat.assembly.parts import CHECK_TOLERANCE, PartLibrary, gp_trsf, transformed
+from fabpat.cad import DEFAULT_CHORD
 from fabpat.errors import ExportError
 
 PALETTE = ["#f2a541", "#4a90d9", "#7bc67b", "#d96c6c", "#a57fd1", "#5cc4c4", "#c9b458"]
@@ -111,7 +112,7 @@ def read_step_solids(path: str | os.PathLike[str]) -> tuple[int, list[str]]:
     return count, names
 
 
-def write_part_stls(lib: PartLibrary, folder: Path, tolerance: float = 0.01) -> dict[str, Path]:
+def write_part_stls(lib: PartLibrary, folder: Path, tolerance: float = DEFAULT_CHORD) -> dict[str, Path]:
     """One binary STL per distinct part in print orientation; returns {part key: path}."""
     from fabpat.exchange.stl import dump_stl
 

@@ -103,12 +103,15 @@ def _tile_mesh(pattern_id: str, edge: float, weight: float, h: float):  # noqa: 
     from fabpat.library import get_pattern
     from fabpat.mesh import mesh_outline
 
-    return mesh_outline(fillet_pattern(get_pattern(pattern_id, 6, 2, edge), weight).outline, h, 6, edge)
+    outline = fillet_pattern(get_pattern(pattern_id, 6, 2, edge), weight).outline
+    return mesh_outline(outline, h, 6, edge, weight=weight)
 
 
 def strip_model(tiling: Tiling, face_patterns: list[str], *, edge: float = 36.0, h: float = 1.5,
                 thickness: float = 2.0, weight: float = 0.2, E: float = 1000.0, nu: float = 0.35) -> StripModel:
     """Merge the tiles' meshes of a flat honeycomb strip (``tiling`` of edge ``edge``; see module doc)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
 
     if tiling.grid is None or len(face_patterns) != len(tiling.faces):
@@ -123,13 +126,14 @@ def strip_model(tiling: Tiling, face_patterns: list[str], *, edge: float = 36.0,
         tiles.append(np.full(len(m.V), f))
         offsets.append(offsets[-1] + len(m.V))
     V_all = np.vstack(Vs)
-    # weld: every node maps to the lowest-numbered node within WELD_TOL
-    tree = cKDTree(V_all)
-    rep = np.array([min(b) for b in tree.query_ball_point(V_all, WELD_TOL)], dtype=np.int64)
-    keep = np.unique(rep)
-    new = np.full(len(V_all), -1, dtype=np.int64)
-    new[keep] = np.arange(len(keep))
-    merged = new[rep]
+    # weld: nodes closer than WELD_TOL (transitively) become one, numbered by their first node
+    pairs = cKDTree(V_all).query_pairs(WELD_TOL, output_type="ndarray")
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(V_all),) * 2)
+    _, label = connected_components(graph, directed=False)
+    keep = np.sort(np.unique(label, return_index=True)[1])  # the first node of each group
+    new = np.empty(len(keep), dtype=np.int64)
+    new[label[keep]] = np.arange(len(keep))
+    merged = new[label]
 
     def nodes(f: int, i: int) -> NDArray[np.int64]:
         return merged[meshes[face_patterns[f]].interfaces[i] + offsets[f]]

@@ -77,7 +77,7 @@ def simulate_cmd(
         if path is not None
     }
     pattern = get_pattern(pattern_id, sides, depth, edge)
-    mesh = mesh_outline(fillet_pattern(pattern, weight).outline, h, sides, edge)
+    mesh = mesh_outline(fillet_pattern(pattern, weight).outline, h, sides, edge, weight=weight)
     rows = []
     with atomic_outputs(*outputs.values()) as temps:
         tmp_of = dict(zip(outputs, temps, strict=True))
