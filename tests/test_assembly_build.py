@@ -62,6 +62,27 @@ def test_part_stls(kit: tuple[Path, list[str]]) -> None:
     assert plate.bounds[1, 2] - plate.bounds[0, 2] == pytest.approx(2.0, abs=1e-6)
 
 
+def test_output_tolerances_reach_the_kit(kit: tuple[Path, list[str]], tmp_path: Path) -> None:
+    """``[output] mesh_tolerance`` / ``curve_tolerance`` (mm) set the STL chord and the sheets' arcs."""
+    import ezdxf
+    import trimesh
+
+    coarse = tmp_path / "coarse.toml"
+    coarse.write_text(SMALL.read_text() + "\n[output]\nformats = [\"stl\", \"dxf\"]\n"
+                      "mesh_tolerance = 0.1\ncurve_tolerance = 0.2\n")
+    out = tmp_path / "kit"
+    r = run_cli("assemble", str(coarse), "--out", str(out), "--no-progress")
+    assert r.returncode == 0, r.stderr
+    name = "plate-hex-0x0488.stl"
+    assert len(trimesh.load(out / "parts" / name).faces) < 0.5 * len(trimesh.load(kit[0] / "parts" / name).faces)
+
+    def vertices(folder: Path) -> int:
+        doc = ezdxf.readfile(folder / "sheets" / "sheet-01.dxf")
+        return sum(len(e) for e in doc.modelspace().query("LWPOLYLINE[layer=='CUT']"))
+
+    assert vertices(out) < vertices(kit[0])
+
+
 def test_glb_preview(kit: tuple[Path, list[str]]) -> None:
     import trimesh
 

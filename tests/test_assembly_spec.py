@@ -47,6 +47,11 @@ def test_defaults() -> None:
     assert spec.formats == ("step", "stl", "glb", "dxf", "svg", "bom", "png")
     assert spec.sheet.kerf == 0.0
     assert parse_spec(base(plates={"process": "laser"})).sheet.kerf == pytest.approx(0.15)
+    from fabpat.cad import DEFAULT_CHORD
+
+    assert spec.mesh_tolerance == DEFAULT_CHORD and spec.curve_tolerance == 0.01
+    tuned = parse_spec(base(output={"mesh_tolerance": 0.05, "curve_tolerance": 0.002}))
+    assert (tuned.mesh_tolerance, tuned.curve_tolerance) == (0.05, 0.002)
 
 
 @pytest.mark.parametrize(
@@ -70,6 +75,8 @@ def test_defaults() -> None:
         ({"sheet": {"width": 170.0}}, ["missing key sheet.height"]),
         ({"sheet": {"width": 50.0, "height": 50.0}}, ["sheet.width × sheet.height", "smaller than a hexagon plate"]),
         ({"output": {"formats": ["step", "obj"]}}, ["output.formats", "'obj'", "step, stl, glb"]),
+        ({"output": {"mesh_tolerance": 0}}, ["output.mesh_tolerance", "> 0"]),
+        ({"output": {"curve_tolerance": "fine"}}, ["output.curve_tolerance", "number"]),
         ({"colour": "red"}, ["unknown key colour"]),
     ],
 )

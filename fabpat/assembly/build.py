@@ -259,7 +259,7 @@ def _write_all(spec: AssemblySpec, lib: Any, nesting: Any, net: Any, check_lines
     if "stl" in f:
         tell("STL")
         (tmp / "parts").mkdir()
-        for key, path in export.write_part_stls(lib, tmp / "parts").items():
+        for key, path in export.write_part_stls(lib, tmp / "parts", spec.mesh_tolerance).items():
             stl_files[key] = f"parts/{path.name}"
         files += list(stl_files.values())
     if "glb" in f:

@@ -1,6 +1,7 @@
 """Laser sheets (or print-bed layouts) of an assembly's plates: one DXF per sheet.
 
-Each plate's exact outline is fitted by circular arcs within 0.01 mm (:func:`fabpat.cad.bulge_loops`),
+Each plate's exact outline is fitted by circular arcs within the spec's ``output.curve_tolerance``
+(default 0.01 mm; :func:`fabpat.cad.bulge_loops`),
 offset by kerf/2 into the void when a kerf is given, turned and moved to its nested place, and written
 as closed LWPOLYLINEs with bulges on layer ``CUT`` (a rigid motion keeps every bulge). Layer ``ENGRAVE``
 carries, inside the solid sub-triangle that every pattern has at each interface, the label of the
@@ -26,7 +27,6 @@ SHEET_COLOR = 8  # ACI grey: reference only, not cut
 JOINT_DEPTH, PLATE_DEPTH = 0.6, 0.85  # × edge-row height: the two label lines inside the interface sub-triangle
 EDGE_LABEL_HEIGHT = 1.4  # mm (capped by the sub-triangle's size)
 CHAR_WIDTH = 0.9  # text width per character / text height (as fabpat.exchange.dxf)
-ARC_TOLERANCE = 0.01  # mm
 
 
 def plate_polygon(pt: PlateType, edge: float) -> NDArray[np.float64]:
@@ -94,7 +94,7 @@ def sheet_document(assembly: Assembly, nesting: Nesting, sheet: int, filleted: d
         plate = assembly.plates[item]
         pt = plate.type
         if pt not in loops_of:
-            loops = bulge_loops(filleted[pt].outline, ARC_TOLERANCE)
+            loops = bulge_loops(filleted[pt].outline, assembly.spec.curve_tolerance)
             loops_of[pt] = offset_bulge_loops(loops, 0.5 * kerf) if kerf > 0 else loops
         place = nesting.placements[item]
         for lp in loops_of[pt]:

@@ -15,7 +15,9 @@ A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented 
   interface segment + margin), ``wall``, ``depth`` (how far a plate enters its slot).
 * ``[sheet]``  ``width``, ``height`` (laser sheet or print bed), ``margin``, ``spacing``, ``kerf``.
 * ``[estimates]`` ``cut_speed`` (mm/s), ``print_rate`` (mm³/s).
-* ``[output]``  ``formats``: any of step, stl, glb, dxf, svg, bom, png.
+* ``[output]``  ``formats``: any of step, stl, glb, dxf, svg, bom, png; ``mesh_tolerance`` (STL chord of
+  the parts, default 0.005), ``curve_tolerance`` (largest deviation of the sheets' DXF arcs from the
+  exact outlines, default 0.01).
 
 Every error is a :class:`~fabpat.errors.SpecError` whose one line names the file, the key and what
 is allowed.
@@ -109,6 +111,8 @@ class AssemblySpec:
     sheet: SheetSpec
     estimates: EstimateSpec
     formats: tuple[str, ...]
+    mesh_tolerance: float = 0.005  # mm: STL chord of the parts (fabpat.cad.DEFAULT_CHORD)
+    curve_tolerance: float = 0.01  # mm: DXF sheets' arcs from the exact outlines
 
     @property
     def polygon_sides(self) -> tuple[int, ...]:
@@ -303,8 +307,15 @@ def _estimates(source: str, data: Any) -> EstimateSpec:
     return EstimateSpec(t.number("cut_speed", 15.0), t.number("print_rate", 3.0))
 
 
-def _formats(source: str, data: Any) -> tuple[str, ...]:
-    t = _Table(source, "output", data, ("formats",))
+def _output(source: str, data: Any) -> tuple[tuple[str, ...], float, float]:
+    """Formats, STL chord (mm) and DXF arc tolerance (mm) of ``[output]``."""
+    t = _Table(source, "output", data, ("formats", "mesh_tolerance", "curve_tolerance"))
+    tolerances = (t.number("mesh_tolerance", AssemblySpec.mesh_tolerance),
+                  t.number("curve_tolerance", AssemblySpec.curve_tolerance))
+    return (_formats(t), *tolerances)
+
+
+def _formats(t: _Table) -> tuple[str, ...]:
     formats = t.data.get("formats", list(FORMATS))
     if not isinstance(formats, list) or not formats:
         raise t.fail("formats", f"must be a non-empty list of: {', '.join(FORMATS)}")
@@ -357,11 +368,11 @@ def parse_spec(data: Mapping[str, Any], source: str = "<spec>") -> AssemblySpec:
         "sleeve": lambda: _sleeve(source, data.get("sleeve", {})),
         "sheet": lambda: _sheet(source, data["sheet"], plates.process),
         "estimates": lambda: _estimates(source, data.get("estimates", {})),
-        "output": lambda: _formats(source, data.get("output", {})),
+        "output": lambda: _output(source, data.get("output", {})),
     }
     values = {k: f() for k, f in readers.items()}
     spec = AssemblySpec(name.strip(), source, tiling, _patterns(source, data["patterns"], tiling), plates,
-                        values["sleeve"], values["sheet"], values["estimates"], values["output"])
+                        values["sleeve"], values["sheet"], values["estimates"], *values["output"])
     check_sheet_fits(spec)
     return spec
 
