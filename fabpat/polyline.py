@@ -114,8 +114,8 @@ def _subdivide(A: FloatArray, B: FloatArray, max_len: float) -> tuple[FloatArray
     return A[e] + (k / m[e])[:, None] * D[e], A[e] + ((k + 1) / m[e])[:, None] * D[e]
 
 
-REFINE_CANDIDATES = 16
-REFINE_SAMPLES = 65
+REFINE_CANDIDATES = 16  # local minima of the sampled thickness refined (with symmetry: per sector)
+REFINE_SAMPLES = 65  # rays across ±1 spacing around each: a step of spacing/32
 
 
 def _ray_hits(
@@ -166,9 +166,10 @@ def ray_min_width(
 
     Rays start on the edges spaced at most ``spacing`` mm and at every vertex (along the bisector
     of the two edge normals, which is the curve normal at a flattening vertex); around the best local
-    minima the edge rays are re-sampled 32 times finer. To avoid an all-pairs test, 32 rays against
-    every edge first give an upper bound U; then each ray is only tested against the edge pieces near
-    its first U mm (k-d tree on piece midpoints), which cannot miss a hit shorter than U.
+    minima (``REFINE_CANDIDATES``) the edge rays are re-sampled 32 times finer (``REFINE_SAMPLES`` over
+    ±1 spacing). To avoid an all-pairs test, 8 rays against every edge first give an upper bound U;
+    then each ray is only tested against the edge pieces near its first U mm (k-d tree on piece
+    midpoints), which cannot miss a hit shorter than U.
 
     ``symmetry`` = n > 1 declares that the region is invariant under rotation by 2π/n about the
     origin (the caller checks it): every boundary point then has an image in the sector of polar
