@@ -17,7 +17,8 @@ from pathlib import Path
 
 from fabpat.assembly.build import face_patterns
 from fabpat.assembly.spec import load_spec
-from fabpat.assembly.strip_sim import critical_load, simulate_strip, strip_model, strip_tiling
+from fabpat.assembly.strip_sim import critical_load, simulate_strip, strip_model
+from fabpat.assembly.tiling import honeycomb_strip
 
 SPEC = Path(__file__).resolve().parents[1] / "assemblies" / "graded-strip.toml"
 
@@ -30,7 +31,7 @@ def main() -> None:
     t = spec.tiling
     graded = face_patterns(spec)
     groups = list(dict.fromkeys(graded))
-    columns = [int(c) for c in strip_tiling(t.rows, t.columns, t.edge).grid[:, 1]]
+    columns = [int(c) for c in honeycomb_strip(t.rows, t.columns, t.edge).grid[:, 1]]
     mirrored = [graded[columns.index(t.columns - 1 - c)] for c in columns]
     strips = {"graded": graded, "mirrored": mirrored, "uniform": [groups[len(groups) // 2]] * len(graded)}
     print(f"Patterns stiff → soft: {', '.join(groups)}; uniform strip: {strips['uniform'][0]}; h = {h} mm\n")
@@ -38,7 +39,7 @@ def main() -> None:
           "| implied P_cr (N) | max w (mm) | s |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     for name, ids in strips.items():
-        model = strip_model(strip_tiling(t.rows, t.columns, t.edge), ids, edge=t.edge, h=h,
+        model = strip_model(honeycomb_strip(t.rows, t.columns, t.edge), ids, edge=t.edge, h=h,
                             thickness=spec.plates.thickness, weight=spec.plates.weight)
         estimate = critical_load(model)
         for factor in (0.5, 0.8):

@@ -7,7 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from fabpat.assembly.strip_sim import critical_load, simulate_strip, strip_model, strip_tiling
+from fabpat.assembly.strip_sim import critical_load, simulate_strip, strip_model
+from fabpat.assembly.tiling import honeycomb_strip
 
 # The stiffest pattern of the built-in catalog in the Cylinder scenario (energy 9.0 N·mm) and one
 # about 4× softer (35.7 N·mm).
@@ -16,7 +17,7 @@ SPECS = Path(__file__).resolve().parents[1] / "assemblies"
 
 
 def _run(patterns: list[str]):  # noqa: ANN202
-    model = strip_model(strip_tiling(1, len(patterns)), patterns, h=4.0)
+    model = strip_model(honeycomb_strip(1, len(patterns)), patterns, h=4.0)
     return model, simulate_strip(model, 0.8 * critical_load(model))
 
 

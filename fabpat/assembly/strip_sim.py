@@ -34,7 +34,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.assembly.placement import end_interfaces
-from fabpat.assembly.tiling import Tiling, honeycomb_strip
+from fabpat.assembly.tiling import Tiling
 from fabpat.errors import GeometryError
 from fabpat.scenarios import tributary_weights
 from fabpat.shell import ShellProblem, ShellResult, solve_linear
@@ -49,14 +49,13 @@ STRIP_RTOL = 1e-6  # Newton tolerance relative to the load norm (see simulate_st
 class StripModel:
     """The merged mesh of a strip and its supports.
 
-    V (n, 2) mm, F (m, 3); ``tile`` (n,) the tile each node belongs to (the lower one on a joint);
-    ``left``/``right`` node indices of the pinned end interfaces; ``area`` (n,) lumped nodal areas
-    (mm²); ``length`` the strip's x-extent (mm); ``material`` the plates' shell material.
+    V (n, 2) mm, F (m, 3); ``left``/``right`` node indices of the pinned end interfaces and
+    ``right_weights`` the compression's shares there; ``area`` (n,) lumped nodal areas (mm²);
+    ``length`` the strip's x-extent (mm); ``material`` the plates' shell material.
     """
 
     V: NDArray[np.float64]
     F: NDArray[np.int64]
-    tile: NDArray[np.int64]
     left: NDArray[np.int64]
     right: NDArray[np.int64]
     right_weights: NDArray[np.float64]
@@ -117,13 +116,12 @@ def strip_model(tiling: Tiling, face_patterns: list[str], *, edge: float = 36.0,
     if tiling.grid is None or len(face_patterns) != len(tiling.faces):
         raise ValueError("a flat strip tiling and one pattern ID per face are needed")
     meshes = {pid: _tile_mesh(pid, edge, weight, h) for pid in dict.fromkeys(face_patterns)}
-    Vs, Fs, tiles, offsets = [], [], [], [0]
+    Vs, Fs, offsets = [], [], [0]
     for f, pid in enumerate(face_patterns):
         m = meshes[pid]
         # honeycomb tiles are the pattern's own polygon translated: polygon edge i is tile edge i
         Vs.append(m.V + tiling.centroids[f, :2])
         Fs.append(m.F + offsets[-1])
-        tiles.append(np.full(len(m.V), f))
         offsets.append(offsets[-1] + len(m.V))
     V_all = np.vstack(Vs)
     # weld: nodes closer than WELD_TOL (transitively) become one, numbered by their first node
@@ -158,7 +156,7 @@ def strip_model(tiling: Tiling, face_patterns: list[str], *, edge: float = 36.0,
     P = np.column_stack([V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]])
     tri = 0.5 * np.abs(P[:, 0] * P[:, 3] - P[:, 1] * P[:, 2])
     area = np.bincount(F.ravel(), np.repeat(tri / 3.0, 3), minlength=len(V))
-    return StripModel(V, F, np.concatenate(tiles)[keep], left, right, np.array([right_w[i] for i in right]), area,
+    return StripModel(V, F, left, right, np.array([right_w[i] for i in right]), area,
                       float(np.ptp(V[:, 0])), Material(E, nu, thickness))
 
 
@@ -229,8 +227,3 @@ def write_profile_png(path: str | Path, r: StripResult, title: str = "", dpi: in
     fig.savefig(path, format="png")
     plt.close(fig)
     return Path(path)
-
-
-def strip_tiling(rows: int, columns: int, edge: float = 36.0) -> Tiling:
-    """The flat honeycomb strip of ``rows`` × ``columns`` tiles at its true edge (mm)."""
-    return honeycomb_strip(rows, columns, edge)

@@ -89,7 +89,8 @@ def simulate_strip_cmd(spec: str, h: float, load_factor: float, compression: flo
 
     from fabpat.assembly.build import face_patterns
     from fabpat.assembly.spec import load_spec
-    from fabpat.assembly.strip_sim import critical_load, simulate_strip, strip_model, strip_tiling, write_profile_png
+    from fabpat.assembly.strip_sim import critical_load, simulate_strip, strip_model, write_profile_png
+    from fabpat.assembly.tiling import honeycomb_strip
     from fabpat.errors import SpecError
     from fabpat.exchange.vtu import write_vtu
     from fabpat.io import atomic_outputs
@@ -115,7 +116,7 @@ def simulate_strip_cmd(spec: str, h: float, load_factor: float, compression: flo
                   transient=True, disable=not console.is_terminal) as bar:
         task = bar.add_task("meshing the tiles", total=4)
         ids = face_patterns(parsed)
-        model = strip_model(strip_tiling(t.rows, t.columns, t.edge), ids, edge=t.edge, h=h,
+        model = strip_model(honeycomb_strip(t.rows, t.columns, t.edge), ids, edge=t.edge, h=h,
                             thickness=parsed.plates.thickness, weight=parsed.plates.weight, E=E, nu=nu)
         bar.update(task, advance=1, description="buckling-load estimate")
         estimate = critical_load(model)
