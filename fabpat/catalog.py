@@ -24,9 +24,12 @@ Readers: :func:`open_catalog` (``None`` → the built-in catalog shipped in ``fa
 from __future__ import annotations
 
 import contextlib
+import errno
 import hashlib
 import json
+import os
 import sqlite3
+import tempfile
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from functools import cache
@@ -37,6 +40,9 @@ from fabpat.errors import FabpatError
 
 SCHEMA_VERSION = "1"
 BUILTIN_NAME = "catalog.sqlite"
+#: s: how long to wait for another process's lock on a catalog before calling it locked
+LOCK_TIMEOUT = 30.0
+_SQLITE_HEADER = b"SQLite format 3\x00"
 
 #: the default set-up of the built-in catalog (paper §4.1: hexagon of 36 mm edge, 2 mm PLA)
 DEFAULT_SETUP = {"sides": 6, "depth": 2, "edge": 36.0, "thickness": 2.0, "weight": 0.2}
@@ -164,10 +170,14 @@ class Catalog:
     # ------------------------------------------------------------------------------ reading
 
     def query(self, sql: str, params: Sequence[object] | Mapping[str, object] = ()) -> list[dict[str, object]]:
-        """Run a read query; one plain dict per row (column name → value)."""
-        cur = self.conn.execute(sql, params)
-        names = [d[0] for d in cur.description or ()]
-        return [dict(zip(names, row, strict=True)) for row in cur.fetchall()]
+        """Run a read query; one plain dict per row (column name → value). :class:`CatalogError` if the
+        file turns out damaged or locked (the cause named, see :func:`open_catalog`)."""
+        try:
+            cur = self.conn.execute(sql, params)
+            names = [d[0] for d in cur.description or ()]
+            return [dict(zip(names, row, strict=True)) for row in cur.fetchall()]
+        except sqlite3.Error as e:
+            raise _cause(e, self.path, "read") from e
 
     def scenarios(self) -> list[str]:
         """Scenario names present in ``results``, in the paper's order first."""
@@ -218,9 +228,10 @@ class Catalog:
         """Input hashes of one set-up: {id: pattern hash}, {(id, scenario): result hash}."""
         p = (sides, depth, edge, thickness, weight)
         cond = "sides = ? AND depth = ? AND edge = ? AND thickness = ? AND weight = ?"
-        pats = {str(a): str(b) for a, b in self.conn.execute(f"SELECT id, input_hash FROM patterns WHERE {cond}", p)}
-        res = {(str(a), str(s)): str(b) for a, s, b in
-               self.conn.execute(f"SELECT id, scenario, input_hash FROM results WHERE {cond}", p)}
+        pats = {str(r["id"]): str(r["input_hash"])
+                for r in self.query(f"SELECT id, input_hash FROM patterns WHERE {cond}", p)}
+        res = {(str(r["id"]), str(r["scenario"])): str(r["input_hash"])
+               for r in self.query(f"SELECT id, scenario, input_hash FROM results WHERE {cond}", p)}
         return pats, res
 
     # ------------------------------------------------------------------------------ writing
@@ -229,21 +240,25 @@ class Catalog:
         """Insert or replace rows in ONE transaction (all or nothing); returns how many.
 
         Each row names its table in ``row["table"]`` ("patterns" or "results"); other keys are columns.
-        A SIGKILL during the call leaves either all of these rows or none of them (SQLite atomic commit).
+        A SIGKILL during the call leaves either all of these rows or none of them (SQLite atomic commit);
+        so does a full disk, which raises :class:`CatalogError` saying so (earlier commits are kept).
         """
         if not self.writable:
             raise CatalogError(f"catalog {self.path} is open read-only")
         n = 0
-        with self.conn:  # BEGIN … COMMIT, or ROLLBACK on error
-            for row in rows:
-                table = row["table"]
-                cols = PATTERN_COLUMNS if table == "patterns" else RESULT_COLUMNS if table == "results" else None
-                if cols is None:
-                    raise ValueError(f"unknown table {table!r}")
-                names = [c for c in cols if c in row]
-                self.conn.execute(f"INSERT OR REPLACE INTO {table} ({', '.join(names)}) "
-                                  f"VALUES ({', '.join('?' * len(names))})", [row[c] for c in names])
-                n += 1
+        try:
+            with self.conn:  # BEGIN … COMMIT, or ROLLBACK on error
+                for row in rows:
+                    table = row["table"]
+                    cols = PATTERN_COLUMNS if table == "patterns" else RESULT_COLUMNS if table == "results" else None
+                    if cols is None:
+                        raise ValueError(f"unknown table {table!r}")
+                    names = [c for c in cols if c in row]
+                    self.conn.execute(f"INSERT OR REPLACE INTO {table} ({', '.join(names)}) "
+                                      f"VALUES ({', '.join('?' * len(names))})", [row[c] for c in names])
+                    n += 1
+        except sqlite3.Error as e:
+            raise _cause(e, self.path, "store results in") from e
         return n
 
     def finish(self) -> None:
@@ -279,50 +294,172 @@ def _where(filters: Mapping[str, object]) -> tuple[str, list[object]]:
 def open_catalog(path: str | Path | None = None, *, write: bool = False) -> Catalog:
     """Open a catalog: ``None`` → the built-in one (read-only); ``write=True`` creates it if missing.
 
-    Writable catalogs use WAL journaling with ``synchronous=NORMAL``: every commit survives a crash
-    or kill of the process (only a power loss can lose the last commits), and readers never block the
-    writer. Raises :class:`CatalogError` if the file is missing (read mode) or is not a catalog.
+    The one way fabpat opens a catalog file (sweep, catalog, browse, plot, the assembly rules):
+
+    1. An existing file is first opened read-only (SQLite URI ``mode=ro``) and checked — an SQLite
+       file, fabpat's ``meta`` table, this :data:`SCHEMA_VERSION`, every table and column, and
+       ``PRAGMA quick_check``. A file that fails is refused *unchanged* (no tables added, no WAL switch).
+    2. Only then, for ``write=True``, is it opened read-write and switched to WAL journaling with
+       ``synchronous=NORMAL``: every commit survives a crash or kill of the process (only a power loss
+       can lose the last commits), and readers never block the writer.
+    3. A new catalog is built under a temporary name next to ``path`` and linked into place when
+       complete, so a full disk or a kill leaves no empty or half-made file.
+
+    Raises :class:`CatalogError` naming the real cause: missing, read-only, locked (for longer than
+    :data:`LOCK_TIMEOUT`), disk full, damaged (with the ``sqlite3 FILE .recover`` hint), not a fabpat
+    catalog, or another schema.
     """
     p = builtin_path() if path is None else Path(path)
-    if write:
-        if path is None:
-            raise CatalogError("the built-in catalog is read-only here; give --db FILE")
-        if p.is_dir():
-            raise CatalogError(f"cannot use {p} as a catalog: it is a folder")
-        if not (p.parent if str(p.parent) else Path(".")).is_dir():
-            raise CatalogError(f"cannot create catalog {p}: folder {p.parent} does not exist")
-        try:
-            conn = sqlite3.connect(p, timeout=30.0)
-            conn.execute("PRAGMA journal_mode=WAL")
-            conn.execute("PRAGMA synchronous=NORMAL")
-            for sql in _create_sql():
-                conn.execute(sql)
-            with conn:
-                conn.execute("INSERT OR IGNORE INTO meta VALUES ('schema_version', ?)", (SCHEMA_VERSION,))
-        except sqlite3.DatabaseError as e:
-            # a new file that cannot be created is a path problem, not a broken catalog
-            problem = f"cannot create catalog {p} ({e})" if not p.exists() else f"{p} is not a fabpat catalog ({e})"
-            raise CatalogError(problem) from e
-    else:
+    if write and path is None:
+        raise CatalogError("the built-in catalog is read-only here; give --db FILE")
+    if p.is_dir():
+        raise CatalogError(f"cannot use {p} as a catalog: it is a folder")
+    if not write:
         if not p.is_file():
             what = "the built-in catalog" if path is None else "catalog"
             raise CatalogError(f"{what} {p} does not exist; create one with `fabpat sweep --db {p}`")
-        try:
-            # mode=ro: a reader never creates or modifies the file
-            conn = sqlite3.connect(f"{p.resolve().as_uri()}?mode=ro", uri=True, timeout=30.0)
-        except sqlite3.DatabaseError as e:  # pragma: no cover - connect is lazy; see the check below
-            raise CatalogError(f"cannot open catalog {p}: {e}") from e
-    cat = Catalog(p, conn, write)
+        return Catalog(p, _checked_connection(p), False)
+    folder = p.parent if str(p.parent) else Path(".")
+    if not folder.is_dir():
+        raise CatalogError(f"cannot create catalog {p}: folder {folder} does not exist")
+    if not p.exists() or p.stat().st_size == 0:  # SQLite treats an empty file as an empty database
+        _create(p, folder)
+    else:
+        _checked_connection(p).close()  # read-only: a foreign or damaged file is refused unchanged
+        if not os.access(p, os.W_OK) or not os.access(folder, os.W_OK):
+            where = p if not os.access(p, os.W_OK) else f"folder {folder} (SQLite writes its journal there)"
+            raise CatalogError(f"catalog {p} is read-only: cannot write {where}; give another --db")
     try:
-        version = cat.query("SELECT value FROM meta WHERE key = 'schema_version'")
-    except sqlite3.DatabaseError as e:
+        conn = sqlite3.connect(f"{p.resolve().as_uri()}?mode=rw", uri=True, timeout=LOCK_TIMEOUT)
+    except sqlite3.Error as e:
+        raise _cause(e, p, "open") from e
+    try:
+        conn.execute("PRAGMA journal_mode=WAL")
+        conn.execute("PRAGMA synchronous=NORMAL")
+    except sqlite3.Error as e:
         conn.close()
-        raise CatalogError(f"{p} is not a fabpat catalog ({e})") from e
-    if not version or version[0]["value"] != SCHEMA_VERSION:
+        raise _cause(e, p, "write to") from e
+    return Catalog(p, conn, True)
+
+
+def _checked_connection(p: Path) -> sqlite3.Connection:
+    """A read-only connection to ``p`` once it is known to be a sound fabpat catalog of this schema."""
+    try:
+        with p.open("rb") as f:
+            head = f.read(len(_SQLITE_HEADER))
+    except OSError as e:
+        raise CatalogError(f"cannot read catalog {p}: {e.strerror or e}") from e
+    if head != _SQLITE_HEADER:
+        raise CatalogError(f"{p} is not a fabpat catalog: not an SQLite database (or its header is damaged; "
+                           f"if it was a catalog, try `sqlite3 {p} .recover`); give another --db")
+    try:
+        # mode=ro: a reader never creates or modifies the file
+        conn = sqlite3.connect(f"{p.resolve().as_uri()}?mode=ro", uri=True, timeout=LOCK_TIMEOUT)
+    except sqlite3.Error as e:
+        raise _cause(e, p, "open") from e
+    try:
+        _check_schema(conn, p)
+    except BaseException:
         conn.close()
-        raise CatalogError(f"{p} has catalog schema {version[0]['value'] if version else '?'}, expected "
-                           f"{SCHEMA_VERSION}; re-create it with `fabpat sweep --db {p} --force`")
-    return cat
+        raise
+    return conn
+
+
+def _check_schema(conn: sqlite3.Connection, p: Path) -> None:
+    try:
+        tables = {str(r[0]) for r in conn.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+        if "meta" not in tables:
+            raise CatalogError(f"{p} is not a fabpat catalog (an SQLite database without fabpat's meta table: "
+                               f"tables {', '.join(sorted(tables)) or 'none'}); give another --db")
+        version = conn.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone()
+        if version is None:
+            raise CatalogError(f"{p} is not a fabpat catalog (its meta table has no schema_version); "
+                               "give another --db")
+        if str(version[0]) != SCHEMA_VERSION:
+            raise CatalogError(f"{p} has catalog schema {version[0]}, expected {SCHEMA_VERSION} (another fabpat "
+                               f"version): move it away or give another --db, and `fabpat sweep` makes a new one")
+        for table, columns in (("patterns", PATTERN_COLUMNS), ("results", RESULT_COLUMNS)):
+            have = {str(r[1]) for r in conn.execute(f"PRAGMA table_info({table})")}
+            lost = [c for c in columns if c not in have]
+            if lost:
+                what = f"table {table} is missing" if not have else f"table {table} has no column {', '.join(lost)}"
+                raise CatalogError(f"catalog {p} is damaged: {what}; move it away and re-create it with "
+                                   f"`fabpat sweep --db {p}`")
+        problems = [str(r[0]) for r in conn.execute("PRAGMA quick_check(3)")]
+    except sqlite3.Error as e:
+        raise _cause(e, p, "read") from e
+    if problems != ["ok"]:
+        raise CatalogError(f"catalog {p} is damaged ({problems[0]}): try `sqlite3 {p} .recover` "
+                           "to save what is left, or give another --db")
+
+
+def _create(p: Path, folder: Path) -> None:
+    """Make a new, empty catalog at ``p`` (missing or an empty file): built under a temporary name and
+    linked into place only when complete, so a full disk leaves nothing behind."""
+    from fabpat.io import file_mode, remove_stale_temps, temp_prefix
+
+    remove_stale_temps(folder)
+    try:
+        fd, name = tempfile.mkstemp(prefix=temp_prefix(p.name), suffix=".part", dir=folder)
+    except OSError as e:
+        raise _os_cause(e, p, "create") from e
+    os.close(fd)
+    tmp = Path(name)
+    try:
+        conn = sqlite3.connect(tmp)
+        try:
+            for sql in _create_sql():
+                conn.execute(sql)
+            with conn:
+                conn.execute("INSERT INTO meta VALUES ('schema_version', ?)", (SCHEMA_VERSION,))
+        finally:
+            conn.close()
+        os.chmod(tmp, file_mode())  # mkstemp makes 0600 files; give the user's usual permissions
+        if p.exists():  # an empty file: replace it
+            os.replace(tmp, p)
+        else:
+            try:
+                os.link(tmp, p)  # fails if another process created p meanwhile: never replace its catalog
+            except FileExistsError:
+                raise CatalogError(f"cannot create catalog {p}: another process created it just now; "
+                                   "run again") from None
+            except OSError:  # a file system without hard links
+                os.replace(tmp, p)
+    except sqlite3.Error as e:
+        raise _cause(e, p, "create") from e
+    except OSError as e:
+        raise _os_cause(e, p, "create") from e
+    finally:
+        for junk in (tmp, tmp.with_name(tmp.name + "-journal")):
+            with contextlib.suppress(OSError):
+                junk.unlink()
+
+
+def _os_cause(e: OSError, p: Path, doing: str) -> CatalogError:
+    if e.errno in (errno.ENOSPC, getattr(errno, "EDQUOT", errno.ENOSPC)):
+        return CatalogError(f"cannot {doing} catalog {p}: the disk is full; free space and run again")
+    if e.errno in (errno.EROFS, errno.EACCES, errno.EPERM):
+        return CatalogError(f"cannot {doing} catalog {p}: {e.strerror} (read-only); give another --db")
+    return CatalogError(f"cannot {doing} catalog {p}: {e.strerror or e}")
+
+
+def _cause(e: sqlite3.Error, p: Path, doing: str) -> CatalogError:
+    """One line naming the real cause of an SQLite error on catalog ``p`` (read-only, locked, full, …)."""
+    name = str(getattr(e, "sqlite_errorname", "") or "")
+    if name.startswith("SQLITE_READONLY"):
+        return CatalogError(f"catalog {p} is read-only ({e}): cannot {doing} it; give another --db")
+    if name.startswith(("SQLITE_BUSY", "SQLITE_LOCKED")):
+        return CatalogError(f"catalog {p} is locked by another process (a running sweep?) for more than "
+                            f"{LOCK_TIMEOUT:g} s: wait for it to finish, or give another --db")
+    if name.startswith("SQLITE_FULL"):
+        kept = "; every row committed before is kept" if doing != "create" else ""
+        return CatalogError(f"cannot {doing} catalog {p}: the disk is full{kept}: free space and run again")
+    if name.startswith(("SQLITE_CORRUPT", "SQLITE_NOTADB")):
+        return CatalogError(f"catalog {p} is damaged ({e}): try `sqlite3 {p} .recover` to save what is left, "
+                            "or give another --db")
+    if name.startswith("SQLITE_CANTOPEN"):
+        return CatalogError(f"cannot open catalog {p} ({e}): check the file and its folder's permissions")
+    return CatalogError(f"cannot {doing} catalog {p}: {e}")
 
 
 @cache

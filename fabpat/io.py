@@ -1,18 +1,113 @@
 """Atomic file output: a file appears under its name only when it is complete.
 
 Every writer in fabpat goes through :func:`atomic_outputs`, so an error (bad input found late, a
-crash, Ctrl-C) never leaves a partial or half-written file behind.
+crash, Ctrl-C, SIGTERM) never leaves a partial or half-written file behind.
+
+* Temporary files are named ``.<stem>.<pid>.<random>.part<suffix>`` next to their target. They are
+  removed when the block fails or is interrupted (SIGINT; SIGTERM once the CLI turned it into an
+  exception); a run killed outright (SIGKILL, power loss) leaves them, and the next run writing into
+  that folder removes every such file whose process is gone (:func:`remove_stale_temps`).
+* Two outputs of one block naming the same file are refused (:func:`check_distinct`), for every
+  command at once.
+* A target that is a symbolic link is written *through*: the link stays and the file it points to
+  is replaced (atomically, in the link target's folder). A dangling link is refused.
+* An output folder created by :func:`output_folder` is removed again when nothing could be written
+  into it (a full disk, an error), so a failed command leaves no empty folder.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
-import tempfile
-from collections.abc import Iterator
+import re
+import secrets
+import shutil
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from fabpat.errors import ExportError
+
+#: ``.<name>.<pid>.<8 random characters>.part[<suffix>]``: the temporary names of fabpat (see temp_prefix)
+_TEMP_NAME = re.compile(r"^\..*\.(?P<pid>[0-9]+)\.[A-Za-z0-9_]{8}\.part(\.[^/]*)?$")
+_DISK_FULL = (errno.ENOSPC, getattr(errno, "EDQUOT", errno.ENOSPC), errno.EFBIG)
+
+
+def temp_prefix(name: str) -> str:
+    """Prefix of a temporary file or folder for ``name``: ``.<name>.<pid>.`` (see :func:`remove_stale_temps`)."""
+    return f".{name}.{os.getpid()}."
+
+
+def _alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # EPERM: another user's live process
+        return True
+    return True
+
+
+def remove_stale_temps(folder: str | os.PathLike[str]) -> list[Path]:
+    """Remove fabpat's temporary files and folders in ``folder`` whose writing process is gone.
+
+    Only names of the form ``.<name>.<pid>.<8 characters>.part[<suffix>]`` are touched, and only when
+    no process ``pid`` exists on this machine (a live writer's files are kept). Returns what was removed.
+    """
+    removed = []
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return removed
+    for entry in entries:
+        m = _TEMP_NAME.match(entry.name)
+        if m is None or _alive(int(m["pid"])):
+            continue
+        try:
+            if entry.is_dir(follow_symlinks=False):
+                shutil.rmtree(entry.path)
+            else:
+                os.unlink(entry.path)
+            removed.append(Path(entry.path))
+        except OSError:  # raced with another cleaner, or not ours to remove: leave it
+            pass
+    return removed
+
+
+def check_distinct(paths: Iterable[str | os.PathLike[str]]) -> None:
+    """Raise :class:`ExportError` if two of ``paths`` name the same file (after following links)."""
+    seen: dict[str, Path] = {}
+    for p in paths:
+        key = os.path.realpath(p)
+        if key in seen:
+            same = f"{p}" if str(seen[key]) == str(p) else f"{seen[key]} and {p}"
+            raise ExportError(f"two outputs would write the same file ({same}): give each output its own path")
+        seen[key] = Path(p)
+
+
+def _through_link(p: Path) -> Path:
+    """The file a symbolic link points to (the link is kept and written through); ``p`` otherwise."""
+    if not p.is_symlink():
+        return p
+    real = Path(os.path.realpath(p))
+    if not real.parent.is_dir():
+        raise ExportError(f"cannot write {p}: it is a symbolic link to {real}, whose folder does not exist")
+    if not real.exists():
+        raise ExportError(f"cannot write {p}: it is a dangling symbolic link (to {real}); remove it or "
+                          "create the file it points to")
+    return real
+
+
+def write_error(target: str | os.PathLike[str], e: OSError) -> ExportError:
+    """One-line :class:`ExportError` for an ``OSError`` while writing ``target`` (names a full disk)."""
+    if e.errno in _DISK_FULL:
+        t = Path(target)
+        folder = t if t.is_dir() else t.parent if str(t.parent) else Path(".")
+        return ExportError(f"cannot write {target}: the disk is full ({e.strerror or e}); free space in "
+                           f"{folder} and run again")
+    return ExportError(f"cannot write {target}: {e.strerror or e}")
 
 
 def check_writable(path: str | os.PathLike[str]) -> Path:
@@ -27,7 +122,7 @@ def check_writable(path: str | os.PathLike[str]) -> Path:
         raise ExportError(f"cannot write {p}: folder {folder} is not writable")
     if p.is_dir():
         raise ExportError(f"cannot write {p}: it is a directory")
-    return p
+    return _through_link(p)
 
 
 def check_output_folder(path: str | os.PathLike[str], option: str = "--out") -> Path:
@@ -45,10 +140,37 @@ def check_output_folder(path: str | os.PathLike[str], option: str = "--out") -> 
     return p
 
 
+@contextlib.contextmanager
+def output_folder(path: str | os.PathLike[str], option: str = "--out") -> Iterator[Path]:
+    """Create the output folder ``path`` (if missing) for the block; remove it again if the block fails
+    and the folder is still empty, so a failed command (a full disk, an error, Ctrl-C) leaves no empty
+    folder. An existing folder is kept as it was. :class:`ExportError` as :func:`check_output_folder`.
+    """
+    p = check_output_folder(path, option)
+    created = not p.exists()
+    try:
+        p.mkdir(exist_ok=True)
+    except OSError as e:
+        raise ExportError(f"cannot create folder {p}: {e.strerror or e}") from e
+    try:
+        yield p
+    except BaseException:
+        if created:
+            with contextlib.suppress(OSError):
+                remove_stale_temps(p)
+                p.rmdir()  # only if empty: never remove what someone else put there meanwhile
+        raise
+
+
 def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
     return mask
+
+
+def file_mode() -> int:
+    """Permissions of a new file under the user's umask (``mkstemp`` alone makes 0600 files)."""
+    return 0o666 & ~_umask()
 
 
 @contextlib.contextmanager
@@ -58,26 +180,72 @@ def atomic_outputs(*paths: str | os.PathLike[str]) -> Iterator[list[Path]]:
     >>> with atomic_outputs("a.svg", "b.png") as (tmp_svg, tmp_png):
     ...     tmp_svg.write_text(...)   # doctest: +SKIP
     """
+    check_distinct(paths)
     targets = [check_writable(p) for p in paths]
+    for folder in dict.fromkeys(t.parent for t in targets):
+        remove_stale_temps(folder if str(folder) else ".")
     temps: list[Path] = []
     try:
         for t in targets:
-            # keep the real suffix last: writers that pick the format from the suffix still work
-            try:
-                fd, name = tempfile.mkstemp(prefix=f".{t.stem}.", suffix=f".part{t.suffix}", dir=t.parent or ".")
-            except OSError as e:  # a folder that exists but takes no files (/proc, a read-only mount, …)
-                raise ExportError(f"cannot write {t}: {e.strerror or e}") from e
-            os.close(fd)
-            temps.append(Path(name))
-        yield temps
-        mode = 0o666 & ~_umask()  # mkstemp makes 0600 files; give them the user's usual permissions
+            _new_temp(t, temps)
+        try:
+            yield temps
+        except OSError as e:  # a writer's own OSError (a full disk): name the target, not the temp file
+            by_temp = {os.fspath(x): t for x, t in zip(temps, targets, strict=True)}
+            hit = by_temp.get(os.fspath(e.filename)) if isinstance(e.filename, str | os.PathLike) else None
+            if hit is None and e.errno in _DISK_FULL:
+                hit = targets[0] if len(targets) == 1 else (targets[0].parent if str(targets[0].parent) else Path("."))
+            if hit is None:
+                raise
+            raise write_error(hit, e) from e
+        mode = file_mode()  # mkstemp makes 0600 files; give them the user's usual permissions
         for tmp, t in zip(temps, targets, strict=True):
             try:
                 os.chmod(tmp, mode)
                 os.replace(tmp, t)
             except OSError as e:
-                raise ExportError(f"cannot write {t}: {e.strerror or e}") from e
+                raise write_error(t, e) from e
     finally:
-        for tmp in temps:
-            with contextlib.suppress(FileNotFoundError):
-                tmp.unlink()
+        remove_all(temps)
+
+
+def _new_temp(target: Path, temps: list[Path]) -> None:
+    """Create an empty temporary file next to ``target`` and list it in ``temps``.
+
+    The name is listed *before* the file is created (``O_EXCL``, like :func:`tempfile.mkstemp`), so a
+    Ctrl-C at any moment leaves no file that the cleanup does not know about.
+    """
+    folder = target.parent if str(target.parent) else Path(".")
+    for _ in range(100):
+        # keep the real suffix last: writers that pick the format from the suffix still work
+        tmp = folder / f"{temp_prefix(target.stem)}{secrets.token_hex(4)}.part{target.suffix}"
+        temps.append(tmp)
+        try:
+            os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
+            return
+        except FileExistsError:
+            temps.pop()  # not ours
+        except OSError as e:  # a folder that exists but takes no files (/proc, a read-only mount, …)
+            temps.pop()
+            raise write_error(target, e) from e
+    raise ExportError(f"cannot write {target}: no free temporary name in {folder}")
+
+
+def remove_all(paths: list[Path]) -> None:
+    """Unlink every path (missing ones are fine), even if Ctrl-C or SIGTERM arrives meanwhile.
+
+    An interruption during the cleanup is re-raised once every file is gone, so a second Ctrl-C
+    cannot leave half of a thousand temporary files behind.
+    """
+    pending = list(paths)
+    interrupted: BaseException | None = None
+    while pending:
+        try:
+            while pending:
+                with contextlib.suppress(OSError):
+                    pending[-1].unlink()
+                pending.pop()
+        except BaseException as e:  # noqa: BLE001 - finish the cleanup first, then re-raise
+            interrupted = interrupted or e
+    if interrupted is not None:
+        raise interrupted

@@ -49,16 +49,18 @@ def _panel(ax, rows: list[dict[str, object]], x: str, y: str, highlight: Sequenc
 
 def plot_catalog(cat: Catalog, out: str | Path, highlight: Sequence[str] = (), sides: int | None = None,
                  dpi: int = 150) -> list[Path]:
-    """Write the figures into folder ``out`` (created if missing); returns the files written.
+    """Write the figures into folder ``out`` (created if missing; its parent must exist); returns the
+    files written. A folder created here is removed again when the figures cannot be written.
 
-    Raises PatternError if a highlighted ID is not in the catalog.
+    Raises PatternError if a highlighted ID is not in the catalog, ExportError if ``out`` cannot be
+    written (a full disk is named as such).
     """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from fabpat.io import atomic_outputs
+    from fabpat.io import atomic_outputs, output_folder
 
     setup = choose_setup(cat, sides)
     rows = cat.pattern_rows(**setup)
@@ -71,8 +73,6 @@ def plot_catalog(cat: Catalog, out: str | Path, highlight: Sequence[str] = (), s
     for s in cat.scenarios():
         if any(r.get(f"energy_{s}") is not None for r in rows):
             panels.append((f"polar_moment_energy_{s}", "polar_moment", f"energy_{s}", f"{s}: energy vs polar moment"))
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     figures = []
     for name, x, y, title in panels:
         fig, ax = plt.subplots(figsize=(5, 4), layout="constrained")
@@ -84,9 +84,10 @@ def plot_catalog(cat: Catalog, out: str | Path, highlight: Sequence[str] = (), s
         _panel(ax, rows, x, y, marks)
         ax.set_title(title, fontsize=10)
     figures.append(("overview", fig))
-    paths = [out / f"{name}.{ext}" for name, _ in figures for ext in ("png", "svg")]
+    paths = [Path(out) / f"{name}.{ext}" for name, _ in figures for ext in ("png", "svg")]
     try:
-        with atomic_outputs(*paths) as temps:
+        # a folder created here is removed again if the figures cannot be written (a full disk)
+        with output_folder(out), atomic_outputs(*paths) as temps:
             for k, (_, f) in enumerate(figures):
                 f.savefig(temps[2 * k], dpi=dpi, format="png", facecolor="white")
                 f.savefig(temps[2 * k + 1], format="svg", facecolor="white")

@@ -168,6 +168,7 @@ def _worker_init() -> None:
 
         threadpool_limits(1)
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle (it stops the workers)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # the parent's SIGTERM handler (cli) is not for workers
 
 
 def _run_local(task: Task, jobs: list[tuple[tuple, str]], workers: int) -> Iterator[tuple[str, object]]:

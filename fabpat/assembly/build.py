@@ -26,9 +26,10 @@ from pathlib import Path
 from typing import Any
 
 from fabpat.assembly.checks import CheckReport, check_assembly
-from fabpat.assembly.placement import Assembly, PlateType, build_tiling, check_necks, place
+from fabpat.assembly.placement import Assembly, PlateType, build_tiling, check_geometry, check_necks, place
 from fabpat.assembly.spec import AssemblySpec, load_spec
 from fabpat.errors import ExportError, FabpatError, SpecError
+from fabpat.io import remove_stale_temps, temp_prefix, write_error
 
 MANIFEST = "manifest.json"
 GENERATOR = "fabpat assemble"
@@ -42,6 +43,7 @@ class AssembleResult:
     files: tuple[str, ...]
     report: CheckReport
     sheets: int
+    warnings: tuple[str, ...] = ()
 
 
 # -- choosing the patterns --------------------------------------------------------------------------
@@ -125,6 +127,7 @@ def plan(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | None 
     from fabpat.library import get_pattern
 
     tell = progress or (lambda _step: None)
+    check_geometry(spec)
     tell("patterns")
     ids = face_patterns(spec, energies)
     tell("placement")
@@ -133,6 +136,20 @@ def plan(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | None 
                                    spec.plates.weight) for pt in assembly.plate_types}
     check_necks(assembly, filleted)
     return assembly, filleted
+
+
+def fabrication_problems(spec: AssemblySpec, filleted: dict[PlateType, Any]) -> list[str]:
+    """The checks ``fabpat export`` makes, for every distinct plate of the kit: one message per plate
+    whose narrowest feature is below its process limit (``plates.process``: print → 0.8 mm, laser →
+    2 × ``sheet.kerf``; :func:`fabpat.exchange.registry.width_warnings`)."""
+    from fabpat.exchange.registry import width_warnings
+
+    formats = ["stl"] if spec.plates.process == "print" else ["dxf"]  # the export formats of that process
+    out = []
+    for pt, fp in sorted(filleted.items(), key=lambda item: item[0].label):
+        out += [f"plate {pt.label}: {m} (plates.process = {spec.plates.process!r}, tiling.edge = "
+                f"{spec.tiling.edge:g} mm)" for m in width_warnings(fp.outline, formats, spec.sheet.kerf)]
+    return out
 
 
 # -- the output folder ------------------------------------------------------------------------------
@@ -166,7 +183,7 @@ def _swap_in(tmp: Path, out: Path) -> None:
     """Rename the finished ``tmp`` folder to ``out``, replacing an earlier output only now."""
     old = None
     if out.exists():
-        old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=out.parent))
+        old = Path(tempfile.mkdtemp(prefix=temp_prefix(out.name), suffix=".part", dir=out.parent))
         os.replace(out, old / out.name)
     os.replace(tmp, out)
     if old is not None:
@@ -187,18 +204,23 @@ def steps(spec: AssemblySpec) -> list[str]:
 
 def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike[str],
              progress: Callable[[str], None] | None = None, timestamp: str | None = None,
-             energies: Callable[[int], dict[str, float]] | None = None) -> AssembleResult:
+             energies: Callable[[int], dict[str, float]] | None = None, force: bool = False) -> AssembleResult:
     """Build and check the assembly of ``spec``, then write every requested output into ``out``.
 
     ``progress(step)`` is called as each step of :func:`steps` starts. ``timestamp`` fixes the
-    STEP header time. Raises :class:`SpecError` / :class:`GeometryError` / :class:`ExportError`;
-    on any error ``out`` is untouched and no temporary folder is left.
+    STEP header time (ISO 8601, checked first). Plates too narrow for their process
+    (:func:`fabrication_problems`, the checks of ``fabpat export``) are refused with an
+    :class:`ExportError`, or with ``force`` built anyway and listed in ``AssembleResult.warnings``.
+    Raises :class:`SpecError` / :class:`GeometryError` / :class:`ExportError`; on any error ``out`` is
+    untouched and no temporary folder is left.
     """
     from fabpat.assembly.nesting import check_nesting
     from fabpat.assembly.net import unfold
     from fabpat.assembly.parts import PartLibrary
     from fabpat.assembly.sheets import nest_plates
+    from fabpat.exchange.step import check_timestamp
 
+    check_timestamp(timestamp)
     if not isinstance(spec, AssemblySpec):
         spec = load_spec(spec)
     out = Path(out)
@@ -207,6 +229,11 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
     f = spec.formats
 
     assembly, filleted = plan(spec, energies, tell)
+    problems = fabrication_problems(spec, filleted)
+    if problems and not force:
+        more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+        raise ExportError(f"{spec.source}: {problems[0]}{more}: choose a larger tiling.edge or other patterns, "
+                          "or give --force to build the kit anyway")
     lib = PartLibrary(assembly, filleted)
     tell("nesting")
     nesting = nest_plates(assembly) if ("dxf" in f or "bom" in f) else None
@@ -222,19 +249,25 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
     if net is not None:
         check_lines.append(f"net without overlaps ({len(net.folds)} folds)")
 
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".part", dir=out.parent if str(out.parent) else "."))
+    parent = out.parent if str(out.parent) else Path(".")
+    remove_stale_temps(parent)  # the temporary folders of a killed earlier run
+    tmp = Path(tempfile.mkdtemp(prefix=temp_prefix(out.name), suffix=".part", dir=parent))
     try:
         files = _write_all(spec, lib, nesting, net, check_lines, tmp, tell, timestamp)
         manifest = {"generator": GENERATOR, "spec": spec.name, "source": spec.source, "files": files,
                     "counts": assembly.counts(), "sheets": nesting.n_sheets if nesting else 0,
-                    "skeleton_edge_mm": round(assembly.skeleton.edge_length(), 6), "checks": check_lines}
+                    "skeleton_edge_mm": round(assembly.skeleton.edge_length(), 6), "checks": check_lines,
+                    "warnings": problems}
         (tmp / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
         os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes 0700 folders; give the user's usual permissions
         _swap_in(tmp, out)
+    except OSError as e:  # a full disk while writing: one line naming --out, not a temporary file
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise write_error(out, e) from e
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
-    return AssembleResult(out, (*files, MANIFEST), report, nesting.n_sheets if nesting else 0)
+    return AssembleResult(out, (*files, MANIFEST), report, nesting.n_sheets if nesting else 0, tuple(problems))
 
 
 def _umask() -> int:

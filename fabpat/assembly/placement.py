@@ -166,6 +166,48 @@ def end_interfaces(skel: Tiling) -> list[tuple[int, int]]:
     return out
 
 
+#: an interface segment shorter than this many STL chords (output.mesh_tolerance) is not resolved by the
+#: parts' meshes (the kit's solids stop being closed manifolds, issue 15 §7)
+MIN_INTERFACE_CHORDS = 10.0
+
+
+def check_geometry(spec: AssemblySpec) -> None:
+    """Refuse, before any work, spec values the kit's geometry cannot take; each :class:`SpecError`
+    names the key and its valid range (mm), derived from the other keys:
+
+    * ``tiling.edge`` ≥ (``sleeve.margin`` + 2 × ``sleeve.wall``) / (1 − 1 / (8 (1 + w))): a sleeve (the
+      interface segment 2 · edge / 16 / (1 + w), :func:`fabpat.fillet.interface_half_length`, plus the
+      margin and its two end walls) must fit on the plate's edge;
+    * ``plates.weight`` ≤ edge / (8 · 10 · ``output.mesh_tolerance``) − 1: the interface segment must be
+      at least :data:`MIN_INTERFACE_CHORDS` STL chords long;
+    * ``sleeve.depth`` ≥ (largest − smallest plate setback at one joint) + ``sleeve.wall``: the plate with
+      the larger setback (module docstring) still enters its slot by at least a wall's thickness.
+    """
+    s, e, w, src = spec.sleeve, spec.tiling.edge, spec.plates.weight, spec.source
+    e_min = (s.margin + 2.0 * s.wall) / (1.0 - 2.0 / 16.0 / (1.0 + w))
+    if e < e_min:
+        raise SpecError(f"{src}: tiling.edge = {e:g} mm must be ≥ {e_min:.3g} mm: a sleeve (interface segment + "
+                        f"sleeve.margin = {s.margin:g} + 2 × sleeve.wall = {s.wall:g}) must fit on the plate's edge")
+    seg_min = MIN_INTERFACE_CHORDS * spec.mesh_tolerance
+    w_max = 2.0 * e / 16.0 / seg_min - 1.0
+    if w > w_max:
+        raise SpecError(f"{src}: plates.weight = {w:g} must be in (0, {w_max:.4g}]: a larger weight makes the "
+                        f"interface segment ({2.0 * e / 16.0 / (1.0 + w):.3g} mm) shorter than "
+                        f"{MIN_INTERFACE_CHORDS:g} × output.mesh_tolerance = {seg_min:g} mm")
+    unit = build_tiling(spec)
+    E = skeleton_edge(unit, e, spec.plates.thickness, s.clearance, s.wall)
+    spread = 0.0
+    for k in unit.interior_edges:
+        g = [setback(len(unit.faces[f]), E, e) for f, _ in unit.edge_faces[k]]
+        spread = max(spread, max(g) - min(g))
+    d_min = spread + s.wall
+    if s.depth < d_min - 1e-9:
+        why = (f"the plates' setbacks differ by {spread:.3g} mm at a joint, and " if spread > 0 else "")
+        raise SpecError(f"{src}: sleeve.depth = {s.depth:g} mm must be ≥ {d_min:.3g} mm: {why}every plate must "
+                        f"enter its slot by at least sleeve.wall = {s.wall:g} mm (the upper limit is the plate's "
+                        "neck, checked next)")
+
+
 def place(spec: AssemblySpec, face_patterns: list[str]) -> Assembly:
     """Place one plate per face (pattern ``face_patterns[f]``) and one sleeve per shared edge."""
     unit = build_tiling(spec)

@@ -41,6 +41,8 @@ STRIP_RULES = ("graded",)
 SPHERE_RULES = ("similar-energy",)
 SCENARIOS = ("cantilever", "cylinder", "dome")
 _DEPTH_OF_DIGITS = {1: 1, 4: 2, 16: 3}  # hex digits of an ID → subdivision depth
+#: [patterns] keys that only some ways of choosing patterns read: key → the ways that read it
+_GOES_WITH = {"scenario": ("rule",), "count": ("rule",), "catalog": ("rule",), "group_columns": ("groups", "rule")}
 
 
 @dataclass(frozen=True)
@@ -233,6 +235,11 @@ def _patterns(source: str, data: Any, tiling: TilingSpec) -> PatternSpec:
     for key in t.data:
         if (strip and key in only_sphere) or (not strip and key in only_strip):
             raise t.fail(key, f"does not apply to tiling.kind = {tiling.kind!r}")
+    # a key that the chosen way does not read is an error, as a key of the other tiling is (never ignored)
+    for key in t.data:
+        if key in _GOES_WITH and way not in _GOES_WITH[key]:
+            with_ = " or ".join(f"patterns.{w}" for w in _GOES_WITH[key])
+            raise t.fail(key, f"does not apply to patterns.{way} (it goes with {with_})")
     catalog = t.string("catalog")
     if catalog and not Path(catalog).is_absolute() and Path(source).parent != Path(""):
         catalog = str(Path(source).parent / catalog)  # a relative catalog path is relative to the spec file

@@ -14,12 +14,30 @@ import click
 from fabpat import __version__
 from fabpat.errors import FabpatError
 
+_TERMINATED: list[int] = []
+
+
+def _on_sigterm(signum: int, frame: object) -> None:
+    """SIGTERM unwinds like Ctrl-C, so every ``finally`` runs: temporary files and folders are
+    removed and the catalog's committed rows stay (the default action would end the process at once)."""
+    _TERMINATED.append(signum)
+    raise KeyboardInterrupt
+
+
+def _catch_sigterm() -> None:
+    import signal
+    import threading
+
+    if threading.current_thread() is threading.main_thread():  # signal handlers live in the main thread
+        signal.signal(signal.SIGTERM, _on_sigterm)
+
 
 class FabpatGroup(click.Group):
     """A click group whose errors are one line on stderr and exit code 2."""
 
     def main(self, *args: Any, **kwargs: Any) -> Any:  # noqa: D102 - click's signature
         kwargs["standalone_mode"] = False
+        _catch_sigterm()
         try:
             rv = super().main(*args, **kwargs)
         except click.exceptions.UsageError as e:
@@ -29,6 +47,9 @@ class FabpatGroup(click.Group):
         except OSError as e:  # a file system refusal no check foresaw: still one line, not a traceback
             _fail(f"{e.filename}: {e.strerror}" if e.filename and e.strerror else str(e))
         except click.exceptions.Abort:
+            if _TERMINATED:
+                click.echo("fabpat: terminated", err=True)
+                sys.exit(128 + _TERMINATED[0])
             click.echo("fabpat: aborted", err=True)
             sys.exit(1)
         sys.exit(rv if isinstance(rv, int) else 0)

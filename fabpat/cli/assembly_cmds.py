@@ -18,8 +18,10 @@ import click
               help="Output folder (created; an earlier `fabpat assemble` output there is replaced).")
 @click.option("--progress/--no-progress", default=True, show_default=True, help="Progress bar on stderr.")
 @click.option("--timestamp", default=None, metavar="ISO8601",
-              help="Fixed STEP header time, for byte-reproducible files.")
-def assemble_cmd(spec: str, out: str, progress: bool, timestamp: str | None) -> None:
+              help="Fixed STEP header time (ISO 8601, e.g. 2025-01-31T12:00:00Z), for byte-reproducible files.")
+@click.option("--force", is_flag=True,
+              help="Build even if a plate is too narrow for its process (the export check); warn instead.")
+def assemble_cmd(spec: str, out: str, progress: bool, timestamp: str | None, force: bool) -> None:
     """Build, check and write everything to fabricate and assemble the SPEC (a TOML file).
 
     Writes a STEP assembly, one STL per distinct part, a GLB preview, laser sheets (DXF), the net
@@ -29,7 +31,9 @@ def assemble_cmd(spec: str, out: str, progress: bool, timestamp: str | None) -> 
     """
     from fabpat.assembly.build import assemble, steps
     from fabpat.assembly.spec import load_spec
+    from fabpat.exchange.step import check_timestamp
 
+    check_timestamp(timestamp)
     parsed = load_spec(spec)
     names = steps(parsed)
     bar = None
@@ -50,12 +54,14 @@ def assemble_cmd(spec: str, out: str, progress: bool, timestamp: str | None) -> 
         done += 1
 
     try:
-        result = assemble(parsed, out, tell, timestamp)
+        result = assemble(parsed, out, tell, timestamp, force=force)
     finally:
         if bar is not None:
             bar.stop()
     for line in result.report.lines():
         click.echo(f"check: {line}", err=True)
+    for line in result.warnings:
+        click.echo(f"fabpat: warning: {line}", err=True)
     for name in result.files:
         click.echo(os.path.join(out, name) if not Path(out).is_absolute() else str(Path(out) / name))
 
@@ -93,7 +99,7 @@ def simulate_strip_cmd(spec: str, h: float, load_factor: float, compression: flo
     from fabpat.assembly.tiling import honeycomb_strip
     from fabpat.errors import SpecError
     from fabpat.exchange.vtu import write_vtu
-    from fabpat.io import atomic_outputs
+    from fabpat.io import atomic_outputs, check_distinct
 
     for name, value in (("--h", h), ("--load-factor", load_factor), ("--imperfection", imperfection),
                         ("--youngs-modulus", E)) + ((("--compression", compression),) if compression is not None
@@ -102,6 +108,8 @@ def simulate_strip_cmd(spec: str, h: float, load_factor: float, compression: flo
             raise click.BadParameter(f"{name} must be > 0, got {value:g}")
     if not -1.0 < nu < 0.5:
         raise click.BadParameter(f"--poisson must be in (-1, 0.5), got {nu:g}")
+    outputs = [p for p in (vtu, png) if p is not None]
+    check_distinct(outputs)
     parsed = load_spec(spec)
     t = parsed.tiling
     if t.kind != "honeycomb-strip":
@@ -111,7 +119,6 @@ def simulate_strip_cmd(spec: str, h: float, load_factor: float, compression: flo
 
     t0 = time.perf_counter()
     console = Console(stderr=True)
-    outputs = [p for p in (vtu, png) if p is not None]
     with Progress(TextColumn("{task.description:<22}"), BarColumn(), TimeElapsedColumn(), console=console,
                   transient=True, disable=not console.is_terminal) as bar:
         task = bar.add_task("meshing the tiles", total=4)

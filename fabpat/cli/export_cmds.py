@@ -16,7 +16,7 @@ from fabpat.cad import DEFAULT_CHORD
 from fabpat.cli.options import _at_least, edge_option, sides_option
 from fabpat.errors import ExportError
 from fabpat.exchange.registry import FORMATS, ExportSettings, Job, Part, export_parts, parse_formats, width_warnings
-from fabpat.io import check_output_folder
+from fabpat.io import check_output_folder, output_folder
 
 if TYPE_CHECKING:  # pragma: no cover
     from fabpat.pattern import Pattern
@@ -135,8 +135,8 @@ def export_cmd(pattern_id: str | None, sides: int, edge: float, thickness: float
             raise click.UsageError("--all writes into --out; single-file options (--step, …) need an ID")
         if out is None:
             raise click.UsageError("--all needs --out DIR")
-        _export_library(sides, edge, thickness, weight, parse_formats(formats or DEFAULT_ALL_FORMATS), Path(out),
-                        settings)
+        names = parse_formats(DEFAULT_ALL_FORMATS if formats is None else formats)  # '' is an error, not the default
+        _export_library(sides, edge, thickness, weight, names, Path(out), settings)
         return
     if pattern_id is None:
         raise click.UsageError("missing pattern ID (or --all)")
@@ -157,28 +157,16 @@ def _export_library(sides: int, edge: float, thickness: float, weight: float, na
                     settings: ExportSettings) -> None:
     from fabpat.library import enumerate_library
 
-    created = not out.exists()
     check_output_folder(out)
     lib = enumerate_library(sides, 2)
     ids = list(lib.ids)
-    try:
-        out.mkdir(exist_ok=True)
-    except OSError as e:
-        raise ExportError(f"cannot create folder {out}: {e.strerror}") from e
 
     def job(pid: str) -> Job:
         return (lambda: make_part(lib.pattern(pid, edge), thickness, weight),
                 {n: out / f"{pid}{FORMATS[n].suffix}" for n in names})
 
-    try:
+    with output_folder(out):  # a folder this command created is removed again on any error
         paths = _write_all([job(pid) for pid in ids], settings, progress=True)
-    except BaseException:
-        if created:  # leave nothing behind: the folder is empty again, remove it
-            try:
-                out.rmdir()
-            except OSError:
-                pass
-        raise
     click.echo(f"wrote {len(paths)} files for {len(ids)} patterns to {out}")
 
 

@@ -9,7 +9,7 @@ import click
 
 from fabpat.cli.options import depth_option, edge_option, sides_option, weight_option
 from fabpat.errors import FabpatError
-from fabpat.io import atomic_outputs
+from fabpat.io import atomic_outputs, check_distinct
 
 SCENARIO_CHOICES = ("cantilever", "cylinder", "dome", "all")
 
@@ -76,6 +76,7 @@ def simulate_cmd(
         for sc in scenarios
         if path is not None
     }
+    check_distinct(outputs.values())  # before the work: --vtu x --png x would overwrite one with the other
     pattern = get_pattern(pattern_id, sides, depth, edge)
     mesh = mesh_outline(fillet_pattern(pattern, weight).outline, h, sides, edge, weight=weight)
     rows = []

@@ -25,7 +25,7 @@ from typing import Any
 
 from fabpat.cad import DEFAULT_ANGULAR, DEFAULT_CHORD, DEFAULT_THICKNESS, make_solid
 from fabpat.errors import ExportError
-from fabpat.io import atomic_outputs
+from fabpat.io import atomic_outputs, check_distinct
 from fabpat.outline import Outline, RationalQuad
 
 PRINT_MIN_WIDTH = 0.8  # mm
@@ -54,8 +54,10 @@ class ExportSettings:
     def check(self) -> None:
         """Raise :class:`ExportError` for an option no writer could honour."""
         from fabpat.exchange.dxf import check_options
+        from fabpat.exchange.step import check_timestamp
 
         check_options(self.curves, self.curve_tolerance, self.kerf, self.dxf_version)
+        check_timestamp(self.timestamp, "timestamp")
         for what, v in (("mesh tolerance", self.mesh_tolerance), ("angular tolerance", self.angular_tolerance)):
             if not (v > 0 and math.isfinite(v)):
                 raise ExportError(f"{what} must be > 0, got {v:g}")
@@ -121,7 +123,7 @@ def parse_formats(text: str) -> list[str]:
     if unknown:
         raise ExportError(f"unknown format {unknown[0]!r}: choose from {', '.join(FORMATS)}")
     if not names:
-        raise ExportError("no format given")
+        raise ExportError(f"no format given ({text!r}): give one or more of {', '.join(FORMATS)}, comma-separated")
     return list(dict.fromkeys(names))
 
 
@@ -168,8 +170,7 @@ def export_parts(
             if name not in FORMATS:
                 raise ExportError(f"unknown format {name!r}: choose from {', '.join(FORMATS)}")
         paths += [Path(p) for p in targets.values()]
-    if len({os.path.abspath(p) for p in paths}) != len(paths):
-        raise ExportError("two outputs would write the same file")
+    check_distinct(paths)  # the one check every command shares (atomic_outputs repeats it)
     with atomic_outputs(*paths) as temps:
         tmp = iter(temps)
         for job, targets in jobs:

@@ -22,6 +22,27 @@ SCHEMA = "AP214IS"  # OCCT's name for the AP214 international standard schema
 ORIGINATING_SYSTEM = "fabpat"
 
 
+def check_timestamp(timestamp: str | None, what: str = "--timestamp") -> str | None:
+    """The STEP header time stamp if it is a valid ISO 8601 date or date-time (``2025-01-31``,
+    ``2025-01-31T12:00:00``, ``…Z``, ``…+01:00``); :class:`ExportError` naming ``what`` otherwise.
+
+    Checked before any work, so free text never reaches a file header (ISO 10303-21 §8.2.3 wants
+    an ISO 8601 time_stamp). Parsed by :meth:`datetime.datetime.fromisoformat`.
+    """
+    from datetime import datetime
+
+    if timestamp is None:
+        return None
+    try:
+        if not isinstance(timestamp, str) or not timestamp.isascii() or not timestamp.strip():
+            raise ValueError
+        datetime.fromisoformat(timestamp)
+    except ValueError:
+        raise ExportError(f"{what} {timestamp!r} is not an ISO 8601 date or time: give e.g. 2025-01-31 or "
+                          "2025-01-31T12:00:00Z") from None
+    return timestamp
+
+
 def _quiet_occt() -> None:
     """Keep OCCT's transfer statistics off stdout (the CLI's stdout is for the user)."""
     from OCP.Message import Message, Message_Gravity
@@ -42,6 +63,7 @@ def dump_step(shape: Any, path: str | os.PathLike[str], name: str, timestamp: st
     from OCP.TDocStd import TDocStd_Document
     from OCP.XCAFDoc import XCAFDoc_DocumentTool
 
+    check_timestamp(timestamp, "timestamp")
     shape = getattr(shape, "wrapped", shape)
     _quiet_occt()
     doc = TDocStd_Document(TCollection_ExtendedString("XmlOcaf"))
@@ -61,6 +83,7 @@ def write_document(doc: Any, path: str | os.PathLike[str], name: str, timestamp:
     from OCP.STEPControl import STEPControl_StepModelType
     from OCP.TCollection import TCollection_HAsciiString
 
+    check_timestamp(timestamp, "timestamp")
     _quiet_occt()
     # Interface_Static is global OCCT state: set everything we rely on before every write.
     Interface_Static.SetCVal_s("write.step.schema", SCHEMA)
