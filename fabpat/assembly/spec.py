@@ -20,7 +20,10 @@ A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented 
   exact outlines, default 0.01).
 
 Every error is a :class:`~fabpat.errors.SpecError` whose one line names the file, the key and what
-is allowed.
+is allowed. A key the chosen way of picking patterns does not read (``count`` beside ``hexagon``) is
+an error, never ignored. Ranges that depend on the geometry (``tiling.edge``, ``plates.weight``,
+``sleeve.depth``) are checked by :func:`fabpat.assembly.placement.check_geometry` before any work;
+see docs/reliability.md.
 """
 
 from __future__ import annotations
