@@ -84,6 +84,12 @@ def test_export_all_with_no_formats_is_an_error(tmp_path: Path) -> None:
     assert not (tmp_path / "o").exists()
 
 
+def test_plot_with_an_empty_highlight_list_is_an_error(tmp_path: Path) -> None:
+    for empty in ("", " , "):
+        one_line_error(invoke("plot", "--out", str(tmp_path / "f"), "--highlight", empty), "--highlight", "0x0488")
+    assert list(tmp_path.iterdir()) == []
+
+
 # -- temporary files: interrupted runs and stale leftovers ----------------------------------------
 
 

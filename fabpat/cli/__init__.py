@@ -6,7 +6,9 @@ line on stderr (``fabpat: error: …``) and exit code 2.
 
 from __future__ import annotations
 
+import contextlib
 import sys
+from collections.abc import Iterator
 from typing import Any
 
 import click
@@ -24,12 +26,22 @@ def _on_sigterm(signum: int, frame: object) -> None:
     raise KeyboardInterrupt
 
 
-def _catch_sigterm() -> None:
+@contextlib.contextmanager
+def _sigterm_unwinds() -> Iterator[None]:
+    """Handle SIGTERM with :func:`_on_sigterm` for the block, then restore the previous handler
+    (the CLI also runs inside other programs: tests, notebooks)."""
     import signal
     import threading
 
-    if threading.current_thread() is threading.main_thread():  # signal handlers live in the main thread
-        signal.signal(signal.SIGTERM, _on_sigterm)
+    if threading.current_thread() is not threading.main_thread():  # handlers live in the main thread
+        yield
+        return
+    _TERMINATED.clear()
+    previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 class FabpatGroup(click.Group):
@@ -37,9 +49,9 @@ class FabpatGroup(click.Group):
 
     def main(self, *args: Any, **kwargs: Any) -> Any:  # noqa: D102 - click's signature
         kwargs["standalone_mode"] = False
-        _catch_sigterm()
         try:
-            rv = super().main(*args, **kwargs)
+            with _sigterm_unwinds():
+                rv = super().main(*args, **kwargs)
         except click.exceptions.UsageError as e:
             _fail(e.format_message())
         except FabpatError as e:

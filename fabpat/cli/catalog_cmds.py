@@ -170,9 +170,9 @@ def browse_cmd(db: str | None, out: str, open_: bool, sides: int | None) -> None
 @click.command("plot")
 @click.option("--db", type=click.Path(dir_okay=False), default=None, help=_db_help)
 @click.option("--out", type=click.Path(file_okay=False), required=True, help="Folder for the figures.")
-@click.option("--highlight", default="", help="Comma-separated IDs to colour in every figure (a cluster).")
+@click.option("--highlight", default=None, help="Comma-separated IDs to colour in every figure (a cluster).")
 @click.option("--sides", type=int, default=None, help="Polygon to show if the catalog holds several.")
-def plot_cmd(db: str | None, out: str, highlight: str, sides: int | None) -> None:
+def plot_cmd(db: str | None, out: str, highlight: str | None, sides: int | None) -> None:
     """Write the static scatter plots (paper Figs 13–14) as PNG and SVG.
 
     Example: fabpat plot --out figures --highlight 0x0488,0x0688
@@ -182,7 +182,10 @@ def plot_cmd(db: str | None, out: str, highlight: str, sides: int | None) -> Non
     from fabpat.plots import plot_catalog
 
     check_output_folder(out)
-    ids = [h.strip() for h in highlight.split(",") if h.strip()]
+    ids = [h.strip() for h in (highlight or "").split(",") if h.strip()]
+    if highlight is not None and not ids:  # an empty list is an error, not "no highlight"
+        raise click.BadParameter(f"{highlight!r} names no pattern: give IDs such as 0x0488,0x0688",
+                                 param_hint="--highlight")
     with open_catalog(db) as cat:
         paths = plot_catalog(cat, out, ids, sides)
     click.echo(f"wrote {len(paths)} files to {out}: " + ", ".join(p.name for p in paths))
