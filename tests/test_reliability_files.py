@@ -15,7 +15,7 @@ from click.testing import CliRunner, Result
 
 from fabpat.errors import ExportError
 from fabpat.io import atomic_outputs, check_distinct, remove_stale_temps, temp_prefix
-from tests.conftest import FABPAT, run_cli
+from tests.conftest import FABPAT
 
 ROOT = Path(__file__).resolve().parents[1]
 SMALL_SPEC = ROOT / "assemblies" / "test-small.toml"
@@ -130,8 +130,8 @@ def test_stale_part_files_are_removed_by_the_next_run(tmp_path: Path) -> None:
     assert stale
     live = out / f"{temp_prefix('keep')}abcdefgh.part.svg"  # this process is alive: its file stays
     live.write_text("")
-    res = run_cli("export", "0x0488", "--svg", str(out / "p.svg"))
-    assert res.returncode == 0, res.stderr
+    res = invoke("export", "0x0488", "--svg", str(out / "p.svg"))
+    assert res.exit_code == 0, res.stderr
     assert parts(out) == [live.name]
     assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == ["p.svg"]
 
