@@ -30,7 +30,7 @@ from fabpat.errors import ExportError
 
 #: ``.<name>.<pid>.<8 random characters>.part[<suffix>]``: the temporary names of fabpat (see temp_prefix)
 _TEMP_NAME = re.compile(r"^\..*\.(?P<pid>[0-9]+)\.[A-Za-z0-9_]{8}\.part(\.[^/]*)?$")
-_DISK_FULL = (errno.ENOSPC, getattr(errno, "EDQUOT", errno.ENOSPC), errno.EFBIG)
+_DISK_FULL = (errno.ENOSPC, getattr(errno, "EDQUOT", errno.ENOSPC))  # no space, or over the quota
 
 
 def temp_prefix(name: str) -> str:
