@@ -44,7 +44,7 @@ def test_defaults() -> None:
     spec = parse_spec(base())
     assert spec.plates.thickness == 2.0 and spec.plates.process == "print"
     assert spec.sleeve.wall == 1.2 and spec.sleeve.depth == 3.0 and spec.sleeve.margin == 1.0
-    assert spec.formats == ("step", "stl", "glb", "dxf", "svg", "bom", "png")
+    assert spec.formats == ("step", "stl", "glb", "3dm", "dxf", "svg", "bom", "png")
     assert spec.sheet.kerf == 0.0
     assert parse_spec(base(plates={"process": "laser"})).sheet.kerf == pytest.approx(0.15)
     from fabpat.cad import DEFAULT_CHORD

@@ -7,7 +7,8 @@ folder next to ``--out`` and renamed to it at the very end: on any error the tem
 removed and ``--out`` is left as it was (an earlier ``assemble`` output there is replaced only on
 success; any other existing folder is refused).
 
-Folder contents: ``assembly.step``, ``parts/*.stl``, ``assembly.glb``, ``sheets/sheet-NN.dxf``,
+Folder contents: ``assembly.step``, ``parts/*.stl``, ``assembly.glb``, ``assembly.3dm`` (Rhino: a layer
+and a block per part type, block instances), ``sheets/sheet-NN.dxf``,
 ``net.svg``, ``assembly.png``, ``bom.csv``, ``bom.md`` (each as the spec's formats ask) and
 ``manifest.json`` (files, counts, check results).
 """
@@ -197,7 +198,8 @@ def steps(spec: AssemblySpec) -> list[str]:
     """Names of the progress steps for this spec, in order."""
     f = spec.formats
     names = ["patterns", "placement", "nesting", "net", "checks"]
-    names += [n for n, want in (("STEP", "step"), ("STL", "stl"), ("GLB", "glb"), ("sheets", "dxf"),
+    names += [n for n, want in (("STEP", "step"), ("STL", "stl"), ("GLB", "glb"), ("3DM", "3dm"),
+                                ("sheets", "dxf"),
                                 ("net SVG", "svg"), ("PNG", "png"), ("BOM", "bom")) if want in f]
     return names
 
@@ -299,6 +301,12 @@ def _write_all(spec: AssemblySpec, lib: Any, nesting: Any, net: Any, check_lines
         tell("GLB")
         export.write_glb(lib, tmp / "assembly.glb")
         files.append("assembly.glb")
+    if "3dm" in f:
+        tell("3DM")
+        from fabpat.exchange.rhino import write_assembly
+
+        write_assembly(lib, tmp / "assembly.3dm", spec.name, spec.mesh_tolerance)
+        files.append("assembly.3dm")
     if "dxf" in f:
         tell("sheets")
         from fabpat.assembly.sheets import write_sheets

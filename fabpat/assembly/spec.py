@@ -15,9 +15,9 @@ A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented 
   interface segment + margin), ``wall``, ``depth`` (how far a plate enters its slot).
 * ``[sheet]``  ``width``, ``height`` (laser sheet or print bed), ``margin``, ``spacing``, ``kerf``.
 * ``[estimates]`` ``cut_speed`` (mm/s), ``print_rate`` (mm³/s).
-* ``[output]``  ``formats``: any of step, stl, glb, dxf, svg, bom, png; ``mesh_tolerance`` (STL chord of
-  the parts, default 0.005), ``curve_tolerance`` (largest deviation of the sheets' DXF arcs from the
-  exact outlines, default 0.01).
+* ``[output]``  ``formats``: any of step, stl, glb, 3dm, dxf, svg, bom, png; ``mesh_tolerance`` (STL chord of
+  the parts and of the sleeves in the .3dm, default 0.005), ``curve_tolerance`` (largest deviation of
+  the sheets' DXF arcs from the exact outlines, default 0.01).
 
 Every error is a :class:`~fabpat.errors.SpecError` whose one line names the file, the key and what
 is allowed. A key the chosen way of picking patterns does not read (``count`` beside ``hexagon``) is
@@ -39,7 +39,7 @@ from fabpat.errors import PatternError, SpecError
 
 TILINGS = ("honeycomb-strip", "truncated-icosahedron")
 PROCESSES = ("print", "laser")
-FORMATS = ("step", "stl", "glb", "dxf", "svg", "bom", "png")
+FORMATS = ("step", "stl", "glb", "3dm", "dxf", "svg", "bom", "png")
 STRIP_RULES = ("graded",)
 SPHERE_RULES = ("similar-energy",)
 SCENARIOS = ("cantilever", "cylinder", "dome")

@@ -1,4 +1,4 @@
-"""``fabpat export``: fabrication files (STEP, STL, 3MF, DXF, SVG) for one pattern or the library.
+"""``fabpat export``: fabrication files (STEP, STL, 3MF, DXF, SVG, 3DM) for one pattern or the library.
 
 The command parses options, builds the filleted outline and calls :mod:`fabpat.exchange.registry`;
 all files of one command are written through one :func:`fabpat.io.atomic_outputs` block, so an error
@@ -95,6 +95,8 @@ def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> lis
 @click.option("--3mf", "threemf", type=click.Path(dir_okay=False), help="3MF file (mesh for slicers).")
 @click.option("--dxf", "dxf", type=click.Path(dir_okay=False), help="DXF file (CUT and ENGRAVE layers).")
 @click.option("--svg", "svg", type=click.Path(dir_okay=False), help="SVG file (exact outline, true size).")
+@click.option("--3dm", "rhino", type=click.Path(dir_okay=False),
+              help="Rhino 3DM file: exact rational NURBS outline on layer CUT, plate as a closed extrusion.")
 @click.option("--curves", type=click.Choice(["arcs", "spline", "lines"]), default="arcs", show_default=True,
               help="DXF curves: circular arcs or polylines within --curve-tolerance, or exact rational splines.")
 @click.option("--mesh-tolerance", type=float, default=DEFAULT_CHORD, show_default=True,
@@ -112,22 +114,24 @@ def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> lis
 @click.option("--formats", default=None, help=f"Formats for --all, comma-separated [default: {DEFAULT_ALL_FORMATS}].")
 def export_cmd(pattern_id: str | None, sides: int, edge: float, thickness: float, weight: float,
                step: str | None, stl: str | None, threemf: str | None, dxf: str | None, svg: str | None,
+               rhino: str | None,
                curves: str, mesh_tolerance: float, curve_tolerance: float, kerf: float, dxf_version: str,
                all_: bool, out: str | None, formats: str | None) -> None:
     """Write fabrication files for one pattern (ID) or, with --all, for the whole library.
 
     Warns on stderr when the narrowest feature is below the process limit: 0.8 mm for printing
-    (STEP/STL/3MF), 2 × kerf for laser cutting (DXF/SVG).
+    (STEP/STL/3MF), 2 × kerf for laser cutting (DXF/SVG/3DM).
 
     \b
     Examples:
       fabpat export 0x0488 --step p.step --stl p.stl --dxf p.dxf --kerf 0.15
+      fabpat export 0x0688 --3dm p.3dm
       fabpat export --all --out parts --formats step,dxf
     """
     settings = ExportSettings(curves=curves, kerf=kerf, dxf_version=dxf_version, mesh_tolerance=mesh_tolerance,
                               curve_tolerance=curve_tolerance)
     settings.check()
-    files = {"step": step, "stl": stl, "3mf": threemf, "dxf": dxf, "svg": svg}
+    files = {"step": step, "stl": stl, "3mf": threemf, "dxf": dxf, "svg": svg, "3dm": rhino}
     if all_:
         if pattern_id is not None:
             raise click.UsageError("give either an ID or --all, not both")
@@ -144,7 +148,7 @@ def export_cmd(pattern_id: str | None, sides: int, edge: float, thickness: float
         raise click.UsageError("--out and --formats go with --all; for one pattern use --step, --stl, …")
     targets = {name: Path(p) for name, p in files.items() if p}
     if not targets:
-        raise ExportError("no output requested: give at least one of --step, --stl, --3mf, --dxf, --svg")
+        raise ExportError("no output requested: give at least one of --step, --stl, --3mf, --dxf, --svg, --3dm")
     from fabpat.cli.library_cmds import _pattern
 
     pattern = _pattern(pattern_id, sides, _depth_of(pattern_id), edge)

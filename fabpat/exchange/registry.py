@@ -8,7 +8,7 @@ line. Modules are imported only when a file of their format is written, so OCP (
 Process limits for the minimum-feature-width warning (documented defaults):
 
 * printing (STEP, STL, 3MF): ``PRINT_MIN_WIDTH`` = 0.8 mm, two perimeters of a 0.4 mm nozzle;
-* laser cutting (DXF, SVG): ``LASER_WIDTH_FACTOR`` × kerf = 2 × kerf — a bar narrower than two
+* laser cutting (DXF, SVG, 3DM): ``LASER_WIDTH_FACTOR`` × kerf = 2 × kerf — a bar narrower than two
   kerfs is burnt through or too weak to survive the cut. No laser check when kerf = 0.
 """
 
@@ -114,6 +114,7 @@ register_format("stl", ".stl", "stl", "print", "binary STL mesh (mm)")
 register_format("3mf", ".3mf", "threemf", "print", "3MF mesh (mm)")
 register_format("dxf", ".dxf", "dxf", "laser", "DXF outline: CUT and ENGRAVE layers (mm)")
 register_format("svg", ".svg", "svg", "laser", "SVG outline at true size (mm)")
+register_format("3dm", ".3dm", "rhino", "laser", "Rhino 3DM: exact NURBS outline on CUT, plate extrusion (mm)")
 
 
 def parse_formats(text: str) -> list[str]:

@@ -1,0 +1,220 @@
+"""Rhino ``.3dm`` files (openNURBS, through the ``rhino3dm`` package), in millimetres.
+
+One pattern (:func:`write`) gives a file with three layers:
+
+* ``CUT``: one closed curve per loop of the outline (outer loop counter-clockwise, holes clockwise),
+  each an exact degree-2 rational NURBS curve: every segment of the outline is one Bézier span of
+  the curve (a line as a span with its middle control point at the midpoint, weight 1; a
+  :class:`~fabpat.outline.RationalQuad` as its control points with weights (1, w, 1)), spans joined
+  by double knots. Nothing is flattened: the file holds the outline of :mod:`fabpat.outline` exactly.
+* ``PLATE``: the plate as a closed (capped) extrusion of those curves by the thickness, z ∈ [0, t].
+* ``INTERFACE`` (hidden): the whole bow-tie arcs (P0, M, P0′) with weights (1, w, 1) whose halves
+  the outline keeps, so the configured interface weight w is in the file as it is in STEP. The half
+  arcs on ``CUT`` are in standard form, with middle weight √((1 + w)/2) (see :mod:`fabpat.fillet`).
+
+An assembly kit (:func:`write_assembly`) gives one file with a layer per part type (plate types by
+their label, e.g. ``hex 0x0488``, and sleeve kinds, e.g. ``S-HH``), one block (instance definition)
+per distinct part and every placed part as a block instance named by its label (``H07``, ``SE42``)
+with its rigid transform. Plates are the exact extrusions above; sleeves, which fabpat models only
+as OCCT solids, are meshes within the kit's ``mesh_tolerance`` (mm).
+
+The laser kerf is not applied here: the curves are the exact outline (Rhino's own ``Offset`` gives
+an exact kerf offset), so the file does not depend on ``ExportSettings.kerf``.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fabpat.errors import ExportError
+from fabpat.outline import Line, Loop, Outline, RationalQuad
+
+if TYPE_CHECKING:  # pragma: no cover
+    from fabpat.assembly.parts import PartLibrary
+    from fabpat.exchange.registry import ExportSettings, Part
+
+CUT_LAYER = "CUT"
+PLATE_LAYER = "PLATE"
+INTERFACE_LAYER = "INTERFACE"
+FILE_VERSION = 7  # Rhino 7 format: read by Rhino 7 and 8 and by every current openNURBS reader
+
+
+def _rhino() -> Any:
+    try:
+        import rhino3dm
+    except ImportError as e:  # pragma: no cover - rhino3dm is a dependency
+        raise ExportError(f".3dm export needs the rhino3dm package ({e})") from e
+    return rhino3dm
+
+
+def loop_curve(loop: Loop | Sequence[Line | RationalQuad], z: float = 0.0) -> Any:
+    """One closed degree-2 rational ``rhino3dm.NurbsCurve`` through the loop's segments, exactly.
+
+    Segment k is the Bézier span on knots [k, k + 1]; its control points are (start, middle, end)
+    with weights (1, 1, 1) for a line (middle = midpoint) and (1, w, 1) for a rational arc. Knots
+    are doubled at every joint (C0 in the parametrisation, the geometry's own continuity kept), so
+    the curve has 2k + 1 control points (first = last) and knots [0, 0, 1, 1, …, k, k]
+    (openNURBS' convention without the superfluous end knots). Coordinates in mm, in the plane z.
+    """
+    r3 = _rhino()
+    segments = loop.segments if isinstance(loop, Loop) else tuple(loop)
+    if not segments:
+        raise ExportError("cannot write an empty loop to .3dm")
+    cvs: list[tuple[float, float, float]] = []  # (x, y, weight)
+    for s in segments:
+        if isinstance(s, RationalQuad):
+            (x0, y0), (x1, y1) = s.P0, s.P1
+            cvs += [(float(x0), float(y0), 1.0), (float(x1), float(y1), s.w)]
+        else:
+            mid = 0.5 * (s.p0 + s.p1)
+            cvs += [(float(s.p0[0]), float(s.p0[1]), 1.0), (float(mid[0]), float(mid[1]), 1.0)]
+    cvs.append(cvs[0])
+    k = len(segments)
+    curve = r3.NurbsCurve(3, True, 3, len(cvs))
+    for i, (x, y, w) in enumerate(cvs):
+        # rhino3dm sets control points in homogeneous form (w·x, w·y, w·z, w)
+        curve.Points[i] = r3.Point4d(w * x, w * y, w * z, w)
+    knots = [0.0, 0.0] + [float(j) for j in range(1, k) for _ in (0, 1)] + [float(k), float(k)]
+    for i, t in enumerate(knots):
+        curve.Knots[i] = t
+    if not curve.IsValid:
+        raise ExportError("openNURBS rejected an outline loop as a NURBS curve")
+    return curve
+
+
+def arc_curve(arc: RationalQuad) -> Any:
+    """One open degree-2 rational ``rhino3dm.NurbsCurve`` of a single arc (weights (1, w, 1))."""
+    r3 = _rhino()
+    curve = r3.NurbsCurve(3, True, 3, 3)
+    for i, (P, w) in enumerate(zip(arc.control_points, arc.weights, strict=True)):
+        curve.Points[i] = r3.Point4d(w * float(P[0]), w * float(P[1]), 0.0, float(w))
+    for i, t in enumerate((0.0, 0.0, 1.0, 1.0)):
+        curve.Knots[i] = t
+    return curve
+
+
+def plate_extrusion(outline: Outline, thickness: float) -> Any:
+    """The plate as a capped ``rhino3dm.Extrusion`` of the exact outline, z from 0 to ``thickness`` mm."""
+    r3 = _rhino()
+    plane = r3.Plane.WorldXY()  # profile coordinates = model x, y: holes can be added as they are
+    ext = r3.Extrusion.CreateWithPlane(loop_curve(outline.outer), plane, float(thickness), True)
+    if ext is None:
+        raise ExportError("openNURBS could not extrude the outline")
+    for hole in outline.holes:
+        if not ext.AddInnerProfile(loop_curve(hole)):
+            raise ExportError("openNURBS rejected a hole of the outline as an extrusion profile")
+    if not (ext.IsValid and ext.IsSolid):
+        raise ExportError("the .3dm extrusion of the outline is not a closed solid")
+    return ext
+
+
+def _new_file() -> Any:
+    r3 = _rhino()
+    model = r3.File3dm()
+    model.Settings.ModelUnitSystem = r3.UnitSystem.Millimeters
+    model.Settings.ModelAbsoluteTolerance = 0.001  # mm: the exact geometry needs no looser one
+    return model
+
+
+def _layer(model: Any, name: str, colour: tuple[int, int, int], visible: bool = True) -> int:
+    r3 = _rhino()
+    layer = r3.Layer()
+    layer.Name = name
+    layer.Color = (*colour, 255)
+    layer.Visible = visible
+    return int(model.Layers.Add(layer))
+
+
+def _attributes(layer: int, name: str | None = None) -> Any:
+    att = _rhino().ObjectAttributes()
+    att.LayerIndex = layer
+    if name:
+        att.Name = name
+    return att
+
+
+def _save(model: Any, path: str | os.PathLike[str]) -> None:
+    if not model.Write(os.fsdecode(path), FILE_VERSION):
+        raise ExportError(f"cannot write .3dm file {path}")
+
+
+def part_model(part: Part) -> Any:
+    """A ``rhino3dm.File3dm`` of one part: ``CUT`` curves, ``PLATE`` extrusion, ``INTERFACE`` arcs."""
+    model = _new_file()
+    cut = _layer(model, CUT_LAYER, (255, 0, 0))
+    plate = _layer(model, PLATE_LAYER, (40, 40, 40))
+    iface = _layer(model, INTERFACE_LAYER, (0, 0, 255), visible=False)
+    label = part.label or part.name
+    for i, loop in enumerate(part.outline.loops):
+        model.Objects.AddCurve(loop_curve(loop), _attributes(cut, f"{label} {'outer' if i == 0 else f'hole {i}'}"))
+    model.Objects.AddExtrusion(plate_extrusion(part.outline, part.thickness), _attributes(plate, part.name))
+    for arc in part.support:
+        model.Objects.AddCurve(arc_curve(arc), _attributes(iface, f"{label} interface arc"))
+    return model
+
+
+def write(part: Part, path: Path, settings: ExportSettings) -> None:
+    """Registry entry point: the part as a ``.3dm`` file (exact; ``settings`` change nothing here)."""
+    _save(part_model(part), path)
+
+
+def _mesh(V: NDArray[np.float64], F: NDArray[np.int64]) -> Any:
+    r3 = _rhino()
+    mesh = r3.Mesh()
+    for x, y, z in V:
+        mesh.Vertices.Add(float(x), float(y), float(z))
+    for a, b, c in F:
+        mesh.Faces.AddFace(int(a), int(b), int(c))
+    mesh.Normals.ComputeNormals()
+    mesh.Compact()
+    return mesh
+
+
+def _transform(T: NDArray[np.float64]) -> Any:
+    xf = _rhino().Transform(1.0)
+    for i in range(4):
+        for j in range(4):
+            setattr(xf, f"M{i}{j}", float(T[i, j]))
+    return xf
+
+
+def write_assembly(lib: PartLibrary, path: str | os.PathLike[str], name: str, mesh_tolerance: float) -> None:
+    """The placed parts of an assembly as one ``.3dm``: a layer and a block per part type, one instance per part.
+
+    Plates are exact extrusions (their outline curves go into the block too, on the same layer);
+    sleeves are meshes within ``mesh_tolerance`` mm. Instances carry the 4 × 4 rigid transforms of
+    :meth:`~fabpat.assembly.parts.PartLibrary.placed` and are named by the part labels.
+    """
+    from fabpat.assembly.export import colours
+
+    r3 = _rhino()
+    model = _new_file()
+    cols = colours(lib)
+    thickness = lib.assembly.spec.plates.thickness
+    blocks: dict[str, Any] = {}
+    layers: dict[str, int] = {}
+    for key in lib.keys:
+        rgb = tuple(int(cols[key][i:i + 2], 16) for i in (1, 3, 5))
+        layers[key] = _layer(model, key, rgb)  # type: ignore[arg-type]
+        att = _attributes(layers[key], lib.name(key))
+        pt = lib.plate_type(key)
+        if pt is None:
+            geometry = [_mesh(*lib.mesh(key, mesh_tolerance))]
+        else:
+            outline = lib.filleted[pt].outline
+            geometry = [plate_extrusion(outline, thickness)] + [loop_curve(loop) for loop in outline.loops]
+        index = model.InstanceDefinitions.Add(lib.name(key), key, "", "", r3.Point3d(0, 0, 0), tuple(geometry),
+                                              tuple(att for _ in geometry))
+        if index < 0:
+            raise ExportError(f"openNURBS rejected the block of part {key!r}")
+        blocks[key] = model.InstanceDefinitions.FindIndex(index).Id
+    for label, key, T in lib.placed():
+        model.Objects.AddInstanceObject(r3.InstanceReference(blocks[key], _transform(T)),
+                                        _attributes(layers[key], label))
+    _save(model, path)
