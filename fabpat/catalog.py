@@ -271,6 +271,7 @@ class Catalog:
                 self.conn.execute("PRAGMA journal_mode=DELETE")
 
     def close(self) -> None:
+        """Close the SQLite connection."""
         self.conn.close()
 
     def __enter__(self) -> Catalog:

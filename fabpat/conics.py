@@ -66,6 +66,7 @@ class EllipseArc:
 
     @property
     def semi_axes(self) -> tuple[float, float]:
+        """(a, b) in mm: semi-major and semi-minor axis lengths."""
         a = math.hypot(*self.major_axis)
         return a, a * self.ratio
 

@@ -92,6 +92,7 @@ class FilletedPattern:
     interface_arcs: tuple[tuple[RationalQuad, RationalQuad], ...]
 
     def polygon_edges(self) -> list[tuple[NDArray[np.float64], NDArray[np.float64]]]:
+        """The polygon's n edges as (start corner, end corner) pairs of (2,) points in mm, counter-clockwise."""
         corners = polygon_vertices(self.pattern.sides, self.pattern.edge)
         return [(corners[i], corners[(i + 1) % len(corners)]) for i in range(len(corners))]
 

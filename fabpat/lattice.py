@@ -41,12 +41,14 @@ _HEX = re.compile(r"^(0x)?([0-9a-f]+)$")
 
 
 def check_depth(depth: int) -> int:
+    """``depth`` as an int; :class:`PatternError` unless it is an integer ≥ 1."""
     if not isinstance(depth, int | np.integer) or depth < 1:
         raise PatternError(f"depth must be an integer ≥ 1, got {depth!r}")
     return int(depth)
 
 
 def check_sides(sides: int) -> int:
+    """``sides`` as an int; :class:`PatternError` unless it is an integer ≥ 3."""
     if not isinstance(sides, int | np.integer) or sides < 3:
         raise PatternError(f"sides must be an integer ≥ 3 (a regular polygon), got {sides!r}")
     return int(sides)
@@ -149,10 +151,12 @@ class Slice:
 
     @classmethod
     def from_id(cls, pattern_id: str, depth: int = 2) -> Slice:
+        """The slice of a hex ID (``"0x0688"``); raises :class:`PatternError` for a malformed ID."""
         return cls(depth, id_to_bits(pattern_id, depth))
 
     @property
     def id(self) -> str:
+        """The slice's hex ID (face 0 the most significant bit)."""
         return bits_to_id(self.solid)
 
     @property
@@ -162,6 +166,7 @@ class Slice:
 
 
 def circumradius(sides: int, edge: float) -> float:
+    """Circumradius (mm) of the regular ``sides``-gon of edge ``edge`` mm: edge / (2 sin(π/n))."""
     return edge / (2.0 * math.sin(math.pi / check_sides(sides)))
 
 

@@ -88,6 +88,7 @@ class Library:
 
     @cached_property
     def ids(self) -> tuple[str, ...]:
+        """Hex IDs of the library's patterns, in library order."""
         return tuple(bits_to_id(b) for b in self.bits)
 
     def __contains__(self, pattern_id: str) -> bool:
@@ -109,6 +110,7 @@ class Library:
         return Pattern.from_id(pattern_id, self.sides, self.depth, edge)
 
     def patterns(self, edge: float = DEFAULT_EDGE) -> list[Pattern]:
+        """Every pattern of the library as a :class:`Pattern` with polygon edge ``edge`` mm."""
         return [Pattern.from_id(i, self.sides, self.depth, edge) for i in self.ids]
 
 

@@ -65,10 +65,12 @@ class ShellMesh:
 
     @property
     def n_nodes(self) -> int:
+        """Number of mesh nodes."""
         return int(self.V.shape[0])
 
     @property
     def n_elements(self) -> int:
+        """Number of triangles."""
         return int(self.F.shape[0])
 
     @property

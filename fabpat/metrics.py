@@ -29,10 +29,12 @@ class RegionMetrics:
 
     @classmethod
     def from_values(cls, area: float, perimeter: float, polar_moment: float) -> RegionMetrics:
+        """Metrics from area (mm²), perimeter (mm) and polar moment (mm⁴); ratio = 4πA/P²."""
         ratio = 4.0 * math.pi * area / perimeter**2 if perimeter > 0 else 0.0
         return cls(float(area), float(perimeter), float(ratio), float(polar_moment))
 
     def as_dict(self) -> dict[str, float]:
+        """``{area, perimeter, ratio, polar_moment}`` as plain floats."""
         return asdict(self)
 
 

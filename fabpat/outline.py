@@ -75,13 +75,16 @@ class Line:
 
     @property
     def start(self) -> Point:
+        """Start point p0 (mm)."""
         return self.p0
 
     @property
     def end(self) -> Point:
+        """End point p1 (mm)."""
         return self.p1
 
     def reversed(self) -> Line:
+        """The same segment traversed from p1 to p0."""
         return Line(self.p1, self.p0)
 
     def point(self, t: ArrayLike) -> NDArray[np.float64]:
@@ -146,10 +149,12 @@ class RationalQuad:
 
     @property
     def start(self) -> Point:
+        """Start point P0 (mm)."""
         return self.P0
 
     @property
     def end(self) -> Point:
+        """End point P2 (mm)."""
         return self.P2
 
     @cached_property
@@ -165,6 +170,7 @@ class RationalQuad:
         return np.array([1.0, self.w, 1.0])
 
     def reversed(self) -> RationalQuad:
+        """The same arc traversed from P2 to P0 (weight unchanged)."""
         return RationalQuad(self.P2, self.P1, self.P0, self.w)
 
     def point(self, t: ArrayLike) -> NDArray[np.float64]:
@@ -327,6 +333,7 @@ class OutlineReport:
 
     @property
     def ok(self) -> bool:
+        """True when no problem was found."""
         return not self.problems
 
 

@@ -40,6 +40,7 @@ class PatternTopology:
 
     @property
     def n_vertices(self) -> int:
+        """Number of distinct lattice vertices of the n-gon."""
         return int(self.point_fan.size)
 
     def vertices(self, edge: float = DEFAULT_EDGE) -> NDArray[np.float64]:
@@ -94,32 +95,39 @@ class Pattern:
 
     @classmethod
     def from_id(cls, pattern_id: str, sides: int = 6, depth: int = 2, edge: float = DEFAULT_EDGE) -> Pattern:
+        """The pattern of a hex ID in the regular ``sides``-gon of edge ``edge`` mm; raises :class:`PatternError`."""
         return cls(Slice.from_id(pattern_id, depth), check_sides(sides), float(edge))
 
     @property
     def id(self) -> str:
+        """The slice's hex ID."""
         return self.slice.id
 
     @property
     def depth(self) -> int:
+        """Subdivision depth of the slice."""
         return self.slice.depth
 
     @property
     def topology(self) -> PatternTopology:
+        """The shared lattice topology of (sides, depth), cached across patterns."""
         return pattern_topology(self.sides, self.depth)
 
     @cached_property
     def V(self) -> NDArray[np.float64]:
+        """(n_vertices, 2) float: lattice vertices in mm, polygon centre at the origin, read-only."""
         V = self.topology.vertices(self.edge)
         V.setflags(write=False)
         return V
 
     @property
     def F(self) -> NDArray[np.int64]:
+        """(sides · 4**depth, 3) int: the lattice triangles (counter-clockwise vertex indices)."""
         return self.topology.F
 
     @cached_property
     def c(self) -> NDArray[np.bool_]:
+        """(sides · 4**depth,) bool: True where the triangle of ``F`` is solid, read-only."""
         c = self.slice.solid[self.topology.slice_face]
         c.setflags(write=False)
         return c
@@ -138,6 +146,7 @@ class Pattern:
 
     @cached_property
     def metrics(self) -> RegionMetrics:
+        """Area (mm²), perimeter (mm), ratio 4πA/P² and polar moment (mm⁴) of the solid lattice region."""
         area, J = triangle_metrics(self.V, self.solid_faces)
         e = self.boundary_edges
         perimeter = float(np.linalg.norm(self.V[e[:, 0]] - self.V[e[:, 1]], axis=1).sum())

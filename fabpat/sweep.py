@@ -46,6 +46,7 @@ class SweepSetup:
     scenarios: tuple[str, ...] = ("cantilever", "cylinder", "dome")
 
     def key(self, pattern_id: str) -> dict[str, object]:
+        """The catalog row key of one pattern under this setup."""
         return {"id": pattern_id, "sides": self.sides, "depth": self.depth, "edge": float(self.edge),
                 "thickness": float(self.thickness), "weight": float(self.weight)}
 

@@ -39,6 +39,7 @@ class CheckReport:
     min_insertion: float
 
     def lines(self) -> list[str]:
+        """The report as the lines `fabpat assemble` prints and the manifest stores."""
         return [
             f"{self.plates} plates, {self.sleeves} sleeves, {self.vertices} skeleton vertices, {self.edges} edges",
             f"{self.pairs_tested} part pairs intersected: largest overlap {self.max_overlap:.2e} mm³",

@@ -61,6 +61,7 @@ class Nesting:
 
     @property
     def n_sheets(self) -> int:
+        """Number of sheets used (0 when nothing is placed)."""
         return 1 + max((p.sheet for p in self.placements), default=-1)
 
     def placed(self, item: int) -> NDArray[np.float64]:
@@ -68,6 +69,7 @@ class Nesting:
         return self.placements[item].apply(self.polygons[item])
 
     def on_sheet(self, sheet: int) -> list[int]:
+        """Item indices placed on sheet ``sheet`` (0-based), in placement order."""
         return [p.item for p in self.placements if p.sheet == sheet]
 
     def utilisation(self, sheet: int) -> float:

@@ -35,9 +35,11 @@ class PartLibrary:
         return [pt.label for pt in self.assembly.plate_types] + list(self.assembly.sleeve_types)
 
     def plate_type(self, key: str) -> PlateType | None:
+        """The plate type whose label is ``key``, or None for a sleeve key."""
         return next((pt for pt in self.assembly.plate_types if pt.label == key), None)
 
     def is_plate(self, key: str) -> bool:
+        """True when ``key`` names a plate type (not a sleeve kind)."""
         return self.plate_type(key) is not None
 
     def name(self, key: str) -> str:

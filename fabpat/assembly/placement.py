@@ -56,10 +56,12 @@ class PlateType:
 
     @property
     def label(self) -> str:
+        """Part key shown everywhere: polygon short name and pattern ID, e.g. ``"hex 0x0488"``."""
         return f"{SHORT_NAMES.get(self.sides, f'{self.sides}-gon')} {self.pattern_id}"
 
     @property
     def depth(self) -> int:
+        """Subdivision depth from the ID's length (1, 4 or 16 hex digits → 1, 2, 3)."""
         return {1: 1, 4: 2, 16: 3}[len(self.pattern_id) - 2]
 
 

@@ -50,6 +50,7 @@ _GOES_WITH = {"scenario": ("rule",), "count": ("rule",), "catalog": ("rule",), "
 
 @dataclass(frozen=True)
 class TilingSpec:
+    """``[tiling]``: the tiling ``kind``, plate polygon ``edge`` (mm) and, for strips, rows and columns."""
     kind: str
     edge: float  # mm: plate polygon edge
     rows: int = 1
@@ -74,6 +75,7 @@ class PatternSpec:
 
 @dataclass(frozen=True)
 class PlateSpec:
+    """``[plates]``: thickness (mm), interface fillet weight, process and density (g/cm³)."""
     thickness: float = 2.0  # mm
     weight: float = 0.2  # interface fillet weight (paper §3.3)
     process: str = "print"
@@ -82,6 +84,7 @@ class PlateSpec:
 
 @dataclass(frozen=True)
 class SleeveSpec:
+    """``[sleeve]``: clearance, margin, wall and depth of the sleeve connectors (mm)."""
     clearance: float = 0.2  # mm: slot width − plate thickness
     margin: float = 1.0  # mm: slot length − interface segment length
     wall: float = 1.2  # mm: three 0.4 mm perimeters
@@ -90,6 +93,7 @@ class SleeveSpec:
 
 @dataclass(frozen=True)
 class SheetSpec:
+    """``[sheet]``: laser sheet or print bed size, margin, spacing and kerf (mm)."""
     width: float = 600.0  # mm
     height: float = 400.0  # mm
     margin: float = 5.0  # mm: border kept free on every side
@@ -99,6 +103,7 @@ class SheetSpec:
 
 @dataclass(frozen=True)
 class EstimateSpec:
+    """``[estimates]``: laser cut speed (mm/s) and print rate (mm³/s) for the BOM's times."""
     cut_speed: float = 15.0  # mm/s: 2 mm acrylic or plywood on a 40–60 W CO2 laser
     print_rate: float = 3.0  # mm³/s: effective rate of a 0.4 mm nozzle at 0.2 mm layers, travel included
 

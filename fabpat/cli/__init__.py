@@ -48,6 +48,7 @@ class FabpatGroup(click.Group):
     """A click group whose errors are one line on stderr and exit code 2."""
 
     def main(self, *args: Any, **kwargs: Any) -> Any:  # noqa: D102 - click's signature
+        """Run the group; usage errors and :class:`FabpatError` become one stderr line and exit code 2."""
         kwargs["standalone_mode"] = False
         try:
             with _sigterm_unwinds():
@@ -95,4 +96,5 @@ _register()
 
 
 def main() -> None:
+    """Console entry point of the ``fabpat`` command."""
     cli.main(prog_name="fabpat")

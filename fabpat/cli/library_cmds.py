@@ -18,6 +18,7 @@ from fabpat.pattern import DEFAULT_EDGE, Pattern
 
 
 def load_library(sides: int, depth: int, sample: int | None = None, seed: int = 0) -> Library:
+    """The whole library, or ``sample`` random valid patterns drawn with ``seed`` (needed for depth ≥ 3)."""
     if sample is not None:
         return sample_library(sides, depth, sample, seed)
     return enumerate_library(sides, depth)

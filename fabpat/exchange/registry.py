@@ -83,6 +83,7 @@ class Part:
 
     @cached_property
     def solid(self) -> Any:
+        """The exact extruded ``TopoDS_Solid`` (z from 0 to thickness), built once by :func:`fabpat.cad.make_solid`."""
         return make_solid(self.outline, self.thickness, self.support)
 
 
@@ -98,6 +99,7 @@ class Format:
 
     @property
     def write(self) -> Callable[[Part, Path, ExportSettings], None]:
+        """The format module's ``write(part, path, settings)``, imported on first use."""
         return importlib.import_module(f"fabpat.exchange.{self.module}").write  # type: ignore[no-any-return]
 
 
