@@ -31,7 +31,7 @@ OVERLAP_TOL = 1e-6  # mm: faces sharing an edge or a vertex "touch" at distance 
 
 @dataclass(frozen=True, eq=False)
 class Net:
-    """``polygons[f]`` (n_f, 2) mm: face f's corners in the plane (corner i = skeleton vertex faces[f][i]).
+    """``polygons[f]`` (n_f, 2) mm: face f's corners in the plane (corner i = skeleton vertex ``faces[f][i]``).
 
     ``parent[f]``: the face f is hinged to (−1 for the root); ``folds``: edges of the spanning tree.
     """
