@@ -42,7 +42,7 @@ if TYPE_CHECKING:  # pragma: no cover
 CUT_LAYER = "CUT"
 PLATE_LAYER = "PLATE"
 INTERFACE_LAYER = "INTERFACE"
-FILE_VERSION = 7  # Rhino 7 format: read by Rhino 7 and 8 and by every current openNURBS reader
+FILE_VERSION = 7  # Rhino 7 file format: Rhino 7 and later open it
 
 
 def _rhino() -> Any:
