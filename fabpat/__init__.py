@@ -1,3 +1,61 @@
-"""fabpat: fabricable geometric patterns for flat mechanical metamaterials."""
+"""fabpat: fabricable geometric patterns for flat mechanical metamaterials.
+
+The Python front door (everything is imported on first use, so ``import fabpat`` stays instant)::
+
+    import fabpat
+
+    lib = fabpat.library(sides=6, depth=2, edge=36.0)   # 430 patterns: iterate, lib["0x0488"], len(lib)
+    p = fabpat.pattern("0x0488")                          # depth from the ID's length
+    fp = p.fillet(weight=0.2)                             # exact outline; knows sides, edge, weight
+    fp.export("p.step")                                   # .step .stl .3mf .dxf .svg, by suffix
+    r = fabpat.simulate(fp, "dome")                       # r.energy (N·mm), r.to_vtu("dome.vtu")
+    rows = fabpat.catalog()                               # the built-in catalog; rows.to_dataframe()
+
+``fabpat.library``, ``fabpat.pattern`` and ``fabpat.catalog`` are also the submodules of those names:
+calling one calls :func:`fabpat.library.library`, :func:`fabpat.library.pattern` or
+:func:`fabpat.catalog.catalog`.
+"""
+
+import importlib as _importlib
 
 __version__ = "0.1.0"
+
+# name → "module" (the module itself, callable) or "module:attribute"; resolved on first access
+_LAZY = {
+    "library": "fabpat.library",
+    "pattern": "fabpat.pattern",
+    "catalog": "fabpat.catalog",
+    "simulate": "fabpat.scenarios:simulate",
+    "Library": "fabpat.library:Library",
+    "Pattern": "fabpat.pattern:Pattern",
+    "FilletedPattern": "fabpat.fillet:FilletedPattern",
+    "Outline": "fabpat.outline:Outline",
+    "RegionMetrics": "fabpat.metrics:RegionMetrics",
+    "ScenarioResult": "fabpat.scenarios:ScenarioResult",
+    "SCENARIOS": "fabpat.scenarios:SCENARIOS",
+    "FabpatError": "fabpat.errors:FabpatError",
+    "PatternError": "fabpat.errors:PatternError",
+    "GeometryError": "fabpat.errors:GeometryError",
+    "ExportError": "fabpat.errors:ExportError",
+    "SolverError": "fabpat.errors:SolverError",
+    "SpecError": "fabpat.errors:SpecError",
+    "CatalogError": "fabpat.catalog:CatalogError",
+}
+
+__all__ = ["__version__", *_LAZY]
+
+
+def __getattr__(name: str) -> object:  # PEP 562: import on first use
+    target = _LAZY.get(name)
+    if target is None:
+        raise AttributeError(f"module 'fabpat' has no attribute {name!r}")
+    module, _, attr = target.partition(":")
+    value: object = _importlib.import_module(module)
+    if attr:
+        value = getattr(value, attr)
+        globals()[name] = value  # later look-ups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

@@ -18,7 +18,8 @@ changing any input or the solver code recomputes exactly the affected rows.
 
 Readers: :func:`open_catalog` (``None`` → the built-in catalog shipped in ``fabpat/data``),
 :meth:`Catalog.pattern_rows` (one plain dict per pattern with ``energy_<scenario>`` columns),
-:meth:`Catalog.query` and :func:`energies`.
+:meth:`Catalog.query` and :func:`energies`. Calling the module is :func:`catalog`:
+``fabpat.catalog()`` → those rows as a list, with ``to_dataframe()`` when pandas is installed.
 """
 
 from __future__ import annotations
@@ -35,7 +36,9 @@ from dataclasses import dataclass
 from functools import cache
 from importlib import resources
 from pathlib import Path
+from typing import Any
 
+from fabpat._callable import make_callable
 from fabpat.errors import FabpatError
 
 SCHEMA_VERSION = "1"
@@ -73,6 +76,9 @@ METRICS = ("area", "perimeter", "ratio", "polar_moment", "filleted_area", "fille
 # reading their import statements): that code's digest is part of the solver version, so a code change
 # invalidates stored results instead of silently mixing them, and an unrelated module does not.
 _PIPELINE_ROOTS = ("fabpat.library", "fabpat.fillet", "fabpat.mesh", "fabpat.scenarios")
+# Writers and pictures that pipeline objects reach for on request (``FilletedPattern.export``,
+# ``ScenarioResult.to_vtu``, notebook pictures) never change a stored number: not part of the digest.
+_OUTPUT_ONLY = ("fabpat.exchange", "fabpat.cad", "fabpat.pictures", "fabpat.plots", "fabpat.io")
 
 
 class CatalogError(FabpatError):
@@ -82,7 +88,8 @@ class CatalogError(FabpatError):
 def pipeline_modules(roots: Sequence[str] = _PIPELINE_ROOTS) -> list[Path]:
     """Source files of ``roots`` and of every fabpat module they import, directly or not (sorted).
 
-    Imports are read from the source (``ast``), including the lazy ones inside functions.
+    Imports are read from the source (``ast``), including the lazy ones inside functions; the
+    output-only modules (:data:`_OUTPUT_ONLY`: file writers, pictures) are left out.
     """
     import ast
 
@@ -101,6 +108,8 @@ def pipeline_modules(roots: Sequence[str] = _PIPELINE_ROOTS) -> list[Path]:
     todo = list(roots)
     while todo:
         mod = todo.pop()
+        if any(mod == o or mod.startswith(o + ".") for o in _OUTPUT_ONLY):
+            continue
         path = path_of(mod)
         if mod in seen or path is None:
             continue
@@ -496,3 +505,36 @@ def energies(catalog: Catalog | str | Path | None, scenario: str, sides: int = 6
         return dict(_energy_items(catalog, *args))
     with open_catalog(catalog) as cat:
         return dict(_energy_items(cat, *args))
+
+
+class CatalogRows(list[dict[str, object]]):
+    """The rows of :func:`catalog`: a list of dicts (one per pattern), plus :meth:`to_dataframe`."""
+
+    def to_dataframe(self) -> Any:
+        """A pandas ``DataFrame`` of the rows, indexed by pattern ID. Needs pandas
+        (``pip install 'fabpat[pandas]'``); raises :class:`CatalogError` without it."""
+        try:
+            import pandas as pd
+        except ImportError:
+            raise CatalogError("to_dataframe needs pandas: pip install 'fabpat[pandas]'") from None
+        return pd.DataFrame(list(self)).set_index("id", drop=False)
+
+
+def catalog(path: str | Path | None = None, *, sides: int | None = None, **setup: object) -> CatalogRows:
+    """The rows of a catalog (``None``: the built-in one) — ``fabpat.catalog()``.
+
+    One dict per pattern (see :meth:`Catalog.pattern_rows`): ``id``, the set-up (``sides``, ``depth``,
+    ``edge`` mm, ``thickness`` mm, ``weight``), lattice and filleted metrics (mm², mm, mm⁴),
+    ``min_width`` (mm) and per scenario ``energy_<scenario>`` (N·mm) and ``max_displacement_<scenario>``
+    (mm). ``sides`` and other set-up keys filter the rows. Raises :class:`CatalogError`.
+    """
+    bad = sorted(set(setup) - set(KEY[1:]))
+    if bad:
+        raise CatalogError(f"unknown catalog filter {bad[0]!r}: choose from {', '.join(KEY[1:])}")
+    if sides is not None:
+        setup["sides"] = sides
+    with open_catalog(path) as cat:
+        return CatalogRows(cat.pattern_rows(**setup))
+
+
+make_callable(__name__, catalog)

@@ -42,15 +42,19 @@ identical for every pattern and every n with the same edge length, so any two pa
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+import os
+from dataclasses import dataclass, replace
 from itertools import groupby
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import GeometryError
 from fabpat.lattice import polygon_vertices
-from fabpat.outline import Line, Loop, Outline, OutlineReport, RationalQuad, Segment
+from fabpat.metrics import RegionMetrics
+from fabpat.outline import Line, Loop, Outline, OutlineReport, PolygonFrame, RationalQuad, Segment
 from fabpat.pattern import Pattern
 
 DEFAULT_WEIGHT = 0.2  # interface weight of the paper (§3.3)
@@ -78,11 +82,15 @@ class VertexStar:
 
 @dataclass(frozen=True, eq=False)
 class FilletedPattern:
-    """A pattern's exact outline and the data that explains it.
+    """A pattern's exact outline and the data that explains it; made by :meth:`Pattern.fillet
+    <fabpat.pattern.Pattern.fillet>` or :func:`fillet_pattern`.
 
-    ``interface_segments`` (n, 2, 2): the straight piece of the outline on each polygon edge, from
-    M − d to M + d (counter-clockwise). ``interface_arcs``: for each polygon edge the two full bow-tie
-    arcs (P0, M, P0', w) whose halves the outline keeps — their middle weight is the configured w.
+    It knows its polygon (``sides``, ``edge`` mm, ``depth``) and interface ``weight``, and its
+    ``outline`` carries them (:class:`~fabpat.outline.PolygonFrame`), so meshing and the scenarios
+    never ask again. ``interface_segments`` (n, 2, 2): the straight piece of the outline on each
+    polygon edge, from M − d to M + d (counter-clockwise). ``interface_arcs``: for each polygon edge
+    the two full bow-tie arcs (P0, M, P0', w) whose halves the outline keeps — their middle weight is
+    the configured w; :attr:`support_arcs` is the same arcs as one flat tuple.
     """
 
     pattern: Pattern
@@ -90,6 +98,29 @@ class FilletedPattern:
     outline: Outline
     interface_segments: NDArray[np.float64]
     interface_arcs: tuple[tuple[RationalQuad, RationalQuad], ...]
+
+    @property
+    def id(self) -> str:
+        return self.pattern.id
+
+    @property
+    def sides(self) -> int:
+        return self.pattern.sides
+
+    @property
+    def edge(self) -> float:
+        """Polygon edge length, mm."""
+        return self.pattern.edge
+
+    @property
+    def depth(self) -> int:
+        return self.pattern.depth
+
+    @property
+    def support_arcs(self) -> tuple[RationalQuad, ...]:
+        """The interface bow-tie arcs as one flat tuple (2n arcs): the ``support`` of an exported part,
+        so STEP and .3dm carry the interface weight w exactly."""
+        return tuple(arc for pair in self.interface_arcs for arc in pair)
 
     def polygon_edges(self) -> list[tuple[NDArray[np.float64], NDArray[np.float64]]]:
         """The polygon's n edges as (start corner, end corner) pairs of (2,) points in mm, counter-clockwise."""
@@ -111,14 +142,24 @@ class FilletedPattern:
             symmetry=self.pattern.sides,
         )
 
-    def metrics(self, tol: float = 1e-2) -> dict[str, float]:
-        """The filleted columns of the library and the catalog: exact area (mm²), perimeter (mm),
-        ratio, polar moment (mm⁴) and ``min_width`` (mm, on a ``tol`` mm flattening).
+    @property
+    def metrics(self) -> RegionMetrics:
+        """Exact area (mm²), perimeter (mm), ratio 4πA/P² and polar moment (mm⁴) of the outline: the
+        same :class:`~fabpat.metrics.RegionMetrics` as :attr:`Pattern.metrics <fabpat.pattern.Pattern.metrics>`
+        for the lattice triangles."""
+        return self.outline.metrics
 
-        Validates the outline first: an invalid one raises :class:`GeometryError`.
-        """
-        width = self.validate(tol).min_width
-        m = self.outline.metrics()
+    def min_width(self, tol: float = 1e-2) -> float:
+        """Narrowest feature (mm) on a ``tol`` mm flattening; validates the outline first (an invalid
+        one raises :class:`GeometryError`)."""
+        return self.validate(tol).min_width
+
+    def catalog_columns(self, tol: float = 1e-2) -> dict[str, float]:
+        """The filleted columns of ``fabpat library`` and the catalog: ``filleted_area`` (mm²),
+        ``filleted_perimeter`` (mm), ``filleted_ratio``, ``filleted_polar_moment`` (mm⁴) and
+        ``min_width`` (mm, on a ``tol`` mm flattening). Raises :class:`GeometryError` if invalid."""
+        width = self.min_width(tol)
+        m = self.metrics
         return {
             "filleted_area": m.area,
             "filleted_perimeter": m.perimeter,
@@ -132,6 +173,34 @@ class FilletedPattern:
         """d = (edge/16)/(1 + w) for depth 2; in general half the sub-edge over 2(1 + w)."""
         seg = self.interface_segments
         return float(np.linalg.norm(seg[0, 1] - seg[0, 0]) / 2)
+
+    def export(self, path: str | os.PathLike[str], **options: Any) -> Path:
+        """Write a fabrication file, the format chosen by the suffix (.step .stl .3mf .dxf .svg, and
+        any format registered in :mod:`fabpat.exchange.registry`), by the same code as ``fabpat export``.
+
+        ``options``: ``thickness`` (mm, default 2) and the :class:`~fabpat.exchange.registry.ExportSettings`
+        fields (``mesh_tolerance``, ``curve_tolerance``, ``kerf`` mm, ``curves``, ``dxf_version``, …).
+        Atomic: on error no file is left. Raises :class:`~fabpat.errors.ExportError` for an unknown
+        suffix or option. Returns the path written.
+        """
+        # The writers are the exchange stage's: imported when called, so filleting does not load them.
+        from fabpat.exchange.registry import export_filleted
+
+        return export_filleted(self, path, **options)
+
+    def plot(self, ax: Any = None, **kwargs: Any) -> Any:
+        """:meth:`Outline.plot` of the outline (matplotlib; returns the axes)."""
+        return self.outline.plot(ax, **kwargs)
+
+    def __repr__(self) -> str:
+        return (f"FilletedPattern('{self.id}', sides={self.sides}, edge={self.edge:g} mm, weight={self.weight:g}, "
+                f"area={self.metrics.area:.1f} mm²)")
+
+    def _repr_svg_(self) -> str:
+        """Notebook picture: the exact filleted outline (true curves) in its polygon, true size (mm)."""
+        from fabpat.pictures import pattern_svg
+
+        return pattern_svg(self.pattern, outline_path=self.outline.to_svg_path())
 
 
 def interface_half_length(edge: float, depth: int = 2, weight: float = DEFAULT_WEIGHT) -> float:
@@ -427,8 +496,13 @@ def fillet_pattern(pattern: Pattern, weight: float = DEFAULT_WEIGHT) -> Filleted
     ``weight``: the middle weight w of the interface arcs (the paper's 0.2); must be > 0.
     Raises :class:`GeometryError` if the pattern cannot be filleted (not expected for library patterns).
     """
-    if not weight > 0:
-        raise GeometryError(f"interface weight must be > 0, got {weight}")
+    try:
+        w = float(weight)
+    except (TypeError, ValueError):
+        raise GeometryError(f"interface weight must be a number > 0, got {weight!r}") from None
+    if not (w > 0 and math.isfinite(w)):
+        raise GeometryError(f"interface weight must be > 0, got {weight!r}")
+    weight = w
     corners = polygon_vertices(pattern.sides, pattern.edge)
     tangents = np.roll(corners, -1, axis=0) - corners
     tangents /= np.linalg.norm(tangents, axis=1)[:, None]
@@ -443,6 +517,7 @@ def fillet_pattern(pattern: Pattern, weight: float = DEFAULT_WEIGHT) -> Filleted
         raise GeometryError(f"pattern {pattern.id} does not reach every polygon edge")
     arcs = tuple(bowties[v] for v, _ in sorted(iface.items(), key=lambda kv: kv[1]))
     seg = np.array([[_midpoint(a), _midpoint(b)] for a, b in arcs])
+    outline = replace(outline, polygon=PolygonFrame(pattern.sides, pattern.edge, seg))
     return FilletedPattern(pattern, float(weight), outline, seg, arcs)
 
 

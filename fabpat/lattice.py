@@ -21,8 +21,8 @@ Pattern ID
 The slice is the bit-string ``b_0 b_1 … b_{M−1}`` (``M = 4**depth``, ``b_k = 1`` if face ``k`` is
 solid) read as a binary number with face 0 as the most significant bit, written as ``0x`` followed by
 exactly ``M/4`` lowercase hex digits (depth 1: 1 digit, depth 2: 4, depth 3: 16). Parsing accepts
-upper case and a missing ``0x``; the number of digits fixes nothing by itself — the depth is given
-separately and the length must match it.
+upper case and a missing ``0x``. The number of digits fixes the depth (``4**(depth − 1)`` digits):
+:func:`depth_of_id` reads it, and where a depth is also given the length must match it.
 """
 
 from __future__ import annotations
@@ -108,6 +108,24 @@ def bits_to_id(bits: NDArray[np.bool_] | list[int]) -> str:
     for bit in b:
         value = (value << 1) | int(bit)
     return f"0x{value:0{M // 4}x}"
+
+
+def depth_of_id(pattern_id: str) -> int:
+    """The subdivision depth an ID's length implies: 1 hex digit → 1, 4 → 2, 16 → 3, 4**(d − 1) → d.
+
+    Raises :class:`PatternError` for an ID that is not hexadecimal or has another number of digits.
+    """
+    m = _HEX.match(str(pattern_id).strip().lower())
+    if not m:
+        raise PatternError(f"pattern ID {pattern_id!r} is not hexadecimal (expected e.g. 0x0488)")
+    n = len(m.group(2))
+    depth = 1 + round(math.log(n, 4))
+    if 4 ** (depth - 1) != n:
+        raise PatternError(
+            f"pattern ID {pattern_id!r} has {n} hex digits; an ID has 1 (depth 1), 4 (depth 2), 16 (depth 3) "
+            "or 4**(depth − 1) digits"
+        )
+    return depth
 
 
 def id_to_bits(pattern_id: str, depth: int) -> NDArray[np.bool_]:

@@ -9,6 +9,10 @@ Filters, vectorised over many candidate slices at once (rows of a (k, 4**depth) 
   shared vertices) has one component. It is checked on the full n-gon, not on the slice, because a
   connected slice can give a disconnected pattern and vice versa (paper Fig. 6).
 
+Calling the module is :func:`library`: ``fabpat.library(sides=6, depth=2, edge=36.0)`` → a
+:class:`Library`, iterable (its patterns), indexable by ID (or position) and sized; :func:`pattern`
+(also ``fabpat.pattern(...)``) checks one ID and infers its depth from its length.
+
 Depth 2 gives 65 535 candidates, 512 pass the edge rule and 430 are connected for every n ≥ 3.
 Depth ≥ 3 cannot be listed (2**49 configurations pass the edge rule at depth 3); :func:`sample_library`
 draws uniformly among the configurations that pass the edge rule and rejects disconnected ones, so the
@@ -18,6 +22,8 @@ accepted patterns are uniform over the depth-3 library. Its acceptance rate is m
 
 from __future__ import annotations
 
+import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -26,9 +32,12 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.sparse.csgraph import connected_components
 
+from fabpat._callable import make_callable
 from fabpat.errors import PatternError
-from fabpat.lattice import bits_to_id, check_depth, check_sides, edge_row, id_to_bits, n_faces
+from fabpat.lattice import bits_to_id, check_depth, check_sides, depth_of_id, edge_row, id_to_bits, n_faces
 from fabpat.pattern import DEFAULT_EDGE, Pattern, pattern_topology
+
+HTML_ROWS = 10  # patterns shown by Library._repr_html_ (a notebook cell, not a report)
 
 MAX_LISTED_DEPTH = 2  # 2**(4**3 − 15) configurations pass the edge rule at depth 3: sample instead
 
@@ -76,30 +85,49 @@ def _all_bits(depth: int) -> NDArray[np.bool_]:
 
 @dataclass(frozen=True, eq=False)
 class Library:
-    """A set of valid slices for one polygon: ``bits`` (k, 4**depth) bool, in ID order."""
+    """A set of valid slices for one polygon: ``bits`` (k, 4**depth) bool, in ID order.
+
+    ``len(lib)`` patterns; ``for p in lib`` yields :class:`~fabpat.pattern.Pattern` objects of edge
+    ``edge`` (mm); ``lib["0x0488"]`` is the pattern of an ID, ``lib[0]`` the first one. A missing ID,
+    a position out of range or another key raises :class:`PatternError`.
+    """
 
     sides: int
     depth: int
     bits: NDArray[np.bool_]
     candidates: int  # how many slices were examined (65 535 at depth 2; draws when sampled)
+    edge: float = DEFAULT_EDGE  # mm: polygon edge of the patterns it hands out
 
     def __len__(self) -> int:
         return int(self.bits.shape[0])
+
+    def __iter__(self) -> Iterator[Pattern]:
+        return (Pattern.from_id(i, self.sides, self.depth, self.edge) for i in self.ids)
+
+    def __getitem__(self, key: str | int) -> Pattern:
+        if isinstance(key, str):
+            return self.pattern(key)
+        if isinstance(key, int | np.integer) and not isinstance(key, bool):
+            if not -len(self) <= key < len(self):
+                raise PatternError(f"pattern index {key} out of range: the library has {len(self)} patterns")
+            return Pattern.from_id(self.ids[key], self.sides, self.depth, self.edge)
+        raise PatternError(f"index a library by pattern ID (e.g. '0x0488') or position, not {type(key).__name__}")
 
     @cached_property
     def ids(self) -> tuple[str, ...]:
         """Hex IDs of the library's patterns, in library order."""
         return tuple(bits_to_id(b) for b in self.bits)
 
-    def __contains__(self, pattern_id: str) -> bool:
+    def __contains__(self, pattern_id: object) -> bool:
         try:
-            bits = id_to_bits(pattern_id, self.depth)
+            bits = id_to_bits(str(pattern_id), self.depth)
         except PatternError:
             return False
         return bool(np.any(np.all(self.bits == bits, axis=1)))
 
-    def pattern(self, pattern_id: str, edge: float = DEFAULT_EDGE) -> Pattern:
-        """The pattern of an ID of this library; :class:`PatternError` if it is not in it."""
+    def pattern(self, pattern_id: str, edge: float | None = None) -> Pattern:
+        """The pattern of an ID of this library (``edge`` mm, default the library's); :class:`PatternError`
+        if it is not in it."""
         bits = id_to_bits(pattern_id, self.depth)
         if not np.any(np.all(self.bits == bits, axis=1)):
             reason = "violates the edge rule" if not is_tileable(bits, self.depth)[0] else "is disconnected"
@@ -107,14 +135,34 @@ class Library:
                 f"pattern {pattern_id} is not in the {self.sides}-gon depth-{self.depth} library ({reason}); "
                 "run `fabpat library` for the valid IDs"
             )
-        return Pattern.from_id(pattern_id, self.sides, self.depth, edge)
+        return Pattern.from_id(pattern_id, self.sides, self.depth, self.edge if edge is None else edge)
 
-    def patterns(self, edge: float = DEFAULT_EDGE) -> list[Pattern]:
-        """Every pattern of the library as a :class:`Pattern` with polygon edge ``edge`` mm."""
-        return [Pattern.from_id(i, self.sides, self.depth, edge) for i in self.ids]
+    def patterns(self, edge: float | None = None) -> list[Pattern]:
+        """Every pattern of the library as a :class:`Pattern` with polygon edge ``edge`` mm (default the
+        library's)."""
+        e = self.edge if edge is None else edge
+        return [Pattern.from_id(i, self.sides, self.depth, e) for i in self.ids]
+
+    def __repr__(self) -> str:
+        return f"Library(sides={self.sides}, depth={self.depth}, edge={self.edge:g} mm, {len(self)} patterns)"
+
+    def _repr_html_(self) -> str:
+        """A small table for notebooks: the first patterns with their lattice metrics."""
+        from html import escape
+
+        head = "".join(f"<th>{h}</th>" for h in ("ID", "area (mm²)", "perimeter (mm)", "ratio"))
+        rows = []
+        for i in self.ids[:HTML_ROWS]:
+            m = Pattern.from_id(i, self.sides, self.depth, self.edge).metrics
+            rows.append(f"<tr><td><code>{i}</code></td><td>{m.area:.1f}</td><td>{m.perimeter:.1f}</td>"
+                        f"<td>{m.ratio:.3f}</td></tr>")
+        more = len(self) - HTML_ROWS
+        tail = f'<tr><td colspan="4">… and {more} more</td></tr>' if more > 0 else ""
+        return (f"<table><caption>{escape(repr(self))}</caption><thead><tr>{head}</tr></thead>"
+                f"<tbody>{''.join(rows)}{tail}</tbody></table>")
 
 
-def enumerate_library(sides: int = 6, depth: int = 2) -> Library:
+def enumerate_library(sides: int = 6, depth: int = 2, edge: float = DEFAULT_EDGE) -> Library:
     """Every tileable, connected slice of a depth (≤ 2): 430 for depth 2, 2 for depth 1."""
     n, d = check_sides(sides), check_depth(depth)
     if d > MAX_LISTED_DEPTH:
@@ -125,18 +173,20 @@ def enumerate_library(sides: int = 6, depth: int = 2) -> Library:
     bits = bits[is_tileable(bits, d)]
     bits = bits[is_connected(bits, n, d)]
     bits.setflags(write=False)
-    return Library(n, d, bits, candidates=2 ** n_faces(d) - 1)
+    return Library(n, d, bits, candidates=2 ** n_faces(d) - 1, edge=_check_edge(edge))
 
 
-def sample_library(sides: int, depth: int, count: int, seed: int = 0, batch: int = 4096) -> Library:
+def sample_library(
+    sides: int, depth: int, count: int, seed: int = 0, batch: int = 4096, edge: float = DEFAULT_EDGE
+) -> Library:
     """``count`` distinct valid slices drawn uniformly from the library (any depth).
 
     Free faces (all but the edge row) are fair coin flips, the edge row is fixed by the edge rule,
     disconnected draws are rejected, duplicates dropped; reproducible for a given ``seed``.
     """
     n, d = check_sides(sides), check_depth(depth)
-    if count < 1:
-        raise PatternError(f"sample size must be ≥ 1, got {count}")
+    if isinstance(count, bool) or not isinstance(count, int | np.integer) or count < 1:
+        raise PatternError(f"sample size must be an integer ≥ 1, got {count!r}")
     if d <= MAX_LISTED_DEPTH:
         full = enumerate_library(n, d)
         if count > len(full):
@@ -161,14 +211,29 @@ def sample_library(sides: int, depth: int, count: int, seed: int = 0, batch: int
             raise PatternError(f"sampling found only {len(chosen)} of {count} patterns")
     bits = np.array(list(chosen.values()), dtype=bool)
     bits.setflags(write=False)
-    return Library(n, d, bits, candidates=drawn)
+    return Library(n, d, bits, candidates=drawn, edge=_check_edge(edge))
 
 
-def get_pattern(pattern_id: str, sides: int = 6, depth: int = 2, edge: float = DEFAULT_EDGE) -> Pattern:
+def _check_edge(edge: float) -> float:
+    try:
+        e = float(edge)
+    except (TypeError, ValueError):
+        raise PatternError(f"edge must be a length in mm, got {edge!r}") from None
+    if not (e > 0 and math.isfinite(e)):
+        raise PatternError(f"edge must be > 0 mm, got {edge!r}")
+    return e
+
+
+def get_pattern(
+    pattern_id: str, sides: int = 6, depth: int | None = 2, edge: float = DEFAULT_EDGE
+) -> Pattern:
     """The pattern of a valid ID; :class:`PatternError` naming the problem otherwise.
 
-    Depth ≤ 2 looks the ID up in the listed library; deeper IDs are checked by the two filters.
+    ``depth=None`` takes it from the ID's length (:func:`fabpat.lattice.depth_of_id`). Depth ≤ 2 looks
+    the ID up in the listed library; deeper IDs are checked by the two filters.
     """
+    depth = depth_of_id(pattern_id) if depth is None else depth
+    edge = _check_edge(edge)
     if check_depth(depth) <= MAX_LISTED_DEPTH:
         return enumerate_library(sides, depth).pattern(pattern_id, edge)
     bits = id_to_bits(pattern_id, depth)
@@ -177,3 +242,28 @@ def get_pattern(pattern_id: str, sides: int = 6, depth: int = 2, edge: float = D
     if not is_connected(bits, sides, depth)[0]:
         raise PatternError(f"pattern {pattern_id} is disconnected in the {sides}-gon")
     return Pattern.from_id(pattern_id, sides, depth, edge)
+
+
+def library(
+    sides: int = 6, depth: int = 2, edge: float = DEFAULT_EDGE, *, sample: int | None = None, seed: int = 0
+) -> Library:
+    """The library of a regular ``sides``-gon at ``depth``, its patterns of edge ``edge`` mm.
+
+    Depth ≤ 2 is listed in full (430 patterns at depth 2 for every n ≥ 3); deeper libraries are too
+    large to list, so pass ``sample=N`` (and ``seed``) for N patterns drawn uniformly
+    (:func:`sample_library`). Raises :class:`PatternError` for a bad polygon, depth, edge or sample.
+    """
+    if sample is not None:
+        return sample_library(sides, depth, sample, seed, edge=edge)
+    return enumerate_library(sides, depth, edge)
+
+
+def pattern(pattern_id: str, sides: int = 6, edge: float = DEFAULT_EDGE, depth: int | None = None) -> Pattern:
+    """The pattern of an ID (``fabpat.pattern("0x0488")``), its depth from the ID's length unless given.
+
+    Raises :class:`PatternError` if the ID is malformed, not tileable or disconnected in the n-gon.
+    """
+    return get_pattern(pattern_id, sides, depth, edge)
+
+
+make_callable(__name__, library)

@@ -249,19 +249,43 @@ def interface_segments(
 
 
 def mesh_outline(
-    outline: object, h: float = 1.5, sides: int = 6, edge: float = 36.0, *, min_angle: float = 25.0,
-    weight: float = INTERFACE_WEIGHT,
+    outline: object, h: float = 1.5, sides: int | None = None, edge: float | None = None, *,
+    min_angle: float = 25.0, weight: float = INTERFACE_WEIGHT,
 ) -> ShellMesh:
-    """Mesh an exact :class:`fabpat.outline.Outline` and tag its n interface node sets.
+    """Mesh an exact :class:`fabpat.outline.Outline` (or a ``FilletedPattern``) and tag its n
+    interface node sets.
 
     Curves are flattened with chord tolerance ``FLATTEN_TOL_PER_H · h`` (0.03 mm at h = 1.5), then
-    every flattened side is cut to ≤ h. Interface i is the segment of polygon edge i described in
-    :func:`interface_segments`, whose length depends on the interface ``weight`` the outline was
-    filleted with (pass the same one). Raises GeometryError if an interface gets fewer than 2 nodes.
+    every flattened side is cut to ≤ h. A filleted pattern's outline carries its polygon
+    (:class:`~fabpat.outline.PolygonFrame`): interface i is then its exact interface segment on polygon
+    edge i, and ``sides``/``edge``, if given, must agree. A free-standing outline needs ``sides`` and
+    ``edge``; interface i is then the segment of :func:`interface_segments` (whose length depends on the
+    interface ``weight`` the outline was filleted with: pass the same one).
+    Raises GeometryError if an interface gets fewer than 2 nodes or the polygon is unknown or contradicted.
     """
-    loops = outline.flatten(FLATTEN_TOL_PER_H * h)  # type: ignore[attr-defined]
-    mesh = mesh_polygons(loops, h, min_angle, interfaces=interface_segments(sides, edge, weight=weight))
+    outline = getattr(outline, "outline", outline)  # a FilletedPattern meshes as its outline
+    if not hasattr(outline, "flatten"):
+        raise GeometryError(f"mesh_outline needs an Outline or a FilletedPattern, got {type(outline).__name__}")
+    if not (isinstance(h, int | float) and h > 0 and math.isfinite(h)):
+        raise GeometryError(f"mesh size h must be > 0 mm, got {h!r}")
+    frame = getattr(outline, "polygon", None)
+    if frame is not None:
+        if (sides is not None and sides != frame.sides) or (edge is not None and abs(edge - frame.edge) > 1e-9):
+            raise GeometryError(f"the outline belongs to a {frame.sides}-gon of edge {frame.edge:g} mm, "
+                                f"not sides={sides}, edge={edge}")
+        sides, edge = frame.sides, frame.edge
+        segments = [(a, b) for a, b in frame.interfaces]
+    elif sides is None or edge is None:
+        raise GeometryError("this outline does not say which polygon it belongs to: pass sides and edge "
+                            "(or mesh a FilletedPattern, whose outline carries them)")
+    else:
+        segments = interface_segments(sides, edge, weight=weight)
+    loops = outline.flatten(FLATTEN_TOL_PER_H * h)
+    mesh = mesh_polygons(loops, h, min_angle, interfaces=segments)
     for i, nodes in enumerate(mesh.interfaces):
+        if nodes.size == 0:
+            raise GeometryError(f"the outline does not reach interface {i} of the {sides}-gon of edge {edge:g} mm: "
+                                "wrong sides or edge?")
         if nodes.size < 2:
             raise GeometryError(f"interface {i} has {nodes.size} mesh nodes (need ≥ 2): h = {h} too coarse?")
     return mesh

@@ -16,6 +16,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property, lru_cache
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -349,14 +350,70 @@ def _fmt(v: float) -> str:
 
 
 @dataclass(frozen=True, eq=False)
+class PolygonFrame:
+    """The regular polygon a pattern's outline lives in, so meshing and scenarios need not be told.
+
+    ``sides`` n, ``edge`` (mm), ``interfaces`` (n, 2, 2) float: the straight piece of the outline on
+    polygon edge i, from M − d to M + d counter-clockwise (see :mod:`fabpat.fillet`).
+    """
+
+    sides: int
+    edge: float
+    interfaces: NDArray[np.float64]
+
+    def __post_init__(self) -> None:
+        segs = np.array(self.interfaces, dtype=np.float64)
+        if segs.shape != (self.sides, 2, 2):
+            raise GeometryError(f"a {self.sides}-gon frame needs ({self.sides}, 2, 2) interfaces, got {segs.shape}")
+        segs.setflags(write=False)
+        object.__setattr__(self, "interfaces", segs)
+
+
+@dataclass(frozen=True, eq=False)
 class Outline:
-    """One outer loop and any number of hole loops."""
+    """One outer loop and any number of hole loops; ``polygon`` says which regular polygon (sides, edge,
+    interface segments) a pattern's outline belongs to, ``None`` for a free-standing shape."""
 
     outer: Loop
     holes: tuple[Loop, ...] = field(default_factory=tuple)
+    polygon: PolygonFrame | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "holes", tuple(self.holes))
+
+    def __repr__(self) -> str:
+        n = sum(len(loop.segments) for loop in self.loops)
+        where = "" if self.polygon is None else f", {self.polygon.sides}-gon edge {self.polygon.edge:g} mm"
+        return f"Outline({len(self.holes)} holes, {n} segments, area={self.area:.1f} mm²{where})"
+
+    def _repr_svg_(self) -> str:
+        """Notebook picture: the exact outline (true curves) filled black, true size (mm)."""
+        from fabpat.exchange.svg import svg_document
+
+        return svg_document(self, filled=True)
+
+    def plot(self, ax: Any = None, *, tol: float = 0.01, color: str = "black", **kwargs: Any) -> Any:
+        """Draw the outline filled (holes empty) on a matplotlib ``ax`` (a new figure if None), equal
+        axes in mm; curves flattened within ``tol`` mm. ``kwargs`` go to the ``PathPatch``. Returns ax."""
+        import matplotlib.pyplot as plt
+        from matplotlib.patches import PathPatch
+        from matplotlib.path import Path as MplPath
+
+        if ax is None:
+            _, ax = plt.subplots()
+        verts, codes = [], []
+        for P in self.flatten(tol):
+            verts += [*P, P[0]]
+            codes += [MplPath.MOVETO] + [MplPath.LINETO] * (len(P) - 1) + [MplPath.CLOSEPOLY]
+        ax.add_patch(PathPatch(MplPath(np.array(verts), codes), facecolor=color, edgecolor="none", **kwargs))
+        lo, hi = self.bbox
+        pad = 0.02 * float(np.max(hi - lo))
+        ax.set_xlim(lo[0] - pad, hi[0] + pad)
+        ax.set_ylim(lo[1] - pad, hi[1] + pad)
+        ax.set_aspect("equal")
+        ax.set_xlabel("x (mm)")
+        ax.set_ylabel("y (mm)")
+        return ax
 
     @property
     def loops(self) -> tuple[Loop, ...]:
@@ -389,8 +446,9 @@ class Outline:
         B = np.array([loop.bbox for loop in self.loops])
         return np.stack([B[:, 0].min(axis=0), B[:, 1].max(axis=0)])
 
+    @cached_property
     def metrics(self) -> RegionMetrics:
-        """Area, perimeter, isoperimetric ratio and polar moment of the exact outline."""
+        """Area (mm²), perimeter (mm), isoperimetric ratio and polar moment (mm⁴) of the exact outline."""
         return RegionMetrics.from_values(self.area, self.perimeter, self.polar_moment)
 
     def flatten(self, tol: float) -> list[NDArray[np.float64]]:

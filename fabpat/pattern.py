@@ -4,18 +4,26 @@ A pattern is the labelled triangulation ``V, F, c`` of the polygon; the *solid p
 sub-complex of the faces with ``c = True``. Fan triangle ``f`` has its apex at the centre and its base
 on polygon edge ``f`` (see :func:`fabpat.lattice.polygon_vertices`); the slice is mapped linearly into
 it, so the same slice fits every n (exchangeability).
+
+Calling the module is :func:`fabpat.library.pattern`: ``fabpat.pattern("0x0488")`` checks the ID
+against the library and infers its depth from its length.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cache, cached_property
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
+from fabpat._callable import make_callable
 from fabpat.lattice import Slice, check_depth, check_sides, polygon_vertices, slice_lattice
 from fabpat.metrics import RegionMetrics, triangle_metrics
+
+if TYPE_CHECKING:  # pragma: no cover
+    from fabpat.fillet import FilletedPattern
 
 DEFAULT_EDGE = 36.0  # mm: the paper's hexagon edge (§4.1)
 
@@ -146,8 +154,31 @@ class Pattern:
 
     @cached_property
     def metrics(self) -> RegionMetrics:
-        """Area (mm²), perimeter (mm), ratio 4πA/P² and polar moment (mm⁴) of the solid lattice region."""
+        """Area (mm²), perimeter (mm), ratio 4πA/P² and polar moment (mm⁴) of the solid pattern (the
+        union of its solid lattice triangles); the filleted outline has the same four numbers as
+        :attr:`fabpat.fillet.FilletedPattern.metrics`."""
         area, J = triangle_metrics(self.V, self.solid_faces)
         e = self.boundary_edges
         perimeter = float(np.linalg.norm(self.V[e[:, 0]] - self.V[e[:, 1]], axis=1).sum())
         return RegionMetrics.from_values(area, perimeter, J)
+
+    def fillet(self, weight: float = 0.2) -> FilletedPattern:
+        """The exact filleted outline (paper §3.3) with interface-arc middle weight ``weight`` (> 0;
+        the paper's 0.2). Raises :class:`~fabpat.errors.GeometryError` for a weight ≤ 0."""
+        # A convenience over the next stage, imported when called: the pattern stage stays self-contained.
+        from fabpat.fillet import fillet_pattern
+
+        return fillet_pattern(self, weight)
+
+    def __repr__(self) -> str:
+        return (f"Pattern('{self.id}', sides={self.sides}, depth={self.depth}, edge={self.edge:g} mm, "
+                f"area={self.metrics.area:.1f} mm²)")
+
+    def _repr_svg_(self) -> str:
+        """Notebook picture: the solid lattice triangles in the polygon, true size (mm)."""
+        from fabpat.pictures import pattern_svg
+
+        return pattern_svg(self)
+
+
+make_callable(__name__, "fabpat.library:pattern")

@@ -24,18 +24,25 @@ Rigid-body motion: with ≥ 2 nodes on every interface (``mesh_outline`` guarant
 already remove all six rigid motions (cylinder: the pins' line is locked against rotation by the
 rollers; dome: likewise by the other rollers), so no extra constraint is added; a singular system
 raises :class:`fabpat.errors.SolverError`.
+
+:func:`simulate` is the one-call entry (``fabpat.simulate(filleted, "dome")``): it meshes a filleted
+pattern (whose outline knows its polygon) and runs one scenario.
 """
 
 from __future__ import annotations
 
+import math
+import os
 import time
 from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import SolverError
-from fabpat.mesh import ShellMesh
+from fabpat.mesh import ShellMesh, mesh_outline
 from fabpat.shell.element import Material
 from fabpat.shell.results import ShellResult
 from fabpat.shell.solve import ShellProblem, solve_linear, solve_nonlinear
@@ -50,7 +57,11 @@ DOME_MOMENT = -100.0
 
 @dataclass(frozen=True, eq=False)
 class ScenarioResult:
-    """Summary of one pattern-scenario run; ``result`` and ``problem`` hold the full fields."""
+    """Summary of one pattern-scenario run; ``result`` and ``problem`` hold the full fields.
+
+    ``energy``: total strain energy (N·mm); ``max_displacement`` (mm); ``mesh`` the meshed pattern
+    (set by :func:`run_scenario`), which :meth:`to_vtu` and :meth:`to_png` draw deformed.
+    """
 
     scenario: str
     energy: float  # N·mm
@@ -63,6 +74,38 @@ class ScenarioResult:
     nonlinear: bool
     result: ShellResult
     problem: ShellProblem
+    mesh: ShellMesh | None = None
+
+    def __repr__(self) -> str:
+        kind = "nonlinear" if self.nonlinear else "linear"
+        return (f"ScenarioResult({self.scenario!r}, energy={self.energy:.6g} N·mm, "
+                f"max_displacement={self.max_displacement:.4g} mm, {kind}, {self.nodes} nodes)")
+
+    def _need_mesh(self) -> ShellMesh:
+        if self.mesh is None:
+            raise SolverError("this result has no mesh to draw (make it with simulate or run_scenario)")
+        return self.mesh
+
+    def to_vtu(self, path: str | os.PathLike[str]) -> Path:
+        """Write the deformed mesh with its fields for ParaView (.vtu; see
+        :func:`fabpat.exchange.vtu.write_vtu`), atomically. Returns the path."""
+        from fabpat.exchange.vtu import write_vtu  # a writer: loaded only when a file is asked for
+        from fabpat.io import atomic_outputs
+
+        mesh = self._need_mesh()
+        with atomic_outputs(path) as (tmp,):
+            write_vtu(tmp, mesh.V, mesh.F, self.result)
+        return Path(path)
+
+    def to_png(self, path: str | os.PathLike[str], *, title: str | None = None) -> Path:
+        """Write a picture of the deformed pattern coloured by strain-energy density (PNG), atomically."""
+        from fabpat.exchange.png_result import write_png
+        from fabpat.io import atomic_outputs
+
+        mesh = self._need_mesh()
+        with atomic_outputs(path) as (tmp,):
+            write_png(tmp, mesh.V, mesh.F, self.result, title=title or "")
+        return Path(path)
 
     def summary(self) -> dict[str, object]:
         """JSON-ready dict of the scalar fields."""
@@ -97,7 +140,7 @@ def build_problem(mesh: ShellMesh, scenario: str, *, sides: int, thickness: floa
                   nu: float = 0.35) -> ShellProblem:
     """Supports and nodal loads of ``scenario`` on ``mesh`` (see module docstring)."""
     if scenario not in SCENARIOS:
-        raise ValueError(f"unknown scenario {scenario!r}; expected one of {', '.join(SCENARIOS)}")
+        raise SolverError(f"unknown scenario {scenario!r}; expected one of {', '.join(SCENARIOS)}")
     if len(mesh.interfaces) != sides:
         raise SolverError(f"mesh has {len(mesh.interfaces)} interface sets, expected {sides}")
     for i, nodes in enumerate(mesh.interfaces):
@@ -138,4 +181,36 @@ def run_scenario(mesh: ShellMesh, scenario: str, *, sides: int, edge: float = 36
     p = build_problem(mesh, scenario, sides=sides, thickness=thickness, E=E, nu=nu)
     r = solve_nonlinear(p) if nonlinear else solve_linear(p)
     return ScenarioResult(scenario, r.energy, r.max_displacement, r.converged, r.iterations,
-                          time.perf_counter() - t0, mesh.n_nodes, mesh.n_elements, nonlinear, r, p)
+                          time.perf_counter() - t0, mesh.n_nodes, mesh.n_elements, nonlinear, r, p, mesh)
+
+
+def _positive(name: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not (value > 0 and math.isfinite(value)):
+        raise SolverError(f"{name} must be a number > 0, got {value!r}")
+    return float(value)
+
+
+def simulate(
+    filleted: Any, scenario: str, *, h: float = 1.5, linear: bool = False, thickness: float = 2.0,
+    youngs_modulus: float = 1000.0, poisson: float = 0.35,
+) -> ScenarioResult:
+    """Mesh a filleted pattern and run one of the paper's scenarios (§4.1) — ``fabpat simulate``.
+
+    ``filleted``: a :class:`~fabpat.fillet.FilletedPattern` (its polygon and interfaces come with it);
+    ``scenario``: "cantilever", "cylinder" or "dome"; ``h``: target mesh edge (mm); ``linear``: small
+    displacements instead of the geometrically nonlinear analysis; ``thickness`` (mm),
+    ``youngs_modulus`` (N/mm², PLA 1000 as in the paper), ``poisson`` (0.35, our choice for PLA).
+    Returns a :class:`ScenarioResult` (``energy`` N·mm, ``max_displacement`` mm, ``to_vtu``,
+    ``to_png``). Raises :class:`SolverError` for a bad argument or nonconvergence, and
+    :class:`~fabpat.errors.GeometryError` if the outline cannot be meshed at this h.
+    """
+    if not hasattr(filleted, "outline") or not hasattr(filleted, "sides"):
+        raise SolverError(f"simulate needs a FilletedPattern (pattern.fillet()), got {type(filleted).__name__}")
+    if scenario not in SCENARIOS:
+        raise SolverError(f"unknown scenario {scenario!r}; expected one of {', '.join(SCENARIOS)}")
+    h, thickness, E = _positive("h", h), _positive("thickness", thickness), _positive("youngs_modulus", youngs_modulus)
+    if isinstance(poisson, bool) or not isinstance(poisson, int | float) or not -1.0 < poisson < 0.5:
+        raise SolverError(f"poisson must be in (-1, 0.5), got {poisson!r}")
+    mesh = mesh_outline(filleted, h)
+    return run_scenario(mesh, scenario, sides=filleted.sides, edge=filleted.edge, thickness=thickness, E=E,
+                        nu=float(poisson), nonlinear=not linear)

@@ -96,7 +96,7 @@ def simulate_pattern(pattern_id: str, sides: int, depth: int, edge: float, thick
         m = pattern.metrics
         prow.update(area=m.area, perimeter=m.perimeter, ratio=m.ratio, polar_moment=m.polar_moment)
         filleted = fillet_pattern(pattern, weight)
-        prow.update(filleted.metrics())  # as `fabpat library`; an invalid outline raises GeometryError
+        prow.update(filleted.catalog_columns())  # as `fabpat library`; an invalid outline raises GeometryError
         prow["svg_path"] = filleted.outline.to_svg_path()
         mesh = mesh_outline(filleted.outline, h, sides, edge, weight=weight)
     except FabpatError as e:

@@ -245,7 +245,7 @@ def test_unit_square_with_one_rounded_corner() -> None:
     J_sq = r**4 / 6 + r * r * 2 * (1 - r / 2) ** 2
     c = 1 - r
     J_qd = math.pi * r**4 / 8 + 2 * (2 * c * r**3 / 3) + math.pi * r * r / 4 * 2 * c * c
-    m = outline.metrics()
+    m = outline.metrics
     assert isinstance(m, RegionMetrics)
     assert m.area == pytest.approx(area, rel=1e-14)
     assert m.perimeter == pytest.approx(perimeter, rel=1e-12)
@@ -275,7 +275,7 @@ def test_translated_disc_metrics() -> None:
     assert outline.area == pytest.approx(math.pi * R * R, rel=1e-14)
     assert outline.perimeter == pytest.approx(2 * math.pi * R, rel=1e-12)
     assert outline.polar_moment == pytest.approx(math.pi * R**4 / 2 + math.pi * R * R * (c @ c), rel=1e-13)
-    assert outline.metrics().ratio == pytest.approx(1.0, rel=1e-12)
+    assert outline.metrics.ratio == pytest.approx(1.0, rel=1e-12)
     assert np.allclose(outline.bbox, [c - R, c + R])
     report = outline.validate(tol=1e-3)
     assert report.ok

@@ -74,5 +74,5 @@ def test_missing_interface_raises(hexagon) -> None:
     bad = replace(hexagon, interfaces=(hexagon.interfaces[0][:1], *hexagon.interfaces[1:]))
     with pytest.raises(SolverError, match="interface 0"):
         run_scenario(bad, "cantilever", sides=6)
-    with pytest.raises(ValueError):
+    with pytest.raises(SolverError, match="twist"):
         build_problem(hexagon, "twist", sides=6)

@@ -15,33 +15,28 @@ import click
 from fabpat.cad import DEFAULT_CHORD
 from fabpat.cli.options import _at_least, edge_option, sides_option
 from fabpat.errors import ExportError
-from fabpat.exchange.registry import FORMATS, ExportSettings, Job, Part, export_parts, parse_formats, width_warnings
+from fabpat.exchange.registry import (
+    FORMATS,
+    ExportSettings,
+    Job,
+    Part,
+    export_parts,
+    filleted_part,
+    parse_formats,
+    width_warnings,
+)
 from fabpat.io import check_output_folder, output_folder
 
 if TYPE_CHECKING:  # pragma: no cover
     from fabpat.pattern import Pattern
 
 DEFAULT_ALL_FORMATS = "step,stl,dxf"
-_DEPTH_OF_DIGITS = {1: 1, 4: 2, 16: 3}  # hex digits of an ID → subdivision depth (4**depth bits)
-
-
-def _depth_of(pattern_id: str) -> int:
-    digits = pattern_id.strip().lower().removeprefix("0x")
-    return _DEPTH_OF_DIGITS.get(len(digits), 2)  # a malformed ID is reported by the library
 
 
 def make_part(pattern: Pattern, thickness: float, weight: float) -> Part:
-    """The filleted pattern as an exportable part named by its ID and parameters.
-
-    The interface bow-tie arcs go along as ``support``, so STEP carries their weights (1, w, 1).
-    """
-    from fabpat.cad import part_name
-    from fabpat.fillet import fillet_pattern
-
-    filleted = fillet_pattern(pattern, weight)
-    name = part_name(pattern.id, pattern.sides, pattern.edge, thickness, weight)
-    support = tuple(arc for pair in filleted.interface_arcs for arc in pair)
-    return Part(filleted.outline, thickness, name, label=pattern.id, support=support)
+    """The filleted pattern as an exportable part (:func:`fabpat.exchange.registry.filleted_part`, the
+    same one ``FilletedPattern.export`` writes)."""
+    return filleted_part(pattern.fillet(weight), thickness)
 
 
 def _warn(message: str) -> None:
@@ -149,9 +144,9 @@ def export_cmd(pattern_id: str | None, sides: int, edge: float, thickness: float
     targets = {name: Path(p) for name, p in files.items() if p}
     if not targets:
         raise ExportError("no output requested: give at least one of --step, --stl, --3mf, --dxf, --svg, --3dm")
-    from fabpat.cli.library_cmds import _pattern
+    from fabpat.library import get_pattern
 
-    pattern = _pattern(pattern_id, sides, _depth_of(pattern_id), edge)
+    pattern = get_pattern(pattern_id, sides, None, edge)  # the depth from the ID's length
     jobs = [(lambda: make_part(pattern, thickness, weight), targets)]
     for path in _write_all(jobs, settings, progress=False):
         click.echo(f"wrote {path}")

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import click
 
-from fabpat.cli.options import depth_option, edge_option, sides_option, weight_option
+from fabpat.cli.options import depth_option, edge_option, id_depth_option, sides_option, weight_option
 from fabpat.errors import PatternError
 from fabpat.io import atomic_outputs
 from fabpat.library import Library, enumerate_library, get_pattern, sample_library
@@ -30,7 +30,7 @@ def _filleted_row(args: tuple[str, int, int, float, float]) -> dict[str, float]:
     pid, sides, depth, edge, weight = args
     fp = fillet_pattern(Pattern.from_id(pid, sides, depth, edge), weight)
     digits = {"filleted_polar_moment": 4, "min_width": 4, "filleted_ratio": 8}
-    return {k: round(v, digits.get(k, 6)) for k, v in fp.metrics().items()}
+    return {k: round(v, digits.get(k, 6)) for k, v in fp.catalog_columns().items()}
 
 
 def library_rows(
@@ -177,32 +177,29 @@ def library_cmd(
     _print_rows(rows, fmt, title)
 
 
-def _pattern(pattern_id: str, sides: int, depth: int, edge: float) -> Pattern:
-    return get_pattern(pattern_id, sides, depth, edge)
-
-
 @click.command("show")
 @click.argument("pattern_id", metavar="ID")
 @sides_option
-@depth_option
+@id_depth_option
 @edge_option
-@click.option("--svg", "svg", type=click.Path(dir_okay=False), required=True, help="SVG file to write.")
+@click.option("--svg", "svg", type=click.Path(dir_okay=False), default=None,
+              help="SVG file to write [default: the SVG on stdout].")
 @click.option("--filleted", is_flag=True, help="Draw the exact filleted outline (true curves) instead of the lattice.")
 @weight_option
-def show_cmd(pattern_id: str, sides: int, depth: int, edge: float, svg: str, filleted: bool, weight: float) -> None:
-    """Draw one pattern as an SVG at true size (mm).
+def show_cmd(pattern_id: str, sides: int, depth: int | None, edge: float, svg: str | None, filleted: bool,
+             weight: float) -> None:
+    """Draw one pattern as an SVG at true size (mm), to --svg FILE or stdout.
 
-    Example: fabpat show 0x0488 --sides 6 --filleted --svg pattern.svg
+    \b
+    Examples:
+      fabpat show 0x0488 --sides 6 --filleted --svg pattern.svg
+      fabpat show 0x0488 > pattern.svg
     """
-    from fabpat.pictures import pattern_svg
-
-    p = _pattern(pattern_id, sides, depth, edge)
-    if filleted:
-        from fabpat.fillet import fillet_pattern
-
-        text = pattern_svg(p, outline_path=fillet_pattern(p, weight).outline.to_svg_path())
-    else:
-        text = pattern_svg(p)
+    p = get_pattern(pattern_id, sides, depth, edge)
+    text = p.fillet(weight)._repr_svg_() if filleted else p._repr_svg_()
+    if svg is None:
+        click.echo(text, nl=False)
+        return
     with atomic_outputs(svg) as (tmp,):
         tmp.write_text(text)
     click.echo(f"wrote {svg}")

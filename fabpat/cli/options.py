@@ -31,6 +31,10 @@ depth_option = click.option(
     "--depth", type=int, default=2, show_default=True, callback=_at_least(1, "depth"),
     help="Subdivision depth of the slice (≥ 1); depth ≥ 3 needs --sample.",
 )
+id_depth_option = click.option(
+    "--depth", type=int, default=None, callback=_at_least(1, "depth"),
+    help="Subdivision depth of the ID [default: from its length: 4 hex digits → 2, 16 → 3].",
+)
 edge_option = click.option(
     "--edge", type=float, default=DEFAULT_EDGE, show_default=True, callback=_at_least(0, "edge", True),
     help="Polygon edge length in mm.",

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from fabpat.cli.options import depth_option, edge_option, sides_option, weight_option
+from fabpat.cli.options import edge_option, id_depth_option, sides_option, weight_option
 from fabpat.errors import FabpatError
 from fabpat.io import atomic_outputs, check_distinct
 
@@ -25,7 +25,7 @@ def _per_scenario(path: str | None, scenario: str, many: bool) -> str | None:
 @click.command("simulate")
 @click.argument("pattern_id", metavar="ID")
 @sides_option
-@depth_option
+@id_depth_option
 @edge_option
 @weight_option
 @click.option("--scenario", type=click.Choice(SCENARIO_CHOICES), default="all", show_default=True,
@@ -44,14 +44,15 @@ def _per_scenario(path: str | None, scenario: str, many: bool) -> str | None:
               show_default=True, help="Element of --export-inp: S6 (CalculiX), or S3/STRI3 for Abaqus.")
 @click.option("--json", "as_json", is_flag=True, help="Print the results as JSON.")
 def simulate_cmd(
-    pattern_id: str, sides: int, depth: int, edge: float, weight: float, scenario: str, linear: bool, h: float,
+    pattern_id: str, sides: int, depth: int | None, edge: float, weight: float, scenario: str, linear: bool, h: float,
     thickness: float, E: float, nu: float, vtu: str | None, png: str | None, inp: str | None, inp_element: str,
     as_json: bool,
 ) -> None:
     """Simulate one pattern in the Cantilever, Cylinder and/or Dome scenario.
 
-    Prints the total strain energy (N·mm), the largest displacement (mm), Newton iterations and
-    time. With --scenario all, file options get the scenario appended (out.vtu → out-dome.vtu).
+    Prints one line per scenario of plain key=value fields (the --json field names): id, scenario,
+    energy (total strain energy, N·mm), max_displacement (mm), converged, iterations, seconds (s),
+    nodes, elements. With --scenario all, file options get the scenario appended (out.vtu → out-dome.vtu).
 
     Example: fabpat simulate 0x2d88 --scenario dome --vtu dome.vtu --png dome.png --json
     """
@@ -78,7 +79,7 @@ def simulate_cmd(
     }
     check_distinct(outputs.values())  # before the work: --vtu x --png x would overwrite one with the other
     pattern = get_pattern(pattern_id, sides, depth, edge)
-    mesh = mesh_outline(fillet_pattern(pattern, weight).outline, h, sides, edge, weight=weight)
+    mesh = mesh_outline(fillet_pattern(pattern, weight), h)  # the outline carries its polygon
     rows = []
     with atomic_outputs(*outputs.values()) as temps:
         tmp_of = dict(zip(outputs, temps, strict=True))
@@ -98,11 +99,11 @@ def simulate_cmd(
         click.echo(json.dumps(rows if many else rows[0], indent=1))
     else:
         for row in rows:
-            # the JSON field names, so a reader of one format can read the other
+            # the JSON field names, units in --help: a line splits on spaces, then on "="
             click.echo(
-                f"{row['id']} {row['scenario']:<10} energy={row['energy']:.6g} N·mm  "
-                f"max_displacement={row['max_displacement']:.4g} mm  converged={str(bool(row['converged'])).lower()}  "
-                f"iterations={row['iterations']}  seconds={row['seconds']:.2f}  nodes={row['nodes']}  "
+                f"id={row['id']} scenario={row['scenario']} energy={row['energy']:.6g} "
+                f"max_displacement={row['max_displacement']:.4g} converged={str(bool(row['converged'])).lower()} "
+                f"iterations={row['iterations']} seconds={row['seconds']:.2f} nodes={row['nodes']} "
                 f"elements={row['elements']}"
             )
     for path in outputs.values():

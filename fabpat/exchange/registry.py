@@ -67,8 +67,10 @@ class ExportSettings:
 class Part:
     """What gets exported: the exact outline, plate thickness (mm), product name and engraved label.
 
-    ``support``: whole interface arcs whose halves the outline keeps (see :func:`fabpat.cad.make_face`).
+    ``support``: whole interface arcs whose halves the outline keeps (see :func:`fabpat.cad.make_face`),
+    flat or as the (n, 2) pairs of ``FilletedPattern.interface_arcs`` (flattened here).
     ``solid`` (a ``TopoDS_Solid``) is built on first use and shared by every 3D format.
+    Raises :class:`ExportError` for a thickness ≤ 0 or a support that is not arcs.
     """
 
     outline: Outline
@@ -78,13 +80,24 @@ class Part:
     support: tuple[RationalQuad, ...] = ()
 
     def __post_init__(self) -> None:
-        if not (self.thickness > 0 and math.isfinite(self.thickness)):
-            raise ExportError(f"thickness must be > 0 mm, got {self.thickness:g}")
+        if not isinstance(self.thickness, int | float) or not (self.thickness > 0 and math.isfinite(self.thickness)):
+            raise ExportError(f"thickness must be > 0 mm, got {self.thickness!r}")
+        self.support = flatten_arcs(self.support)
 
     @cached_property
     def solid(self) -> Any:
         """The exact extruded ``TopoDS_Solid`` (z from 0 to thickness), built once by :func:`fabpat.cad.make_solid`."""
         return make_solid(self.outline, self.thickness, self.support)
+
+
+def flatten_arcs(arcs: Any) -> tuple[RationalQuad, ...]:
+    """One flat tuple of arcs from arcs nested in tuples or lists (e.g. the interface arc pairs);
+    :class:`ExportError` for anything else."""
+    if isinstance(arcs, RationalQuad):
+        return (arcs,)
+    if not isinstance(arcs, tuple | list):
+        raise ExportError(f"support must be RationalQuad arcs (or pairs of them), got {type(arcs).__name__}")
+    return tuple(a for item in arcs for a in flatten_arcs(item))
 
 
 @dataclass(frozen=True)
@@ -117,6 +130,17 @@ register_format("3mf", ".3mf", "threemf", "print", "3MF mesh (mm)")
 register_format("dxf", ".dxf", "dxf", "laser", "DXF outline: CUT and ENGRAVE layers (mm)")
 register_format("svg", ".svg", "svg", "laser", "SVG outline at true size (mm)")
 register_format("3dm", ".3dm", "rhino", "laser", "Rhino 3DM: exact NURBS outline on CUT, plate extrusion (mm)")
+
+
+def format_of(path: str | os.PathLike[str]) -> str:
+    """The registered format name of a file's suffix (``p.step`` → ``"step"``); :class:`ExportError`
+    naming the known suffixes otherwise."""
+    suffix = Path(path).suffix.lower()
+    for name, fmt in FORMATS.items():
+        if fmt.suffix == suffix:
+            return name
+    known = " ".join(f.suffix for f in FORMATS.values())
+    raise ExportError(f"cannot tell the format of {os.fspath(path)!r} from its suffix: use one of {known}")
 
 
 def parse_formats(text: str) -> list[str]:
@@ -190,3 +214,30 @@ def export_part(
 ) -> list[Path]:
     """Write one part to every ``{format: path}`` atomically (see :func:`export_parts`)."""
     return export_parts([(part, targets)], settings)
+
+
+def filleted_part(filleted: Any, thickness: float = DEFAULT_THICKNESS) -> Part:
+    """The part of a :class:`~fabpat.fillet.FilletedPattern`: named by its ID and parameters, labelled
+    with its ID, its interface bow-tie arcs as ``support`` (so STEP carries their weights (1, w, 1))."""
+    from fabpat.cad import part_name
+
+    name = part_name(filleted.id, filleted.sides, filleted.edge, thickness, filleted.weight)
+    return Part(filleted.outline, thickness, name, label=filleted.id, support=filleted.support_arcs)
+
+
+_SETTINGS_FIELDS = tuple(ExportSettings.__dataclass_fields__)
+
+
+def export_filleted(filleted: Any, path: str | os.PathLike[str], **options: Any) -> Path:
+    """Write ``filleted`` to ``path`` in the format of its suffix (:func:`format_of`), atomically.
+
+    ``options``: ``thickness`` (mm) and any :class:`ExportSettings` field. The same part and writers
+    as ``fabpat export``. Raises :class:`ExportError` for an unknown suffix or option.
+    """
+    name = format_of(path)
+    thickness = options.pop("thickness", DEFAULT_THICKNESS)
+    unknown = sorted(set(options) - set(_SETTINGS_FIELDS))
+    if unknown:
+        raise ExportError(f"unknown export option {unknown[0]!r}: choose from thickness, {', '.join(_SETTINGS_FIELDS)}")
+    settings = ExportSettings(**options)
+    return export_part(filleted_part(filleted, thickness), {name: path}, settings)[0]
