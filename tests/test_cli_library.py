@@ -57,6 +57,33 @@ def test_show_writes_svg(tmp_path: Path) -> None:
     assert root.tag.endswith("svg") and root.get("width") is not None
 
 
+def test_show_without_output_option_writes_the_svg_to_stdout(tmp_path: Path) -> None:
+    """Friction: `fabpat show ID` used to demand --svg; now the SVG goes to stdout, byte for byte the
+    file --svg writes."""
+    r = run_cli("show", "0x0488", "--filleted")
+    assert r.returncode == 0, r.stderr
+    root = ElementTree.fromstring(r.stdout.split("\n", 1)[1])
+    assert root.tag.endswith("svg") and root.get("width").endswith("mm")
+    out = tmp_path / "p.svg"
+    assert run_cli("show", "0x0488", "--filleted", "--svg", str(out)).returncode == 0
+    assert out.read_text() == r.stdout and list(tmp_path.iterdir()) == [out]
+
+
+def test_commands_taking_an_id_infer_its_depth(tmp_path: Path) -> None:
+    """Friction: `show` and `simulate` refused a 16-digit ID without --depth 3 while `export` took it."""
+    pid = "0xc311aba5e62c0080"  # a depth-3 library pattern (sample_library(6, 3, 1, seed=0))
+    shown = run_cli("show", pid)
+    assert shown.returncode == 0, shown.stderr
+    assert f"<title>{pid} (6-gon" in shown.stdout
+    assert run_cli("export", pid, "--svg", str(tmp_path / "e.svg")).returncode == 0
+    one = run_cli("show", "0xa", "--sides", "5")  # a 1-digit ID is depth 1
+    assert one.returncode == 0 and "<title>0xa (5-gon" in one.stdout
+    for cmd in (["show", pid, "--depth", "2"], ["export", "0x0488", "--depth", "3", "--svg", str(tmp_path / "x.svg")]):
+        bad = run_cli(*cmd)
+        assert bad.returncode == 2 and "hex digits" in bad.stderr and bad.stderr.count("\n") == 1, cmd
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["e.svg"]
+
+
 def test_show_filleted_draws_true_curves(tmp_path: Path) -> None:
     out = tmp_path / "f.svg"
     r = run_cli("show", "0x2d88", "--filleted", "--svg", str(out))

@@ -53,13 +53,53 @@ def test_simulate_bad_input(tmp_path: Path, args: list[str], words: str) -> None
     assert list(tmp_path.iterdir()) == []
 
 
-def test_simulate_text_output_uses_the_json_field_names() -> None:
-    r = run_cli("simulate", "0x7f88", "--scenario", "cantilever", "--linear", "--h", "4")
+def test_simulate_text_output_is_plain_key_value() -> None:
+    """Friction: the text lines were "ID scenario energy=… N·mm …"; now every token is key=value, the
+    keys are the JSON field names and every value parses (units are in --help)."""
+    args = ("simulate", "0x7f88", "--scenario", "cantilever", "--linear", "--h", "4")
+    r = run_cli(*args)
     assert r.returncode == 0, r.stderr
     line = r.stdout.strip().splitlines()[0]
-    fields = dict(tok.split("=", 1) for tok in line.split() if "=" in tok)
-    assert {"energy", "max_displacement", "converged", "iterations", "seconds", "nodes", "elements"} <= set(fields)
-    assert fields["converged"] == "true" and float(fields["energy"]) > 0
+    tokens = line.split()
+    assert all(tok.count("=") == 1 for tok in tokens), line
+    fields = dict(tok.split("=") for tok in tokens)
+    row = json.loads(run_cli(*args, "--json").stdout)
+    assert set(fields) == {"id", "scenario", "energy", "max_displacement", "converged", "iterations", "seconds",
+                           "nodes", "elements"} <= set(row)
+    assert fields["id"] == "0x7f88" and fields["scenario"] == "cantilever" and fields["converged"] == "true"
+    assert float(fields["energy"]) == pytest.approx(row["energy"], rel=1e-5)
+    assert float(fields["max_displacement"]) == pytest.approx(row["max_displacement"], rel=1e-3)
+    assert int(fields["nodes"]) == row["nodes"] and int(fields["elements"]) == row["elements"]
+    assert "N·mm" in run_cli("simulate", "--help").stdout  # the units live in the help
+
+
+def test_simulate_infers_the_depth_from_the_id() -> None:
+    """Friction: a 16-digit (depth-3) ID was refused without --depth 3 while `export` took it."""
+    import fabpat
+
+    pid = "0xc311aba5e62c0080"  # a depth-3 library pattern (sample_library(6, 3, 1, seed=0))
+    r = run_cli("simulate", pid, "--scenario", "cantilever", "--linear", "--h", "3")
+    assert r.returncode == 0, r.stderr
+    fields = dict(tok.split("=") for tok in r.stdout.split())
+    ref = fabpat.simulate(fabpat.pattern(pid).fillet(), "cantilever", h=3.0, linear=True)
+    assert float(fields["energy"]) == pytest.approx(ref.energy, rel=1e-5) and int(fields["nodes"]) == ref.nodes
+    bad = run_cli("simulate", pid, "--depth", "2", "--scenario", "cantilever")
+    assert bad.returncode == 2 and "depth 2 needs 4" in bad.stderr and bad.stderr.count("\n") == 1
+
+
+def test_simulate_strip_text_output_is_plain_key_value() -> None:
+    spec = Path(__file__).resolve().parents[1] / "assemblies" / "test-small.toml"
+    args = ("simulate-strip", str(spec), "--h", "4")
+    text, as_json = run_cli(*args), run_cli(*args, "--json")
+    assert text.returncode == 0 and as_json.returncode == 0, text.stderr + as_json.stderr
+    tokens = text.stdout.split()
+    assert all(tok.count("=") == 1 for tok in tokens), text.stdout
+    fields = dict(tok.split("=") for tok in tokens)
+    row = json.loads(as_json.stdout)
+    assert set(fields) == set(row) - {"profile"}
+    for key in ("length", "critical_load_estimate", "compression", "max_deflection", "half_ratio"):
+        assert float(fields[key]) == pytest.approx(row[key], rel=1e-3), key
+    assert fields["patterns"].split(",") == row["patterns"] and fields["converged"] == "true"
 
 
 @pytest.mark.parametrize("element, per_element", [("S6", 6), ("S3", 3), ("STRI3", 3)])

@@ -88,6 +88,11 @@ def simulate_strip_cmd(spec: str, h: float, load_factor: float, compression: flo
     load, where the strip is highest (fraction of its length) and the deflection area of the first
     (stiff) half over the second: a graded strip bends asymmetrically, stiff end flatter.
 
+    Prints one line of plain key=value fields, named as in --json: nodes, elements, length (mm),
+    critical_load_estimate and compression (N), imperfection (fraction), max_deflection (mm), peak
+    (fraction of the length), half_ratio, amplification, implied_critical_load (N), converged,
+    iterations, seconds (s), patterns (comma-separated IDs).
+
     Example: fabpat simulate-strip assemblies/graded-strip.toml --png strip.png --vtu strip.vtu
     """
     import json

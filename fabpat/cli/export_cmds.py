@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 import click
 
 from fabpat.cad import DEFAULT_CHORD
-from fabpat.cli.options import _at_least, edge_option, sides_option
+from fabpat.cli.options import _at_least, edge_option, id_depth_option, sides_option
 from fabpat.errors import ExportError
 from fabpat.exchange.registry import (
     FORMATS,
@@ -80,6 +80,7 @@ def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> lis
 @click.command("export")
 @click.argument("pattern_id", metavar="[ID]", required=False)
 @sides_option
+@id_depth_option
 @edge_option
 @click.option("--thickness", type=float, default=2.0, show_default=True, callback=_at_least(0, "thickness", True),
               help="Plate thickness in mm (> 0).")
@@ -107,7 +108,7 @@ def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> lis
 @click.option("--all", "all_", is_flag=True, help="Export every pattern of the library (needs --out).")
 @click.option("--out", type=click.Path(file_okay=False), help="Folder for --all (created if missing).")
 @click.option("--formats", default=None, help=f"Formats for --all, comma-separated [default: {DEFAULT_ALL_FORMATS}].")
-def export_cmd(pattern_id: str | None, sides: int, edge: float, thickness: float, weight: float,
+def export_cmd(pattern_id: str | None, sides: int, depth: int | None, edge: float, thickness: float, weight: float,
                step: str | None, stl: str | None, threemf: str | None, dxf: str | None, svg: str | None,
                rhino: str | None,
                curves: str, mesh_tolerance: float, curve_tolerance: float, kerf: float, dxf_version: str,
@@ -130,6 +131,8 @@ def export_cmd(pattern_id: str | None, sides: int, edge: float, thickness: float
     if all_:
         if pattern_id is not None:
             raise click.UsageError("give either an ID or --all, not both")
+        if depth not in (None, 2):
+            raise click.UsageError("--all exports the depth-2 library; --depth goes with an ID")
         if any(files.values()):
             raise click.UsageError("--all writes into --out; single-file options (--step, …) need an ID")
         if out is None:
@@ -146,7 +149,7 @@ def export_cmd(pattern_id: str | None, sides: int, edge: float, thickness: float
         raise ExportError("no output requested: give at least one of --step, --stl, --3mf, --dxf, --svg, --3dm")
     from fabpat.library import get_pattern
 
-    pattern = get_pattern(pattern_id, sides, None, edge)  # the depth from the ID's length
+    pattern = get_pattern(pattern_id, sides, depth, edge)  # depth None: from the ID's length
     jobs = [(lambda: make_part(pattern, thickness, weight), targets)]
     for path in _write_all(jobs, settings, progress=False):
         click.echo(f"wrote {path}")
