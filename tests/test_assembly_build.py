@@ -136,6 +136,14 @@ def test_bom(kit: tuple[Path, list[str]]) -> None:
     assert by["hex 0x0488"]["process"] == "laser" and float(by["hex 0x0488"]["unit_cut_length_mm"]) > 100
     assert float(by["hex 0x0488"]["unit_volume_mm3"]) == pytest.approx(2.0 * float(by["hex 0x0488"]["unit_area_mm2"]))
     assert int(by["laser sheet 170 × 90 mm"]["count"]) == 2
+    # what each process uses: the laser-cut plates list their DXF sheets (not an STL), sleeves their STL
+    manifest = json.loads((kit[0] / "manifest.json").read_text())
+    sheets = sorted(f for f in manifest["files"] if f.startswith("sheets/"))
+    listed = [r["file"].split() for r in rows if r["kind"] == "plate"]
+    assert all(names and set(names) <= set(sheets) for names in listed), listed
+    assert sorted({n for names in listed for n in names}) == sheets  # every sheet carries some plate
+    assert by["S-flat"]["file"].endswith(".stl") and (kit[0] / by["S-flat"]["file"]).is_file()
+    assert not any(r["file"].endswith(".stl") for r in rows if r["process"] == "laser")
     md = (kit[0] / "bom.md").read_text()
     assert "| E1 | S-flat | 180.00 | T1 (2) | T2 (5) |" in md and "Pinned interfaces" in md
 

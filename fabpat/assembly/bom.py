@@ -16,6 +16,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from fabpat.assembly.nesting import Nesting
@@ -42,8 +43,13 @@ class BomRow:
     total_time_min: float | None
 
 
-def bom_rows(lib: PartLibrary, files: dict[str, str], nesting: Nesting | None) -> list[BomRow]:
-    """Rows for every distinct part (plates, then sleeves) and, if nested, the sheets."""
+def bom_rows(lib: PartLibrary, files: dict[str, str], nesting: Nesting | None,
+             sheet_files: Sequence[str] = ()) -> list[BomRow]:
+    """Rows for every distinct part (plates, then sleeves) and, if nested, the sheets.
+
+    ``file`` is what the part's process uses: the part's STL (``files``, by key) for printed parts, the
+    DXF sheets it is nested on (``sheet_files``, by sheet number, space-separated) for laser-cut plates.
+    """
     asm = lib.assembly
     spec = asm.spec
     counts = asm.counts()
@@ -62,7 +68,13 @@ def bom_rows(lib: PartLibrary, files: dict[str, str], nesting: Nesting | None) -
         else:
             area, vol = None, asm.sleeve_types[key].volume()
             process, cut, unit_s, kind = "print", None, vol / spec.estimates.print_rate, "sleeve"
-        rows.append(BomRow(key, kind, process, n, files.get(key, ""), area, vol, vol * rho, n * vol * rho, cut,
+        if process == "laser":
+            on = sorted({pl.sheet for pl in nesting.placements if asm.plates[pl.item].type.label == key}
+                        if nesting is not None and sheet_files else ())
+            file = " ".join(sheet_files[s] for s in on)
+        else:
+            file = files.get(key, "")
+        rows.append(BomRow(key, kind, process, n, file, area, vol, vol * rho, n * vol * rho, cut,
                            n * unit_s / 60.0))
     if nesting is not None:
         s = spec.sheet

@@ -287,6 +287,7 @@ def _write_all(spec: AssemblySpec, lib: Any, nesting: Any, net: Any, check_lines
     f = spec.formats
     files: list[str] = []
     stl_files: dict[str, str] = {}
+    sheet_files: list[str] = []
     if "step" in f:
         tell("STEP")
         export.write_step_assembly(lib, tmp / "assembly.step", spec.name, timestamp)
@@ -312,7 +313,8 @@ def _write_all(spec: AssemblySpec, lib: Any, nesting: Any, net: Any, check_lines
         from fabpat.assembly.sheets import write_sheets
 
         (tmp / "sheets").mkdir()
-        files += [f"sheets/{n}" for n in write_sheets(asm, nesting, tmp / "sheets", lib.filleted)]
+        sheet_files = [f"sheets/{n}" for n in write_sheets(asm, nesting, tmp / "sheets", lib.filleted)]
+        files += sheet_files
     if "svg" in f:
         tell("net SVG")
         from fabpat.assembly.export import colours
@@ -333,7 +335,7 @@ def _write_all(spec: AssemblySpec, lib: Any, nesting: Any, net: Any, check_lines
         tell("BOM")
         from fabpat.assembly.bom import bom_csv, bom_markdown, bom_rows
 
-        rows = bom_rows(lib, stl_files, nesting)
+        rows = bom_rows(lib, stl_files, nesting, sheet_files)
         (tmp / "bom.csv").write_text(bom_csv(rows), encoding="utf-8")
         (tmp / "bom.md").write_text(bom_markdown(lib, rows, nesting, check_lines), encoding="utf-8")
         files += ["bom.csv", "bom.md"]
