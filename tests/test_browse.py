@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import re
 import shlex
 import shutil
@@ -78,6 +79,20 @@ def test_static_plots(tmp_path: Path) -> None:
     assert res.exit_code == 2 and "does not exist" in res.stderr and not (tmp_path / "missing").exists()
 
 
+def _spec_fragment_assembles(fragment: str, ids: list[str], tmp_path: Path) -> None:
+    """The page's "assembly spec" lines, pasted into a spec with the other tables, build a kit of exactly
+    the selected patterns (`fabpat assemble`, BOM only to stay fast)."""
+    import csv
+
+    spec = tmp_path / "pasted.toml"
+    spec.write_text('name = "pasted"\n\n' + fragment + "\n\n[plates]\nprocess = \"laser\"\n\n[sheet]\n"
+                    "width = 600.0\nheight = 400.0\n\n[output]\nformats = [\"bom\"]\n")
+    res = run_cli("assemble", str(spec), "--out", str(tmp_path / "kit"), "--no-progress")
+    assert res.returncode == 0, res.stderr
+    rows = list(csv.DictReader((tmp_path / "kit" / "bom.csv").open()))
+    assert sorted(r["part"] for r in rows if r["kind"] == "plate") == sorted(f"hex {i}" for i in ids)
+
+
 def test_in_chromium_offline(page_file: Path, tmp_path: Path) -> None:
     """Loads with networking off and no request but the file itself; 430 dots per plot; hover shows a
     picture; a box selection lists the patterns and recolours the other plots; screenshot saved."""
@@ -135,8 +150,9 @@ def test_in_chromium_offline(page_file: Path, tmp_path: Path) -> None:
             assert sorted(page.locator("#cards .card .id").all_text_contents()) == sorted(target["ids"])
             assert page.text_content("#count").startswith(f"{n} pattern")
             lines = page.input_value("#commands").splitlines()
-            assert len(lines) == n + 1 and all(re.fullmatch(r"fabpat export 0x[0-9a-f]{4} --step .*", x)
-                                               for x in lines[:-1])
+            assert all(re.fullmatch(r"fabpat export 0x[0-9a-f]{4} --step .*", x) for x in lines[:n])
+            fragment = "\n".join(lines[n:])
+            assert not fragment.startswith("fabpat") and "[patterns]" in fragment
             assert page.locator("#cards .card img").first.evaluate("i => i.naturalWidth") > 0
             from fabpat.cli.export_cmds import export_cmd  # the lines parse as real `fabpat export` commands
 
@@ -151,6 +167,41 @@ def test_in_chromium_offline(page_file: Path, tmp_path: Path) -> None:
                                     ".filter(e => e.getBBox().width > 8).length")
                 assert big == n
             page.screenshot(path=str(tmp_path / "selection.png"), full_page=True)
+            _spec_fragment_assembles(fragment, target["ids"], tmp_path)
+
+            # a click in another plot replaces the box selection everywhere: no stale box in plot 0, the
+            # new patterns drawn selected (not faded) in every plot
+            spot = page.evaluate("""(old) => {
+                const D = JSON.parse(document.getElementById('data').textContent);
+                const xs = D.values.polar_moment, ys = D.values.energy_cylinder;
+                const L = document.getElementById('plot2')._fullLayout;
+                const px = xs.map((x, i) => [L.xaxis.d2p(x), L.yaxis.d2p(ys[i])]);
+                // the dot farthest from any other (a click there cannot hit a neighbour), not in the box
+                let j = -1, best = -1;
+                px.forEach(([x, y], i) => {
+                    if (old.includes(D.ids[i]) || ys[i] === null) return;
+                    const d = Math.min(...px.map(([u, v], k) => k === i ? Infinity : Math.hypot(u - x, v - y)));
+                    if (d > best) { best = d; j = i; }
+                });
+                const same = D.ids.map((_, i) => i).filter(i => xs[i] === xs[j] && ys[i] === ys[j]);
+                return {same, x: px[j][0], y: px[j][1]};
+            }""", target["ids"])
+            box2 = page.locator("#plot2 .nsewdrag").bounding_box()
+            page.mouse.click(box2["x"] + spot["x"], box2["y"] + spot["y"])
+            page.wait_for_function(f"document.querySelectorAll('#cards .card').length === {len(spot['same'])}")
+            page.wait_for_function("[0, 1, 2, 3].every(k => JSON.stringify(document.getElementById('plot' + k)"
+                                   f".data[0].selectedpoints) === '{json.dumps(spot['same'], separators=(',', ':'))}')")
+            for k in range(4):
+                state = page.evaluate(f"""() => {{
+                    const gd = document.getElementById('plot{k}');
+                    const pts = [...gd.querySelectorAll('.scatterlayer .point')];
+                    return {{boxes: (gd.layout.selections || []).length,
+                             outlines: gd.querySelectorAll('.selectionlayer path, .select-outline').length,
+                             opacity: gd.data[0].selectedpoints.map(i => getComputedStyle(pts[i]).opacity)}};
+                }}""")
+                assert state["boxes"] == 0 and state["outlines"] == 0, (k, state)
+                assert state["opacity"] == ["1"] * len(spot["same"]), (k, state)
+            page.screenshot(path=str(tmp_path / "click-after-box.png"), full_page=True)
 
             page.mouse.dblclick(cx + 30, cy + 30)  # double-click clears the selection everywhere
             page.wait_for_function("document.querySelectorAll('#cards .card').length === 0")
