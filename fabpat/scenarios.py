@@ -136,9 +136,11 @@ def tributary_weights(V: NDArray[np.float64], nodes: NDArray[np.int64]) -> NDArr
     return w / w.sum()
 
 
-def build_problem(mesh: ShellMesh, scenario: str, *, sides: int, thickness: float = 2.0, E: float = 1000.0,
-                  nu: float = 0.35) -> ShellProblem:
-    """Supports and nodal loads of ``scenario`` on ``mesh`` (see module docstring)."""
+def build_problem(mesh: ShellMesh, scenario: str, *, sides: int | None = None, thickness: float = 2.0,
+                  E: float = 1000.0, nu: float = 0.35) -> ShellProblem:
+    """Supports and nodal loads of ``scenario`` on ``mesh`` (see module docstring). ``sides`` defaults to
+    the mesh's number of interface sets (one per polygon edge); if given, they must agree."""
+    sides = len(mesh.interfaces) if sides is None else sides
     if scenario not in SCENARIOS:
         raise SolverError(f"unknown scenario {scenario!r}; expected one of {', '.join(SCENARIOS)}")
     if len(mesh.interfaces) != sides:
@@ -173,8 +175,8 @@ def build_problem(mesh: ShellMesh, scenario: str, *, sides: int, thickness: floa
     return ShellProblem(mesh.V, mesh.F, Material(E, nu, thickness), fixed, loads)
 
 
-def run_scenario(mesh: ShellMesh, scenario: str, *, sides: int, edge: float = 36.0, thickness: float = 2.0,
-                 E: float = 1000.0, nu: float = 0.35, nonlinear: bool = True) -> ScenarioResult:
+def run_scenario(mesh: ShellMesh, scenario: str, *, sides: int | None = None, edge: float = 36.0,
+                 thickness: float = 2.0, E: float = 1000.0, nu: float = 0.35, nonlinear: bool = True) -> ScenarioResult:
     """Run one scenario; raises SolverError if it does not converge. ``edge`` is accepted for the
     record (the mesh already carries the geometry)."""
     t0 = time.perf_counter()

@@ -1,5 +1,5 @@
 """The README's ten-line Python example (``examples/readme_example.py``, pasted verbatim into the
-README) runs and prints the numbers the paper and the shipped catalog give."""
+README and docs/python-api.md) runs and prints the numbers the paper and the shipped catalog give."""
 
 from __future__ import annotations
 
@@ -39,3 +39,7 @@ def test_readme_example(tmp_path: Path) -> None:
     step = (tmp_path / "0x0488.step").read_text()
     assert "RATIONAL_B_SPLINE_CURVE" in step and "0x0488" in step  # the exact fillet, with its weights
     assert (tmp_path / "0x0488-cantilever.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # docs/python-api.md shows the same snippet and the output it prints
+    page = (SCRIPT.parents[1] / "docs" / "python-api.md").read_text(encoding="utf-8")
+    assert "```python\n" + "\n".join(code) + "\n```" in page
+    assert "```text\n" + r.stdout + "```" in page
