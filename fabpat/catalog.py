@@ -531,6 +531,11 @@ def catalog(path: str | Path | None = None, *, sides: int | None = None, **setup
     bad = sorted(set(setup) - set(KEY[1:]))
     if bad:
         raise CatalogError(f"unknown catalog filter {bad[0]!r}: choose from {', '.join(KEY[1:])}")
+    if path is not None and not isinstance(path, str | os.PathLike):
+        raise CatalogError(f"path must be a catalog file name or None (the built-in one), got {path!r}")
+    for key, value in (("sides", sides), *setup.items()):
+        if value is not None and (isinstance(value, bool) or not isinstance(value, int | float)):
+            raise CatalogError(f"catalog filter {key} must be a number, got {value!r}")
     if sides is not None:
         setup["sides"] = sides
     with open_catalog(path) as cat:

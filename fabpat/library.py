@@ -187,6 +187,8 @@ def sample_library(
     n, d = check_sides(sides), check_depth(depth)
     if isinstance(count, bool) or not isinstance(count, int | np.integer) or count < 1:
         raise PatternError(f"sample size must be an integer ≥ 1, got {count!r}")
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise PatternError(f"seed must be an integer ≥ 0, got {seed!r}")
     if d <= MAX_LISTED_DEPTH:
         full = enumerate_library(n, d)
         if count > len(full):
@@ -232,6 +234,8 @@ def get_pattern(
     ``depth=None`` takes it from the ID's length (:func:`fabpat.lattice.depth_of_id`). Depth ≤ 2 looks
     the ID up in the listed library; deeper IDs are checked by the two filters.
     """
+    if not isinstance(pattern_id, str):
+        raise PatternError(f"a pattern ID is a string of hex digits like '0x0488', got {pattern_id!r}")
     depth = depth_of_id(pattern_id) if depth is None else depth
     edge = _check_edge(edge)
     if check_depth(depth) <= MAX_LISTED_DEPTH:

@@ -401,6 +401,8 @@ class Outline:
 
         if ax is None:
             _, ax = plt.subplots()
+        elif not hasattr(ax, "add_patch"):
+            raise GeometryError(f"ax must be a matplotlib Axes, got {type(ax).__name__}")
         verts, codes = [], []
         for P in self.flatten(tol):
             verts += [*P, P[0]]

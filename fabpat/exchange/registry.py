@@ -226,6 +226,7 @@ def filleted_part(filleted: Any, thickness: float = DEFAULT_THICKNESS) -> Part:
 
 
 _SETTINGS_FIELDS = tuple(ExportSettings.__dataclass_fields__)
+_NUMERIC_OPTIONS = ("thickness", "mesh_tolerance", "angular_tolerance", "curve_tolerance", "kerf")
 
 
 def export_filleted(filleted: Any, path: str | os.PathLike[str], **options: Any) -> Path:
@@ -234,10 +235,15 @@ def export_filleted(filleted: Any, path: str | os.PathLike[str], **options: Any)
     ``options``: ``thickness`` (mm) and any :class:`ExportSettings` field. The same part and writers
     as ``fabpat export``. Raises :class:`ExportError` for an unknown suffix or option.
     """
+    if not isinstance(path, str | os.PathLike):
+        raise ExportError(f"path must be a file name, got {path!r}")
     name = format_of(path)
     thickness = options.pop("thickness", DEFAULT_THICKNESS)
     unknown = sorted(set(options) - set(_SETTINGS_FIELDS))
     if unknown:
         raise ExportError(f"unknown export option {unknown[0]!r}: choose from thickness, {', '.join(_SETTINGS_FIELDS)}")
+    for key, value in (("thickness", thickness), *options.items()):
+        if key in _NUMERIC_OPTIONS and (isinstance(value, bool) or not isinstance(value, int | float)):
+            raise ExportError(f"{key} must be a number (mm), got {value!r}")
     settings = ExportSettings(**options)
     return export_part(filleted_part(filleted, thickness), {name: path}, settings)[0]
