@@ -167,7 +167,8 @@ def enumerate_library(sides: int = 6, depth: int = 2, edge: float = DEFAULT_EDGE
     n, d = check_sides(sides), check_depth(depth)
     if d > MAX_LISTED_DEPTH:
         raise PatternError(
-            f"depth {d} has 2**{n_faces(d)} − 1 slices and cannot be listed; use sampling (--sample N --seed S)"
+            f"depth {d} has 2**{n_faces(d)} − 1 slices and cannot be listed; sample it "
+            "(--sample N --seed S; in Python sample=N, seed=S)"
         )
     bits = _all_bits(d)
     bits = bits[is_tileable(bits, d)]

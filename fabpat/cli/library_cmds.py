@@ -195,8 +195,10 @@ def show_cmd(pattern_id: str, sides: int, depth: int | None, edge: float, svg: s
       fabpat show 0x0488 --sides 6 --filleted --svg pattern.svg
       fabpat show 0x0488 > pattern.svg
     """
-    p = get_pattern(pattern_id, sides, depth, edge)
-    text = p.fillet(weight)._repr_svg_() if filleted else p._repr_svg_()
+    from fabpat.pictures import pattern_svg
+
+    p = get_pattern(pattern_id, sides, depth, edge)  # depth None: from the ID's length
+    text = pattern_svg(p, outline_path=p.fillet(weight).outline.to_svg_path() if filleted else None)
     if svg is None:
         click.echo(text, nl=False)
         return
