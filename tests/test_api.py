@@ -250,3 +250,13 @@ def test_catalog_rows_and_dataframe() -> None:
     df = rows.to_dataframe()
     assert isinstance(df, pd.DataFrame) and df.shape[0] == 430
     assert df.loc["0x0488", "energy_dome"] == by_id["0x0488"]["energy_dome"]
+
+
+def test_writers_reached_from_pipeline_objects_stay_out_of_the_solver_digest() -> None:
+    """``Pattern._repr_svg_``, ``FilletedPattern.export`` and ``ScenarioResult.to_vtu`` import writers
+    lazily; those never change a stored number, so editing them must not invalidate a catalog."""
+    from fabpat.catalog import builtin_path, pipeline_modules
+
+    names = {p.relative_to(builtin_path().parents[1]).as_posix() for p in pipeline_modules()}
+    assert {"fillet.py", "pattern.py", "scenarios.py", "mesh.py", "_callable.py"} <= names
+    assert not {n for n in names if n.startswith("exchange/") or n in ("cad.py", "pictures.py", "plots.py", "io.py")}
