@@ -101,10 +101,12 @@ class FilletedPattern:
 
     @property
     def id(self) -> str:
+        """The pattern's hex ID (e.g. ``"0x0488"``)."""
         return self.pattern.id
 
     @property
     def sides(self) -> int:
+        """Number of sides n of the regular polygon."""
         return self.pattern.sides
 
     @property
@@ -114,6 +116,7 @@ class FilletedPattern:
 
     @property
     def depth(self) -> int:
+        """Subdivision depth of the pattern's slice."""
         return self.pattern.depth
 
     @property
@@ -175,7 +178,7 @@ class FilletedPattern:
         return float(np.linalg.norm(seg[0, 1] - seg[0, 0]) / 2)
 
     def export(self, path: str | os.PathLike[str], **options: Any) -> Path:
-        """Write a fabrication file, the format chosen by the suffix (.step .stl .3mf .dxf .svg, and
+        """Write a fabrication file, the format chosen by the suffix (.step .stl .3mf .dxf .svg .3dm, and
         any format registered in :mod:`fabpat.exchange.registry`), by the same code as ``fabpat export``.
 
         ``options``: ``thickness`` (mm, default 2) and the :class:`~fabpat.exchange.registry.ExportSettings`

@@ -260,3 +260,22 @@ def test_writers_reached_from_pipeline_objects_stay_out_of_the_solver_digest() -
     names = {p.relative_to(builtin_path().parents[1]).as_posix() for p in pipeline_modules()}
     assert {"fillet.py", "pattern.py", "scenarios.py", "mesh.py", "_callable.py"} <= names
     assert not {n for n in names if n.startswith("exchange/") or n in ("cad.py", "pictures.py", "plots.py", "io.py")}
+
+
+def test_export_3dm_through_the_registry(tmp_path: Path) -> None:
+    """The .3dm writer registered by the Rhino work is reached from ``FilletedPattern.export`` and writes
+    what ``fabpat export --3dm`` writes: the CUT curves enclose the exact area (openNURBS sampling)."""
+    r3 = pytest.importorskip("rhino3dm", reason="rhino3dm (PyPI) is needed to read .3dm files back")
+    from tests.conftest import run_cli
+    from tests.test_exchange_rhino import _layers, _on_layer, _sampled_area
+
+    fp = fabpat.pattern("0x0688").fillet(weight=0.35)
+    model = r3.File3dm.Read(str(fp.export(tmp_path / "api.3dm", thickness=3.0)))
+    assert run_cli("export", "0x0688", "--weight", "0.35", "--thickness", "3", "--3dm",
+                   str(tmp_path / "cli.3dm")).returncode == 0
+    cli = r3.File3dm.Read(str(tmp_path / "cli.3dm"))
+    cut = _on_layer(model, _layers(model)["CUT"])
+    assert len(cut) == len(_on_layer(cli, _layers(cli)["CUT"])) == 1 + len(fp.outline.holes)
+    assert all(c.Degree == 2 and c.IsRational for c in cut)
+    areas = sorted((abs(_sampled_area([c], 64)) for c in cut), reverse=True)
+    assert areas[0] - sum(areas[1:]) == pytest.approx(fp.metrics.area, rel=1e-4)
