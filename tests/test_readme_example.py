@@ -39,7 +39,9 @@ def test_readme_example(tmp_path: Path) -> None:
     step = (tmp_path / "0x0488.step").read_text()
     assert "RATIONAL_B_SPLINE_CURVE" in step and "0x0488" in step  # the exact fillet, with its weights
     assert (tmp_path / "0x0488-cantilever.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    # docs/python-api.md shows the same snippet and the output it prints
+    # the README and docs/python-api.md show the same snippet (and the page the output it prints)
+    readme = (SCRIPT.parents[1] / "README.md").read_text(encoding="utf-8")
+    assert "```python\n" + "\n".join(code) + "\n```" in readme
     page = (SCRIPT.parents[1] / "docs" / "python-api.md").read_text(encoding="utf-8")
     assert "```python\n" + "\n".join(code) + "\n```" in page
     assert "```text\n" + r.stdout + "```" in page
