@@ -165,8 +165,8 @@ def deck_text(mesh: ShellMesh, scenario: str, *, sides: int, thickness: float = 
     if frames:
         out += ["** CalculiX 2.20 NLGEOM applies a moment with both x and y components wrongly at large",
                 "** rotation. The nodes of an interface that is not along x or y get a *TRANSFORM whose x axis",
-                "** is the interface tangent, and their moment is DOF 4 of that frame (measured right; it makes",
-                "** CalculiX about 0.5 % softer per such interface)."]
+                "** is the interface tangent, and their moment is DOF 4 of that frame: then CalculiX agrees",
+                "** with fabpat (the frame alone makes CalculiX about 0.5 % softer per framed interface)."]
     out.append("*NODE, NSET=NALL")
     out += [f"{k + 1}, {_F % p[0]}, {_F % p[1]}, {_F % p[2]}" for k, p in enumerate(X)]
     out.append(f"*ELEMENT, TYPE={element}, ELSET=EALL")
