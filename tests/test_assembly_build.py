@@ -88,8 +88,10 @@ def test_glb_preview(kit: tuple[Path, list[str]]) -> None:
 
     scene = trimesh.load(kit[0] / "assembly.glb")
     assert len(scene.graph.nodes_geometry) == 5
-    lo, hi = scene.bounds
-    assert hi[0] - lo[0] > 2 * 1.5 * 36.8 + 36.0  # three columns 1.5 E apart, each plate wider than one edge
+    lo, hi = scene.bounds  # metres, glTF's unit
+    # three columns 1.5 E apart, each plate wider than one edge and narrower than two
+    assert 0.001 * (2 * 1.5 * 36.8 + 36.0) < hi[0] - lo[0] < 0.001 * (2 * 1.5 * 36.8 + 2 * 36.0)
+    assert len(scene.geometry) == 4  # three plates and one sleeve kind: the two sleeves share a mesh
 
 
 def test_sheets_reread_without_overlaps(kit: tuple[Path, list[str]]) -> None:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+import os
 import re
 import shutil
 import subprocess
@@ -13,7 +15,7 @@ from fabpat.exchange.inp import deck_text, read_ccx_energy, write_inp
 from fabpat.exchange.png_result import write_png
 from fabpat.exchange.vtu import write_vtu
 from fabpat.mesh import solid_polygon_mesh
-from fabpat.scenarios import run_scenario
+from fabpat.scenarios import edge_tangents, opposite, run_scenario
 
 
 @pytest.fixture(scope="module")
@@ -67,16 +69,84 @@ def test_deck_format_and_consistent_weights(coarse) -> None:
     assert "TYPE=S3" in deck_text(coarse, "dome", sides=6, nonlinear=False, element="S3")
 
 
-def _ccx(tmp_path, mesh, scenario: str, nonlinear: bool) -> float:
-    write_inp(tmp_path / f"{scenario}.inp", mesh, scenario, sides=6, nonlinear=nonlinear, increment=0.25)
-    subprocess.run(["ccx", "-i", scenario], cwd=tmp_path, capture_output=True, timeout=600, check=True)
-    return read_ccx_energy(tmp_path / f"{scenario}.dat")
+def _deck_blocks(txt: str) -> dict[str, list[list[str]]]:
+    """Data lines of each keyword block of a deck, keyed by the keyword line (comments dropped)."""
+    blocks: dict[str, list[list[str]]] = {}
+    key = ""
+    for line in txt.splitlines():
+        if line.startswith("**") or not line.strip():
+            continue
+        if line.startswith("*"):
+            key = line
+            blocks.setdefault(key, [])
+        else:
+            blocks[key].append([f.strip() for f in line.split(",")])
+    return blocks
 
 
-@pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX (ccx, Debian calculix-ccx) not installed")
-@pytest.mark.parametrize(("scenario", "nonlinear"), [("dome", False), ("cantilever", True)])
-def test_exported_deck_in_calculix_matches(tmp_path, coarse, scenario: str, nonlinear: bool) -> None:
-    """Dome linear only (CalculiX 2.20 applies oblique moments wrongly with NLGEOM); cantilever NLGEOM.
-    Measured at h = 2: dome 18.69 (ccx) vs 18.39, cantilever 2.593 vs 2.603 N·mm."""
-    ours = run_scenario(coarse, scenario, sides=6, nonlinear=nonlinear).energy
-    assert _ccx(tmp_path, coarse, scenario, nonlinear) == pytest.approx(ours, rel=0.05)
+@pytest.mark.parametrize("sides", [5, 6])
+@pytest.mark.parametrize("scenario", ["cylinder", "dome"])
+def test_moment_nodes_carry_no_in_plane_support(sides: int, scenario: str) -> None:
+    """CalculiX NLGEOM stalls on a node with both a moment and an in-plane support (notes.md, pitfall 3);
+    an interface not along x or y gets a local frame whose x axis is its tangent (moment = DOF 4)."""
+    mesh = solid_polygon_mesh(sides, 36.0, 6.0)
+    b = _deck_blocks(deck_text(mesh, scenario, sides=sides, nonlinear=True))
+    moment_nodes = {int(k) for k, d, _ in b["*CLOAD"] if int(d) in (4, 5)}
+    in_plane = {int(k) for k, a, z in b["*BOUNDARY"] if int(a) <= 2}
+    assert moment_nodes and len(in_plane) == 2 and not moment_nodes & in_plane
+    assert sum(int(z) - int(a) + 1 for _, a, z in b["*BOUNDARY"] if int(a) <= 2) == 3  # ux, uy + one: determinate
+    framed = {int(k) for key, rows in b.items() if key.startswith("*NSET, NSET=IF") for row in rows for k in row}
+    inclined = [i for i, t in enumerate(edge_tangents(sides)) if min(abs(t[0]), abs(t[1])) > 1e-12
+                and (scenario == "dome" or i in (0, opposite(0, sides)))]
+    assert len([k for k in b if k.startswith("*TRANSFORM")]) == len(inclined)
+    assert all(int(d) == 4 for k, d, _ in b["*CLOAD"] if int(k) in framed)
+    lin = _deck_blocks(deck_text(mesh, scenario, sides=sides, nonlinear=False))
+    assert not [k for k in lin if k.startswith("*TRANSFORM")]  # linear: global components are exact
+
+
+def _run_ccx(folder, stem: str) -> tuple[float, str]:
+    """Run CalculiX on ``folder/stem.inp``: (last total strain energy, the .sta file's last line)."""
+    r = subprocess.run(["ccx", "-i", stem], cwd=folder, capture_output=True, text=True, timeout=600,
+                       env={**os.environ, "OMP_NUM_THREADS": "1"})
+    assert r.returncode == 0 and "*ERROR" not in r.stdout, r.stdout[-2000:]
+    sta = (folder / f"{stem}.sta").read_text().strip().splitlines()
+    return read_ccx_energy(folder / f"{stem}.dat"), sta[-1]
+
+
+@pytest.fixture(scope="module")
+def polygons():
+    """Coarse solid 5- and 6-gons (h = 6 mm): 88 and 128 nodes, so NLGEOM runs take seconds."""
+    return {n: solid_polygon_mesh(n, 36.0, 6.0) for n in (5, 6)}
+
+
+@pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX not installed (Debian package calculix-ccx)")
+@pytest.mark.parametrize("nonlinear", [False, True])
+@pytest.mark.parametrize("scenario", ["cantilever", "cylinder", "dome"])
+@pytest.mark.parametrize("sides", [5, 6])
+def test_every_exported_deck_runs_to_the_end_in_calculix(tmp_path, polygons, sides: int, scenario: str,
+                                                         nonlinear: bool) -> None:
+    """Every scenario, n = 5 and 6, NLGEOM and linear: CalculiX reaches the full load and its strain
+    energy is within 5 % of fabpat's. Measured on these meshes: within 2.5 %; at the default h = 1.5
+    on real patterns see docs/fabrication-files.md. NLGEOM decks here use increment 0.25 (the CLI
+    writes 0.1) to keep the suite fast; CalculiX cuts the increment back on its own if it must."""
+    mesh = polygons[sides]
+    ours = run_scenario(mesh, scenario, sides=sides, nonlinear=nonlinear).energy
+    write_inp(tmp_path / "d.inp", mesh, scenario, sides=sides, nonlinear=nonlinear, increment=0.25)
+    energy, last = _run_ccx(tmp_path, "d")
+    if nonlinear:
+        assert float(last.split()[4]) == pytest.approx(1.0)  # total time 1: the whole load was applied
+    assert energy == pytest.approx(ours, rel=0.05)
+
+
+@pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX not installed (Debian package calculix-ccx)")
+def test_cli_exported_deck_runs_in_calculix(tmp_path) -> None:
+    """The deck as `fabpat simulate --export-inp` writes it, for a real pattern, through CalculiX
+    (linear: an NLGEOM run of this mesh takes a minute; the decks differ only in *STEP)."""
+    from tests.conftest import run_cli
+
+    inp = tmp_path / "c.inp"
+    r = run_cli("simulate", "0x5a88", "--scenario", "cylinder", "--linear", "--h", "4",
+                "--export-inp", str(inp), "--json")
+    assert r.returncode == 0, r.stderr
+    energy, _ = _run_ccx(tmp_path, "c")
+    assert energy == pytest.approx(json.loads(r.stdout)["energy"], rel=0.05)

@@ -1,12 +1,15 @@
 """3D outputs of an assembly: STEP assembly, one STL per distinct part, GLB preview.
 
 * STEP AP214 through OCCT's XDE document: one product per distinct part (named by
-  :meth:`PartLibrary.name`), one located component per placed part named by its label ("H07",
-  "SE42"), so a CAD program shows a named assembly tree and the file holds each exact solid once.
+  :meth:`PartLibrary.name`, coloured as in ``assembly.png``), and per placed part a located
+  instance named by its label ("H07", "E42") of a one-part product "H07 hex 0x0488" that holds the
+  shared part, so a CAD program (FreeCAD included) shows a named assembly tree and the file holds
+  each exact solid once (see :func:`write_step_assembly`).
 * STL: each distinct part in its print orientation — plates flat (z from 0 to t), sleeves standing on
   an end face (:meth:`~fabpat.assembly.sleeve.Sleeve.print_transform`) — written by
   :func:`fabpat.exchange.stl.dump_stl`.
-* GLB (binary glTF 2.0) by trimesh: one mesh per distinct part, one node per placed part.
+* GLB (binary glTF 2.0) by trimesh, in metres (glTF's unit): one mesh per distinct part with a PBR
+  material in its ``assembly.png`` colour, one node per placed part referring to that mesh.
 
 Writers here are not atomic on their own: :mod:`fabpat.assembly.build` writes into a temporary
 folder that becomes the output folder only when everything succeeded.
@@ -43,45 +46,91 @@ def colours(lib: PartLibrary) -> dict[str, str]:
     return out
 
 
+def instance_product_name(label: str, key: str) -> str:
+    """Name of the one-part product that places part ``key`` as ``label``: ``"H01 hex 0x0488"``."""
+    return f"{label} {key}"
+
+
 def write_step_assembly(lib: PartLibrary, path: str | os.PathLike[str], name: str,
                         timestamp: str | None = None) -> None:
-    """Write the placed parts as a STEP AP214 assembly (mm) with named products and instances."""
+    """Write the placed parts as a STEP AP214 assembly (mm) with named products and instances.
+
+    Tree: the root product ``name`` → one instance per placed part, named by its label ("H01"),
+    of a one-part product named :func:`instance_product_name` ("H01 hex 0x0488") → one instance,
+    same label, of the shared part product (:meth:`PartLibrary.name`, exact solid, written once,
+    coloured as in ``assembly.png``). The middle level is there for FreeCAD (0.20, default import
+    settings): it labels every object by the name of the *product* it shows and collapses the
+    instances of one product into a link array whose elements have no names, so instance names never
+    show and its label renumbering mangles repeated product names ("… w0.2" → "… w0.003"). With one
+    product per placed part, every FreeCAD object carries a unique label "H01 hex 0x0488".
+    """
+    from OCP.Quantity import Quantity_Color, Quantity_TypeOfColor
     from OCP.TCollection import TCollection_ExtendedString
     from OCP.TDataStd import TDataStd_Name
     from OCP.TDocStd import TDocStd_Document
     from OCP.TopLoc import TopLoc_Location
-    from OCP.XCAFDoc import XCAFDoc_DocumentTool
+    from OCP.XCAFDoc import XCAFDoc_ColorType, XCAFDoc_DocumentTool
 
     from fabpat.exchange.step import write_document
+
+    def named(label, text: str):  # type: ignore[no-untyped-def]
+        TDataStd_Name.Set_s(label, TCollection_ExtendedString(text))
+        return label
 
     doc = TDocStd_Document(TCollection_ExtendedString("XmlOcaf"))
     XCAFDoc_DocumentTool.SetLengthUnit_s(doc, 0.001)  # metres per model unit: the model is in mm
     tool = XCAFDoc_DocumentTool.ShapeTool_s(doc.Main())
-    root = tool.NewShape()
-    TDataStd_Name.Set_s(root, TCollection_ExtendedString(name))
+    colour_tool = XCAFDoc_DocumentTool.ColorTool_s(doc.Main())
+    root = named(tool.NewShape(), name)
+    cols = colours(lib)
     protos = {}
     for key in lib.keys:
-        protos[key] = tool.AddShape(lib.solid(key), False)
-        TDataStd_Name.Set_s(protos[key], TCollection_ExtendedString(lib.name(key)))
+        protos[key] = named(tool.AddShape(lib.solid(key), False), lib.name(key))
+        r, g, b = (int(cols[key][i:i + 2], 16) / 255 for i in (1, 3, 5))
+        colour = Quantity_Color(r, g, b, Quantity_TypeOfColor.Quantity_TOC_sRGB)
+        colour_tool.SetColor(protos[key], colour, XCAFDoc_ColorType.XCAFDoc_ColorGen)
     for label, key, T in lib.placed():
-        comp = tool.AddComponent(root, protos[key], TopLoc_Location(gp_trsf(T)))
-        TDataStd_Name.Set_s(comp, TCollection_ExtendedString(label))
+        holder = named(tool.NewShape(), instance_product_name(label, key))
+        named(tool.AddComponent(holder, protos[key], TopLoc_Location()), label)
+        named(tool.AddComponent(root, holder, TopLoc_Location(gp_trsf(T))), label)
     tool.UpdateAssemblies()
 
     write_document(doc, path, name, timestamp)
 
 
-def read_step_solids(path: str | os.PathLike[str]) -> tuple[int, list[str]]:
-    """Re-import a STEP file: (number of located solids, names of the assembly's components)."""
+def read_step_tree(path: str | os.PathLike[str]) -> tuple[str, list[tuple[str, str, str]], int]:
+    """Re-import a STEP assembly with OCCT's XDE reader, as CAD programs built on OCCT do.
+
+    Returns (root product name, one (instance name, its product's name, the name of the part product
+    that product holds, or "" if it holds a solid itself) per component of the root, number of
+    located solids). Raises :class:`ExportError` if the file cannot be read.
+    """
     from OCP.IFSelect import IFSelect_ReturnStatus
     from OCP.STEPCAFControl import STEPCAFControl_Reader
     from OCP.TCollection import TCollection_ExtendedString
     from OCP.TDataStd import TDataStd_Name
-    from OCP.TDF import TDF_ChildIterator
+    from OCP.TDF import TDF_ChildIterator, TDF_Label
     from OCP.TDocStd import TDocStd_Document
     from OCP.TopAbs import TopAbs_SOLID
     from OCP.TopExp import TopExp_Explorer
     from OCP.XCAFDoc import XCAFDoc_DocumentTool, XCAFDoc_ShapeTool
+
+    def name_of(label) -> str:  # type: ignore[no-untyped-def]
+        attr = TDataStd_Name()
+        return attr.Get().ToExtString() if label.FindAttribute(TDataStd_Name.GetID_s(), attr) else ""
+
+    def components(label) -> list:  # type: ignore[no-untyped-def]
+        out, it = [], TDF_ChildIterator(label, False)
+        while it.More():
+            if XCAFDoc_ShapeTool.IsComponent_s(it.Value()):
+                out.append(it.Value())
+            it.Next()
+        return out
+
+    def referred(comp):  # type: ignore[no-untyped-def]
+        ref = TDF_Label()
+        XCAFDoc_ShapeTool.GetReferredShape_s(comp, ref)
+        return ref
 
     doc = TDocStd_Document(TCollection_ExtendedString("XmlOcaf"))
     reader = STEPCAFControl_Reader()
@@ -91,25 +140,31 @@ def read_step_solids(path: str | os.PathLike[str]) -> tuple[int, list[str]]:
     if not reader.Transfer(doc):
         raise ExportError(f"cannot transfer STEP file {path}")
     tool = XCAFDoc_DocumentTool.ShapeTool_s(doc.Main())
-    count, names = 0, []
+    roots = []
     top = TDF_ChildIterator(tool.BaseLabel(), False)
     while top.More():
-        label = top.Value()
+        if XCAFDoc_ShapeTool.IsFree_s(top.Value()) and XCAFDoc_ShapeTool.IsShape_s(top.Value()):
+            roots.append(top.Value())
         top.Next()
-        if not (XCAFDoc_ShapeTool.IsFree_s(label) and XCAFDoc_ShapeTool.IsShape_s(label)):
-            continue
-        ex = TopExp_Explorer(XCAFDoc_ShapeTool.GetShape_s(label), TopAbs_SOLID)
-        while ex.More():
-            count += 1
-            ex.Next()
-        child = TDF_ChildIterator(label, False)
-        while child.More():
-            comp = child.Value()
-            child.Next()
-            attr = TDataStd_Name()
-            if XCAFDoc_ShapeTool.IsComponent_s(comp) and comp.FindAttribute(TDataStd_Name.GetID_s(), attr):
-                names.append(attr.Get().ToExtString())
-    return count, names
+    if len(roots) != 1:
+        raise ExportError(f"{path}: expected one top-level product, found {len(roots)}")
+    solids = 0
+    ex = TopExp_Explorer(XCAFDoc_ShapeTool.GetShape_s(roots[0]), TopAbs_SOLID)
+    while ex.More():
+        solids += 1
+        ex.Next()
+    rows = []
+    for comp in components(roots[0]):
+        product = referred(comp)
+        inner = components(product)
+        rows.append((name_of(comp), name_of(product), name_of(referred(inner[0])) if inner else ""))
+    return name_of(roots[0]), rows, solids
+
+
+def read_step_solids(path: str | os.PathLike[str]) -> tuple[int, list[str]]:
+    """Re-import a STEP file: (number of located solids, names of the assembly's components)."""
+    _, rows, solids = read_step_tree(path)
+    return solids, [row[0] for row in rows]
 
 
 def write_part_stls(lib: PartLibrary, folder: Path, tolerance: float = DEFAULT_CHORD) -> dict[str, Path]:
@@ -128,25 +183,61 @@ def write_part_stls(lib: PartLibrary, folder: Path, tolerance: float = DEFAULT_C
     return out
 
 
+GLB_UNIT = 0.001  # metres per mm: glTF 2.0's unit of length is the metre (spec §3.4)
+GLB_METALLIC = 0.0  # printed and cut polymer: a dielectric
+GLB_ROUGHNESS = 0.6  # matte plastic
+
+
+def srgb_to_linear(hex_colour: str) -> list[float]:
+    """``"#rrggbb"`` → linear RGB in [0, 1], as glTF's ``baseColorFactor`` wants it.
+
+    glTF 2.0 §3.9.2: the base colour factor is linear; a viewer shows it through the sRGB transfer
+    function, so the display colour is the hex colour of ``assembly.png``. Inverse sRGB transfer
+    function from IEC 61966-2-1.
+    """
+    c = np.array([int(hex_colour[i:i + 2], 16) / 255 for i in (1, 3, 5)])
+    return [float(v) for v in np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)]
+
+
 def scene(lib: PartLibrary, tolerance: float = CHECK_TOLERANCE):  # type: ignore[no-untyped-def]
-    """A ``trimesh.Scene`` of the assembled object: shared geometry per part, one node per placement."""
+    """A ``trimesh.Scene`` of the assembled object in metres: one mesh per distinct part, instanced.
+
+    Each part key's mesh is stored once (vertices in m) with a PBR material in the part's colour of
+    :func:`colours` (``assembly.png``); every placed part is a node named by its label ("H07",
+    "SE42") under one root node named after the assembly, carrying its rigid transform (translation
+    in m) and referring to that shared mesh.
+    """
     import trimesh
+    from trimesh.visual.material import PBRMaterial
 
     sc = trimesh.Scene()
+    root = lib.assembly.spec.name or "assembly"
+    if root in {label for label, _, _ in lib.placed()}:
+        root += " assembly"
+    sc.graph.update(frame_from=sc.graph.base_frame, frame_to=root, matrix=np.eye(4))
     cols = colours(lib)
-    geoms = {}
     for key in lib.keys:
         V, F = lib.mesh(key, tolerance)
-        rgba = [int(cols[key][i:i + 2], 16) for i in (1, 3, 5)] + [255]
-        m = trimesh.Trimesh(V, F, process=False)
-        m.visual = trimesh.visual.ColorVisuals(m, face_colors=np.tile(rgba, (len(F), 1)).astype(np.uint8))
-        geoms[key] = m
+        m = trimesh.Trimesh(V * GLB_UNIT, F, process=False)
+        material = PBRMaterial(name=slug(lib.name(key)), baseColorFactor=[*srgb_to_linear(cols[key]), 1.0],
+                               metallicFactor=GLB_METALLIC, roughnessFactor=GLB_ROUGHNESS)
+        m.visual = trimesh.visual.TextureVisuals(material=material)
+        sc.geometry[slug(key)] = m
     for label, key, T in lib.placed():
-        sc.add_geometry(geoms[key], node_name=label, geom_name=slug(key), transform=T)
+        M = np.array(T, dtype=np.float64)
+        M[:3, 3] *= GLB_UNIT
+        sc.graph.update(frame_from=root, frame_to=label, matrix=M, geometry=slug(key))
     return sc
 
 
 def write_glb(lib: PartLibrary, path: str | os.PathLike[str]) -> None:
-    """The assembled object as binary glTF (mm, as glTF has no units: 1 unit = 1 mm)."""
-    data = scene(lib).export(file_type="glb")
-    Path(path).write_bytes(data)
+    """The assembled object as binary glTF 2.0 in metres (see :func:`scene`).
+
+    No normals are written: glTF viewers then shade every triangle flat (spec §3.7.2.1), which keeps
+    the parts' sharp edges sharp. Raises :class:`ExportError` if the file cannot be written.
+    """
+    data = scene(lib).export(file_type="glb", include_normals=False)
+    try:
+        Path(path).write_bytes(data)
+    except OSError as exc:
+        raise ExportError(f"cannot write {path}: {exc}") from exc
