@@ -117,20 +117,25 @@ def entity_pieces(doc) -> list[Piece]:  # noqa: ANN001
 def chain(pieces: list[Piece], directed: bool, atol: float = 1e-6) -> list[float]:
     """Signed areas of the closed loops the pieces form, joined end to start (``directed``) or
     either way round (ARCs always run counter-clockwise, so a clockwise hole uses them reversed)."""
-    left = list(pieces)
+    S = np.array([p[0] for p in pieces])
+    E = np.array([p[1] for p in pieces])
+    used = np.zeros(len(pieces), dtype=bool)
     areas = []
-    while left:
-        s0, end, area = left.pop(0)
+    while not used.all():
+        i = int(np.argmin(used))
+        used[i] = True
+        s0, end, area = pieces[i]
         while not np.allclose(end, s0, atol=atol):
-            forward = [i for i, p in enumerate(left) if np.allclose(p[0], end, atol=atol)]
-            backward = [] if directed else [i for i, p in enumerate(left) if np.allclose(p[1], end, atol=atol)]
-            assert forward or backward, f"open chain at {end}"
-            if forward:
-                _, end, a = left.pop(forward[0])
-                area += a
+            forward = np.flatnonzero(~used & np.all(np.abs(S - end) <= atol, axis=1))
+            backward = [] if directed else np.flatnonzero(~used & np.all(np.abs(E - end) <= atol, axis=1))
+            assert len(forward) or len(backward), f"open chain at {end}"
+            if len(forward):
+                j = int(forward[0])
+                end, area = pieces[j][1], area + pieces[j][2]
             else:
-                end, _, a = left.pop(backward[0])
-                area -= a
+                j = int(backward[0])
+                end, area = pieces[j][0], area - pieces[j][2]
+            used[j] = True
         areas.append(area)
     return areas
 
