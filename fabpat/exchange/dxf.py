@@ -20,8 +20,8 @@ Entities (``entities``) for ``"arcs"`` and ``"lines"``:
 * ``"polyline"``: one closed LWPOLYLINE per loop, arcs as bulges (R12: POLYLINE/VERTEX) — for
   laser software that fills or orders closed shapes. Default from R2000 on.
 * ``"segments"``: one LINE or ARC entity per piece — what every reader takes (OpenSCAD ignores
-  bulges, Inkscape 1.2 drops LWPOLYLINEs). Default, and the only choice, with R12 (OpenSCAD
-  imports R12 POLYLINEs as nothing) and with ``"spline"`` (one entity per segment by design).
+  bulges and draws chords). Default, and the only choice, with R12 (OpenSCAD imports R12
+  POLYLINEs as nothing) and with ``"spline"`` (one entity per segment by design).
 
 Kerf: ``kerf`` > 0 offsets every loop by kerf / 2 into the void (the outer loop grows, holes shrink),
 so a beam that removes kerf / 2 on each side of the path leaves the part at its nominal size. The
