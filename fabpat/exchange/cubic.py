@@ -57,22 +57,48 @@ def cubic_error(C: NDArray[np.float64], P: NDArray[np.float64], w: float, tol: f
     return max(float(_segment_distance(approx, exact).max()), float(_segment_distance(exact, approx).max()))
 
 
-def quad_to_cubics(P: NDArray[np.float64], w: float, tol: float, _depth: int = 0) -> list[NDArray[np.float64]]:
-    """Cubic Béziers (each (4, 2), in order, head to tail) within ``tol`` mm of the rational arc.
-
-    ``P`` (3, 2) mm control points of a standard-form arc with middle weight ``w`` > 0. Raises
-    :class:`GeometryError` if ``_MAX_DEPTH`` halvings do not reach ``tol``.
-    """
+def _fit(P: NDArray[np.float64], w: float, tol: float, depth: int = 0) -> list[NDArray[np.float64]]:
     from fabpat.curves import split_quad
 
-    P = np.asarray(P, dtype=np.float64)
     C = _cubic(P, w)
     if cubic_error(C, P, w, tol) <= 0.8 * tol:
         return [C]
-    if _depth >= _MAX_DEPTH:
+    if depth >= _MAX_DEPTH:
         raise GeometryError(f"cannot approximate an arc by cubic Béziers within {tol:g} mm")
     (PL, wL), (PR, wR) = split_quad(P, w, 0.5)
-    return quad_to_cubics(PL, wL, tol, _depth + 1) + quad_to_cubics(PR, wR, tol, _depth + 1)
+    return _fit(PL, wL, tol, depth + 1) + _fit(PR, wR, tol, depth + 1)
+
+
+_CACHE: dict[tuple[float, ...], NDArray[np.float64]] = {}
+_CACHE_SIZE = 8192
+
+
+def quad_to_cubics(P: NDArray[np.float64], w: float, tol: float) -> list[NDArray[np.float64]]:
+    """Cubic Béziers (each (4, 2), in order, head to tail) within ``tol`` mm of the rational arc.
+
+    ``P`` (3, 2) mm control points of a standard-form arc with middle weight ``w`` > 0. Raises
+    :class:`GeometryError` if ``_MAX_DEPTH`` halvings do not reach ``tol``. The fit is done with
+    the arc moved to P0 = origin, chord along +x, and cached (a fit is invariant under rigid
+    motions, and a pattern repeats its arcs by symmetry), as :func:`fabpat.cad.fitted_arcs` does.
+    """
+    P = np.asarray(P, dtype=np.float64)
+    chord = P[2] - P[0]
+    length = float(np.hypot(*chord))
+    if length == 0.0:
+        return _fit(P, w, tol)
+    c, s = chord / length
+    R = np.array([[c, s], [-s, c]])  # rotates the chord onto +x
+    q = R @ (P[1] - P[0])
+    key = (round(float(q[0]), 10), round(float(q[1]), 10), round(length, 10), w, tol)
+    fits = _CACHE.get(key)
+    if fits is None:
+        fits = np.array(_fit(np.array([[0.0, 0.0], q, [length, 0.0]]), w, tol))
+        if len(_CACHE) >= _CACHE_SIZE:
+            _CACHE.clear()
+        _CACHE[key] = fits
+    out = fits @ R + P[0]
+    out[0, 0], out[-1, -1] = P[0], P[2]  # the ends exactly where the neighbours start and end
+    return list(out)
 
 
 def bulge_to_quads(
