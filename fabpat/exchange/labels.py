@@ -46,13 +46,6 @@ class Label:
     height: float
     width: float
 
-    def corners(self) -> NDArray[np.float64]:
-        """(4, 2) corners of the assumed text box, counter-clockwise from the start."""
-        a = math.radians(self.angle)
-        u, v = np.array([math.cos(a), math.sin(a)]), np.array([-math.sin(a), math.cos(a)])
-        s = np.array(self.start)
-        return np.array([s, s + self.width * u, s + self.width * u + self.height * v, s + self.height * v])
-
 
 def box_width(text: str, height: float) -> float:
     """Assumed width (mm) of ``text`` written ``height`` mm tall."""
