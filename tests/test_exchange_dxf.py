@@ -9,6 +9,7 @@ entities are chained here by their end points. Nothing below uses fabpat to read
 
 from __future__ import annotations
 
+import functools
 import math
 from pathlib import Path
 
@@ -323,6 +324,7 @@ def on_material(polys: list[np.ndarray], X: np.ndarray) -> np.ndarray:
     return inside
 
 
+@functools.cache
 def library_outline(pattern_id: str, sides: int):  # noqa: ANN201
     from fabpat.fillet import fillet_pattern
     from fabpat.library import enumerate_library

@@ -17,6 +17,7 @@ Each test is skipped, naming the package, when the program is missing.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import os
 import shutil
 import subprocess
@@ -39,6 +40,7 @@ def needs(program: str, package: str) -> str:
     return path
 
 
+@functools.cache
 def library_outline(pattern_id: str, sides: int = 6):  # noqa: ANN201
     from fabpat.fillet import fillet_pattern
     from fabpat.library import enumerate_library
