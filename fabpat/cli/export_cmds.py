@@ -98,7 +98,8 @@ def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> lis
 @click.option("--3dm", "rhino", type=click.Path(dir_okay=False),
               help="Rhino 3DM file: exact rational NURBS outline on layer CUT, plate as a closed extrusion.")
 @click.option("--curves", type=click.Choice(["arcs", "spline", "lines"]), default="arcs", show_default=True,
-              help="DXF curves: circular arcs or polylines within --curve-tolerance, or exact rational splines.")
+              help="DXF curves: circular arcs or polylines within --curve-tolerance, or exact rational splines "
+                   "(one SPLINE per curved segment).")
 @click.option("--mesh-tolerance", type=float, default=DEFAULT_CHORD, show_default=True,
               callback=_at_least(0, "mesh tolerance", True),
               help="STL/3MF: largest distance in mm between the triangles and the exact surface.")
@@ -111,7 +112,7 @@ def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> lis
               help="DXF version; R12 (for old software) writes LINE and ARC entities.")
 @click.option("--dxf-entities", type=click.Choice(["polyline", "segments"]), default=None,
               help="DXF arcs/lines as one closed LWPOLYLINE per loop (laser software that fills closed shapes) "
-                   "or one LINE/ARC per piece (OpenSCAD, Inkscape, any reader). "
+                   "or one LINE/ARC per piece (OpenSCAD and every other reader). "
                    "[default: polyline; segments for R12 and --curves spline]")
 @click.option("--svg-curves", type=click.Choice(["cubic", "exact"]), default="cubic", show_default=True,
               help="SVG arcs as cubic Béziers within --curve-tolerance (cutters) or exact elliptical arcs.")
