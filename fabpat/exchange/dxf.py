@@ -109,9 +109,11 @@ class SplinePiece:
 
     @property
     def start(self) -> NDArray[np.float64]:
+        """(2,) mm: the first control point, where a clamped spline starts."""
         return self.control[0]
 
     def reversed(self) -> SplinePiece:
+        """The same curve traversed the other way (control points and weights reversed, knots mirrored)."""
         k = self.knots
         return SplinePiece(self.degree, self.control[::-1].copy(), self.weights[::-1].copy(), (k[0] + k[-1] - k)[::-1])
 
