@@ -117,3 +117,22 @@ def test_unreadable_and_invalid_toml(tmp_path: Path) -> None:
     bad.write_text("[tiling\nkind = 1\n")
     with pytest.raises(SpecError, match="invalid TOML"):
         load_spec(bad)
+
+
+def test_spec_saved_with_a_utf8_bom_is_read(tmp_path: Path) -> None:
+    """Windows editors (Notepad) save UTF-8 with a byte-order mark; tomllib refuses it at line 1."""
+    text = (SPECS / "test-small.toml").read_text(encoding="utf-8")
+    bom = tmp_path / "bom.toml"
+    bom.write_bytes(b"\xef\xbb\xbf" + text.encode("utf-8"))
+    assert bom.read_bytes()[:3] == b"\xef\xbb\xbf"
+    plain = load_spec(SPECS / "test-small.toml")
+    read = load_spec(bom)
+    assert (read.name, read.tiling, read.patterns, read.sheet) == (plain.name, plain.tiling, plain.patterns,
+                                                                    plain.sheet)
+
+
+def test_sheet_border_key() -> None:
+    assert parse_spec(base()).sheet.border is True
+    assert parse_spec(base(sheet={"width": 170.0, "height": 90.0, "border": False})).sheet.border is False
+    with pytest.raises(SpecError, match="sheet.border .* must be true or false"):
+        parse_spec(base(sheet={"width": 170.0, "height": 90.0, "border": "no"}))

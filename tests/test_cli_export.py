@@ -9,7 +9,7 @@ import pytest
 
 from tests.conftest import run_cli
 from tests.test_cad import curve_weights, edge_curves
-from tests.test_exchange_dxf import bulge_area, cut_loops, read
+from tests.test_exchange_dxf import bulge_area, chain, cut_loops, entity_pieces, read, solid_area
 
 
 def _outline(pattern_id: str, sides: int = 6, edge: float = 36.0, weight: float = 0.2):  # noqa: ANN202
@@ -57,15 +57,27 @@ def test_export_weight_thickness_sides_and_spline_kerf(tmp_path: Path) -> None:
     (solid,) = import_step(str(step)).solids()
     assert solid.volume == pytest.approx(1.5 * outline.area, rel=1e-6)
     assert any(abs(w - 0.3) < 1e-12 for c in edge_curves(solid) for w in curve_weights(c))
-    splines = list(read(dxf).modelspace().query("SPLINE"))
-    assert len(splines) == len(outline.loops)
-    areas = []
-    for s in splines:
-        x, y = np.array([(p.x, p.y) for p in s.construction_tool().flattening(0.001)]).T
-        areas.append(abs(0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))))
-    grown = areas[0] - sum(areas[1:])
+    doc = read(dxf)
+    assert all(e.dxf.degree <= 3 for e in doc.modelspace().query("SPLINE"))  # LibreCAD/Inkscape read ≤ 3
+    grown = solid_area(chain(entity_pieces(doc), directed=False))
     # Kerf 0.2: every loop moves 0.1 mm into the void, area grows by ≈ perimeter × 0.1.
     assert grown - outline.area == pytest.approx(outline.perimeter * 0.1, rel=0.05)
+
+
+def test_dxf_entities_origin_and_svg_curves_options(tmp_path: Path) -> None:
+    dxf, svg = tmp_path / "p.dxf", tmp_path / "p.svg"
+    r = run_cli("export", "0x0488", "--dxf", str(dxf), "--dxf-entities", "segments", "--origin", "centre",
+                "--svg", str(svg), "--svg-curves", "exact")
+    assert r.returncode == 0, r.stderr
+    doc = read(dxf)
+    outline = _outline("0x0488")
+    assert not doc.modelspace().query("LWPOLYLINE") and doc.modelspace().query("ARC")
+    assert solid_area(chain(entity_pieces(doc), directed=False)) == pytest.approx(outline.area,
+                                                                                  abs=outline.perimeter * 0.01)
+    ext_min = np.array(doc.header["$EXTMIN"])[:2]
+    assert ext_min == pytest.approx(outline.bbox[0], abs=0.01)  # centre: the pattern's own frame
+    text = svg.read_text()
+    assert " A " in text and "transform" not in text
 
 
 def test_width_warnings_go_to_stderr(tmp_path: Path) -> None:
@@ -104,6 +116,10 @@ def test_export_all_in_one_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatc
         (["0x0488", "--kerf", "-0.1", "--dxf", "{dir}/a.dxf"], "kerf"),
         (["0x0488", "--curves", "bezier", "--dxf", "{dir}/a.dxf"], "bezier"),
         (["0x0488", "--curves", "spline", "--dxf-version", "R12", "--dxf", "{dir}/a.dxf"], "R12"),
+        (["0x0488", "--dxf-entities", "polyline", "--dxf-version", "R12", "--dxf", "{dir}/a.dxf"], "segments"),
+        (["0x0488", "--curves", "spline", "--dxf-entities", "polyline", "--dxf", "{dir}/a.dxf"], "segments"),
+        (["0x0488", "--origin", "middle", "--svg", "{dir}/a.svg"], "corner"),
+        (["0x0488", "--svg-curves", "arcs", "--svg", "{dir}/a.svg"], "cubic"),
         (["0x0488"], "no output"),
         (["0x0488", "--stl", "{dir}/ok.stl", "--step", "{dir}/missing/a.step"], "does not exist"),
         (["0x0488", "--stl", "{dir}/a.stl", "--3mf", "{dir}/a.stl"], "same file"),

@@ -3,10 +3,14 @@
 Each plate's exact outline is fitted by circular arcs within the spec's ``output.curve_tolerance``
 (default 0.01 mm; :func:`fabpat.cad.bulge_loops`),
 offset by kerf/2 into the void when a kerf is given, turned and moved to its nested place, and written
-as closed LWPOLYLINEs with bulges on layer ``CUT`` (a rigid motion keeps every bulge). Layer ``ENGRAVE``
-carries, inside the solid sub-triangle that every pattern has at each interface, the label of the
-sleeve joint on that edge and the plate's own label, written along the edge (a central label would
-often fall on a void: many patterns are open in the middle). Layer ``SHEET`` (not cut) outlines the sheet.
+as closed LWPOLYLINEs with bulges on layer ``CUT`` (a rigid motion keeps every bulge; laser software
+fills and orders closed shapes). Layer ``ENGRAVE`` carries, inside the solid sub-triangle that every
+pattern has at each interface, the label of the sleeve joint on that edge and the plate's own label,
+written along the edge (a central label would often fall on a void: many patterns are open in the
+middle). Labels are left-aligned TEXT, so their first point is where they start, for readers that
+ignore alignment. Layer ``SHEET`` outlines the bed; it is a non-plotting layer (DXF plot flag 0),
+and ``[sheet] border = false`` leaves it out (OpenSCAD, for one, imports every layer as geometry).
+$EXTMIN/$EXTMAX are the drawing's extents.
 """
 
 from __future__ import annotations
@@ -24,9 +28,9 @@ from fabpat.errors import ExportError
 
 SHEET_LAYER = "SHEET"
 SHEET_COLOR = 8  # ACI grey: reference only, not cut
-JOINT_DEPTH, PLATE_DEPTH = 0.6, 0.85  # × edge-row height: the two label lines inside the interface sub-triangle
-EDGE_LABEL_HEIGHT = 1.4  # mm (capped by the sub-triangle's size)
-CHAR_WIDTH = 0.9  # text width per character / text height (as fabpat.exchange.dxf)
+EDGE_LABEL_HEIGHT = 1.4  # mm: largest label height (capped by the sub-triangle's size)
+LABEL_CLEARANCE = 0.25  # mm between a label's box and the sub-triangle's sides
+LINE_GAP = 0.3  # mm between the joint label line and the plate label line
 
 
 def plate_polygon(pt: PlateType, edge: float) -> NDArray[np.float64]:
@@ -52,43 +56,63 @@ def nest_plates(assembly: Assembly) -> Nesting:
     return nest(polys, s.width, s.height, s.margin, s.spacing)
 
 
-def edge_label_spots(pt: PlateType, edge: float) -> list[tuple[NDArray[np.float64], NDArray[np.float64], float, float]]:
-    """Per polygon edge: (joint label position (2,), plate label position (2,), angle rad, height mm).
+def edge_label_spots(pt: PlateType, edge: float, chars: int = 3
+                     ) -> list[tuple[NDArray[np.float64], NDArray[np.float64] | None, float, float]]:
+    """Per polygon edge: (joint label centre (2,), plate label centre (2,) or None, angle rad, height mm).
 
     Plate frame. Every pattern has a solid sub-triangle at each interface (apex at the edge midpoint,
-    top side one edge row = apothem / 2**depth in); two lines fit in it, baseline along the edge: the
-    joint label nearer the edge, the plate label above it, so each interface says what joins what.
+    top side one edge row = apothem / 2**depth in, of width b = edge / 2**depth): at depth d from the
+    edge it is k·d wide, k = b / row. Two lines of ``chars`` characters (box CHAR_WIDTH·chars·h
+    wide, baseline along the edge) fit when the lower one starts at d1 = (a h + 2c) / k (its
+    narrower, lower edge is wide enough; a = CHAR_WIDTH·chars, c = LABEL_CLEARANCE) and the upper
+    one ends at d1 + 2h + LINE_GAP ≤ row − c: h = (row − c − LINE_GAP − 2c/k) / (a/k + 2), at most
+    EDGE_LABEL_HEIGHT. If that is below MIN_TEXT_HEIGHT the plate label is left out and the joint
+    label alone gets h = (row − 2c − 2c/k) / (a/k + 1); if even that is too small, no labels ([]).
     """
+    from fabpat.exchange.labels import CHAR_WIDTH, MIN_TEXT_HEIGHT
+
     n, depth = pt.sides, pt.depth
     apothem = edge / (2 * math.tan(math.pi / n))
     row = apothem / 2**depth
-    base = edge / 2**depth  # width of the sub-triangle's top side
-    height = min(EDGE_LABEL_HEIGHT, 0.16 * row, JOINT_DEPTH * base / (CHAR_WIDTH * 3.5))
+    k = (edge / 2**depth) / row
+    a, c = CHAR_WIDTH * chars, LABEL_CLEARANCE
+    two = min(EDGE_LABEL_HEIGHT, (row - c - LINE_GAP - 2 * c / k) / (a / k + 2))
+    one = min(EDGE_LABEL_HEIGHT, (row - 2 * c - 2 * c / k) / (a / k + 1))
+    if two >= MIN_TEXT_HEIGHT:
+        h, both = two, True
+    elif one >= MIN_TEXT_HEIGHT:
+        h, both = one, False
+    else:
+        return []
+    d1 = (a * h + 2 * c) / k
     out = []
     for i in range(n):
-        a = -math.pi / 2 + 2 * math.pi * i / n  # direction of edge i's midpoint
-        u = np.array([math.cos(a), math.sin(a)])
-        out.append(((apothem - JOINT_DEPTH * row) * u, (apothem - PLATE_DEPTH * row) * u, 2 * math.pi * i / n,
-                    height))
+        t = -math.pi / 2 + 2 * math.pi * i / n  # direction of edge i's midpoint
+        u = np.array([math.cos(t), math.sin(t)])
+        own = (apothem - (d1 + 1.5 * h + LINE_GAP)) * u if both else None
+        out.append(((apothem - (d1 + 0.5 * h)) * u, own, 2 * math.pi * i / n, h))
     return out
 
 
 def sheet_document(assembly: Assembly, nesting: Nesting, sheet: int, filleted: dict[PlateType, Any]) -> Any:
     """The ezdxf drawing of one sheet (mm; layers CUT, ENGRAVE, SHEET)."""
     import ezdxf
-    from ezdxf.enums import TextEntityAlignment
 
     from fabpat.cad import bulge_loops, offset_bulge_loops
-    from fabpat.exchange.dxf import CUT_COLOR, CUT_LAYER, ENGRAVE_COLOR, ENGRAVE_LAYER
+    from fabpat.exchange.dxf import CUT_COLOR, CUT_LAYER, ENGRAVE_COLOR, ENGRAVE_LAYER, set_extents
+    from fabpat.exchange.labels import label_at
 
     kerf = assembly.spec.sheet.kerf
     doc = ezdxf.new("R2010", units=ezdxf.units.MM)
     doc.layers.add(CUT_LAYER, color=CUT_COLOR)
     doc.layers.add(ENGRAVE_LAYER, color=ENGRAVE_COLOR)
-    doc.layers.add(SHEET_LAYER, color=SHEET_COLOR)
     msp = doc.modelspace()
     W, H = nesting.width, nesting.height
-    msp.add_lwpolyline([(0, 0), (W, 0), (W, H), (0, H)], close=True, dxfattribs={"layer": SHEET_LAYER})
+    if assembly.spec.sheet.border:
+        layer = doc.layers.add(SHEET_LAYER, color=SHEET_COLOR)
+        layer.dxf.plot = 0  # reference only: never plotted or cut
+        msp.add_lwpolyline([(0, 0), (W, 0), (W, H), (0, H)], close=True, dxfattribs={"layer": SHEET_LAYER})
+    chars = max(len(t) for p in assembly.plates for t in (p.label, *p.edge_labels))
     loops_of: dict[PlateType, list[Any]] = {}
     for item in nesting.on_sheet(sheet):
         plate = assembly.plates[item]
@@ -102,15 +126,16 @@ def sheet_document(assembly: Assembly, nesting: Nesting, sheet: int, filleted: d
             msp.add_lwpolyline([(float(x), float(y), float(b)) for (x, y), b in zip(V, lp.bulges, strict=True)],
                                format="xyb", close=True, dxfattribs={"layer": CUT_LAYER})
         deg = math.degrees(place.angle)
-        spots = edge_label_spots(pt, assembly.plate_edge)
+        spots = edge_label_spots(pt, assembly.plate_edge, chars)
         for (joint, own, ang, h), label in zip(spots, plate.edge_labels, strict=True):
             for text, pos in ((label, joint), (plate.label, own)):
-                if not text:
+                if not text or pos is None:
                     continue
                 q = place.apply(pos[None])[0]
-                rot = deg + math.degrees(ang)
-                t = msp.add_text(text, height=h, dxfattribs={"layer": ENGRAVE_LAYER, "rotation": rot})
-                t.set_placement((float(q[0]), float(q[1])), align=TextEntityAlignment.MIDDLE_CENTER)
+                placed = label_at(text, q, deg + math.degrees(ang), h)
+                msp.add_text(text, height=h, rotation=placed.angle,
+                             dxfattribs={"layer": ENGRAVE_LAYER, "insert": placed.start})
+    set_extents(doc)
     return doc
 
 

@@ -13,7 +13,8 @@ A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented 
   ``density`` (g/cm³, for masses).
 * ``[sleeve]``  ``clearance`` (slot width = thickness + clearance), ``margin`` (slot length =
   interface segment + margin), ``wall``, ``depth`` (how far a plate enters its slot).
-* ``[sheet]``  ``width``, ``height`` (laser sheet or print bed), ``margin``, ``spacing``, ``kerf``.
+* ``[sheet]``  ``width``, ``height`` (laser sheet or print bed), ``margin``, ``spacing``, ``kerf``,
+  ``border`` (true | false, default true: the bed outline on the sheets' non-plotting layer SHEET).
 * ``[estimates]`` ``cut_speed`` (mm/s), ``print_rate`` (mm³/s).
 * ``[output]``  ``formats``: any of step, stl, glb, 3dm, dxf, svg, bom, png; ``mesh_tolerance`` (STL chord of
   the parts and of the sleeves in the .3dm, default 0.005), ``curve_tolerance`` (largest deviation of
@@ -99,6 +100,7 @@ class SheetSpec:
     margin: float = 5.0  # mm: border kept free on every side
     spacing: float = 3.0  # mm: minimum gap between two plates' polygons
     kerf: float = 0.0  # mm: laser kerf (cut loops move out by kerf/2)
+    border: bool = True  # draw the bed outline on the sheets' non-plotting layer SHEET
 
 
 @dataclass(frozen=True)
@@ -181,6 +183,12 @@ class _Table:
         if v not in allowed:
             raise self.fail(key, f"= {v!r} is not allowed: choose one of {', '.join(allowed)}")
         return str(v)
+
+    def boolean(self, key: str, default: bool) -> bool:
+        v = self.data.get(key, default)
+        if not isinstance(v, bool):
+            raise self.fail(key, f"= {v!r} must be true or false")
+        return v
 
     def string(self, key: str) -> str | None:
         v = self.data.get(key)
@@ -311,10 +319,10 @@ def _sleeve(source: str, data: Any) -> SleeveSpec:
 
 
 def _sheet(source: str, data: Any, process: str) -> SheetSpec:
-    t = _Table(source, "sheet", data, ("width", "height", "margin", "spacing", "kerf"))
+    t = _Table(source, "sheet", data, ("width", "height", "margin", "spacing", "kerf", "border"))
     kerf = t.number("kerf", 0.15 if process == "laser" else 0.0, strict=False)
     return SheetSpec(t.number("width", None), t.number("height", None), t.number("margin", 5.0, strict=False),
-                     t.number("spacing", 3.0, strict=False), kerf)
+                     t.number("spacing", 3.0, strict=False), kerf, t.boolean("border", True))
 
 
 def _estimates(source: str, data: Any) -> EstimateSpec:
@@ -396,7 +404,7 @@ def load_spec(path: str | Path) -> AssemblySpec:
     """Read and validate a spec file; :class:`SpecError` (one line) if it cannot be read or is invalid."""
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
+        text = p.read_text(encoding="utf-8-sig")  # Windows editors save UTF-8 with a byte-order mark
     except OSError as e:
         raise SpecError(f"cannot read spec {p}: {e.strerror or e}") from e
     except UnicodeDecodeError as e:

@@ -94,17 +94,26 @@ def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> lis
 @click.option("--3dm", "rhino", type=click.Path(dir_okay=False),
               help="Rhino 3DM file: exact rational NURBS outline on layer CUT, plate as a closed extrusion.")
 @click.option("--curves", type=click.Choice(["arcs", "spline", "lines"]), default="arcs", show_default=True,
-              help="DXF curves: circular arcs or polylines within --curve-tolerance, or exact rational splines.")
+              help="DXF curves: circular arcs or polylines within --curve-tolerance, or exact rational splines "
+                   "(one SPLINE per curved segment).")
 @click.option("--mesh-tolerance", type=float, default=DEFAULT_CHORD, show_default=True,
               callback=_at_least(0, "mesh tolerance", True),
               help="STL/3MF: largest distance in mm between the triangles and the exact surface.")
 @click.option("--curve-tolerance", type=float, default=0.01, show_default=True,
               callback=_at_least(0, "curve tolerance", True),
-              help="DXF arcs/lines and kerf-offset SVG: largest deviation in mm from the exact outline.")
+              help="DXF arcs/lines, SVG cubics and kerf offsets: largest deviation in mm from the exact outline.")
 @click.option("--kerf", type=float, default=0.0, show_default=True, callback=_at_least(0, "kerf"),
               help="Laser kerf in mm: DXF/SVG loops move out by kerf/2.")
 @click.option("--dxf-version", type=click.Choice(["R2010", "R2000", "R12"]), default="R2010", show_default=True,
-              help="DXF version; R12 writes POLYLINE entities for old software.")
+              help="DXF version; R12 (for old software) writes LINE and ARC entities.")
+@click.option("--dxf-entities", type=click.Choice(["polyline", "segments"]), default=None,
+              help="DXF arcs/lines as one closed LWPOLYLINE per loop (laser software that fills closed shapes) "
+                   "or one LINE/ARC per piece (OpenSCAD and every other reader). "
+                   "[default: polyline; segments for R12 and --curves spline]")
+@click.option("--svg-curves", type=click.Choice(["cubic", "exact"]), default="cubic", show_default=True,
+              help="SVG arcs as cubic Béziers within --curve-tolerance (cutters) or exact elliptical arcs.")
+@click.option("--origin", type=click.Choice(["corner", "centre"]), default="corner", show_default=True,
+              help="DXF/SVG placement: lower-left corner 1 mm from (0, 0), or the polygon centre at (0, 0).")
 @click.option("--all", "all_", is_flag=True, help="Export every pattern of the library (needs --out).")
 @click.option("--out", type=click.Path(file_okay=False), help="Folder for --all (created if missing).")
 @click.option("--formats", default=None, help=f"Formats for --all, comma-separated [default: {DEFAULT_ALL_FORMATS}].")
@@ -112,6 +121,7 @@ def export_cmd(pattern_id: str | None, sides: int, depth: int | None, edge: floa
                step: str | None, stl: str | None, threemf: str | None, dxf: str | None, svg: str | None,
                rhino: str | None,
                curves: str, mesh_tolerance: float, curve_tolerance: float, kerf: float, dxf_version: str,
+               dxf_entities: str | None, svg_curves: str, origin: str,
                all_: bool, out: str | None, formats: str | None) -> None:
     """Write fabrication files for one pattern (ID) or, with --all, for the whole library.
 
@@ -125,7 +135,8 @@ def export_cmd(pattern_id: str | None, sides: int, depth: int | None, edge: floa
       fabpat export --all --out parts --formats step,dxf
     """
     settings = ExportSettings(curves=curves, kerf=kerf, dxf_version=dxf_version, mesh_tolerance=mesh_tolerance,
-                              curve_tolerance=curve_tolerance)
+                              curve_tolerance=curve_tolerance, dxf_entities=dxf_entities, svg_curves=svg_curves,
+                              origin=origin)
     settings.check()
     files = {"step": step, "stl": stl, "3mf": threemf, "dxf": dxf, "svg": svg, "3dm": rhino}
     if all_:

@@ -1,25 +1,39 @@
-"""DXF for laser cutting and CNC: the outline's loops on layer ``CUT``, the pattern ID on ``ENGRAVE``.
+"""DXF for laser cutting, CNC and CAD: the outline's loops on layer ``CUT``, the pattern ID on ``ENGRAVE``.
 
-One closed entity per outline loop, coordinates in millimetres (``$INSUNITS`` = 4, mm; DXF R12 has
-no units variable, so R12 files are mm by convention only). Curve modes:
+Coordinates in millimetres (``$INSUNITS`` = 4, mm; DXF R12 has no units variable, so R12 files are
+mm by convention only). ``$EXTMIN``/``$EXTMAX`` and the active viewport are set to the drawing's
+extents (:mod:`ezdxf.bbox`), so viewers open zoomed onto the part. The part lies as ``origin`` says
+(:mod:`fabpat.exchange.origin`: lower-left corner 1 mm from (0, 0) by default).
+
+Curve modes (``curves``):
 
 * ``"arcs"`` (default): every rational arc fitted by circular arcs within ``tolerance`` mm (G1
-  biarcs from :func:`fabpat.conics.fit_arcs`) in an LWPOLYLINE with bulges — what every laser and
-  CNC program reads. Lines stay exact.
-* ``"spline"``: one exact rational SPLINE per loop: degree 2, each segment a Bézier piece between
-  double knots, with its control points and weights (1, w, 1) (lines as straight degree-2 pieces).
+  biarcs from :func:`fabpat.conics.fit_arcs`). Lines stay exact.
+* ``"spline"``: exact: one rational degree-2 SPLINE per curved segment (3 control points, weights
+  (1, w, 1), knots (0, 0, 0, 1, 1, 1)) and a LINE per straight segment, loops head to tail (outer
+  counter-clockwise, holes clockwise).
 * ``"lines"``: polylines within ``tolerance`` mm (exact chord test of
   :func:`fabpat.curves.flatten_quad`).
 
-``dxf_version="R12"`` writes old-style POLYLINE entities (bulges kept) for old software; R12 has
-no SPLINE entity, so ``curves="spline"`` needs R2000 or newer.
+Entities (``entities``) for ``"arcs"`` and ``"lines"``:
+
+* ``"polyline"``: one closed LWPOLYLINE per loop, arcs as bulges (R12: POLYLINE/VERTEX) — for
+  laser software that fills or orders closed shapes. Default from R2000 on.
+* ``"segments"``: one LINE or ARC entity per piece — what every reader takes (OpenSCAD ignores
+  bulges and draws chords). Default, and the only choice, with R12 (OpenSCAD imports R12
+  POLYLINEs as nothing) and with ``"spline"`` (one entity per segment by design).
 
 Kerf: ``kerf`` > 0 offsets every loop by kerf / 2 into the void (the outer loop grows, holes shrink),
 so a beam that removes kerf / 2 on each side of the path leaves the part at its nominal size. The
 offset is OCCT's ``BRepOffsetAPI_MakeOffset`` with arc joins (robust to loops that merge or holes
 that vanish), applied to the fitted arcs in ``"arcs"`` / ``"lines"`` mode (an offset of lines and
-circles is exact lines and circles) and to the exact face in ``"spline"`` mode (see
-:func:`fabpat.cad.offset_spline_loops`; the weights are then no longer (1, w, 1)).
+circles is exact lines and circles) and to the exact face in ``"spline"`` mode: there lines stay
+LINEs, circular joins become ARCs, and the offset of a rational arc, which is no rational curve of
+any degree, becomes a cubic (degree-3) non-rational SPLINE within ``tolerance`` mm (OCCT's
+``GeomConvert_ApproxCurve``; cubic is the highest degree LibreCAD and Inkscape read).
+
+The label (:func:`fabpat.exchange.labels.place_label`) is a TEXT with its default alignment, so its
+first point is where the text starts, inside the part; a part with no room for a 1 mm label has none.
 """
 
 from __future__ import annotations
@@ -34,8 +48,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.cad import CLOSE_TOL, bulge_loops, make_face, offset_bulge_loops, offset_wires, ordered_edges, outer_first
+from fabpat.cad import CLOSE_TOL, BulgeLoop, bulge_loops, make_face, offset_bulge_loops, offset_wires, ordered_edges
 from fabpat.errors import ExportError, GeometryError
+from fabpat.exchange.origin import DEFAULT_ORIGIN, check_origin, origin_shift, translated
 from fabpat.io import atomic_outputs
 from fabpat.outline import Line, Loop, Outline
 
@@ -43,112 +58,172 @@ if TYPE_CHECKING:  # pragma: no cover
     from fabpat.exchange.registry import ExportSettings, Part
 
 CURVE_MODES = ("arcs", "spline", "lines")
+ENTITY_MODES = ("polyline", "segments")
 DXF_VERSIONS = ("R12", "R2000", "R2004", "R2007", "R2010", "R2013", "R2018")
 DEFAULT_VERSION = "R2010"
 DEFAULT_TOLERANCE = 0.01  # mm: largest distance between the written curves and the exact outline
 CUT_LAYER, ENGRAVE_LAYER = "CUT", "ENGRAVE"
 CUT_COLOR, ENGRAVE_COLOR = 1, 5  # ACI red / blue: the usual laser-software convention
-MAX_TEXT_HEIGHT = 3.0  # mm
-MIN_TEXT_HEIGHT = 1.0  # mm: smaller engraved text is unreadable; such labels go below the part
-CHAR_WIDTH = 0.9  # text width per character / text height (conservative for the standard font)
+MAX_SPLINE_DEGREE = 3  # kerf-offset splines: LibreCAD 2.2 and Inkscape 1.2 read degree ≤ 3 only
+_APPROX_SEGMENTS = 256  # most Bézier spans OCCT may use for one offset segment
 
 
-def check_options(curves: str, tolerance: float, kerf: float, dxf_version: str) -> None:
+def entity_mode(curves: str, dxf_version: str, entities: str | None) -> str:
+    """The entity mode actually written: ``entities``, or its default for the curve mode and version."""
+    if entities is None:
+        return "segments" if curves == "spline" or dxf_version == "R12" else "polyline"
+    return entities
+
+
+def check_options(curves: str, tolerance: float, kerf: float, dxf_version: str, entities: str | None = None,
+                  origin: str = DEFAULT_ORIGIN) -> None:
     """Raise :class:`ExportError` for an option the DXF writer cannot honour."""
     if curves not in CURVE_MODES:
         raise ExportError(f"unknown curve mode {curves!r}: choose one of {', '.join(CURVE_MODES)}")
     if dxf_version not in DXF_VERSIONS:
         raise ExportError(f"unknown DXF version {dxf_version!r}: choose one of {', '.join(DXF_VERSIONS)}")
+    if entities is not None and entities not in ENTITY_MODES:
+        raise ExportError(f"unknown DXF entity mode {entities!r}: choose one of {', '.join(ENTITY_MODES)}")
     if curves == "spline" and dxf_version == "R12":
         raise ExportError("DXF R12 has no SPLINE entity: use --curves arcs or lines, or a newer version")
+    if curves == "spline" and entities == "polyline":
+        raise ExportError("--curves spline writes one entity per segment: use --dxf-entities segments")
+    if dxf_version == "R12" and entities == "polyline":
+        raise ExportError("DXF R12 polylines import as nothing in OpenSCAD: R12 takes --dxf-entities segments")
     if not (tolerance > 0 and math.isfinite(tolerance)):
         raise ExportError(f"curve tolerance must be > 0 mm, got {tolerance:g}")
     if not (kerf >= 0 and math.isfinite(kerf)):
         raise ExportError(f"kerf must be ≥ 0 mm, got {kerf:g}")
+    check_origin(origin)
 
 
 @dataclass(frozen=True, eq=False)
-class SplineLoop:
-    """A closed loop as one clamped NURBS curve (DXF SPLINE): ``degree``, ``control`` (n, 2) mm,
-    ``weights`` (n,), ``knots`` (n + degree + 1,); the first and last control points coincide."""
+class SplinePiece:
+    """One segment as a clamped NURBS curve (DXF SPLINE): ``degree``, ``control`` (n, 2) mm,
+    ``weights`` (n,), ``knots`` (n + degree + 1,)."""
 
     degree: int
     control: NDArray[np.float64]
     weights: NDArray[np.float64]
     knots: NDArray[np.float64]
 
+    @property
+    def start(self) -> NDArray[np.float64]:
+        """(2,) mm: the first control point, where a clamped spline starts."""
+        return self.control[0]
 
-def offset_spline_loops(outline: Outline, distance: float, tol: float) -> list[SplineLoop]:
-    """The exact face's loops offset by ``distance`` mm into the void, as one NURBS per loop.
+    def reversed(self) -> SplinePiece:
+        """The same curve traversed the other way (control points and weights reversed, knots mirrored)."""
+        k = self.knots
+        return SplinePiece(self.degree, self.control[::-1].copy(), self.weights[::-1].copy(), (k[0] + k[-1] - k)[::-1])
 
-    The offset of a rational arc is not a rational quadratic: OCCT returns an exact offset curve,
-    which is approximated here by a C1 B-spline within ``tol`` mm; lines and join arcs convert
-    exactly. The pieces of a loop are joined into one B-spline (degrees raised to the largest).
+
+# A loop as written in "spline" mode: pieces head to tail; a LINE piece is a (2, 2) array, an ARC
+# piece a BulgeLoop-style (start, end, bulge) triple, a SPLINE piece a SplinePiece.
+Piece = NDArray[np.float64] | tuple[NDArray[np.float64], NDArray[np.float64], float] | SplinePiece
+
+
+def _oriented(loop: Loop, ccw: bool) -> Loop:
+    return loop if (loop.signed_area > 0) == ccw else loop.reversed()
+
+
+def spline_pieces(outline: Outline) -> list[list[Piece]]:
+    """Every loop (outer counter-clockwise, then holes clockwise) as exact pieces.
+
+    A rational arc is the rational Bézier (control points P0, P1, P2, weights (1, w, 1)) written
+    as a degree-2 NURBS on knots (0, 0, 0, 1, 1, 1) — the same curve (a Bézier curve is the
+    B-spline on a clamped knot vector without interior knots); a straight segment is a line.
+    """
+    out = []
+    for i, lp in enumerate(outline.loops):
+        pieces: list[Piece] = []
+        for seg in _oriented(lp, i == 0).segments:
+            if isinstance(seg, Line) or seg.is_straight:
+                if np.linalg.norm(seg.end - seg.start) > CLOSE_TOL:
+                    pieces.append(np.array([seg.start, seg.end]))
+                continue
+            pieces.append(SplinePiece(2, np.array(seg.control_points), seg.weights,
+                                      np.array([0.0, 0.0, 0.0, 1.0, 1.0, 1.0])))
+        out.append(pieces)
+    return out
+
+
+def _piece_start(p: Piece) -> NDArray[np.float64]:
+    return p.start if isinstance(p, SplinePiece) else p[0]  # type: ignore[return-value]
+
+
+def _reverse_pieces(pieces: list[Piece]) -> list[Piece]:
+    out: list[Piece] = []
+    for p in reversed(pieces):
+        if isinstance(p, SplinePiece):
+            out.append(p.reversed())
+        elif isinstance(p, tuple):
+            out.append((p[1], p[0], -p[2]))
+        else:
+            out.append(p[::-1].copy())
+    return out
+
+
+def offset_spline_pieces(outline: Outline, distance: float, tol: float) -> list[list[Piece]]:
+    """The exact face's loops offset by ``distance`` mm into the void, one piece per offset edge.
+
+    Lines stay lines and circles (the arc joins) become arcs, exactly; the offset of a rational
+    arc (an OCCT offset curve) becomes a C1 cubic B-spline (C2 would need degree 5 in OCCT) within ``tol`` mm. Raises
+    :class:`GeometryError` when OCCT cannot approximate within ``tol``.
     """
     from OCP.BRep import BRep_Tool
+    from OCP.BRepAdaptor import BRepAdaptor_Curve
     from OCP.Geom import Geom_TrimmedCurve
-    from OCP.GeomAbs import GeomAbs_Shape
-    from OCP.GeomConvert import GeomConvert, GeomConvert_ApproxCurve, GeomConvert_CompCurveToBSplineCurve
+    from OCP.GeomAbs import GeomAbs_CurveType, GeomAbs_Shape
+    from OCP.GeomConvert import GeomConvert, GeomConvert_ApproxCurve
     from OCP.TopAbs import TopAbs_REVERSED
 
-    out: list[SplineLoop] = []
+    loops: list[list[Piece]] = []
     areas: list[float] = []
     for wire in offset_wires(make_face(outline), distance):
-        joined = None
-        pts = []
-        for e, a, _b in ordered_edges(wire):
+        pieces: list[Piece] = []
+        starts = []
+        for e, a, b in ordered_edges(wire):
+            chord = b - a
+            if float(chord @ chord) <= CLOSE_TOL**2:
+                continue
+            starts.append(a)
+            kind = BRepAdaptor_Curve(e).GetType()
+            if kind == GeomAbs_CurveType.GeomAbs_Line:
+                pieces.append(np.array([a, b]))
+                continue
+            if kind == GeomAbs_CurveType.GeomAbs_Circle:
+                c = BRepAdaptor_Curve(e)
+                m = c.Value(0.5 * (c.FirstParameter() + c.LastParameter()))
+                rel = np.array([m.X(), m.Y()]) - a
+                # bulge = sagitta / half chord, positive when the arc's middle is right of the chord.
+                pieces.append((a, b, -2.0 * float(chord[0] * rel[1] - chord[1] * rel[0]) / float(chord @ chord)))
+                continue
             curve = BRep_Tool.Curve_s(e, 0.0, 0.0)
             lo, hi = BRep_Tool.Range_s(e)
-            trimmed = Geom_TrimmedCurve(curve, lo, hi)
-            if curve.DynamicType().Name() in ("Geom_OffsetCurve", "Geom_TrimmedCurve"):
-                approx = GeomConvert_ApproxCurve(trimmed, 0.5 * tol, GeomAbs_Shape.GeomAbs_C1, 64, 8)
-                if not approx.HasResult() or approx.MaxError() > tol:
-                    raise GeometryError(f"cannot approximate the kerf offset within {tol:g} mm")
-                bs = approx.Curve()
-            else:
-                bs = GeomConvert.CurveToBSplineCurve_s(trimmed)
+            approx = GeomConvert_ApproxCurve(Geom_TrimmedCurve(curve, lo, hi), 0.5 * tol, GeomAbs_Shape.GeomAbs_C1,
+                                             _APPROX_SEGMENTS, MAX_SPLINE_DEGREE)
+            if not approx.HasResult() or approx.MaxError() > tol:
+                raise GeometryError(f"cannot approximate the kerf offset within {tol:g} mm by cubic splines")
+            bs = GeomConvert.CurveToBSplineCurve_s(approx.Curve())
             if e.Orientation() == TopAbs_REVERSED:
                 bs.Reverse()
-            pts.append(a)
-            if joined is None:
-                joined = GeomConvert_CompCurveToBSplineCurve(bs)
-            elif not joined.Add(bs, 10 * CLOSE_TOL, True, False, 0):
-                raise GeometryError("cannot join the offset pieces into one spline")
-        if joined is None:
+            n = bs.NbPoles()
+            pieces.append(SplinePiece(
+                bs.Degree(),
+                np.array([[bs.Pole(i).X(), bs.Pole(i).Y()] for i in range(1, n + 1)]),
+                np.array([bs.Weight(i) for i in range(1, n + 1)]),
+                np.array([bs.Knot(i) for i in range(1, bs.NbKnots() + 1) for _ in range(bs.Multiplicity(i))]),
+            ))
+        if not pieces:
             continue
-        c = joined.BSplineCurve()
-        control = np.array([[p.X(), p.Y()] for p in (c.Pole(i) for i in range(1, c.NbPoles() + 1))])
-        weights = np.array([c.Weight(i) for i in range(1, c.NbPoles() + 1)])
-        knots = np.array(
-            [c.Knot(i) for i in range(1, c.NbKnots() + 1) for _ in range(c.Multiplicity(i))], dtype=np.float64
-        )
-        out.append(SplineLoop(c.Degree(), control, weights, knots))
-        P = np.array(pts)
+        P = np.array(starts)
         areas.append(0.5 * float(np.sum(P[:, 0] * np.roll(P[:, 1], -1) - P[:, 1] * np.roll(P[:, 0], -1))))
-    return outer_first(out, areas)
-
-
-def spline_loop(loop: Loop) -> SplineLoop:
-    """The loop as one exact degree-2 NURBS: segment i is the Bézier piece on knots [i, i + 1].
-
-    Interior knots are doubled, so each piece is exactly its segment (C0 joints, which is what the
-    outline's corners are): control points P0, P1, P2 and weights (1, w, 1) per rational arc, and a
-    straight line as P0, midpoint, P1 with weights 1.
-    """
-    control: list[NDArray[np.float64]] = []
-    weights: list[float] = []
-    for seg in loop.segments:
-        if isinstance(seg, Line):
-            mid, w = 0.5 * (seg.p0 + seg.p1), 1.0
-        else:
-            mid, w = seg.P1, seg.w
-        control += [seg.start, mid]
-        weights += [1.0, w]
-    control.append(loop.segments[0].start)
-    weights.append(1.0)
-    k = len(loop.segments)
-    knots = np.concatenate([[0.0], np.repeat(np.arange(k + 1, dtype=np.float64), 2), [float(k)]])
-    return SplineLoop(2, np.array(control), np.array(weights), knots)
+        loops.append(pieces)
+    out = []
+    for k, i in enumerate(np.argsort(-np.abs(np.array(areas)))):  # outer loop first, counter-clockwise
+        out.append(loops[i] if (areas[i] > 0) == (k == 0) else _reverse_pieces(loops[i]))
+    return out
 
 
 def polyline(loop: Loop, tol: float) -> NDArray[np.float64]:
@@ -164,46 +239,47 @@ def polyline(loop: Loop, tol: float) -> NDArray[np.float64]:
     return np.vstack(pts)
 
 
-def label_placement(outline: Outline, text: str) -> tuple[tuple[float, float], float]:
-    """Centre (x, y) mm and height mm for an engraved label on the material, or below the part.
+def set_extents(doc: Any) -> None:
+    """$EXTMIN/$EXTMAX and the active viewport from the model space's extents (ezdxf's bbox module).
 
-    Grid search (32 × 32, refined once) for the point of the material farthest from the boundary
-    of a 0.1 mm flattening; the text box must fit in that clearance circle. If the largest height
-    that fits is below MIN_TEXT_HEIGHT, the label goes 2 mm under the part instead (on the sheet).
+    ezdxf's :func:`ezdxf.appsettings.update_extents` uses the fast (control-point) bounds; the exact
+    mode is used here, so the header bounds the entities tightly.
     """
-    from fabpat.polyline import points_in_polygon
+    from ezdxf import bbox, zoom
 
-    flat = 0.1  # mm: coarse is enough, the clearance is reduced by it below
-    polys = [polyline(loop, flat) for loop in outline.loops]
-    A = np.vstack(polys)
-    B = np.vstack([np.roll(P, -1, axis=0) for P in polys])
-    lo, hi = polys[0].min(axis=0), polys[0].max(axis=0)
+    msp = doc.modelspace()
+    ext = bbox.extents(msp, fast=False)
+    if not ext.has_data:
+        return
+    doc.header["$EXTMIN"] = ext.extmin
+    doc.header["$EXTMAX"] = ext.extmax
+    msp.dxf.extmin, msp.dxf.extmax = ext.extmin, ext.extmax  # ezdxf copies these into the header on save
+    zoom.center(msp, ext.center, ext.size)
 
-    D = B - A
-    L2 = np.maximum(np.einsum("ij,ij->i", D, D), 1e-300)
 
-    def clearance(X: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Distance to the boundary of points on the material, −1 elsewhere."""
-        inside = points_in_polygon(X, polys[0])
-        for hole in polys[1:]:
-            inside &= ~points_in_polygon(X, hole)
-        out = np.full(len(X), -1.0)
-        Y = X[inside]
-        s = np.clip(((Y[:, None, :] - A[None]) * D[None]).sum(-1) / L2, 0.0, 1.0)
-        out[inside] = np.hypot(*(Y[:, None, :] - A[None] - s[..., None] * D[None]).transpose(2, 0, 1)).min(axis=1)
-        return out
+def _add_piece(msp: Any, p: Piece, attribs: dict[str, Any]) -> None:
+    from ezdxf.math import bulge_to_arc
 
-    step = float((hi - lo).max()) / 32
-    X = np.stack(np.meshgrid(*(np.arange(lo[i], hi[i], step) + step / 2 for i in (0, 1))), -1).reshape(-1, 2)
-    best = X[np.argmax(clearance(X))]
-    fine = best + np.stack(np.meshgrid(*(np.linspace(-step, step, 9),) * 2), -1).reshape(-1, 2)
-    c = clearance(fine)
-    best, r = fine[np.argmax(c)], float(c.max()) - flat
-    n = max(len(text), 1)
-    height = min(MAX_TEXT_HEIGHT, 0.9 * r / math.hypot(0.5 * CHAR_WIDTH * n, 0.5))
-    if height >= MIN_TEXT_HEIGHT:
-        return (float(best[0]), float(best[1])), height
-    return (float(0.5 * (lo[0] + hi[0])), float(lo[1] - 2.0 - 0.5 * MAX_TEXT_HEIGHT)), MAX_TEXT_HEIGHT
+    if isinstance(p, SplinePiece):
+        if np.all(p.weights == 1.0):
+            msp.add_open_spline(p.control.tolist(), p.degree, p.knots.tolist(), dxfattribs=attribs)
+        else:
+            msp.add_rational_spline(p.control.tolist(), p.weights.tolist(), p.degree, p.knots.tolist(),
+                                    dxfattribs=attribs)
+    elif isinstance(p, tuple):
+        s, e, b = p
+        if b == 0.0:
+            msp.add_line(tuple(s), tuple(e), dxfattribs=attribs)
+            return
+        c, a0, a1, r = bulge_to_arc(tuple(s), tuple(e), b)  # counter-clockwise from a0 to a1
+        msp.add_arc(c, r, math.degrees(a0), math.degrees(a1), dxfattribs=attribs)
+    else:
+        msp.add_line(tuple(p[0]), tuple(p[1]), dxfattribs=attribs)
+
+
+def _bulge_pieces(lp: BulgeLoop) -> list[Piece]:
+    E = np.roll(lp.V, -1, axis=0)
+    return [(s, e, float(b)) for s, e, b in zip(lp.V, E, lp.bulges, strict=True)]
 
 
 def dxf_document(
@@ -214,12 +290,17 @@ def dxf_document(
     tolerance: float = DEFAULT_TOLERANCE,
     kerf: float = 0.0,
     dxf_version: str = DEFAULT_VERSION,
+    entities: str | None = None,
+    origin: str = DEFAULT_ORIGIN,
 ) -> Any:
     """The ezdxf ``Drawing`` of the outline (see the module docstring for the options, all mm)."""
     import ezdxf
-    from ezdxf.enums import TextEntityAlignment
 
-    check_options(curves, tolerance, kerf, dxf_version)
+    from fabpat.exchange.labels import place_label
+
+    check_options(curves, tolerance, kerf, dxf_version, entities, origin)
+    mode = entity_mode(curves, dxf_version, entities)
+    outline = translated(outline, origin_shift(outline, kerf, origin))
     ezdxf_log = logging.getLogger("ezdxf")
     level = ezdxf_log.level
     if dxf_version == "R12":  # R12 has no $INSUNITS; ezdxf would log that on every new document
@@ -241,15 +322,17 @@ def dxf_document(
 
     half = 0.5 * kerf
     if curves == "spline":
-        exact = half == 0
-        splines = [spline_loop(lp) for lp in outline.loops] if exact else offset_spline_loops(outline, half, tolerance)
-        for sp in splines:
-            msp.add_rational_spline(sp.control.tolist(), sp.weights.tolist(), sp.degree, sp.knots.tolist(),
-                                    dxfattribs=cut)
+        for pieces in spline_pieces(outline) if half == 0 else offset_spline_pieces(outline, half, tolerance):
+            for p in pieces:
+                _add_piece(msp, p, cut)
     elif curves == "arcs":
         loops = bulge_loops(outline, tolerance)
         for lp in offset_bulge_loops(loops, half) if half > 0 else loops:
-            add_closed([(float(x), float(y), float(b)) for (x, y), b in zip(lp.V, lp.bulges, strict=True)])
+            if mode == "polyline":
+                add_closed([(float(x), float(y), float(b)) for (x, y), b in zip(lp.V, lp.bulges, strict=True)])
+            else:
+                for p in _bulge_pieces(lp):
+                    _add_piece(msp, p, cut)
     else:
         if half > 0:  # offset the arc fit, then flatten: fit and flattening get half the tolerance each
             grown = offset_bulge_loops(bulge_loops(outline, 0.5 * tolerance), half)
@@ -257,11 +340,16 @@ def dxf_document(
         else:
             polys = [polyline(lp, tolerance) for lp in outline.loops]
         for P in polys:
-            add_closed([(float(x), float(y), 0.0) for x, y in P])
-    if label:
-        (x, y), height = label_placement(outline, label)
-        text = msp.add_text(label, height=height, dxfattribs={"layer": ENGRAVE_LAYER})
-        text.set_placement((x, y), align=TextEntityAlignment.MIDDLE_CENTER)
+            if mode == "polyline":
+                add_closed([(float(x), float(y), 0.0) for x, y in P])
+            else:
+                for a, b in zip(P, np.roll(P, -1, axis=0), strict=True):
+                    msp.add_line(tuple(a), tuple(b), dxfattribs=cut)
+    placed = place_label(outline, label) if label else None
+    if placed is not None:
+        msp.add_text(placed.text, height=placed.height, rotation=placed.angle,
+                     dxfattribs={"layer": ENGRAVE_LAYER, "insert": placed.start})
+    set_extents(doc)
     return doc
 
 
@@ -284,6 +372,8 @@ def write(part: Part, path: Path, settings: ExportSettings) -> None:
         tolerance=settings.curve_tolerance,
         kerf=settings.kerf,
         dxf_version=settings.dxf_version,
+        entities=settings.dxf_entities,
+        origin=settings.origin,
     )
 
 
@@ -294,6 +384,8 @@ def write_dxf(outline: Outline, path: str | os.PathLike[str], label: str | None 
         options.get("tolerance", DEFAULT_TOLERANCE),
         options.get("kerf", 0.0),
         options.get("dxf_version", DEFAULT_VERSION),
+        options.get("entities"),
+        options.get("origin", DEFAULT_ORIGIN),
     )
     with atomic_outputs(path) as (tmp,):
         dump_dxf(outline, tmp, label, **options)

@@ -40,6 +40,9 @@ class ExportSettings:
     ``mesh_tolerance``: STL/3MF chord height; ``angular_tolerance``: BRepMesh angle (rad);
     ``curves``: DXF curve mode (arcs, spline, lines); ``curve_tolerance``: DXF/SVG fit tolerance;
     ``kerf``: laser kerf width (DXF/SVG loops move out by kerf / 2); ``dxf_version``: R2010, R12, …;
+    ``dxf_entities``: polyline or segments (None: the default for the curve mode and version, see
+    :mod:`fabpat.exchange.dxf`); ``svg_curves``: exact or cubic (:mod:`fabpat.exchange.svg`);
+    ``origin``: corner or centre, where a single part's DXF/SVG lies (:mod:`fabpat.exchange.origin`);
     ``timestamp``: fixed STEP header time (ISO 8601) for reproducible files.
     """
 
@@ -49,14 +52,19 @@ class ExportSettings:
     curve_tolerance: float = 0.01
     kerf: float = 0.0
     dxf_version: str = "R2010"
+    dxf_entities: str | None = None
+    svg_curves: str = "cubic"
+    origin: str = "corner"
     timestamp: str | None = None
 
     def check(self) -> None:
         """Raise :class:`ExportError` for an option no writer could honour."""
         from fabpat.exchange.dxf import check_options
         from fabpat.exchange.step import check_timestamp
+        from fabpat.exchange.svg import check_svg_curves
 
-        check_options(self.curves, self.curve_tolerance, self.kerf, self.dxf_version)
+        check_options(self.curves, self.curve_tolerance, self.kerf, self.dxf_version, self.dxf_entities, self.origin)
+        check_svg_curves(self.svg_curves)
         check_timestamp(self.timestamp, "timestamp")
         for what, v in (("mesh tolerance", self.mesh_tolerance), ("angular tolerance", self.angular_tolerance)):
             if not (v > 0 and math.isfinite(v)):

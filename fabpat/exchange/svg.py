@@ -1,11 +1,27 @@
-"""SVG of the exact outline at true size (mm), for laser software that takes SVG and for documents.
+"""SVG of the outline at true size (mm), for laser and cutter software and for documents.
 
-Without kerf the path is :meth:`fabpat.outline.Outline.to_svg_path`: lines, exact elliptical ``A``
-arcs for w < 1, quadratic ``Q`` for w = 1 (hyperbolic arcs, w > 1, which SVG cannot express, are
-flattened within 0.001 mm). With ``kerf`` > 0 the loops are the kerf offset of the circular-arc fit
-(:func:`fabpat.cad.offset_bulge_loops`, within ``tolerance`` mm), written as lines and circular
-``A`` arcs. The default style is the laser convention (red hairline cut path, no fill, ID in blue);
-``filled=True`` draws the part black with holes empty (even-odd rule).
+Coordinates are written already in SVG's frame (y down, 1 user unit = 1 mm): no ``transform`` on
+the cut path, so software that ignores transforms places the part right. ``origin`` as in
+:mod:`fabpat.exchange.origin`: "corner" (default) puts the part 1 mm from the page's left and bottom
+edges on a page (``viewBox`` 0 0 W H) with 1 mm of white space around it; "centre" keeps the
+pattern's frame, polygon centre at (0, 0).
+
+Curves (``curves``):
+
+* ``"cubic"`` (default, for cutting): lines and cubic Béziers ``C`` within ``tolerance`` mm of the
+  exact outline (:mod:`fabpat.exchange.cubic`) — what every cutter and plotter reads.
+* ``"exact"``: lines, exact elliptical ``A`` arcs for w < 1 (rotated ellipses in general), quadratic
+  ``Q`` for w = 1 (:meth:`fabpat.outline.Outline.to_svg_path`; hyperbolic arcs, w > 1, which SVG
+  cannot express, flattened within 0.001 mm). Browsers and svgelements read it exactly; some
+  libraries and cutters mis-place rotated arcs.
+
+With ``kerf`` > 0 the loops are the kerf offset of the circular-arc fit
+(:func:`fabpat.cad.offset_bulge_loops`): circular ``A`` arcs (never rotated) in "exact" mode, cubic
+Béziers in "cubic" mode (arc fit and cubic each within half the tolerance). The default style is
+the laser convention (red hairline cut path, no fill, ID in blue); ``filled=True`` draws the part
+black with holes empty (even-odd rule). The label (:func:`fabpat.exchange.labels.place_label`)
+starts at its first point (``text-anchor`` start, alphabetic baseline); only a label turned along a
+bar of a lacy part carries a ``rotate`` transform.
 """
 
 from __future__ import annotations
@@ -16,16 +32,28 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 from xml.sax.saxutils import escape, quoteattr
 
+import numpy as np
+from numpy.typing import NDArray
+
 from fabpat.cad import BulgeLoop, bulge_loops, offset_bulge_loops
 from fabpat.errors import ExportError
+from fabpat.exchange.origin import DEFAULT_ORIGIN, ORIGIN_MARGIN, origin_shift, transformed
 from fabpat.io import atomic_outputs
-from fabpat.outline import Outline
+from fabpat.outline import Line, Outline
 
 if TYPE_CHECKING:  # pragma: no cover
     from fabpat.exchange.registry import ExportSettings, Part
 
-MARGIN = 1.0  # mm of white space around the part
+SVG_CURVES = ("exact", "cubic")
+DEFAULT_SVG_CURVES = "cubic"
+MARGIN = ORIGIN_MARGIN  # mm of white space around the part
 CUT_STROKE = 0.1  # mm: thin enough for laser software to read as a cut line, thick enough to see
+
+
+def check_svg_curves(curves: str) -> None:
+    """Raise :class:`ExportError` for an unknown SVG curve mode."""
+    if curves not in SVG_CURVES:
+        raise ExportError(f"unknown SVG curve mode {curves!r}: choose one of {', '.join(SVG_CURVES)}")
 
 
 def _num(v: float) -> str:
@@ -33,24 +61,62 @@ def _num(v: float) -> str:
     return "0" if s in ("-0", "") else s
 
 
-def bulge_path(loops: list[BulgeLoop]) -> str:
-    """SVG path data (y up, mm) of lines-and-circular-arcs loops; sweep flag 1 = counter-clockwise."""
+def _pt(p: NDArray[np.float64]) -> str:
+    return f"{_num(p[0])} {_num(p[1])}"
+
+
+def _cubics(cubics: list[NDArray[np.float64]]) -> list[str]:
+    return [f"C {_pt(C[1])} {_pt(C[2])} {_pt(C[3])}" for C in cubics]
+
+
+def bulge_path(loops: list[BulgeLoop], cubic_tol: float | None = None) -> str:
+    """SVG path data of lines-and-circular-arcs loops, in the coordinates given.
+
+    Arcs as circular ``A`` commands (sweep flag 1 = positive angle direction of these coordinates),
+    or, with ``cubic_tol`` (mm), as cubic Béziers within it.
+    """
+    from fabpat.exchange.cubic import bulge_to_quads, quad_to_cubics
+
     out: list[str] = []
     for lp in loops:
-        out.append(f"M {_num(lp.V[0, 0])} {_num(lp.V[0, 1])}")
+        out.append(f"M {_pt(lp.V[0])}")
         k = len(lp.V)
         for i, b in enumerate(lp.bulges):
             s, e = lp.V[i], lp.V[(i + 1) % k]
             if b == 0.0:
-                out.append(f"L {_num(e[0])} {_num(e[1])}")
-                continue
-            theta = 4.0 * math.atan(abs(float(b)))
-            r = math.hypot(*(e - s)) / (2.0 * math.sin(0.5 * theta))
-            large = 1 if theta > math.pi else 0
-            sweep = 1 if b > 0 else 0
-            out.append(f"A {_num(r)} {_num(r)} 0 {large} {sweep} {_num(e[0])} {_num(e[1])}")
+                out.append(f"L {_pt(e)}")
+            elif cubic_tol is not None:
+                for P, w in bulge_to_quads(s, e, float(b)):
+                    out += _cubics(quad_to_cubics(P, w, cubic_tol))
+            else:
+                theta = 4.0 * math.atan(abs(float(b)))
+                r = math.hypot(*(e - s)) / (2.0 * math.sin(0.5 * theta))
+                large = 1 if theta > math.pi else 0
+                sweep = 1 if b > 0 else 0
+                out.append(f"A {_num(r)} {_num(r)} 0 {large} {sweep} {_pt(e)}")
         out.append("Z")
     return " ".join(out)
+
+
+def cubic_path(outline: Outline, tol: float) -> str:
+    """SVG path data of the outline with lines as ``L`` and arcs as cubic Béziers within ``tol`` mm."""
+    from fabpat.exchange.cubic import quad_to_cubics
+
+    out: list[str] = []
+    for loop in outline.loops:
+        out.append(f"M {_pt(loop.segments[0].start)}")
+        for s in loop.segments:
+            if isinstance(s, Line) or s.is_straight:
+                out.append(f"L {_pt(s.end)}")
+            else:
+                out += _cubics(quad_to_cubics(s.control_points, s.w, tol))
+        out.append("Z")
+    return " ".join(out)
+
+
+def _flipped(loops: list[BulgeLoop], top: float) -> list[BulgeLoop]:
+    """Loops mirrored to y' = top − y (a mirror turns every arc the other way)."""
+    return [BulgeLoop(np.column_stack([lp.V[:, 0], top - lp.V[:, 1]]), -lp.bulges) for lp in loops]
 
 
 def svg_document(
@@ -59,32 +125,47 @@ def svg_document(
     *,
     kerf: float = 0.0,
     tolerance: float = 0.01,
+    curves: str = DEFAULT_SVG_CURVES,
+    origin: str = DEFAULT_ORIGIN,
     filled: bool = False,
     title: str | None = None,
 ) -> str:
-    """A standalone SVG document of the outline (width/height in mm, viewBox in mm)."""
+    """A standalone SVG document of the outline (width/height in mm, viewBox in mm).
+
+    Options as in the module docstring; raises :class:`ExportError` for a bad one.
+    """
+    from fabpat.exchange.labels import place_label
+
     if not (kerf >= 0 and math.isfinite(kerf)):
         raise ExportError(f"kerf must be ≥ 0 mm, got {kerf:g}")
+    if not (tolerance > 0 and math.isfinite(tolerance)):
+        raise ExportError(f"curve tolerance must be > 0 mm, got {tolerance:g}")
+    check_svg_curves(curves)
+    shift = origin_shift(outline, kerf, origin)
+    box = outline.bbox + shift  # the cut path's box is this grown by kerf / 2 (exact for an offset)
+    lo, hi = box[0] - 0.5 * kerf, box[1] + 0.5 * kerf
+    # SVG y = top − model y: the page's top edge is `top` above the model's x axis (corner) or the
+    # model's frame is kept with y negated (centre).
+    top = hi[1] + MARGIN if origin == "corner" else 0.0
+    cubic = curves == "cubic"
     if kerf > 0:
-        loops = offset_bulge_loops(bulge_loops(outline, tolerance), 0.5 * kerf)
-        d = bulge_path(loops)
-        pts = [lp.flatten(tolerance) for lp in loops]
+        fit = 0.5 * tolerance if cubic else tolerance
+        moved = transformed(outline, shift)
+        loops = _flipped(offset_bulge_loops(bulge_loops(moved, fit), 0.5 * kerf), top)
+        d = bulge_path(loops, 0.5 * tolerance if cubic else None)
     else:
-        d = outline.to_svg_path()
-        pts = outline.flatten(tolerance)
-    lo = [min(float(P[:, i].min()) for P in pts) for i in (0, 1)]
-    hi = [max(float(P[:, i].max()) for P in pts) for i in (0, 1)]
+        page = transformed(outline, shift, flip_y=top)
+        d = cubic_path(page, tolerance) if cubic else page.to_svg_path()
     parts: list[str] = []
-    if label:
-        from fabpat.exchange.dxf import label_placement
-
-        (x, y), h = label_placement(outline, label)
-        lo = [min(lo[0], x), min(lo[1], y - h)]
+    placed = place_label(transformed(outline, shift), label) if label else None
+    if placed is not None:
+        x, y = placed.start[0], top - placed.start[1]
+        turn = f' transform="rotate({_num(-placed.angle)} {_num(x)} {_num(y)})"' if placed.angle else ""
         parts.append(
-            f'<text x="{_num(x)}" y="{_num(-y)}" font-size="{_num(h)}" font-family="sans-serif" '
-            f'text-anchor="middle" dominant-baseline="central" fill="#0000ff">{escape(label)}</text>'
+            f'<text x="{_num(x)}" y="{_num(y)}" font-size="{_num(placed.height)}" font-family="sans-serif" '
+            f'fill="#0000ff"{turn}>{escape(placed.text)}</text>'
         )
-    x0, y0 = lo[0] - MARGIN, -hi[1] - MARGIN  # SVG y points down: model y flipped by the transform
+    x0, y0 = lo[0] - MARGIN, top - hi[1] - MARGIN
     w, h = hi[0] - lo[0] + 2 * MARGIN, hi[1] - lo[1] + 2 * MARGIN
     style = 'fill="black" stroke="none"' if filled else f'fill="none" stroke="#ff0000" stroke-width="{CUT_STROKE}"'
     head = (
@@ -93,14 +174,14 @@ def svg_document(
         f'viewBox="{_num(x0)} {_num(y0)} {_num(w)} {_num(h)}">'
     )
     name = f"<title>{escape(title)}</title>" if title else ""
-    path = f'<path id={quoteattr("cut")} transform="scale(1,-1)" fill-rule="evenodd" {style} d="{d}"/>'
+    path = f'<path id={quoteattr("cut")} fill-rule="evenodd" {style} d="{d}"/>'
     return head + name + path + "".join(parts) + "</svg>\n"
 
 
 def write(part: Part, path: Path, settings: ExportSettings) -> None:
-    """Registry entry point: laser-style SVG with the settings' kerf and tolerance."""
+    """Registry entry point: laser-style SVG with the settings' kerf, tolerance, curves and origin."""
     text = svg_document(part.outline, part.label, kerf=settings.kerf, tolerance=settings.curve_tolerance,
-                        title=part.name)
+                        curves=settings.svg_curves, origin=settings.origin, title=part.name)
     Path(path).write_text(text, encoding="utf-8")
 
 
