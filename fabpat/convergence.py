@@ -1,7 +1,7 @@
 """Mesh-converged scenario energies by Richardson extrapolation from two uniform meshes.
 
 Why (measured; ``benchmarks/study_convergence.py`` and docs/accuracy.md): on library patterns the
-strain energy of the flat shell triangles rises towards its mesh-converged value only like h^1.2, and
+strain energy of the flat shell triangles rises towards its mesh-converged value only like h^1.1–1.3, and
 at h = 1.5 mm it is 1.5–11 % low. The deficit sits in the narrow necks and bars (2–3 mm wide, 1–2
 elements across): on 0x0488 (Cylinder) 5 % of the elements carry 60 % of it, the elements within 2 mm of
 the interface-segment ends almost none. The membrane is not the cause (Felippa's OPT triangle, exact
@@ -26,10 +26,10 @@ from fabpat.errors import SolverError
 from fabpat.mesh import ShellMesh
 from fabpat.scenarios import ScenarioResult, run_scenario
 
-#: order p used for the pair :data:`CONVERGED_MESHES`. The asymptotic order is 1.2 (nested meshes,
-#: docs/accuracy.md); between h = 1.5 and 1.0 the measured decrease is slower, and p = 1 put the
-#: extrapolated energies of a pilot (6 patterns × 3 scenarios, ``sample_library(6, 2, 6, seed=1)``)
-#: within 0.5 % of the reference, p = 1.2 up to 1 % low
+#: order p used for the pair :data:`CONVERGED_MESHES`. On nested meshes the order is 1.1–1.3
+#: (docs/accuracy.md), but between h = 1.5 and 1.0 the energy rises more slowly than that predicts:
+#: on the pilot (0x2d08, 0xf608, 0x0488 × 3 scenarios) p = 1 came within 0.25 % of the reference in
+#: 7 of 9 cases (0x0488: Cylinder −0.65 %, Dome −2.0 %), p = 1.2 up to 1 % lower
 RICHARDSON_ORDER = 1.0
 
 #: the two mesh sizes (mm) of a converged run: coarse, fine
