@@ -14,8 +14,8 @@ Reference: the three finest meshes (by default h = 1.0, 0.7, 0.5) extrapolated t
 E(h) = E∞ − C·hᵖ, least squares per pattern-scenario, with the order p = :data:`REFERENCE_ORDER` = 1.2
 measured on *nested* meshes (every triangle of a Triangle mesh split in four, twice: h = 1.5, 0.75,
 0.375, linear runs: p = 1.09–1.29 on 0x2d08 and 0x0488; docs/accuracy.md). Nested meshes are
-needed to measure it: independent Delaunay meshes scatter by ≈ 0.3 % in energy, and a p fitted to
-them over h = 1.0–0.5 comes out anywhere between 0.4 and 2.5. With p fixed, the reference moves by
+needed to measure it: independent Delaunay meshes scatter by a few tenths of a percent in energy,
+and a p fitted to them over h = 1.0–0.5 comes out anywhere between 0.3 and 2.5. With p fixed, the reference moves by
 ≤ 0.17 % when the meshes are 0.7–0.35 instead of 1.0–0.5 (six pilot pattern-scenarios, nine cases).
 
 Methods compared against it (each reports the worst and median error, the discordant pairs of its
