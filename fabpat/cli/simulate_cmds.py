@@ -56,9 +56,9 @@ def simulate_cmd(
 
     Prints one line per scenario of plain key=value fields (the --json field names): id, scenario,
     energy (total strain energy, N·mm), max_displacement (mm), converged, iterations, seconds (s),
-    nodes, elements, h (mesh sizes, mm). By default the energy is mesh-converged: meshes of h = 1.5 and
-    1.0 mm, Richardson extrapolation (JSON ``mesh_energies`` lists both; the other fields are the finer
-    mesh's); --h gives one mesh and its own energy. With --scenario all, file options get the scenario
+    nodes, elements. By default the energy is mesh-converged: meshes of h = 1.5 and 1.0 mm, Richardson
+    extrapolation (JSON ``h`` and ``mesh_energies`` list both; the other fields are the finer mesh's);
+    --h gives one mesh and its own energy. With --scenario all, file options get the scenario
     appended (out.vtu → out-dome.vtu).
 
     Example: fabpat simulate 0x2d88 --scenario dome --vtu dome.vtu --png dome.png --json
@@ -116,7 +116,7 @@ def simulate_cmd(
                 f"id={row['id']} scenario={row['scenario']} energy={row['energy']:.6g} "
                 f"max_displacement={row['max_displacement']:.4g} converged={str(bool(row['converged'])).lower()} "
                 f"iterations={row['iterations']} seconds={row['seconds']:.2f} nodes={row['nodes']} "
-                f"elements={row['elements']} h={','.join(f'{x:g}' for x in row['h'])}"
+                f"elements={row['elements']}"
             )
     for path in outputs.values():
         click.echo(f"wrote {path}", err=as_json)
