@@ -31,7 +31,10 @@ def _per_scenario(path: str | None, scenario: str, many: bool) -> str | None:
 @click.option("--scenario", type=click.Choice(SCENARIO_CHOICES), default="all", show_default=True,
               help="Load case of the paper (all = the three in turn).")
 @click.option("--linear", is_flag=True, help="Linear analysis instead of geometrically nonlinear.")
-@click.option("--h", "h", type=float, default=1.5, show_default=True, help="Target mesh edge length in mm.")
+@click.option("--h", "h", type=float, default=None,
+              help="Target mesh edge length in mm: one mesh of this size, its own energy. Default: meshes of "
+                   "h = 1.5 and 1.0 mm and the energy extrapolated to the mesh-converged value (Richardson; "
+                   "fields from the finer mesh).")
 @click.option("--thickness", type=float, default=2.0, show_default=True, help="Plate thickness in mm.")
 @click.option("--youngs-modulus", "E", type=float, default=1000.0, show_default=True,
               help="Young's modulus in N/mm² (PLA: 1000).")
@@ -44,7 +47,8 @@ def _per_scenario(path: str | None, scenario: str, many: bool) -> str | None:
               show_default=True, help="Element of --export-inp: S6 (CalculiX), or S3/STRI3 for Abaqus.")
 @click.option("--json", "as_json", is_flag=True, help="Print the results as JSON.")
 def simulate_cmd(
-    pattern_id: str, sides: int, depth: int | None, edge: float, weight: float, scenario: str, linear: bool, h: float,
+    pattern_id: str, sides: int, depth: int | None, edge: float, weight: float, scenario: str, linear: bool,
+    h: float | None,
     thickness: float, E: float, nu: float, vtu: str | None, png: str | None, inp: str | None, inp_element: str,
     as_json: bool,
 ) -> None:
@@ -52,20 +56,24 @@ def simulate_cmd(
 
     Prints one line per scenario of plain key=value fields (the --json field names): id, scenario,
     energy (total strain energy, N·mm), max_displacement (mm), converged, iterations, seconds (s),
-    nodes, elements. With --scenario all, file options get the scenario appended (out.vtu → out-dome.vtu).
+    nodes, elements. By default the energy is mesh-converged: meshes of h = 1.5 and 1.0 mm, Richardson
+    extrapolation (JSON ``h`` and ``mesh_energies`` list both; the other fields are the finer mesh's);
+    --h gives one mesh and its own energy. With --scenario all, file options get the scenario
+    appended (out.vtu → out-dome.vtu).
 
     Example: fabpat simulate 0x2d88 --scenario dome --vtu dome.vtu --png dome.png --json
     """
+    from fabpat.convergence import CONVERGED_MESHES, run_converged
     from fabpat.exchange.inp import write_inp
     from fabpat.exchange.png_result import write_png
     from fabpat.exchange.vtu import write_vtu
     from fabpat.fillet import fillet_pattern
     from fabpat.library import get_pattern
     from fabpat.mesh import mesh_outline
-    from fabpat.scenarios import SCENARIOS, run_scenario
+    from fabpat.scenarios import SCENARIOS
 
     for name, value in (("--h", h), ("--thickness", thickness), ("--youngs-modulus", E)):
-        if not value > 0:
+        if value is not None and not value > 0:
             raise click.BadParameter(f"{name} must be > 0, got {value:g}")
     if not -1.0 < nu < 0.5:
         raise click.BadParameter(f"--poisson must be in (-1, 0.5), got {nu:g}")
@@ -79,19 +87,23 @@ def simulate_cmd(
     }
     check_distinct(outputs.values())  # before the work: --vtu x --png x would overwrite one with the other
     pattern = get_pattern(pattern_id, sides, depth, edge)
-    mesh = mesh_outline(fillet_pattern(pattern, weight), h)  # the outline carries its polygon
+    filleted = fillet_pattern(pattern, weight)  # its outline carries its polygon
+    meshes = [(s, mesh_outline(filleted, s)) for s in (CONVERGED_MESHES if h is None else (h,))]
+    mesh = meshes[-1][1]  # fields, files and node counts come from the finest mesh
     rows = []
     with atomic_outputs(*outputs.values()) as temps:
         tmp_of = dict(zip(outputs, temps, strict=True))
         for sc in scenarios:
-            r = run_scenario(mesh, sc, sides=sides, edge=edge, thickness=thickness, E=E, nu=nu, nonlinear=not linear)
-            if not r.converged:  # run_scenario raises on nonconvergence; this guards the contract
+            c = run_converged(meshes, sc, sides=sides, edge=edge, thickness=thickness, E=E, nu=nu,
+                              nonlinear=not linear)
+            row = c.summary()
+            if not row["converged"]:  # run_scenario raises on nonconvergence; this guards the contract
                 raise FabpatError(f"{sc}: the solver did not converge")
-            rows.append({"id": pattern.id, "sides": sides, **r.summary()})
+            rows.append({"id": pattern.id, "sides": sides, **row})
             if ("vtu", sc) in tmp_of:
-                write_vtu(tmp_of["vtu", sc], mesh.V, mesh.F, r.result)
+                write_vtu(tmp_of["vtu", sc], mesh.V, mesh.F, c.fine.result)
             if ("png", sc) in tmp_of:
-                write_png(tmp_of["png", sc], mesh.V, mesh.F, r.result, title=f"{pattern.id} {sc}")
+                write_png(tmp_of["png", sc], mesh.V, mesh.F, c.fine.result, title=f"{pattern.id} {sc}")
             if ("inp", sc) in tmp_of:
                 write_inp(tmp_of["inp", sc], mesh, sc, sides=sides, thickness=thickness, E=E, nu=nu,
                           nonlinear=not linear, element=inp_element.upper())

@@ -1,0 +1,160 @@
+"""How far are catalog energies from the mesh-converged value, and what does each cure cost? Prints Markdown.
+
+Run (from the repository root)::
+
+    python benchmarks/study_convergence.py                      # 24 patterns, ≈ 15 min on 2 free cores
+    python benchmarks/study_convergence.py --patterns 6 --workers 1
+    python benchmarks/study_convergence.py --h 2 1.5 1 0.7 0.5 0.35 --patterns 6   # the pilot
+
+For ``--patterns`` random library patterns (``sample_library(6, 2, N, seed)``, seeded) and the three
+scenarios (nonlinear, as the sweep runs them), every pattern is filleted and meshed at each mesh size of
+``--h`` (uniform Triangle meshes, :func:`fabpat.mesh.mesh_outline`) and solved.
+
+Reference: the three finest meshes (by default h = 1.0, 0.7, 0.5) extrapolated to h → 0 with the model
+E(h) = E∞ − C·hᵖ, least squares per pattern-scenario, with the order p = :data:`REFERENCE_ORDER` = 1.2
+measured on *nested* meshes (every triangle of a Triangle mesh split in four, twice: h = 1.5, 0.75,
+0.375, linear runs: p = 1.09–1.29 on 0x2d08 and 0x0488; docs/accuracy.md). Nested meshes are
+needed to measure it: independent Delaunay meshes scatter by a few tenths of a percent in energy,
+and a p fitted to them over h = 1.0–0.5 comes out anywhere between 0.3 and 2.5. With p fixed, the reference moves by
+≤ 0.17 % when the meshes are 0.7–0.35 instead of 1.0–0.5 (six pilot pattern-scenarios, nine cases).
+
+Methods compared against it (each reports the worst and median error, the discordant pairs of its
+ranking against the reference ranking per scenario — out of N(N−1)/2 — and the seconds per
+pattern-scenario, meshing included, summed over the meshes it needs):
+
+* a single mesh h (h = 1.5 is what the catalog shipped with);
+* two-mesh Richardson extrapolation E₂ + (E₂ − E₁)/((h₁/h₂)ᵖ − 1) with the order
+  :data:`fabpat.convergence.RICHARDSON_ORDER` that the code uses.
+
+Seconds are CPU seconds of the worker process (one BLAS thread), so a machine shared with other jobs
+(the load average is printed) slows the wall clock but hardly the figures.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import os
+import statistics
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+
+import numpy as np
+
+from fabpat.convergence import RICHARDSON_ORDER, richardson
+from fabpat.library import sample_library
+from fabpat.scenarios import SCENARIOS
+
+Row = dict[tuple[str, float], tuple[float, float, int]]  # (scenario, h) → (energy, seconds, nodes)
+
+
+def _init() -> None:
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(1)  # the pool already uses the cores
+
+
+def run_pattern(pid: str, hs: tuple[float, ...]) -> tuple[str, Row]:
+    """Energy, seconds (meshing shared by the three scenarios) and nodes of every (scenario, h)."""
+    from fabpat.fillet import fillet_pattern
+    from fabpat.library import get_pattern
+    from fabpat.mesh import mesh_outline
+    from fabpat.scenarios import run_scenario
+
+    t0 = time.process_time()
+    outline = fillet_pattern(get_pattern(pid)).outline
+    t_fillet = time.process_time() - t0
+    out: Row = {}
+    for h in hs:
+        t0 = time.process_time()
+        mesh = mesh_outline(outline, h, 6, 36.0)
+        t_mesh = (time.process_time() - t0 + t_fillet) / len(SCENARIOS)
+        for sc in SCENARIOS:
+            t0 = time.process_time()
+            r = run_scenario(mesh, sc, sides=6)
+            out[sc, h] = (r.energy, time.process_time() - t0 + t_mesh, mesh.n_nodes)
+    return pid, out
+
+
+#: asymptotic order of the energy error, measured on nested meshes (module docstring)
+REFERENCE_ORDER = 1.2
+
+
+def extrapolate(E: np.ndarray, hs: np.ndarray, p: float = REFERENCE_ORDER) -> np.ndarray:
+    """Per-case limits E∞ of E(h) = E∞ − C hᵖ, least squares; E: (cases, k) energies on the k meshes hs."""
+    A = np.column_stack([np.ones_like(hs), -(hs**p)])
+    coef, *_ = np.linalg.lstsq(A, E.T, rcond=None)
+    return coef[0]
+
+
+def discordant(a: list[float], b: list[float]) -> int:
+    """Pairs ordered one way by a and the other way by b."""
+    return sum(1 for i, j in itertools.combinations(range(len(a)), 2) if (a[i] - a[j]) * (b[i] - b[j]) < 0)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--patterns", type=int, default=24)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--h", type=float, nargs="+", default=[2.0, 1.5, 1.0, 0.7, 0.5],
+                    help="mesh sizes (mm); the three finest make the reference")
+    ap.add_argument("--save", help="write the raw energies, seconds and nodes to this JSON file")
+    ap.add_argument("--load", help="tabulate a file written by --save instead of computing")
+    a = ap.parse_args()
+    if a.load:
+        raw = json.loads(Path(a.load).read_text())
+        ids, hs, wall, load0, load1, workers = (raw[k] for k in ("ids", "h", "wall", "load0", "load1", "workers"))
+        hs = tuple(hs)
+        data = {pid: {(sc, h): tuple(v) for sc, h, *v in raw["data"][pid]} for pid in ids}
+    else:
+        hs = tuple(sorted(set(a.h), reverse=True))
+        ids = list(sample_library(6, 2, a.patterns, a.seed).ids)
+        t0 = time.perf_counter()
+        load0, workers = os.getloadavg()[0], a.workers
+        data = {}
+        with ProcessPoolExecutor(a.workers, initializer=_init) as pool:
+            for fut in as_completed([pool.submit(run_pattern, pid, hs) for pid in ids]):
+                pid, d = fut.result()
+                data[pid] = d
+                wall, load1 = time.perf_counter() - t0, os.getloadavg()[0]
+                print(f"{len(data)}/{len(ids)} patterns, {wall:.0f} s", file=sys.stderr, flush=True)
+                if a.save:  # after every pattern: a long run interrupted keeps what it has (--load it)
+                    done = [i for i in ids if i in data]
+                    Path(a.save).write_text(json.dumps({
+                        "ids": done, "h": hs, "wall": wall, "load0": load0, "load1": load1, "workers": workers,
+                        "data": {i: [[sc, h, *v] for (sc, h), v in data[i].items()] for i in done}}))
+        ids = [i for i in ids if i in data]
+    ref_h = np.array(hs[-3:])
+    print(f"{len(ids)} patterns: {', '.join(ids)}; meshes h = {', '.join(f'{h:g}' for h in hs)} "
+          f"mm; {wall:.0f} s wall with {workers} workers (load average {load0:.1f} → {load1:.1f})\n")
+    methods: list[tuple[str, tuple[float, ...]]] = [(f"h = {h:g}" + (" (shipped)" if h == 1.5 else ""), (h,))
+                                                    for h in hs[:-1]]
+    methods += [(f"Richardson h = {h1:g} / {h2:g}, p = {RICHARDSON_ORDER:g}", (h1, h2))
+                for h1, h2 in itertools.combinations(hs[:-1], 2)]
+    print(f"Reference: h = {', '.join(f'{h:g}' for h in ref_h)} mm extrapolated with p = {REFERENCE_ORDER:g}.\n")
+    print("| scenario | method | worst error | median error | discordant pairs "
+          "| CPU s per pattern-scenario | nodes (median) |")
+    print("|---|---|---|---|---|---|---|")
+    for sc in SCENARIOS:
+        E = np.array([[data[pid][sc, h][0] for h in ref_h] for pid in ids])
+        ref = extrapolate(E, ref_h)
+        pairs = len(ids) * (len(ids) - 1) // 2
+        for name, mh in methods:
+            if len(mh) == 1:
+                est = [data[pid][sc, mh[0]][0] for pid in ids]
+            else:
+                est = [richardson(data[pid][sc, mh[0]][0], data[pid][sc, mh[1]][0], mh[0], mh[1]) for pid in ids]
+            err = [100.0 * (e / r - 1.0) for e, r in zip(est, ref, strict=True)]
+            worst = max(err, key=abs)
+            secs = statistics.mean(sum(data[pid][sc, h][1] for h in mh) for pid in ids)
+            nodes = statistics.median(data[pid][sc, mh[-1]][2] for pid in ids)
+            print(f"| {sc} | {name} | {worst:+.2f} % | {statistics.median(err):+.2f} % | "
+                  f"{discordant(est, list(ref))} / {pairs} | {secs:.2f} | {nodes:.0f} |")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,84 @@
+"""Mesh-converged energies (fabpat.convergence): the extrapolation formula, and library patterns in the
+three nonlinear scenarios against references from much finer meshes."""
+
+from __future__ import annotations
+
+import pytest
+
+from fabpat.convergence import CONVERGED_MESHES, richardson, run_converged
+from fabpat.errors import SolverError
+from fabpat.fillet import fillet_pattern
+from fabpat.library import get_pattern
+from fabpat.mesh import mesh_outline
+from fabpat.scenarios import SCENARIOS
+
+#: N·mm. Nonlinear energies on uniform meshes h = 1.0, 0.7, 0.5 and 0.35 mm (2 000–13 400 nodes) fitted
+#: by E∞ − C·hᵖ (least squares) with the order p = 1.2 measured on nested meshes (1.1–1.3); E∞ taken (fitting
+#: only 1.0–0.5 or only 0.7–0.35 moves it by ≤ 0.17 %). Computed with this solver on meshes up to 4×
+#: finer than the method's; see docs/accuracy.md. 0x2d08 and 0xf608 are the first two patterns of the
+#: pilot sample ``sample_library(6, 2, 6, seed=1)``; 0x0488 is the lacy pattern of issue 16.
+REFERENCE = {
+    ("0x2d08", "cantilever"): 16.667, ("0x2d08", "cylinder"): 15.967, ("0x2d08", "dome"): 172.61,
+    ("0xf608", "cantilever"): 14.669, ("0xf608", "cylinder"): 12.703, ("0xf608", "dome"): 146.46,
+    ("0x0488", "cantilever"): 21.727, ("0x0488", "cylinder"): 34.570, ("0x0488", "dome"): 430.56,
+}
+
+
+def test_richardson_is_exact_on_the_error_model_it_assumes() -> None:
+    e_inf, c, p = 34.4, 2.5, 1.3
+
+    def energy(h: float) -> float:
+        return e_inf - c * h**p
+
+    assert richardson(energy(1.5), energy(1.0), 1.5, 1.0, p) == pytest.approx(e_inf, rel=1e-12)
+    assert richardson(energy(2.0), energy(0.5), 2.0, 0.5, p) == pytest.approx(e_inf, rel=1e-12)
+
+
+@pytest.mark.parametrize("args", [(10.0, 11.0, 1.0, 1.5), (10.0, 11.0, 1.0, 1.0), (10.0, 11.0, 1.5, 1.0, 0.0)])
+def test_richardson_rejects_meshes_that_do_not_refine(args: tuple[float, ...]) -> None:
+    with pytest.raises(SolverError, match="h_coarse > h_fine"):
+        richardson(*args)
+
+
+def _meshes(pid: str) -> list:
+    outline = fillet_pattern(get_pattern(pid)).outline
+    return [(h, mesh_outline(outline, h, 6, 36.0)) for h in CONVERGED_MESHES]
+
+
+@pytest.mark.parametrize("pid", ["0x2d08", "0xf608"])
+def test_converged_energy_within_one_percent_of_the_refined_reference(pid: str) -> None:
+    meshes = _meshes(pid)
+    for sc in SCENARIOS:
+        r = run_converged(meshes, sc, sides=6)
+        ref = REFERENCE[pid, sc]
+        assert r.energy == pytest.approx(ref, rel=0.01), sc
+        # the single h = 1.5 mesh the catalog used is further off, always low
+        assert r.runs[0].energy < r.energy and abs(r.runs[0].energy / ref - 1) > abs(r.energy / ref - 1), sc
+        assert r.h == CONVERGED_MESHES and r.fine.nodes > r.runs[0].nodes
+
+
+def test_lacy_pattern_shortfall_is_what_docs_accuracy_says() -> None:
+    """0x0488 (bars 2–3 mm wide): cantilever and cylinder within 1 %, the Dome 2.0 % low (h = 1.5 alone:
+    1.9–11 % low). docs/accuracy.md reports this shortfall; a better method must tighten these bounds."""
+    meshes = _meshes("0x0488")
+    for sc, tol in (("cantilever", 0.01), ("cylinder", 0.01), ("dome", 0.025)):
+        r = run_converged(meshes, sc, sides=6)
+        ref = REFERENCE["0x0488", sc]
+        assert r.energy == pytest.approx(ref, rel=tol), sc
+        assert abs(r.runs[0].energy / ref - 1) > 0.015, sc
+
+
+def test_simulate_default_is_extrapolated_and_h_gives_one_mesh() -> None:
+    import json
+
+    from tests.conftest import run_cli
+
+    r = run_cli("simulate", "0x7f88", "--scenario", "cylinder", "--linear", "--json")
+    assert r.returncode == 0, r.stderr
+    row = json.loads(r.stdout)
+    assert row["h"] == [1.5, 1.0] and row["extrapolated"] is True
+    e1, e2 = row["mesh_energies"]
+    assert e1 < e2 < row["energy"]
+    assert row["energy"] == pytest.approx(e2 + (e2 - e1) / (1.5 / 1.0 - 1.0), rel=1e-12)  # p = 1
+    one = json.loads(run_cli("simulate", "0x7f88", "--scenario", "cylinder", "--linear", "--json", "--h", "1.5").stdout)
+    assert one["h"] == [1.5] and one["extrapolated"] is False and one["energy"] == pytest.approx(e1, rel=1e-9)
