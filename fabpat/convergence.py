@@ -60,6 +60,7 @@ class ConvergedResult:
 
     @property
     def fine(self) -> ScenarioResult:
+        """The run on the finest mesh (its fields are the ones reported besides the energy)."""
         return self.runs[-1]
 
     def summary(self) -> dict[str, object]:

@@ -68,17 +68,17 @@ def test_lacy_pattern_shortfall_is_what_docs_accuracy_says() -> None:
         assert abs(r.runs[0].energy / ref - 1) > 0.015, sc
 
 
-def test_simulate_default_is_extrapolated_and_h_gives_one_mesh() -> None:
+def test_simulate_extrapolate_and_default_one_mesh() -> None:
     import json
 
     from tests.conftest import run_cli
 
-    r = run_cli("simulate", "0x7f88", "--scenario", "cylinder", "--linear", "--json")
+    r = run_cli("simulate", "0x7f88", "--scenario", "cylinder", "--linear", "--json", "--extrapolate")
     assert r.returncode == 0, r.stderr
     row = json.loads(r.stdout)
     assert row["h"] == [1.5, 1.0] and row["extrapolated"] is True
     e1, e2 = row["mesh_energies"]
     assert e1 < e2 < row["energy"]
     assert row["energy"] == pytest.approx(e2 + (e2 - e1) / (1.5 / 1.0 - 1.0), rel=1e-12)  # p = 1
-    one = json.loads(run_cli("simulate", "0x7f88", "--scenario", "cylinder", "--linear", "--json", "--h", "1.5").stdout)
+    one = json.loads(run_cli("simulate", "0x7f88", "--scenario", "cylinder", "--linear", "--json").stdout)
     assert one["h"] == [1.5] and one["extrapolated"] is False and one["energy"] == pytest.approx(e1, rel=1e-9)
