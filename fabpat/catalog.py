@@ -175,6 +175,10 @@ class Catalog:
     path: Path
     conn: sqlite3.Connection
     writable: bool
+    #: made by this :func:`open_catalog` call: removed again (or emptied, if it replaced an empty file) on
+    #: close after an error if it holds no pattern
+    created: bool = False
+    replaced_empty: bool = False
 
     # ------------------------------------------------------------------------------ reading
 
@@ -279,15 +283,48 @@ class Catalog:
                 self.conn.execute("PRAGMA wal_checkpoint(TRUNCATE)")
                 self.conn.execute("PRAGMA journal_mode=DELETE")
 
-    def close(self) -> None:
-        """Close the SQLite connection."""
+    def close(self, failed: bool = False) -> None:
+        """Close the SQLite connection. A writable catalog is left as ONE file: if a failure (a full
+        disk that refused SQLite's ``-shm`` index, say) kept :meth:`finish` from leaving WAL mode, the
+        ``-wal``/``-shm`` files are folded back and removed, provided no other process has the catalog
+        open. With ``failed``, a catalog this call created that holds no pattern yet is removed too."""
         self.conn.close()
+        if self.writable:
+            _tidy(self.path, remove_empty=failed and self.created, keep_file=self.replaced_empty)
 
     def __enter__(self) -> Catalog:
         return self
 
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+    def __exit__(self, exc_type: object, *exc: object) -> None:
+        self.close(failed=exc_type is not None)
+
+
+def _tidy(p: Path, remove_empty: bool, keep_file: bool = False) -> None:
+    """Leave WAL mode and remove ``p``'s ``-wal``/``-shm`` files (and ``p`` itself if ``remove_empty``
+    and it has no pattern; with ``keep_file`` it is emptied to 0 bytes instead, as it was), only while
+    holding SQLite's exclusive lock: every WAL-mode connection holds a shared lock on the file, so
+    getting the exclusive one proves nobody else uses them."""
+    side = [p.with_name(p.name + s) for s in ("-wal", "-shm")]
+    if not remove_empty and not any(f.exists() for f in side):
+        return
+    with contextlib.suppress(sqlite3.Error, OSError):
+        # EXCLUSIVE locking keeps the WAL index in memory: this works where the -shm file could not grow
+        conn = sqlite3.connect(f"{p.resolve().as_uri()}?mode=rw", uri=True, timeout=0)
+        try:
+            conn.execute("PRAGMA locking_mode=EXCLUSIVE")
+            # in WAL mode, this first read takes the file's EXCLUSIVE lock (busy if anyone else has it open)
+            empty = conn.execute("SELECT COUNT(*) FROM patterns").fetchone()[0] == 0
+            side[1].unlink(missing_ok=True)  # unused under the lock; on a full disk its space is needed next
+            if conn.execute("PRAGMA journal_mode=DELETE").fetchone()[0] != "delete":  # checkpoints, removes -wal
+                return
+            side[0].unlink(missing_ok=True)
+            if remove_empty and empty:
+                if keep_file:
+                    os.truncate(p, 0)
+                else:
+                    p.unlink()
+        finally:
+            conn.close()
 
 
 def _where(filters: Mapping[str, object]) -> tuple[str, list[object]]:
@@ -328,11 +365,16 @@ def open_catalog(path: str | Path | None = None, *, write: bool = False) -> Cata
         if not p.is_file():
             what = "the built-in catalog" if path is None else "catalog"
             raise CatalogError(f"{what} {p} does not exist; create one with `fabpat sweep --db {p}`")
+        if p.stat().st_size == 0:  # not damaged: a catalog not made yet (sweep makes one in it, as in a missing file)
+            raise CatalogError(f"catalog {p} is an empty file (0 bytes), not a catalog yet; create one with "
+                               f"`fabpat sweep --db {p}`")
         return Catalog(p, _checked_connection(p), False)
     folder = p.parent if str(p.parent) else Path(".")
     if not folder.is_dir():
         raise CatalogError(f"cannot create catalog {p}: folder {folder} does not exist")
-    if not p.exists() or p.stat().st_size == 0:  # SQLite treats an empty file as an empty database
+    replaced_empty = p.exists() and p.stat().st_size == 0  # an empty file is a catalog not made yet
+    created = replaced_empty or not p.exists()
+    if created:
         _create(p, folder)
     else:
         _checked_connection(p).close()  # read-only: a foreign or damaged file is refused unchanged
@@ -343,13 +385,15 @@ def open_catalog(path: str | Path | None = None, *, write: bool = False) -> Cata
         conn = sqlite3.connect(f"{p.resolve().as_uri()}?mode=rw", uri=True, timeout=LOCK_TIMEOUT)
     except sqlite3.Error as e:
         raise _cause(e, p, "open") from e
+    cat = Catalog(p, conn, True, created, replaced_empty)
     try:
         conn.execute("PRAGMA journal_mode=WAL")
         conn.execute("PRAGMA synchronous=NORMAL")
+        conn.execute("SELECT COUNT(*) FROM meta").fetchone()  # WAL's -shm index is made now: a full disk shows here
     except sqlite3.Error as e:
-        conn.close()
+        cat.close(failed=True)  # back to one file as it was, no -wal/-shm
         raise _cause(e, p, "write to") from e
-    return Catalog(p, conn, True)
+    return cat
 
 
 def _checked_connection(p: Path) -> sqlite3.Connection:
@@ -453,6 +497,18 @@ def _os_cause(e: OSError, p: Path, doing: str) -> CatalogError:
     return CatalogError(f"cannot {doing} catalog {p}: {e.strerror or e}")
 
 
+def _disk_full(p: Path) -> bool:
+    """Whether the file system of catalog ``p`` is (nearly) full: SQLite reports a -shm file that cannot
+    grow as a plain I/O error, so the free space is asked (see :func:`fabpat.io.writer_failed`)."""
+    from fabpat.io import FULL_BELOW
+
+    try:
+        st = os.statvfs(p.parent if str(p.parent) else ".")
+    except OSError:
+        return False
+    return st.f_bavail * st.f_frsize < FULL_BELOW
+
+
 def _cause(e: sqlite3.Error, p: Path, doing: str) -> CatalogError:
     """One line naming the real cause of an SQLite error on catalog ``p`` (read-only, locked, full, …)."""
     name = str(getattr(e, "sqlite_errorname", "") or "")
@@ -461,9 +517,12 @@ def _cause(e: sqlite3.Error, p: Path, doing: str) -> CatalogError:
     if name.startswith(("SQLITE_BUSY", "SQLITE_LOCKED")):
         return CatalogError(f"catalog {p} is locked by another process (a running sweep?) for more than "
                             f"{LOCK_TIMEOUT:g} s: wait for it to finish, or give another --db")
-    if name.startswith("SQLITE_FULL"):
-        kept = "; every row committed before is kept" if doing != "create" else ""
-        return CatalogError(f"cannot {doing} catalog {p}: the disk is full{kept}: free space and run again")
+    if name.startswith("SQLITE_FULL") or (name.startswith("SQLITE_IOERR") and _disk_full(p)):
+        if doing == "create":
+            return CatalogError(f"cannot create catalog {p}: the disk is full: free space and run again")
+        # a sweep's read can need disk too (the WAL index): whatever was being done, results cannot be stored
+        return CatalogError(f"cannot store results in catalog {p}: the disk is full; every row committed before "
+                            "is kept: free space and run again")
     if name.startswith(("SQLITE_CORRUPT", "SQLITE_NOTADB")):
         return CatalogError(f"catalog {p} is damaged ({e}): try `sqlite3 {p} .recover` to save what is left, "
                             "or give another --db")

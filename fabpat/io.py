@@ -8,7 +8,8 @@ crash, Ctrl-C, SIGTERM) never leaves a partial or half-written file behind.
   exception); a run killed outright (SIGKILL, power loss) leaves them, and the next run writing into
   that folder removes every such file whose process is gone (:func:`remove_stale_temps`).
 * Two outputs of one block naming the same file are refused (:func:`check_distinct`), for every
-  command at once.
+  command at once; so is an output that is one of the command's input files (a catalog, a spec),
+  declared with :func:`input_scope` / ``check_distinct(..., inputs=...)``, also through links.
 * A target that is a symbolic link is written *through*: the link stays and the file it points to
   is replaced (atomically, in the link target's folder). A dangling link is refused.
 * An output folder created by :func:`output_folder` is removed again when nothing could be written
@@ -18,12 +19,13 @@ crash, Ctrl-C, SIGTERM) never leaves a partial or half-written file behind.
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import errno
 import os
 import re
 import secrets
 import shutil
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 
 from fabpat.errors import ExportError
@@ -76,10 +78,50 @@ def remove_stale_temps(folder: str | os.PathLike[str]) -> list[Path]:
     return removed
 
 
-def check_distinct(paths: Iterable[str | os.PathLike[str]]) -> None:
-    """Raise :class:`ExportError` if two of ``paths`` name the same file (after following links)."""
+#: the input files of the running command: (how the command names it, path); see input_scope
+_INPUTS: contextvars.ContextVar[tuple[tuple[str, str], ...]] = contextvars.ContextVar("fabpat_inputs", default=())
+
+
+@contextlib.contextmanager
+def input_scope() -> Iterator[None]:
+    """A block (one CLI command) whose declared input files no output may replace: inputs declared with
+    ``check_distinct(..., inputs=...)`` inside it are forgotten when it ends."""
+    token = _INPUTS.set(())
+    try:
+        yield
+    finally:
+        _INPUTS.reset(token)
+
+
+def _same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:
+    """Whether two paths name one file: the same path after following symbolic links, or one file
+    under two names (a hard link)."""
+    if os.path.realpath(a) == os.path.realpath(b):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one of them does not exist (yet): not the same file
+        return False
+
+
+def check_distinct(paths: Iterable[str | os.PathLike[str]],
+                   inputs: Mapping[str, str | os.PathLike[str] | None] | None = None) -> None:
+    """Raise :class:`ExportError` if two of ``paths`` name the same file (after following links), or if
+    one of them is an input file of the command.
+
+    ``inputs`` maps how the command names an input (``"--db"``, ``"SPEC"``) to its path (None: not
+    given); they are remembered for the rest of the :func:`input_scope` (the CLI command), so every
+    later :func:`atomic_outputs` refuses to replace them too — also a file inside an output folder.
+    """
+    if inputs:
+        _INPUTS.set(_INPUTS.get() + tuple((k, os.fspath(v)) for k, v in inputs.items() if v is not None))
     seen: dict[str, Path] = {}
     for p in paths:
+        for name, src in _INPUTS.get():
+            if _same_file(p, src):
+                same = f"{p}" if os.path.abspath(p) == os.path.abspath(src) else f"{p} (the same file as {src})"
+                raise ExportError(f"the output {same} is the input {name} of this command: writing it would "
+                                  "replace the input; give the output another path")
         key = os.path.realpath(p)
         if key in seen:
             same = f"{p}" if str(seen[key]) == str(p) else f"{seen[key]} and {p}"
@@ -108,6 +150,29 @@ def write_error(target: str | os.PathLike[str], e: OSError) -> ExportError:
         return ExportError(f"cannot write {target}: the disk is full ({e.strerror or e}); free space in "
                            f"{folder} and run again")
     return ExportError(f"cannot write {target}: {e.strerror or e}")
+
+
+#: bytes: a folder with less free space than this after a failed write is called full (a failed writer's
+#: partial file has used up what was left; an honest "the disk is full" needs the space to be gone)
+FULL_BELOW = 256 * 1024
+
+
+def writer_failed(path: str | os.PathLike[str], what: str) -> OSError:
+    """The ``OSError`` to raise when a writer that reports no ``errno`` (OCCT's STEP and STL writers
+    return a failure status) could not write ``path``: ``ENOSPC`` if the file system of ``path`` has
+    less than :data:`FULL_BELOW` bytes free for the user (``os.statvfs``), so the message says "the
+    disk is full" only when it is; otherwise ``EIO`` with ``what`` as its text. Its ``filename`` is
+    ``path``, so :func:`atomic_outputs` names the target instead of the temporary file.
+    """
+    folder = os.path.dirname(os.fspath(path)) or "."
+    try:
+        st = os.statvfs(folder)
+        full = st.f_bavail * st.f_frsize < FULL_BELOW
+    except OSError:
+        full = False
+    if full:
+        return OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), os.fspath(path))
+    return OSError(errno.EIO, what, os.fspath(path))
 
 
 def check_writable(path: str | os.PathLike[str]) -> Path:

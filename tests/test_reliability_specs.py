@@ -18,12 +18,15 @@ SPHERE = ROOT / "assemblies" / "truncated-icosahedron.toml"
 SMALL = ROOT / "assemblies" / "test-small.toml"
 
 
-def edited(src: Path, dst: Path, **changes: str) -> Path:
-    """``src`` with ``key = value`` lines replaced (the first line of that key in the file)."""
+def edited(src: Path, dst: Path, **changes: str | None) -> Path:
+    """``src`` with ``key = value`` lines replaced (the first line of that key in the file; None: removed)."""
     lines = src.read_text(encoding="utf-8").splitlines()
     for key, value in changes.items():
         k = next(i for i, ln in enumerate(lines) if ln.split("=")[0].strip() == key)
-        lines[k] = f"{key} = {value}"
+        if value is None:
+            del lines[k]
+        else:
+            lines[k] = f"{key} = {value}"
     dst.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return dst
 
@@ -104,7 +107,8 @@ def test_ranges_follow_the_geometry() -> None:
 
 def test_plates_too_thin_to_print(tmp_path: Path) -> None:
     """edge = 12 printed: export warns for these plates, the kit refuses them, or warns with --force."""
-    spec = edited(SPHERE, tmp_path / "s.toml", edge="12.0", process='"print"', depth="1.5", formats='["bom"]')
+    spec = edited(SPHERE, tmp_path / "s.toml", edge="12.0", process='"print"', depth="1.5", formats='["bom"]',
+                  kerf=None, cut_speed=None)  # laser-only keys are refused with process = "print"
     res = invoke("assemble", str(spec), "--out", str(tmp_path / "kit"), "--no-progress")
     one_line_error(res, "plate hex 0x0488: min feature width 0.658 mm is below 0.8 mm for printing",
                    "(and 1 more)", "--force")

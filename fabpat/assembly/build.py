@@ -222,7 +222,7 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
     from fabpat.assembly.sheets import nest_plates
     from fabpat.exchange.step import check_timestamp
 
-    check_timestamp(timestamp)
+    timestamp = check_timestamp(timestamp)
     if not isinstance(spec, AssemblySpec):
         spec = load_spec(spec)
     out = Path(out)

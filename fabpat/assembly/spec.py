@@ -21,10 +21,11 @@ A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented 
   the sheets' DXF arcs from the exact outlines, default 0.01).
 
 Every error is a :class:`~fabpat.errors.SpecError` whose one line names the file, the key and what
-is allowed. A key the chosen way of picking patterns does not read (``count`` beside ``hexagon``) is
-an error, never ignored. Ranges that depend on the geometry (``tiling.edge``, ``plates.weight``,
-``sleeve.depth``) are checked by :func:`fabpat.assembly.placement.check_geometry` before any work;
-see docs/reliability.md.
+is allowed. A key the chosen way of picking patterns does not read (``count`` beside ``hexagon``), or
+one the process does not use (``sheet.kerf``, ``estimates.cut_speed`` with ``plates.process = "print"``),
+is an error, never ignored; so is a format listed twice. Ranges that depend on the geometry
+(``tiling.edge``, ``plates.weight``, ``sleeve.depth``) are checked by
+:func:`fabpat.assembly.placement.check_geometry` before any work; see docs/reliability.md.
 """
 
 from __future__ import annotations
@@ -151,6 +152,12 @@ class _Table:
 
     def has(self, key: str) -> bool:
         return key in self.data
+
+    def only_for(self, key: str, process: str, needed: str) -> None:
+        """A key read only for one ``plates.process`` is an error elsewhere, like a key of another tiling."""
+        if key in self.data and process != needed:
+            raise self.fail(key, f"does not apply to plates.process = {process!r} (it goes with plates.process = "
+                            f"{needed!r})")
 
     def number(self, key: str, default: float | None, minimum: float = 0.0, strict: bool = True) -> float:
         if key not in self.data:
@@ -320,13 +327,15 @@ def _sleeve(source: str, data: Any) -> SleeveSpec:
 
 def _sheet(source: str, data: Any, process: str) -> SheetSpec:
     t = _Table(source, "sheet", data, ("width", "height", "margin", "spacing", "kerf", "border"))
+    t.only_for("kerf", process, "laser")  # printed plates are not cut: a kerf would only move their outlines
     kerf = t.number("kerf", 0.15 if process == "laser" else 0.0, strict=False)
     return SheetSpec(t.number("width", None), t.number("height", None), t.number("margin", 5.0, strict=False),
                      t.number("spacing", 3.0, strict=False), kerf, t.boolean("border", True))
 
 
-def _estimates(source: str, data: Any) -> EstimateSpec:
+def _estimates(source: str, data: Any, process: str) -> EstimateSpec:
     t = _Table(source, "estimates", data, ("cut_speed", "print_rate"))
+    t.only_for("cut_speed", process, "laser")  # print_rate applies to both: sleeves are always printed
     return EstimateSpec(t.number("cut_speed", 15.0), t.number("print_rate", 3.0))
 
 
@@ -345,7 +354,10 @@ def _formats(t: _Table) -> tuple[str, ...]:
     for f in formats:
         if f not in FORMATS:
             raise t.fail("formats", f"contains {f!r}: allowed values are {', '.join(FORMATS)}")
-    return tuple(dict.fromkeys(formats))
+    twice = [f for i, f in enumerate(formats) if f in formats[:i]]
+    if twice:  # a typo or a merge slip: say so rather than pick one silently
+        raise t.fail("formats", f"lists {twice[0]!r} twice: give each format once")
+    return tuple(formats)
 
 
 def check_sheet_fits(spec: AssemblySpec) -> None:
@@ -390,7 +402,7 @@ def parse_spec(data: Mapping[str, Any], source: str = "<spec>") -> AssemblySpec:
     readers: dict[str, Callable[[], Any]] = {
         "sleeve": lambda: _sleeve(source, data.get("sleeve", {})),
         "sheet": lambda: _sheet(source, data["sheet"], plates.process),
-        "estimates": lambda: _estimates(source, data.get("estimates", {})),
+        "estimates": lambda: _estimates(source, data.get("estimates", {}), plates.process),
         "output": lambda: _output(source, data.get("output", {})),
     }
     values = {k: f() for k, f in readers.items()}

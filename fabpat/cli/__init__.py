@@ -51,7 +51,9 @@ class FabpatGroup(click.Group):
         """Run the group; usage errors and :class:`FabpatError` become one stderr line and exit code 2."""
         kwargs["standalone_mode"] = False
         try:
-            with _sigterm_unwinds():
+            from fabpat.io import input_scope
+
+            with _sigterm_unwinds(), input_scope():  # no output of the command may replace its inputs
                 rv = super().main(*args, **kwargs)
         except click.exceptions.UsageError as e:
             _fail(e.format_message())

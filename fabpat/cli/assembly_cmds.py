@@ -32,9 +32,12 @@ def assemble_cmd(spec: str, out: str, progress: bool, timestamp: str | None, for
     from fabpat.assembly.build import assemble, steps
     from fabpat.assembly.spec import load_spec
     from fabpat.exchange.step import check_timestamp
+    from fabpat.io import check_distinct
 
-    check_timestamp(timestamp)
+    timestamp = check_timestamp(timestamp)
+    check_distinct([], inputs={"SPEC": spec})  # no file of the kit may replace the spec …
     parsed = load_spec(spec)
+    check_distinct([], inputs={"patterns.catalog": parsed.patterns.catalog})  # … or the catalog it reads
     names = steps(parsed)
     bar = None
     if progress:
@@ -114,7 +117,7 @@ def simulate_strip_cmd(spec: str, h: float, load_factor: float, compression: flo
     if not -1.0 < nu < 0.5:
         raise click.BadParameter(f"--poisson must be in (-1, 0.5), got {nu:g}")
     outputs = [p for p in (vtu, png) if p is not None]
-    check_distinct(outputs)
+    check_distinct(outputs, inputs={"SPEC": spec})
     parsed = load_spec(spec)
     t = parsed.tiling
     if t.kind != "honeycomb-strip":

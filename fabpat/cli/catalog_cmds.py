@@ -57,8 +57,10 @@ def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, wo
     )
 
     from fabpat.cli.library_cmds import load_library
+    from fabpat.io import check_distinct
     from fabpat.sweep import SweepSetup, run_sweep
 
+    check_distinct([], inputs={"--db": db})  # the library cache, say, may never replace the catalog
     if not -1.0 < poisson < 0.5:
         raise click.BadParameter(f"must be in (-1, 0.5), got {poisson:g}", param_hint="--poisson")
     if dask_address and workers:
@@ -116,7 +118,9 @@ def catalog_cmd(db: str | None, fmt: str, long_: bool, sides: int | None) -> Non
     """
     from fabpat.catalog import open_catalog
     from fabpat.cli.library_cmds import _print_rows
+    from fabpat.io import check_distinct
 
+    check_distinct([], inputs={"--db": db})
     with open_catalog(db) as cat:
         if long_:
             rows = cat.results(sides=sides)
@@ -156,7 +160,9 @@ def browse_cmd(db: str | None, out: str, open_: bool, sides: int | None) -> None
     """
     from fabpat.browse import write_page
     from fabpat.catalog import open_catalog
+    from fabpat.io import check_distinct
 
+    check_distinct([out], inputs={"--db": db})
     with open_catalog(db) as cat:
         n = write_page(cat, out, sides)
     size = os.path.getsize(out) / 1e6
@@ -178,10 +184,11 @@ def plot_cmd(db: str | None, out: str, highlight: str | None, sides: int | None)
     Example: fabpat plot --out figures --highlight 0x0488,0x0688
     """
     from fabpat.catalog import open_catalog
-    from fabpat.io import check_output_folder
+    from fabpat.io import check_distinct, check_output_folder
     from fabpat.plots import plot_catalog
 
     check_output_folder(out)
+    check_distinct([], inputs={"--db": db})  # no figure may replace the catalog
     ids = [h.strip() for h in (highlight or "").split(",") if h.strip()]
     if highlight is not None and not ids:  # an empty list is an error, not "no highlight"
         raise click.BadParameter(f"{highlight!r} names no pattern: give IDs such as 0x0488,0x0688",

@@ -358,8 +358,8 @@ def dump_dxf(outline: Outline, path: str | os.PathLike[str], label: str | None =
     doc = dxf_document(outline, label, **options)
     try:
         doc.saveas(os.fsdecode(path))
-    except OSError as e:
-        raise ExportError(f"cannot write the DXF file {path}: {e.strerror}") from e
+    except OSError as e:  # a full disk: atomic_outputs names the target (not this temporary file) and the cause
+        raise OSError(e.errno, e.strerror or str(e), os.fspath(path)) from e
 
 
 def write(part: Part, path: Path, settings: ExportSettings) -> None:

@@ -23,24 +23,34 @@ ORIGINATING_SYSTEM = "fabpat"
 
 
 def check_timestamp(timestamp: str | None, what: str = "--timestamp") -> str | None:
-    """The STEP header time stamp if it is a valid ISO 8601 date or date-time (``2025-01-31``,
-    ``2025-01-31T12:00:00``, ``…Z``, ``…+01:00``); :class:`ExportError` naming ``what`` otherwise.
+    """The STEP header time stamp, normalised to ``YYYY-MM-DDThh:mm:ss`` (plus ``Z`` or ``±hh:mm`` when
+    a zone is given), if ``timestamp`` is a valid ISO 8601 date or date-time (``2025-01-31``,
+    ``2025-01-31T12:00:00``, ``2025-01-31 12:00``, ``20250131``, ``…Z``, ``…+01:00``); fractions of a
+    second are dropped. :class:`ExportError` naming ``what`` otherwise.
 
-    Checked before any work, so free text never reaches a file header (ISO 10303-21 §8.2.3 wants
-    an ISO 8601 time_stamp). Parsed by :meth:`datetime.datetime.fromisoformat`.
+    Checked before any work, so free text never reaches a file header; the normalised form is what the
+    header gets (ISO 10303-21 §8.2.3 wants an ISO 8601 time_stamp, and every accepted spelling of one
+    instant gives the same bytes). Parsed by :meth:`datetime.datetime.fromisoformat`.
     """
-    from datetime import datetime
+    from datetime import datetime, timedelta
 
     if timestamp is None:
         return None
     try:
         if not isinstance(timestamp, str) or not timestamp.isascii() or not timestamp.strip():
             raise ValueError
-        datetime.fromisoformat(timestamp)
+        t = datetime.fromisoformat(timestamp)
     except ValueError:
         raise ExportError(f"{what} {timestamp!r} is not an ISO 8601 date or time: give e.g. 2025-01-31 or "
                           "2025-01-31T12:00:00Z") from None
-    return timestamp
+    text = t.strftime("%Y-%m-%dT%H:%M:%S")
+    offset = t.utcoffset()
+    if offset is not None:
+        if offset == timedelta(0):
+            return text + "Z"
+        minutes = int(abs(offset.total_seconds())) // 60
+        text += f"{'-' if offset < timedelta(0) else '+'}{minutes // 60:02d}:{minutes % 60:02d}"
+    return text
 
 
 def _quiet_occt() -> None:
@@ -83,7 +93,7 @@ def write_document(doc: Any, path: str | os.PathLike[str], name: str, timestamp:
     from OCP.STEPControl import STEPControl_StepModelType
     from OCP.TCollection import TCollection_HAsciiString
 
-    check_timestamp(timestamp, "timestamp")
+    timestamp = check_timestamp(timestamp, "timestamp")
     _quiet_occt()
     # Interface_Static is global OCCT state: set everything we rely on before every write.
     Interface_Static.SetCVal_s("write.step.schema", SCHEMA)
@@ -98,7 +108,9 @@ def write_document(doc: Any, path: str | os.PathLike[str], name: str, timestamp:
     if timestamp is not None:
         header.SetTimeStamp(TCollection_HAsciiString(timestamp))
     if writer.Write(os.fsdecode(path)) != IFSelect_ReturnStatus.IFSelect_RetDone:
-        raise ExportError(f"OCCT could not write the STEP file {path}")
+        from fabpat.io import writer_failed
+
+        raise writer_failed(path, "OCCT could not write the STEP file")
 
 
 def write(part: Part, path: Path, settings: ExportSettings) -> None:

@@ -13,8 +13,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from fabpat.cad import DEFAULT_ANGULAR, DEFAULT_CHORD, mesh
-from fabpat.errors import ExportError
-from fabpat.io import atomic_outputs
+from fabpat.io import atomic_outputs, writer_failed
 
 if TYPE_CHECKING:  # pragma: no cover
     from fabpat.exchange.registry import ExportSettings, Part
@@ -27,7 +26,8 @@ def dump_stl(
 ) -> None:
     """Mesh ``shape`` (``TopoDS_Shape`` or build123d shape) within ``tolerance`` mm and write it.
 
-    Not atomic (see :func:`write_stl`). Raises :class:`ExportError` if OCCT cannot write the file.
+    Not atomic (see :func:`write_stl`). Raises ``OSError`` if OCCT cannot write the file (``ENOSPC``
+    when the disk is full, see :func:`fabpat.io.writer_failed`).
     """
     from OCP.StlAPI import StlAPI_Writer
 
@@ -36,7 +36,7 @@ def dump_stl(
     writer = StlAPI_Writer()
     writer.ASCIIMode = False
     if not writer.Write(shape, os.fsdecode(path)):
-        raise ExportError(f"OCCT could not write the STL file {path}")
+        raise writer_failed(path, "OCCT could not write the STL file")
 
 
 def write(part: Part, path: Path, settings: ExportSettings) -> None:
