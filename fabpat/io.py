@@ -107,7 +107,8 @@ def _same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:
 def check_distinct(paths: Iterable[str | os.PathLike[str]],
                    inputs: Mapping[str, str | os.PathLike[str] | None] | None = None) -> None:
     """Raise :class:`ExportError` if two of ``paths`` name the same file (after following links), or if
-    one of them is an input file of the command.
+    one of them is an input file of the command (the same file, also through a symbolic or hard link)
+    or a folder holding one (an output folder is replaced whole: ``assemble --out``).
 
     ``inputs`` maps how the command names an input (``"--db"``, ``"SPEC"``) to its path (None: not
     given); they are remembered for the rest of the :func:`input_scope` (the CLI command), so every
@@ -122,6 +123,9 @@ def check_distinct(paths: Iterable[str | os.PathLike[str]],
                 same = f"{p}" if os.path.abspath(p) == os.path.abspath(src) else f"{p} (the same file as {src})"
                 raise ExportError(f"the output {same} is the input {name} of this command: writing it would "
                                   "replace the input; give the output another path")
+            if Path(os.path.realpath(src)).is_relative_to(os.path.realpath(p)):  # a folder output replaced whole
+                raise ExportError(f"the output {p} holds the input {name} ({src}): writing it would replace the "
+                                  "input; give the output another path")
         key = os.path.realpath(p)
         if key in seen:
             same = f"{p}" if str(seen[key]) == str(p) else f"{seen[key]} and {p}"

@@ -35,9 +35,9 @@ def assemble_cmd(spec: str, out: str, progress: bool, timestamp: str | None, for
     from fabpat.io import check_distinct
 
     timestamp = check_timestamp(timestamp)
-    check_distinct([], inputs={"SPEC": spec})  # no file of the kit may replace the spec …
+    check_distinct([out], inputs={"SPEC": spec})  # the kit (its folder, any file) may not replace the spec …
     parsed = load_spec(spec)
-    check_distinct([], inputs={"patterns.catalog": parsed.patterns.catalog})  # … or the catalog it reads
+    check_distinct([out], inputs={"patterns.catalog": parsed.patterns.catalog})  # … or the catalog it reads
     names = steps(parsed)
     bar = None
     if progress:
