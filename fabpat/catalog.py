@@ -350,7 +350,10 @@ def open_catalog(path: str | Path | None = None, *, write: bool = False) -> Cata
        ``synchronous=NORMAL``: every commit survives a crash or kill of the process (only a power loss
        can lose the last commits), and readers never block the writer.
     3. A new catalog is built under a temporary name next to ``path`` and linked into place when
-       complete, so a full disk or a kill leaves no empty or half-made file.
+       complete, so a full disk or a kill leaves no empty or half-made file; leaving the returned
+       catalog's ``with`` block by an exception before any pattern is stored removes it again.
+       An empty (0-byte) file counts as no catalog yet: readers refuse it as such, ``write=True``
+       makes the catalog in it.
 
     Raises :class:`CatalogError` naming the real cause: missing, read-only, locked (for longer than
     :data:`LOCK_TIMEOUT`), disk full, damaged (with the ``sqlite3 FILE .recover`` hint), not a fabpat
