@@ -161,13 +161,25 @@ def write_error(target: str | os.PathLike[str], e: OSError) -> ExportError:
 FULL_BELOW = 256 * 1024
 
 
-def writer_failed(path: str | os.PathLike[str], what: str) -> OSError:
-    """The ``OSError`` to raise when a writer that reports no ``errno`` (OCCT's STEP and STL writers
-    return a failure status) could not write ``path``: ``ENOSPC`` if the file system of ``path`` has
-    less than :data:`FULL_BELOW` bytes free for the user (``os.statvfs``), so the message says "the
-    disk is full" only when it is; otherwise ``EIO`` with ``what`` as its text. Its ``filename`` is
-    ``path``, so :func:`atomic_outputs` names the target instead of the temporary file.
+class WriteFailed(ExportError, OSError):
+    """A writer could not write a file: an :class:`ExportError` for callers, and an ``OSError`` (with
+    ``errno`` and ``filename``) so that :func:`atomic_outputs` names the target instead of its
+    temporary file, and a full disk as such."""
+
+    def __str__(self) -> str:
+        return f"cannot write {self.filename}: {self.strerror}"
+
+
+def writer_failed(path: str | os.PathLike[str], what: str, cause: OSError | None = None) -> WriteFailed:
+    """The error to raise when a writer could not write ``path``.
+
+    With ``cause`` (the writer's own ``OSError``), its ``errno`` and text. Without (OCCT's STEP and STL
+    writers and rhino3dm return a failure status, no ``errno``): ``ENOSPC`` if the file system of
+    ``path`` has less than :data:`FULL_BELOW` bytes free for the user (``os.statvfs``), so the message
+    says "the disk is full" only when it is; otherwise ``EIO`` with ``what`` as its text.
     """
+    if cause is not None:
+        return WriteFailed(cause.errno, cause.strerror or what, os.fspath(path))
     folder = os.path.dirname(os.fspath(path)) or "."
     try:
         st = os.statvfs(folder)
@@ -175,8 +187,8 @@ def writer_failed(path: str | os.PathLike[str], what: str) -> OSError:
     except OSError:
         full = False
     if full:
-        return OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), os.fspath(path))
-    return OSError(errno.EIO, what, os.fspath(path))
+        return WriteFailed(errno.ENOSPC, os.strerror(errno.ENOSPC), os.fspath(path))
+    return WriteFailed(errno.EIO, what, os.fspath(path))
 
 
 def check_writable(path: str | os.PathLike[str]) -> Path:

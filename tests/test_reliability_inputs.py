@@ -265,3 +265,23 @@ def test_step_timestamp_is_normalised(tmp_path: Path, given: str, header: str) -
     path = write_step(cad.make_solid(bowtie()), tmp_path / "t.step", "t", timestamp=given)
     text = path.read_text(encoding="utf-8")
     assert f"'{header}'" in text and (given == header or f"'{given}'" not in text)
+
+
+def test_simulate_output_on_a_full_disk_names_the_target(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """meshio's own ENOSPC on the temporary .vtu: the line names r.vtu and the full disk."""
+    import meshio
+
+    def full(path: object, *args: object, **kwargs: object) -> None:
+        Path(str(path)).write_bytes(b"<?xml")
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(meshio, "write", full)
+    res = invoke("simulate", "0x2d88", "--scenario", "dome", "--linear", "--h", "6", "--vtu", str(tmp_path / "r.vtu"))
+    one_line_error(res, f"cannot write {tmp_path / 'r.vtu'}: the disk is full")
+    assert ".part" not in res.stderr and list(tmp_path.iterdir()) == []
+
+
+def test_write_failed_is_an_export_error_and_an_os_error(tmp_path: Path) -> None:
+    e = writer_failed(tmp_path / "a.dxf", "cannot write the DXF file", OSError(errno.EACCES, "Permission denied"))
+    assert isinstance(e, ExportError) and isinstance(e, OSError) and e.errno == errno.EACCES
+    assert str(e) == f"cannot write {tmp_path / 'a.dxf'}: Permission denied"

@@ -234,10 +234,13 @@ def write_glb(lib: PartLibrary, path: str | os.PathLike[str]) -> None:
     """The assembled object as binary glTF 2.0 in metres (see :func:`scene`).
 
     No normals are written: glTF viewers then shade every triangle flat (spec §3.7.2.1), which keeps
-    the parts' sharp edges sharp. Raises :class:`ExportError` if the file cannot be written.
+    the parts' sharp edges sharp. Raises :class:`fabpat.io.WriteFailed` (an :class:`ExportError`) if
+    the file cannot be written.
     """
+    from fabpat.io import writer_failed
+
     data = scene(lib).export(file_type="glb", include_normals=False)
     try:
         Path(path).write_bytes(data)
     except OSError as exc:
-        raise ExportError(f"cannot write {path}: {exc}") from exc
+        raise writer_failed(path, "cannot write the GLB file", exc) from exc

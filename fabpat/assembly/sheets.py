@@ -24,7 +24,6 @@ from numpy.typing import NDArray
 
 from fabpat.assembly.nesting import Nesting, nest
 from fabpat.assembly.placement import Assembly, PlateType
-from fabpat.errors import ExportError
 
 SHEET_LAYER = "SHEET"
 SHEET_COLOR = 8  # ACI grey: reference only, not cut
@@ -148,8 +147,10 @@ def write_sheets(assembly: Assembly, nesting: Nesting, folder: os.PathLike[str] 
         name = f"sheet-{s + 1:0{digits}d}.dxf"
         try:
             sheet_document(assembly, nesting, s, filleted).saveas(os.path.join(folder, name))
-        except OSError as e:
-            raise ExportError(f"cannot write {name}: {e.strerror}") from e
+        except OSError as e:  # assemble names its --out folder and a full disk
+            from fabpat.io import writer_failed
+
+            raise writer_failed(os.path.join(folder, name), "cannot write the sheet", e) from e
         names.append(name)
     return names
 

@@ -359,7 +359,9 @@ def dump_dxf(outline: Outline, path: str | os.PathLike[str], label: str | None =
     try:
         doc.saveas(os.fsdecode(path))
     except OSError as e:  # a full disk: atomic_outputs names the target (not this temporary file) and the cause
-        raise OSError(e.errno, e.strerror or str(e), os.fspath(path)) from e
+        from fabpat.io import writer_failed
+
+        raise writer_failed(path, "cannot write the DXF file", e) from e
 
 
 def write(part: Part, path: Path, settings: ExportSettings) -> None:

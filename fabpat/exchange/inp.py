@@ -197,8 +197,10 @@ def write_inp(path: str | Path, mesh: ShellMesh, scenario: str, **kwargs: object
     path = Path(path)
     try:
         path.write_text(deck_text(mesh, scenario, **kwargs))  # type: ignore[arg-type]
-    except OSError as exc:
-        raise ExportError(f"cannot write {path}: {exc}") from exc
+    except OSError as exc:  # atomic_outputs names the target, not this temporary file, and a full disk
+        from fabpat.io import writer_failed
+
+        raise writer_failed(path, "cannot write the CalculiX deck", exc) from exc
     return path
 
 

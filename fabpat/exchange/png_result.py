@@ -6,7 +6,6 @@ from pathlib import Path
 
 import numpy as np
 
-from fabpat.errors import ExportError
 from fabpat.shell.results import ShellResult
 
 
@@ -46,8 +45,10 @@ def write_png(path: str | Path, V: np.ndarray, F: np.ndarray, result: ShellResul
     path = Path(path)
     try:
         fig.savefig(path, dpi=dpi, bbox_inches="tight")
-    except OSError as exc:
-        raise ExportError(f"cannot write {path}: {exc}") from exc
+    except OSError as exc:  # atomic_outputs names the target, not this temporary file, and a full disk
+        from fabpat.io import writer_failed
+
+        raise writer_failed(path, "cannot write the picture", exc) from exc
     finally:
         plt.close(fig)
     return path

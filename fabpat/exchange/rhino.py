@@ -140,8 +140,10 @@ def _attributes(layer: int, name: str | None = None) -> Any:
 
 
 def _save(model: Any, path: str | os.PathLike[str]) -> None:
-    if not model.Write(os.fsdecode(path), FILE_VERSION):
-        raise ExportError(f"cannot write .3dm file {path}")
+    if not model.Write(os.fsdecode(path), FILE_VERSION):  # a status without errno, as OCCT's writers
+        from fabpat.io import writer_failed
+
+        raise writer_failed(path, "rhino3dm could not write the .3dm file")
 
 
 def part_model(part: Part) -> Any:

@@ -26,8 +26,8 @@ def dump_stl(
 ) -> None:
     """Mesh ``shape`` (``TopoDS_Shape`` or build123d shape) within ``tolerance`` mm and write it.
 
-    Not atomic (see :func:`write_stl`). Raises ``OSError`` if OCCT cannot write the file (``ENOSPC``
-    when the disk is full, see :func:`fabpat.io.writer_failed`).
+    Not atomic (see :func:`write_stl`). Raises :class:`fabpat.io.WriteFailed` (an :class:`ExportError`)
+    if OCCT cannot write the file, ``ENOSPC`` when the disk is full (see :func:`fabpat.io.writer_failed`).
     """
     from OCP.StlAPI import StlAPI_Writer
 

@@ -6,7 +6,6 @@ from pathlib import Path
 
 import numpy as np
 
-from fabpat.errors import ExportError
 from fabpat.shell.results import ShellResult
 
 
@@ -36,6 +35,8 @@ def write_vtu(path: str | Path, V: np.ndarray, F: np.ndarray, result: ShellResul
     path = Path(path)
     try:
         meshio.write(path, mesh, file_format="vtu")
-    except OSError as exc:
-        raise ExportError(f"cannot write {path}: {exc}") from exc
+    except OSError as exc:  # atomic_outputs names the target, not this temporary file, and a full disk
+        from fabpat.io import writer_failed
+
+        raise writer_failed(path, "cannot write the VTU file", exc) from exc
     return path
