@@ -319,10 +319,12 @@ def _tidy(p: Path, remove_empty: bool, keep_file: bool = False) -> None:
                 return
             side[0].unlink(missing_ok=True)
             if remove_empty and empty:
+                conn.execute("BEGIN EXCLUSIVE")  # a catalog that never was in WAL mode: take the lock now
                 if keep_file:
                     os.truncate(p, 0)
                 else:
                     p.unlink()
+                conn.rollback()
         finally:
             conn.close()
 

@@ -285,3 +285,16 @@ def test_write_failed_is_an_export_error_and_an_os_error(tmp_path: Path) -> None
     e = writer_failed(tmp_path / "a.dxf", "cannot write the DXF file", OSError(errno.EACCES, "Permission denied"))
     assert isinstance(e, ExportError) and isinstance(e, OSError) and e.errno == errno.EACCES
     assert str(e) == f"cannot write {tmp_path / 'a.dxf'}: Permission denied"
+
+
+def test_a_new_catalog_open_elsewhere_is_not_removed(tmp_path: Path) -> None:
+    """The failed sweep's new catalog is removed only under SQLite's exclusive lock."""
+    db = tmp_path / "new.db"
+    with pytest.raises(RuntimeError), open_catalog(db, write=True) as cat:
+        cat.finish()  # back in rollback-journal mode, as after a sweep's end
+        other = sqlite3.connect(db)
+        other.execute("BEGIN")
+        other.execute("SELECT COUNT(*) FROM patterns").fetchone()  # a reader holds its shared lock
+        raise RuntimeError("boom")
+    assert db.exists()
+    other.close()
