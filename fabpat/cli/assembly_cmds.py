@@ -1,4 +1,6 @@
-"""``fabpat assemble SPEC --out DIR``: the complete kit of an assembly spec (see fabpat.assembly.build).
+"""``fabpat assemble SPEC --out DIR``: the complete kit of an assembly spec (see fabpat.assembly.build);
+``fabpat simulate-assembly SPEC``: the assembly as one shell model (see fabpat.assembly.simulate), and
+its deprecated alias ``simulate-strip``.
 
 The command only parses its options, shows a progress bar on stderr and prints the files written
 (one per line, on stdout, relative to the current folder). Errors are one line on stderr, exit 2.
@@ -69,101 +71,121 @@ def assemble_cmd(spec: str, out: str, progress: bool, timestamp: str | None, for
         click.echo(os.path.join(out, name) if not Path(out).is_absolute() else str(Path(out) / name))
 
 
-@click.command("simulate-strip")
+@click.command("simulate-assembly")
 @click.argument("spec", type=click.Path(dir_okay=False))
+@click.option("--end-shortening", type=float, default=0.1, show_default=True,
+              help="The end pins move towards each other by this fraction of the strip length (0 < F < 0.5).")
 @click.option("--h", "h", type=float, default=3.0, show_default=True, help="Target mesh edge length in mm.")
-@click.option("--load-factor", type=float, default=0.8, show_default=True,
-              help="Compression as a fraction of the Rayleigh estimate of the strip's buckling load.")
-@click.option("--compression", type=float, default=None, help="Compression in N (instead of --load-factor).")
-@click.option("--imperfection", type=float, default=0.01, show_default=True,
-              help="Out-of-plane perturbation force as a fraction of the compression.")
+@click.option("--steps", type=int, default=10, show_default=True,
+              help="Equal end-shortening increments reported in the JSON path.")
+@click.option("--imperfection", type=float, default=None,
+              help="Upward out-of-plane force (N, in total) that selects the buckle [default: 0.001].")
 @click.option("--youngs-modulus", "E", type=float, default=1000.0, show_default=True, help="N/mm² (PLA: 1000).")
 @click.option("--poisson", "nu", type=float, default=0.35, show_default=True, help="Poisson's ratio.")
-@click.option("--vtu", type=click.Path(dir_okay=False), help="Deformed strip with fields for ParaView (.vtu).")
-@click.option("--png", type=click.Path(dir_okay=False), help="Side view of the deflection profile (.png).")
-@click.option("--json", "as_json", is_flag=True, help="Print the results (with the profile) as JSON.")
-def simulate_strip_cmd(spec: str, h: float, load_factor: float, compression: float | None, imperfection: float,
-                       E: float, nu: float, vtu: str | None, png: str | None, as_json: bool) -> None:
-    """Compress a whole flat strip (a honeycomb-strip SPEC) between pins and report how it bends.
+@click.option("--vtu", type=click.Path(dir_okay=False), help="Every plate, deformed, with fields for ParaView (.vtu).")
+@click.option("--png", type=click.Path(dir_okay=False),
+              help="Deflection profile and reaction–end-shortening curve (.png).")
+@click.option("--json", "as_json", is_flag=True, help="Print the results as one JSON object.")
+def simulate_assembly_cmd(spec: str, end_shortening: float, h: float, steps: int, imperfection: float | None,
+                          E: float, nu: float, vtu: str | None, png: str | None, as_json: bool) -> None:
+    """Solve an assembly SPEC as one shell model: plates joined by rigid sleeves, pins driven together.
 
-    Tiles are welded on their interface segments; the first column's end interfaces are pinned, the
-    last column's slide along x and carry the compression. Prints the buckling-load estimate, the
-    load, where the strip is highest (fraction of its length) and the deflection area of the first
-    (stiff) half over the second: a graded strip bends asymmetrically, stiff end flatter.
+    For a honeycomb-strip spec the end pins (as in the kit) are pushed towards each other by
+    --end-shortening × the strip length under displacement control, through buckling, until the strip
+    bows into an arch. Prints key=value lines (or --json): converged, plates, sleeves, nodes, dofs,
+    iterations, seconds, energy, plate_energies, sleeve_moments, reaction, max_deflection, peak,
+    half_ratio, path. A graded strip's arch peaks towards its soft end.
 
-    Prints one line of plain key=value fields, named as in --json: nodes, elements, length (mm),
-    critical_load_estimate and compression (N), imperfection (fraction), max_deflection (mm), peak
-    (fraction of the length), half_ratio, amplification, implied_critical_load (N), converged,
-    iterations, seconds (s), patterns (comma-separated IDs).
-
-    Example: fabpat simulate-strip assemblies/graded-strip.toml --png strip.png --vtu strip.vtu
+    Example: fabpat simulate-assembly assemblies/graded-strip.toml --png strip.png --vtu strip.vtu
     """
+    _simulate_assembly(spec, end_shortening, h, steps, imperfection, E, nu, vtu, png, as_json)
+
+
+def _simulate_assembly(spec: str, end_shortening: float, h: float, steps: int, imperfection: float | None,
+                       E: float, nu: float, vtu: str | None, png: str | None, as_json: bool) -> None:
     import json
     import time
 
+    import numpy as np
+
     from fabpat.assembly.build import face_patterns
+    from fabpat.assembly.simulate import IMPERFECTION, final_shell_result, run_strip, strip_setup, write_profiles_png
     from fabpat.assembly.spec import load_spec
-    from fabpat.assembly.strip_sim import critical_load, simulate_strip, strip_model, write_profile_png
-    from fabpat.assembly.tiling import honeycomb_strip
     from fabpat.errors import SpecError
     from fabpat.exchange.vtu import write_vtu
     from fabpat.io import atomic_outputs, check_distinct
 
-    for name, value in (("--h", h), ("--load-factor", load_factor), ("--imperfection", imperfection),
-                        ("--youngs-modulus", E)) + ((("--compression", compression),) if compression is not None
-                                                     else ()):
+    if not 0.0 < end_shortening < 0.5:
+        raise click.BadParameter(f"--end-shortening must be in (0, 0.5), got {end_shortening:g}")
+    for name, value in (("--h", h), ("--youngs-modulus", E)):
         if not value > 0:
             raise click.BadParameter(f"{name} must be > 0, got {value:g}")
+    if steps < 1:
+        raise click.BadParameter(f"--steps must be ≥ 1, got {steps}")
+    if imperfection is not None and not imperfection >= 0:
+        raise click.BadParameter(f"--imperfection must be ≥ 0, got {imperfection:g}")
     if not -1.0 < nu < 0.5:
         raise click.BadParameter(f"--poisson must be in (-1, 0.5), got {nu:g}")
     outputs = [p for p in (vtu, png) if p is not None]
     check_distinct(outputs, inputs={"SPEC": spec})
     parsed = load_spec(spec)
-    t = parsed.tiling
-    if t.kind != "honeycomb-strip":
-        raise SpecError(f"{spec}: simulate-strip needs tiling.kind = \"honeycomb-strip\", got {t.kind!r}")
-    from rich.console import Console
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
+    if parsed.tiling.kind != "honeycomb-strip":
+        raise SpecError(f"{spec}: simulate-assembly can simulate tiling.kind = \"honeycomb-strip\" "
+                        f"(end shortening), got {parsed.tiling.kind!r}")
     t0 = time.perf_counter()
-    console = Console(stderr=True)
-    with Progress(TextColumn("{task.description:<22}"), BarColumn(), TimeElapsedColumn(), console=console,
-                  transient=True, disable=not console.is_terminal) as bar:
-        task = bar.add_task("meshing the tiles", total=4)
-        ids = face_patterns(parsed)
-        model = strip_model(honeycomb_strip(t.rows, t.columns, t.edge), ids, edge=t.edge, h=h,
-                            thickness=parsed.plates.thickness, weight=parsed.plates.weight, E=E, nu=nu)
-        bar.update(task, advance=1, description="buckling-load estimate")
-        estimate = critical_load(model)
-        P = compression if compression is not None else load_factor * estimate
-        bar.update(task, advance=1, description=f"nonlinear solve ({len(model.V)} nodes)")
-        with atomic_outputs(*outputs) as temps:
-            r = simulate_strip(model, P, imperfection)
-            bar.update(task, advance=1, description="writing files")
-            tmp = dict(zip(outputs, temps, strict=True))
-            if vtu is not None:
-                write_vtu(tmp[vtu], model.V, model.F, r.result)
-            if png is not None:
-                write_profile_png(tmp[png], r)
-        bar.update(task, advance=1)
+    setup = strip_setup(parsed, face_patterns(parsed), h=h, E=E, nu=nu)
+    with atomic_outputs(*outputs) as temps:
+        run = run_strip(setup, end_shortening, steps=steps,
+                        imperfection=IMPERFECTION if imperfection is None else imperfection)
+        tmp = dict(zip(outputs, temps, strict=True))
+        m = setup.model
+        if vtu is not None:
+            write_vtu(tmp[vtu], m.X, m.F, final_shell_result(run),
+                      point_data={"plate": m.plate_of_node[: len(m.X)].astype(np.int64)})
+        if png is not None:
+            write_profiles_png(tmp[png], [(parsed.name, run)])
     row = {
-        "spec": parsed.name, "patterns": list(dict.fromkeys(ids)), "nodes": len(model.V), "elements": len(model.F),
-        "length": model.length, "critical_load_estimate": estimate, "compression": P, "imperfection": imperfection,
-        "max_deflection": float(r.w.max()), "peak": r.peak, "half_ratio": r.half_ratio,
-        "amplification": r.amplification, "implied_critical_load": r.implied_critical_load,
-        "converged": r.result.converged, "iterations": r.result.iterations,
-        "seconds": time.perf_counter() - t0,
+        "converged": True, "plates": len(m.plates), "sleeves": len(m.sleeves), "nodes": m.n_nodes,
+        "dofs": run.result.dofs, "iterations": run.result.iterations, "seconds": time.perf_counter() - t0,
+        "energy": run.energy, "plate_energies": run.plate_energies, "sleeve_moments": run.sleeve_moments,
+        "reaction": run.reaction, "max_deflection": run.max_deflection, "peak": run.peak,
+        "half_ratio": run.half_ratio, "path": run.path,
     }
     if as_json:
-        click.echo(json.dumps({**row, "profile": {"x": r.x.tolist(), "w": r.w.tolist()}}, indent=1))
+        click.echo(json.dumps(row, indent=1))
     else:
         def text(v: object) -> str:
-            return f"{v:.4g}" if isinstance(v, float) else str(v).lower() if isinstance(v, bool) else str(v)
+            if isinstance(v, float):
+                return f"{v:.6g}"
+            if isinstance(v, bool):
+                return str(v).lower()
+            if isinstance(v, (dict, list)):
+                return json.dumps(v, separators=(",", ":"))
+            return str(v)
 
-        click.echo(" ".join(f"{k}={text(v)}" for k, v in row.items() if k != "patterns")
-                   + " patterns=" + ",".join(row["patterns"]))
+        for k, v in row.items():
+            click.echo(f"{k}={text(v)}")
     for path in outputs:
-        click.echo(f"wrote {path}", err=as_json)
+        click.echo(f"wrote {path}", err=True)
 
 
-COMMANDS = [assemble_cmd, simulate_strip_cmd]
+@click.command("simulate-strip")
+@click.argument("spec", type=click.Path(dir_okay=False))
+@click.option("--end-shortening", type=float, default=0.1, show_default=True)
+@click.option("--h", "h", type=float, default=3.0, show_default=True)
+@click.option("--steps", type=int, default=10, show_default=True)
+@click.option("--imperfection", type=float, default=None)
+@click.option("--youngs-modulus", "E", type=float, default=1000.0, show_default=True)
+@click.option("--poisson", "nu", type=float, default=0.35, show_default=True)
+@click.option("--vtu", type=click.Path(dir_okay=False))
+@click.option("--png", type=click.Path(dir_okay=False))
+@click.option("--json", "as_json", is_flag=True)
+def simulate_strip_cmd(spec: str, end_shortening: float, h: float, steps: int, imperfection: float | None,
+                       E: float, nu: float, vtu: str | None, png: str | None, as_json: bool) -> None:
+    """Deprecated alias of `fabpat simulate-assembly` (same options and output); removed in the next release."""
+    click.echo("fabpat: simulate-strip is deprecated and will be removed in the next release: use "
+               "simulate-assembly (same options and output)", err=True)
+    _simulate_assembly(spec, end_shortening, h, steps, imperfection, E, nu, vtu, png, as_json)
+
+
+COMMANDS = [assemble_cmd, simulate_assembly_cmd, simulate_strip_cmd]

@@ -9,13 +9,15 @@ import numpy as np
 from fabpat.shell.results import ShellResult
 
 
-def write_vtu(path: str | Path, V: np.ndarray, F: np.ndarray, result: ShellResult) -> Path:
+def write_vtu(path: str | Path, V: np.ndarray, F: np.ndarray, result: ShellResult,
+              point_data: dict[str, np.ndarray] | None = None) -> Path:
     """Write the deformed shell to ``path`` (.vtu).
 
     V: (n, 2) or (n, 3) reference coordinates (mm); F: (m, 3) triangles. Points are the *deformed*
     positions; point data ``displacement`` (mm), ``rotation`` (rad, rotation vector), ``reference``
     (initial coordinates); cell data ``strain_energy``, ``membrane_energy``, ``bending_energy``,
-    ``shear_energy`` (N·mm per element) and ``energy_density`` (N·mm/mm²).
+    ``shear_energy`` (N·mm per element) and ``energy_density`` (N·mm/mm²). ``point_data`` adds
+    further (n,) or (n, k) point fields (e.g. ``plate``, the plate index of each node of an assembly).
     """
     import meshio
 
@@ -27,7 +29,8 @@ def write_vtu(path: str | Path, V: np.ndarray, F: np.ndarray, result: ShellResul
     ee = result.element_energy
     mesh = meshio.Mesh(
         X + result.displacement, [("triangle", F)],
-        point_data={"displacement": result.displacement, "rotation": result.rotation, "reference": X},
+        point_data={"displacement": result.displacement, "rotation": result.rotation, "reference": X,
+                    **(point_data or {})},
         cell_data={"strain_energy": [ee.sum(axis=1)], "membrane_energy": [ee[:, 0]],
                    "bending_energy": [ee[:, 1]], "shear_energy": [ee[:, 2]],
                    "energy_density": [ee.sum(axis=1) / area]},

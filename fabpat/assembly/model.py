@@ -1,0 +1,157 @@
+"""An assembly as one shell model: placed plate meshes joined by sleeves (paper §5, "full restraint").
+
+Every plate keeps its own mesh and nodes (nothing is welded by merging): its flat mesh (polygon
+frame, mm) is sent into 3D by the plate's rigid placement (:mod:`fabpat.assembly.placement`), and
+its triangles keep their own local frames in the corotational solver.
+
+**Sleeve joint**: each sleeve is one extra 6-dof node, the sleeve frame (origin at the sleeve's
+centre, the joint's edge midpoint); every node of slot A's interface segment and of slot B's moves
+rigidly with it (a rigid link, :mod:`fabpat.shell.linked`: x_i = x_s + R_s Q_i r_i, R_i = R_s Q_i).
+The sleeve is a printed part that grips both plates' necks along the whole slot, far stiffer than the
+lacy plates, so it is modelled as rigid, by elimination: no penalty stiffness to choose, the
+constraint holds to round-off and the system does not grow (the two plates' interface nodes are
+replaced by one node). The measured check is in ``docs/assembly-solver.md``: on two coincident
+segments a sleeve agrees with welding the meshes there to 0.1 % in energy.
+
+**Sleeve angle**: Q_i = exp(±(λ α/2) [a]×), a the sleeve axis (its frame's X, along the edge): slot
+B turns by +α/2 and slot A by −α/2 about the axis relative to the sleeve body, so at λ = 1 the angle
+between the slots has changed by α (positive: B turns right-handed about a). α is ramped with the
+load parameter; α = 0 is the as-printed sleeve.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fabpat.errors import GeometryError
+from fabpat.mesh import ShellMesh
+from fabpat.shell.element import Material
+from fabpat.shell.linked import LinkedProblem
+
+Arr = NDArray[np.float64]
+
+
+@dataclass(frozen=True, eq=False)
+class ModelPlate:
+    """One plate: ``label``, its flat ``mesh`` (polygon frame, interfaces tagged) and ``transform``
+    (4, 4) sending polygon-frame points (x, y, 0) of the mid-surface to the world (mm)."""
+
+    label: str
+    mesh: ShellMesh
+    transform: Arr
+
+
+@dataclass(frozen=True, eq=False)
+class ModelSleeve:
+    """One sleeve: ``label``, ``frame`` (4, 4) its local frame in the world (origin at its centre, X
+    along the joint's edge), ``slots`` ((plate index, interface index) of slot A, of slot B) and the
+    change of the angle between its slots at λ = 1, ``angle`` (rad, about the frame's X)."""
+
+    label: str
+    frame: Arr
+    slots: tuple[tuple[int, int], tuple[int, int]]
+    angle: float = 0.0
+
+
+@dataclass(frozen=True, eq=False)
+class AssemblyModel:
+    """Placed plates + sleeves as one mesh. ``X`` (n, 3) world coordinates (mm) of every plate node,
+    plate p's nodes at ``offsets[p]`` … ``offsets[p + 1]``; ``F`` (m, 3) triangles, plate p's at
+    ``element_offsets[p]`` …; sleeve j is master node n + j. ``material`` is shared by all plates."""
+
+    plates: tuple[ModelPlate, ...]
+    sleeves: tuple[ModelSleeve, ...]
+    material: Material
+    X: Arr
+    F: NDArray[np.int64]
+    offsets: NDArray[np.int64]
+    element_offsets: NDArray[np.int64]
+
+    @property
+    def n_nodes(self) -> int:
+        """Plate nodes plus one node per sleeve."""
+        return len(self.X) + len(self.sleeves)
+
+    def nodes(self, plate: int, interface: int) -> NDArray[np.int64]:
+        """Global node numbers of a plate's interface segment (ordered along the edge)."""
+        return self.plates[plate].mesh.interfaces[interface] + self.offsets[plate]
+
+    @property
+    def plate_of_node(self) -> NDArray[np.int64]:
+        """(n + s,) plate index of each node; sleeves get −1."""
+        out = np.repeat(np.arange(len(self.plates)), np.diff(self.offsets))
+        return np.concatenate([out, np.full(len(self.sleeves), -1)])
+
+    def links(self) -> tuple[NDArray[np.int64], NDArray[np.int64], Arr, NDArray[np.int64]]:
+        """Slave nodes, their sleeve numbers, their relative spins at λ = 1 (k, 3) and their slot (0 A, 1 B)."""
+        sl, ma, sp, slot = [], [], [], []
+        for j, s in enumerate(self.sleeves):
+            axis = s.frame[:3, 0] / np.linalg.norm(s.frame[:3, 0])
+            for k, (p, i) in enumerate(s.slots):
+                nd = self.nodes(p, i)
+                sl.append(nd)
+                ma.append(np.full(nd.size, j))
+                sp.append(np.tile((0.5 * s.angle if k else -0.5 * s.angle) * axis, (nd.size, 1)))
+                slot.append(np.full(nd.size, k))
+        if not sl:
+            return (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0, np.int64))
+        return np.concatenate(sl), np.concatenate(ma), np.vstack(sp), np.concatenate(slot)
+
+    def problem(self, fixed: NDArray[np.bool_], prescribed: Arr, loads: Arr) -> LinkedProblem:
+        """The linked shell problem with (n + s, 6) supports, prescribed values and loads (λ = 1)."""
+        sl, ma, sp, _ = self.links()
+        masters = np.array([s.frame[:3, 3] for s in self.sleeves]).reshape(-1, 3)
+        return LinkedProblem(self.X, self.F, self.material, masters, sl, ma, sp, fixed, prescribed, loads)
+
+    def lumped_area(self) -> Arr:
+        """(n,) nodal share of the plates' area (mm²), a third of each triangle's area."""
+        P = self.X[self.F]
+        tri = 0.5 * np.linalg.norm(np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]), axis=1)
+        return np.bincount(self.F.ravel(), np.repeat(tri / 3.0, 3), minlength=len(self.X))
+
+
+def assembly_model(plates: list[ModelPlate], sleeves: list[ModelSleeve], material: Material) -> AssemblyModel:
+    """Stack the placed plate meshes into one node/triangle set (no merging).
+
+    Raises GeometryError if a sleeve's slot names an interface with fewer than 2 mesh nodes (a mesh too
+    coarse for the interface), or if a plate interface is in two sleeves.
+    """
+    Xs, Fs, offs, eoffs = [], [], [0], [0]
+    for p in plates:
+        V = p.mesh.V
+        P = np.column_stack([V, np.zeros(len(V)), np.ones(len(V))]) @ np.asarray(p.transform).T
+        Xs.append(P[:, :3])
+        Fs.append(p.mesh.F + offs[-1])
+        offs.append(offs[-1] + len(V))
+        eoffs.append(eoffs[-1] + len(p.mesh.F))
+    used: set[tuple[int, int]] = set()
+    for s in sleeves:
+        for p, i in s.slots:
+            if (p, i) in used:
+                raise GeometryError(f"sleeve {s.label}: interface {i} of plate {plates[p].label} is already "
+                                    "in a sleeve")
+            used.add((p, i))
+            if i >= len(plates[p].mesh.interfaces) or plates[p].mesh.interfaces[i].size < 2:
+                raise GeometryError(f"sleeve {s.label}: interface {i} of plate {plates[p].label} has fewer than 2 "
+                                    "mesh nodes (mesh too coarse for the interface: lower h)")
+    return AssemblyModel(tuple(plates), tuple(sleeves), material, np.vstack(Xs), np.vstack(Fs),
+                         np.array(offs, dtype=np.int64), np.array(eoffs, dtype=np.int64))
+
+
+def sleeve_moments(model: AssemblyModel, x: Arr, link_forces: Arr) -> Arr:
+    """(s,) magnitude of the moment (N·mm) each sleeve transmits from slot A to slot B, about its centre.
+
+    x: (n + s, 3) deformed positions; link_forces: (k, 6) forces/moments the slot nodes' elements put
+    on the links (:class:`fabpat.shell.linked.PathPoint`), in the order of :meth:`AssemblyModel.links`.
+    """
+    sl, ma, _, slot = model.links()
+    n = len(model.X)
+    c = x[sl] - x[n + ma]
+    m = link_forces[:, 3:] + np.cross(c, link_forces[:, :3])
+    out = np.zeros((len(model.sleeves), 3))
+    a = slot == 0
+    np.add.at(out, ma[a], m[a])
+    return np.linalg.norm(out, axis=1)

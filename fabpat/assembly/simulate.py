@@ -1,0 +1,231 @@
+"""A strip assembly pushed into its bent shape: the paper's §5 experiment in the shell solver.
+
+Model (every decision in one place):
+
+* Plates: each tile's filleted pattern meshed as in the scenarios (target edge ``h``), placed by the
+  kit's rigid placement (:func:`fabpat.assembly.placement.place`, skeleton edge with the sleeves'
+  setback), joined by rigid sleeves (:mod:`fabpat.assembly.model`).
+* Pins as in the kit (:func:`fabpat.assembly.placement.end_interfaces`): the nodes of column 0's end
+  interfaces hold ux, uy, uz; those of the last column hold uy, uz and are moved along −x by
+  ``end_shortening`` × L (L the strip's x-extent); rotations are free (hinges). The reaction is the
+  x-force on the moving pins (positive in compression).
+* Path: displacement control in ``steps`` equal report increments (:func:`fabpat.shell.linked.solve_path`).
+  The flat strip is a symmetric bifurcation; an upward imperfection load selects the branch: a
+  uniform out-of-plane force of ``imperfection`` N in total (default ``IMPERFECTION``), spread by
+  lumped area and scaled with λ like the shortening. It is 10⁻⁴ of the graded strip's plateau
+  reaction, so it bends the pre-buckling strip by hundredths of a millimetre.
+* Read-outs: the width-averaged deflection profile w(x) (uz binned along x), ``peak`` its highest
+  point as a fraction of L from column 0's end (parabola through the three highest bins, so it is not
+  limited to the bin width), ``half_ratio`` the area under w of the half next to column 0 over the
+  other half's, ``max_deflection`` the largest uz of any node.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fabpat.assembly.model import AssemblyModel, ModelPlate, ModelSleeve, assembly_model, sleeve_moments
+from fabpat.errors import GeometryError
+from fabpat.shell.element import Material
+from fabpat.shell.linked import PathResult, solve_path
+
+Arr = NDArray[np.float64]
+
+#: total upward imperfection force (N) of the end-shortening path (see module doc)
+IMPERFECTION = 1e-3
+#: Newton tolerance relative to the reaction norm: the pin forces are a fraction of a newton while
+#: the element forces that cancel to them are thousands of times larger (as in strip_sim)
+STRIP_RTOL = 1e-6
+PROFILE_BINS = 60
+
+
+@lru_cache(maxsize=32)
+def plate_mesh(pattern_id: str, sides: int, edge: float, weight: float, h: float):  # noqa: ANN201 - ShellMesh
+    """The filleted pattern's mesh (target edge h, mm) with its interfaces tagged, cached per type.
+
+    Raises GeometryError when an interface gets fewer than 2 nodes (h too coarse).
+    """
+    from fabpat.fillet import fillet_pattern
+    from fabpat.library import get_pattern
+    from fabpat.mesh import mesh_outline
+
+    outline = fillet_pattern(get_pattern(pattern_id, sides, 2, edge), weight).outline
+    return mesh_outline(outline, h, sides, edge, weight=weight)
+
+
+@dataclass(frozen=True, eq=False)
+class StripSetup:
+    """An assembled strip ready for the end-shortening path: ``model``, pin nodes ``left`` (fixed) and
+    ``right`` (moving), ``length`` L (mm), x of column 0's end ``x0`` (mm)."""
+
+    model: AssemblyModel
+    left: NDArray[np.int64]
+    right: NDArray[np.int64]
+    length: float
+    x0: float
+
+
+def strip_setup(spec: object, face_patterns: list[str], *, h: float = 3.0, E: float = 1000.0,
+                nu: float = 0.35) -> StripSetup:
+    """Mesh, place and join the plates of a ``honeycomb-strip`` spec (an AssemblySpec)."""
+    from fabpat.assembly.placement import place
+
+    asm = place(spec, face_patterns)  # type: ignore[arg-type]
+    t = spec.plates.thickness  # type: ignore[attr-defined]
+    w = spec.plates.weight  # type: ignore[attr-defined]
+    plates = []
+    for pl in asm.plates:
+        mesh = plate_mesh(pl.type.pattern_id, pl.type.sides, asm.plate_edge, w, h)
+        T = pl.transform.copy()
+        T[:3, 3] += T[:3, 2] * (0.5 * t)  # the transform maps the solid z ∈ [0, t]: mid-surface at t/2
+        plates.append(ModelPlate(pl.label, mesh, T))
+    sleeves = [ModelSleeve(s.label, s.transform, s.plates) for s in asm.sleeves]
+    model = assembly_model(plates, sleeves, Material(E, nu, t))
+    grid = asm.skeleton.grid
+    assert grid is not None
+    last = int(grid[:, 1].max())
+    left = [model.nodes(f, i) for f, i in asm.pins if grid[f, 1] == 0]
+    right = [model.nodes(f, i) for f, i in asm.pins if grid[f, 1] == last]
+    for f, i in asm.pins:
+        if model.nodes(f, i).size < 2:
+            raise GeometryError(f"pinned interface {i} of plate {model.plates[f].label} has fewer than 2 mesh "
+                                "nodes (mesh too coarse for the interface: lower h)")
+    xs = model.X[:, 0]
+    return StripSetup(model, np.unique(np.concatenate(left)), np.unique(np.concatenate(right)),
+                      float(np.ptp(xs)), float(xs.min()))
+
+
+@dataclass(frozen=True, eq=False)
+class StripRun:
+    """The bent strip. ``path``: one dict {end_shortening, reaction, max_deflection} per report step;
+    ``x``, ``w`` the final width-averaged profile (mm from column 0's end, mm); the rest as the
+    ``simulate-assembly`` output fields (see :func:`run_strip`)."""
+
+    setup: StripSetup
+    end_shortening: float
+    imperfection: float
+    energy: float
+    plate_energies: dict[str, float]
+    sleeve_moments: dict[str, float]
+    reaction: float
+    max_deflection: float
+    peak: float
+    half_ratio: float
+    path: list[dict[str, float]]
+    x: Arr
+    w: Arr
+    result: PathResult
+
+
+def profile(setup: StripSetup, uz: Arr, bins: int = PROFILE_BINS) -> tuple[Arr, Arr]:
+    """Bin centres (mm from column 0's end) and the area-weighted mean uz of the plate nodes per bin."""
+    m = setup.model
+    x = m.X[:, 0] - setup.x0
+    a = m.lumped_area()
+    k = np.minimum((x / setup.length * bins).astype(np.int64), bins - 1)
+    aa = np.bincount(k, a, minlength=bins)
+    w = np.bincount(k, a * uz[: len(x)], minlength=bins) / np.maximum(aa, 1e-300)
+    ok = aa > 0
+    return ((np.arange(bins) + 0.5) * setup.length / bins)[ok], w[ok]
+
+
+def peak_position(x: Arr, w: Arr, length: float) -> float:
+    """Where w is highest, as a fraction of ``length``: vertex of the parabola through the top bin and
+    its neighbours (the top bin's centre at either end)."""
+    k = int(np.argmax(w))
+    if 0 < k < len(w) - 1:
+        (x0, x1, x2), (y0, y1, y2) = x[k - 1:k + 2], w[k - 1:k + 2]
+        den = (x0 - x1) * (x0 - x2) * (x1 - x2)
+        A = (x2 * (y1 - y0) + x1 * (y0 - y2) + x0 * (y2 - y1)) / den
+        B = (x2 * x2 * (y0 - y1) + x1 * x1 * (y2 - y0) + x0 * x0 * (y1 - y2)) / den
+        if A < 0:
+            return float(np.clip(-B / (2 * A), x0, x2) / length)
+    return float(x[k] / length)
+
+
+def run_strip(setup: StripSetup, end_shortening: float = 0.1, *, steps: int = 10,
+              imperfection: float = IMPERFECTION) -> StripRun:
+    """Push the pins together by ``end_shortening`` × L in ``steps`` report increments.
+
+    Raises ValueError if end_shortening is not in (0, 0.5) or imperfection < 0, SolverError if the
+    path is lost (naming the load fraction reached).
+    """
+    if not 0.0 < end_shortening < 0.5:
+        raise ValueError(f"end shortening must be in (0, 0.5), got {end_shortening:g}")
+    if not imperfection >= 0.0:
+        raise ValueError(f"imperfection must be ≥ 0, got {imperfection:g}")
+    m = setup.model
+    N = m.n_nodes
+    n = len(m.X)
+    fixed = np.zeros((N, 6), dtype=bool)
+    fixed[setup.left, :3] = True
+    fixed[setup.right, :3] = True
+    pres = np.zeros((N, 6))
+    pres[setup.right, 0] = -end_shortening * setup.length
+    loads = np.zeros((N, 6))
+    area = m.lumped_area()
+    loads[:n, 2] = imperfection * area / area.sum()
+    r = solve_path(m.problem(fixed, pres, loads), steps=steps, rtol=STRIP_RTOL)
+    path = []
+    for pt in r.points:
+        path.append({"end_shortening": pt.lam * end_shortening, "reaction": float(-pt.reactions[setup.right, 0].sum()),
+                     "max_deflection": float(pt.displacement[:n, 2].max())})
+    fin = r.final
+    x, w = profile(setup, fin.displacement[:, 2])
+    half = setup.length / 2
+    first = float(np.trapezoid(np.where(x <= half, w, 0.0), x))
+    second = float(np.trapezoid(np.where(x > half, w, 0.0), x))
+    ee = r.element_energy.sum(axis=1)
+    pe = {p.label: float(ee[m.element_offsets[i]:m.element_offsets[i + 1]].sum()) for i, p in enumerate(m.plates)}
+    X = np.vstack([m.X, m.problem(fixed, pres, loads).masters])
+    moments = np.max([sleeve_moments(m, X + pt.displacement, pt.link_forces) for pt in r.points], axis=0) \
+        if m.sleeves else np.zeros(0)
+    return StripRun(setup, end_shortening, imperfection, float(ee.sum()), pe,
+                    {s.label: float(v) for s, v in zip(m.sleeves, moments, strict=True)},
+                    path[-1]["reaction"], path[-1]["max_deflection"], peak_position(x, w, setup.length),
+                    first / second if second != 0 else math.inf, path, x, w, r)
+
+
+def write_profiles_png(path: str | Path, runs: list[tuple[str, StripRun]], dpi: int = 150) -> Path:
+    """Side view of one or more bent strips (mean uz along x) and their reaction–end-shortening curves."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 3.4), dpi=dpi, gridspec_kw={"width_ratios": [2.2, 1]})
+    for k, (name, r) in enumerate(runs):
+        L = r.setup.length
+        ax.plot(r.x / L, r.w, color=f"C{k}", lw=2, label=f"{name}: peak {r.peak:.3f}")
+        ax.plot([r.peak], [np.interp(r.peak * L, r.x, r.w)], "o", color=f"C{k}")
+        bx.plot([0.0] + [p["end_shortening"] for p in r.path], [0.0] + [p["reaction"] for p in r.path], ".-",
+                color=f"C{k}", label=name)
+    ax.axvline(0.5, color="0.5", lw=0.8, ls=":")
+    ax.set_xlabel("x / L from column 0's end")
+    ax.set_ylabel("mean deflection uz, mm")
+    ax.set_xlim(0, 1)
+    ax.legend(fontsize=8)
+    bx.set_xlabel("end shortening / L")
+    bx.set_ylabel("reaction, N")
+    bx.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, format="png")
+    plt.close(fig)
+    return Path(path)
+
+
+def final_shell_result(run: StripRun):  # noqa: ANN201 - a ShellResult
+    """The final state of the plates as a :class:`fabpat.shell.ShellResult` (for the VTU/PNG writers)."""
+    from fabpat.shell.results import ShellResult
+
+    n = len(run.setup.model.X)
+    fin = run.result.final
+    r = run.result
+    return ShellResult(fin.displacement[:n], fin.rotation[:n], run.energy, r.element_energy, fin.reactions[:n],
+                       float("nan"), r.iterations, r.increments, r.cuts, True, True, dict(r.seconds))

@@ -1,0 +1,415 @@
+"""Shells with rigid links and prescribed motions: master–slave elimination and path following.
+
+A :class:`LinkedProblem` is a triangle mesh (any number of disconnected plates, placed in 3D) plus
+extra 6-dof **master** nodes. A *rigid link* ties a mesh node i (the slave) to a master s:
+
+    x_i = x_s + R_s Q_i(λ) (X_i − X_s),    R_i = R_s Q_i(λ),    Q_i(λ) = exp(λ [φ_i]×)
+
+(X reference positions, R total rotations, φ_i a relative rotation vector in reference axes reached at
+λ = 1: a rampable joint angle; φ = 0 is a rigid weld to the master). Slaves are eliminated: the
+unknowns are the other mesh nodes and the masters. Their variations are δx_i = δx_s + δω_s × c_i,
+δω_i = δω_s (c_i = x_i − x_s, spatial spins), i.e. a 6 × 6 block T_i = [[I, −[c_i]×], [0, I]] that
+is applied to the element matrices of the elements touching a slave; the slaves' forces are sent to
+their master (f_s += g_i, m_s += m_i + c_i × g_i) and the constraint's curvature adds
+Σ_i [g_i]×[c_i]× to the master's spin–spin block (g_i the slave's net force), so Newton keeps its
+quadratic rate. After every correction the slaves are recomputed from their master exactly, so the
+constraints hold to round-off and the residual is the exact one (Felippa, *Nonlinear Finite Element
+Methods*, ch. 9, master–slave elimination; Crisfield vol. 2 §17 for the rotation updates).
+
+**Prescribed motion**: ``fixed`` dofs follow ``λ · prescribed`` (translations in mm; rotations as a
+rotation vector exp(λ [θ]×), only on nodes whose three rotations are all prescribed). Dofs fixed at 0
+are eliminated; dofs with a nonzero prescribed value stay in the matrix with their rows replaced by
+identity rows whose right-hand side is the increment still missing, so the first iteration of a step
+is the tangent predictor K_ff Δu_f = r_f − K_fp Δu_p and later ones keep them in place.
+
+**Path following** (:func:`solve_path`): λ goes 0 → 1 in ``steps`` equal report intervals, each
+crossed by as many Newton increments as needed (halved after a failure, doubled after easy ones).
+With loads scaled by λ this is load control; with prescribed motion it is displacement control,
+which follows a structure through buckling and along a post-buckling plateau (a limit point in the
+*prescribed* variable, a snap-back, would still stop it). A symmetric bifurcation is only left if
+something breaks the symmetry (an imperfection load); nonconvergence raises SolverError naming the
+load fraction reached.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fabpat.errors import SolverError
+from fabpat.shell.assembly import Assembler
+from fabpat.shell.corotational import CorotationalTriangles
+from fabpat.shell.element import Material
+from fabpat.shell.rotations import expmap, logmap, skew
+from fabpat.shell.solve import ROUNDOFF_FACTOR, _lu
+
+Arr = NDArray[np.float64]
+
+
+@dataclass(frozen=True, eq=False)
+class LinkedProblem:
+    """Triangle mesh + master nodes + rigid links + prescribed motion (see module doc).
+
+    X: (n, 3) mesh node coordinates (mm). F: (m, 3) triangles. material: shell material.
+    masters: (s, 3) master node positions (mm); they are nodes n … n + s − 1 of every (N, 6) array.
+    link_slave: (k,) mesh node indices; link_master: (k,) master numbers 0 … s − 1; link_spin: (k, 3)
+    relative rotation (rad, reference axes) of each slave about its master reached at λ = 1.
+    fixed: (N, 6) bool prescribed dofs (N = n + s); prescribed: (N, 6) their values at λ = 1 (mm, rad);
+    loads: (N, 6) forces (N) and moments (N·mm) at λ = 1, global axes, fixed directions.
+    Raises ValueError on inconsistent shapes, a slave linked twice or fixed, or a partly prescribed
+    nonzero rotation.
+    """
+
+    X: Arr
+    F: NDArray[np.int64]
+    material: Material
+    masters: Arr
+    link_slave: NDArray[np.int64]
+    link_master: NDArray[np.int64]
+    link_spin: Arr
+    fixed: NDArray[np.bool_]
+    prescribed: Arr
+    loads: Arr
+
+    def __post_init__(self) -> None:
+        X = np.asarray(self.X, dtype=np.float64)
+        if X.shape[1] == 2:
+            X = np.column_stack([X, np.zeros(len(X))])
+        M = np.asarray(self.masters, dtype=np.float64).reshape(-1, 3)
+        N = len(X) + len(M)
+        sl = np.asarray(self.link_slave, dtype=np.int64).ravel()
+        ma = np.asarray(self.link_master, dtype=np.int64).ravel()
+        sp = np.asarray(self.link_spin, dtype=np.float64).reshape(-1, 3)
+        fixed = np.asarray(self.fixed, dtype=bool).reshape(-1, 6)
+        pres = np.asarray(self.prescribed, dtype=np.float64).reshape(-1, 6)
+        loads = np.asarray(self.loads, dtype=np.float64).reshape(-1, 6)
+        if not (len(sl) == len(ma) == len(sp)) or fixed.shape[0] != N or pres.shape[0] != N or loads.shape[0] != N:
+            raise ValueError(f"inconsistent shapes: {len(X)} nodes + {len(M)} masters, links {len(sl)}/{len(ma)}/"
+                             f"{len(sp)}, fixed {fixed.shape}, prescribed {pres.shape}, loads {loads.shape}")
+        if sl.size and (sl.min() < 0 or sl.max() >= len(X) or ma.min() < 0 or ma.max() >= len(M)):
+            raise ValueError("link indices out of range")
+        if np.unique(sl).size != sl.size:
+            raise ValueError("a node is linked to more than one master")
+        if fixed[sl].any():
+            raise ValueError("a linked (slave) node cannot have prescribed dofs: prescribe its master")
+        partial = fixed[:, 3:].any(axis=1) & ~fixed[:, 3:].all(axis=1) & (pres[:, 3:] != 0).any(axis=1)
+        if partial.any():
+            raise ValueError("a nonzero prescribed rotation needs all three rotations of the node prescribed")
+        for name, v in (("X", X), ("masters", M), ("link_spin", sp), ("prescribed", pres), ("loads", loads)):
+            object.__setattr__(self, name, v)
+        object.__setattr__(self, "F", np.asarray(self.F, dtype=np.int64))
+        object.__setattr__(self, "link_slave", sl)
+        object.__setattr__(self, "link_master", ma)
+        object.__setattr__(self, "fixed", fixed)
+
+    @property
+    def n_nodes(self) -> int:
+        """Mesh nodes plus master nodes."""
+        return len(self.X) + len(self.masters)
+
+    @property
+    def n_dofs(self) -> int:
+        """Unknowns after eliminating slaves and dofs fixed at 0 (the size of the linear systems)."""
+        N = self.n_nodes
+        slave = np.zeros(N, dtype=bool)
+        slave[self.link_slave] = True
+        return int(np.sum(~(self.fixed & (self.prescribed == 0)) & ~slave[:, None]))
+
+
+@dataclass(frozen=True, eq=False)
+class PathPoint:
+    """State at one report point λ: displacement (N, 3) mm, rotation (N, 3) rad (rotation vectors),
+    reactions (N, 6) N / N·mm at prescribed dofs (0 elsewhere), energy N·mm, and link_forces (k, 6):
+    the force (N) and moment (N·mm) each slave's elements put on its link (f_int − λ f_ext at the
+    slave, global axes), from which a joint's transmitted moment follows."""
+
+    lam: float
+    displacement: Arr
+    rotation: Arr
+    reactions: Arr
+    energy: float
+    link_forces: Arr
+
+
+@dataclass(frozen=True, eq=False)
+class PathResult:
+    """Outcome of :func:`solve_path`: ``points`` at λ = k/steps (k = 1 … steps), the last one the
+    final state with its ``element_energy`` (m, 3) split (membrane, bending, shear) N·mm; counts of
+    Newton ``iterations``, accepted ``increments``, step ``cuts`` and LU ``factorizations``; ``seconds``
+    by phase; ``dofs`` the size of the linear systems."""
+
+    points: list[PathPoint]
+    element_energy: Arr
+    iterations: int
+    increments: int
+    cuts: int
+    factorizations: int
+    dofs: int
+    seconds: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def final(self) -> PathPoint:
+        return self.points[-1]
+
+
+class _Reduced:
+    """Index maps and operators of the reduced (slave-free) system of a LinkedProblem."""
+
+    def __init__(self, p: LinkedProblem) -> None:
+        n, N = len(p.X), p.n_nodes
+        self.n, self.N = n, N
+        self.model = CorotationalTriangles(p.X, p.F, p.material)
+        rep = np.arange(N)
+        rep[p.link_slave] = n + p.link_master
+        self.slave_mask = np.zeros(N, dtype=bool)
+        self.slave_mask[p.link_slave] = True
+        s = len(p.masters)
+        Fr = np.vstack([rep[p.F], np.repeat(n + np.arange(s), 3).reshape(s, 3)])  # + one pseudo-element per master
+        edofs = (6 * Fr[:, :, None] + np.arange(6)).reshape(-1, 18)
+        zero_fixed = p.fixed & (p.prescribed == 0)
+        free = ~zero_fixed & ~self.slave_mask[:, None]
+        self.asm = Assembler(edofs, free.ravel())
+        # prescribed (nonzero) dofs: identity rows in the matrix, excluded from the residual test
+        self.moving = (p.fixed & ~zero_fixed).ravel()
+        pos = np.full(6 * N, -1)
+        pos[self.asm.free] = np.arange(self.asm.free.size)
+        self.rows_p = pos[np.flatnonzero(self.moving)]
+        self.test = self.asm.free[~self.moving[self.asm.free]]  # dofs whose residual must vanish
+        # elements touching a slave: their corner blocks get the transformation T
+        corner = self.slave_mask[p.F]  # (m, 3)
+        self.aff = np.flatnonzero(corner.any(axis=1))
+        self.aff_corner = corner[self.aff]
+        self.master_of = np.full(N, -1)
+        self.master_of[p.link_slave] = n + p.link_master
+        self.m, self.s = len(p.F), s
+        self._rows: NDArray[np.int64] | None = None
+        self._diag: NDArray[np.int64] | None = None
+
+    def place_slaves(self, p: LinkedProblem, x: Arr, R: Arr, lam: float) -> None:
+        """Slave positions and rotations from their masters (in place), at joint angles λ φ."""
+        if p.link_slave.size == 0:
+            return
+        ms = self.n + p.link_master
+        Q = expmap(lam * p.link_spin)
+        Rm = R[ms]
+        RQ = Rm @ Q
+        r0 = p.X[p.link_slave] - p.masters[p.link_master]
+        x[p.link_slave] = x[ms] + np.einsum("kij,kj->ki", RQ, r0)
+        R[p.link_slave] = RQ
+
+    def forces(self, p: LinkedProblem, x: Arr, R: Arr, lam: float) -> tuple[Arr, Arr, Arr, Arr]:
+        """Full-space net internal force g = f_int − λ f_ext (N, 6), element forces, energies, local dofs."""
+        n = self.n
+        fe, U, d = self.model.element_forces(*self.model.gather(x[:n], R[:n]))
+        g = np.zeros(6 * self.N)
+        g[: 6 * n] = np.bincount(self.model.edofs.ravel(), weights=fe.ravel(), minlength=6 * n)
+        g = g.reshape(-1, 6) - lam * p.loads
+        return g, fe, U, d
+
+    def reduce(self, p: LinkedProblem, g: Arr, x: Arr) -> Arr:
+        """Reduced net force (N, 6) of the full one: slaves' forces moved to their masters."""
+        gr = g.copy()
+        if p.link_slave.size:
+            sl, ms = p.link_slave, self.n + p.link_master
+            c = x[sl] - x[ms]
+            np.add.at(gr, ms, np.concatenate([g[sl, :3], g[sl, 3:] + np.cross(c, g[sl, :3])], axis=1))
+            gr[sl] = 0.0
+        return gr
+
+    def matrix(self, p: LinkedProblem, x: Arr, R: Arr, d: Arr, g: Arr, scale: float) -> object:
+        """Reduced tangent (CSC) with identity rows (× scale) at the prescribed dofs."""
+        n = self.n
+        Ke = self.model.element_tangents(*self.model.gather(x[:n], R[:n]), d)
+        if self.aff.size:
+            F = p.F[self.aff]
+            c = x[F] - x[np.where(self.master_of[F] >= 0, self.master_of[F], F)]  # (a, 3, 3); 0 off slaves
+            T = np.broadcast_to(np.eye(18), (self.aff.size, 18, 18)).copy()
+            Sc = -skew(c) * self.aff_corner[..., None, None]
+            for a in range(3):
+                T[:, 6 * a:6 * a + 3, 6 * a + 3:6 * a + 6] = Sc[:, a]
+            Ke[self.aff] = T.transpose(0, 2, 1) @ Ke[self.aff] @ T
+        Km = np.zeros((self.s, 18, 18))
+        if p.link_slave.size:
+            sl, mm = p.link_slave, p.link_master
+            c = x[sl] - x[n + mm]
+            blk = skew(g[sl, :3]) @ skew(c)
+            np.add.at(Km[:, 3:6, 3:6], mm, blk)
+        K = self.asm.matrix(np.concatenate([Ke, Km]))
+        if self.rows_p.size:
+            if self._rows is None:  # the sparsity pattern is fixed: find the entries once
+                col = np.repeat(np.arange(K.shape[1]), np.diff(K.indptr))
+                self._rows = np.flatnonzero(np.isin(K.indices, self.rows_p))
+                self._diag = np.flatnonzero(np.isin(K.indices, self.rows_p) & (K.indices == col))
+            K.data[self._rows] = 0.0
+            K.data[self._diag] = scale
+        return K
+
+
+def _det_sign(lu: object) -> int:
+    """Sign of det K from SuperLU's factors: signs of U's diagonal and the row permutation's parity
+    (columns are not permuted: ``permc_spec="NATURAL"``; L has a unit diagonal)."""
+    neg = int(np.count_nonzero(lu.U.diagonal() < 0))  # type: ignore[attr-defined]
+    perm = np.asarray(lu.perm_r)  # type: ignore[attr-defined]
+    seen = perm == np.arange(perm.size)
+    swaps = 0
+    for i in np.flatnonzero(~seen):  # cycle decomposition of the (few) moved rows
+        if seen[i]:
+            continue
+        j, length = i, 0
+        while not seen[j]:
+            seen[j] = True
+            j = perm[j]
+            length += 1
+        swaps += length - 1
+    return -1 if (neg + swaps) % 2 else 1
+
+
+def solve_path(
+    p: LinkedProblem,
+    *,
+    steps: int = 10,
+    rtol: float = 1e-8,
+    max_iter: int = 25,
+    min_step: float = 1.0 / 4096,
+    max_rotation_step: float = 0.5,
+    reuse_ratio: float = 0.1,
+    stable: bool = True,
+) -> PathResult:
+    """Follow λ = 0 → 1 (loads λ·loads, prescribed dofs λ·prescribed, joint angles λ·φ); see module doc.
+
+    ``stable``: the path sought is a stable one (an imperfect structure under displacement control),
+    so an increment whose tangent determinant changed sign since the unloaded state is rejected and
+    halved: Newton from a flat state with a large increment otherwise lands on the unstable
+    (unbuckled or wrong-way) branch past a bifurcation, which it converges to just as well.
+
+    Convergence of an increment: ‖r‖ ≤ max(rtol · max(‖λ f‖, ‖reactions‖), floor) over the dofs that
+    are neither prescribed nor slaves, with the round-off floor of :mod:`fabpat.shell.solve`. The LU
+    is reused while the residual falls by ``reuse_ratio`` per iteration. Increments start at the last
+    successful size (at most one report interval), halve on failure and double after ≤ 4 iterations.
+    Raises SolverError (naming the λ reached) when an increment falls below ``min_step``.
+    """
+    if steps < 1:
+        raise ValueError(f"steps must be ≥ 1, got {steps}")
+    t0 = time.perf_counter()
+    red = _Reduced(p)
+    N, n = red.N, red.n
+    X = np.vstack([p.X, p.masters])
+    K0 = red.model.linear_element_matrices()
+    diagK = np.bincount(red.model.edofs.ravel(), weights=np.einsum("mii->mi", K0).ravel(), minlength=6 * n)
+    dscale = float(np.mean(diagK[diagK > 0])) if np.any(diagK > 0) else 1.0
+    noise = np.finfo(np.float64).eps * float(np.abs(X).max()) * float(np.linalg.norm(diagK))
+    floor = ROUNDOFF_FACTOR * noise
+    x, R = X.copy(), np.broadcast_to(np.eye(3), (N, 3, 3)).copy()
+    all_rot = p.fixed[:, 3:].all(axis=1)
+    fixed_flat = p.fixed.ravel()
+    lam, dlam = 0.0, 1.0 / steps
+    its_total = incs = cuts = n_fact = 0
+    t_tan = t_lu = 0.0
+    points: list[PathPoint] = []
+    fe = U = d = g = None
+
+    def targets(target: float, xs: Arr, Rs: Arr) -> Arr:
+        """(N, 6) increments still missing at the prescribed dofs (spins for rotations)."""
+        inc = np.zeros((N, 6))
+        inc[:, :3] = X + target * p.prescribed[:, :3] - xs
+        if all_rot.any():
+            Rt = expmap(target * p.prescribed[all_rot, 3:])
+            inc[all_rot, 3:] = logmap(Rt @ Rs[all_rot].transpose(0, 2, 1))
+        return np.where(p.fixed, inc, 0.0)
+
+    next_report = 1
+    sign0, sign, unstable = 0, 1, False
+    while lam < 1.0 - 1e-12:
+        goal = next_report / steps
+        target = min(goal, lam + dlam)
+        if goal - target < 1e-9:
+            target = goal
+        xt, Rt = x.copy(), R.copy()
+        red.place_slaves(p, xt, Rt, target)
+        ok, its, last, res0, growth, lu = False, 0, np.inf, np.inf, 0, None
+        for its in range(1, max_iter + 1):  # noqa: B007 (its used after the loop)
+            g, fe, U, d = red.forces(p, xt, Rt, target)
+            gr = red.reduce(p, g, xt)
+            res = float(np.linalg.norm(gr.ravel()[red.test]))
+            inc = targets(target, xt, Rt)
+            ref = max(float(np.linalg.norm(target * p.loads.ravel()[red.test])),
+                      float(np.linalg.norm(gr.ravel()[fixed_flat])))
+            pending = float(np.abs(inc).max())
+            if pending <= 1e-12 * (1.0 + float(np.abs(X).max())):
+                pending = 0.0
+            if not np.isfinite(res):
+                break
+            if res <= max(rtol * ref, floor) and pending == 0.0:
+                ok = True
+                break
+            if its == 2:
+                res0 = res
+            growth = growth + 1 if res > last and pending == 0.0 else 0
+            if growth >= 3 or (its >= 10 and res > 100.0 * res0):
+                break
+            reuse = lu is not None and pending == 0.0 and res < reuse_ratio * last
+            last = res
+            ta = time.perf_counter()
+            if not reuse:
+                K = red.matrix(p, xt, Rt, d, g, dscale)
+            tb = time.perf_counter()
+            rhs = -gr.ravel()
+            rhs[red.moving] = dscale * inc.ravel()[red.moving]
+            du = np.zeros(6 * N)
+            try:
+                if not reuse:
+                    lu = _lu(K)
+                    n_fact += 1
+                    sign = _det_sign(lu) if stable else 1
+                    sign0 = sign0 or sign
+                du[red.asm.free] = lu.solve(rhs[red.asm.free])
+            except SolverError:
+                break
+            t_tan += tb - ta
+            t_lu += time.perf_counter() - tb
+            if not np.all(np.isfinite(du)):
+                break
+            D = du.reshape(-1, 6)
+            if pending == 0.0:  # (the predictor must take the prescribed dofs to their targets in full)
+                rot = float(np.max(np.linalg.norm(D[:, 3:], axis=1)))
+                if rot > max_rotation_step:
+                    D = D * (max_rotation_step / rot)
+            xt = xt + D[:, :3]
+            Rt = np.einsum("nij,njk->nik", expmap(D[:, 3:]), Rt)
+            # prescribed dofs land exactly on their targets (no drift from the scaled rows' round-off)
+            xt = np.where(p.fixed[:, :3], X + target * p.prescribed[:, :3], xt)
+            if all_rot.any():
+                Rt[all_rot] = expmap(target * p.prescribed[all_rot, 3:])
+            red.place_slaves(p, xt, Rt, target)
+        its_total += its
+        if ok and stable and lu is not None and sign != sign0:
+            ok, unstable = False, True  # converged onto an unstable branch (see ``stable``)
+        if ok:
+            unstable = False
+            x, R, lam = xt, Rt, target
+            incs += 1
+            if its <= 4:
+                dlam = min(2.0 * dlam, 1.0 / steps)
+            if abs(lam - goal) < 1e-12:
+                assert g is not None and U is not None
+                gr = red.reduce(p, g, x)
+                react = np.where(p.fixed, gr, 0.0)
+                points.append(PathPoint(goal, x - X, logmap(R), react, float(U.sum()), g[p.link_slave].copy()))
+                next_report += 1
+        else:
+            cuts += 1
+            dlam = 0.5 * (target - lam)
+            if dlam < min_step:
+                raise SolverError(
+                    f"path following did not converge: the increment fell below {min_step:g} at load fraction "
+                    f"λ = {lam:.4f} (aiming for {target:.4f}) after {its_total} iterations and {cuts} step cuts "
+                    f"(residual {last:.3e}"
+                    + ("; it converges only onto an unstable branch: add an imperfection" if unstable else "")
+                    + "); the path may snap back or the mesh may be too coarse")
+    assert d is not None
+    ee = red.model.energy_split(d)
+    seconds = {"tangent": t_tan, "factor_solve": t_lu, "total": time.perf_counter() - t0}
+    return PathResult(points, ee, its_total, incs, cuts, n_fact, red.asm.n_free, seconds)
