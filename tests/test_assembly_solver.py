@@ -93,3 +93,43 @@ def test_displacement_control_reproduces_the_load_controlled_cantilever() -> Non
     # the reactions at the prescribed tip are the loads the load-controlled run applied there
     assert np.abs(out.final.reactions[tip, :3] - p.loads[tip, :3]).max() < 1e-6 * 1.5
     assert np.abs(out.final.displacement - r.displacement).max() < 1e-6
+
+
+def test_cli_simulate_assembly_fields_files_and_bad_input(tmp_path) -> None:  # noqa: ANN001
+    import json
+    from pathlib import Path
+
+    import meshio
+
+    from tests.conftest import run_cli
+
+    spec = str(Path(__file__).resolve().parents[1] / "assemblies" / "test-small.toml")
+    vtu, png = tmp_path / "s.vtu", tmp_path / "s.png"
+    r = run_cli("simulate-assembly", spec, "--h", "5", "--end-shortening", "0.005", "--steps", "2", "--json",
+                "--vtu", str(vtu), "--png", str(png))
+    assert r.returncode == 0, r.stderr
+    row = json.loads(r.stdout)
+    assert list(row) == ["converged", "plates", "sleeves", "nodes", "dofs", "iterations", "seconds", "energy",
+                         "plate_energies", "sleeve_moments", "reaction", "max_deflection", "peak", "half_ratio",
+                         "path"]
+    assert row["converged"] is True and row["plates"] == 3 and row["sleeves"] == 2
+    assert list(row["plate_energies"]) == ["T1", "T2", "T3"] and list(row["sleeve_moments"]) == ["E1", "E2"]
+    assert sum(row["plate_energies"].values()) == pytest.approx(row["energy"])
+    assert [p["end_shortening"] for p in row["path"]] == pytest.approx([0.0025, 0.005])
+    assert row["path"][-1]["reaction"] == row["reaction"] > 0  # compression
+    assert row["path"][1]["reaction"] > row["path"][0]["reaction"] > 0
+    mesh = meshio.read(vtu)
+    assert len(mesh.points) == row["nodes"] - row["sleeves"]
+    assert set(mesh.point_data) >= {"reference", "displacement", "rotation", "plate"}
+    assert sorted(set(mesh.point_data["plate"].tolist())) == [0, 1, 2]
+    assert set(mesh.cell_data) >= {"strain_energy", "membrane_energy", "bending_energy", "shear_energy"}
+    assert png.read_bytes()[:4] == b"\x89PNG"
+
+    out = tmp_path / "x.png"
+    for args, word in ((("--end-shortening", "0"), "--end-shortening"),
+                       (("--end-shortening", "0.5"), "--end-shortening"), (("--h", "8"), "too coarse")):
+        bad = run_cli("simulate-assembly", spec, *args, "--png", str(out))
+        assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and word in bad.stderr, bad.stderr
+    bad = run_cli("simulate-assembly", spec.replace("test-small", "truncated-icosahedron"), "--png", str(out))
+    assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and "honeycomb-strip" in bad.stderr
+    assert not out.exists() and not list(tmp_path.glob("*.tmp*"))

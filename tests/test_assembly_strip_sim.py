@@ -62,24 +62,17 @@ def test_uniform_strip_is_symmetric() -> None:
     assert r.implied_critical_load == pytest.approx(r.compression / 0.8, rel=0.15)
 
 
-def test_cli_simulate_strip(tmp_path) -> None:  # noqa: ANN001
+def test_cli_simulate_strip_is_a_deprecated_alias_of_simulate_assembly(tmp_path) -> None:  # noqa: ANN001
     import json
-
-    import meshio
 
     from tests.conftest import run_cli
 
-    vtu, png = tmp_path / "s.vtu", tmp_path / "s.png"
-    r = run_cli("simulate-strip", str(SPECS / "test-small.toml"), "--h", "4", "--json", "--vtu", str(vtu),
-                "--png", str(png))
-    assert r.returncode == 0, r.stderr
-    row = json.loads(r.stdout)
-    assert row["patterns"] == ["0x0488", "0x0508", "0x0588"] and row["converged"] is True
-    assert row["compression"] == pytest.approx(0.8 * row["critical_load_estimate"])
-    assert len(row["profile"]["x"]) == len(row["profile"]["w"]) > 10
-    assert max(row["profile"]["w"]) == pytest.approx(row["max_deflection"])
-    assert len(meshio.read(vtu).points) == row["nodes"]
-    assert png.read_bytes()[:4] == b"\x89PNG"
-    bad = run_cli("simulate-strip", str(SPECS / "truncated-icosahedron.toml"), "--png", str(tmp_path / "x.png"))
-    assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and "honeycomb-strip" in bad.stderr
-    assert not (tmp_path / "x.png").exists()
+    args = (str(SPECS / "test-small.toml"), "--h", "5", "--end-shortening", "0.005", "--steps", "1")
+    old, new = run_cli("simulate-strip", *args), run_cli("simulate-assembly", *args, "--json")
+    assert old.returncode == 0 and new.returncode == 0, old.stderr + new.stderr
+    assert "deprecated" in old.stderr and "simulate-assembly" in old.stderr and "deprecated" not in new.stderr
+    b = json.loads(new.stdout)
+    text = dict(line.split("=", 1) for line in old.stdout.splitlines())  # key=value lines, the JSON names
+    assert list(text) == list(b) and text["converged"] == "true"
+    assert float(text["energy"]) == pytest.approx(b["energy"], rel=1e-5)
+    assert json.loads(text["path"]) == pytest.approx(b["path"])

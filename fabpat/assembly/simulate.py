@@ -43,6 +43,10 @@ IMPERFECTION = 1e-3
 #: the element forces that cancel to them are thousands of times larger (as in strip_sim)
 STRIP_RTOL = 1e-6
 PROFILE_BINS = 60
+#: Largest mesh edge h (mm) as a multiple of the interface segment's length 2d (3.1 mm on a 36 mm
+#: hexagon): a sleeve grips the segment and the plate's load passes through the neck behind it, so
+#: elements much larger than the segment cannot carry it (the mesher would still put 2 nodes on it)
+MAX_H_PER_INTERFACE = 2.0
 
 
 @lru_cache(maxsize=32)
@@ -73,12 +77,19 @@ class StripSetup:
 
 def strip_setup(spec: object, face_patterns: list[str], *, h: float = 3.0, E: float = 1000.0,
                 nu: float = 0.35) -> StripSetup:
-    """Mesh, place and join the plates of a ``honeycomb-strip`` spec (an AssemblySpec)."""
+    """Mesh, place and join the plates of a ``honeycomb-strip`` spec (an AssemblySpec).
+
+    Raises GeometryError if h exceeds ``MAX_H_PER_INTERFACE`` × the interface segment's length.
+    """
     from fabpat.assembly.placement import place
 
     asm = place(spec, face_patterns)  # type: ignore[arg-type]
     t = spec.plates.thickness  # type: ignore[attr-defined]
     w = spec.plates.weight  # type: ignore[attr-defined]
+    seg = 2.0 * asm.plate_edge / 16.0 / (1.0 + w)  # interface segment length 2d (fabpat.mesh.interface_segments)
+    if not 0 < h <= MAX_H_PER_INTERFACE * seg:
+        raise GeometryError(f"mesh too coarse for the interface: h = {h:g} mm, the interface segment is {seg:.3g} mm "
+                            f"long; use h ≤ {MAX_H_PER_INTERFACE * seg:.3g} mm")
     plates = []
     for pl in asm.plates:
         mesh = plate_mesh(pl.type.pattern_id, pl.type.sides, asm.plate_edge, w, h)

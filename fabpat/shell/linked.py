@@ -277,9 +277,12 @@ def solve_path(
     max_rotation_step: float = 0.5,
     reuse_ratio: float = 0.1,
     stable: bool = True,
+    predictor: bool = False,
 ) -> PathResult:
     """Follow λ = 0 → 1 (loads λ·loads, prescribed dofs λ·prescribed, joint angles λ·φ); see module doc.
 
+    ``predictor``: start each increment from the last converged increment, extrapolated (secant);
+    else from the last state with the prescribed increment applied through the tangent.
     ``stable``: the path sought is a stable one (an imperfect structure under displacement control),
     so an increment whose tangent determinant changed sign since the unloaded state is rejected and
     halved: Newton from a flat state with a large increment otherwise lands on the unstable
@@ -322,12 +325,22 @@ def solve_path(
 
     next_report = 1
     sign0, sign, unstable = 0, 1, False
+    prev: tuple[Arr, Arr, float] | None = None  # last converged increment (Δx, spins, Δλ)
     while lam < 1.0 - 1e-12:
         goal = next_report / steps
         target = min(goal, lam + dlam)
         if goal - target < 1e-9:
             target = goal
         xt, Rt = x.copy(), R.copy()
+        if prev is not None and predictor:
+            # secant predictor: extrapolate the last converged increment (off by default: on the 1 × 4
+            # strip to 10 % it took 31 increments / 205 iterations against 19 / 129 without)
+            sc = (target - lam) / prev[2]
+            xt = xt + sc * prev[0]
+            Rt = np.einsum("nij,njk->nik", expmap(sc * prev[1]), Rt)
+            xt = np.where(p.fixed[:, :3], X + target * p.prescribed[:, :3], xt)
+            if all_rot.any():
+                Rt[all_rot] = expmap(target * p.prescribed[all_rot, 3:])
         red.place_slaves(p, xt, Rt, target)
         ok, its, last, res0, growth, lu = False, 0, np.inf, np.inf, 0, None
         for its in range(1, max_iter + 1):  # noqa: B007 (its used after the loop)
@@ -389,6 +402,7 @@ def solve_path(
             ok, unstable = False, True  # converged onto an unstable branch (see ``stable``)
         if ok:
             unstable = False
+            prev = (xt - x, logmap(Rt @ R.transpose(0, 2, 1)), target - lam)
             x, R, lam = xt, Rt, target
             incs += 1
             if its <= 4:
@@ -401,6 +415,7 @@ def solve_path(
                 next_report += 1
         else:
             cuts += 1
+            prev = None  # the extrapolation may be what failed
             dlam = 0.5 * (target - lam)
             if dlam < min_step:
                 raise SolverError(
