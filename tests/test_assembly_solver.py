@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -97,7 +99,6 @@ def test_displacement_control_reproduces_the_load_controlled_cantilever() -> Non
 
 def test_cli_simulate_assembly_fields_files_and_bad_input(tmp_path) -> None:  # noqa: ANN001
     import json
-    from pathlib import Path
 
     import meshio
 
@@ -133,3 +134,54 @@ def test_cli_simulate_assembly_fields_files_and_bad_input(tmp_path) -> None:  # 
     bad = run_cli("simulate-assembly", spec.replace("test-small", "truncated-icosahedron"), "--png", str(out))
     assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and "honeycomb-strip" in bad.stderr
     assert not out.exists() and not list(tmp_path.glob("*.tmp*"))
+
+
+# The stiffest pattern of the built-in catalog in the Cylinder scenario and one about 4× softer (as in
+# test_assembly_strip_sim); strips of 1 × 4 tiles at a coarse mesh keep the paths quick.
+STIFF, SOFT = "0xff88", "0x6808"
+STRIP_H = 5.0
+
+
+def _strip(patterns: list[str]):  # noqa: ANN202
+    import dataclasses
+
+    from fabpat.assembly.simulate import strip_setup
+    from fabpat.assembly.spec import load_spec
+
+    spec = load_spec(Path(__file__).resolve().parents[1] / "assemblies" / "test-small.toml")
+    spec = dataclasses.replace(spec, tiling=dataclasses.replace(spec.tiling, rows=1, columns=len(patterns)))
+    return strip_setup(spec, patterns, h=STRIP_H)
+
+
+@pytest.fixture(scope="module")
+def uniform_strip():  # noqa: ANN201
+    from fabpat.assembly.simulate import run_strip
+
+    return run_strip(_strip([SOFT] * 4), 0.1, steps=5)
+
+
+def test_straight_strip_stays_flat_then_buckles_into_a_symmetric_arch(uniform_strip) -> None:  # noqa: ANN001
+    from fabpat.assembly.simulate import run_strip
+
+    # below the buckling load, without an imperfection, the strip only shortens in its plane
+    flat = run_strip(_strip([SOFT] * 4), 0.004, steps=1, imperfection=0.0)
+    assert np.abs(flat.result.final.displacement[:, 2]).max() < 1e-9
+    k0 = flat.reaction / 0.004  # pre-buckling stiffness, N per unit end shortening
+    r = uniform_strip
+    reactions = [p["reaction"] for p in r.path]
+    # the buckling plateau: past buckling the reaction barely grows, far below the flat strip's line
+    assert reactions[-1] < 0.4 * k0 * 0.1
+    assert (reactions[-1] - reactions[1]) / (0.1 - 0.04) < 0.1 * k0
+    assert r.max_deflection > 0.15 * r.setup.length  # a real arch, upward (the imperfection's side)
+    assert r.peak == pytest.approx(0.5, abs=0.01)
+    assert r.half_ratio == pytest.approx(1.0, abs=0.02)
+
+
+def test_graded_strip_peaks_towards_its_soft_end_and_mirrors(uniform_strip) -> None:  # noqa: ANN001
+    from fabpat.assembly.simulate import run_strip
+
+    graded = run_strip(_strip([STIFF] * 2 + [SOFT] * 2), 0.1, steps=5)
+    mirrored = run_strip(_strip([SOFT] * 2 + [STIFF] * 2), 0.1, steps=5)
+    assert graded.peak > 0.52 and graded.half_ratio < 0.9  # column 0 is the stiff end: flatter
+    assert mirrored.peak == pytest.approx(1.0 - graded.peak, abs=0.01)
+    assert uniform_strip.peak == pytest.approx(0.5, abs=0.01)

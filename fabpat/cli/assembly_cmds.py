@@ -79,7 +79,7 @@ def assemble_cmd(spec: str, out: str, progress: bool, timestamp: str | None, for
 @click.option("--steps", type=int, default=10, show_default=True,
               help="Equal end-shortening increments reported in the JSON path.")
 @click.option("--imperfection", type=float, default=None,
-              help="Upward out-of-plane force (N, in total) that selects the buckle [default: 0.001].")
+              help="Upward out-of-plane force (N, in total) that selects the buckle [default: 0.01].")
 @click.option("--youngs-modulus", "E", type=float, default=1000.0, show_default=True, help="N/mm² (PLA: 1000).")
 @click.option("--poisson", "nu", type=float, default=0.35, show_default=True, help="Poisson's ratio.")
 @click.option("--vtu", type=click.Path(dir_okay=False), help="Every plate, deformed, with fields for ParaView (.vtu).")

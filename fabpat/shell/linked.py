@@ -48,6 +48,11 @@ from fabpat.shell.solve import ROUNDOFF_FACTOR, _lu
 
 Arr = NDArray[np.float64]
 
+#: an increment that converged within this many iterations (the predictor included) doubles the next
+#: one: on the strip's post-buckling branch increments take 6 iterations, and 4 kept them at 1/12 of
+#: the path after the knee
+EASY_ITERATIONS = 6
+
 
 @dataclass(frozen=True, eq=False)
 class LinkedProblem:
@@ -278,9 +283,14 @@ def solve_path(
     reuse_ratio: float = 0.1,
     stable: bool = True,
     predictor: bool = False,
+    direction: Arr | None = None,
 ) -> PathResult:
     """Follow λ = 0 → 1 (loads λ·loads, prescribed dofs λ·prescribed, joint angles λ·φ); see module doc.
 
+    ``direction``: optional (N, 6) field; an increment is rejected (and halved) when the displacement
+    it reaches has a negative projection on it (translations and rotation vectors): it names the
+    branch to follow past a symmetric bifurcation (e.g. the imperfection load's field: just past the
+    bifurcation the flat path's tangent has a negative eigenvalue and sends Newton the other way).
     ``predictor``: start each increment from the last converged increment, extrapolated (secant);
     else from the last state with the prescribed increment applied through the tangent.
     ``stable``: the path sought is a stable one (an imperfect structure under displacement control),
@@ -291,7 +301,7 @@ def solve_path(
     Convergence of an increment: ‖r‖ ≤ max(rtol · max(‖λ f‖, ‖reactions‖), floor) over the dofs that
     are neither prescribed nor slaves, with the round-off floor of :mod:`fabpat.shell.solve`. The LU
     is reused while the residual falls by ``reuse_ratio`` per iteration. Increments start at the last
-    successful size (at most one report interval), halve on failure and double after ≤ 4 iterations.
+    successful size (at most one report interval), halve on failure and double after ≤ ``EASY_ITERATIONS``.
     Raises SolverError (naming the λ reached) when an increment falls below ``min_step``.
     """
     if steps < 1:
@@ -400,12 +410,16 @@ def solve_path(
         its_total += its
         if ok and stable and lu is not None and sign != sign0:
             ok, unstable = False, True  # converged onto an unstable branch (see ``stable``)
+        if ok and direction is not None:
+            u6 = np.concatenate([xt - X, logmap(Rt)], axis=1)
+            if float(np.sum(u6 * direction)) < 0.0:
+                ok, unstable = False, True  # the other branch (see ``direction``)
         if ok:
             unstable = False
             prev = (xt - x, logmap(Rt @ R.transpose(0, 2, 1)), target - lam)
             x, R, lam = xt, Rt, target
             incs += 1
-            if its <= 4:
+            if its <= EASY_ITERATIONS:
                 dlam = min(2.0 * dlam, 1.0 / steps)
             if abs(lam - goal) < 1e-12:
                 assert g is not None and U is not None
@@ -422,7 +436,8 @@ def solve_path(
                     f"path following did not converge: the increment fell below {min_step:g} at load fraction "
                     f"λ = {lam:.4f} (aiming for {target:.4f}) after {its_total} iterations and {cuts} step cuts "
                     f"(residual {last:.3e}"
-                    + ("; it converges only onto an unstable branch: add an imperfection" if unstable else "")
+                    + ("; it converges only onto an unstable or the unwanted branch: add an imperfection"
+                       if unstable else "")
                     + "); the path may snap back or the mesh may be too coarse")
     assert d is not None
     ee = red.model.energy_split(d)

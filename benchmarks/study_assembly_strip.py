@@ -1,0 +1,135 @@
+"""The shipped graded strip pushed into its arch: solver cost by mesh size, and the sparse solvers.
+
+    python benchmarks/study_assembly_strip.py                 # table at h = 3 (full path, 10 %)
+    python benchmarks/study_assembly_strip.py --h 3 2 1.5     # the table of docs/assembly-solver.md
+    python benchmarks/study_assembly_strip.py --solvers       # one tangent factored by each solver
+    python benchmarks/study_assembly_strip.py --profiles docs/img/assembly-strip-profiles.png --h 4
+
+Columns: nodes (plate nodes + sleeves), dofs (unknowns after eliminating slaves and fixed dofs),
+LU factorizations, seconds per factorization (SuperLU, factor + solves), total seconds of the path
+solve (10 report steps to 10 % end shortening), the reaction at 10 % (N) and the arch's peak.
+``--solvers`` factors the reduced tangent of the strip in its buckled state (10 % end shortening,
+unsymmetric and, past buckling, possibly indefinite) with every solver that is installed and reports
+seconds and the relative residual of one solve.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from fabpat.assembly.build import face_patterns
+from fabpat.assembly.simulate import run_strip, strip_setup, write_profiles_png
+from fabpat.assembly.spec import load_spec
+
+SPEC = "assemblies/graded-strip.toml"
+
+
+def table(hs: list[float], steps: int) -> None:
+    spec = load_spec(SPEC)
+    ids = face_patterns(spec)
+    print(f"{'h mm':>5} {'nodes':>7} {'dofs':>8} {'factorizations':>15} {'s/factorization':>16} {'total s':>8} "
+          f"{'reaction N':>11} {'peak':>6}")
+    for h in hs:
+        setup = strip_setup(spec, ids, h=h)
+        t0 = time.perf_counter()
+        r = run_strip(setup, 0.1, steps=steps)
+        total = time.perf_counter() - t0
+        res = r.result
+        print(f"{h:5.2f} {setup.model.n_nodes:7d} {res.dofs:8d} {res.factorizations:15d} "
+              f"{res.seconds['factor_solve'] / max(res.factorizations, 1):16.2f} {total:8.1f} {r.reaction:11.4f} "
+              f"{r.peak:6.3f}", flush=True)
+
+
+def solvers(h: float) -> None:
+    import scipy.sparse.linalg as spla
+
+    from fabpat.shell.linked import _Reduced
+    from fabpat.shell.solve import _lu
+
+    spec = load_spec(SPEC)
+    setup = strip_setup(spec, face_patterns(spec), h=h)
+    run = run_strip(setup, 0.1, steps=10)
+    m = setup.model
+    N = m.n_nodes
+    fixed = np.zeros((N, 6), dtype=bool)
+    fixed[setup.left, :3] = True
+    fixed[setup.right, :3] = True
+    pres = np.zeros((N, 6))
+    pres[setup.right, 0] = -0.1 * setup.length
+    p = m.problem(fixed, pres, np.zeros((N, 6)))
+    red = _Reduced(p)
+    X = np.vstack([p.X, p.masters])
+    from fabpat.shell.rotations import expmap
+
+    x = X + run.result.final.displacement
+    R = expmap(run.result.final.rotation)
+    g, _, _, d = red.forces(p, x, R, 1.0)
+    K = red.matrix(p, x, R, d, g, 1.0)
+    b = np.random.default_rng(0).standard_normal(K.shape[0])
+    print(f"h = {h}: {K.shape[0]} dofs, {K.nnz} nonzeros, symmetric part error "
+          f"{abs(K - K.T).max() / abs(K).max():.1e}")
+    rows = []
+    t = time.perf_counter()
+    lu = _lu(K)
+    y = lu.solve(b)
+    rows.append(("SuperLU (scipy, fabpat's ordering, threshold 0.1)", time.perf_counter() - t, y))
+    t = time.perf_counter()
+    y = spla.splu(K.tocsc(), permc_spec="COLAMD").solve(b)
+    rows.append(("SuperLU (scipy, COLAMD, partial pivoting)", time.perf_counter() - t, y))
+    try:
+        import pypardiso
+
+        t = time.perf_counter()
+        y = pypardiso.spsolve(K.tocsr(), b)
+        rows.append(("PARDISO (pypardiso, MKL, unsymmetric)", time.perf_counter() - t, y))
+    except ImportError:
+        print("pypardiso not installed")
+    try:
+        from sksparse.cholmod import cholesky
+
+        t = time.perf_counter()
+        y = cholesky(((K + K.T) * 0.5).tocsc())(b)
+        rows.append(("CHOLMOD (scikit-sparse, symmetrised: not the tangent)", time.perf_counter() - t, y))
+    except ImportError:
+        print("scikit-sparse not installed")
+    for name, sec, y in rows:
+        print(f"{name:<55} {sec:7.2f} s   residual {np.linalg.norm(K @ y - b) / np.linalg.norm(b):.1e}")
+
+
+def profiles(path: str, h: float, steps: int) -> None:
+    spec = load_spec(SPEC)
+    ids = face_patterns(spec)
+    cols, nrows = spec.tiling.columns, spec.tiling.rows
+    rev = [ids[(cols - 1 - f // nrows) * nrows + f % nrows] for f in range(len(ids))]  # columns reversed
+    runs = []
+    for name, pats in (("graded (stiff at column 0)", ids), ("mirrored", rev),
+                       ("uniform (softest)", [ids[-1]] * len(ids))):
+        t0 = time.perf_counter()
+        r = run_strip(strip_setup(spec, pats, h=h), 0.1, steps=steps)
+        print(f"{name:<28} peak {r.peak:.4f} half_ratio {r.half_ratio:.3f} reaction {r.reaction:.4f} N "
+              f"max_deflection {r.max_deflection:.2f} mm  {time.perf_counter() - t0:.0f} s", flush=True)
+        runs.append((name, r))
+    write_profiles_png(path, runs)
+    print(f"wrote {path}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--h", type=float, nargs="+", default=[3.0])
+    ap.add_argument("--steps", type=int, default=10)
+    ap.add_argument("--solvers", action="store_true")
+    ap.add_argument("--profiles", metavar="PNG")
+    a = ap.parse_args()
+    if a.solvers:
+        solvers(a.h[0])
+    elif a.profiles:
+        profiles(a.profiles, a.h[0], a.steps)
+    else:
+        table(a.h, a.steps)
+
+
+if __name__ == "__main__":
+    main()
