@@ -2,15 +2,15 @@
 
     python benchmarks/study_assembly_strip.py                 # table at h = 3 (full path, 10 %)
     python benchmarks/study_assembly_strip.py --h 3 2 1.5     # the table of docs/assembly-solver.md
-    python benchmarks/study_assembly_strip.py --solvers       # one tangent factored by each solver
+    python benchmarks/study_assembly_strip.py --solvers --h 3 2 1.5   # one tangent, each solver
     python benchmarks/study_assembly_strip.py --profiles docs/img/assembly-strip-profiles.png --h 4
 
 Columns: nodes (plate nodes + sleeves), dofs (unknowns after eliminating slaves and fixed dofs),
 LU factorizations, seconds per factorization (SuperLU, factor + solves), total seconds of the path
 solve (10 report steps to 10 % end shortening), the reaction at 10 % (N) and the arch's peak.
-``--solvers`` factors the reduced tangent of the strip in its buckled state (10 % end shortening,
-unsymmetric and, past buckling, possibly indefinite) with every solver that is installed and reports
-seconds and the relative residual of one solve.
+``--solvers`` factors the reduced tangent of the strip (unloaded; the pins' rows replaced by identity
+rows, so it is unsymmetric) with every solver that is installed and reports seconds and the relative
+residual of one solve.
 """
 
 from __future__ import annotations
@@ -43,60 +43,62 @@ def table(hs: list[float], steps: int) -> None:
               f"{r.peak:6.3f}", flush=True)
 
 
-def solvers(h: float) -> None:
+def solvers(hs: list[float]) -> None:
+    """Factor the strip's reduced tangent (unloaded state, pins' prescribed rows in place) with each
+    installed solver: seconds for factor + one solve, and the relative residual of that solve."""
     import scipy.sparse.linalg as spla
 
     from fabpat.shell.linked import _Reduced
     from fabpat.shell.solve import _lu
 
     spec = load_spec(SPEC)
-    setup = strip_setup(spec, face_patterns(spec), h=h)
-    run = run_strip(setup, 0.1, steps=10)
-    m = setup.model
-    N = m.n_nodes
-    fixed = np.zeros((N, 6), dtype=bool)
-    fixed[setup.left, :3] = True
-    fixed[setup.right, :3] = True
-    pres = np.zeros((N, 6))
-    pres[setup.right, 0] = -0.1 * setup.length
-    p = m.problem(fixed, pres, np.zeros((N, 6)))
-    red = _Reduced(p)
-    X = np.vstack([p.X, p.masters])
-    from fabpat.shell.rotations import expmap
-
-    x = X + run.result.final.displacement
-    R = expmap(run.result.final.rotation)
-    g, _, _, d = red.forces(p, x, R, 1.0)
-    K = red.matrix(p, x, R, d, g, 1.0)
-    b = np.random.default_rng(0).standard_normal(K.shape[0])
-    print(f"h = {h}: {K.shape[0]} dofs, {K.nnz} nonzeros, symmetric part error "
-          f"{abs(K - K.T).max() / abs(K).max():.1e}")
-    rows = []
-    t = time.perf_counter()
-    lu = _lu(K)
-    y = lu.solve(b)
-    rows.append(("SuperLU (scipy, fabpat's ordering, threshold 0.1)", time.perf_counter() - t, y))
-    t = time.perf_counter()
-    y = spla.splu(K.tocsc(), permc_spec="COLAMD").solve(b)
-    rows.append(("SuperLU (scipy, COLAMD, partial pivoting)", time.perf_counter() - t, y))
-    try:
-        import pypardiso
-
+    ids = face_patterns(spec)
+    for h in hs:
+        setup = strip_setup(spec, ids, h=h)
+        m = setup.model
+        N = m.n_nodes
+        fixed = np.zeros((N, 6), dtype=bool)
+        fixed[setup.left, :3] = True
+        fixed[setup.right, :3] = True
+        pres = np.zeros((N, 6))
+        pres[setup.right, 0] = -0.1 * setup.length
+        p = m.problem(fixed, pres, np.zeros((N, 6)))
+        red = _Reduced(p)
+        x = np.vstack([p.X, p.masters])
+        R = np.broadcast_to(np.eye(3), (N, 3, 3)).copy()
+        g, _, _, d = red.forces(p, x, R, 0.0)
+        K = red.matrix(p, x, R, d, g, 1.0)
+        b = np.random.default_rng(0).standard_normal(K.shape[0])
+        print(f"h = {h}: {N} nodes, {K.shape[0]} dofs, {K.nnz} nonzeros", flush=True)
+        rows = []
         t = time.perf_counter()
-        y = pypardiso.spsolve(K.tocsr(), b)
-        rows.append(("PARDISO (pypardiso, MKL, unsymmetric)", time.perf_counter() - t, y))
-    except ImportError:
-        print("pypardiso not installed")
-    try:
-        from sksparse.cholmod import cholesky
-
+        y = _lu(K).solve(b)
+        rows.append(("SuperLU (scipy; fabpat's MMD node order, threshold 0.1)", time.perf_counter() - t, y))
         t = time.perf_counter()
-        y = cholesky(((K + K.T) * 0.5).tocsc())(b)
-        rows.append(("CHOLMOD (scikit-sparse, symmetrised: not the tangent)", time.perf_counter() - t, y))
-    except ImportError:
-        print("scikit-sparse not installed")
-    for name, sec, y in rows:
-        print(f"{name:<55} {sec:7.2f} s   residual {np.linalg.norm(K @ y - b) / np.linalg.norm(b):.1e}")
+        y = spla.splu(K.tocsc(), permc_spec="COLAMD").solve(b)
+        rows.append(("SuperLU (scipy; COLAMD, partial pivoting)", time.perf_counter() - t, y))
+        try:
+            import pypardiso
+
+            solver = pypardiso.PyPardisoSolver(mtype=11)  # real unsymmetric
+            Kr = K.tocsr()
+            t = time.perf_counter()
+            solver.factorize(Kr)
+            y = solver.solve(Kr, b)
+            rows.append(("PARDISO (pypardiso 0.4.7, MKL, real unsymmetric)", time.perf_counter() - t, y))
+        except ImportError:
+            print("pypardiso not installed")
+        try:
+            from sksparse.cholmod import cholesky
+
+            t = time.perf_counter()
+            y = cholesky(K.tocsc())(b)
+            rows.append(("CHOLMOD (scikit-sparse; symmetric only)", time.perf_counter() - t, y))
+        except ImportError:
+            print("scikit-sparse not installed")
+        for name, sec, y in rows:
+            print(f"  {name:<58} {sec:7.2f} s   residual {np.linalg.norm(K @ y - b) / np.linalg.norm(b):.1e}",
+                  flush=True)
 
 
 def profiles(path: str, h: float, steps: int) -> None:
@@ -124,7 +126,7 @@ def main() -> None:
     ap.add_argument("--profiles", metavar="PNG")
     a = ap.parse_args()
     if a.solvers:
-        solvers(a.h[0])
+        solvers(a.h)
     elif a.profiles:
         profiles(a.profiles, a.h[0], a.steps)
     else:

@@ -253,25 +253,6 @@ class _Reduced:
         return K
 
 
-def _det_sign(lu: object) -> int:
-    """Sign of det K from SuperLU's factors: signs of U's diagonal and the row permutation's parity
-    (columns are not permuted: ``permc_spec="NATURAL"``; L has a unit diagonal)."""
-    neg = int(np.count_nonzero(lu.U.diagonal() < 0))  # type: ignore[attr-defined]
-    perm = np.asarray(lu.perm_r)  # type: ignore[attr-defined]
-    seen = perm == np.arange(perm.size)
-    swaps = 0
-    for i in np.flatnonzero(~seen):  # cycle decomposition of the (few) moved rows
-        if seen[i]:
-            continue
-        j, length = i, 0
-        while not seen[j]:
-            seen[j] = True
-            j = perm[j]
-            length += 1
-        swaps += length - 1
-    return -1 if (neg + swaps) % 2 else 1
-
-
 def solve_path(
     p: LinkedProblem,
     *,
@@ -281,7 +262,6 @@ def solve_path(
     min_step: float = 1.0 / 4096,
     max_rotation_step: float = 0.5,
     reuse_ratio: float = 0.1,
-    stable: bool = True,
     predictor: bool = False,
     direction: Arr | None = None,
 ) -> PathResult:
@@ -289,14 +269,12 @@ def solve_path(
 
     ``direction``: optional (N, 6) field; an increment is rejected (and halved) when the displacement
     it reaches has a negative projection on it (translations and rotation vectors): it names the
-    branch to follow past a symmetric bifurcation (e.g. the imperfection load's field: just past the
-    bifurcation the flat path's tangent has a negative eigenvalue and sends Newton the other way).
+    branch to follow past a symmetric bifurcation, e.g. the imperfection load. Past the bifurcation
+    the imperfect structure's other equilibria (the unstable near-flat one and the opposite buckle)
+    deflect against the imperfection, and Newton converges onto them just as well: from the flat
+    state the tangent has a negative eigenvalue there and points the wrong way.
     ``predictor``: start each increment from the last converged increment, extrapolated (secant);
     else from the last state with the prescribed increment applied through the tangent.
-    ``stable``: the path sought is a stable one (an imperfect structure under displacement control),
-    so an increment whose tangent determinant changed sign since the unloaded state is rejected and
-    halved: Newton from a flat state with a large increment otherwise lands on the unstable
-    (unbuckled or wrong-way) branch past a bifurcation, which it converges to just as well.
 
     Convergence of an increment: ‖r‖ ≤ max(rtol · max(‖λ f‖, ‖reactions‖), floor) over the dofs that
     are neither prescribed nor slaves, with the round-off floor of :mod:`fabpat.shell.solve`. The LU
@@ -334,7 +312,7 @@ def solve_path(
         return np.where(p.fixed, inc, 0.0)
 
     next_report = 1
-    sign0, sign, unstable = 0, 1, False
+    unstable = False
     prev: tuple[Arr, Arr, float] | None = None  # last converged increment (Δx, spins, Δλ)
     while lam < 1.0 - 1e-12:
         goal = next_report / steps
@@ -386,8 +364,6 @@ def solve_path(
                 if not reuse:
                     lu = _lu(K)
                     n_fact += 1
-                    sign = _det_sign(lu) if stable else 1
-                    sign0 = sign0 or sign
                 du[red.asm.free] = lu.solve(rhs[red.asm.free])
             except SolverError:
                 break
@@ -408,8 +384,6 @@ def solve_path(
                 Rt[all_rot] = expmap(target * p.prescribed[all_rot, 3:])
             red.place_slaves(p, xt, Rt, target)
         its_total += its
-        if ok and stable and lu is not None and sign != sign0:
-            ok, unstable = False, True  # converged onto an unstable branch (see ``stable``)
         if ok and direction is not None:
             u6 = np.concatenate([xt - X, logmap(Rt)], axis=1)
             if float(np.sum(u6 * direction)) < 0.0:
@@ -436,8 +410,7 @@ def solve_path(
                     f"path following did not converge: the increment fell below {min_step:g} at load fraction "
                     f"λ = {lam:.4f} (aiming for {target:.4f}) after {its_total} iterations and {cuts} step cuts "
                     f"(residual {last:.3e}"
-                    + ("; it converges only onto an unstable or the unwanted branch: add an imperfection"
-                       if unstable else "")
+                    + ("; it converges only onto a branch against ``direction``" if unstable else "")
                     + "); the path may snap back or the mesh may be too coarse")
     assert d is not None
     ee = red.model.energy_split(d)
