@@ -157,6 +157,7 @@ class PathResult:
 
     @property
     def final(self) -> PathPoint:
+        """The state at λ = 1 (the last report point)."""
         return self.points[-1]
 
 
