@@ -265,9 +265,14 @@ def solve_path(
     reuse_ratio: float = 0.1,
     predictor: bool = False,
     direction: Arr | None = None,
+    first_step: float | None = None,
 ) -> PathResult:
     """Follow λ = 0 → 1 (loads λ·loads, prescribed dofs λ·prescribed, joint angles λ·φ); see module doc.
 
+    ``first_step``: size of the first increment (fraction of the path; default one report interval).
+    A small one lets the increments grow through a bifurcation that comes early on the path instead
+    of leaping past it: from far beyond it Newton may land on any equilibrium, e.g. a wavy higher
+    mode of a long strip.
     ``direction``: optional (N, 6) field; an increment is rejected (and halved) when the displacement
     it reaches has a negative projection on it (translations and rotation vectors): it names the
     branch to follow past a symmetric bifurcation, e.g. the imperfection load. Past the bifurcation
@@ -297,7 +302,7 @@ def solve_path(
     x, R = X.copy(), np.broadcast_to(np.eye(3), (N, 3, 3)).copy()
     all_rot = p.fixed[:, 3:].all(axis=1)
     fixed_flat = p.fixed.ravel()
-    lam, dlam = 0.0, 1.0 / steps
+    lam, dlam = 0.0, min(first_step, 1.0 / steps) if first_step else 1.0 / steps
     its_total = incs = cuts = n_fact = 0
     t_tan = t_lu = 0.0
     points: list[PathPoint] = []
