@@ -111,8 +111,11 @@ def profiles(path: str, h: float, steps: int) -> None:
                        ("uniform (softest)", [ids[-1]] * len(ids))):
         t0 = time.perf_counter()
         r = run_strip(strip_setup(spec, pats, h=h), 0.1, steps=steps)
+        res = r.result
         print(f"{name:<28} peak {r.peak:.4f} half_ratio {r.half_ratio:.3f} reaction {r.reaction:.4f} N "
-              f"max_deflection {r.max_deflection:.2f} mm  {time.perf_counter() - t0:.0f} s", flush=True)
+              f"max_deflection {r.max_deflection:.2f} mm; {r.setup.model.n_nodes} nodes, {res.dofs} dofs, "
+              f"{res.factorizations} factorizations, {res.seconds['factor_solve'] / max(res.factorizations, 1):.2f} "
+              f"s/factorization, {time.perf_counter() - t0:.0f} s", flush=True)
         runs.append((name, r))
     write_profiles_png(path, runs)
     print(f"wrote {path}")
