@@ -185,3 +185,25 @@ def test_graded_strip_peaks_towards_its_soft_end_and_mirrors(uniform_strip) -> N
     assert graded.peak > 0.52 and graded.half_ratio < 0.9  # column 0 is the stiff end: flatter
     assert mirrored.peak == pytest.approx(1.0 - graded.peak, abs=0.01)
     assert uniform_strip.peak == pytest.approx(0.5, abs=0.01)
+
+
+def test_a_ramped_sleeve_angle_turns_the_free_plate_rigidly() -> None:
+    import dataclasses
+
+    from fabpat.shell.rotations import expmap
+
+    model, (pa, ca), _ = _two_plates(h=5.0)
+    alpha = 0.4  # rad
+    model = dataclasses.replace(model, sleeves=(dataclasses.replace(model.sleeves[0], angle=alpha),))
+    N = model.n_nodes
+    fixed = np.zeros((N, 6), dtype=bool)
+    fixed[model.nodes(pa, ca)] = True  # plate A clamped at its far interface; plate B is free
+    out = solve_path(model.problem(fixed, np.zeros((N, 6)), np.zeros((N, 6))), steps=2)
+    s = model.sleeves[0]
+    a, o = s.frame[:3, 0], s.frame[:3, 3]
+    b = slice(model.offsets[1], model.offsets[2])  # plate B's nodes
+    # no load, so nothing strains; slot A's half turn (−α/2) is held back by the clamped plate A, so
+    # plate B turns by the whole +α about the sleeve axis (through the sleeve centre, which stays put)
+    assert out.final.energy < 1e-8
+    expected = o + (model.X[b] - o) @ expmap(alpha * a).T
+    assert np.abs(model.X[b] + out.final.displacement[b] - expected).max() < 1e-6
