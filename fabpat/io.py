@@ -76,6 +76,17 @@ def remove_stale_temps(folder: str | os.PathLike[str]) -> list[Path]:
     return removed
 
 
+def check_suffix(path: str | os.PathLike[str], suffixes: Iterable[str], what: str) -> Path:
+    """``path`` as a Path if its suffix (any case) is one of ``suffixes``; else :class:`ExportError`
+    naming ``what`` (the option or file kind) and the valid suffixes, so that VTU XML never lands in a
+    ``.txt`` or a PNG in an ``.svg``."""
+    valid = [s.lower() for s in suffixes]
+    p = Path(path)
+    if p.suffix.lower() not in valid:
+        raise ExportError(f"{what} must end in {' or '.join(valid)}, got {os.fspath(path)!r}")
+    return p
+
+
 def check_distinct(paths: Iterable[str | os.PathLike[str]]) -> None:
     """Raise :class:`ExportError` if two of ``paths`` name the same file (after following links)."""
     seen: dict[str, Path] = {}
