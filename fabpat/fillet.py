@@ -201,9 +201,10 @@ class FilletedPattern:
 
     def _repr_svg_(self) -> str:
         """Notebook picture: the exact filleted outline (true curves) in its polygon, true size (mm)."""
-        from fabpat.pictures import pattern_svg
+        from fabpat.pictures import outline_svg
 
-        return pattern_svg(self.pattern, outline_path=self.outline.to_svg_path())
+        p = self.pattern
+        return outline_svg(self.outline, title=f"{p.id} ({p.sides}-gon, edge {p.edge:g} mm)")
 
 
 def interface_half_length(edge: float, depth: int = 2, weight: float = DEFAULT_WEIGHT) -> float:

@@ -48,6 +48,18 @@ from fabpat.shell.results import ShellResult
 from fabpat.shell.solve import ShellProblem, solve_linear, solve_nonlinear
 
 SCENARIOS = ("cantilever", "cylinder", "dome")
+#: the suffixes :meth:`ScenarioResult.to_vtu` and :meth:`ScenarioResult.to_png` (and ``fabpat simulate``) accept
+VTU_SUFFIXES = (".vtu",)
+PNG_SUFFIXES = (".png",)
+
+
+def scenario_name(scenario: object) -> str:
+    """The scenario's name in :data:`SCENARIOS` for any capitalisation (``"Cantilever"`` → ``"cantilever"``);
+    :class:`SolverError` naming the scenarios otherwise."""
+    name = scenario.lower() if isinstance(scenario, str) else None
+    if name not in SCENARIOS:
+        raise SolverError(f"unknown scenario {scenario!r}; expected one of {', '.join(SCENARIOS)}")
+    return name
 
 #: the paper's load magnitudes: force (N) and moments (N·mm, signed as described above)
 CANTILEVER_FORCE = 1.5
@@ -88,20 +100,24 @@ class ScenarioResult:
 
     def to_vtu(self, path: str | os.PathLike[str]) -> Path:
         """Write the deformed mesh with its fields for ParaView (.vtu; see
-        :func:`fabpat.exchange.vtu.write_vtu`), atomically. Returns the path."""
+        :func:`fabpat.exchange.vtu.write_vtu`), atomically. Returns the path. Raises
+        :class:`~fabpat.errors.ExportError` if the suffix is not ``.vtu``."""
         from fabpat.exchange.vtu import write_vtu  # a writer: loaded only when a file is asked for
-        from fabpat.io import atomic_outputs
+        from fabpat.io import atomic_outputs, check_suffix
 
+        check_suffix(path, VTU_SUFFIXES, "a VTU file name")
         mesh = self._need_mesh()
         with atomic_outputs(path) as (tmp,):
             write_vtu(tmp, mesh.V, mesh.F, self.result)
         return Path(path)
 
     def to_png(self, path: str | os.PathLike[str], *, title: str | None = None) -> Path:
-        """Write a picture of the deformed pattern coloured by strain-energy density (PNG), atomically."""
+        """Write a picture of the deformed pattern coloured by strain-energy density (PNG), atomically.
+        Raises :class:`~fabpat.errors.ExportError` if the suffix is not ``.png``."""
         from fabpat.exchange.png_result import write_png
-        from fabpat.io import atomic_outputs
+        from fabpat.io import atomic_outputs, check_suffix
 
+        check_suffix(path, PNG_SUFFIXES, "a PNG file name")
         mesh = self._need_mesh()
         with atomic_outputs(path) as (tmp,):
             write_png(tmp, mesh.V, mesh.F, self.result, title=title or "")
@@ -199,8 +215,8 @@ def simulate(
     """Mesh a filleted pattern and run one of the paper's scenarios (§4.1) — ``fabpat simulate``.
 
     ``filleted``: a :class:`~fabpat.fillet.FilletedPattern` (its polygon and interfaces come with it);
-    ``scenario``: "cantilever", "cylinder" or "dome"; ``h``: target mesh edge (mm); ``linear``: small
-    displacements instead of the geometrically nonlinear analysis; ``thickness`` (mm),
+    ``scenario``: "cantilever", "cylinder" or "dome" (any capitalisation); ``h``: target mesh edge (mm);
+    ``linear``: small displacements instead of the geometrically nonlinear analysis; ``thickness`` (mm),
     ``youngs_modulus`` (N/mm², PLA 1000 as in the paper), ``poisson`` (0.35, our choice for PLA).
     Returns a :class:`ScenarioResult` (``energy`` N·mm, ``max_displacement`` mm, ``to_vtu``,
     ``to_png``). Raises :class:`SolverError` for a bad argument or nonconvergence, and
@@ -208,8 +224,7 @@ def simulate(
     """
     if not hasattr(filleted, "outline") or not hasattr(filleted, "sides"):
         raise SolverError(f"simulate needs a FilletedPattern (pattern.fillet()), got {type(filleted).__name__}")
-    if scenario not in SCENARIOS:
-        raise SolverError(f"unknown scenario {scenario!r}; expected one of {', '.join(SCENARIOS)}")
+    scenario = scenario_name(scenario)
     h, thickness, E = _positive("h", h), _positive("thickness", thickness), _positive("youngs_modulus", youngs_modulus)
     if isinstance(poisson, bool) or not isinstance(poisson, int | float) or not -1.0 < poisson < 0.5:
         raise SolverError(f"poisson must be in (-1, 0.5), got {poisson!r}")

@@ -107,7 +107,8 @@ def simulate_strip_cmd(spec: str, h: float, load_factor: float, compression: flo
     from fabpat.assembly.tiling import honeycomb_strip
     from fabpat.errors import SpecError
     from fabpat.exchange.vtu import write_vtu
-    from fabpat.io import atomic_outputs, check_distinct
+    from fabpat.io import atomic_outputs, check_distinct, check_suffix
+    from fabpat.scenarios import PNG_SUFFIXES, VTU_SUFFIXES
 
     for name, value in (("--h", h), ("--load-factor", load_factor), ("--imperfection", imperfection),
                         ("--youngs-modulus", E)) + ((("--compression", compression),) if compression is not None
@@ -118,6 +119,9 @@ def simulate_strip_cmd(spec: str, h: float, load_factor: float, compression: flo
         raise click.BadParameter(f"--poisson must be in (-1, 0.5), got {nu:g}")
     outputs = [p for p in (vtu, png) if p is not None]
     check_distinct(outputs, inputs={"SPEC": spec})
+    for option, path, valid in (("--vtu", vtu, VTU_SUFFIXES), ("--png", png, PNG_SUFFIXES)):
+        if path is not None:
+            check_suffix(path, valid, option)
     parsed = load_spec(spec)
     t = parsed.tiling
     if t.kind != "honeycomb-strip":
@@ -163,7 +167,7 @@ def simulate_strip_cmd(spec: str, h: float, load_factor: float, compression: flo
         click.echo(" ".join(f"{k}={text(v)}" for k, v in row.items() if k != "patterns")
                    + " patterns=" + ",".join(row["patterns"]))
     for path in outputs:
-        click.echo(f"wrote {path}", err=as_json)
+        click.echo(f"wrote {path}", err=True)  # stdout is data (key=value lines or JSON)
 
 
 COMMANDS = [assemble_cmd, simulate_strip_cmd]

@@ -116,12 +116,14 @@ def catalog_cmd(db: str | None, fmt: str, long_: bool, sides: int | None) -> Non
 
     Example: fabpat catalog --format csv > catalog.csv
     """
-    from fabpat.catalog import open_catalog
+    from fabpat.catalog import CatalogError, no_match_message, open_catalog
     from fabpat.cli.library_cmds import _print_rows
     from fabpat.io import check_distinct
 
     check_distinct([], inputs={"--db": db})
     with open_catalog(db) as cat:
+        if sides is not None and not cat.pattern_rows(sides=sides):
+            raise CatalogError(no_match_message(cat, {"sides": sides}))
         if long_:
             rows = cat.results(sides=sides)
         else:

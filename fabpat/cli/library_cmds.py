@@ -173,7 +173,13 @@ def library_cmd(
     """
     lib = load_library(sides, depth, sample, seed)
     rows = library_rows(lib, edge, None if no_fillet else weight)
-    title = f"{len(rows)} patterns, {sides}-gon, depth {depth}, edge {edge:g} mm ({lib.candidates} candidates)"
+    if sample is None:
+        source = f"{lib.candidates} candidates"
+    else:  # lib.candidates counts the random draws, not the slices the sample stands for
+        from fabpat.lattice import n_faces
+
+        source = f"random sample, seed {seed}, of the 2^{n_faces(depth)} − 1 slices"
+    title = f"{len(rows)} patterns, {sides}-gon, depth {depth}, edge {edge:g} mm ({source})"
     _print_rows(rows, fmt, title)
 
 

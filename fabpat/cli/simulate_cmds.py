@@ -9,7 +9,7 @@ import click
 
 from fabpat.cli.options import edge_option, id_depth_option, sides_option, weight_option
 from fabpat.errors import FabpatError
-from fabpat.io import atomic_outputs, check_distinct
+from fabpat.io import atomic_outputs, check_distinct, check_suffix
 
 SCENARIO_CHOICES = ("cantilever", "cylinder", "dome", "all")
 
@@ -28,7 +28,7 @@ def _per_scenario(path: str | None, scenario: str, many: bool) -> str | None:
 @id_depth_option
 @edge_option
 @weight_option
-@click.option("--scenario", type=click.Choice(SCENARIO_CHOICES), default="all", show_default=True,
+@click.option("--scenario", type=click.Choice(SCENARIO_CHOICES, case_sensitive=False), default="all", show_default=True,
               help="Load case of the paper (all = the three in turn).")
 @click.option("--linear", is_flag=True, help="Linear analysis instead of geometrically nonlinear.")
 @click.option("--h", "h", type=float, default=1.5, show_default=True,
@@ -72,7 +72,7 @@ def simulate_cmd(
     from fabpat.fillet import fillet_pattern
     from fabpat.library import get_pattern
     from fabpat.mesh import mesh_outline
-    from fabpat.scenarios import SCENARIOS
+    from fabpat.scenarios import PNG_SUFFIXES, SCENARIOS, VTU_SUFFIXES
 
     for name, value in (("--h", h), ("--thickness", thickness), ("--youngs-modulus", E)):
         if not value > 0:
@@ -88,6 +88,10 @@ def simulate_cmd(
         if path is not None
     }
     check_distinct(outputs.values())  # before the work: --vtu x --png x would overwrite one with the other
+    for option, path, valid in (("--vtu", vtu, VTU_SUFFIXES), ("--png", png, PNG_SUFFIXES),
+                                ("--export-inp", inp, (".inp",))):
+        if path is not None:
+            check_suffix(path, valid, option)
     pattern = get_pattern(pattern_id, sides, depth, edge)
     filleted = fillet_pattern(pattern, weight)  # its outline carries its polygon
     sizes = (h, h * CONVERGED_MESHES[1] / CONVERGED_MESHES[0]) if extrapolate else (h,)
@@ -122,7 +126,7 @@ def simulate_cmd(
                 f"elements={row['elements']}"
             )
     for path in outputs.values():
-        click.echo(f"wrote {path}", err=as_json)
+        click.echo(f"wrote {path}", err=True)  # stdout is data (key=value lines or JSON)
 
 
 COMMANDS = [simulate_cmd]

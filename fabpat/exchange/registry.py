@@ -110,13 +110,20 @@ def flatten_arcs(arcs: Any) -> tuple[RationalQuad, ...]:
 
 @dataclass(frozen=True)
 class Format:
-    """One file format: ``name`` (CLI spelling), ``suffix``, writer module, ``process`` (print/laser)."""
+    """One file format: ``name`` (CLI spelling), ``suffix`` (the one written by ``--all``), writer module,
+    ``process`` (print/laser), and ``aliases``: other suffixes read as this format (``.stp`` for STEP)."""
 
     name: str
     suffix: str
     module: str
     process: str
     description: str
+    aliases: tuple[str, ...] = ()
+
+    @property
+    def suffixes(self) -> tuple[str, ...]:
+        """Every suffix of this format, lower case, the main one first."""
+        return (self.suffix.lower(), *(a.lower() for a in self.aliases))
 
     @property
     def write(self) -> Callable[[Part, Path, ExportSettings], None]:
@@ -127,12 +134,14 @@ class Format:
 FORMATS: dict[str, Format] = {}
 
 
-def register_format(name: str, suffix: str, module: str, process: str, description: str) -> None:
-    """Add a format; ``module`` is a module name under ``fabpat.exchange`` that defines ``write``."""
-    FORMATS[name] = Format(name, suffix, module, process, description)
+def register_format(name: str, suffix: str, module: str, process: str, description: str,
+                    aliases: tuple[str, ...] = ()) -> None:
+    """Add a format; ``module`` is a module name under ``fabpat.exchange`` that defines ``write``;
+    ``aliases`` are further suffixes recognised as it (matched regardless of case, like ``suffix``)."""
+    FORMATS[name] = Format(name, suffix, module, process, description, tuple(aliases))
 
 
-register_format("step", ".step", "step", "print", "STEP AP214 exact solid (mm)")
+register_format("step", ".step", "step", "print", "STEP AP214 exact solid (mm)", aliases=(".stp",))
 register_format("stl", ".stl", "stl", "print", "binary STL mesh (mm)")
 register_format("3mf", ".3mf", "threemf", "print", "3MF mesh (mm)")
 register_format("dxf", ".dxf", "dxf", "laser", "DXF outline: CUT and ENGRAVE layers (mm)")
@@ -145,9 +154,9 @@ def format_of(path: str | os.PathLike[str]) -> str:
     naming the known suffixes otherwise."""
     suffix = Path(path).suffix.lower()
     for name, fmt in FORMATS.items():
-        if fmt.suffix == suffix:
+        if suffix in fmt.suffixes:
             return name
-    known = " ".join(f.suffix for f in FORMATS.values())
+    known = " ".join(s for f in FORMATS.values() for s in f.suffixes)
     raise ExportError(f"cannot tell the format of {os.fspath(path)!r} from its suffix: use one of {known}")
 
 
