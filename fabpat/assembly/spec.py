@@ -14,7 +14,9 @@ A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented 
 * ``[sleeve]``  ``clearance`` (slot width = thickness + clearance), ``margin`` (slot length =
   interface segment + margin), ``wall``, ``depth`` (how far a plate enters its slot).
 * ``[sheet]``  ``width``, ``height`` (laser sheet or print bed), ``margin``, ``spacing``, ``kerf``,
-  ``border`` (true | false, default true: the bed outline on the sheets' non-plotting layer SHEET).
+  ``border`` (true | false, default true: the bed outline on the sheets' non-plotting layer SHEET),
+  ``dxf_entities`` ("polyline" | "segments", default "polyline": closed LWPOLYLINEs with bulges for
+  laser fills, or one LINE / ARC per piece for OpenSCAD; as ``fabpat export --dxf-entities``).
 * ``[estimates]`` ``cut_speed`` (mm/s), ``print_rate`` (mm³/s).
 * ``[output]``  ``formats``: any of step, stl, glb, 3dm, dxf, svg, bom, png; ``mesh_tolerance`` (STL chord of
   the parts and of the sleeves in the .3dm, default 0.005), ``curve_tolerance`` (largest deviation of
@@ -102,6 +104,7 @@ class SheetSpec:
     spacing: float = 3.0  # mm: minimum gap between two plates' polygons
     kerf: float = 0.0  # mm: laser kerf (cut loops move out by kerf/2)
     border: bool = True  # draw the bed outline on the sheets' non-plotting layer SHEET
+    dxf_entities: str = "polyline"  # "polyline" (closed LWPOLYLINEs) | "segments" (LINE + ARC)
 
 
 @dataclass(frozen=True)
@@ -326,11 +329,14 @@ def _sleeve(source: str, data: Any) -> SleeveSpec:
 
 
 def _sheet(source: str, data: Any, process: str) -> SheetSpec:
-    t = _Table(source, "sheet", data, ("width", "height", "margin", "spacing", "kerf", "border"))
+    from fabpat.exchange.dxf import ENTITY_MODES
+
+    t = _Table(source, "sheet", data, ("width", "height", "margin", "spacing", "kerf", "border", "dxf_entities"))
     t.only_for("kerf", process, "laser")  # printed plates are not cut: a kerf would only move their outlines
     kerf = t.number("kerf", 0.15 if process == "laser" else 0.0, strict=False)
     return SheetSpec(t.number("width", None), t.number("height", None), t.number("margin", 5.0, strict=False),
-                     t.number("spacing", 3.0, strict=False), kerf, t.boolean("border", True))
+                     t.number("spacing", 3.0, strict=False), kerf, t.boolean("border", True),
+                     t.choice("dxf_entities", ENTITY_MODES, "polyline"))
 
 
 def _estimates(source: str, data: Any, process: str) -> EstimateSpec:
