@@ -2,7 +2,7 @@
 
 The command parses options, builds the filleted outline and calls :mod:`fabpat.exchange.registry`;
 all files of one command are written through one :func:`fabpat.io.atomic_outputs` block, so an error
-leaves no file. Width warnings go to stderr and do not change the exit code.
+leaves no file. Width warnings and labels left out (no room on the part) go to stderr and do not change the exit code.
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ from fabpat.exchange.registry import (
     Part,
     export_parts,
     filleted_part,
+    label_warning,
     parse_formats,
     width_warnings,
 )
@@ -46,6 +47,7 @@ def _warn(message: str) -> None:
 def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> list[Path]:
     """Build each part and write its files in one atomic block, with width warnings and a progress bar."""
     narrow: list[tuple[str | None, list[str]]] = []
+    unlabelled: list[str] = []
     bar = None
     if progress:
         from rich.console import Console
@@ -58,6 +60,9 @@ def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> lis
         messages = width_warnings(part.outline, formats, settings.kerf)
         if messages:
             narrow.append((part.label, messages))
+        missing = label_warning(part, formats)
+        if missing:
+            unlabelled.append(missing)
         if bar is not None:
             bar.advance(task)
 
@@ -74,6 +79,10 @@ def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> lis
     elif narrow:
         label, messages = narrow[0]
         _warn(f"{len(narrow)} patterns have features too narrow for their process, e.g. {label}: {messages[0]}")
+    if len(unlabelled) == 1:
+        _warn(unlabelled[0])
+    elif unlabelled:
+        _warn(f"{len(unlabelled)} patterns have no label on their DXF/SVG, e.g. {unlabelled[0]}")
     return paths
 
 

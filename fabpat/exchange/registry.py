@@ -189,6 +189,21 @@ def width_warnings(outline: Outline, formats: list[str], kerf: float) -> list[st
     return out
 
 
+def label_warning(part: Part, formats: list[str]) -> str | None:
+    """The message when the part's label is left out of its DXF/SVG (no room on the material), else None.
+
+    The DXF and SVG writers place the label with :func:`fabpat.exchange.labels.place_label` and write
+    none when no box of ``MIN_TEXT_HEIGHT`` mm fits on the material; this says so instead of staying silent.
+    """
+    from fabpat.exchange.labels import MIN_TEXT_HEIGHT, place_label
+
+    labelled = [f.upper() for f in formats if f in ("dxf", "svg")]
+    if not part.label or not labelled or place_label(part.outline, part.label) is not None:
+        return None
+    return (f"{part.name}: no label on the {'/'.join(labelled)}: no {MIN_TEXT_HEIGHT:g} mm box for "
+            f"{part.label!r} fits on the material")
+
+
 Job = tuple[Part | Callable[[], Part], Mapping[str, str | os.PathLike[str]]]
 
 
