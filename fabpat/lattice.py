@@ -36,22 +36,19 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import PatternError
+from fabpat.validate import check
 
 _HEX = re.compile(r"^(0x)?([0-9a-f]+)$")
 
 
 def check_depth(depth: int) -> int:
-    """``depth`` as an int; :class:`PatternError` unless it is an integer ≥ 1."""
-    if not isinstance(depth, int | np.integer) or depth < 1:
-        raise PatternError(f"depth must be an integer ≥ 1, got {depth!r}")
-    return int(depth)
+    """``depth`` as an int if in its range (:mod:`fabpat.validate`); :class:`PatternError` otherwise."""
+    return int(check("depth", depth, error=PatternError))
 
 
 def check_sides(sides: int) -> int:
-    """``sides`` as an int; :class:`PatternError` unless it is an integer ≥ 3."""
-    if not isinstance(sides, int | np.integer) or sides < 3:
-        raise PatternError(f"sides must be an integer ≥ 3 (a regular polygon), got {sides!r}")
-    return int(sides)
+    """``sides`` as an int if in its range (:mod:`fabpat.validate`); :class:`PatternError` otherwise."""
+    return int(check("sides", sides, error=PatternError))
 
 
 def n_faces(depth: int) -> int:

@@ -474,6 +474,21 @@ class Outline:
         tol = flattening_tolerance(tol)
         return [loop.flatten(tol) for loop in self.loops]
 
+    def estimate_segments(self, tol: float, reference: float = 0.01) -> float:
+        """How many chords :meth:`flatten` would make at ``tol`` mm, without making them.
+
+        Each curve is flattened at ``max(tol, reference)`` mm (cheap) and, for a finer tol, its chord
+        count scaled by √(reference / tol): a chord c of a curve of radius r has sagitta c²/8r, so the
+        count of a smooth curve grows as tol^(-1/2). Lines count 1.
+        """
+        coarse = max(float(tol), reference)
+        scale = math.sqrt(coarse / tol) if tol > 0 else math.inf
+        total = 0.0
+        for loop in self.loops:
+            for s in loop.segments:
+                total += 1.0 if isinstance(s, Line) else (len(s.flatten(coarse)) - 1) * scale
+        return total
+
     # ------------------------------------------------------------------------------- validation
 
     def validate(

@@ -78,10 +78,10 @@ def test_simulate_infers_the_depth_from_the_id() -> None:
     import fabpat
 
     pid = "0xc311aba5e62c0080"  # a depth-3 library pattern (sample_library(6, 3, 1, seed=0))
-    r = run_cli("simulate", pid, "--scenario", "cantilever", "--linear", "--h", "3")
+    r = run_cli("simulate", pid, "--scenario", "cantilever", "--linear", "--h", "1.9")  # ≤ 2 × its min_width (0.98 mm)
     assert r.returncode == 0, r.stderr
     fields = dict(tok.split("=") for tok in r.stdout.split())
-    ref = fabpat.simulate(fabpat.pattern(pid).fillet(), "cantilever", h=3.0, linear=True)
+    ref = fabpat.simulate(fabpat.pattern(pid).fillet(), "cantilever", h=1.9, linear=True)
     assert float(fields["energy"]) == pytest.approx(ref.energy, rel=1e-5) and int(fields["nodes"]) == ref.nodes
     bad = run_cli("simulate", pid, "--depth", "2", "--scenario", "cantilever")
     assert bad.returncode == 2 and "depth 2 needs 4" in bad.stderr and bad.stderr.count("\n") == 1

@@ -11,6 +11,8 @@ from pathlib import Path
 
 import click
 
+from fabpat.cli.options import h_option, modulus_option, number_option, poisson_option
+
 
 @click.command("assemble")
 @click.argument("spec", type=click.Path(dir_okay=False))
@@ -71,14 +73,15 @@ def assemble_cmd(spec: str, out: str, progress: bool, timestamp: str | None, for
 
 @click.command("simulate-strip")
 @click.argument("spec", type=click.Path(dir_okay=False))
-@click.option("--h", "h", type=float, default=3.0, show_default=True, help="Target mesh edge length in mm.")
-@click.option("--load-factor", type=float, default=0.8, show_default=True,
-              help="Compression as a fraction of the Rayleigh estimate of the strip's buckling load.")
-@click.option("--compression", type=float, default=None, help="Compression in N (instead of --load-factor).")
-@click.option("--imperfection", type=float, default=0.01, show_default=True,
-              help="Out-of-plane perturbation force as a fraction of the compression.")
-@click.option("--youngs-modulus", "E", type=float, default=1000.0, show_default=True, help="N/mm² (PLA: 1000).")
-@click.option("--poisson", "nu", type=float, default=0.35, show_default=True, help="Poisson's ratio.")
+@h_option(3.0)
+@number_option("--load-factor", range_name="load_factor", default=0.8, show_default=True,
+               help="Compression as a fraction of the Rayleigh estimate of the strip's buckling load.")
+@number_option("--compression", range_name="compression", default=None,
+               help="Compression in N (instead of --load-factor).")
+@number_option("--imperfection", range_name="imperfection", default=0.01, show_default=True,
+               help="Out-of-plane perturbation force as a fraction of the compression.")
+@modulus_option
+@poisson_option
 @click.option("--vtu", type=click.Path(dir_okay=False), help="Deformed strip with fields for ParaView (.vtu).")
 @click.option("--png", type=click.Path(dir_okay=False), help="Side view of the deflection profile (.png).")
 @click.option("--json", "as_json", is_flag=True, help="Print the results (with the profile) as JSON.")
@@ -105,18 +108,11 @@ def simulate_strip_cmd(spec: str, h: float, load_factor: float, compression: flo
     from fabpat.assembly.spec import load_spec
     from fabpat.assembly.strip_sim import critical_load, simulate_strip, strip_model, write_profile_png
     from fabpat.assembly.tiling import honeycomb_strip
-    from fabpat.errors import SpecError
+    from fabpat.errors import SolverError, SpecError
     from fabpat.exchange.vtu import write_vtu
     from fabpat.io import atomic_outputs, check_distinct, check_suffix
     from fabpat.scenarios import PNG_SUFFIXES, VTU_SUFFIXES
 
-    for name, value in (("--h", h), ("--load-factor", load_factor), ("--imperfection", imperfection),
-                        ("--youngs-modulus", E)) + ((("--compression", compression),) if compression is not None
-                                                     else ()):
-        if not value > 0:
-            raise click.BadParameter(f"{name} must be > 0, got {value:g}")
-    if not -1.0 < nu < 0.5:
-        raise click.BadParameter(f"--poisson must be in (-1, 0.5), got {nu:g}")
     outputs = [p for p in (vtu, png) if p is not None]
     check_distinct(outputs, inputs={"SPEC": spec})
     for option, path, valid in (("--vtu", vtu, VTU_SUFFIXES), ("--png", png, PNG_SUFFIXES)):
@@ -143,6 +139,9 @@ def simulate_strip_cmd(spec: str, h: float, load_factor: float, compression: flo
         bar.update(task, advance=1, description=f"nonlinear solve ({len(model.V)} nodes)")
         with atomic_outputs(*outputs) as temps:
             r = simulate_strip(model, P, imperfection)
+            if not r.amplification > 0:  # past the buckling load: the reported response would be meaningless
+                raise SolverError(f"the compression {P:.4g} N is beyond the strip's buckling load (amplification "
+                                  f"{r.amplification:.3g} ≤ 0; estimate {estimate:.4g} N): use a smaller load")
             bar.update(task, advance=1, description="writing files")
             tmp = dict(zip(outputs, temps, strict=True))
             if vtu is not None:
