@@ -24,9 +24,18 @@ def run() -> None:
 
         main()
     except KeyboardInterrupt:
-        sys.stderr.write("fabpat: interrupted\n")
-        forget_interrupt()
-        sys.exit(130)
+        interrupted()
+    except ImportError as e:  # a C extension reports a Ctrl-C during its import as ImportError
+        if isinstance(e.__cause__ or e.__context__, KeyboardInterrupt):
+            interrupted()
+        raise
+
+
+def interrupted() -> None:
+    """``fabpat: interrupted`` on stderr and exit code 130 (128 + SIGINT)."""
+    sys.stderr.write("fabpat: interrupted\n")
+    forget_interrupt()
+    sys.exit(130)
 
 
 if __name__ == "__main__":

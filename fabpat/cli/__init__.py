@@ -58,6 +58,10 @@ class FabpatGroup(click.Group):
             return super().invoke(ctx)
         except KeyboardInterrupt as e:
             raise _Interrupted from e
+        except ImportError as e:  # a C extension (OCP) reports a Ctrl-C during its import as ImportError
+            if isinstance(e.__cause__ or e.__context__, KeyboardInterrupt):
+                raise _Interrupted from e
+            raise
 
     def main(self, *args: Any, **kwargs: Any) -> Any:  # noqa: D102 - click's signature
         """Run the group; usage errors and :class:`FabpatError` become one stderr line and exit code 2."""
