@@ -30,6 +30,7 @@ _LAZY = {
     "Pattern": "fabpat.pattern:Pattern",
     "FilletedPattern": "fabpat.fillet:FilletedPattern",
     "Outline": "fabpat.outline:Outline",
+    "Part": "fabpat.exchange.registry:Part",
     "RegionMetrics": "fabpat.metrics:RegionMetrics",
     "ScenarioResult": "fabpat.scenarios:ScenarioResult",
     "SCENARIOS": "fabpat.scenarios:SCENARIOS",

@@ -19,8 +19,9 @@ All OCP imports are inside the functions, so importing this module costs nothing
 
 from __future__ import annotations
 
+import contextlib
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -156,6 +157,23 @@ def _oriented(loop: Loop, ccw: bool) -> Loop:
     return loop if (loop.signed_area > 0) == ccw else loop.reversed()
 
 
+@contextlib.contextmanager
+def occt_errors(what: str) -> Iterator[None]:
+    """Turn an OCCT exception (``Standard_Failure`` and its kin, raised through OCP) into GeometryError.
+
+    OCCT signals bad parameters by exceptions such as ``Standard_NumericError`` (a mesh tolerance of
+    1e-9 mm) or ``Standard_ConstructionError`` (an extrusion of 1e-9 mm); this is the boundary where
+    fabpat calls it, so the user sees one line naming what failed.
+    """
+    try:
+        yield
+    except Exception as e:
+        if not type(e).__module__.startswith("OCP"):
+            raise
+        raise GeometryError(f"{what} failed in OpenCASCADE ({type(e).__name__}: {str(e).strip() or 'no detail'})"
+                            ) from e
+
+
 def make_face(outline: Outline, support: Sequence[RationalQuad] = (), check: bool = True) -> Any:
     """The outline as a planar ``TopoDS_Face`` on z = 0 with normal +z (outer CCW, holes CW).
 
@@ -168,10 +186,11 @@ def make_face(outline: Outline, support: Sequence[RationalQuad] = (), check: boo
     from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace
     from OCP.gp import gp_Pln
 
-    sup = _support(support)
-    maker = BRepBuilderAPI_MakeFace(gp_Pln(), _wire(_oriented(outline.outer, ccw=True), sup), True)
-    for hole in outline.holes:
-        maker.Add(_wire(_oriented(hole, ccw=False), sup))
+    with occt_errors("building the outline face"):
+        sup = _support(support)
+        maker = BRepBuilderAPI_MakeFace(gp_Pln(), _wire(_oriented(outline.outer, ccw=True), sup), True)
+        for hole in outline.holes:
+            maker.Add(_wire(_oriented(hole, ccw=False), sup))
     if not maker.IsDone():
         raise GeometryError("cannot build a face from the outline")
     face = maker.Face()
@@ -191,8 +210,9 @@ def make_solid(outline: Outline, thickness: float = DEFAULT_THICKNESS, support: 
 
     if not thickness > 0 or not math.isfinite(thickness):
         raise GeometryError(f"thickness must be > 0 mm, got {thickness:g}")
-    prism = BRepPrimAPI_MakePrism(make_face(outline, support, check=False), gp_Vec(0.0, 0.0, float(thickness)))
-    solid = prism.Shape()
+    face = make_face(outline, support, check=False)
+    with occt_errors(f"extruding the outline by {thickness:g} mm"):
+        solid = BRepPrimAPI_MakePrism(face, gp_Vec(0.0, 0.0, float(thickness))).Shape()
     if solid.ShapeType() != TopAbs_SOLID:
         raise GeometryError(f"extrusion gave a {solid.ShapeType().name}, not a solid")
     check_valid(solid, "extruded solid")
@@ -233,7 +253,8 @@ def mesh(shape: Any, tolerance: float, angular: float = DEFAULT_ANGULAR) -> None
 
     if not (tolerance > 0 and math.isfinite(tolerance)):
         raise GeometryError(f"mesh tolerance must be > 0 mm, got {tolerance:g}")
-    done = BRepMesh_IncrementalMesh(shape, float(tolerance), False, float(angular), False)
+    with occt_errors(f"meshing the solid with a {tolerance:g} mm chord"):
+        done = BRepMesh_IncrementalMesh(shape, float(tolerance), False, float(angular), False)
     if not done.IsDone():
         raise GeometryError("BRepMesh failed to triangulate the solid")
 

@@ -603,7 +603,23 @@ def catalog(path: str | Path | None = None, *, sides: int | None = None, **setup
     if sides is not None:
         setup["sides"] = sides
     with open_catalog(path) as cat:
-        return CatalogRows(cat.pattern_rows(**setup))
+        rows = cat.pattern_rows(**setup)
+        if not rows and setup:
+            raise CatalogError(no_match_message(cat, setup))
+        return CatalogRows(rows)
+
+
+def no_match_message(cat: Catalog, setup: dict[str, object]) -> str:
+    """Why a filter found no rows: the filter, and the set-ups (sides, depth, edge mm, thickness mm,
+    weight, pattern count) the catalog does hold, so an empty answer is never mistaken for an empty
+    catalog."""
+    held = "; ".join(
+        f"sides={s['sides']} depth={s['depth']} edge={s['edge']:g} thickness={s['thickness']:g} "
+        f"weight={s['weight']:g} ({s['patterns']} patterns)"
+        for s in cat.setups()
+    )
+    asked = " ".join(f"{k}={v}" for k, v in setup.items())
+    return f"no patterns with {asked} in {cat.path}; it holds {held or 'nothing'}"
 
 
 make_callable(__name__, catalog)

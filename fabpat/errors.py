@@ -26,3 +26,7 @@ class SolverError(FabpatError):
 
 class SpecError(FabpatError, ValueError):
     """An invalid assembly spec."""
+
+
+class RangeError(FabpatError, ValueError):
+    """A number that is not finite or outside its physical range, or work too large to start."""

@@ -56,6 +56,7 @@ from fabpat.lattice import polygon_vertices
 from fabpat.metrics import RegionMetrics
 from fabpat.outline import Line, Loop, Outline, OutlineReport, PolygonFrame, RationalQuad, Segment
 from fabpat.pattern import Pattern
+from fabpat.validate import check
 
 DEFAULT_WEIGHT = 0.2  # interface weight of the paper (§3.3)
 _ANGLE_EPS = 1e-9  # rad: runs this close to 180° are straight
@@ -201,9 +202,10 @@ class FilletedPattern:
 
     def _repr_svg_(self) -> str:
         """Notebook picture: the exact filleted outline (true curves) in its polygon, true size (mm)."""
-        from fabpat.pictures import pattern_svg
+        from fabpat.pictures import outline_svg
 
-        return pattern_svg(self.pattern, outline_path=self.outline.to_svg_path())
+        p = self.pattern
+        return outline_svg(self.outline, title=f"{p.id} ({p.sides}-gon, edge {p.edge:g} mm)")
 
 
 def interface_half_length(edge: float, depth: int = 2, weight: float = DEFAULT_WEIGHT) -> float:
@@ -496,16 +498,11 @@ def fillet_solid(
 def fillet_pattern(pattern: Pattern, weight: float = DEFAULT_WEIGHT) -> FilletedPattern:
     """The exact outline of a library pattern: lines and quadratic rational Bézier arcs.
 
-    ``weight``: the middle weight w of the interface arcs (the paper's 0.2); must be > 0.
+    ``weight``: the middle weight w of the interface arcs (the paper's 0.2), in its range
+    (fabpat.validate: GeometryError otherwise).
     Raises :class:`GeometryError` if the pattern cannot be filleted (not expected for library patterns).
     """
-    try:
-        w = float(weight)
-    except (TypeError, ValueError):
-        raise GeometryError(f"interface weight must be a number > 0, got {weight!r}") from None
-    if not (w > 0 and math.isfinite(w)):
-        raise GeometryError(f"interface weight must be > 0, got {weight!r}")
-    weight = w
+    weight = check("weight", weight, "interface weight", error=GeometryError)
     corners = polygon_vertices(pattern.sides, pattern.edge)
     tangents = np.roll(corners, -1, axis=0) - corners
     tangents /= np.linalg.norm(tangents, axis=1)[:, None]

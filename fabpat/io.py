@@ -78,6 +78,17 @@ def remove_stale_temps(folder: str | os.PathLike[str]) -> list[Path]:
     return removed
 
 
+def check_suffix(path: str | os.PathLike[str], suffixes: Iterable[str], what: str) -> Path:
+    """``path`` as a Path if its suffix (any case) is one of ``suffixes``; else :class:`ExportError`
+    naming ``what`` (the option or file kind) and the valid suffixes, so that VTU XML never lands in a
+    ``.txt`` or a PNG in an ``.svg``."""
+    valid = [s.lower() for s in suffixes]
+    p = Path(path)
+    if p.suffix.lower() not in valid:
+        raise ExportError(f"{what} must end in {' or '.join(valid)}, got {os.fspath(path)!r}")
+    return p
+
+
 #: the input files of the running command: (how the command names it, path); see input_scope
 _INPUTS: contextvars.ContextVar[tuple[tuple[str, str], ...]] = contextvars.ContextVar("fabpat_inputs", default=())
 

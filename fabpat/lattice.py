@@ -36,22 +36,19 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import PatternError
+from fabpat.validate import check
 
 _HEX = re.compile(r"^(0x)?([0-9a-f]+)$")
 
 
 def check_depth(depth: int) -> int:
-    """``depth`` as an int; :class:`PatternError` unless it is an integer ≥ 1."""
-    if not isinstance(depth, int | np.integer) or depth < 1:
-        raise PatternError(f"depth must be an integer ≥ 1, got {depth!r}")
-    return int(depth)
+    """``depth`` as an int if in its range (:mod:`fabpat.validate`); :class:`PatternError` otherwise."""
+    return int(check("depth", depth, error=PatternError))
 
 
 def check_sides(sides: int) -> int:
-    """``sides`` as an int; :class:`PatternError` unless it is an integer ≥ 3."""
-    if not isinstance(sides, int | np.integer) or sides < 3:
-        raise PatternError(f"sides must be an integer ≥ 3 (a regular polygon), got {sides!r}")
-    return int(sides)
+    """``sides`` as an int if in its range (:mod:`fabpat.validate`); :class:`PatternError` otherwise."""
+    return int(check("sides", sides, error=PatternError))
 
 
 def n_faces(depth: int) -> int:
@@ -110,35 +107,46 @@ def bits_to_id(bits: NDArray[np.bool_] | list[int]) -> str:
     return f"0x{value:0{M // 4}x}"
 
 
+def _match_hex(pattern_id: str, example: str) -> re.Match[str]:
+    """The ID's regex match (``0x`` optional), or :class:`PatternError`."""
+    m = _HEX.match(str(pattern_id).strip().lower())
+    if not m:
+        raise PatternError(f"pattern ID {pattern_id!r} is not hexadecimal (expected e.g. {example})")
+    return m
+
+
+def _wrong_length(pattern_id: str, n: int, expected: str) -> PatternError:
+    """The error for an ID with the wrong number of digits. Without ``0x``, ``0b1`` reads as the three
+    hex digits 0, b, 1: such an ID is named as the binary (or octal) literal it looks like."""
+    text = str(pattern_id).strip().lower()
+    if text[:2] in ("0b", "0o"):
+        base = "binary" if text[1] == "b" else "octal"
+        return PatternError(f"pattern ID {pattern_id!r} looks {base}, not a hex ID: a pattern ID is 0x and hex "
+                            f"digits, e.g. 0x0488 ({expected})")
+    return PatternError(f"pattern ID {pattern_id!r} has {n} hex digits; {expected}")
+
+
 def depth_of_id(pattern_id: str) -> int:
     """The subdivision depth an ID's length implies: 1 hex digit → 1, 4 → 2, 16 → 3, 4**(d − 1) → d.
 
     Raises :class:`PatternError` for an ID that is not hexadecimal or has another number of digits.
     """
-    m = _HEX.match(str(pattern_id).strip().lower())
-    if not m:
-        raise PatternError(f"pattern ID {pattern_id!r} is not hexadecimal (expected e.g. 0x0488)")
+    m = _match_hex(pattern_id, "0x0488")
     n = len(m.group(2))
     depth = 1 + round(math.log(n, 4))
     if 4 ** (depth - 1) != n:
-        raise PatternError(
-            f"pattern ID {pattern_id!r} has {n} hex digits; an ID has 1 (depth 1), 4 (depth 2), 16 (depth 3) "
-            "or 4**(depth − 1) digits"
-        )
+        raise _wrong_length(pattern_id, n, "an ID has 1 (depth 1), 4 (depth 2), 16 (depth 3) or "
+                            "4**(depth − 1) hex digits")
     return depth
 
 
 def id_to_bits(pattern_id: str, depth: int) -> NDArray[np.bool_]:
     """(4**depth,) bool bits of a pattern ID; raises :class:`PatternError` if malformed."""
     M = n_faces(depth)
-    m = _HEX.match(str(pattern_id).strip().lower())
-    if not m:
-        raise PatternError(f"pattern ID {pattern_id!r} is not hexadecimal (expected e.g. 0x{'0' * (M // 4)})")
+    m = _match_hex(pattern_id, f"0x{'0' * (M // 4)}")
     digits = m.group(2)
     if len(digits) != M // 4:
-        raise PatternError(
-            f"pattern ID {pattern_id!r} has {len(digits)} hex digits; depth {depth} needs {M // 4}"
-        )
+        raise _wrong_length(pattern_id, len(digits), f"depth {depth} needs {M // 4} hex digits")
     value = int(digits, 16)
     if value == 0:
         raise PatternError(f"pattern ID {pattern_id!r} is the empty slice (all void)")

@@ -22,7 +22,6 @@ accepted patterns are uniform over the depth-3 library. Its acceptance rate is m
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterator
 from dataclasses import dataclass
 from functools import cached_property
@@ -36,10 +35,20 @@ from fabpat._callable import make_callable
 from fabpat.errors import PatternError
 from fabpat.lattice import bits_to_id, check_depth, check_sides, depth_of_id, edge_row, id_to_bits, n_faces
 from fabpat.pattern import DEFAULT_EDGE, Pattern, pattern_topology
+from fabpat.validate import check, check_size
 
 HTML_ROWS = 10  # patterns shown by Library._repr_html_ (a notebook cell, not a report)
 
 MAX_LISTED_DEPTH = 2  # 2**(4**3 − 15) configurations pass the edge rule at depth 3: sample instead
+
+#: Pattern faces (samples × sides × 4**depth) one sampling may produce (the patterns drawn are
+#: filleted, listed or simulated next): 5e7, e.g. 8 000 hexagon patterns at depth 5.
+MAX_SAMPLE_CELLS = 50_000_000
+
+#: Pattern faces in one draw batch: the connectivity graph needs ≈ 100 bytes per face (measured:
+#: 1024 draws of depth-5 hexagon patterns, 6.3e6 faces, 690 MB peak), so 1.6e7 faces stay near
+#: 1.6 GB. Batches keep 4096 draws up to depth 4 (seeds reproduce earlier samples), fewer beyond.
+MAX_BATCH_FACES = 16_000_000
 
 
 def is_tileable(bits: NDArray[np.bool_], depth: int) -> NDArray[np.bool_]:
@@ -184,12 +193,17 @@ def sample_library(
 
     Free faces (all but the edge row) are fair coin flips, the edge row is fixed by the edge rule,
     disconnected draws are rejected, duplicates dropped; reproducible for a given ``seed``.
+    Draws are made ``batch`` at a time, fewer at large depth so that one batch's connectivity graph
+    stays below :data:`MAX_BATCH_FACES` pattern faces; ``count`` × sides × 4**depth faces above
+    :data:`MAX_SAMPLE_CELLS` is refused. Raises PatternError for bad sizes, seeds or IDs.
     """
     n, d = check_sides(sides), check_depth(depth)
-    if isinstance(count, bool) or not isinstance(count, int | np.integer) or count < 1:
-        raise PatternError(f"sample size must be an integer ≥ 1, got {count!r}")
-    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
-        raise PatternError(f"seed must be an integer ≥ 0, got {seed!r}")
+    count = int(check("sample", count, "sample size", error=PatternError))
+    seed = int(check("seed", seed, error=PatternError))
+    faces = n * n_faces(d)
+    check_size(count * faces, MAX_SAMPLE_CELLS, f"pattern faces of {count} samples at depth {d} ({faces} each)",
+               "a fixed limit: sample fewer patterns", error=PatternError)
+    batch = max(1, min(batch, MAX_BATCH_FACES // faces))
     if d <= MAX_LISTED_DEPTH:
         full = enumerate_library(n, d)
         if count > len(full):
@@ -218,13 +232,8 @@ def sample_library(
 
 
 def _check_edge(edge: float) -> float:
-    try:
-        e = float(edge)
-    except (TypeError, ValueError):
-        raise PatternError(f"edge must be a length in mm, got {edge!r}") from None
-    if not (e > 0 and math.isfinite(e)):
-        raise PatternError(f"edge must be > 0 mm, got {edge!r}")
-    return e
+    """``edge`` (mm) as a float if in its range (:mod:`fabpat.validate`); PatternError otherwise."""
+    return check("edge", edge, error=PatternError)
 
 
 def get_pattern(
@@ -233,12 +242,14 @@ def get_pattern(
     """The pattern of a valid ID; :class:`PatternError` naming the problem otherwise.
 
     ``depth=None`` takes it from the ID's length (:func:`fabpat.lattice.depth_of_id`). Depth ≤ 2 looks
-    the ID up in the listed library; deeper IDs are checked by the two filters.
+    the ID up in the listed library; deeper IDs are checked by the two filters. ``edge`` (mm),
+    ``sides`` and ``depth`` must be in their ranges (:mod:`fabpat.validate`): PatternError otherwise.
     """
     if not isinstance(pattern_id, str):
         raise PatternError(f"a pattern ID is a string of hex digits like '0x0488', got {pattern_id!r}")
     depth = depth_of_id(pattern_id) if depth is None else depth
     edge = _check_edge(edge)
+    check_sides(sides)
     if check_depth(depth) <= MAX_LISTED_DEPTH:
         return enumerate_library(sides, depth).pattern(pattern_id, edge)
     bits = id_to_bits(pattern_id, depth)

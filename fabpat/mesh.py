@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import GeometryError
+from fabpat.validate import check, check_size
 
 #: Chord tolerance used to flatten curves, as a fraction of the target edge length h. With h = 1.5 mm
 #: the outline is followed to 0.03 mm; the sagitta of a chord c on radius r is c²/8r, so arcs of
@@ -33,6 +34,17 @@ INTERFACE_TOL = 1e-6
 #: area of an equilateral triangle of edge h makes the *mean* edge length ≈ h (measured: 1.01–1.53–2.03
 #: mm for h = 1, 1.5, 2 on the solid hexagon).
 AREA_FACTOR = 1.5
+
+#: Default limit of :func:`estimate_elements` (``--max-elements``). Measured here with
+#: ``/usr/bin/time -v fabpat simulate 0x2d88 --scenario cantilever --h H``: 1 890 elements (h = 1.5)
+#: 182 MB and 8 s, 14 458 (h = 0.5) 685 MB and 41 s, 38 662 (h = 0.3) 1.72 GB and 147 s, i.e. about
+#: 40 kB and 4 ms per element and nonlinear scenario. 50 000 elements stay near 2 GB and 4 minutes.
+DEFAULT_MAX_ELEMENTS = 50_000
+
+#: A mesh whose target edge is longer than this many times the pattern's narrowest feature
+#: (``min_width``) is refused: with h = 2 × min_width the Dome energy of 0x2d88 is 4.8 % below
+#: h = 1 mm, with h = 36 mm 28 % below (measured with ``fabpat simulate 0x2d88 --scenario dome --h …``).
+MAX_H_PER_MIN_WIDTH = 2.0
 
 #: Default fillet weight w of the interface vertex (notes: crossing at (edge/16)/(1 + w) from M).
 INTERFACE_WEIGHT = 0.2
@@ -95,6 +107,36 @@ class ShellMesh:
         """(3m,) lengths of the triangle sides (interior sides counted twice), mm."""
         P = self.V[self.F]
         return np.linalg.norm(P[:, [1, 2, 0]] - P, axis=2).ravel()
+
+
+def estimate_elements(area: float, perimeter: float, h: float) -> float:
+    """Expected triangle count of a quality mesh of target edge h (mm) over ``area`` (mm²).
+
+    One equilateral triangle of edge h per √3/4·h² of area, plus one per boundary piece of length h
+    (boundary triangles are smaller); within a factor 1.5 of the meshes :func:`mesh_polygons` makes.
+    """
+    return area / (math.sqrt(3.0) / 4.0 * h * h) + perimeter / h
+
+
+def check_element_count(area: float, perimeter: float, h: float, max_elements: int) -> None:
+    """Raise GeometryError before meshing if :func:`estimate_elements` is above ``max_elements``."""
+    n = estimate_elements(area, perimeter, h)
+    suggest = math.sqrt(area / (math.sqrt(3.0) / 4.0 * max_elements)) if area > 0 else h
+    check_size(n, max_elements, f"mesh elements at h = {h:g} mm", "raise it with --max-elements",
+               f"or use h ≥ {suggest:.2g} mm", error=GeometryError)
+
+
+def check_polygon_elements(sides: int, edge: float, h: float, max_elements: int = DEFAULT_MAX_ELEMENTS) -> None:
+    """:func:`check_element_count` for the solid regular polygon, which bounds every pattern's mesh."""
+    area = sides * edge * edge / (4.0 * math.tan(math.pi / sides))
+    check_element_count(area, sides * edge, h, max_elements)
+
+
+def check_resolves(h: float, min_width: float, what: str = "the pattern") -> None:
+    """Raise GeometryError if h (mm) is above MAX_H_PER_MIN_WIDTH × the narrowest feature (mm)."""
+    if math.isfinite(min_width) and h > MAX_H_PER_MIN_WIDTH * min_width:
+        raise GeometryError(f"h = {h:g} mm is too coarse for {what}, whose narrowest feature (min_width) is "
+                            f"{min_width:.3g} mm: use h ≤ {MAX_H_PER_MIN_WIDTH * min_width:.3g} mm")
 
 
 def _signed_area(loop: NDArray[np.float64]) -> float:
@@ -168,6 +210,7 @@ def mesh_polygons(
     *,
     interfaces: Sequence[tuple[NDArray[np.float64], NDArray[np.float64]] | None] = (),
     max_steiner: int | None = None,
+    max_elements: int = DEFAULT_MAX_ELEMENTS,
 ) -> ShellMesh:
     """Quality triangle mesh of a polygonal region.
 
@@ -177,19 +220,23 @@ def mesh_polygons(
         AREA_FACTOR·√3/4·h².
     min_angle: Triangle's quality bound in degrees (≤ ~33 is safe).
     interfaces: optional segments (p0, p1) whose nodes are tagged (see :func:`tag_segments`).
+    max_elements: refuse (GeometryError) before meshing if :func:`estimate_elements` is above it.
 
-    Raises GeometryError if the loops are degenerate or Triangle fails.
+    Raises GeometryError if the loops are degenerate, the mesh would be too large or Triangle fails;
+    RangeError if h is not in its range (fabpat.validate).
     """
     import triangle
 
-    if not h > 0:
-        raise ValueError(f"h must be positive, got {h}")
+    h = check("h", h)
     if len(loops) == 0:
         raise GeometryError("no loops to mesh")
+    cleaned = [_clean_loop(raw) for raw in loops]
+    net_area = abs(_signed_area(cleaned[0])) - sum(abs(_signed_area(P)) for P in cleaned[1:])
+    perimeter = sum(float(np.linalg.norm(P - np.roll(P, 1, axis=0), axis=1).sum()) for P in cleaned)
+    check_element_count(max(net_area, 0.0), perimeter, h, max_elements)
     verts, segs, holes = [], [], []
     offset = 0
-    for k, raw in enumerate(loops):
-        P = _clean_loop(raw)
+    for k, P in enumerate(cleaned):
         area = _signed_area(P)
         if k == 0 and area < 0 or k > 0 and area > 0:
             P = P[::-1]  # outer CCW, holes CW (only for a consistent tangent order; Triangle ignores it)
@@ -250,7 +297,7 @@ def interface_segments(
 
 def mesh_outline(
     outline: object, h: float = 1.5, sides: int | None = None, edge: float | None = None, *,
-    min_angle: float = 25.0, weight: float = INTERFACE_WEIGHT,
+    min_angle: float = 25.0, weight: float = INTERFACE_WEIGHT, max_elements: int = DEFAULT_MAX_ELEMENTS,
 ) -> ShellMesh:
     """Mesh an exact :class:`fabpat.outline.Outline` (or a ``FilletedPattern``) and tag its n
     interface node sets.
@@ -261,13 +308,17 @@ def mesh_outline(
     edge i, and ``sides``/``edge``, if given, must agree. A free-standing outline needs ``sides`` and
     ``edge``; interface i is then the segment of :func:`interface_segments` (whose length depends on the
     interface ``weight`` the outline was filleted with: pass the same one).
-    Raises GeometryError if an interface gets fewer than 2 nodes or the polygon is unknown or contradicted.
+    Raises GeometryError if an interface gets fewer than 2 nodes, the polygon is unknown or contradicted,
+    h, edge or weight is outside its range (:mod:`fabpat.validate`), or the mesh would have more than
+    ``max_elements`` triangles (estimated from the exact area and perimeter before flattening).
     """
     outline = getattr(outline, "outline", outline)  # a FilletedPattern meshes as its outline
     if not hasattr(outline, "flatten"):
         raise GeometryError(f"mesh_outline needs an Outline or a FilletedPattern, got {type(outline).__name__}")
-    if not (isinstance(h, int | float) and h > 0 and math.isfinite(h)):
-        raise GeometryError(f"mesh size h must be > 0 mm, got {h!r}")
+    h = check("h", h, "mesh size h", error=GeometryError)
+    if edge is not None:
+        edge = check("edge", edge, error=GeometryError)
+    weight = check("weight", weight, "interface weight", error=GeometryError)
     frame = getattr(outline, "polygon", None)
     if frame is not None:
         if (sides is not None and sides != frame.sides) or (edge is not None and abs(edge - frame.edge) > 1e-9):
@@ -280,8 +331,9 @@ def mesh_outline(
                             "(or mesh a FilletedPattern, whose outline carries them)")
     else:
         segments = interface_segments(sides, edge, weight=weight)
+    check_element_count(outline.area, outline.perimeter, h, max_elements)
     loops = outline.flatten(FLATTEN_TOL_PER_H * h)
-    mesh = mesh_polygons(loops, h, min_angle, interfaces=segments)
+    mesh = mesh_polygons(loops, h, min_angle, interfaces=segments, max_elements=max_elements)
     for i, nodes in enumerate(mesh.interfaces):
         if nodes.size == 0:
             raise GeometryError(f"the outline does not reach interface {i} of the {sides}-gon of edge {edge:g} mm: "

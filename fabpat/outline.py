@@ -344,6 +344,18 @@ def _dedupe(V: NDArray[np.float64], atol: float) -> NDArray[np.float64]:
     return V[keep] if keep.any() else V[:1]
 
 
+def flattening_tolerance(tol: object) -> float:
+    """``tol`` as a float in mm, or :class:`GeometryError` if it is not a positive number: the
+    flattening routines of :mod:`fabpat.curves` need tol > 0 (they raise a bare ValueError)."""
+    try:
+        value = float(tol)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise GeometryError(f"tol must be a positive number of mm, got {tol!r}") from None
+    if not value > 0:
+        raise GeometryError(f"tol must be a positive number of mm, got {tol!r}")
+    return value
+
+
 def _fmt(v: float) -> str:
     s = f"{v:.6f}".rstrip("0").rstrip(".")
     return "0" if s in ("-0", "") else s
@@ -387,10 +399,12 @@ class Outline:
         return f"Outline({len(self.holes)} holes, {n} segments, area={self.area:.1f} mm²{where})"
 
     def _repr_svg_(self) -> str:
-        """Notebook picture: the exact outline (true curves) filled black, true size (mm)."""
-        from fabpat.exchange.svg import svg_document
+        """Notebook picture: the exact outline (lines, exact arcs ``A``/``Q``) filled black, true size (mm),
+        framed by its polygon when it knows one (as a ``FilletedPattern``'s picture is), else by its
+        bounding box."""
+        from fabpat.pictures import outline_svg
 
-        return svg_document(self, filled=True)
+        return outline_svg(self)
 
     def plot(self, ax: Any = None, *, tol: float = 0.01, color: str = "black", **kwargs: Any) -> Any:
         """Draw the outline filled (holes empty) on a matplotlib ``ax`` (a new figure if None), equal
@@ -454,8 +468,26 @@ class Outline:
         return RegionMetrics.from_values(self.area, self.perimeter, self.polar_moment)
 
     def flatten(self, tol: float) -> list[NDArray[np.float64]]:
-        """Closed polylines (k_i, 2) within tol mm of each loop, outer first, last point not repeated."""
+        """Closed polylines (k_i, 2) within tol mm of each loop, outer first, last point not repeated.
+
+        Raises :class:`GeometryError` if ``tol`` is not a positive number."""
+        tol = flattening_tolerance(tol)
         return [loop.flatten(tol) for loop in self.loops]
+
+    def estimate_segments(self, tol: float, reference: float = 0.01) -> float:
+        """How many chords :meth:`flatten` would make at ``tol`` mm, without making them.
+
+        Each curve is flattened at ``max(tol, reference)`` mm (cheap) and, for a finer tol, its chord
+        count scaled by √(reference / tol): a chord c of a curve of radius r has sagitta c²/8r, so the
+        count of a smooth curve grows as tol^(-1/2). Lines count 1.
+        """
+        coarse = max(float(tol), reference)
+        scale = math.sqrt(coarse / tol) if tol > 0 else math.inf
+        total = 0.0
+        for loop in self.loops:
+            for s in loop.segments:
+                total += 1.0 if isinstance(s, Line) else (len(s.flatten(coarse)) - 1) * scale
+        return total
 
     # ------------------------------------------------------------------------------- validation
 
@@ -484,8 +516,10 @@ class Outline:
         control points (1e-6 mm; a violation is a problem) and lets min_width cast rays from one
         sector of the boundary only, n times fewer.
 
-        Raises GeometryError listing every problem if ``raise_on_error`` and the outline is invalid.
+        Raises GeometryError listing every problem if ``raise_on_error`` and the outline is invalid,
+        and if ``tol`` is not a positive number.
         """
+        tol = flattening_tolerance(tol)
         if any(not loop.segments for loop in self.loops):
             raise GeometryError("invalid outline: a loop has no segments")
         problems: list[str] = []

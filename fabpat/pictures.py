@@ -34,40 +34,76 @@ def pattern_group(pattern: Pattern, outline_path: str | None = None) -> str:
     ``outline_path``: SVG path data of the filleted outline (y up, mm); if given it is drawn instead
     of the lattice triangles, with the even-odd rule so holes stay empty.
     """
-    corners = polygon_vertices(pattern.sides, pattern.edge)
-    parts = []
     if outline_path is None:
         tris = pattern.V[pattern.solid_faces]
-        parts.append(
+        body = (
             f'<g fill="black" stroke="black" stroke-width="{_SEAM}" stroke-linejoin="round">'
             + "".join(f'<polygon points="{_points(t)}"/>' for t in tris)
             + "</g>"
         )
     else:
-        parts.append(f'<path transform="scale(1,-1)" fill="black" fill-rule="evenodd" d="{outline_path}"/>')
-    width = pattern.edge / 200
-    parts.append(
-        f'<polygon points="{_points(corners)}" fill="none" stroke="#888" stroke-width="{_fmt(width)}"/>'
+        body = _path_element(outline_path)
+    return body + _frame_element(pattern.sides, pattern.edge)
+
+
+def _path_element(outline_path: str) -> str:
+    return f'<path transform="scale(1,-1)" fill="black" fill-rule="evenodd" d="{outline_path}"/>'
+
+
+def _frame_element(sides: int, edge: float) -> str:
+    """The polygon's boundary in grey, drawn over the pattern."""
+    return (
+        f'<polygon points="{_points(polygon_vertices(sides, edge))}" fill="none" stroke="#888" '
+        f'stroke-width="{_fmt(edge / 200)}"/>'
     )
-    return "".join(parts)
 
 
 def _extent(pattern: Pattern) -> float:
-    return float(np.abs(polygon_vertices(pattern.sides, pattern.edge)).max()) * 1.05
+    return _polygon_extent(pattern.sides, pattern.edge)
+
+
+def _polygon_extent(sides: int, edge: float) -> float:
+    return float(np.abs(polygon_vertices(sides, edge)).max()) * 1.05
+
+
+def _document(x0: float, y0: float, w: float, h: float, label: str, body: str) -> str:
+    """A standalone true-size SVG (1 unit = 1 mm) showing the box (x0, y0, w, h) in SVG coordinates."""
+    return (
+        '<?xml version="1.0" encoding="UTF-8"?>\n'
+        f'<svg xmlns="http://www.w3.org/2000/svg" width="{_fmt(w)}mm" height="{_fmt(h)}mm" '
+        f'viewBox="{_fmt(x0)} {_fmt(y0)} {_fmt(w)} {_fmt(h)}">\n'
+        f"<title>{label}</title>\n"
+        f'<rect x="{_fmt(x0)}" y="{_fmt(y0)}" width="{_fmt(w)}" height="{_fmt(h)}" fill="white"/>\n'
+        f"{body}\n</svg>\n"
+    )
 
 
 def pattern_svg(pattern: Pattern, outline_path: str | None = None, title: str | None = None) -> str:
     """A standalone SVG document of one pattern at true size (mm)."""
     r = _extent(pattern)
     label = title or f"{pattern.id} ({pattern.sides}-gon, edge {pattern.edge:g} mm)"
-    return (
-        '<?xml version="1.0" encoding="UTF-8"?>\n'
-        f'<svg xmlns="http://www.w3.org/2000/svg" width="{_fmt(2 * r)}mm" height="{_fmt(2 * r)}mm" '
-        f'viewBox="{_fmt(-r)} {_fmt(-r)} {_fmt(2 * r)} {_fmt(2 * r)}">\n'
-        f"<title>{label}</title>\n"
-        f'<rect x="{_fmt(-r)}" y="{_fmt(-r)}" width="{_fmt(2 * r)}" height="{_fmt(2 * r)}" fill="white"/>\n'
-        f"{pattern_group(pattern, outline_path)}\n</svg>\n"
-    )
+    return _document(-r, -r, 2 * r, 2 * r, label, pattern_group(pattern, outline_path))
+
+
+def outline_svg(outline: Outline, title: str | None = None) -> str:
+    """A standalone true-size SVG (mm) of an exact outline: :meth:`Outline.to_svg_path` (lines, exact
+    elliptical arcs ``A``, parabolic ``Q``) filled black with holes empty.
+
+    An outline that knows its polygon (``outline.polygon``) is framed exactly as :func:`pattern_svg`
+    frames a filleted pattern: centred, the grey polygon drawn, 5 % margin. A free-standing outline has
+    no polygon, so it is framed by its bounding box plus a 5 % margin.
+    """
+    frame = outline.polygon
+    if frame is not None:
+        r = _polygon_extent(frame.sides, frame.edge)
+        label = title or f"outline ({frame.sides}-gon, edge {frame.edge:g} mm)"
+        body = _path_element(outline.to_svg_path()) + _frame_element(frame.sides, frame.edge)
+        return _document(-r, -r, 2 * r, 2 * r, label, body)
+    lo, hi = outline.bbox
+    pad = 0.05 * float(np.max(hi - lo))
+    x0, y0 = float(lo[0]) - pad, -float(hi[1]) - pad  # SVG's y points down: the top is -max y
+    w, h = float(hi[0] - lo[0]) + 2 * pad, float(hi[1] - lo[1]) + 2 * pad
+    return _document(x0, y0, w, h, title or "outline", _path_element(outline.to_svg_path()))
 
 
 def _grid(count: int) -> tuple[int, int]:

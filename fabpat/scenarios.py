@@ -20,6 +20,13 @@ length. This is the consistent load of the linear-edge membrane and of the DKMT 
 is linear along a side. Loads keep their global direction during deformation (no follower loads, as
 Abaqus/CalculiX ``*CLOAD``).
 
+Plausibility (what is called converged): a result whose energy or displacements are not finite, or
+whose largest displacement exceeds what the model can describe, is a :class:`SolverError`. The bound
+is the plate's size D = 2 R (R the polygon's circumradius): a linear (small-rotation) solution that
+moves a point by more than D implies rotations of order one radian, far outside linear theory; a
+nonlinear one that moves a point by more than 2 D (every point is within D of a support) implies
+membrane strains above 100 %, outside the small-strain material of the shell element.
+
 Rigid-body motion: with ≥ 2 nodes on every interface (``mesh_outline`` guarantees it) these supports
 already remove all six rigid motions (cylinder: the pins' line is locked against rotation by the
 rollers; dome: likewise by the other rollers), so no extra constraint is added; a singular system
@@ -36,18 +43,34 @@ import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.errors import SolverError
-from fabpat.mesh import ShellMesh, mesh_outline
+from fabpat.errors import GeometryError, SolverError
+from fabpat.mesh import DEFAULT_MAX_ELEMENTS, ShellMesh, mesh_outline
 from fabpat.shell.element import Material
 from fabpat.shell.results import ShellResult
 from fabpat.shell.solve import ShellProblem, solve_linear, solve_nonlinear
+from fabpat.validate import check
+
+if TYPE_CHECKING:  # pragma: no cover
+    from fabpat.pattern import Pattern
 
 SCENARIOS = ("cantilever", "cylinder", "dome")
+#: the suffixes :meth:`ScenarioResult.to_vtu` and :meth:`ScenarioResult.to_png` (and ``fabpat simulate``) accept
+VTU_SUFFIXES = (".vtu",)
+PNG_SUFFIXES = (".png",)
+
+
+def scenario_name(scenario: object) -> str:
+    """The scenario's name in :data:`SCENARIOS` for any capitalisation (``"Cantilever"`` → ``"cantilever"``);
+    :class:`SolverError` naming the scenarios otherwise."""
+    name = scenario.lower() if isinstance(scenario, str) else None
+    if name not in SCENARIOS:
+        raise SolverError(f"unknown scenario {scenario!r}; expected one of {', '.join(SCENARIOS)}")
+    return name
 
 #: the paper's load magnitudes: force (N) and moments (N·mm, signed as described above)
 CANTILEVER_FORCE = 1.5
@@ -88,20 +111,24 @@ class ScenarioResult:
 
     def to_vtu(self, path: str | os.PathLike[str]) -> Path:
         """Write the deformed mesh with its fields for ParaView (.vtu; see
-        :func:`fabpat.exchange.vtu.write_vtu`), atomically. Returns the path."""
+        :func:`fabpat.exchange.vtu.write_vtu`), atomically. Returns the path. Raises
+        :class:`~fabpat.errors.ExportError` if the suffix is not ``.vtu``."""
         from fabpat.exchange.vtu import write_vtu  # a writer: loaded only when a file is asked for
-        from fabpat.io import atomic_outputs
+        from fabpat.io import atomic_outputs, check_suffix
 
+        check_suffix(path, VTU_SUFFIXES, "a VTU file name")
         mesh = self._need_mesh()
         with atomic_outputs(path) as (tmp,):
             write_vtu(tmp, mesh.V, mesh.F, self.result)
         return Path(path)
 
     def to_png(self, path: str | os.PathLike[str], *, title: str | None = None) -> Path:
-        """Write a picture of the deformed pattern coloured by strain-energy density (PNG), atomically."""
+        """Write a picture of the deformed pattern coloured by strain-energy density (PNG), atomically.
+        Raises :class:`~fabpat.errors.ExportError` if the suffix is not ``.png``."""
         from fabpat.exchange.png_result import write_png
-        from fabpat.io import atomic_outputs
+        from fabpat.io import atomic_outputs, check_suffix
 
+        check_suffix(path, PNG_SUFFIXES, "a PNG file name")
         mesh = self._need_mesh()
         with atomic_outputs(path) as (tmp,):
             write_png(tmp, mesh.V, mesh.F, self.result, title=title or "")
@@ -141,6 +168,8 @@ def build_problem(mesh: ShellMesh, scenario: str, *, sides: int | None = None, t
     """Supports and nodal loads of ``scenario`` on ``mesh`` (see module docstring). ``sides`` defaults to
     the mesh's number of interface sets (one per polygon edge); if given, they must agree."""
     sides = len(mesh.interfaces) if sides is None else sides
+    thickness = check("thickness", thickness, error=SolverError)
+    E, nu = check("youngs_modulus", E, error=SolverError), check("poisson", nu, error=SolverError)
     if scenario not in SCENARIOS:
         raise SolverError(f"unknown scenario {scenario!r}; expected one of {', '.join(SCENARIOS)}")
     if len(mesh.interfaces) != sides:
@@ -177,42 +206,86 @@ def build_problem(mesh: ShellMesh, scenario: str, *, sides: int | None = None, t
 
 def run_scenario(mesh: ShellMesh, scenario: str, *, sides: int | None = None, edge: float = 36.0,
                  thickness: float = 2.0, E: float = 1000.0, nu: float = 0.35, nonlinear: bool = True) -> ScenarioResult:
-    """Run one scenario; raises SolverError if it does not converge. ``edge`` is accepted for the
-    record (the mesh already carries the geometry)."""
+    """Run one scenario on ``mesh`` of a regular ``sides``-gon (default: one per interface set) of
+    edge ``edge`` (mm).
+
+    Raises SolverError if it does not converge, the result is implausible (module docstring) or a
+    parameter is outside its range (:mod:`fabpat.validate`).
+    """
+    edge = check("edge", edge, error=SolverError)
+    sides = len(mesh.interfaces) if sides is None else sides
     t0 = time.perf_counter()
     p = build_problem(mesh, scenario, sides=sides, thickness=thickness, E=E, nu=nu)
     r = solve_nonlinear(p) if nonlinear else solve_linear(p)
+    check_plausible(r.energy, r.max_displacement, plate_size(sides, edge), nonlinear, scenario)
     return ScenarioResult(scenario, r.energy, r.max_displacement, r.converged, r.iterations,
                           time.perf_counter() - t0, mesh.n_nodes, mesh.n_elements, nonlinear, r, p, mesh)
 
 
-def _positive(name: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float) or not (value > 0 and math.isfinite(value)):
-        raise SolverError(f"{name} must be a number > 0, got {value!r}")
-    return float(value)
-
-
 def simulate(
     filleted: Any, scenario: str, *, h: float = 1.5, linear: bool = False, thickness: float = 2.0,
-    youngs_modulus: float = 1000.0, poisson: float = 0.35,
+    youngs_modulus: float = 1000.0, poisson: float = 0.35, max_elements: int = DEFAULT_MAX_ELEMENTS,
 ) -> ScenarioResult:
     """Mesh a filleted pattern and run one of the paper's scenarios (§4.1) — ``fabpat simulate``.
 
     ``filleted``: a :class:`~fabpat.fillet.FilletedPattern` (its polygon and interfaces come with it);
-    ``scenario``: "cantilever", "cylinder" or "dome"; ``h``: target mesh edge (mm); ``linear``: small
-    displacements instead of the geometrically nonlinear analysis; ``thickness`` (mm),
+    ``scenario``: "cantilever", "cylinder" or "dome" (any capitalisation); ``h``: target mesh edge (mm);
+    ``linear``: small displacements instead of the geometrically nonlinear analysis; ``thickness`` (mm),
     ``youngs_modulus`` (N/mm², PLA 1000 as in the paper), ``poisson`` (0.35, our choice for PLA).
     Returns a :class:`ScenarioResult` (``energy`` N·mm, ``max_displacement`` mm, ``to_vtu``,
-    ``to_png``). Raises :class:`SolverError` for a bad argument or nonconvergence, and
-    :class:`~fabpat.errors.GeometryError` if the outline cannot be meshed at this h.
+    ``to_png``). Raises :class:`SolverError` for a bad argument (ranges: :mod:`fabpat.validate`),
+    nonconvergence or an implausible result, and :class:`~fabpat.errors.GeometryError` if the outline
+    cannot be meshed at this h (too coarse for its narrowest feature, or more than ``max_elements``
+    triangles).
     """
     if not hasattr(filleted, "outline") or not hasattr(filleted, "sides"):
         raise SolverError(f"simulate needs a FilletedPattern (pattern.fillet()), got {type(filleted).__name__}")
-    if scenario not in SCENARIOS:
-        raise SolverError(f"unknown scenario {scenario!r}; expected one of {', '.join(SCENARIOS)}")
-    h, thickness, E = _positive("h", h), _positive("thickness", thickness), _positive("youngs_modulus", youngs_modulus)
-    if isinstance(poisson, bool) or not isinstance(poisson, int | float) or not -1.0 < poisson < 0.5:
-        raise SolverError(f"poisson must be in (-1, 0.5), got {poisson!r}")
-    mesh = mesh_outline(filleted, h)
+    scenario = scenario_name(scenario)
+    h = check("h", h, error=SolverError)
+    thickness = check("thickness", thickness, error=SolverError)
+    E, nu = check("youngs_modulus", youngs_modulus, error=SolverError), check("poisson", poisson, error=SolverError)
+    mesh = mesh_filleted(filleted, h, max_elements=max_elements)
     return run_scenario(mesh, scenario, sides=filleted.sides, edge=filleted.edge, thickness=thickness, E=E,
-                        nu=float(poisson), nonlinear=not linear)
+                        nu=nu, nonlinear=not linear)
+
+
+def plate_size(sides: int, edge: float) -> float:
+    """D = 2 R = edge / sin(π/n) (mm): the diameter of the regular n-gon's circumcircle."""
+    return edge / math.sin(math.pi / sides)
+
+
+def check_plausible(energy: float, max_displacement: float, size: float, nonlinear: bool, what: str) -> None:
+    """SolverError if a solution is not finite or moves further than the model can describe.
+
+    ``size`` (mm) is the structure's diameter; linear solutions may move at most ``size``, nonlinear
+    ones at most 2 × ``size`` (see the module docstring for why).
+    """
+    if not (math.isfinite(energy) and math.isfinite(max_displacement)):
+        raise SolverError(f"{what}: the solution is not finite (energy {energy:g} N·mm, largest displacement "
+                          f"{max_displacement:g} mm): the stiffness is too small for the loads")
+    bound = (2.0 if nonlinear else 1.0) * size
+    if max_displacement > bound:
+        theory = ("nonlinear: membrane strains above 100 %" if nonlinear
+                  else "linear theory assumes small rotations; drop --linear")
+        raise SolverError(f"{what}: the largest displacement {max_displacement:.4g} mm is beyond what the model "
+                          f"allows ({bound:.4g} mm for a part {size:.4g} mm across; {theory})")
+
+
+def mesh_filleted(filleted: Any, h: float, *, max_elements: int = DEFAULT_MAX_ELEMENTS) -> ShellMesh:
+    """Mesh a :class:`~fabpat.fillet.FilletedPattern` with target edge ``h`` (mm), as the scenarios need.
+
+    Refuses (GeometryError) an h above ``MAX_H_PER_MIN_WIDTH`` × the outline's min_width, naming the
+    h that would work, and a mesh estimated above ``max_elements`` triangles.
+    """
+    from fabpat.mesh import check_resolves
+
+    h = check("h", h, "mesh size h", error=GeometryError)
+    check_resolves(h, filleted.validate(raise_on_error=False).min_width, f"pattern {filleted.pattern.id}")
+    return mesh_outline(filleted, h, max_elements=max_elements)
+
+
+def mesh_pattern(pattern: Pattern, weight: float, h: float, *, max_elements: int = DEFAULT_MAX_ELEMENTS) -> ShellMesh:
+    """Fillet ``pattern`` with interface weight ``weight`` and mesh it (see :func:`mesh_filleted`)."""
+    from fabpat.fillet import fillet_pattern
+
+    return mesh_filleted(fillet_pattern(pattern, weight), h, max_elements=max_elements)

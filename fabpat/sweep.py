@@ -79,7 +79,7 @@ def simulate_pattern(pattern_id: str, sides: int, depth: int, edge: float, thick
     """
     from fabpat.fillet import fillet_pattern
     from fabpat.library import get_pattern
-    from fabpat.mesh import mesh_outline
+    from fabpat.mesh import check_resolves, mesh_outline
     from fabpat.scenarios import run_scenario
 
     version = solver_version()
@@ -98,6 +98,7 @@ def simulate_pattern(pattern_id: str, sides: int, depth: int, edge: float, thick
         filleted = fillet_pattern(pattern, weight)
         prow.update(filleted.catalog_columns())  # as `fabpat library`; an invalid outline raises GeometryError
         prow["svg_path"] = filleted.outline.to_svg_path()
+        check_resolves(h, float(prow["min_width"]), f"pattern {pattern_id}")  # as `fabpat simulate`
         mesh = mesh_outline(filleted.outline, h, sides, edge, weight=weight)
     except FabpatError as e:
         geometry_error = f"{type(e).__name__}: {e}"
@@ -215,7 +216,7 @@ def _dask_client(address: str, timeout: float) -> Any:
         raise FabpatError("--dask needs dask.distributed: pip install 'dask[distributed]'") from e
     try:
         return Client(address, timeout=timeout)
-    except OSError as e:
+    except (OSError, ValueError, TypeError) as e:  # dask raises ValueError for an unknown address scheme
         raise FabpatError(f"cannot connect to the dask scheduler at {address}: {e}") from e
 
 

@@ -89,6 +89,18 @@ def test_width_warnings_go_to_stderr(tmp_path: Path) -> None:
     assert r.returncode == 0 and "laser" in r.stderr and "2 mm" in r.stderr
 
 
+@pytest.mark.parametrize(("options", "name"), [(("--sides", "3"), "n3 e36mm"), (("--edge", "6"), "n6 e6mm"),
+                                             (("--sides", "5", "--edge", "12"), "n5 e12mm")])
+def test_a_label_left_out_is_said_on_stderr(tmp_path: Path, options: tuple[str, ...], name: str) -> None:
+    dxf, svg = tmp_path / "t.dxf", tmp_path / "t.svg"
+    r = run_cli("export", "0x0488", *options, "--dxf-entities", "segments", "--dxf", str(dxf), "--svg", str(svg))
+    assert r.returncode == 0, r.stderr
+    assert not read(dxf).modelspace().query("TEXT") and "<text" not in svg.read_text()  # no room: no label
+    (line,) = r.stderr.splitlines()
+    assert line.startswith("fabpat: warning: fabpat 0x0488 " + name) and "no label on the DXF/SVG" in line
+    assert "1 mm" in line and "material" in line
+
+
 def test_export_all_in_one_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """``--all`` on a three-pattern library (the whole one is timed by benchmarks/bench_export.py)."""
     from click.testing import CliRunner

@@ -4,7 +4,7 @@
   (computed here from the triangles) must be 2 × the exact area within 2 × perimeter × tolerance:
   LINE + ARC files (R12 and R2010 with ``entities="segments"``); the arc tessellation is made fine
   with ``$fa`` = 0.5° (chords within 1e-5 × radius). A kit sheet without its border imports as its
-  CUT layer alone.
+  CUT layer alone; with ``[sheet] dxf_entities = "segments"`` its volume is the plates' exact one.
 * LibreCAD (package ``librecad``): ``librecad dxf2pdf`` must finish (it hung on the old one-SPLINE-
   per-loop files) and write a PDF, for every curve mode.
 * Inkscape's DXF importer (``dxf_input.py`` from package ``inkscape``, run with the system Python as
@@ -115,6 +115,29 @@ def test_openscad_imports_a_borderless_kit_sheet_as_its_plates(tmp_path: Path) -
     assert plates > 2.0 * library_outline("0x2508").area * 0.9  # at least one plate
     assert volumes[False] == pytest.approx(plates, rel=1e-9)
     assert volumes[True] > 2.0 * 170 * 90 - plates - 1.0  # with the border: a slab with holes
+
+
+def test_openscad_extrudes_a_segment_kit_sheet_to_the_exact_volume(tmp_path: Path) -> None:
+    from fabpat.assembly.build import plan
+    from fabpat.assembly.parts import PartLibrary
+    from fabpat.assembly.sheets import nest_plates, sheet_document
+    from fabpat.assembly.spec import parse_spec
+
+    needs("openscad", "openscad")
+    spec = {"tiling": {"kind": "honeycomb-strip", "edge": 36.0, "rows": 1, "columns": 2},
+            "patterns": {"groups": ["0x2508", "0x0488"], "group_columns": 1},
+            "sheet": {"width": 170.0, "height": 90.0, "border": False, "dxf_entities": "segments"}}
+    lib = PartLibrary(*plan(parse_spec(spec)))
+    asm = lib.assembly
+    nesting = nest_plates(asm)
+    path = tmp_path / "sheet.dxf"
+    sheet_document(asm, nesting, 0, lib.filleted).saveas(path)
+    outlines = [lib.filleted[asm.plates[i].type].outline for i in nesting.on_sheet(0)]
+    assert len(outlines) == 2
+    exact = 2.0 * sum(o.area for o in outlines)
+    slack = 2.0 * sum(o.perimeter for o in outlines) * asm.spec.curve_tolerance
+    volume = openscad_volume(path, tmp_path)
+    assert abs(volume - exact) <= slack, (volume, exact)
 
 
 @pytest.mark.parametrize("options", [{}, {"curves": "spline"}, {"curves": "spline", "kerf": 0.15},

@@ -79,7 +79,7 @@ def test_plot_never_writes_over_its_catalog_inside_the_folder(small_catalog: Pat
 def test_simulate_strip_png_equal_to_spec_is_refused(tmp_path: Path) -> None:
     spec = tmp_path / "gs.toml"
     shutil.copy(STRIP_SPEC, spec)
-    res = invoke("simulate-strip", str(spec), "--h", "6", "--png", str(spec))
+    res = invoke("simulate-assembly", str(spec), "--h", "6", "--png", str(spec))
     one_line_error(res, "is the input SPEC")
     assert spec.read_bytes() == STRIP_SPEC.read_bytes()
 
@@ -276,7 +276,7 @@ def test_simulate_output_on_a_full_disk_names_the_target(tmp_path: Path, monkeyp
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
 
     monkeypatch.setattr(meshio, "write", full)
-    res = invoke("simulate", "0x2d88", "--scenario", "dome", "--linear", "--h", "6", "--vtu", str(tmp_path / "r.vtu"))
+    res = invoke("simulate", "0x2d88", "--scenario", "dome", "--linear", "--h", "4", "--vtu", str(tmp_path / "r.vtu"))
     one_line_error(res, f"cannot write {tmp_path / 'r.vtu'}: the disk is full")
     assert ".part" not in res.stderr and list(tmp_path.iterdir()) == []
 

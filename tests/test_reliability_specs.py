@@ -67,8 +67,10 @@ def test_count_beside_hexagon_is_refused_like_groups(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("changes, words", [
     ({"depth": "0.001"}, ("sleeve.depth = 0.001", "must be ≥ 1.49 mm", "sleeve.wall")),
-    ({"edge": "0.001"}, ("tiling.edge = 0.001", "must be ≥ 3.8 mm", "sleeve.margin")),
-    ({"weight": "1e6"}, ("plates.weight = 1e+06", "must be in (0, 89]", "output.mesh_tolerance")),
+    # values inside the keys' physical ranges (fabpat.validate: edge ≥ 1 mm, weight ≤ 10) that break
+    # the geometric bounds; 0.001 and 1e6 are refused by those ranges first (tests/test_reliability.py)
+    ({"edge": "2"}, ("tiling.edge = 2", "must be ≥ 3.8 mm", "sleeve.margin")),
+    ({"weight": "5", "mesh_tolerance": "0.1"}, ("plates.weight = 5", "must be in (0, 3.5]", "output.mesh_tolerance")),
 ])
 def test_downstream_errors_are_named_up_front(tmp_path: Path, changes: dict[str, str], words: tuple[str, ...]) -> None:
     spec = edited(SPHERE, tmp_path / "s.toml", **changes)

@@ -23,8 +23,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import GeometryError
+from fabpat.validate import check_size
 
 DEFAULT_RESOLUTION = 1.0  # mm: raster node spacing; finer packs a little denser, costs ∝ 1/resolution²
+
+#: Raster nodes of one sheet: each open sheet keeps a bool grid and the FFT correlation needs a few
+#: complex64 arrays of its size (≈ 30 bytes per node), so 2e7 nodes stay below ≈ 1 GB. A 600 × 400 mm
+#: laser sheet at 1 mm has 2.4e5.
+MAX_RASTER_NODES = 20_000_000
 
 
 @dataclass(frozen=True)
@@ -118,6 +124,9 @@ def nest(polygons: list[NDArray[np.float64]], width: float, height: float, margi
     from scipy import fft as sfft  # scipy.fft: ≈ 2× numpy's FFT here; scipy.signal would cost seconds to import
 
     h = float(resolution)
+    check_size((width / h + 1) * (height / h + 1), MAX_RASTER_NODES,
+               f"raster nodes of a {width:g} × {height:g} mm sheet at {h:g} mm", "a fixed limit",
+               "use a smaller sheet.width × sheet.height", error=GeometryError)
     nx, ny = int(math.floor(width / h)) + 1, int(math.floor(height / h)) + 1
     radius = 0.5 * spacing + h / math.sqrt(2.0)
     sheets: list[NDArray[np.bool_]] = []

@@ -77,6 +77,8 @@ class PartLibrary:
             # Mesh a fresh copy: BRepMesh stores its triangulation in the shape, and the exact solid
             # is also written to STEP and STL at other tolerances.
             pt = self.plate_type(key)
+            if pt is not None:
+                check_plate_mesh(self.filleted[pt].outline, self.assembly.spec.plates.thickness, tolerance)
             shape = (self.assembly.sleeve_types[key].solid() if pt is None else
                      make_solid(self.filleted[pt].outline, self.assembly.spec.plates.thickness, self.support(pt)))
             self._meshes[key, tolerance] = triangulate(shape, tolerance)
@@ -87,6 +89,17 @@ class PartLibrary:
         out = [(p.label, p.type.label, p.transform) for p in self.assembly.plates]
         out += [(s.label, s.kind, s.transform) for s in self.assembly.sleeves]
         return out
+
+
+def check_plate_mesh(outline: Any, thickness: float, tolerance: float) -> None:
+    """Refuse (ExportError) a plate mesh estimated above the export limit, before OCCT starts on it."""
+    from fabpat.errors import ExportError
+    from fabpat.exchange.registry import DEFAULT_MAX_EXPORT_ELEMENTS, estimate_triangles
+    from fabpat.validate import check_size
+
+    check_size(estimate_triangles(outline, thickness, tolerance), DEFAULT_MAX_EXPORT_ELEMENTS,
+               f"mesh triangles of a plate at a {tolerance:g} mm chord", "the export limit",
+               "use a larger output.mesh_tolerance", error=ExportError)
 
 
 def transformed(shape: Any, T: NDArray[np.float64]) -> Any:

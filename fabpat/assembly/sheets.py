@@ -4,9 +4,10 @@ Each plate's exact outline is fitted by circular arcs within the spec's ``output
 (default 0.01 mm; :func:`fabpat.cad.bulge_loops`),
 offset by kerf/2 into the void when a kerf is given, turned and moved to its nested place, and written
 as closed LWPOLYLINEs with bulges on layer ``CUT`` (a rigid motion keeps every bulge; laser software
-fills and orders closed shapes). Layer ``ENGRAVE`` carries, inside the solid sub-triangle that every
-pattern has at each interface, the label of the sleeve joint on that edge and the plate's own label,
-written along the edge (a central label would often fall on a void: many patterns are open in the
+fills and orders closed shapes), or, with ``[sheet] dxf_entities = "segments"``, as one LINE or ARC
+per piece (OpenSCAD ignores bulges and would cut chords). Layer ``ENGRAVE`` carries, inside the solid
+sub-triangle that every pattern has at each interface, the label of the sleeve joint on that edge and
+the plate's own label, written along the edge (a central label would often fall on a void: many patterns are open in the
 middle). Labels are left-aligned TEXT, so their first point is where they start, for readers that
 ignore alignment. Layer ``SHEET`` outlines the bed; it is a non-plotting layer (DXF plot flag 0),
 and ``[sheet] border = false`` leaves it out (OpenSCAD, for one, imports every layer as geometry).
@@ -98,10 +99,11 @@ def sheet_document(assembly: Assembly, nesting: Nesting, sheet: int, filleted: d
     import ezdxf
 
     from fabpat.cad import bulge_loops, offset_bulge_loops
-    from fabpat.exchange.dxf import CUT_COLOR, CUT_LAYER, ENGRAVE_COLOR, ENGRAVE_LAYER, set_extents
+    from fabpat.exchange.dxf import CUT_COLOR, CUT_LAYER, ENGRAVE_COLOR, ENGRAVE_LAYER, add_bulge_segments, set_extents
     from fabpat.exchange.labels import label_at
 
     kerf = assembly.spec.sheet.kerf
+    segments = assembly.spec.sheet.dxf_entities == "segments"
     doc = ezdxf.new("R2010", units=ezdxf.units.MM)
     doc.layers.add(CUT_LAYER, color=CUT_COLOR)
     doc.layers.add(ENGRAVE_LAYER, color=ENGRAVE_COLOR)
@@ -122,6 +124,9 @@ def sheet_document(assembly: Assembly, nesting: Nesting, sheet: int, filleted: d
         place = nesting.placements[item]
         for lp in loops_of[pt]:
             V = place.apply(lp.V)
+            if segments:
+                add_bulge_segments(msp, V, lp.bulges, {"layer": CUT_LAYER})
+                continue
             msp.add_lwpolyline([(float(x), float(y), float(b)) for (x, y), b in zip(V, lp.bulges, strict=True)],
                                format="xyb", close=True, dxfattribs={"layer": CUT_LAYER})
         deg = math.degrees(place.angle)

@@ -14,7 +14,9 @@ A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented 
 * ``[sleeve]``  ``clearance`` (slot width = thickness + clearance), ``margin`` (slot length =
   interface segment + margin), ``wall``, ``depth`` (how far a plate enters its slot).
 * ``[sheet]``  ``width``, ``height`` (laser sheet or print bed), ``margin``, ``spacing``, ``kerf``,
-  ``border`` (true | false, default true: the bed outline on the sheets' non-plotting layer SHEET).
+  ``border`` (true | false, default true: the bed outline on the sheets' non-plotting layer SHEET),
+  ``dxf_entities`` ("polyline" | "segments", default "polyline": closed LWPOLYLINEs with bulges for
+  laser fills, or one LINE / ARC per piece for OpenSCAD; as ``fabpat export --dxf-entities``).
 * ``[estimates]`` ``cut_speed`` (mm/s), ``print_rate`` (mm³/s).
 * ``[output]``  ``formats``: any of step, stl, glb, 3dm, dxf, svg, bom, png; ``mesh_tolerance`` (STL chord of
   the parts and of the sleeves in the .3dm, default 0.005), ``curve_tolerance`` (largest deviation of
@@ -37,7 +39,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from fabpat.errors import PatternError, SpecError
+from fabpat.errors import PatternError, RangeError, SpecError
+from fabpat.validate import RANGES, check
 
 TILINGS = ("honeycomb-strip", "truncated-icosahedron")
 PROCESSES = ("print", "laser")
@@ -102,6 +105,7 @@ class SheetSpec:
     spacing: float = 3.0  # mm: minimum gap between two plates' polygons
     kerf: float = 0.0  # mm: laser kerf (cut loops move out by kerf/2)
     border: bool = True  # draw the bed outline on the sheets' non-plotting layer SHEET
+    dxf_entities: str = "polyline"  # "polyline" (closed LWPOLYLINEs) | "segments" (LINE + ARC)
 
 
 @dataclass(frozen=True)
@@ -159,26 +163,28 @@ class _Table:
             raise self.fail(key, f"does not apply to plates.process = {process!r} (it goes with plates.process = "
                             f"{needed!r})")
 
-    def number(self, key: str, default: float | None, minimum: float = 0.0, strict: bool = True) -> float:
+    def number(self, key: str, default: float | None, range_name: str) -> float:
+        """A finite number in ``fabpat.validate.RANGES[range_name]`` (the same check as the CLI's)."""
         if key not in self.data:
             if default is None:
-                raise SpecError(f"{self.source}: missing key {self.name}.{key} (a number > {minimum:g}, mm)")
+                raise SpecError(f"{self.source}: missing key {self.name}.{key} (a number in "
+                                f"{RANGES[range_name].describe()})")
             return default
-        v = self.data[key]
-        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-            raise self.fail(key, f"= {v!r} must be a number")
-        if v < minimum or (strict and v == minimum):
-            raise self.fail(key, f"= {v:g} must be {'>' if strict else '≥'} {minimum:g}")
-        return float(v)
+        try:
+            return check(range_name, self.data[key], f"{self.name}.{key}")
+        except RangeError as e:
+            raise SpecError(f"{self.source}: {e}") from e
 
     def integer(self, key: str, default: int | None, minimum: int = 1) -> int:
+        """An integer from ``minimum`` to the ``strip_cells`` range's top (fabpat.validate)."""
+        top = int(RANGES["strip_cells"].high)
         if key not in self.data:
             if default is None:
-                raise SpecError(f"{self.source}: missing key {self.name}.{key} (an integer ≥ {minimum})")
+                raise SpecError(f"{self.source}: missing key {self.name}.{key} (an integer in [{minimum}, {top}])")
             return default
         v = self.data[key]
-        if isinstance(v, bool) or not isinstance(v, int) or v < minimum:
-            raise self.fail(key, f"= {v!r} must be an integer ≥ {minimum}")
+        if isinstance(v, bool) or not isinstance(v, int) or not minimum <= v <= top:
+            raise self.fail(key, f"= {v!r} must be an integer in [{minimum}, {top}]")
         return int(v)
 
     def choice(self, key: str, allowed: tuple[str, ...], default: str | None) -> str:
@@ -229,7 +235,7 @@ def _pattern_id(source: str, key: str, pid: Any, sides: tuple[int, ...]) -> str:
 def _tiling(source: str, data: Any) -> TilingSpec:
     t = _Table(source, "tiling", data, ("kind", "edge", "rows", "columns"))
     kind = t.choice("kind", TILINGS, None)
-    edge = t.number("edge", None)
+    edge = t.number("edge", None, "edge")
     if kind == "honeycomb-strip":
         return TilingSpec(kind, edge, t.integer("rows", None), t.integer("columns", None))
     for key in ("rows", "columns"):
@@ -306,6 +312,8 @@ def _patterns(source: str, data: Any, tiling: TilingSpec) -> PatternSpec:
     for r, row in enumerate(tiles):
         out = []
         for c, pid in enumerate(row):
+            if not isinstance(pid, str):  # a list or table cell: unhashable, and not an ID anyway
+                raise SpecError(f"{source}: patterns.tiles[{r}][{c}] = {pid!r} must be a pattern ID string")
             if pid not in cache:
                 cache[pid] = _pattern_id(source, f"patterns.tiles[{r}][{c}]", pid, sides)
             out.append(cache[pid])
@@ -315,35 +323,39 @@ def _patterns(source: str, data: Any, tiling: TilingSpec) -> PatternSpec:
 
 def _plates(source: str, data: Any) -> PlateSpec:
     t = _Table(source, "plates", data, ("thickness", "weight", "process", "density"))
-    return PlateSpec(t.number("thickness", 2.0), t.number("weight", 0.2), t.choice("process", PROCESSES, "print"),
-                     t.number("density", 1.24))
+    return PlateSpec(t.number("thickness", 2.0, "thickness"), t.number("weight", 0.2, "weight"),
+                     t.choice("process", PROCESSES, "print"),
+                     t.number("density", 1.24, "density"))
 
 
 def _sleeve(source: str, data: Any) -> SleeveSpec:
     t = _Table(source, "sleeve", data, ("clearance", "margin", "wall", "depth"))
-    return SleeveSpec(t.number("clearance", 0.2, strict=False), t.number("margin", 1.0, strict=False),
-                      t.number("wall", 1.2), t.number("depth", 3.0))
+    return SleeveSpec(t.number("clearance", 0.2, "clearance"), t.number("margin", 1.0, "gap"),
+                      t.number("wall", 1.2, "sleeve_length"), t.number("depth", 3.0, "sleeve_length"))
 
 
 def _sheet(source: str, data: Any, process: str) -> SheetSpec:
-    t = _Table(source, "sheet", data, ("width", "height", "margin", "spacing", "kerf", "border"))
+    from fabpat.exchange.dxf import ENTITY_MODES
+
+    t = _Table(source, "sheet", data, ("width", "height", "margin", "spacing", "kerf", "border", "dxf_entities"))
     t.only_for("kerf", process, "laser")  # printed plates are not cut: a kerf would only move their outlines
-    kerf = t.number("kerf", 0.15 if process == "laser" else 0.0, strict=False)
-    return SheetSpec(t.number("width", None), t.number("height", None), t.number("margin", 5.0, strict=False),
-                     t.number("spacing", 3.0, strict=False), kerf, t.boolean("border", True))
+    kerf = t.number("kerf", 0.15 if process == "laser" else 0.0, "kerf")
+    return SheetSpec(t.number("width", None, "sheet_size"), t.number("height", None, "sheet_size"),
+                     t.number("margin", 5.0, "gap"), t.number("spacing", 3.0, "gap"), kerf,
+                     t.boolean("border", True), t.choice("dxf_entities", ENTITY_MODES, "polyline"))
 
 
 def _estimates(source: str, data: Any, process: str) -> EstimateSpec:
     t = _Table(source, "estimates", data, ("cut_speed", "print_rate"))
     t.only_for("cut_speed", process, "laser")  # print_rate applies to both: sleeves are always printed
-    return EstimateSpec(t.number("cut_speed", 15.0), t.number("print_rate", 3.0))
+    return EstimateSpec(t.number("cut_speed", 15.0, "rate"), t.number("print_rate", 3.0, "rate"))
 
 
 def _output(source: str, data: Any) -> tuple[tuple[str, ...], float, float]:
     """Formats, STL chord (mm) and DXF arc tolerance (mm) of ``[output]``."""
     t = _Table(source, "output", data, ("formats", "mesh_tolerance", "curve_tolerance"))
-    tolerances = (t.number("mesh_tolerance", AssemblySpec.mesh_tolerance),
-                  t.number("curve_tolerance", AssemblySpec.curve_tolerance))
+    tolerances = (t.number("mesh_tolerance", AssemblySpec.mesh_tolerance, "mesh_tolerance"),
+                  t.number("curve_tolerance", AssemblySpec.curve_tolerance, "curve_tolerance"))
     return (_formats(t), *tolerances)
 
 

@@ -1,7 +1,8 @@
 """The ``fabpat`` command line: each subcommand parses its options and calls the library.
 
 Errors never show a traceback: a :class:`~fabpat.errors.FabpatError` or a usage error becomes one
-line on stderr (``fabpat: error: …``) and exit code 2.
+line on stderr (``fabpat: error: …``) and exit code 2; Ctrl-C becomes ``fabpat: interrupted`` and
+exit code 130 (128 + SIGINT, the shell's convention).
 """
 
 from __future__ import annotations
@@ -44,8 +45,23 @@ def _sigterm_unwinds() -> Iterator[None]:
         signal.signal(signal.SIGTERM, previous)
 
 
+class _Interrupted(BaseException):
+    """Ctrl-C inside a command, carried past click (which would print a blank line and "Aborted!")."""
+
+
 class FabpatGroup(click.Group):
     """A click group whose errors are one line on stderr and exit code 2."""
+
+    def invoke(self, ctx: click.Context) -> Any:
+        """Run the command; a Ctrl-C inside it leaves click as :class:`_Interrupted` (see :meth:`main`)."""
+        try:
+            return super().invoke(ctx)
+        except KeyboardInterrupt as e:
+            raise _Interrupted from e
+        except ImportError as e:  # a C extension (OCP) reports a Ctrl-C during its import as ImportError
+            if isinstance(e.__cause__ or e.__context__, KeyboardInterrupt):
+                raise _Interrupted from e
+            raise
 
     def main(self, *args: Any, **kwargs: Any) -> Any:  # noqa: D102 - click's signature
         """Run the group; usage errors and :class:`FabpatError` become one stderr line and exit code 2."""
@@ -55,19 +71,35 @@ class FabpatGroup(click.Group):
 
             with _sigterm_unwinds(), input_scope():  # no output of the command may replace its inputs
                 rv = super().main(*args, **kwargs)
+        except click.exceptions.NoArgsIsHelpError as e:  # `fabpat` alone: the help, not a one-line error
+            click.echo(e.ctx.get_help() if e.ctx is not None else e.format_message())
+            sys.exit(0)
         except click.exceptions.UsageError as e:
             _fail(e.format_message())
         except FabpatError as e:
             _fail(str(e))
         except OSError as e:  # a file system refusal no check foresaw: still one line, not a traceback
             _fail(f"{e.filename}: {e.strerror}" if e.filename and e.strerror else str(e))
-        except click.exceptions.Abort:
-            if _TERMINATED:
-                click.echo("fabpat: terminated", err=True)
-                sys.exit(128 + _TERMINATED[0])
+        except _Interrupted:
+            _interrupted()
+        except click.exceptions.Abort as e:
+            if _TERMINATED or isinstance(e.__cause__, KeyboardInterrupt):
+                _interrupted()
             click.echo("fabpat: aborted", err=True)
             sys.exit(1)
         sys.exit(rv if isinstance(rv, int) else 0)
+
+
+def _interrupted() -> None:
+    """One line and 128 + the signal: 130 for Ctrl-C (SIGINT), 143 for SIGTERM."""
+    from fabpat.__main__ import forget_interrupt
+
+    forget_interrupt()
+    if _TERMINATED:
+        click.echo("fabpat: terminated", err=True)
+        sys.exit(128 + _TERMINATED[0])
+    click.echo("fabpat: interrupted", err=True)
+    sys.exit(130)
 
 
 def _fail(message: str) -> None:

@@ -13,6 +13,8 @@ from pathlib import Path
 
 import click
 
+from fabpat.cli.options import h_option, modulus_option, number_option, poisson_option
+
 
 @click.command("assemble")
 @click.argument("spec", type=click.Path(dir_okay=False))
@@ -73,15 +75,15 @@ def assemble_cmd(spec: str, out: str, progress: bool, timestamp: str | None, for
 
 @click.command("simulate-assembly")
 @click.argument("spec", type=click.Path(dir_okay=False))
-@click.option("--end-shortening", type=float, default=0.1, show_default=True,
-              help="The end pins move towards each other by this fraction of the strip length (0 < F < 0.5).")
-@click.option("--h", "h", type=float, default=3.0, show_default=True, help="Target mesh edge length in mm.")
-@click.option("--steps", type=int, default=10, show_default=True,
-              help="Equal end-shortening increments reported in the JSON path.")
-@click.option("--imperfection", type=float, default=None,
-              help="Upward out-of-plane force (N, in total) that selects the buckle [default: 0.01].")
-@click.option("--youngs-modulus", "E", type=float, default=1000.0, show_default=True, help="N/mm² (PLA: 1000).")
-@click.option("--poisson", "nu", type=float, default=0.35, show_default=True, help="Poisson's ratio.")
+@number_option("--end-shortening", range_name="end_shortening", default=0.1, show_default=True,
+               help="The end pins move towards each other by this fraction of the strip length.")
+@h_option(3.0)
+@number_option("--steps", range_name="steps", default=10, show_default=True,
+               help="Equal end-shortening increments reported in the JSON path.")
+@number_option("--imperfection", range_name="imperfection_force", default=None,
+               help="Upward out-of-plane force (N, in total) that selects the buckle [default: 0.01].")
+@modulus_option
+@poisson_option
 @click.option("--vtu", type=click.Path(dir_okay=False), help="Every plate, deformed, with fields for ParaView (.vtu).")
 @click.option("--png", type=click.Path(dir_okay=False),
               help="Deflection profile and reaction–end-shortening curve (.png).")
@@ -113,21 +115,14 @@ def _simulate_assembly(spec: str, end_shortening: float, h: float, steps: int, i
     from fabpat.assembly.spec import load_spec
     from fabpat.errors import SpecError
     from fabpat.exchange.vtu import write_vtu
-    from fabpat.io import atomic_outputs, check_distinct
+    from fabpat.io import atomic_outputs, check_distinct, check_suffix
+    from fabpat.scenarios import PNG_SUFFIXES, VTU_SUFFIXES
 
-    if not 0.0 < end_shortening < 0.5:
-        raise click.BadParameter(f"--end-shortening must be in (0, 0.5), got {end_shortening:g}")
-    for name, value in (("--h", h), ("--youngs-modulus", E)):
-        if not value > 0:
-            raise click.BadParameter(f"{name} must be > 0, got {value:g}")
-    if steps < 1:
-        raise click.BadParameter(f"--steps must be ≥ 1, got {steps}")
-    if imperfection is not None and not imperfection >= 0:
-        raise click.BadParameter(f"--imperfection must be ≥ 0, got {imperfection:g}")
-    if not -1.0 < nu < 0.5:
-        raise click.BadParameter(f"--poisson must be in (-1, 0.5), got {nu:g}")
     outputs = [p for p in (vtu, png) if p is not None]
     check_distinct(outputs, inputs={"SPEC": spec})
+    for option, path, valid in (("--vtu", vtu, VTU_SUFFIXES), ("--png", png, PNG_SUFFIXES)):
+        if path is not None:
+            check_suffix(path, valid, option)
     parsed = load_spec(spec)
     if parsed.tiling.kind != "honeycomb-strip":
         raise SpecError(f"{spec}: simulate-assembly can simulate tiling.kind = \"honeycomb-strip\" "
@@ -166,20 +161,21 @@ def _simulate_assembly(spec: str, end_shortening: float, h: float, steps: int, i
         for k, v in row.items():
             click.echo(f"{k}={text(v)}")
     for path in outputs:
-        click.echo(f"wrote {path}", err=True)
+        click.echo(f"wrote {path}", err=True)  # stdout is data (key=value lines or JSON)
 
 
 @click.command("simulate-strip")
 @click.argument("spec", type=click.Path(dir_okay=False))
-@click.option("--end-shortening", type=float, default=0.1, show_default=True)
-@click.option("--h", "h", type=float, default=3.0, show_default=True)
-@click.option("--steps", type=int, default=10, show_default=True)
-@click.option("--imperfection", type=float, default=None)
-@click.option("--youngs-modulus", "E", type=float, default=1000.0, show_default=True)
-@click.option("--poisson", "nu", type=float, default=0.35, show_default=True)
-@click.option("--vtu", type=click.Path(dir_okay=False))
-@click.option("--png", type=click.Path(dir_okay=False))
-@click.option("--json", "as_json", is_flag=True)
+@number_option("--end-shortening", range_name="end_shortening", default=0.1, show_default=True,
+               help="See simulate-assembly.")
+@h_option(3.0)
+@number_option("--steps", range_name="steps", default=10, show_default=True, help="See simulate-assembly.")
+@number_option("--imperfection", range_name="imperfection_force", default=None, help="See simulate-assembly.")
+@modulus_option
+@poisson_option
+@click.option("--vtu", type=click.Path(dir_okay=False), help="See simulate-assembly.")
+@click.option("--png", type=click.Path(dir_okay=False), help="See simulate-assembly.")
+@click.option("--json", "as_json", is_flag=True, help="See simulate-assembly.")
 def simulate_strip_cmd(spec: str, end_shortening: float, h: float, steps: int, imperfection: float | None,
                        E: float, nu: float, vtu: str | None, png: str | None, as_json: bool) -> None:
     """Deprecated alias of `fabpat simulate-assembly` (same options and output); removed in the next release."""

@@ -9,7 +9,16 @@ from pathlib import Path
 
 import click
 
-from fabpat.cli.options import _at_least, depth_option, edge_option, sides_option, weight_option
+from fabpat.cli.options import (
+    depth_option,
+    edge_option,
+    number_option,
+    sample_option,
+    seed_option,
+    sides_option,
+    thickness_option,
+    weight_option,
+)
 
 DEFAULT_DB = "catalog.sqlite"
 _db_help = "Catalog file (SQLite) [default: the built-in catalog of the default library]."
@@ -18,24 +27,22 @@ _db_help = "Catalog file (SQLite) [default: the built-in catalog of the default 
 @click.command("sweep")
 @sides_option
 @depth_option
-@click.option("--sample", type=int, default=None, help="Simulate N random valid patterns (needed for depth ≥ 3).")
-@click.option("--seed", type=int, default=0, show_default=True, help="Random seed for --sample.")
+@sample_option
+@seed_option
 @click.option("--db", type=click.Path(dir_okay=False), default=DEFAULT_DB, show_default=True,
               help="Catalog file to create or complete.")
-@click.option("--workers", type=int, default=None, callback=_at_least(1, "workers"),
-              help="Local worker processes [default: all cores].")
+@number_option("--workers", range_name="workers", default=None, help="Local worker processes [default: all cores].")
 @click.option("--dask", "dask_address", metavar="ADDRESS", default=None,
               help="Send the tasks to this dask.distributed scheduler (e.g. tcp://host:8786) instead.")
 @click.option("--force", is_flag=True, help="Recompute rows already in the catalog.")
 @edge_option
-@click.option("--thickness", type=float, default=2.0, show_default=True, callback=_at_least(0, "thickness", True),
-              help="Plate thickness in mm.")
+@thickness_option
 @weight_option
-@click.option("--youngs-modulus", "modulus", type=float, default=1000.0, show_default=True,
-              callback=_at_least(0, "Young's modulus", True), help="Young's modulus in N/mm² (PLA: 1000).")
-@click.option("--poisson", type=float, default=0.35, show_default=True, help="Poisson's ratio (PLA: 0.35).")
-@click.option("--h", "--mesh-size", "h", type=float, default=1.5, show_default=True,
-              callback=_at_least(0, "mesh size", True), help="Target mesh edge length in mm.")
+@number_option("--youngs-modulus", "modulus", range_name="youngs_modulus", default=1000.0, show_default=True,
+               help="Young's modulus in N/mm² (PLA: 1000).")
+@number_option("--poisson", range_name="poisson", default=0.35, show_default=True, help="Poisson's ratio (PLA: 0.35).")
+@number_option("--h", "--mesh-size", "h", range_name="h", default=1.5, show_default=True,
+               help="Target mesh edge length in mm (at most twice each pattern's min_width).")
 def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, workers: int | None,
               dask_address: str | None, force: bool, edge: float, thickness: float, weight: float, modulus: float,
               poisson: float, h: float) -> int:
@@ -58,11 +65,11 @@ def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, wo
 
     from fabpat.cli.library_cmds import load_library
     from fabpat.io import check_distinct
+    from fabpat.mesh import DEFAULT_MAX_ELEMENTS, check_polygon_elements
     from fabpat.sweep import SweepSetup, run_sweep
 
     check_distinct([], inputs={"--db": db})  # the library cache, say, may never replace the catalog
-    if not -1.0 < poisson < 0.5:
-        raise click.BadParameter(f"must be in (-1, 0.5), got {poisson:g}", param_hint="--poisson")
+    check_polygon_elements(sides, edge, h, DEFAULT_MAX_ELEMENTS)
     if dask_address and workers:
         raise click.UsageError("--workers is for local processes; the dask cluster decides with --dask")
     ids = load_library(sides, depth, sample, seed).ids
@@ -107,7 +114,7 @@ _TABLE_COLUMNS = ("id", "area", "perimeter", "polar_moment", "min_width")
 @click.option("--format", "fmt", type=click.Choice(["table", "csv", "json"]), default="table", show_default=True,
               help="Output format.")
 @click.option("--long", "long_", is_flag=True, help="One row per pattern × scenario with every stored column.")
-@click.option("--sides", type=int, default=None, help="Only patterns of this polygon.")
+@number_option("--sides", range_name="sides", default=None, help="Only patterns of this polygon.")
 def catalog_cmd(db: str | None, fmt: str, long_: bool, sides: int | None) -> None:
     """Print a catalog: one row per pattern with its metrics and energies (N·mm) per scenario.
 
@@ -116,12 +123,14 @@ def catalog_cmd(db: str | None, fmt: str, long_: bool, sides: int | None) -> Non
 
     Example: fabpat catalog --format csv > catalog.csv
     """
-    from fabpat.catalog import open_catalog
+    from fabpat.catalog import CatalogError, no_match_message, open_catalog
     from fabpat.cli.library_cmds import _print_rows
     from fabpat.io import check_distinct
 
     check_distinct([], inputs={"--db": db})
     with open_catalog(db) as cat:
+        if sides is not None and not cat.pattern_rows(sides=sides):
+            raise CatalogError(no_match_message(cat, {"sides": sides}))
         if long_:
             rows = cat.results(sides=sides)
         else:
@@ -149,7 +158,7 @@ def catalog_cmd(db: str | None, fmt: str, long_: bool, sides: int | None) -> Non
 @click.option("--db", type=click.Path(dir_okay=False), default=None, help=_db_help)
 @click.option("--out", type=click.Path(dir_okay=False), required=True, help="HTML file to write.")
 @click.option("--open", "open_", is_flag=True, help="Open the page in the default web browser.")
-@click.option("--sides", type=int, default=None, help="Polygon to show if the catalog holds several.")
+@number_option("--sides", range_name="sides", default=None, help="Polygon to show if the catalog holds several.")
 def browse_cmd(db: str | None, out: str, open_: bool, sides: int | None) -> None:
     """Write the browsing page: linked scatter plots of the catalog in one offline HTML file.
 
@@ -177,7 +186,7 @@ def browse_cmd(db: str | None, out: str, open_: bool, sides: int | None) -> None
 @click.option("--db", type=click.Path(dir_okay=False), default=None, help=_db_help)
 @click.option("--out", type=click.Path(file_okay=False), required=True, help="Folder for the figures.")
 @click.option("--highlight", default=None, help="Comma-separated IDs to colour in every figure (a cluster).")
-@click.option("--sides", type=int, default=None, help="Polygon to show if the catalog holds several.")
+@number_option("--sides", range_name="sides", default=None, help="Polygon to show if the catalog holds several.")
 def plot_cmd(db: str | None, out: str, highlight: str | None, sides: int | None) -> None:
     """Write the static scatter plots (paper Figs 13–14) as PNG and SVG.
 

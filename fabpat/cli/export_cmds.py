@@ -2,7 +2,7 @@
 
 The command parses options, builds the filleted outline and calls :mod:`fabpat.exchange.registry`;
 all files of one command are written through one :func:`fabpat.io.atomic_outputs` block, so an error
-leaves no file. Width warnings go to stderr and do not change the exit code.
+leaves no file. Width warnings and labels left out (no room on the part) go to stderr and do not change the exit code.
 """
 
 from __future__ import annotations
@@ -13,15 +13,25 @@ from typing import TYPE_CHECKING
 import click
 
 from fabpat.cad import DEFAULT_CHORD
-from fabpat.cli.options import _at_least, edge_option, id_depth_option, sides_option
+from fabpat.cli.options import (
+    edge_option,
+    id_depth_option,
+    max_elements_option,
+    number_option,
+    sides_option,
+    thickness_option,
+    weight_option,
+)
 from fabpat.errors import ExportError
 from fabpat.exchange.registry import (
+    DEFAULT_MAX_EXPORT_ELEMENTS,
     FORMATS,
     ExportSettings,
     Job,
     Part,
     export_parts,
     filleted_part,
+    label_warning,
     parse_formats,
     width_warnings,
 )
@@ -46,6 +56,7 @@ def _warn(message: str) -> None:
 def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> list[Path]:
     """Build each part and write its files in one atomic block, with width warnings and a progress bar."""
     narrow: list[tuple[str | None, list[str]]] = []
+    unlabelled: list[str] = []
     bar = None
     if progress:
         from rich.console import Console
@@ -58,6 +69,9 @@ def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> lis
         messages = width_warnings(part.outline, formats, settings.kerf)
         if messages:
             narrow.append((part.label, messages))
+        missing = label_warning(part, formats)
+        if missing:
+            unlabelled.append(missing)
         if bar is not None:
             bar.advance(task)
 
@@ -74,6 +88,10 @@ def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> lis
     elif narrow:
         label, messages = narrow[0]
         _warn(f"{len(narrow)} patterns have features too narrow for their process, e.g. {label}: {messages[0]}")
+    if len(unlabelled) == 1:
+        _warn(unlabelled[0])
+    elif unlabelled:
+        _warn(f"{len(unlabelled)} patterns have no label on their DXF/SVG, e.g. {unlabelled[0]}")
     return paths
 
 
@@ -82,10 +100,8 @@ def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> lis
 @sides_option
 @id_depth_option
 @edge_option
-@click.option("--thickness", type=float, default=2.0, show_default=True, callback=_at_least(0, "thickness", True),
-              help="Plate thickness in mm (> 0).")
-@click.option("--weight", type=float, default=0.2, show_default=True, callback=_at_least(0, "weight", True),
-              help="Middle weight w of the interface fillet arcs (> 0).")
+@thickness_option
+@weight_option
 @click.option("--step", "step", type=click.Path(dir_okay=False), help="STEP AP214 file (exact solid).")
 @click.option("--stl", "stl", type=click.Path(dir_okay=False), help="Binary STL file (chord --mesh-tolerance).")
 @click.option("--3mf", "threemf", type=click.Path(dir_okay=False), help="3MF file (mesh for slicers).")
@@ -96,14 +112,12 @@ def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> lis
 @click.option("--curves", type=click.Choice(["arcs", "spline", "lines"]), default="arcs", show_default=True,
               help="DXF curves: circular arcs or polylines within --curve-tolerance, or exact rational splines "
                    "(one SPLINE per curved segment).")
-@click.option("--mesh-tolerance", type=float, default=DEFAULT_CHORD, show_default=True,
-              callback=_at_least(0, "mesh tolerance", True),
-              help="STL/3MF: largest distance in mm between the triangles and the exact surface.")
-@click.option("--curve-tolerance", type=float, default=0.01, show_default=True,
-              callback=_at_least(0, "curve tolerance", True),
-              help="DXF arcs/lines, SVG cubics and kerf offsets: largest deviation in mm from the exact outline.")
-@click.option("--kerf", type=float, default=0.0, show_default=True, callback=_at_least(0, "kerf"),
-              help="Laser kerf in mm: DXF/SVG loops move out by kerf/2.")
+@number_option("--mesh-tolerance", range_name="mesh_tolerance", default=DEFAULT_CHORD, show_default=True,
+               help="STL/3MF: largest distance in mm between the triangles and the exact surface.")
+@number_option("--curve-tolerance", range_name="curve_tolerance", default=0.01, show_default=True,
+               help="DXF arcs/lines, SVG cubics and kerf offsets: largest deviation in mm from the exact outline.")
+@number_option("--kerf", range_name="kerf", default=0.0, show_default=True,
+               help="Laser kerf in mm: DXF/SVG loops move out by kerf/2.")
 @click.option("--dxf-version", type=click.Choice(["R2010", "R2000", "R12"]), default="R2010", show_default=True,
               help="DXF version; R12 (for old software) writes LINE and ARC entities.")
 @click.option("--dxf-entities", type=click.Choice(["polyline", "segments"]), default=None,
@@ -117,12 +131,13 @@ def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> lis
 @click.option("--all", "all_", is_flag=True, help="Export every pattern of the library (needs --out).")
 @click.option("--out", type=click.Path(file_okay=False), help="Folder for --all (created if missing).")
 @click.option("--formats", default=None, help=f"Formats for --all, comma-separated [default: {DEFAULT_ALL_FORMATS}].")
+@max_elements_option(DEFAULT_MAX_EXPORT_ELEMENTS, "STL/3MF triangles or DXF/SVG curve segments of one part")
 def export_cmd(pattern_id: str | None, sides: int, depth: int | None, edge: float, thickness: float, weight: float,
                step: str | None, stl: str | None, threemf: str | None, dxf: str | None, svg: str | None,
                rhino: str | None,
                curves: str, mesh_tolerance: float, curve_tolerance: float, kerf: float, dxf_version: str,
                dxf_entities: str | None, svg_curves: str, origin: str,
-               all_: bool, out: str | None, formats: str | None) -> None:
+               all_: bool, out: str | None, formats: str | None, max_elements: int) -> None:
     """Write fabrication files for one pattern (ID) or, with --all, for the whole library.
 
     Warns on stderr when the narrowest feature is below the process limit: 0.8 mm for printing
@@ -136,7 +151,7 @@ def export_cmd(pattern_id: str | None, sides: int, depth: int | None, edge: floa
     """
     settings = ExportSettings(curves=curves, kerf=kerf, dxf_version=dxf_version, mesh_tolerance=mesh_tolerance,
                               curve_tolerance=curve_tolerance, dxf_entities=dxf_entities, svg_curves=svg_curves,
-                              origin=origin)
+                              origin=origin, max_elements=max_elements)
     settings.check()
     files = {"step": step, "stl": stl, "3mf": threemf, "dxf": dxf, "svg": svg, "3dm": rhino}
     if all_:

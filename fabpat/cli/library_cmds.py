@@ -10,7 +10,15 @@ from pathlib import Path
 
 import click
 
-from fabpat.cli.options import depth_option, edge_option, id_depth_option, sides_option, weight_option
+from fabpat.cli.options import (
+    depth_option,
+    edge_option,
+    id_depth_option,
+    sample_option,
+    seed_option,
+    sides_option,
+    weight_option,
+)
 from fabpat.errors import PatternError
 from fabpat.io import atomic_outputs
 from fabpat.library import Library, enumerate_library, get_pattern, sample_library
@@ -157,8 +165,8 @@ def _print_rows(rows: list[dict[str, object]], fmt: str, title: str) -> None:
 @edge_option
 @click.option("--format", "fmt", type=click.Choice(["table", "json", "csv"]), default="table", show_default=True,
               help="Output format.")
-@click.option("--sample", type=int, default=None, help="Draw N random valid patterns instead of listing all.")
-@click.option("--seed", type=int, default=0, show_default=True, help="Random seed for --sample.")
+@sample_option
+@seed_option
 @weight_option
 @click.option("--no-fillet", is_flag=True, help="Lattice metrics only (skip the filleted columns; instant).")
 def library_cmd(
@@ -173,7 +181,13 @@ def library_cmd(
     """
     lib = load_library(sides, depth, sample, seed)
     rows = library_rows(lib, edge, None if no_fillet else weight)
-    title = f"{len(rows)} patterns, {sides}-gon, depth {depth}, edge {edge:g} mm ({lib.candidates} candidates)"
+    if sample is None:
+        source = f"{lib.candidates} candidates"
+    else:  # lib.candidates counts the random draws, not the slices the sample stands for
+        from fabpat.lattice import n_faces
+
+        source = f"random sample, seed {seed}, of the 2^{n_faces(depth)} − 1 slices"
+    title = f"{len(rows)} patterns, {sides}-gon, depth {depth}, edge {edge:g} mm ({source})"
     _print_rows(rows, fmt, title)
 
 
@@ -210,8 +224,8 @@ def show_cmd(pattern_id: str, sides: int, depth: int | None, edge: float, svg: s
 @click.command("sheet")
 @sides_option
 @depth_option
-@click.option("--sample", type=int, default=None, help="Draw N random valid patterns instead of listing all.")
-@click.option("--seed", type=int, default=0, show_default=True, help="Random seed for --sample.")
+@sample_option
+@seed_option
 @click.option("--out", type=click.Path(dir_okay=False), required=True, help="Contact sheet file: .svg or .png.")
 def sheet_cmd(sides: int, depth: int, sample: int | None, seed: int, out: str) -> None:
     """Write a contact sheet: every pattern of the library in a grid with its ID.

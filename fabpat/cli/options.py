@@ -1,45 +1,85 @@
-"""Options shared by several commands, so each is spelled and checked the same way everywhere."""
+"""Options shared by several commands, so each is spelled and checked the same way everywhere.
+
+Every numeric option is a :class:`NumberType` over a named range of :mod:`fabpat.validate`: the value
+is checked while parsing (before any work, before any file is opened) and ``--help`` shows the range.
+"""
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import Any
 
 import click
 
+from fabpat.errors import RangeError
 from fabpat.pattern import DEFAULT_EDGE
+from fabpat.validate import RANGES, check
 
 
-def _at_least(minimum: float, what: str, strict: bool = False) -> Callable[..., Any]:
-    def check(ctx: click.Context, param: click.Parameter, value: Any) -> Any:
-        if value is None:
-            return value
-        bad = value <= minimum if strict else value < minimum
-        if bad:
-            op = ">" if strict else "≥"
-            raise click.BadParameter(f"{what} must be {op} {minimum:g}, got {value:g}", ctx, param)
-        return value
+class NumberType(click.ParamType):
+    """A float or integer option checked against ``fabpat.validate.RANGES[range_name]``."""
 
-    return check
+    def __init__(self, range_name: str) -> None:
+        self.range = RANGES[range_name]
+        self.name = "integer" if self.range.integer else "float"
+
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
+        """``INTEGER`` or ``FLOAT`` in ``--help``."""
+        return "INTEGER" if self.range.integer else "FLOAT"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        """The checked number, or click's one-line usage error naming the option and its range."""
+        if isinstance(value, int | float) and not isinstance(value, bool):
+            number: Any = value
+        else:
+            text = str(value).strip()
+            try:
+                number = int(text) if self.range.integer else float(text)
+            except ValueError:
+                kind = "an integer" if self.range.integer else "a number"
+                self.fail(f"{value!r} is not {kind}", param, ctx)
+        try:
+            return check(self.range.name, number, label="value")
+        except RangeError as e:
+            self.fail(str(e).removeprefix("value ").removeprefix("= "), param, ctx)
 
 
-sides_option = click.option(
-    "--sides", type=int, default=6, show_default=True, callback=_at_least(3, "sides"),
-    help="Number of polygon sides (≥ 3).",
-)
-depth_option = click.option(
-    "--depth", type=int, default=2, show_default=True, callback=_at_least(1, "depth"),
-    help="Subdivision depth of the slice (≥ 1); depth ≥ 3 needs --sample.",
-)
-id_depth_option = click.option(
-    "--depth", type=int, default=None, callback=_at_least(1, "depth"),
+def number_option(*decls: str, range_name: str, help: str, **kwargs: Any) -> Any:  # noqa: A002 - click's name
+    """A ``click.option`` of :class:`NumberType` whose help ends with the valid range."""
+    r = RANGES[range_name]
+    return click.option(*decls, type=NumberType(range_name), help=f"{help} Range: {r.describe()}.", **kwargs)
+
+
+def max_elements_option(default: int, what: str) -> Any:
+    """``--max-elements``: the size limit of the heavy work (see docs/reliability.md)."""
+    return number_option("--max-elements", range_name="max_elements", default=default, show_default=True,
+                         help=f"Refuse to start when the estimated number of {what} is above this.")
+
+
+sides_option = number_option("--sides", range_name="sides", default=6, show_default=True,
+                             help="Number of polygon sides.")
+depth_option = number_option("--depth", range_name="depth", default=2, show_default=True,
+                             help="Subdivision depth of the slice; depth ≥ 3 needs --sample.")
+id_depth_option = number_option(
+    "--depth", range_name="depth", default=None,
     help="Subdivision depth of the ID [default: from its length: 4 hex digits → 2, 16 → 3].",
 )
-edge_option = click.option(
-    "--edge", type=float, default=DEFAULT_EDGE, show_default=True, callback=_at_least(0, "edge", True),
-    help="Polygon edge length in mm.",
-)
-weight_option = click.option(
-    "--weight", type=float, default=0.2, show_default=True, callback=_at_least(0, "weight", True),
-    help="Middle weight w of the interface fillet arcs (the paper's 0.2).",
-)
+edge_option = number_option("--edge", range_name="edge", default=DEFAULT_EDGE, show_default=True,
+                            help="Polygon edge length in mm.")
+weight_option = number_option("--weight", range_name="weight", default=0.2, show_default=True,
+                              help="Middle weight w of the interface fillet arcs (the paper's 0.2).")
+thickness_option = number_option("--thickness", range_name="thickness", default=2.0, show_default=True,
+                                 help="Plate thickness in mm.")
+sample_option = number_option("--sample", range_name="sample", default=None,
+                              help="Draw N random valid patterns instead of listing all (needed for depth ≥ 3).")
+seed_option = number_option("--seed", range_name="seed", default=0, show_default=True,
+                            help="Random seed for --sample.")
+poisson_option = number_option("--poisson", "nu", range_name="poisson", default=0.35, show_default=True,
+                               help="Poisson's ratio (PLA: 0.35).")
+modulus_option = number_option("--youngs-modulus", "E", range_name="youngs_modulus", default=1000.0,
+                               show_default=True, help="Young's modulus in N/mm² (PLA: 1000).")
+
+
+def h_option(default: float) -> Any:
+    """``--h``: the target mesh edge in mm, with a command's own default."""
+    return number_option("--h", "h", range_name="h", default=default, show_default=True,
+                         help="Target mesh edge length in mm (at most twice the pattern's min_width).")

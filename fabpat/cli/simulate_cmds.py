@@ -7,9 +7,20 @@ from pathlib import Path
 
 import click
 
-from fabpat.cli.options import edge_option, id_depth_option, sides_option, weight_option
+from fabpat.cli.options import (
+    edge_option,
+    h_option,
+    id_depth_option,
+    max_elements_option,
+    modulus_option,
+    poisson_option,
+    sides_option,
+    thickness_option,
+    weight_option,
+)
 from fabpat.errors import FabpatError
-from fabpat.io import atomic_outputs, check_distinct
+from fabpat.io import atomic_outputs, check_distinct, check_suffix
+from fabpat.mesh import DEFAULT_MAX_ELEMENTS
 
 SCENARIO_CHOICES = ("cantilever", "cylinder", "dome", "all")
 
@@ -28,19 +39,18 @@ def _per_scenario(path: str | None, scenario: str, many: bool) -> str | None:
 @id_depth_option
 @edge_option
 @weight_option
-@click.option("--scenario", type=click.Choice(SCENARIO_CHOICES), default="all", show_default=True,
+@click.option("--scenario", type=click.Choice(SCENARIO_CHOICES, case_sensitive=False), default="all", show_default=True,
               help="Load case of the paper (all = the three in turn).")
 @click.option("--linear", is_flag=True, help="Linear analysis instead of geometrically nonlinear.")
-@click.option("--h", "h", type=float, default=1.5, show_default=True,
-              help="Target mesh edge length in mm (the built-in catalog's mesh).")
+@h_option(1.5)
 @click.option("--extrapolate", is_flag=True,
               help="Also mesh at h/1.5 and report the energy extrapolated to the mesh-converged value "
                    "(Richardson, order 1; ~3× the time; other fields from the finer mesh). At the default h "
                    "it is within 1 % of the converged energy for most patterns (docs/accuracy.md).")
-@click.option("--thickness", type=float, default=2.0, show_default=True, help="Plate thickness in mm.")
-@click.option("--youngs-modulus", "E", type=float, default=1000.0, show_default=True,
-              help="Young's modulus in N/mm² (PLA: 1000).")
-@click.option("--poisson", "nu", type=float, default=0.35, show_default=True, help="Poisson's ratio.")
+@thickness_option
+@modulus_option
+@poisson_option
+@max_elements_option(DEFAULT_MAX_ELEMENTS, "mesh elements")
 @click.option("--vtu", type=click.Path(dir_okay=False), help="Deformed mesh with fields for ParaView (.vtu).")
 @click.option("--png", type=click.Path(dir_okay=False), help="Picture of the deformed pattern coloured by energy.")
 @click.option("--export-inp", "inp", type=click.Path(dir_okay=False),
@@ -52,7 +62,7 @@ def simulate_cmd(
     pattern_id: str, sides: int, depth: int | None, edge: float, weight: float, scenario: str, linear: bool,
     h: float, extrapolate: bool,
     thickness: float, E: float, nu: float, vtu: str | None, png: str | None, inp: str | None, inp_element: str,
-    as_json: bool,
+    as_json: bool, max_elements: int,
 ) -> None:
     """Simulate one pattern in the Cantilever, Cylinder and/or Dome scenario.
 
@@ -71,14 +81,8 @@ def simulate_cmd(
     from fabpat.exchange.vtu import write_vtu
     from fabpat.fillet import fillet_pattern
     from fabpat.library import get_pattern
-    from fabpat.mesh import mesh_outline
-    from fabpat.scenarios import SCENARIOS
+    from fabpat.scenarios import PNG_SUFFIXES, SCENARIOS, VTU_SUFFIXES, mesh_filleted
 
-    for name, value in (("--h", h), ("--thickness", thickness), ("--youngs-modulus", E)):
-        if not value > 0:
-            raise click.BadParameter(f"{name} must be > 0, got {value:g}")
-    if not -1.0 < nu < 0.5:
-        raise click.BadParameter(f"--poisson must be in (-1, 0.5), got {nu:g}")
     scenarios = SCENARIOS if scenario == "all" else (scenario,)
     many = len(scenarios) > 1
     outputs = {
@@ -88,10 +92,14 @@ def simulate_cmd(
         if path is not None
     }
     check_distinct(outputs.values())  # before the work: --vtu x --png x would overwrite one with the other
+    for option, path, valid in (("--vtu", vtu, VTU_SUFFIXES), ("--png", png, PNG_SUFFIXES),
+                                ("--export-inp", inp, (".inp",))):
+        if path is not None:
+            check_suffix(path, valid, option)
     pattern = get_pattern(pattern_id, sides, depth, edge)
     filleted = fillet_pattern(pattern, weight)  # its outline carries its polygon
     sizes = (h, h * CONVERGED_MESHES[1] / CONVERGED_MESHES[0]) if extrapolate else (h,)
-    meshes = [(s, mesh_outline(filleted, s)) for s in sizes]
+    meshes = [(s, mesh_filleted(filleted, s, max_elements=max_elements)) for s in sizes]
     mesh = meshes[-1][1]  # fields, files and node counts come from the finest mesh
     rows = []
     with atomic_outputs(*outputs.values()) as temps:
@@ -122,7 +130,7 @@ def simulate_cmd(
                 f"elements={row['elements']}"
             )
     for path in outputs.values():
-        click.echo(f"wrote {path}", err=as_json)
+        click.echo(f"wrote {path}", err=True)  # stdout is data (key=value lines or JSON)
 
 
 COMMANDS = [simulate_cmd]

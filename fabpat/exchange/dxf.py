@@ -282,6 +282,13 @@ def _bulge_pieces(lp: BulgeLoop) -> list[Piece]:
     return [(s, e, float(b)) for s, e, b in zip(lp.V, E, lp.bulges, strict=True)]
 
 
+def add_bulge_segments(msp: Any, V: NDArray[np.float64], bulges: NDArray[np.float64], attribs: dict[str, Any]) -> None:
+    """Add the closed bulge loop (vertices ``V`` (n, 2) mm, ``bulges`` (n,)) as one LINE or ARC per piece."""
+    E = np.roll(V, -1, axis=0)
+    for s, e, b in zip(V, E, bulges, strict=True):
+        _add_piece(msp, (s, e, float(b)), attribs)
+
+
 def dxf_document(
     outline: Outline,
     label: str | None = None,

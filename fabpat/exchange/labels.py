@@ -17,6 +17,7 @@ with the scrap).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -91,15 +92,36 @@ def _clearance(X: NDArray[np.float64], polys: list[NDArray[np.float64]], tree: o
     return out
 
 
+_CACHE_SIZE = 16
+_placed: dict[tuple[str, int, bytes], Label | None] = {}
+
+
 def place_label(outline: Outline, text: str, grid: int = 160) -> Label | None:
     """The largest label (``MIN_TEXT_HEIGHT`` … ``MAX_TEXT_HEIGHT`` mm) whose box lies on the material.
 
     ``grid``: clearance samples along the longer side of the bounding box. Returns ``None`` when no
     box of ``MIN_TEXT_HEIGHT`` fits anywhere (see the module docstring for the search and its bound).
+    The search is relative to the bounding box, so its result for a moved copy of an outline is the
+    same label moved: the last few results are kept, keyed by the outline relative to its lower-left
+    corner (DXF, SVG and the no-label warning of one part then search once).
     """
+    polys, tree = _material(outline)
+    lo = outline.bbox[0]
+    key = (text, grid, np.round(np.vstack(polys) - lo, 6).tobytes())
+    if key not in _placed:
+        if len(_placed) >= _CACHE_SIZE:
+            del _placed[next(iter(_placed))]
+        found = _search(outline, polys, tree, text, grid)
+        _placed[key] = None if found is None else dataclasses.replace(
+            found, start=(found.start[0] - float(lo[0]), found.start[1] - float(lo[1])))
+    rel = _placed[key]
+    return None if rel is None else dataclasses.replace(
+        rel, start=(rel.start[0] + float(lo[0]), rel.start[1] + float(lo[1])))
+
+
+def _search(outline: Outline, polys: list[NDArray[np.float64]], tree: object, text: str, grid: int) -> Label | None:
     from scipy.ndimage import minimum_filter1d
 
-    polys, tree = _material(outline)
     lo, hi = outline.bbox
     g = float((hi - lo).max()) / grid
     centre, size = 0.5 * (lo + hi), hi - lo

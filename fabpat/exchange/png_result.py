@@ -6,13 +6,16 @@ from pathlib import Path
 
 import numpy as np
 
+from fabpat.errors import ExportError
 from fabpat.shell.results import ShellResult
 
 
 def write_png(path: str | Path, V: np.ndarray, F: np.ndarray, result: ShellResult, *, title: str = "",
               dpi: int = 150, elev: float = 28.0, azim: float = -60.0) -> Path:
     """Render the deformed mesh in a 3D view, faces coloured by strain-energy density (N·mm/mm²,
-    log scale so that the narrow, highly loaded necks and the quiet parts are both visible)."""
+    log scale so that the narrow, highly loaded necks and the quiet parts are both visible).
+
+    Always PNG, whatever the suffix (the CLI checks it is .png); ExportError if matplotlib cannot write."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -44,11 +47,13 @@ def write_png(path: str | Path, V: np.ndarray, F: np.ndarray, result: ShellResul
     ax.set_title(title or f"U = {result.energy:.4g} N·mm, max |u| = {result.max_displacement:.3g} mm")
     path = Path(path)
     try:
-        fig.savefig(path, dpi=dpi, bbox_inches="tight")
+        fig.savefig(path, dpi=dpi, bbox_inches="tight", format="png")
     except OSError as exc:  # atomic_outputs names the target, not this temporary file, and a full disk
         from fabpat.io import writer_failed
 
         raise writer_failed(path, "cannot write the picture", exc) from exc
+    except (ValueError, RuntimeError) as exc:  # matplotlib's refusals become one line at this boundary
+        raise ExportError(f"cannot write {path}: {exc}") from exc
     finally:
         plt.close(fig)
     return path
