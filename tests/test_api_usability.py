@@ -63,7 +63,7 @@ def test_exact_svg_export_is_the_documented_option(fp, tmp_path: Path) -> None: 
 def test_simulate_stdout_is_only_data_in_text_mode(tmp_path: Path) -> None:
     vtu, png = tmp_path / "x.vtu", tmp_path / "x.png"
     r = subprocess.run([sys.executable, "-m", "fabpat", "simulate", "0x0488", "--scenario", "Cantilever",
-                        "--h", "6", "--linear", "--vtu", str(vtu), "--png", str(png)],
+                        "--h", "3.5", "--linear", "--vtu", str(vtu), "--png", str(png)],
                        capture_output=True, text=True, cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     lines = r.stdout.splitlines()
@@ -105,7 +105,7 @@ def test_stp_suffix_is_step(fp, tmp_path: Path) -> None:  # noqa: ANN001
 
 
 def test_result_files_refuse_wrong_suffixes(fp, tmp_path: Path) -> None:  # noqa: ANN001
-    r = fabpat.simulate(fp, "CANTILEVER", h=6.0, linear=True)
+    r = fabpat.simulate(fp, "CANTILEVER", h=3.5, linear=True)
     assert r.scenario == "cantilever"
     with pytest.raises(ExportError, match=r"must end in \.vtu"):
         r.to_vtu(tmp_path / "x.txt")
