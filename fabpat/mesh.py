@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import GeometryError
-from fabpat.validate import check, check_size
+from fabpat.validate import check, check_size, round_down, round_up
 
 #: Chord tolerance used to flatten curves, as a fraction of the target edge length h. With h = 1.5 mm
 #: the outline is followed to 0.03 mm; the sagitta of a chord c on radius r is c²/8r, so arcs of
@@ -120,10 +120,14 @@ def estimate_elements(area: float, perimeter: float, h: float) -> float:
 
 def check_element_count(area: float, perimeter: float, h: float, max_elements: int) -> None:
     """Raise GeometryError before meshing if :func:`estimate_elements` is above ``max_elements``."""
+    max_elements = int(check("max_elements", max_elements, error=GeometryError))
     n = estimate_elements(area, perimeter, h)
-    suggest = math.sqrt(area / (math.sqrt(3.0) / 4.0 * max_elements)) if area > 0 else h
+    # the h at which the estimate equals the limit: N·c·h² − P·h − A = 0 with c = √3/4 (both terms of
+    # estimate_elements), rounded up so that the suggested h passes this very check
+    c = math.sqrt(3.0) / 4.0
+    suggest = (perimeter + math.sqrt(perimeter**2 + 4.0 * max_elements * area / c)) / (2.0 * max_elements)
     check_size(n, max_elements, f"mesh elements at h = {h:g} mm", "raise it with --max-elements",
-               f"or use h ≥ {suggest:.2g} mm", error=GeometryError)
+               f"or use h ≥ {round_up(suggest):g} mm", error=GeometryError)
 
 
 def check_polygon_elements(sides: int, edge: float, h: float, max_elements: int = DEFAULT_MAX_ELEMENTS) -> None:
@@ -136,7 +140,7 @@ def check_resolves(h: float, min_width: float, what: str = "the pattern") -> Non
     """Raise GeometryError if h (mm) is above MAX_H_PER_MIN_WIDTH × the narrowest feature (mm)."""
     if math.isfinite(min_width) and h > MAX_H_PER_MIN_WIDTH * min_width:
         raise GeometryError(f"h = {h:g} mm is too coarse for {what}, whose narrowest feature (min_width) is "
-                            f"{min_width:.3g} mm: use h ≤ {MAX_H_PER_MIN_WIDTH * min_width:.3g} mm")
+                            f"{min_width:.3g} mm: use h ≤ {round_down(MAX_H_PER_MIN_WIDTH * min_width):g} mm")
 
 
 def _signed_area(loop: NDArray[np.float64]) -> float:

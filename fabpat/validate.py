@@ -144,6 +144,23 @@ def _range_text(r: Range) -> str:
     return r.describe() if r.integer else f"in {r.describe()}"
 
 
+def round_up(x: float, digits: int = 2) -> float:
+    """``x`` rounded *up* to ``digits`` significant digits: a suggested lower bound ("use h ≥ …") that
+    passes the check it comes from (rounding to nearest can land just below it)."""
+    if not (math.isfinite(x) and x > 0):
+        return x
+    scale = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
+    return math.ceil(x / scale * (1 - 1e-12)) * scale
+
+
+def round_down(x: float, digits: int = 3) -> float:
+    """``x`` rounded *down* to ``digits`` significant digits: a suggested upper bound ("use h ≤ …")."""
+    if not (math.isfinite(x) and x > 0):
+        return x
+    scale = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
+    return math.floor(x / scale * (1 + 1e-12)) * scale
+
+
 def check_tolerance(tolerance: float, size: float, label: str, error: type[FabpatError] = RangeError) -> float:
     """Refuse a tolerance (mm) finer than floating point resolves on a part ``size`` mm across.
 

@@ -418,3 +418,42 @@ def test_ranges_refuse_numpy_scalars_like_python_numbers() -> None:
         check("sides", True)
     with pytest.raises(FabpatError):
         check("edge", "36")
+
+
+# -- what a refusal suggests must itself pass (found by a hostile pass) ---------------------------
+
+
+@pytest.mark.parametrize("pid", ["0x0488", "0x2d88"])
+def test_suggested_h_passes_the_check_that_suggested_it(pid: str) -> None:
+    import re
+
+    import fabpat as api
+    from fabpat.mesh import check_element_count, check_resolves
+
+    fp = api.pattern(pid).fillet()
+    m = fp.metrics
+    with pytest.raises(GeometryError) as err:
+        check_element_count(m.area, m.perimeter, 0.05, 50_000)
+    low = float(re.search(r"use h ≥ ([0-9.e+-]+) mm", str(err.value)).group(1))
+    check_element_count(m.area, m.perimeter, low, 50_000)  # the suggestion passes
+    width = fp.min_width()
+    with pytest.raises(GeometryError) as err:
+        check_resolves(36.0, width)
+    high = float(re.search(r"use h ≤ ([0-9.e+-]+) mm", str(err.value)).group(1))
+    check_resolves(high, width)
+    assert high > 0.99 * 2 * width  # and it is not needlessly small
+
+
+@pytest.mark.parametrize("value", [0, -1, 10**19, "36", None, float("inf")])
+def test_api_max_elements_is_checked(value: object) -> None:
+    import fabpat as api
+
+    fp = api.pattern("0x0488").fillet()
+    with pytest.raises(FabpatError, match="max_elements"):
+        api.simulate(fp, "dome", h=3, max_elements=value)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("args", [("library", "--sides", "nan"), ("simulate", "0x0488", "--h", "1e")])
+def test_unparsable_number_names_the_range(tmp_path: Path, args: tuple[str, ...]) -> None:
+    line = one_line_error(tmp_path, *args)
+    assert "must be" in line and "[" in line

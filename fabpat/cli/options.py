@@ -36,7 +36,8 @@ class NumberType(click.ParamType):
                 number = int(text) if self.range.integer else float(text)
             except ValueError:
                 kind = "an integer" if self.range.integer else "a number"
-                self.fail(f"{value!r} is not {kind}", param, ctx)
+                valid = self.range.describe().removeprefix("an integer in ")
+                self.fail(f"{value!r} is not {kind}: must be {kind} in {valid}", param, ctx)
         try:
             return check(self.range.name, number, label="value")
         except RangeError as e:
