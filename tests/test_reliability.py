@@ -457,3 +457,12 @@ def test_api_max_elements_is_checked(value: object) -> None:
 def test_unparsable_number_names_the_range(tmp_path: Path, args: tuple[str, ...]) -> None:
     line = one_line_error(tmp_path, *args)
     assert "must be" in line and "[" in line
+
+
+def test_kit_refusal_is_one_line_without_a_progress_bar(tmp_path: Path) -> None:
+    # the progress bar drew an empty line on a piped stderr before the refusal
+    spec = tmp_path / "s.toml"
+    spec.write_text((SPECS / "test-small.toml").read_text().replace("kerf = 0.15", "kerf = 10"))
+    code, _, err = fabpat(tmp_path, "assemble", str(spec), "--out", str(tmp_path / "kit"))
+    assert code == 2 and err.startswith("fabpat: error: ") and err.count("\n") == 1, repr(err)
+    assert "kerf" in err and not (tmp_path / "kit").exists()

@@ -48,8 +48,10 @@ def assemble_cmd(spec: str, out: str, progress: bool, timestamp: str | None, for
         from rich.console import Console
         from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+        console = Console(stderr=True)
+        # no bar when stderr is not a terminal: a piped stderr gets only the error or warning lines
         bar = Progress(TextColumn("{task.description:<10}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
-                       TimeElapsedColumn(), console=Console(stderr=True), transient=True)
+                       TimeElapsedColumn(), console=console, transient=True, disable=not console.is_terminal)
         bar.start()
         task = bar.add_task("assemble", total=len(names))
     done = 0
