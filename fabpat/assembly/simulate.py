@@ -70,6 +70,14 @@ def plate_mesh(pattern_id: str, sides: int, edge: float, weight: float, h: float
     return mesh_outline(outline, h, sides, edge, weight=weight)
 
 
+def check_h(h: float, plate_edge: float, weight: float) -> None:
+    """Raise GeometryError unless 0 < h ≤ ``MAX_H_PER_INTERFACE`` × the interface segment 2d (mm)."""
+    seg = 2.0 * plate_edge / 16.0 / (1.0 + weight)  # interface segment length 2d (fabpat.mesh.interface_segments)
+    if not 0 < h <= MAX_H_PER_INTERFACE * seg:
+        raise GeometryError(f"mesh too coarse for the interface: h = {h:g} mm, the interface segment is {seg:.3g} mm "
+                            f"long; use h ≤ {MAX_H_PER_INTERFACE * seg:.3g} mm")
+
+
 @dataclass(frozen=True, eq=False)
 class StripSetup:
     """An assembled strip ready for the end-shortening path: ``model``, pin nodes ``left`` (fixed) and
@@ -93,10 +101,7 @@ def strip_setup(spec: object, face_patterns: list[str], *, h: float = 3.0, E: fl
     asm = place(spec, face_patterns)  # type: ignore[arg-type]
     t = spec.plates.thickness  # type: ignore[attr-defined]
     w = spec.plates.weight  # type: ignore[attr-defined]
-    seg = 2.0 * asm.plate_edge / 16.0 / (1.0 + w)  # interface segment length 2d (fabpat.mesh.interface_segments)
-    if not 0 < h <= MAX_H_PER_INTERFACE * seg:
-        raise GeometryError(f"mesh too coarse for the interface: h = {h:g} mm, the interface segment is {seg:.3g} mm "
-                            f"long; use h ≤ {MAX_H_PER_INTERFACE * seg:.3g} mm")
+    check_h(h, asm.plate_edge, w)
     plates = []
     for pl in asm.plates:
         mesh = plate_mesh(pl.type.pattern_id, pl.type.sides, asm.plate_edge, w, h)

@@ -34,6 +34,7 @@ load fraction reached.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -266,6 +267,8 @@ def solve_path(
     predictor: bool = False,
     direction: Arr | None = None,
     first_step: float | None = None,
+    link_reference: bool = False,
+    progress: Callable[[float], None] | None = None,
 ) -> PathResult:
     """Follow λ = 0 → 1 (loads λ·loads, prescribed dofs λ·prescribed, joint angles λ·φ); see module doc.
 
@@ -279,6 +282,9 @@ def solve_path(
     the imperfect structure's other equilibria (the unstable near-flat one and the opposite buckle)
     deflect against the imperfection, and Newton converges onto them just as well: from the flat
     state the tangent has a negative eigenvalue there and points the wrong way.
+    ``link_reference``: also measure the residual against the forces the links carry (‖g‖ at the
+    slaves): a problem driven only by joint angles has no loads and no reactions to compare with.
+    ``progress``: called with λ after every report point.
     ``predictor``: start each increment from the last converged increment, extrapolated (secant);
     else from the last state with the prescribed increment applied through the tangent.
 
@@ -343,7 +349,8 @@ def solve_path(
             res = float(np.linalg.norm(gr.ravel()[red.test]))
             inc = targets(target, xt, Rt)
             ref = max(float(np.linalg.norm(target * p.loads.ravel()[red.test])),
-                      float(np.linalg.norm(gr.ravel()[fixed_flat])))
+                      float(np.linalg.norm(gr.ravel()[fixed_flat])),
+                      float(np.linalg.norm(g[p.link_slave])) if link_reference else 0.0)
             pending = float(np.abs(inc).max())
             if pending <= 1e-12 * (1.0 + float(np.abs(X).max())):
                 pending = 0.0
@@ -407,6 +414,8 @@ def solve_path(
                 react = np.where(p.fixed, gr, 0.0)
                 points.append(PathPoint(goal, x - X, logmap(R), react, float(U.sum()), g[p.link_slave].copy()))
                 next_report += 1
+                if progress is not None:
+                    progress(goal)
         else:
             cuts += 1
             prev = None  # the extrapolation may be what failed

@@ -1,0 +1,198 @@
+"""A closed assembly bent by its sleeves: the paper's sphere (§5, Fig. 15 right) in the shell solver.
+
+The plates are printed flat. On the truncated icosahedron they start placed flat on the polyhedron
+(:func:`fabpat.assembly.placement.place`), every sleeve at its joint's dihedral angle: nothing is
+loaded. Along the path every sleeve's angle changes from the joint's dihedral to the spec's sleeve
+angle (``[sleeve] angle``; "flat" = 180°, the paper's straight sleeves), so a straight sleeve turns
+the interfaces of both its plates by half the joint's angular defect (20.9° at a hexagon–hexagon
+joint, 18.7° at a hexagon–pentagon one; ``../shared`` notes) and the plates bend into the sphere. The
+model is :mod:`fabpat.assembly.model` (rigid sleeves, plates meshed as in the scenarios); the path is
+:func:`fabpat.shell.linked.solve_path` with the joint angles ramped by λ (no loads).
+
+Decisions (each measured on the shipped sphere, 0x0488/0x0508, h = 3):
+
+* **Rigid-body motion**: the closure is self-equilibrated (no loads), so the assembly floats; one
+  sleeve (the first, ``E01``) is held in all six dofs. Its reaction is the equilibrium check: it is
+  round-off (the ``reaction`` field, N).
+* **Sign of the angle change**: the model's sleeve angle turns slot B by +α/2 about the sleeve's
+  axis; opening a joint from its dihedral φ to the sleeve angle ψ > φ is α = φ − ψ (derived from
+  :meth:`fabpat.assembly.sleeve.Sleeve.direction`, and checked: the opposite sign folds the joints
+  shut and the sphere's radial deviation grows from 1.1 % to 2.6 % instead of falling to 0.4 %).
+* **Read-outs**: ``radius`` and ``centre`` of the least-squares sphere through all plate nodes
+  (the mid-surface), geometric fit ``min Σ (|p − c| − r)²`` started from the algebraic one;
+  ``sphericity_rms``/``sphericity_max`` the radial deviations from it over r; ``peak_strain`` the
+  largest principal strain on either plate surface (:func:`fabpat.shell.strain.surface_strains`);
+  ``max_deflection`` the largest node displacement once the rigid motion that best superposes the
+  flat start on the result is removed (Kabsch), so that it does not depend on the held sleeve.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fabpat.assembly.model import AssemblyModel, ModelPlate, ModelSleeve, assembly_model, sleeve_moments
+from fabpat.shell.element import Material
+from fabpat.shell.linked import PathResult, solve_path
+
+Arr = NDArray[np.float64]
+
+#: Newton tolerance relative to the largest of the element force norms at the links: without loads the
+#: reference ‖λ f‖ is 0, so the residual is compared with the sleeve forces it balances
+CLOSURE_RTOL = 1e-8
+#: default report steps along the closure (the path is smooth: 4 steps cost 20 factorizations at h = 3)
+CLOSURE_STEPS = 4
+
+
+def fit_sphere(P: Arr) -> tuple[Arr, float]:
+    """Centre (3,) and radius (mm) of the least-squares sphere through points P (n, 3), n ≥ 4.
+
+    Minimises Σ (|p − c| − r)² (geometric distance) by Gauss–Newton from the algebraic fit
+    |p|² = 2 p·c + (r² − |c|²) (linear least squares); both are standard (e.g. Eberly, *Least
+    Squares Fitting of Data by Linear or Quadratic Structures*, §"Fitting a hypersphere").
+    """
+    P = np.asarray(P, dtype=np.float64)
+    A = np.column_stack([2.0 * P, np.ones(len(P))])
+    sol = np.linalg.lstsq(A, (P * P).sum(axis=1), rcond=None)[0]
+    c = sol[:3]
+    r = math.sqrt(max(float(sol[3] + c @ c), 0.0))
+    for _ in range(20):
+        d = P - c
+        dist = np.linalg.norm(d, axis=1)
+        res = dist - r
+        J = np.column_stack([-d / dist[:, None], -np.ones(len(P))])
+        step = np.linalg.lstsq(J, -res, rcond=None)[0]
+        c, r = c + step[:3], r + float(step[3])
+        if float(np.abs(step).max()) <= 1e-12 * max(r, 1.0):
+            break
+    return c, float(r)
+
+
+def rigid_residual(X: Arr, Y: Arr) -> Arr:
+    """(n,) distances |Y_i − (R X_i + t)| after the rotation R and translation t that best superpose X
+    on Y (n, 3) in the least-squares sense (Kabsch, Acta Cryst. A32 (1976) 922)."""
+    cx, cy = X.mean(axis=0), Y.mean(axis=0)
+    H = (X - cx).T @ (Y - cy)
+    U, _, Vt = np.linalg.svd(H)
+    D = np.diag([1.0, 1.0, float(np.sign(np.linalg.det(Vt.T @ U.T)))])
+    R = Vt.T @ D @ U.T
+    return np.linalg.norm(Y - cy - (X - cx) @ R.T, axis=1)
+
+
+@dataclass(frozen=True, eq=False)
+class ClosureSetup:
+    """A closed assembly ready to be bent: ``model`` (plates flat on the polyhedron, each sleeve's
+    ``angle`` the change φ − ψ, rad) and ``held`` the sleeve held against rigid-body motion."""
+
+    model: AssemblyModel
+    held: int = 0
+
+
+def closure_model(plates: list[ModelPlate], sleeves: list[ModelSleeve], material: Material) -> ClosureSetup:
+    """The closure problem of placed plates and sleeves whose ``angle`` is the change of each joint's
+    angle (rad, φ − ψ: negative to open a joint). Raises GeometryError as :func:`assembly_model`."""
+    return ClosureSetup(assembly_model(plates, sleeves, material))
+
+
+def closure_setup(spec: object, face_patterns: list[str], *, h: float = 3.0, E: float | None = None,
+                  nu: float | None = None) -> ClosureSetup:
+    """Mesh, place and join the plates of a closed spec (an AssemblySpec), sleeves turning from each
+    joint's dihedral to the spec's sleeve angle. ``E`` (N/mm²) and ``nu`` default to ``[material]``.
+
+    Raises GeometryError if h is too coarse for the interfaces (as the strip).
+    """
+    from fabpat.assembly.placement import place
+    from fabpat.assembly.simulate import check_h, plate_mesh
+
+    asm = place(spec, face_patterns)  # type: ignore[arg-type]
+    t = spec.plates.thickness  # type: ignore[attr-defined]
+    w = spec.plates.weight  # type: ignore[attr-defined]
+    check_h(h, asm.plate_edge, w)
+    mat = spec.material  # type: ignore[attr-defined]
+    plates = []
+    for pl in asm.plates:
+        mesh = plate_mesh(pl.type.pattern_id, pl.type.sides, asm.plate_edge, w, h)
+        T = pl.transform.copy()
+        T[:3, 3] += T[:3, 2] * (0.5 * t)  # the transform maps the solid z ∈ [0, t]: mid-surface at t/2
+        plates.append(ModelPlate(pl.label, mesh, T))
+    sleeves = [ModelSleeve(s.label, s.transform, s.plates, float(s.dihedral - s.angle)) for s in asm.sleeves]
+    material = Material(mat.youngs_modulus if E is None else E, mat.poisson if nu is None else nu, t)
+    return closure_model(plates, sleeves, material)
+
+
+@dataclass(frozen=True, eq=False)
+class ClosureRun:
+    """The bent assembly. Lengths mm, energies N·mm, moments N·mm, strains dimensionless.
+
+    ``x`` (N, 3): deformed positions of every node (plates, then one per sleeve); ``plate_peak_strain``
+    {plate label: its peak strain}; ``over_limit`` the labels whose peak strain exceeds
+    ``strain_limit``; ``path``: one dict {angle_fraction, energy, max_sleeve_moment} per report step;
+    ``element_strain`` (m,) each element's peak surface strain. The other fields as the
+    ``simulate-assembly`` output (see :mod:`fabpat.assembly.closure`).
+    """
+
+    setup: ClosureSetup
+    energy: float
+    plate_energies: dict[str, float]
+    sleeve_moments: dict[str, float]
+    reaction: float
+    max_deflection: float
+    radius: float
+    centre: Arr
+    sphericity_rms: float
+    sphericity_max: float
+    peak_strain: float
+    peak_strain_plate: str
+    plate_peak_strain: dict[str, float]
+    strain_limit: float
+    over_limit: list[str]
+    path: list[dict[str, float]]
+    x: Arr
+    element_strain: Arr
+    result: PathResult
+
+
+def run_closure(setup: ClosureSetup, *, steps: int = CLOSURE_STEPS, strain_limit: float = 0.02,
+                progress: object = None) -> ClosureRun:
+    """Turn every sleeve from its start angle by its ``angle`` in ``steps`` report increments.
+
+    ``progress``: optional callable(λ) told after every report step. Raises SolverError (naming the
+    angle fraction λ reached) if the path is lost.
+    """
+    from fabpat.shell.rotations import expmap
+    from fabpat.shell.strain import surface_strains
+
+    m = setup.model
+    N, n = m.n_nodes, len(m.X)
+    fixed = np.zeros((N, 6), dtype=bool)
+    if m.sleeves:
+        fixed[n + setup.held, :] = True
+    zero = np.zeros((N, 6))
+    prob = m.problem(fixed, zero, zero)
+    r = solve_path(prob, steps=steps, rtol=CLOSURE_RTOL, link_reference=True, progress=progress)
+    X = np.vstack([m.X, prob.masters])
+    fin = r.final
+    x = X + fin.displacement
+    ee = r.element_energy.sum(axis=1)
+    labels = [p.label for p in m.plates]
+    pe = {lab: float(ee[m.element_offsets[i]:m.element_offsets[i + 1]].sum()) for i, lab in enumerate(labels)}
+    path = []
+    moments = np.zeros(len(m.sleeves))
+    for pt in r.points:
+        mom = sleeve_moments(m, X + pt.displacement, pt.link_forces) if m.sleeves else np.zeros(0)
+        moments = np.maximum(moments, mom)
+        path.append({"angle_fraction": pt.lam, "energy": pt.energy,
+                     "max_sleeve_moment": float(mom.max()) if mom.size else 0.0})
+    P = x[:n]
+    centre, radius = fit_sphere(P)
+    dev = np.abs(np.linalg.norm(P - centre, axis=1) - radius) / radius
+    eps = surface_strains(m.X, m.F, m.material, P, expmap(fin.rotation[:n]))
+    plate_peak = {lab: float(eps[m.element_offsets[i]:m.element_offsets[i + 1]].max()) for i, lab in enumerate(labels)}
+    worst = max(plate_peak, key=lambda k: plate_peak[k])
+    return ClosureRun(setup, float(ee.sum()), pe, {s.label: float(v) for s, v in zip(m.sleeves, moments, strict=True)},
+                      float(np.linalg.norm(fin.reactions)), float(rigid_residual(m.X, P).max()), radius, centre,
+                      float(np.sqrt(np.mean(dev * dev))), float(dev.max()), plate_peak[worst], worst, plate_peak,
+                      float(strain_limit), [k for k, v in plate_peak.items() if v > strain_limit], path, x, eps, r)
