@@ -74,6 +74,8 @@ RANGES: dict[str, Range] = {r.name: r for r in (
     _r("youngs_modulus", 1e-3, 1e7, "N/mm²", "from soft gels (1 kPa) past diamond (1.2e6 N/mm²)"),
     _r("poisson", -1.0, 0.5, "", "isotropic elasticity needs -1 < ν < 1/2 (positive-definite stiffness)",
        low_open=True, high_open=True),
+    _r("strain_limit", 0.0, 0.5, "", "largest principal strain a plate may reach (default 0.02, PLA's yield "
+       "strain); the shell model is not meant for strains near 50 %", low_open=True),
     _r("seed", 0, 2**63 - 1, "", "numpy's random generator takes non-negative seeds", integer=True),
     _r("sides", 3, 64, "", "a regular polygon; above 64 sides the fan triangles are slivers", integer=True),
     _r("depth", 1, 6, "", "slice subdivision: depth 6 already has 4096 sub-triangles of edge/64 per fan "

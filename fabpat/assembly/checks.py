@@ -5,6 +5,12 @@ assembly's transforms and intersects every pair whose bounding boxes overlap wit
 exact mesh booleans. Plates must not intersect each other or any sleeve, and sleeves must not
 intersect each other; the smallest plate–sleeve gap is reported (the slot clearance, 0.1 mm a side
 by default).
+
+A sleeve printed at another angle than its joint's skeleton dihedral (``[sleeve] angle = "flat"`` on
+the sphere) cannot hold both plates as placed on the polyhedron: the plates bend near the joint when
+the sleeves close it. Each of its two plates is therefore checked against the sleeve turned about the
+joint's edge onto that plate (:func:`bent_sleeve_transform`), the joint as it is put together; the
+closure solver predicts the shape after that.
 """
 
 from __future__ import annotations
@@ -16,7 +22,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.assembly.parts import CHECK_TOLERANCE, PartLibrary, apply
-from fabpat.assembly.placement import Assembly, setback
+from fabpat.assembly.placement import Assembly, PlacedSleeve, setback
+from fabpat.assembly.sleeve import joint_direction, joint_normal
 from fabpat.errors import GeometryError
 
 OVERLAP_VOLUME = 1e-6  # mm³: intersections below this are rounding, not material
@@ -74,6 +81,8 @@ def interface_midpoints(lib: PartLibrary) -> tuple[float, float]:
     In the sleeve's frame, a plate's interface midpoint must lie on the slot's centre line (X = 0 and on
     the slot's mid-plane) between the slot bottom and its mouth; its distance to the mouth is how deep
     the plate enters. Raises :class:`GeometryError` if a midpoint is off the line or outside the slot.
+    The slot lines are taken at the joint's skeleton dihedral (where the plates are placed): a sleeve
+    printed at another angle turns about the edge line onto each plate, which keeps those distances.
     """
     asm = lib.assembly
     worst, shallow = 0.0, math.inf
@@ -85,7 +94,7 @@ def interface_midpoints(lib: PartLibrary) -> tuple[float, float]:
             seg = lib.filleted[plate.type].interface_segments[i]
             mid = np.array([*seg.mean(axis=0), 0.5 * asm.spec.plates.thickness])
             local = apply(inv, apply(plate.transform, mid[None]))[0]
-            d, n = sleeve.direction(side), sleeve.plate_normal(side)
+            d, n = joint_direction(s.dihedral, side), joint_normal(s.dihedral, side)
             along = float(local[1:] @ d)
             off = max(abs(local[0]), abs(float(local[1:] @ n)))
             expect = setback(plate.type.sides, asm.skeleton.edge_length(), asm.plate_edge)
@@ -108,14 +117,35 @@ def _manifold(V: NDArray[np.float64], F: NDArray[np.int64]):  # type: ignore[no-
     return m
 
 
+def bent_sleeve_transform(sleeve: PlacedSleeve, side: int) -> NDArray[np.float64]:
+    """(4, 4) sleeve local → world with the sleeve turned about its edge line (local X) so that slot
+    ``side``, printed at ``sleeve.angle``, points along plate ``side`` as placed at ``sleeve.dihedral``.
+
+    Equal to ``sleeve.transform`` when the two angles agree.
+    """
+    a, b = joint_direction(sleeve.angle, side), joint_direction(sleeve.dihedral, side)
+    beta = math.atan2(a[0] * b[1] - a[1] * b[0], a @ b)  # signed angle from a to b in the (Y, Z) plane
+    R = np.eye(4)
+    R[1:3, 1:3] = [[math.cos(beta), -math.sin(beta)], [math.sin(beta), math.cos(beta)]]
+    return sleeve.transform @ R
+
+
 def intersections(lib: PartLibrary, tolerance: float = CHECK_TOLERANCE) -> tuple[int, float, float]:
     """(pairs tested, largest overlap volume mm³, smallest plate–sleeve gap mm) over all placed parts.
 
+    A sleeve printed at another angle than its joint's dihedral meets each of its own two plates
+    turned onto it (:func:`bent_sleeve_transform`); every other pair is tested as placed.
     Raises :class:`GeometryError` naming the first pair of parts that overlap by more than
     :data:`OVERLAP_VOLUME`.
     """
     base = {key: lib.mesh(key, tolerance) for key in lib.keys}
     protos = {key: _manifold(*vf) for key, vf in base.items()}
+    asm = lib.assembly
+    turned = {}  # (sleeve label, plate label) → the sleeve turned onto that plate, for bent joints only
+    for s in asm.sleeves:
+        if abs(s.angle - s.dihedral) > 1e-12:
+            for side, (p, _) in enumerate(s.plates):
+                turned[s.label, asm.plates[p].label] = protos[s.kind].transform(bent_sleeve_transform(s, side)[:3, :4])
     items = []
     for label, key, T in lib.placed():
         W = apply(T, base[key][0])
@@ -128,6 +158,8 @@ def intersections(lib: PartLibrary, tolerance: float = CHECK_TOLERANCE) -> tuple
             if np.any(loa > hib + GAP_SEARCH) or np.any(lob > hia + GAP_SEARCH):
                 continue
             tested += 1
+            if (lb, la) in turned:  # plates come first in lib.placed(): a is the plate, b the sleeve
+                mb = turned[lb, la]
             vol = (ma ^ mb).volume()
             worst = max(worst, vol)
             if vol > OVERLAP_VOLUME:

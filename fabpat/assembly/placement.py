@@ -9,11 +9,23 @@ plane, every polygon edge parallel to the skeleton edge and set back by ``g_n = 
 least the wall thickness (:func:`skeleton_edge`). Sleeves are symmetric: both slots are set back by the
 smaller ``g`` of the joint, so a sleeve cannot be mounted the wrong way round; the plate with the
 larger setback simply enters a fraction of a millimetre less deep.
+
+Sleeves are printed at the spec's ``[sleeve] angle`` (:func:`fabpat.assembly.spec.sleeve_angle`):
+each joint's dihedral (a rigid polyhedron of flat plates), 180° (straight sleeves that bend the plates
+when they close the sphere, paper §5) or one angle in between. Joints whose sleeves are printed at the
+same angle share ONE part, set back by the smallest ``g`` of all those joints, and the same rule
+holds across joints: a plate with a larger setback enters a fraction of a millimetre less deep
+(:func:`check_geometry` bounds ``sleeve.depth`` by that spread). So the sphere with straight sleeves
+has a single sleeve part, "S-flat", the same part as a strip's. The sleeve's *frame* still comes from
+the skeleton: every plate lies on its face of the polyhedron, the closure solver's start state, and
+each :class:`PlacedSleeve` carries both the joint's skeleton ``dihedral`` and its printed ``angle``
+(the solver closes the joint by ``dihedral − angle``).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
@@ -21,8 +33,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.assembly.sleeve import Sleeve, required_setback
-from fabpat.assembly.spec import AssemblySpec
+from fabpat.assembly.sleeve import Sleeve, joint_direction, required_setback
+from fabpat.assembly.spec import AssemblySpec, sleeve_angle
 from fabpat.assembly.tiling import Tiling, honeycomb_strip, truncated_icosahedron
 from fabpat.errors import SpecError
 
@@ -37,11 +49,17 @@ def setback(sides: int, skeleton: float, plate: float) -> float:
     return (skeleton - plate) / (2.0 * math.tan(math.pi / sides))
 
 
-def skeleton_edge(tiling: Tiling, plate_edge: float, thickness: float, clearance: float, wall: float) -> float:
-    """Smallest skeleton edge (mm) for which every joint's slots are separated by ``wall`` mm."""
+def skeleton_edge(tiling: Tiling, plate_edge: float, thickness: float, clearance: float, wall: float,
+                  printed: Callable[[float], float] | None = None) -> float:
+    """Smallest skeleton edge (mm) for which every joint's slots are separated by ``wall`` mm.
+
+    ``printed`` maps a joint's dihedral angle (rad) to the angle its sleeve is printed at (default: the
+    same); the web must hold at both angles, the printed part's and the start state's.
+    """
     need = 0.0
     for k in tiling.interior_edges:
-        g = required_setback(float(tiling.dihedral[k]), thickness, clearance, wall)
+        phi = float(tiling.dihedral[k])
+        g = max(required_setback(a, thickness, clearance, wall) for a in (phi, printed(phi) if printed else phi))
         for f, _ in tiling.edge_faces[k]:
             need = max(need, 2.0 * g * math.tan(math.pi / len(tiling.faces[f])))
     return plate_edge + need
@@ -84,7 +102,10 @@ class PlacedSleeve:
     """Sleeve ``label`` (the joint's label) on skeleton edge ``edge``.
 
     ``kind``: key of its :class:`Sleeve` type; ``transform`` (4, 4) maps the sleeve's local frame to
-    the world; ``plates``: ((plate index, polygon edge) of slot A, same for slot B).
+    the world, oriented by the skeleton's ``dihedral`` (so slot A points along plate A as placed);
+    ``plates``: ((plate index, polygon edge) of slot A, same for slot B). ``dihedral`` (rad) is the
+    joint's interior dihedral angle on the skeleton, ``angle`` (rad) the angle its sleeve is printed at
+    (:func:`fabpat.assembly.spec.sleeve_angle`); closing the joint changes it by ``dihedral − angle``.
     """
 
     label: str
@@ -92,6 +113,8 @@ class PlacedSleeve:
     kind: str
     transform: NDArray[np.float64]
     plates: tuple[tuple[int, int], tuple[int, int]]
+    dihedral: float
+    angle: float
 
 
 @dataclass(frozen=True, eq=False)
@@ -129,8 +152,34 @@ def build_tiling(spec: AssemblySpec) -> Tiling:
     return honeycomb_strip(t.rows, t.columns, 1.0)
 
 
-def _sleeve_frame(skel: Tiling, k: int, sleeve: Sleeve) -> NDArray[np.float64]:
-    """(4, 4) sleeve local → world for edge k, slot A towards the edge's first face."""
+def sleeve_kinds(spec: AssemblySpec, skel: Tiling) -> dict[int, tuple[str, float, float]]:
+    """Interior edge k → (sleeve part key, skeleton dihedral rad, printed angle rad).
+
+    One key per printed angle: "S-flat" at 180°; at each joint's dihedral the polygon pair names it
+    ("S-HH", "S-HP"); one number of degrees in between gives one part, e.g. "S-160deg".
+    """
+    out = {}
+    for k in skel.interior_edges:
+        phi = float(skel.dihedral[k])
+        angle = sleeve_angle(spec, phi)
+        ns = tuple(sorted(len(skel.faces[f]) for f, _ in skel.edge_faces[k]))
+        if abs(angle - math.pi) < 1e-9:
+            key = "flat"
+        elif spec.sleeve.angle == "dihedral":
+            key = SLEEVE_KINDS.get(ns, f"{ns[0]}-{ns[1]}")  # type: ignore[call-overload]
+        else:
+            key = f"{math.degrees(angle):g}deg"
+        out[int(k)] = (f"S-{key}", phi, angle)
+    return out
+
+
+def _setbacks(skel: Tiling, k: int, edge: float, plate: float) -> list[float]:
+    """The setbacks (mm) of the two plates at edge k of a skeleton of edge ``edge``."""
+    return [setback(len(skel.faces[f]), edge, plate) for f, _ in skel.edge_faces[k]]
+
+
+def _sleeve_frame(skel: Tiling, k: int) -> NDArray[np.float64]:
+    """(4, 4) sleeve local → world for edge k, slot A towards the edge's first face, at the skeleton's dihedral."""
     a, b = skel.edges[k]
     (fa, _), (fb, _) = skel.edge_faces[k]
     m = 0.5 * (skel.V[a] + skel.V[b])
@@ -141,7 +190,7 @@ def _sleeve_frame(skel: Tiling, k: int, sleeve: Sleeve) -> NDArray[np.float64]:
     into_a = skel.centroids[fa] - m
     into_a -= (into_a @ X) * X
     into_a /= np.linalg.norm(into_a)
-    dA = sleeve.direction(0)
+    dA = joint_direction(float(skel.dihedral[k]), 0)
     if np.linalg.norm(into_a - (dA[0] * np.cross(Z, X) + dA[1] * Z)) > 1e-6:
         X = -X  # the other orientation of the edge puts slot A on face fa
     Y = np.cross(Z, X)
@@ -182,8 +231,9 @@ def check_geometry(spec: AssemblySpec) -> None:
       margin and its two end walls) must fit on the plate's edge;
     * ``plates.weight`` ≤ edge / (8 · 10 · ``output.mesh_tolerance``) − 1: the interface segment must be
       at least :data:`MIN_INTERFACE_CHORDS` STL chords long;
-    * ``sleeve.depth`` ≥ (largest − smallest plate setback at one joint) + ``sleeve.wall``: the plate with
-      the larger setback (module docstring) still enters its slot by at least a wall's thickness.
+    * ``sleeve.depth`` ≥ (largest − smallest plate setback over the joints sharing one sleeve part) +
+      ``sleeve.wall``: the plate with the larger setback (module docstring) still enters its slot by at
+      least a wall's thickness.
     """
     s, e, w, src = spec.sleeve, spec.tiling.edge, spec.plates.weight, spec.source
     e_min = (s.margin + 2.0 * s.wall) / (1.0 - 2.0 / 16.0 / (1.0 + w))
@@ -197,14 +247,16 @@ def check_geometry(spec: AssemblySpec) -> None:
                         f"interface segment ({2.0 * e / 16.0 / (1.0 + w):.3g} mm) shorter than "
                         f"{MIN_INTERFACE_CHORDS:g} × output.mesh_tolerance = {seg_min:g} mm")
     unit = build_tiling(spec)
-    E = skeleton_edge(unit, e, spec.plates.thickness, s.clearance, s.wall)
-    spread = 0.0
-    for k in unit.interior_edges:
-        g = [setback(len(unit.faces[f]), E, e) for f, _ in unit.edge_faces[k]]
-        spread = max(spread, max(g) - min(g))
+    E = skeleton_edge(unit, e, spec.plates.thickness, s.clearance, s.wall, lambda phi: sleeve_angle(spec, phi))
+    lo: dict[str, float] = {}
+    hi: dict[str, float] = {}
+    for k, (key, _, _) in sleeve_kinds(spec, unit).items():
+        g = _setbacks(unit, k, E, e)
+        lo[key], hi[key] = min(lo.get(key, math.inf), *g), max(hi.get(key, 0.0), *g)
+    spread = max((hi[key] - lo[key] for key in lo), default=0.0)
     d_min = spread + s.wall
     if s.depth < d_min - 1e-9:
-        why = (f"the plates' setbacks differ by {spread:.3g} mm at a joint, and " if spread > 0 else "")
+        why = (f"the plates' setbacks differ by {spread:.3g} mm on one sleeve part, and " if spread > 0 else "")
         raise SpecError(f"{src}: sleeve.depth = {s.depth:g} mm must be ≥ {d_min:.3g} mm: {why}every plate must "
                         f"enter its slot by at least sleeve.wall = {s.wall:g} mm (the upper limit is the plate's "
                         "neck, checked next)")
@@ -217,21 +269,18 @@ def place(spec: AssemblySpec, face_patterns: list[str]) -> Assembly:
         raise ValueError(f"need {len(unit.faces)} pattern IDs, got {len(face_patterns)}")
     t, s = spec.plates.thickness, spec.sleeve
     e = spec.tiling.edge
-    E = skeleton_edge(unit, e, t, s.clearance, s.wall)
+    E = skeleton_edge(unit, e, t, s.clearance, s.wall, lambda phi: sleeve_angle(spec, phi))
     skel = unit.scaled(E)
     slot_length = 2.0 * e / 16.0 / (1.0 + spec.plates.weight) + s.margin  # interface segment 2d + margin
 
+    kind_of = sleeve_kinds(spec, skel)
+    g_of: dict[str, float] = {}  # one part per key, set back by the smallest setback of all its joints
+    for k, (key, _, _) in kind_of.items():
+        g_of[key] = min(g_of.get(key, math.inf), *_setbacks(skel, k, E, e))
     kinds: dict[str, Sleeve] = {}
-    kind_of: dict[int, str] = {}
-    for k in skel.interior_edges:
-        phi = float(skel.dihedral[k])
-        ns = tuple(sorted(len(skel.faces[f]) for f, _ in skel.edge_faces[k]))
-        g = min(setback(n, E, e) for n in ns)
-        key = "flat" if abs(phi - math.pi) < 1e-9 else SLEEVE_KINDS.get(ns, f"{ns[0]}-{ns[1]}")  # type: ignore[index]
-        key = f"S-{key}"
+    for key, _, angle in kind_of.values():
         if key not in kinds:
-            kinds[key] = Sleeve(phi, g, t, s.clearance, slot_length, s.wall, s.depth)
-        kind_of[int(k)] = key
+            kinds[key] = Sleeve(angle, g_of[key], t, s.clearance, slot_length, s.wall, s.depth)
 
     width = len(str(len(skel.interior_edges)))
     joint = {int(k): f"E{n + 1:0{width}d}" for n, k in enumerate(skel.interior_edges)}
@@ -260,10 +309,10 @@ def place(spec: AssemblySpec, face_patterns: list[str]) -> Assembly:
                                   frames[f] @ shift, edge_labels))
     sleeves = []
     for k in skel.interior_edges:
-        key = kind_of[int(k)]
+        key, phi, angle = kind_of[int(k)]
         (fa, ia), (fb, ib) = (tuple(int(x) for x in pair) for pair in skel.edge_faces[k])
-        sleeves.append(PlacedSleeve(joint[int(k)], int(k), key, _sleeve_frame(skel, int(k), kinds[key]),
-                                    ((fa, ia), (fb, ib))))
+        sleeves.append(PlacedSleeve(joint[int(k)], int(k), key, _sleeve_frame(skel, int(k)),
+                                    ((fa, ia), (fb, ib)), phi, angle))
     return Assembly(spec, skel, e, tuple(plates), tuple(sleeves), kinds, tuple(pins))
 
 

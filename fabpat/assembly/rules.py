@@ -8,6 +8,8 @@ on small hand-made dictionaries.
   strip of Fig. 15 left: five patterns, Cylinder scenario).
 * :func:`similar_pair` — a hexagon and a pentagon pattern with similar energies (the sphere of
   Fig. 15 right: two patterns, Dome scenario).
+* :func:`similar_pairs` — the ``count`` best such pairs, :func:`similar_pair`'s first, for
+  ``rule = "roundest"`` (the closure solver keeps the roundest one under the strain limit).
 """
 
 from __future__ import annotations
@@ -110,3 +112,35 @@ def similar_pair(hexagon: Mapping[str, float], pentagon: Mapping[str, float] | N
         raise SpecError("the catalog has no second pattern with a pentagon energy")
     p = min(range(len(pids)), key=lambda i: (abs(plogs[i] - math.log(e)), pids[i]))
     return hid, pids[p]
+
+
+def similar_pairs(hexagon: Mapping[str, float], pentagon: Mapping[str, float] | None, count: int,
+                  quantile: float = 0.5) -> list[tuple[str, str]]:
+    """Up to ``count`` (hexagon ID, pentagon ID) pairs of similar energy, best first.
+
+    Pair 0 is exactly :func:`similar_pair` (``hexagon``, ``pentagon``, ``quantile``). The others come
+    from the ``2 · count`` hexagon patterns whose log-energies are nearest the ``quantile`` of the
+    hexagon log-energies (ties to the smaller ID) — typical stiffnesses, as for :func:`similar_pair` —
+    each paired with the other ID whose energy (pentagon scenario if ``pentagon`` is given, else the
+    hexagon one) is nearest its own, ties to the smaller ID. They are ranked by
+    |log E_hex − log E_pent| (the energy ratio), then by hexagon ID, then pentagon ID; a pair is
+    listed once. Fewer than ``count`` pairs come back only when the catalog has fewer candidates.
+    Raises :class:`SpecError` if ``count`` < 1 or :func:`similar_pair` finds no pair.
+    """
+    if count < 1:
+        raise SpecError(f"patterns.candidates must be at least 1, got {count}")
+    first = similar_pair(hexagon, pentagon, quantile)
+    ids, logs = _clean(hexagon)
+    target = float(np.quantile(logs, quantile))
+    near = sorted(range(len(ids)), key=lambda i: (abs(logs[i] - target), ids[i]))[:2 * count]
+    pool = dict(pentagon) if pentagon else dict(hexagon)
+    pids, plogs = _clean(pool)
+    ranked = []
+    for h in near:
+        others = [j for j in range(len(pids)) if pids[j] != ids[h]]
+        if not others:
+            continue
+        p = min(others, key=lambda j: (abs(plogs[j] - logs[h]), pids[j]))
+        ranked.append((abs(float(plogs[p] - logs[h])), ids[h], pids[p]))
+    rest = [(hid, pid) for _, hid, pid in sorted(ranked) if (hid, pid) != first]
+    return [first, *dict.fromkeys(rest)][:count]

@@ -58,9 +58,26 @@ def _hull(points: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.array(lower[:-1] + upper[:-1], dtype=np.float64)
 
 
+def joint_direction(dihedral: float, side: int) -> NDArray[np.float64]:
+    """(2,) unit vector (Y, Z) from the edge into plate A (side 0) or B (side 1) of a joint at ``dihedral`` rad.
+
+    ``(±sin φ/2, −cos φ/2)`` (module docstring): the slot directions of a sleeve printed at φ, and the
+    plates' directions in a sleeve frame placed on a skeleton joint of dihedral φ.
+    """
+    h = 0.5 * dihedral
+    return np.array([math.sin(h) if side == 0 else -math.sin(h), -math.cos(h)])
+
+
+def joint_normal(dihedral: float, side: int) -> NDArray[np.float64]:
+    """(2,) unit normal of plate A / B of a joint at ``dihedral`` rad, pointing to the convex (+Z) side."""
+    d = joint_direction(dihedral, side)
+    n = np.array([-d[1], d[0]])
+    return n if n[1] >= 0 else -n
+
+
 @dataclass(frozen=True)
 class Sleeve:
-    """One sleeve type: all lengths in mm, ``dihedral`` in rad."""
+    """One sleeve type: all lengths in mm, ``dihedral`` in rad (the angle it is printed at, ≤ π: π is straight)."""
 
     dihedral: float
     setback: float
@@ -101,14 +118,11 @@ class Sleeve:
 
     def direction(self, side: int) -> NDArray[np.float64]:
         """(2,) unit vector (Y, Z) from the edge into plate A (side 0) or B (side 1)."""
-        h = 0.5 * self.dihedral
-        return np.array([math.sin(h) if side == 0 else -math.sin(h), -math.cos(h)])
+        return joint_direction(self.dihedral, side)
 
     def plate_normal(self, side: int) -> NDArray[np.float64]:
         """(2,) unit normal of plate A / B pointing to the convex (+Z) side."""
-        d = self.direction(side)
-        n = np.array([-d[1], d[0]])
-        return n if n[1] >= 0 else -n
+        return joint_normal(self.dihedral, side)
 
     def _rect(self, side: int, s0: float, s1: float, half: float) -> NDArray[np.float64]:
         d, n = self.direction(side), self.plate_normal(side)

@@ -7,12 +7,21 @@ A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented 
 * ``[patterns]`` one of: ``pattern`` (every tile); ``groups`` (one ID per group of ``group_columns``
   columns, stiff → soft) or ``tiles`` (rows × columns IDs) on a strip; ``hexagon`` + ``pentagon`` on the
   truncated icosahedron; or ``rule`` = "graded" (strip: ``count`` patterns with well-separated energies
-  in ``scenario``) / "similar-energy" (sphere: two patterns with similar energy in ``scenario``), both
-  read from the catalog (``catalog`` = path, default the built-in one).
+  in ``scenario``) / "similar-energy" (sphere: two patterns with similar energy in ``scenario``) /
+  "roundest" (sphere: the ``candidates`` best similar-energy pairs, default 8, of which the closure
+  solver keeps the roundest under the strain limit), read from the catalog (``catalog`` = path,
+  default the built-in one).
 * ``[plates]``  ``thickness``, ``weight`` (interface fillet weight), ``process`` ("print" | "laser"),
   ``density`` (g/cm³, for masses).
 * ``[sleeve]``  ``clearance`` (slot width = thickness + clearance), ``margin`` (slot length =
-  interface segment + margin), ``wall``, ``depth`` (how far a plate enters its slot).
+  interface segment + margin), ``wall``, ``depth`` (how far a plate enters its slot), ``angle``: the
+  angle the sleeves are printed at — "dihedral" (default: each joint's dihedral angle, the plates stay
+  flat on a rigid polyhedron), "flat" (180°: straight sleeves that bend the plates when they close the
+  sphere, paper §5) or a number of degrees from the tiling's smallest dihedral to 180
+  (:func:`sleeve_angle`). A honeycomb strip's joints are flat, so it takes "dihedral", "flat" or 180.
+* ``[material]`` the plates' material for the closure solver: ``youngs_modulus`` (N/mm², default
+  1000), ``poisson`` (default 0.35), ``strain_limit`` (largest allowed principal strain, default
+  0.02: see :class:`MaterialSpec`).
 * ``[sheet]``  ``width``, ``height`` (laser sheet or print bed), ``margin``, ``spacing``, ``kerf``,
   ``border`` (true | false, default true: the bed outline on the sheets' non-plotting layer SHEET),
   ``dxf_entities`` ("polyline" | "segments", default "polyline": closed LWPOLYLINEs with bulges for
@@ -25,7 +34,8 @@ A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented 
 Every error is a :class:`~fabpat.errors.SpecError` whose one line names the file, the key and what
 is allowed. A key the chosen way of picking patterns does not read (``count`` beside ``hexagon``), or
 one the process does not use (``sheet.kerf``, ``estimates.cut_speed`` with ``plates.process = "print"``),
-is an error, never ignored; so is a format listed twice. Ranges that depend on the geometry
+(``patterns.candidates`` beside any rule but "roundest") is an error, never ignored; so is a format
+listed twice. Ranges that depend on the geometry
 (``tiling.edge``, ``plates.weight``, ``sleeve.depth``) are checked by
 :func:`fabpat.assembly.placement.check_geometry` before any work; see docs/reliability.md.
 """
@@ -46,11 +56,15 @@ TILINGS = ("honeycomb-strip", "truncated-icosahedron")
 PROCESSES = ("print", "laser")
 FORMATS = ("step", "stl", "glb", "3dm", "dxf", "svg", "bom", "png")
 STRIP_RULES = ("graded",)
-SPHERE_RULES = ("similar-energy",)
+SPHERE_RULES = ("similar-energy", "roundest")
 SCENARIOS = ("cantilever", "cylinder", "dome")
+SLEEVE_ANGLES = ("dihedral", "flat")  # the named values of [sleeve] angle; a number of degrees is the third way
 _DEPTH_OF_DIGITS = {1: 1, 4: 2, 16: 3}  # hex digits of an ID → subdivision depth
 #: [patterns] keys that only some ways of choosing patterns read: key → the ways that read it
-_GOES_WITH = {"scenario": ("rule",), "count": ("rule",), "catalog": ("rule",), "group_columns": ("groups", "rule")}
+_GOES_WITH = {"scenario": ("rule",), "count": ("rule",), "catalog": ("rule",), "candidates": ("rule",),
+              "group_columns": ("groups", "rule")}
+#: [patterns] keys that only one rule reads: key → that rule
+_ONLY_RULE = {"candidates": "roundest"}
 
 
 @dataclass(frozen=True)
@@ -76,6 +90,7 @@ class PatternSpec:
     scenario: str = "cylinder"
     count: int = 5
     catalog: str | None = None
+    candidates: int = 8  # rule = "roundest": similar-energy pairs the closure solver tries
 
 
 @dataclass(frozen=True)
@@ -89,11 +104,29 @@ class PlateSpec:
 
 @dataclass(frozen=True)
 class SleeveSpec:
-    """``[sleeve]``: clearance, margin, wall and depth of the sleeve connectors (mm)."""
+    """``[sleeve]``: clearance, margin, wall and depth of the sleeve connectors (mm) and the angle they
+    are printed at: ``"dihedral"``, ``"flat"`` or a number of degrees (see :func:`sleeve_angle`)."""
     clearance: float = 0.2  # mm: slot width − plate thickness
     margin: float = 1.0  # mm: slot length − interface segment length
     wall: float = 1.2  # mm: three 0.4 mm perimeters
     depth: float = 3.0  # mm: how far a plate enters the slot
+    angle: str | float = "dihedral"  # "dihedral" | "flat" | degrees
+
+
+@dataclass(frozen=True)
+class MaterialSpec:
+    """``[material]``: the plates' material, read by the closure solver.
+
+    ``youngs_modulus`` (N/mm²) and ``poisson`` are the defaults of the pattern scenarios (1000 N/mm²,
+    0.35). ``strain_limit`` is the largest principal strain (membrane plus bending, on either plate
+    surface) a plate may reach. The default 0.02 is the yield strain of PLA: tensile yield strength
+    ≈ 60 MPa over tensile modulus ≈ 3.5 GPa ≈ 1.7 % (NatureWorks Ingeo 4043D technical data sheet:
+    60 MPa and 3.6 GPa), rounded to 2 %. A printed or laser-cut part may crack below it at notches
+    and layer lines, so it is an upper bound to design below, not a safe value.
+    """
+    youngs_modulus: float = 1000.0  # N/mm²
+    poisson: float = 0.35
+    strain_limit: float = 0.02  # PLA yield strain, rounded up from 1.7 % (see above)
 
 
 @dataclass(frozen=True)
@@ -130,6 +163,7 @@ class AssemblySpec:
     formats: tuple[str, ...]
     mesh_tolerance: float = 0.005  # mm: STL chord of the parts (fabpat.cad.DEFAULT_CHORD)
     curve_tolerance: float = 0.01  # mm: DXF sheets' arcs from the exact outlines
+    material: MaterialSpec = MaterialSpec()
 
     @property
     def polygon_sides(self) -> tuple[int, ...]:
@@ -246,7 +280,7 @@ def _tiling(source: str, data: Any) -> TilingSpec:
 
 def _patterns(source: str, data: Any, tiling: TilingSpec) -> PatternSpec:
     allowed = ("pattern", "groups", "group_columns", "tiles", "hexagon", "pentagon", "rule", "scenario",
-               "count", "catalog")
+               "count", "catalog", "candidates")
     t = _Table(source, "patterns", data, allowed)
     strip = tiling.kind == "honeycomb-strip"
     sides = (6,) if strip else (5, 6)
@@ -268,6 +302,7 @@ def _patterns(source: str, data: Any, tiling: TilingSpec) -> PatternSpec:
     for key in t.data:
         if key in _GOES_WITH and way not in _GOES_WITH[key]:
             with_ = " or ".join(f"patterns.{w}" for w in _GOES_WITH[key])
+            with_ += f" = {_ONLY_RULE[key]!r}" if key in _ONLY_RULE else ""
             raise t.fail(key, f"does not apply to patterns.{way} (it goes with {with_})")
     catalog = t.string("catalog")
     if catalog and not Path(catalog).is_absolute() and Path(source).parent != Path(""):
@@ -286,12 +321,18 @@ def _patterns(source: str, data: Any, tiling: TilingSpec) -> PatternSpec:
         scenario = t.choice("scenario", SCENARIOS, "cylinder" if strip else "dome")
         count = t.integer("count", 5, 2) if strip else 2
         if not strip and t.has("count"):
-            raise t.fail("count", "does not apply to rule = \"similar-energy\" (it picks two patterns)")
+            raise t.fail("count", f"does not apply to rule = {rule!r} (it picks two patterns; rule = \"roundest\" "
+                         "tries patterns.candidates pairs)")
+        if t.has("candidates") and rule != _ONLY_RULE["candidates"]:
+            raise t.fail("candidates", f"does not apply to patterns.rule = {rule!r} (it goes with patterns.rule = "
+                         f"{_ONLY_RULE['candidates']!r})")
+        candidates = t.integer("candidates", PatternSpec.candidates, 1)
         group_columns = t.integer("group_columns", max(1, tiling.columns // count)) if strip else 1
         if strip and math.ceil(tiling.columns / group_columns) != count:
             raise t.fail("group_columns", f"= {group_columns} makes {math.ceil(tiling.columns / group_columns)} "
                          f"groups of tiling.columns = {tiling.columns}, but patterns.count = {count}")
-        return PatternSpec(rule=rule, scenario=scenario, count=count, group_columns=group_columns, catalog=catalog)
+        return PatternSpec(rule=rule, scenario=scenario, count=count, group_columns=group_columns, catalog=catalog,
+                           candidates=candidates)
     if way == "groups":
         groups = t.data["groups"]
         if not isinstance(groups, list) or not groups:
@@ -328,10 +369,67 @@ def _plates(source: str, data: Any) -> PlateSpec:
                      t.number("density", 1.24, "density"))
 
 
-def _sleeve(source: str, data: Any) -> SleeveSpec:
-    t = _Table(source, "sleeve", data, ("clearance", "margin", "wall", "depth"))
+def smallest_dihedral(kind: str) -> float:
+    """Smallest interior dihedral angle (rad) of the joints of tiling ``kind``: the lowest ``[sleeve] angle``.
+
+    Truncated icosahedron: the hexagon–hexagon angle arccos(−√5/3) ≈ 138.19°
+    (:data:`fabpat.assembly.tiling.HEX_HEX_DIHEDRAL`); a honeycomb strip is flat (π).
+    """
+    from fabpat.assembly.tiling import HEX_HEX_DIHEDRAL, HEX_PENT_DIHEDRAL
+
+    return min(HEX_HEX_DIHEDRAL, HEX_PENT_DIHEDRAL) if kind == "truncated-icosahedron" else math.pi
+
+
+def _sleeve_angle(t: _Table, kind: str) -> str | float:
+    """``[sleeve] angle``: "dihedral", "flat" or degrees in [smallest dihedral of the tiling, 180]."""
+    v = t.data.get("angle", "dihedral")
+    if isinstance(v, str):
+        if v not in SLEEVE_ANGLES:
+            raise t.fail("angle", f"= {v!r} is not allowed: choose \"dihedral\", \"flat\" or a number of degrees"
+                         + (f" in [{math.degrees(smallest_dihedral(kind)):.2f}, 180]" if kind != "honeycomb-strip"
+                            else " (180: a strip has flat joints)"))
+        return v
+    if kind == "honeycomb-strip":
+        if isinstance(v, bool) or not isinstance(v, int | float) or v != 180:
+            raise t.fail("angle", f"= {v!r} is not allowed on a honeycomb strip: a strip has flat joints, so choose "
+                         "\"dihedral\", \"flat\" or 180")
+        return 180.0
+    low = math.degrees(smallest_dihedral(kind))
+    ok = not isinstance(v, bool) and isinstance(v, int | float) and low <= v <= 180.0  # NaN fails the comparison
+    if not ok:
+        raise t.fail("angle", f"= {v!r} is not allowed: choose \"dihedral\", \"flat\" or a number of degrees in "
+                     f"[{low:.2f}, 180] (a {kind} has dihedral angles from {low:.2f}°; 180° is straight)")
+    return float(v)
+
+
+def sleeve_angle(spec: AssemblySpec, dihedral: float) -> float:
+    """The angle (rad) a sleeve is printed at, for a joint whose skeleton dihedral angle is ``dihedral`` (rad).
+
+    ``[sleeve] angle`` = "dihedral" → ``dihedral`` (the plates stay flat on the polyhedron); "flat" → π
+    (straight sleeves: the plates bend when the sleeves close the sphere, paper §5); a number of
+    degrees → that angle in radians. The joint's change of angle on closing is ``dihedral − angle``.
+    """
+    a = spec.sleeve.angle
+    if a == "dihedral":
+        return float(dihedral)
+    if a == "flat":
+        return math.pi
+    return math.radians(float(a))
+
+
+def _sleeve(source: str, data: Any, kind: str) -> SleeveSpec:
+    t = _Table(source, "sleeve", data, ("clearance", "margin", "wall", "depth", "angle"))
     return SleeveSpec(t.number("clearance", 0.2, "clearance"), t.number("margin", 1.0, "gap"),
-                      t.number("wall", 1.2, "sleeve_length"), t.number("depth", 3.0, "sleeve_length"))
+                      t.number("wall", 1.2, "sleeve_length"), t.number("depth", 3.0, "sleeve_length"),
+                      _sleeve_angle(t, kind))
+
+
+def _material(source: str, data: Any) -> MaterialSpec:
+    t = _Table(source, "material", data, ("youngs_modulus", "poisson", "strain_limit"))
+    d = MaterialSpec()
+    return MaterialSpec(t.number("youngs_modulus", d.youngs_modulus, "youngs_modulus"),
+                        t.number("poisson", d.poisson, "poisson"),
+                        t.number("strain_limit", d.strain_limit, "strain_limit"))
 
 
 def _sheet(source: str, data: Any, process: str) -> SheetSpec:
@@ -399,7 +497,7 @@ def check_sheet_fits(spec: AssemblySpec) -> None:
 
 def parse_spec(data: Mapping[str, Any], source: str = "<spec>") -> AssemblySpec:
     """Validate a decoded TOML document; raises :class:`SpecError` naming the key and allowed values."""
-    top = ("name", "tiling", "patterns", "plates", "sleeve", "sheet", "estimates", "output")
+    top = ("name", "tiling", "patterns", "plates", "sleeve", "material", "sheet", "estimates", "output")
     for key in data:
         if key not in top:
             raise SpecError(f"{source}: unknown key {key} (allowed: {', '.join(top)})")
@@ -412,14 +510,16 @@ def parse_spec(data: Mapping[str, Any], source: str = "<spec>") -> AssemblySpec:
     tiling = _tiling(source, data["tiling"])
     plates = _plates(source, data.get("plates", {}))
     readers: dict[str, Callable[[], Any]] = {
-        "sleeve": lambda: _sleeve(source, data.get("sleeve", {})),
+        "sleeve": lambda: _sleeve(source, data.get("sleeve", {}), tiling.kind),
+        "material": lambda: _material(source, data.get("material", {})),
         "sheet": lambda: _sheet(source, data["sheet"], plates.process),
         "estimates": lambda: _estimates(source, data.get("estimates", {}), plates.process),
         "output": lambda: _output(source, data.get("output", {})),
     }
     values = {k: f() for k, f in readers.items()}
     spec = AssemblySpec(name.strip(), source, tiling, _patterns(source, data["patterns"], tiling), plates,
-                        values["sleeve"], values["sheet"], values["estimates"], *values["output"])
+                        values["sleeve"], values["sheet"], values["estimates"], *values["output"],
+                        material=values["material"])
     check_sheet_fits(spec)
     return spec
 
