@@ -32,12 +32,12 @@ A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented 
   the sheets' DXF arcs from the exact outlines, default 0.01).
 
 Every error is a :class:`~fabpat.errors.SpecError` whose one line names the file, the key and what
-is allowed. A key the chosen way of picking patterns does not read (``count`` beside ``hexagon``), or
-one the process does not use (``sheet.kerf``, ``estimates.cut_speed`` with ``plates.process = "print"``),
-(``patterns.candidates`` beside any rule but "roundest") is an error, never ignored; so is a format
-listed twice. Ranges that depend on the geometry
-(``tiling.edge``, ``plates.weight``, ``sleeve.depth``) are checked by
-:func:`fabpat.assembly.placement.check_geometry` before any work; see docs/reliability.md.
+is allowed. A key the chosen way of picking patterns does not read (``count`` beside ``hexagon``,
+``candidates`` beside any rule but "roundest"), or one the process does not use (``sheet.kerf``,
+``estimates.cut_speed`` with ``plates.process = "print"``), is an error, never ignored; so is a format
+listed twice. Ranges that depend on the geometry (``tiling.edge``, ``plates.weight``, ``sleeve.depth``)
+are checked by :func:`fabpat.assembly.placement.check_geometry` before any work; see
+docs/reliability.md.
 """
 
 from __future__ import annotations
