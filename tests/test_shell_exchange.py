@@ -150,3 +150,37 @@ def test_cli_exported_deck_runs_in_calculix(tmp_path) -> None:
     assert r.returncode == 0, r.stderr
     energy, _ = _run_ccx(tmp_path, "c")
     assert energy == pytest.approx(json.loads(r.stdout)["energy"], rel=0.05)
+
+
+def test_vtu_extra_point_and_cell_fields(tmp_path, coarse, dome_result) -> None:
+    """The sphere's fields (curvature, plate) and a per-element strain survive a meshio round trip,
+    the built-in fields are unchanged, and bad extra fields are refused before a file is written."""
+    import meshio
+
+    from fabpat.errors import ExportError
+    from fabpat.shell import Material
+    from fabpat.shell.curvature import curvature_fields
+    from fabpat.shell.strain import surface_strains
+
+    r = dome_result.result
+    X = np.c_[coarse.V, np.zeros(coarse.n_nodes)]
+    x = X + r.displacement
+    fields = curvature_fields(x, coarse.F)
+    fields["plate"] = np.zeros(coarse.n_nodes, dtype=np.int64)
+    peak = surface_strains(X, coarse.F, Material(), x, r.rotation)
+    p = write_vtu(tmp_path / "s.vtu", coarse.V, coarse.F, r, point_data=fields, cell_data={"peak_strain": peak})
+    m = meshio.read(p)
+    for name in ("mean_curvature", "gaussian_curvature", "plate"):
+        assert np.array_equal(m.point_data[name], fields[name])
+    assert np.all(np.isfinite(m.point_data["mean_curvature"])) and np.ptp(m.point_data["mean_curvature"]) > 0
+    assert np.array_equal(m.cell_data["peak_strain"][0], peak)
+    assert np.allclose(m.point_data["displacement"], r.displacement)
+    assert m.cell_data["strain_energy"][0].sum() == pytest.approx(dome_result.energy)
+    bad = [({"mean_curvature": np.full(coarse.n_nodes, np.nan)}, None, "non-finite"),
+           ({"plate": np.zeros(3)}, None, "must be a numeric"),
+           ({"rotation": np.zeros(coarse.n_nodes)}, None, "clashes"),
+           (None, {"peak_strain": peak[:-1]}, "must be a numeric")]
+    for pd, cd, msg in bad:
+        with pytest.raises(ExportError, match=msg):
+            write_vtu(tmp_path / "bad.vtu", coarse.V, coarse.F, r, point_data=pd, cell_data=cd)
+    assert not (tmp_path / "bad.vtu").exists()
