@@ -13,7 +13,7 @@ libigl 2.6.3:
 * the neighbourhood is ``radius`` rings of the mesh graph (``useKring``). Rings follow the mesh, so a
   neighbourhood stays on its bar of a lacy plate instead of jumping across a hole. Default 2, igl's
   minimum: the most local fit, and the most accurate one measured (rolled 2 mm wide strip, h = 1.5,
-  ρ = 20: k2 within 0.5 % at 2 rings, 1.1 % at 3, 2.8 % at igl's default 5; k1 = 0 within 0.006/ρ,
+  ρ = 20: k2 within 0.5 % at 2 rings, 1.2 % at 3, 4.3 % at igl's default 5; k1 = 0 within 0.006/ρ,
   0.024/ρ and 0.15/ρ). Larger rings smooth noise in a coarse or wrinkled mesh at that cost;
 * boundary vertices are fitted like the others (one-sided neighbourhoods; on a sphere cap they are
   as accurate as interior ones, measured 0.1 %). Where the fit fails (fewer than ~6 neighbours, a
