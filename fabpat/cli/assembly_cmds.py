@@ -13,7 +13,7 @@ from pathlib import Path
 
 import click
 
-from fabpat.cli.options import h_option, modulus_option, number_option, poisson_option
+from fabpat.cli.options import h_option, number_option
 
 
 @click.command("assemble")
@@ -78,45 +78,52 @@ def assemble_cmd(spec: str, out: str, progress: bool, timestamp: str | None, for
 @click.command("simulate-assembly")
 @click.argument("spec", type=click.Path(dir_okay=False))
 @number_option("--end-shortening", range_name="end_shortening", default=0.1, show_default=True,
-               help="The end pins move towards each other by this fraction of the strip length.")
+               help="Strips: the end pins move towards each other by this fraction of the strip length.")
 @h_option(3.0)
-@number_option("--steps", range_name="steps", default=10, show_default=True,
-               help="Equal end-shortening increments reported in the JSON path.")
+@number_option("--steps", range_name="steps", default=None,
+               help="Report steps of the path [default: 10 for a strip, 4 for a closed assembly].")
 @number_option("--imperfection", range_name="imperfection_force", default=None,
-               help="Upward out-of-plane force (N, in total) that selects the buckle [default: 0.01].")
-@modulus_option
-@poisson_option
-@click.option("--vtu", type=click.Path(dir_okay=False), help="Every plate, deformed, with fields for ParaView (.vtu).")
+               help="Strips: upward out-of-plane force (N, in total) that selects the buckle [default: 0.01].")
+@number_option("--youngs-modulus", "E", range_name="youngs_modulus", default=None,
+               help="Young's modulus in N/mm² [default: the spec's material.youngs_modulus, 1000].")
+@number_option("--poisson", "nu", range_name="poisson", default=None,
+               help="Poisson's ratio [default: the spec's material.poisson, 0.35].")
+@click.option("--vtu", type=click.Path(dir_okay=False),
+              help="Every plate, deformed, with fields for ParaView (.vtu), curvatures and surface strain included.")
 @click.option("--png", type=click.Path(dir_okay=False),
-              help="Deflection profile and reaction–end-shortening curve (.png).")
+              help="Strips: deflection profile and reaction curve; closed assemblies: the bent shape (.png).")
+@click.option("--png-field", type=click.Choice(["energy", "mean_curvature", "gaussian_curvature", "strain"]),
+              default="energy", show_default=True, help="Closed assemblies: what colours the --png picture.")
 @click.option("--json", "as_json", is_flag=True, help="Print the results as one JSON object.")
-def simulate_assembly_cmd(spec: str, end_shortening: float, h: float, steps: int, imperfection: float | None,
-                          E: float, nu: float, vtu: str | None, png: str | None, as_json: bool) -> None:
-    """Solve an assembly SPEC as one shell model: plates joined by rigid sleeves, pins driven together.
+def simulate_assembly_cmd(spec: str, end_shortening: float, h: float, steps: int | None, imperfection: float | None,
+                          E: float | None, nu: float | None, vtu: str | None, png: str | None, png_field: str,
+                          as_json: bool) -> None:
+    """Solve an assembly SPEC as one shell model: plates joined by rigid sleeves.
 
-    For a honeycomb-strip spec the end pins (as in the kit) are pushed towards each other by
-    --end-shortening × the strip length under displacement control, through buckling, until the strip
-    bows into an arch. Prints key=value lines (or --json): converged, plates, sleeves, nodes, dofs,
-    iterations, seconds, energy, plate_energies, sleeve_moments, reaction, max_deflection, peak,
-    half_ratio, path. A graded strip's arch peaks towards its soft end.
+    A honeycomb-strip's end pins (as in the kit) are pushed towards each other by --end-shortening ×
+    the strip length under displacement control, through buckling, until the strip bows into an arch
+    (a graded strip's arch peaks towards its soft end). A truncated icosahedron starts as flat plates
+    on the polyhedron and its sleeves turn to the spec's [sleeve] angle: straight sleeves ("flat")
+    bend the plates into the paper's sphere.
 
-    Example: fabpat simulate-assembly assemblies/graded-strip.toml --png strip.png --vtu strip.vtu
+    Prints key=value lines (or --json): converged, plates, sleeves, nodes, dofs, iterations,
+    factorizations, seconds, h, energy, plate_energies, sleeve_moments, reaction, max_deflection,
+    peak, half_ratio (strips), radius, sphericity_rms, sphericity_max (closed), peak_strain,
+    peak_strain_plate, strain_limit, over_limit, path. Every plate over the spec's
+    material.strain_limit is named on stderr.
+
+    Example: fabpat simulate-assembly assemblies/truncated-icosahedron.toml --png sphere.png --vtu sphere.vtu
     """
-    _simulate_assembly(spec, end_shortening, h, steps, imperfection, E, nu, vtu, png, as_json)
+    _simulate_assembly(spec, end_shortening, h, steps, imperfection, E, nu, vtu, png, as_json, png_field)
 
 
-def _simulate_assembly(spec: str, end_shortening: float, h: float, steps: int, imperfection: float | None,
-                       E: float, nu: float, vtu: str | None, png: str | None, as_json: bool) -> None:
+def _simulate_assembly(spec: str, end_shortening: float, h: float, steps: int | None, imperfection: float | None,
+                       E: float | None, nu: float | None, vtu: str | None, png: str | None, as_json: bool,
+                       png_field: str = "energy") -> None:
     import json
-    import time
 
-    import numpy as np
-
-    from fabpat.assembly.build import face_patterns
-    from fabpat.assembly.simulate import IMPERFECTION, final_shell_result, run_strip, strip_setup, write_profiles_png
+    from fabpat.assembly.simulation import simulate_assembly
     from fabpat.assembly.spec import load_spec
-    from fabpat.errors import SpecError
-    from fabpat.exchange.vtu import write_vtu
     from fabpat.io import atomic_outputs, check_distinct, check_suffix
     from fabpat.scenarios import PNG_SUFFIXES, VTU_SUFFIXES
 
@@ -126,32 +133,21 @@ def _simulate_assembly(spec: str, end_shortening: float, h: float, steps: int, i
         if path is not None:
             check_suffix(path, valid, option)
     parsed = load_spec(spec)
-    if parsed.tiling.kind != "honeycomb-strip":
-        raise SpecError(f"{spec}: simulate-assembly can simulate tiling.kind = \"honeycomb-strip\" "
-                        f"(end shortening), got {parsed.tiling.kind!r}")
-    t0 = time.perf_counter()
-    setup = strip_setup(parsed, face_patterns(parsed), h=h, E=E, nu=nu)
     with atomic_outputs(*outputs) as temps:
-        run = run_strip(setup, end_shortening, steps=steps,
-                        imperfection=IMPERFECTION if imperfection is None else imperfection)
+        sim = simulate_assembly(parsed, h=h, steps=steps, end_shortening=end_shortening, imperfection=imperfection,
+                                youngs_modulus=E, poisson=nu)
         tmp = dict(zip(outputs, temps, strict=True))
-        m = setup.model
         if vtu is not None:
-            write_vtu(tmp[vtu], m.X, m.F, final_shell_result(run),
-                      point_data={"plate": m.plate_of_node[: len(m.X)].astype(np.int64)})
+            sim.to_vtu(tmp[vtu])
         if png is not None:
-            write_profiles_png(tmp[png], [(parsed.name, run)])
-    row = {
-        "converged": True, "plates": len(m.plates), "sleeves": len(m.sleeves), "nodes": m.n_nodes,
-        "dofs": run.result.dofs, "iterations": run.result.iterations, "seconds": time.perf_counter() - t0,
-        "energy": run.energy, "plate_energies": run.plate_energies, "sleeve_moments": run.sleeve_moments,
-        "reaction": run.reaction, "max_deflection": run.max_deflection, "peak": run.peak,
-        "half_ratio": run.half_ratio, "path": run.path,
-    }
+            sim.to_png(tmp[png], png_field)
+    row = sim.fields()
     if as_json:
         click.echo(json.dumps(row, indent=1))
     else:
         def text(v: object) -> str:
+            if v is None:
+                return "null"
             if isinstance(v, float):
                 return f"{v:.6g}"
             if isinstance(v, bool):
@@ -162,6 +158,10 @@ def _simulate_assembly(spec: str, end_shortening: float, h: float, steps: int, i
 
         for k, v in row.items():
             click.echo(f"{k}={text(v)}")
+    peaks = sim.plate_peak_strain()
+    for label in row["over_limit"]:
+        click.echo(f"fabpat: warning: plate {label}: peak strain {peaks[label]:.4g} exceeds the strain limit "
+                   f"{sim.strain_limit:g} (material.strain_limit)", err=True)
     for path in outputs:
         click.echo(f"wrote {path}", err=True)  # stdout is data (key=value lines or JSON)
 
@@ -171,15 +171,15 @@ def _simulate_assembly(spec: str, end_shortening: float, h: float, steps: int, i
 @number_option("--end-shortening", range_name="end_shortening", default=0.1, show_default=True,
                help="See simulate-assembly.")
 @h_option(3.0)
-@number_option("--steps", range_name="steps", default=10, show_default=True, help="See simulate-assembly.")
+@number_option("--steps", range_name="steps", default=None, help="See simulate-assembly.")
 @number_option("--imperfection", range_name="imperfection_force", default=None, help="See simulate-assembly.")
-@modulus_option
-@poisson_option
+@number_option("--youngs-modulus", "E", range_name="youngs_modulus", default=None, help="See simulate-assembly.")
+@number_option("--poisson", "nu", range_name="poisson", default=None, help="See simulate-assembly.")
 @click.option("--vtu", type=click.Path(dir_okay=False), help="See simulate-assembly.")
 @click.option("--png", type=click.Path(dir_okay=False), help="See simulate-assembly.")
 @click.option("--json", "as_json", is_flag=True, help="See simulate-assembly.")
-def simulate_strip_cmd(spec: str, end_shortening: float, h: float, steps: int, imperfection: float | None,
-                       E: float, nu: float, vtu: str | None, png: str | None, as_json: bool) -> None:
+def simulate_strip_cmd(spec: str, end_shortening: float, h: float, steps: int | None, imperfection: float | None,
+                       E: float | None, nu: float | None, vtu: str | None, png: str | None, as_json: bool) -> None:
     """Deprecated alias of `fabpat simulate-assembly` (same options and output); removed in the next release."""
     click.echo("fabpat: simulate-strip is deprecated and will be removed in the next release: use "
                "simulate-assembly (same options and output)", err=True)

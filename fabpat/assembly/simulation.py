@@ -1,0 +1,176 @@
+"""``simulate_assembly``: an assembly spec as one shell model, whichever its kind (the Python front door
+of ``fabpat simulate-assembly``).
+
+* ``honeycomb-strip``: the end pins are pushed together (:mod:`fabpat.assembly.simulate`).
+* ``truncated-icosahedron``: the sleeves turn from the polyhedron's dihedral angles to the spec's
+  sleeve angle and bend the plates into a sphere (:mod:`fabpat.assembly.closure`).
+
+Both report the fields of :meth:`AssemblySimulation.fields`; the read-outs a kind does not have are
+``None`` (``peak``, ``half_ratio`` of a closed assembly; ``radius``, ``sphericity_*`` of a strip).
+Surface strain and mid-surface curvature are computed for both.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fabpat.assembly.model import AssemblyModel
+from fabpat.errors import SpecError
+
+Arr = NDArray[np.float64]
+
+#: default report steps per kind (the closure is smooth and nearly linear; the strip buckles)
+DEFAULT_STEPS = {"honeycomb-strip": 10, "truncated-icosahedron": 4}
+#: colour fields of :meth:`AssemblySimulation.to_png` on a closed assembly
+PNG_FIELDS = ("energy", "mean_curvature", "gaussian_curvature", "strain")
+
+
+@dataclass(frozen=True, eq=False)
+class AssemblySimulation:
+    """The solved assembly: ``kind``, the ``model``, the solver's run (a StripRun or ClosureRun) and
+    per-node ``mean_curvature``/``gaussian_curvature`` (1/mm, 1/mm², deformed mid-surface) and
+    per-element ``element_strain`` (peak surface strain) of the final state."""
+
+    kind: str
+    name: str
+    model: AssemblyModel
+    run: Any
+    seconds: float
+    element_strain: Arr
+    mean_curvature: Arr
+    gaussian_curvature: Arr
+    strain_limit: float
+    h: float
+
+    @property
+    def closed(self) -> bool:
+        """True for an assembly closed by its sleeves (the sphere), False for a strip."""
+        return self.kind != "honeycomb-strip"
+
+    def plate_peak_strain(self) -> dict[str, float]:
+        """{plate label: largest principal surface strain of its elements}."""
+        m = self.model
+        e = self.element_strain
+        return {p.label: float(e[m.element_offsets[i]:m.element_offsets[i + 1]].max()) for i, p in enumerate(m.plates)}
+
+    def over_limit(self) -> list[str]:
+        """Plates whose peak strain exceeds ``strain_limit``."""
+        return [k for k, v in self.plate_peak_strain().items() if v > self.strain_limit]
+
+    def fields(self) -> dict[str, Any]:
+        """The ``simulate-assembly`` output (lengths mm, energies and moments N·mm, forces N)."""
+        r, m = self.run, self.model
+        res = r.result
+        peak = self.plate_peak_strain()
+        worst = max(peak, key=lambda k: peak[k])
+        row: dict[str, Any] = {
+            "converged": True, "plates": len(m.plates), "sleeves": len(m.sleeves), "nodes": m.n_nodes,
+            "dofs": res.dofs, "iterations": res.iterations, "factorizations": res.factorizations,
+            "seconds": self.seconds, "h": self.h, "energy": r.energy, "plate_energies": r.plate_energies,
+            "sleeve_moments": r.sleeve_moments, "reaction": r.reaction, "max_deflection": r.max_deflection,
+            "peak": None if self.closed else r.peak, "half_ratio": None if self.closed else r.half_ratio,
+            "radius": r.radius if self.closed else None,
+            "sphericity_rms": r.sphericity_rms if self.closed else None,
+            "sphericity_max": r.sphericity_max if self.closed else None,
+            "peak_strain": peak[worst], "peak_strain_plate": worst, "strain_limit": self.strain_limit,
+            "over_limit": self.over_limit(), "path": r.path,
+        }
+        return row
+
+    def deformed(self) -> Arr:
+        """(n, 3) deformed positions of the plate nodes (mm)."""
+        n = len(self.model.X)
+        return self.model.X + self.run.result.final.displacement[:n]
+
+    def to_vtu(self, path: str | os.PathLike[str]) -> None:
+        """Every plate, deformed, for ParaView: the shell fields of :func:`fabpat.exchange.vtu.write_vtu`
+        plus point fields ``plate``, ``mean_curvature``, ``gaussian_curvature`` and the cell field
+        ``surface_strain``."""
+        from fabpat.exchange.vtu import write_vtu
+
+        m = self.model
+        write_vtu(path, m.X, m.F, self.shell_result(),
+                  point_data={"plate": m.plate_of_node[: len(m.X)].astype(np.int64),
+                              "mean_curvature": self.mean_curvature, "gaussian_curvature": self.gaussian_curvature},
+                  cell_data={"surface_strain": self.element_strain})
+
+    def shell_result(self) -> Any:
+        """The final state of the plates as a :class:`fabpat.shell.ShellResult`."""
+        from fabpat.shell.results import ShellResult
+
+        n = len(self.model.X)
+        r = self.run.result
+        fin = r.final
+        return ShellResult(fin.displacement[:n], fin.rotation[:n], self.run.energy, r.element_energy,
+                           fin.reactions[:n], float("nan"), r.iterations, r.increments, r.cuts, True, True,
+                           dict(r.seconds))
+
+
+def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, end_shortening: float = 0.1,
+                      imperfection: float | None = None, youngs_modulus: float | None = None,
+                      poisson: float | None = None, progress: Callable[[float], None] | None = None
+                      ) -> AssemblySimulation:
+    """Solve the assembly of ``spec`` (an AssemblySpec or a path to its TOML file).
+
+    ``h`` target mesh edge (mm); ``steps`` report steps (default :data:`DEFAULT_STEPS` of the kind);
+    ``end_shortening`` and ``imperfection`` (N) apply to strips only; ``youngs_modulus`` (N/mm²) and
+    ``poisson`` override the spec's ``[material]``. ``progress(λ)`` is told after every report step
+    of a closure. Raises SpecError (bad spec or option for this kind), GeometryError (h too coarse
+    for the interfaces), SolverError (path lost, naming the load or angle fraction reached).
+    """
+    from fabpat.assembly.build import face_patterns
+    from fabpat.assembly.spec import AssemblySpec, load_spec
+    from fabpat.validate import check
+
+    if not isinstance(spec, AssemblySpec):
+        spec = load_spec(spec)
+    check("h", h, "h")
+    kind = spec.tiling.kind
+    steps = DEFAULT_STEPS[kind] if steps is None else check("steps", steps, "steps")
+    mat = spec.material
+    E = mat.youngs_modulus if youngs_modulus is None else check("youngs_modulus", youngs_modulus, "youngs_modulus")
+    nu = mat.poisson if poisson is None else check("poisson", poisson, "poisson")
+    t0 = time.perf_counter()
+    patterns = face_patterns(spec)
+    if kind == "honeycomb-strip":
+        from fabpat.assembly.simulate import IMPERFECTION, run_strip, strip_setup
+
+        setup = strip_setup(spec, patterns, h=h, E=E, nu=nu)
+        run = run_strip(setup, end_shortening, steps=steps,
+                        imperfection=IMPERFECTION if imperfection is None else imperfection)
+        model = setup.model
+    else:
+        if imperfection is not None:
+            raise SpecError(f"{spec.source}: --imperfection applies to strips (it selects the buckle); a "
+                            "closed assembly has no buckle to select")
+        from fabpat.assembly.closure import closure_setup, run_closure
+
+        csetup = closure_setup(spec, patterns, h=h, E=E, nu=nu)
+        run = run_closure(csetup, steps=steps, strain_limit=mat.strain_limit, progress=progress)
+        model = csetup.model
+    return _read_outs(kind, spec.name, model, run, time.perf_counter() - t0, mat.strain_limit, h)
+
+
+def _read_outs(kind: str, name: str, model: AssemblyModel, run: Any, seconds: float, strain_limit: float,
+               h: float) -> AssemblySimulation:
+    from fabpat.shell.curvature import principal_curvatures
+    from fabpat.shell.rotations import expmap
+    from fabpat.shell.strain import surface_strains
+
+    n = len(model.X)
+    fin = run.result.final
+    x = model.X + fin.displacement[:n]
+    eps = getattr(run, "element_strain", None)
+    if eps is None:
+        eps = surface_strains(model.X, model.F, model.material, x, expmap(fin.rotation[:n]))
+    comp = model.plate_of_node[:n]
+    k1, k2 = principal_curvatures(x, model.F, comp)
+    return AssemblySimulation(kind, name, model, run, seconds, np.asarray(eps), 0.5 * (k1 + k2), k1 * k2,
+                              strain_limit, h)

@@ -1,0 +1,138 @@
+"""The paper's sphere (§5, Fig. 15 right) closed by straight sleeves in the shell solver.
+
+Reference values come from outside the code under test: the truncated icosahedron's radii per edge
+(face inradius 2.2673 a, circumradius 2.4780 a; ../shared notes, "How the paper's sphere bends"), its
+icosahedral symmetry, and the joint angles 138.19° / 142.62° with straight (180°) sleeves.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fabpat.assembly.simulation import simulate_assembly
+from fabpat.assembly.spec import load_spec
+
+ROOT = Path(__file__).resolve().parents[1]
+FLAT = ROOT / "assemblies" / "truncated-icosahedron.toml"
+RIGID = ROOT / "assemblies" / "truncated-icosahedron-rigid.toml"
+INRADIUS, CIRCUMRADIUS = 2.2673, 2.4780  # × edge: hexagon face inradius, circumradius (notes)
+
+
+def with_pair(path: Path, hexagon: str, pentagon: str):  # noqa: ANN201 - an AssemblySpec
+    spec = load_spec(path)
+    return dataclasses.replace(spec, patterns=dataclasses.replace(spec.patterns, hexagon=hexagon, pentagon=pentagon))
+
+
+@pytest.fixture(scope="module")
+def shipped():  # noqa: ANN201 - AssemblySimulation
+    return simulate_assembly(load_spec(FLAT), h=3.0)
+
+
+def test_symmetry_of_the_shipped_sphere(shipped) -> None:  # noqa: ANN001
+    m = shipped.model
+    sides = np.array([len(p.mesh.interfaces) for p in m.plates])
+    energies = np.array([shipped.run.plate_energies[p.label] for p in m.plates])
+    assert (sides == 6).sum() == 20 and (sides == 5).sum() == 12
+    for n in (6, 5):
+        e = energies[sides == n]
+        assert np.ptp(e) <= 0.005 * e.mean(), (n, e.min(), e.max())
+    kind = np.array(["HH" if sides[s.slots[0][0]] == sides[s.slots[1][0]] == 6 else "HP" for s in m.sleeves])
+    assert (kind == "HH").sum() == 30 and (kind == "HP").sum() == 60
+    mom = np.array([shipped.run.sleeve_moments[s.label] for s in m.sleeves])
+    for k in ("HH", "HP"):
+        v = mom[kind == k]
+        assert v.mean() > 0 and np.ptp(v) <= 0.01 * v.mean(), (k, v.min(), v.max())
+
+
+def test_straight_sleeves_leave_the_plates_in_line(shipped) -> None:  # noqa: ANN001
+    """At every sleeve the two plates' interface segments end up at 180°: the deformed elements that
+    touch slot A and slot B have (nearly) the same normal — the plates were at 138°/143° before."""
+    m = shipped.model
+    x = shipped.deformed()
+    P = x[m.F]
+    nrm = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
+    nrm /= np.linalg.norm(nrm, axis=1)[:, None]
+    P0 = m.X[m.F]
+    n0 = np.cross(P0[:, 1] - P0[:, 0], P0[:, 2] - P0[:, 0])
+    n0 /= np.linalg.norm(n0, axis=1)[:, None]
+    before, after = [], []
+    for s in m.sleeves:
+        mean = []
+        for N in (n0, nrm):
+            side = []
+            for p, i in s.slots:
+                touch = np.isin(m.F, m.nodes(p, i)).any(axis=1)
+                v = N[touch].mean(axis=0)
+                side.append(v / np.linalg.norm(v))
+            mean.append(math.degrees(math.acos(np.clip(side[0] @ side[1], -1, 1))))
+        before.append(mean[0])
+        after.append(mean[1])
+    assert min(before) > 35.0  # 180° − 142.62° = 37.4°: the polyhedron's folds
+    assert max(after) < 3.0, max(after)
+
+
+def test_radius_between_the_polyhedron_radii(shipped) -> None:  # noqa: ANN001
+    f = shipped.fields()
+    E = _edge(shipped)
+    assert INRADIUS * E < f["radius"] < CIRCUMRADIUS * E, (f["radius"], INRADIUS * E, CIRCUMRADIUS * E)
+    assert f["sphericity_rms"] < f["sphericity_max"] < 0.05
+    assert 0.0 < f["peak_strain"] < 0.05
+    assert abs(f["reaction"]) < 1e-3  # the closure is self-equilibrated: the held sleeve carries nothing
+
+
+def _edge(sim) -> float:  # noqa: ANN001
+    """Edge a (mm) of the polyhedron the plates start on, from the sleeve centres (its edge midpoints):
+    the closest two are neighbouring edges of a pentagon, a·sin 54° = a·cos 36° apart."""
+    m = sim.model
+    sides = [len(p.mesh.interfaces) for p in m.plates]
+    mids = np.array([s.frame[:3, 3] for s in m.sleeves
+                     if 5 in (sides[s.slots[0][0]], sides[s.slots[1][0]])])
+    d = np.linalg.norm(mids[:, None] - mids[None], axis=2)
+    d[d < 1e-9] = np.inf
+    return float(d.min() / math.cos(math.radians(36.0)))
+
+
+@pytest.mark.parametrize("pair", [("0xff88", "0xff88"), ("0x0488", "0x0508")], ids=["solid", "lacy"])
+def test_solid_and_lacy_pairs_close(pair: tuple[str, str]) -> None:
+    sim = simulate_assembly(with_pair(FLAT, *pair), h=4.0)
+    f = sim.fields()
+    E = _edge(sim)
+    assert f["converged"] and INRADIUS * E < f["radius"] < CIRCUMRADIUS * E
+    assert f["energy"] > 0 and min(f["sleeve_moments"].values()) > 0
+
+
+def test_dihedral_sleeves_load_nothing() -> None:
+    f = simulate_assembly(load_spec(RIGID), h=5.0).fields()
+    assert f["energy"] < 1e-9 and max(f["sleeve_moments"].values()) < 1e-9
+    assert f["peak_strain"] < 1e-9 and f["over_limit"] == []
+
+
+def test_cli_fields_and_strain_warnings(tmp_path: Path) -> None:
+    spec = tmp_path / "tight.toml"
+    text = FLAT.read_text(encoding="utf-8")
+    spec.write_text(text.replace("strain_limit = 0.02", "strain_limit = 0.001"), encoding="utf-8")
+    assert "strain_limit = 0.001" in spec.read_text(encoding="utf-8")
+    vtu = tmp_path / "s.vtu"
+    r = subprocess.run([sys.executable, "-m", "fabpat", "simulate-assembly", str(spec), "--h", "5", "--json",
+                        "--vtu", str(vtu)], capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    row = json.loads(r.stdout)
+    for key in ("radius", "sphericity_rms", "sphericity_max", "peak_strain", "peak_strain_plate", "strain_limit",
+                "over_limit", "energy", "plate_energies", "sleeve_moments", "nodes", "dofs", "iterations"):
+        assert key in row
+    assert row["strain_limit"] == 0.001 and len(row["over_limit"]) == 32  # every plate bends past 0.1 %
+    warnings = [ln for ln in r.stderr.splitlines() if "exceeds the strain limit" in ln]
+    assert len(warnings) == 32
+    import meshio
+
+    mesh = meshio.read(vtu)
+    for name in ("mean_curvature", "gaussian_curvature", "plate"):
+        assert name in mesh.point_data and np.all(np.isfinite(mesh.point_data[name]))
