@@ -112,7 +112,10 @@ def test_cli_simulate_assembly_fields_files_and_bad_input(tmp_path) -> None:  # 
     row = json.loads(r.stdout)
     assert list(row) == ["converged", "plates", "sleeves", "nodes", "dofs", "iterations", "seconds", "energy",
                          "plate_energies", "sleeve_moments", "reaction", "max_deflection", "peak", "half_ratio",
-                         "path"]
+                         "path", "radius", "sphericity_rms", "sphericity_max", "peak_strain", "peak_strain_plate",
+                         "strain_limit", "over_limit", "factorizations", "h"]
+    assert row["radius"] is None and row["sphericity_rms"] is None  # a strip is not closed
+    assert 0 < row["peak_strain"] < row["strain_limit"] and row["over_limit"] == []
     assert row["converged"] is True and row["plates"] == 3 and row["sleeves"] == 2
     assert list(row["plate_energies"]) == ["T1", "T2", "T3"] and list(row["sleeve_moments"]) == ["E1", "E2"]
     assert sum(row["plate_energies"].values()) == pytest.approx(row["energy"])
@@ -131,8 +134,9 @@ def test_cli_simulate_assembly_fields_files_and_bad_input(tmp_path) -> None:  # 
                        (("--end-shortening", "0.5"), "--end-shortening"), (("--h", "8"), "too coarse")):
         bad = run_cli("simulate-assembly", spec, *args, "--png", str(out))
         assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and word in bad.stderr, bad.stderr
-    bad = run_cli("simulate-assembly", spec.replace("test-small", "truncated-icosahedron"), "--png", str(out))
-    assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and "honeycomb-strip" in bad.stderr
+    bad = run_cli("simulate-assembly", spec.replace("test-small", "truncated-icosahedron"), "--imperfection", "0.1",
+                  "--png", str(out))
+    assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and "no buckle" in bad.stderr, bad.stderr
     assert not out.exists() and not list(tmp_path.glob("*.tmp*"))
 
 

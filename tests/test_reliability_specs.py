@@ -66,7 +66,7 @@ def test_count_beside_hexagon_is_refused_like_groups(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize("changes, words", [
-    ({"depth": "0.001"}, ("sleeve.depth = 0.001", "must be ≥ 1.49 mm", "sleeve.wall")),
+    ({"depth": "0.001"}, ("sleeve.depth = 0.001", "must be ≥ 1.44 mm", "sleeve.wall")),
     # values inside the keys' physical ranges (fabpat.validate: edge ≥ 1 mm, weight ≤ 10) that break
     # the geometric bounds; 0.001 and 1e6 are refused by those ranges first (tests/test_reliability.py)
     ({"edge": "2"}, ("tiling.edge = 2", "must be ≥ 3.8 mm", "sleeve.margin")),

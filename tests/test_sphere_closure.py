@@ -136,3 +136,30 @@ def test_cli_fields_and_strain_warnings(tmp_path: Path) -> None:
     mesh = meshio.read(vtu)
     for name in ("mean_curvature", "gaussian_curvature", "plate"):
         assert name in mesh.point_data and np.all(np.isfinite(mesh.point_data[name]))
+
+
+def test_the_similar_energy_pair_is_rounder() -> None:
+    """The paper's claim (§5) as a number: the shipped pair, whose Dome energies in the catalog differ by
+    1.45×, closes rounder than a pair differing by ≥ 3× (0x0488 hexagons with 0x2f88 pentagons)."""
+    import fabpat
+
+    dome = {r["id"]: r["energy_dome"] for r in fabpat.catalog(sides=6)}
+    spec = load_spec(FLAT)
+    similar = (spec.patterns.hexagon, spec.patterns.pentagon)
+    differing = ("0x0488", "0x2f88")
+    ratio = [max(dome[a], dome[b]) / min(dome[a], dome[b]) for a, b in (similar, differing)]
+    assert ratio[0] < 1.5 and ratio[1] >= 3.0
+    rms = [simulate_assembly(with_pair(FLAT, *pair), h=4.0).fields()["sphericity_rms"] for pair in (similar, differing)]
+    assert rms[0] < 0.5 * rms[1], rms
+
+
+def test_mesh_study_of_the_shipped_sphere(shipped) -> None:  # noqa: ANN001
+    """h = 3 (the fixture), 2 and 1.5 mm: the radius moves < 0.5 % and sphericity_rms < 10 % between the
+    two finest meshes (and the peak strain stays under the limit on all three)."""
+    spec = load_spec(FLAT)
+    rows = [shipped.fields()] + [simulate_assembly(spec, h=h).fields() for h in (2.0, 1.5)]
+    assert [r["h"] for r in rows] == [3.0, 2.0, 1.5]
+    assert rows[2]["nodes"] > rows[1]["nodes"] > rows[0]["nodes"]
+    assert abs(rows[2]["radius"] / rows[1]["radius"] - 1) < 0.005
+    assert abs(rows[2]["sphericity_rms"] / rows[1]["sphericity_rms"] - 1) < 0.10
+    assert all(r["over_limit"] == [] for r in rows)

@@ -34,9 +34,11 @@ PNG_FIELDS = ("energy", "mean_curvature", "gaussian_curvature", "strain")
 
 @dataclass(frozen=True, eq=False)
 class AssemblySimulation:
-    """The solved assembly: ``kind``, the ``model``, the solver's run (a StripRun or ClosureRun) and
-    per-node ``mean_curvature``/``gaussian_curvature`` (1/mm, 1/mm², deformed mid-surface) and
-    per-element ``element_strain`` (peak surface strain) of the final state."""
+    """The solved assembly: ``kind``, the ``model``, the solver's run (a StripRun or ClosureRun),
+    ``curvature`` the point fields of :func:`fabpat.shell.curvature.curvature_fields` of the deformed
+    mid-surface (``mean_curvature`` 1/mm, ``gaussian_curvature`` 1/mm², ``curvature_fitted``; signed
+    positive where a plate bends away from the closed assembly's centre, i.e. convex outwards) and
+    per-element ``element_strain`` (peak surface strain, :func:`fabpat.shell.strain.surface_strains`)."""
 
     kind: str
     name: str
@@ -44,8 +46,7 @@ class AssemblySimulation:
     run: Any
     seconds: float
     element_strain: Arr
-    mean_curvature: Arr
-    gaussian_curvature: Arr
+    curvature: dict[str, Arr]
     strain_limit: float
     h: float
 
@@ -72,15 +73,15 @@ class AssemblySimulation:
         worst = max(peak, key=lambda k: peak[k])
         row: dict[str, Any] = {
             "converged": True, "plates": len(m.plates), "sleeves": len(m.sleeves), "nodes": m.n_nodes,
-            "dofs": res.dofs, "iterations": res.iterations, "factorizations": res.factorizations,
-            "seconds": self.seconds, "h": self.h, "energy": r.energy, "plate_energies": r.plate_energies,
-            "sleeve_moments": r.sleeve_moments, "reaction": r.reaction, "max_deflection": r.max_deflection,
-            "peak": None if self.closed else r.peak, "half_ratio": None if self.closed else r.half_ratio,
+            "dofs": res.dofs, "iterations": res.iterations, "seconds": self.seconds, "energy": r.energy,
+            "plate_energies": r.plate_energies, "sleeve_moments": r.sleeve_moments, "reaction": r.reaction,
+            "max_deflection": r.max_deflection, "peak": None if self.closed else r.peak,
+            "half_ratio": None if self.closed else r.half_ratio, "path": r.path,
             "radius": r.radius if self.closed else None,
             "sphericity_rms": r.sphericity_rms if self.closed else None,
             "sphericity_max": r.sphericity_max if self.closed else None,
             "peak_strain": peak[worst], "peak_strain_plate": worst, "strain_limit": self.strain_limit,
-            "over_limit": self.over_limit(), "path": r.path,
+            "over_limit": self.over_limit(), "factorizations": res.factorizations, "h": self.h,
         }
         return row
 
@@ -97,9 +98,22 @@ class AssemblySimulation:
 
         m = self.model
         write_vtu(path, m.X, m.F, self.shell_result(),
-                  point_data={"plate": m.plate_of_node[: len(m.X)].astype(np.int64),
-                              "mean_curvature": self.mean_curvature, "gaussian_curvature": self.gaussian_curvature},
+                  point_data={"plate": m.plate_of_node[: len(m.X)].astype(np.int64), **self.curvature},
                   cell_data={"surface_strain": self.element_strain})
+
+    def to_png(self, path: str | os.PathLike[str], field: str = "energy") -> None:
+        """A strip: its deflection profile and reaction curve; a closed assembly: the bent shape
+        coloured by ``field`` (one of :data:`PNG_FIELDS`). Raises SpecError for another field."""
+        if not self.closed:
+            from fabpat.assembly.simulate import write_profiles_png
+
+            write_profiles_png(path, [(self.name, self.run)])
+            return
+        if field not in PNG_FIELDS:
+            raise SpecError(f"png field must be one of {', '.join(PNG_FIELDS)}, got {field!r}")
+        from fabpat.assembly.preview import render_prediction_png
+
+        render_prediction_png(self, path, field)
 
     def shell_result(self) -> Any:
         """The final state of the plates as a :class:`fabpat.shell.ShellResult`."""
@@ -160,7 +174,7 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
 
 def _read_outs(kind: str, name: str, model: AssemblyModel, run: Any, seconds: float, strain_limit: float,
                h: float) -> AssemblySimulation:
-    from fabpat.shell.curvature import principal_curvatures
+    from fabpat.shell.curvature import curvature_fields
     from fabpat.shell.rotations import expmap
     from fabpat.shell.strain import surface_strains
 
@@ -170,7 +184,8 @@ def _read_outs(kind: str, name: str, model: AssemblyModel, run: Any, seconds: fl
     eps = getattr(run, "element_strain", None)
     if eps is None:
         eps = surface_strains(model.X, model.F, model.material, x, expmap(fin.rotation[:n]))
-    comp = model.plate_of_node[:n]
-    k1, k2 = principal_curvatures(x, model.F, comp)
-    return AssemblySimulation(kind, name, model, run, seconds, np.asarray(eps), 0.5 * (k1 + k2), k1 * k2,
-                              strain_limit, h)
+    centre = getattr(run, "centre", None)
+    if centre is None:  # a strip: its plates bend away from a point far below (the arch is convex upwards)
+        centre = model.X.mean(axis=0) - np.array([0.0, 0.0, 1e6])
+    curv = curvature_fields(x, model.F, model.plate_of_node[:n], center=centre)
+    return AssemblySimulation(kind, name, model, run, seconds, np.asarray(eps), curv, strain_limit, h)
