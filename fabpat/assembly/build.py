@@ -16,7 +16,6 @@ and a block per part type, block instances), ``sheets/sheet-NN.dxf``,
 from __future__ import annotations
 
 import contextlib
-import functools
 import json
 import math
 import os
@@ -78,33 +77,6 @@ def _energies(spec: AssemblySpec, sides: int) -> dict[str, float]:
     return dict(found)
 
 
-@functools.lru_cache(maxsize=8)
-def _roundest_cached(spec: AssemblySpec, energies: tuple[tuple[str, float], ...],
-                     pentagon: tuple[tuple[str, float], ...] | None) -> tuple[tuple[str, str], tuple[Any, ...]]:
-    from fabpat.assembly import rules
-    from fabpat.assembly.roundest import roundest_pair
-
-    hexagon, pent = dict(energies), dict(pentagon) if pentagon else None
-    pairs = rules.similar_pairs(hexagon, pent, spec.patterns.candidates)
-    pair, trials = roundest_pair(spec, pairs, hexagon, pent or hexagon)
-    return pair, tuple(trials)
-
-
-def choose_roundest(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | None = None
-                    ) -> tuple[tuple[str, str], tuple[Any, ...]]:
-    """``rule = "roundest"``: the (hexagon, pentagon) pair chosen in the solver and every
-    :class:`~fabpat.assembly.roundest.PairTrial`, from the ``candidates`` best pairs of
-    :func:`fabpat.assembly.rules.similar_pairs` (cached per spec: a kit asks twice)."""
-    get = energies or (lambda n: _energies(spec, n))
-    hexagon = get(6)
-    try:
-        pentagon: dict[str, float] | None = get(5) or None
-    except (FabpatError, KeyError, ValueError):
-        pentagon = None  # a catalog of hexagons only: compare in the hexagon scenario
-    return _roundest_cached(spec, tuple(sorted(hexagon.items())),
-                            tuple(sorted(pentagon.items())) if pentagon else None)
-
-
 def face_patterns(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | None = None) -> list[str]:
     """Pattern ID of every face of the spec's tiling (face order of :func:`build_tiling`).
 
@@ -126,9 +98,6 @@ def face_patterns(spec: AssemblySpec, energies: Callable[[int], dict[str, float]
             except (FabpatError, KeyError, ValueError):
                 pentagon = None  # a catalog of hexagons only: compare in the hexagon scenario
             hid, pid = rules.similar_pair(hexagon, pentagon)
-            return [hid if len(f) == 6 else pid for f in tiling.faces]
-        elif p.rule == "roundest":
-            hid, pid = choose_roundest(spec, get)[0]
             return [hid if len(f) == 6 else pid for f in tiling.faces]
         else:
             groups = list(p.groups)
