@@ -10,6 +10,8 @@ The Python front door (everything is imported on first use, so ``import fabpat``
     fp.export("p.step")                                   # .step .stl .3mf .dxf .svg, by suffix
     r = fabpat.simulate(fp, "dome")                       # r.energy (N·mm), r.to_vtu("dome.vtu")
     rows = fabpat.catalog()                               # the built-in catalog; rows.to_dataframe()
+    sim = fabpat.simulate_assembly("assemblies/truncated-icosahedron.toml")  # the sphere, closed
+    sim.fields()["sphericity_rms"]                        # and every simulate-assembly field
 
 ``fabpat.library``, ``fabpat.pattern`` and ``fabpat.catalog`` are also the submodules of those names:
 calling one calls :func:`fabpat.library.library`, :func:`fabpat.library.pattern` or
@@ -26,6 +28,7 @@ _LAZY = {
     "pattern": "fabpat.pattern",
     "catalog": "fabpat.catalog",
     "simulate": "fabpat.scenarios:simulate",
+    "simulate_assembly": "fabpat.assembly.simulation:simulate_assembly",
     "Library": "fabpat.library:Library",
     "Pattern": "fabpat.pattern:Pattern",
     "FilletedPattern": "fabpat.fillet:FilletedPattern",
