@@ -147,7 +147,7 @@ def test_bom(kit: tuple[Path, list[str]]) -> None:
     assert by["S-flat"]["file"].endswith(".stl") and (kit[0] / by["S-flat"]["file"]).is_file()
     assert not any(r["file"].endswith(".stl") for r in rows if r["process"] == "laser")
     md = (kit[0] / "bom.md").read_text()
-    assert "| E1 | S-flat | 180.00 | T1 (2) | T2 (5) |" in md and "Pinned interfaces" in md
+    assert "| E1 | S-flat | 180.00 | 180.00 | T1 (2) | T2 (5) |" in md and "Pinned interfaces" in md
 
 
 def test_png(kit: tuple[Path, list[str]]) -> None:

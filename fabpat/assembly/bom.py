@@ -102,8 +102,12 @@ def bom_csv(rows: list[BomRow]) -> str:
     return buf.getvalue()
 
 
-def bom_markdown(lib: PartLibrary, rows: list[BomRow], nesting: Nesting | None, checks: list[str]) -> str:
-    """The BOM as Markdown: parts table, totals, assumptions, sheets, joints (what joins what), checks."""
+def bom_markdown(lib: PartLibrary, rows: list[BomRow], nesting: Nesting | None, checks: list[str],
+                 moments: dict[str, float] | None = None, candidates: list[dict] | None = None) -> str:
+    """The BOM as Markdown: parts table, totals, assumptions, sheets, joints (what joins what: the joint's
+    skeleton dihedral angle, the angle its sleeve is printed at and, given the predicted closure's
+    ``moments`` {joint label: N·mm}, the moment the sleeve holds), the pattern pairs ``rule = "roundest"``
+    tried (``candidates``, the records of :func:`fabpat.assembly.predict.choose_roundest`), checks."""
     asm = lib.assembly
     spec = asm.spec
     out = [f"# Bill of materials — {spec.name}", "",
@@ -132,14 +136,32 @@ def bom_markdown(lib: PartLibrary, rows: list[BomRow], nesting: Nesting | None, 
         out.append("")
     out += ["## Joints", "",
             "A joint's label is engraved on both plates it joins, next to the interface its sleeve grips.", "",
-            "| joint | sleeve | dihedral (°) | plate A (edge) | plate B (edge) |", "|---|---|---:|---|---|"]
+            "| joint | sleeve | dihedral (°) | sleeve angle (°) | plate A (edge) | plate B (edge) |"
+            + (" sleeve moment (N·mm) |" if moments else ""),
+            "|---|---|---:|---:|---|---|" + ("---:|" if moments else "")]
     for s in asm.sleeves:
         (pa, ia), (pb, ib) = s.plates
-        phi = math.degrees(asm.sleeve_types[s.kind].dihedral)
         a, b = asm.plates[pa].label, asm.plates[pb].label
-        out.append(f"| {s.label} | {s.kind} | {phi:.2f} | {a} ({ia}) | {b} ({ib}) |")
+        out.append(f"| {s.label} | {s.kind} | {math.degrees(s.dihedral):.2f} | {math.degrees(s.angle):.2f} | "
+                   f"{a} ({ia}) | {b} ({ib}) |" + (f" {moments[s.label]:.3g} |" if moments else ""))
+    if moments:
+        out += ["", "Sleeve moment: the moment (N·mm) each sleeve transmits between its plates once the sleeves "
+                "have closed the object (predicted, prediction.json)."]
     if asm.pins:
         pins = ", ".join(f"{asm.plates[f].label} ({i})" for f, i in asm.pins)
         out += ["", f"Pinned interfaces (both ends of the strip): {pins}."]
+    if candidates:
+        out += ["", "## Pattern pairs tried (rule = roundest)", "",
+                "Each pair closed in the shell solver; kept: the roundest (smallest sphericity rms) whose plates "
+                "all stay under material.strain_limit.", "",
+                "| hexagon | pentagon | radius (mm) | sphericity rms (%) | peak strain | plates over the limit | "
+                "kept |", "|---|---|---:|---:|---:|---:|---|"]
+        for c in candidates:
+            if "error" in c:
+                out.append(f"| {c['hexagon']} | {c['pentagon']} | not built: {c['error']} | | | | |")
+            else:
+                out.append(f"| {c['hexagon']} | {c['pentagon']} | {c['radius']:.2f} | "
+                           f"{100 * c['sphericity_rms']:.3f} | {c['peak_strain']:.4g} | {c['plates_over_limit']} | "
+                           f"{'yes' if c['chosen'] else ''} |")
     out += ["", "## Checks", ""] + [f"- {line}" for line in checks] + [""]
     return "\n".join(out)

@@ -11,6 +11,18 @@ Folder contents: ``assembly.step``, ``parts/*.stl``, ``assembly.glb``, ``assembl
 and a block per part type, block instances), ``sheets/sheet-NN.dxf``,
 ``net.svg``, ``assembly.png``, ``bom.csv``, ``bom.md`` (each as the spec's formats ask) and
 ``manifest.json`` (files, counts, check results).
+
+**Bent sleeves** (``[sleeve] angle`` other than the joints' dihedral angles, e.g. the paper's sphere of
+straight sleeves): the plates bend when the sleeves close the object, so the kit predicts that shape
+first (:mod:`fabpat.assembly.closure`, mesh edge ``predict_h``, default :data:`PREDICT_H`) and refuses
+a kit whose plates would exceed ``[material] strain_limit`` (``force`` builds it with a warning per
+plate). The kit then holds ``prediction.json`` (the ``simulate-assembly`` fields), ``predicted.stl``
+(the predicted object as closed meshes), ``assembly.glb``/``assembly.png`` of the predicted shape
+(:mod:`fabpat.assembly.preview`), and the exact flat parts side by side as ``parts.step`` and
+``parts.3dm`` instead of ``assembly.step``/``assembly.3dm`` (flat parts placed on the polyhedron are
+not the object). Without the prediction (``predict=False``, ``--no-predict``) nothing shows the
+assembled shape: ``assembly.glb``/``assembly.png``/``predicted.stl`` are not written and the manifest
+says so.
 """
 
 from __future__ import annotations
@@ -28,23 +40,32 @@ from typing import Any
 
 from fabpat.assembly.checks import CheckReport, check_assembly
 from fabpat.assembly.placement import Assembly, PlateType, build_tiling, check_geometry, check_necks, place
+from fabpat.assembly.predict import PREDICT_H, Prediction, bent, finish, strain_problems
+from fabpat.assembly.predict import predict as predict_kit
 from fabpat.assembly.spec import AssemblySpec, load_spec
 from fabpat.errors import ExportError, FabpatError, SpecError
 from fabpat.io import remove_stale_temps, temp_prefix, write_error
 
 MANIFEST = "manifest.json"
 GENERATOR = "fabpat assemble"
+PREDICTION = "prediction.json"
+NOT_NEEDED = "not needed: the sleeves are at the dihedral angles (the plates stay flat)"
+SKIPPED = "skipped (--no-predict)"
 
 
 @dataclass(frozen=True)
 class AssembleResult:
-    """What :func:`assemble` wrote: ``out`` folder, ``files`` relative to it, the checks' report."""
+    """What :func:`assemble` wrote: ``out`` folder, ``files`` relative to it, the checks' report;
+    ``prediction`` the ``prediction.json`` record (None without a prediction) and ``notes`` its summary
+    lines (radius, sphericity, peak strain, how the sleeves fit the bent joints)."""
 
     out: Path
     files: tuple[str, ...]
     report: CheckReport
     sheets: int
     warnings: tuple[str, ...] = ()
+    prediction: dict[str, Any] | None = None
+    notes: tuple[str, ...] = ()
 
 
 # -- choosing the patterns --------------------------------------------------------------------------
@@ -77,11 +98,38 @@ def _energies(spec: AssemblySpec, sides: int) -> dict[str, float]:
     return dict(found)
 
 
+def _pair_energies(get: Callable[[int], dict[str, float]]) -> tuple[dict[str, float], dict[str, float] | None]:
+    """Hexagon and pentagon energies for a sphere rule; None for the pentagons when the catalog has none."""
+    try:
+        pentagon: dict[str, float] | None = get(5) or None
+    except (FabpatError, KeyError, ValueError):
+        pentagon = None  # a catalog of hexagons only: compare in the hexagon scenario
+    return get(6), pentagon
+
+
+def candidate_pairs(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | None = None
+                    ) -> list[tuple[str, str]]:
+    """``rule = "roundest"``: the ``patterns.candidates`` (hexagon ID, pentagon ID) pairs of similar energy
+    to try, best first (:func:`fabpat.assembly.rules.similar_pairs`). Raises :class:`SpecError`."""
+    from fabpat.assembly import rules
+
+    p = spec.patterns
+    get = energies or (lambda n: _energies(spec, n))
+    try:
+        return rules.similar_pairs(*_pair_energies(get), p.candidates)
+    except SpecError as e:
+        if str(e).startswith(spec.source):
+            raise
+        raise SpecError(f"{spec.source}: patterns.rule = {p.rule!r}, scenario {p.scenario!r}: {e}") from e
+
+
 def face_patterns(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | None = None) -> list[str]:
     """Pattern ID of every face of the spec's tiling (face order of :func:`build_tiling`).
 
     ``energies(sides)`` supplies ``{ID: energy}`` for the spec's scenario when a rule is used
     (default: the catalog). Graded strips go stiff (small energy) at column 0 → soft at the end.
+    ``rule = "roundest"`` gives its first candidate, the similar-energy pair (no solver here:
+    :func:`assemble` closes the sphere with each candidate, :func:`candidate_pairs`).
     """
     from fabpat.assembly import rules
 
@@ -91,13 +139,8 @@ def face_patterns(spec: AssemblySpec, energies: Callable[[int], dict[str, float]
     try:
         if p.rule == "graded":
             groups = rules.graded(get(6), p.count)
-        elif p.rule == "similar-energy":
-            hexagon = get(6)
-            try:
-                pentagon: dict[str, float] | None = get(5) or None
-            except (FabpatError, KeyError, ValueError):
-                pentagon = None  # a catalog of hexagons only: compare in the hexagon scenario
-            hid, pid = rules.similar_pair(hexagon, pentagon)
+        elif p.rule in ("similar-energy", "roundest"):
+            hid, pid = rules.similar_pair(*_pair_energies(get))
             return [hid if len(f) == 6 else pid for f in tiling.faces]
         else:
             groups = list(p.groups)
@@ -119,18 +162,21 @@ def face_patterns(spec: AssemblySpec, energies: Callable[[int], dict[str, float]
 
 
 def plan(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | None = None,
-         progress: Callable[[str], None] | None = None) -> tuple[Assembly, dict[PlateType, Any]]:
+         progress: Callable[[str], None] | None = None,
+         ids: list[str] | None = None) -> tuple[Assembly, dict[PlateType, Any]]:
     """The placed assembly and the filleted outline of each distinct plate; no B-rep, no files.
 
-    Raises :class:`SpecError` when a plate's neck does not fit the sleeve's slot.
+    ``ids``: the face pattern IDs, if already chosen (else :func:`face_patterns`, progress step
+    "patterns"). Raises :class:`SpecError` when a plate's neck does not fit the sleeve's slot.
     """
     from fabpat.fillet import fillet_pattern
     from fabpat.library import get_pattern
 
     tell = progress or (lambda _step: None)
     check_geometry(spec)
-    tell("patterns")
-    ids = face_patterns(spec, energies)
+    if ids is None:
+        tell("patterns")
+        ids = face_patterns(spec, energies)
     tell("placement")
     assembly = place(spec, ids)
     filleted = {pt: fillet_pattern(get_pattern(pt.pattern_id, pt.sides, pt.depth, assembly.plate_edge),
@@ -194,27 +240,54 @@ def _swap_in(tmp: Path, out: Path) -> None:
 # -- the whole thing --------------------------------------------------------------------------------
 
 
-def steps(spec: AssemblySpec) -> list[str]:
-    """Names of the progress steps for this spec, in order."""
+def bends(spec: AssemblySpec) -> bool:
+    """:func:`bent` from the spec alone: its sleeves placed (cheap: no pattern is filleted; the angles do not
+    depend on the patterns). Raises :class:`SpecError` as :func:`check_geometry`."""
+    check_geometry(spec)
+    faces = build_tiling(spec).faces
+    return bent(place(spec, ["0x0488"] * len(faces)))
+
+
+def steps(spec: AssemblySpec, predict: bool = True) -> list[str]:
+    """Names of the progress steps for this spec, in order (``predict``: as :func:`assemble`'s).
+
+    With ``rule = "roundest"`` the prediction (every candidate's closure) comes right after "patterns":
+    it chooses them."""
     f = spec.formats
     names = ["patterns", "placement", "nesting", "net", "checks"]
+    show = True
+    if bends(spec):
+        if predict:
+            names.insert(1 if spec.patterns.rule == "roundest" else len(names), "prediction")
+        show = predict  # no prediction: no picture of the assembled shape
     names += [n for n, want in (("STEP", "step"), ("STL", "stl"), ("GLB", "glb"), ("3DM", "3dm"),
                                 ("sheets", "dxf"),
-                                ("net SVG", "svg"), ("PNG", "png"), ("BOM", "bom")) if want in f]
+                                ("net SVG", "svg"), ("PNG", "png"), ("BOM", "bom"))
+              if want in f and (show or n not in ("GLB", "PNG"))]
     return names
 
 
 def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike[str],
              progress: Callable[[str], None] | None = None, timestamp: str | None = None,
-             energies: Callable[[int], dict[str, float]] | None = None, force: bool = False) -> AssembleResult:
+             energies: Callable[[int], dict[str, float]] | None = None, force: bool = False,
+             predict: bool = True, predict_h: float = PREDICT_H,
+             predict_progress: Callable[[float], None] | None = None) -> AssembleResult:
     """Build and check the assembly of ``spec``, then write every requested output into ``out``.
 
     ``progress(step)`` is called as each step of :func:`steps` starts. ``timestamp`` fixes the
     STEP header time (ISO 8601, checked first). Plates too narrow for their process
     (:func:`fabrication_problems`, the checks of ``fabpat export``) are refused with an
     :class:`ExportError`, or with ``force`` built anyway and listed in ``AssembleResult.warnings``.
-    Raises :class:`SpecError` / :class:`GeometryError` / :class:`ExportError`; on any error ``out`` is
-    untouched and no temporary folder is left.
+
+    With bent sleeves (:func:`bent`) and ``predict``, the closure is solved at mesh edge ``predict_h``
+    (mm; ``predict_progress(λ)`` after each report step of it) before any file is written; plates whose
+    peak strain exceeds ``[material] strain_limit`` are refused with an :class:`ExportError` naming the
+    worst, or with ``force`` listed in the warnings. ``rule = "roundest"`` closes the sphere with each of
+    its ``patterns.candidates`` pairs (:func:`candidate_pairs`) and builds the roundest under the limit
+    (:func:`fabpat.assembly.predict.choose_roundest`; the pairs tried go to the manifest's
+    ``candidates`` and the BOM); it needs bent sleeves and ``predict``. Raises :class:`SpecError` /
+    :class:`GeometryError` (``predict_h`` too coarse) / :class:`ExportError` / :class:`SolverError` (the
+    closure's path lost); on any error ``out`` is untouched and no temporary folder is left.
     """
     from fabpat.assembly.nesting import check_nesting
     from fabpat.assembly.net import unfold
@@ -223,6 +296,10 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
     from fabpat.exchange.step import check_timestamp
 
     timestamp = check_timestamp(timestamp)
+    if predict:
+        from fabpat.validate import check
+
+        check("h", predict_h, "predict_h")
     if not isinstance(spec, AssemblySpec):
         spec = load_spec(spec)
     out = Path(out)
@@ -230,7 +307,10 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
     tell = progress or (lambda _step: None)
     f = spec.formats
 
-    assembly, filleted = plan(spec, energies, tell)
+    ids, chosen, tried = None, None, None
+    if spec.patterns.rule == "roundest":
+        ids, chosen, tried = _roundest(spec, energies, tell, predict, predict_h, force, predict_progress)
+    assembly, filleted = plan(spec, energies, tell, ids)
     problems = fabrication_problems(spec, filleted)
     if problems and not force:
         more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
@@ -250,16 +330,42 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
         check_lines.append(f"{nesting.n_sheets} sheet(s), no overlaps: smallest gap between plates {gap}")
     if net is not None:
         check_lines.append(f"net without overlaps ({len(net.folds)} folds)")
+    prediction: Prediction | None = None
+    notes: list[str] = []
+    if bent(assembly) and predict:
+        if chosen is None:
+            tell("prediction")
+            prediction = predict_kit(spec, assembly, predict_h, predict_progress)
+        else:
+            prediction = finish(chosen[0], assembly, predict_h, chosen[1])
+        problems += strain_problems(spec, prediction.run, force)
+        fit, run = prediction.fit, prediction.run
+        notes.append(f"predicted shape (h = {predict_h:g} mm): radius {run.radius:.2f} mm, sphericity rms "
+                     f"{100 * run.sphericity_rms:.2f} % (max {100 * run.sphericity_max:.2f} %), peak strain "
+                     f"{run.peak_strain:.4g} on {run.peak_strain_plate} (material.strain_limit = "
+                     f"{run.strain_limit:g}), largest sleeve moment {max(run.sleeve_moments.values()):.3g} N·mm")
+        notes.append(f"predicted shape: sleeves grip the deformed plates, interface nodes within {fit[0]:.1e} mm "
+                     f"of their slots' mid-planes and {fit[1]:.1e} mm of the slots")
+        check_lines += notes
+    status = (NOT_NEEDED if not bent(assembly) else PREDICTION if prediction is not None else SKIPPED)
 
     parent = out.parent if str(out.parent) else Path(".")
     remove_stale_temps(parent)  # the temporary folders of a killed earlier run
     tmp = Path(tempfile.mkdtemp(prefix=temp_prefix(out.name), suffix=".part", dir=parent))
     try:
-        files = _write_all(spec, lib, nesting, net, check_lines, tmp, tell, timestamp)
+        files = _write_all(spec, lib, nesting, net, check_lines, tmp, tell, timestamp, bent(assembly), prediction,
+                           tried)
         manifest = {"generator": GENERATOR, "spec": spec.name, "source": spec.source, "files": files,
                     "counts": assembly.counts(), "sheets": nesting.n_sheets if nesting else 0,
                     "skeleton_edge_mm": round(assembly.skeleton.edge_length(), 6), "checks": check_lines,
-                    "warnings": problems}
+                    "warnings": problems, "prediction": status}
+        if tried is not None:
+            manifest["candidates"] = tried
+        if bent(assembly):
+            manifest["shape"] = (f"assembly.glb, assembly.png and predicted.stl show the predicted bent shape "
+                                 f"({PREDICTION}); parts.step and parts.3dm hold the flat parts" if prediction else
+                                 "not predicted (--no-predict): no file shows the assembled shape; the flat parts "
+                                 "bend when the sleeves close the object (parts.step, parts.3dm)")
         (tmp / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
         os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes 0700 folders; give the user's usual permissions
         _swap_in(tmp, out)
@@ -269,7 +375,42 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
-    return AssembleResult(out, (*files, MANIFEST), report, nesting.n_sheets if nesting else 0, tuple(problems))
+    record = None
+    if prediction is not None:
+        from fabpat.assembly.preview import prediction_record
+
+        record = prediction_record(prediction.run, prediction.seconds, prediction.h)
+    return AssembleResult(out, (*files, MANIFEST), report, nesting.n_sheets if nesting else 0, tuple(problems),
+                          record, tuple(notes))
+
+
+def _roundest(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | None, tell: Callable[[str], None],
+              predict: bool, h: float, force: bool, progress: Callable[[float], None] | None
+              ) -> tuple[list[str], tuple[Any, float], list[dict[str, Any]]]:
+    """``rule = "roundest"``: the candidates' closures (:func:`fabpat.assembly.predict.choose_roundest`);
+    returns the chosen face IDs, (its ClosureRun, seconds) and the pairs tried."""
+    from fabpat.assembly.predict import choose_roundest
+
+    src = spec.source
+    if not bends(spec):
+        raise SpecError(f"{src}: patterns.rule = 'roundest' compares the bent spheres of its candidates, but "
+                        f"sleeve.angle = {spec.sleeve.angle!r} leaves the plates flat: use rule = "
+                        "'similar-energy' or sleeve.angle = 'flat'")
+    if not predict:
+        raise SpecError(f"{src}: patterns.rule = 'roundest' chooses the patterns by predicting the closed sphere: "
+                        "drop --no-predict or use rule = 'similar-energy'")
+    tell("patterns")
+    pairs = candidate_pairs(spec, energies)
+    tell("prediction")
+    faces = [len(f) for f in build_tiling(spec).faces]
+
+    def fits(ids: list[str]) -> None:  # a pair the kit would refuse is not a candidate
+        problems = fabrication_problems(spec, plan(spec, ids=ids)[1])
+        if problems and not force:
+            raise ExportError(problems[0])
+
+    ids, run, seconds, tried = choose_roundest(spec, pairs, faces, h, force, fits, progress)
+    return ids, (run, seconds), tried
 
 
 def _umask() -> int:
@@ -279,8 +420,13 @@ def _umask() -> int:
 
 
 def _write_all(spec: AssemblySpec, lib: Any, nesting: Any, net: Any, check_lines: list[str], tmp: Path,
-               tell: Callable[[str], None], timestamp: str | None) -> list[str]:
-    """Write every requested file into ``tmp``; returns their paths relative to it."""
+               tell: Callable[[str], None], timestamp: str | None, bent_sleeves: bool = False,
+               prediction: Prediction | None = None, candidates: list[dict[str, Any]] | None = None) -> list[str]:
+    """Write every requested file into ``tmp``; returns their paths relative to it.
+
+    With ``bent_sleeves`` the STEP and 3DM hold the flat parts side by side (``parts.*``) and the GLB,
+    PNG (and ``predicted.stl``, ``prediction.json``) show the ``prediction``, or are left out without it.
+    """
     from fabpat.assembly import export
 
     asm: Assembly = lib.assembly
@@ -288,26 +434,43 @@ def _write_all(spec: AssemblySpec, lib: Any, nesting: Any, net: Any, check_lines
     files: list[str] = []
     stl_files: dict[str, str] = {}
     sheet_files: list[str] = []
+    layout = export.flat_layout(lib) if bent_sleeves else None
+    if prediction is not None:
+        from fabpat.assembly.preview import prediction_record, write_predicted_stl
+
+        record = prediction_record(prediction.run, prediction.seconds, prediction.h)
+        (tmp / PREDICTION).write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
+        write_predicted_stl(prediction.shape, lib, tmp / "predicted.stl", spec.mesh_tolerance)
+        files += [PREDICTION, "predicted.stl"]
     if "step" in f:
         tell("STEP")
-        export.write_step_assembly(lib, tmp / "assembly.step", spec.name, timestamp)
-        files.append("assembly.step")
+        name = "parts.step" if bent_sleeves else "assembly.step"
+        export.write_step_assembly(lib, tmp / name, spec.name, timestamp, layout)
+        files.append(name)
     if "stl" in f:
         tell("STL")
         (tmp / "parts").mkdir()
         for key, path in export.write_part_stls(lib, tmp / "parts", spec.mesh_tolerance).items():
             stl_files[key] = f"parts/{path.name}"
         files += list(stl_files.values())
-    if "glb" in f:
+    show = not bent_sleeves or prediction is not None
+    if "glb" in f and show:
         tell("GLB")
-        export.write_glb(lib, tmp / "assembly.glb")
+        if prediction is not None:
+            from fabpat.assembly.parts import CHECK_TOLERANCE
+            from fabpat.assembly.preview import write_predicted_glb
+
+            write_predicted_glb(prediction.shape, lib, tmp / "assembly.glb", spec.name, CHECK_TOLERANCE)
+        else:
+            export.write_glb(lib, tmp / "assembly.glb")
         files.append("assembly.glb")
     if "3dm" in f:
         tell("3DM")
         from fabpat.exchange.rhino import write_assembly
 
-        write_assembly(lib, tmp / "assembly.3dm", spec.name, spec.mesh_tolerance)
-        files.append("assembly.3dm")
+        name = "parts.3dm" if bent_sleeves else "assembly.3dm"
+        write_assembly(lib, tmp / name, spec.name, spec.mesh_tolerance, layout)
+        files.append(name)
     if "dxf" in f:
         tell("sheets")
         from fabpat.assembly.sheets import write_sheets
@@ -325,11 +488,17 @@ def _write_all(spec: AssemblySpec, lib: Any, nesting: Any, net: Any, check_lines
                       f"{spec.name}: net", [cols[p.type.label] for p in asm.plates])
         (tmp / "net.svg").write_text(svg, encoding="utf-8")
         files.append("net.svg")
-    if "png" in f:
+    if "png" in f and show:
         tell("PNG")
-        from fabpat.assembly.render import render_png
+        if prediction is not None:
+            from fabpat.assembly.preview import prediction_title, render_predicted_png
 
-        render_png(lib, tmp / "assembly.png", spec.name)
+            render_predicted_png(prediction.shape, lib, tmp / "assembly.png",
+                                 prediction_title(spec.name, prediction.run, prediction.h))
+        else:
+            from fabpat.assembly.render import render_png
+
+            render_png(lib, tmp / "assembly.png", spec.name)
         files.append("assembly.png")
     if "bom" in f:
         tell("BOM")
@@ -337,6 +506,8 @@ def _write_all(spec: AssemblySpec, lib: Any, nesting: Any, net: Any, check_lines
 
         rows = bom_rows(lib, stl_files, nesting, sheet_files)
         (tmp / "bom.csv").write_text(bom_csv(rows), encoding="utf-8")
-        (tmp / "bom.md").write_text(bom_markdown(lib, rows, nesting, check_lines), encoding="utf-8")
+        moments = prediction.run.sleeve_moments if prediction is not None else None
+        md = bom_markdown(lib, rows, nesting, check_lines, moments, candidates)
+        (tmp / "bom.md").write_text(md, encoding="utf-8")
         files += ["bom.csv", "bom.md"]
     return files

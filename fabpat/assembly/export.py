@@ -52,8 +52,12 @@ def instance_product_name(label: str, key: str) -> str:
 
 
 def write_step_assembly(lib: PartLibrary, path: str | os.PathLike[str], name: str,
-                        timestamp: str | None = None) -> None:
+                        timestamp: str | None = None,
+                        placed: list[tuple[str, str, np.ndarray]] | None = None) -> None:
     """Write the placed parts as a STEP AP214 assembly (mm) with named products and instances.
+
+    ``placed`` (label, part key, 4 × 4 transform) defaults to :meth:`PartLibrary.placed` (the assembled
+    object); :func:`flat_layout` gives the distinct parts side by side instead (``parts.step``).
 
     Tree: the root product ``name`` → one instance per placed part, named by its label ("H01"),
     of a one-part product named :func:`instance_product_name` ("H01 hex 0x0488") → one instance,
@@ -89,13 +93,37 @@ def write_step_assembly(lib: PartLibrary, path: str | os.PathLike[str], name: st
         r, g, b = (int(cols[key][i:i + 2], 16) / 255 for i in (1, 3, 5))
         colour = Quantity_Color(r, g, b, Quantity_TypeOfColor.Quantity_TOC_sRGB)
         colour_tool.SetColor(protos[key], colour, XCAFDoc_ColorType.XCAFDoc_ColorGen)
-    for label, key, T in lib.placed():
+    for label, key, T in lib.placed() if placed is None else placed:
         holder = named(tool.NewShape(), instance_product_name(label, key))
         named(tool.AddComponent(holder, protos[key], TopLoc_Location()), label)
         named(tool.AddComponent(root, holder, TopLoc_Location(gp_trsf(T))), label)
     tool.UpdateAssemblies()
 
     write_document(doc, path, name, timestamp)
+
+
+#: mm between neighbouring parts of :func:`flat_layout`
+LAYOUT_GAP = 10.0
+
+
+def flat_layout(lib: PartLibrary, gap: float = LAYOUT_GAP) -> list[tuple[str, str, np.ndarray]]:
+    """The distinct parts side by side along +X in print orientation (plates flat, z ∈ [0, t]; sleeves
+    standing on an end face, :meth:`~fabpat.assembly.sleeve.Sleeve.print_transform`), ``gap`` mm apart,
+    all on z = 0 and starting at y = 0: one (label ``"20x"``: how many the kit needs (ASCII: STEP names), part key,
+    4 × 4 transform) per distinct part, for :func:`write_step_assembly` and the 3DM writer."""
+    from fabpat.assembly.parts import PICTURE_TOLERANCE, apply
+
+    counts = lib.assembly.counts()
+    out, x = [], 0.0
+    for key in lib.keys:
+        orient = np.eye(4) if lib.is_plate(key) else lib.assembly.sleeve_types[key].print_transform()
+        V = apply(orient, lib.mesh(key, PICTURE_TOLERANCE)[0])
+        lo, hi = V.min(axis=0), V.max(axis=0)
+        T = np.eye(4)
+        T[:3, 3] = [x - lo[0], -lo[1], -lo[2]]
+        out.append((f"{counts[key]}x", key, T @ orient))
+        x += float(hi[0] - lo[0]) + gap
+    return out
 
 
 def read_step_tree(path: str | os.PathLike[str]) -> tuple[str, list[tuple[str, str, str]], int]:

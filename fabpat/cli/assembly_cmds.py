@@ -24,12 +24,22 @@ from fabpat.cli.options import h_option, number_option
 @click.option("--timestamp", default=None, metavar="ISO8601",
               help="Fixed STEP header time (ISO 8601, e.g. 2025-01-31T12:00:00Z), for byte-reproducible files.")
 @click.option("--force", is_flag=True,
-              help="Build even if a plate is too narrow for its process (the export check); warn instead.")
-def assemble_cmd(spec: str, out: str, progress: bool, timestamp: str | None, force: bool) -> None:
+              help="Build even if a plate is too narrow for its process (the export check) or would exceed "
+                   "material.strain_limit when bent sleeves close the object; warn instead.")
+@click.option("--predict/--no-predict", default=True, show_default=True,
+              help="With sleeves not at the dihedral angles: predict the bent shape (shell solver) for the "
+                   "preview, prediction.json and the strain check.")
+@number_option("--predict-h", "predict_h", range_name="h", default=3.0, show_default=True,
+               help="Target mesh edge (mm) of the prediction.")
+def assemble_cmd(spec: str, out: str, progress: bool, timestamp: str | None, force: bool, predict: bool,
+                 predict_h: float) -> None:
     """Build, check and write everything to fabricate and assemble the SPEC (a TOML file).
 
     Writes a STEP assembly, one STL per distinct part, a GLB preview, laser sheets (DXF), the net
-    (SVG), a bill of materials (CSV, Markdown), an assembly picture (PNG) and manifest.json.
+    (SVG), a bill of materials (CSV, Markdown), an assembly picture (PNG) and manifest.json. With
+    sleeves printed at other angles than the joints' dihedrals (sleeve.angle = "flat": the paper's
+    bent sphere) it first predicts the bent shape: prediction.json, predicted.stl, the GLB and PNG
+    of that shape, and the flat parts side by side in parts.step and parts.3dm.
 
     Example: fabpat assemble assemblies/truncated-icosahedron.toml --out sphere-kit
     """
@@ -42,7 +52,7 @@ def assemble_cmd(spec: str, out: str, progress: bool, timestamp: str | None, for
     check_distinct([out], inputs={"SPEC": spec})  # the kit (its folder, any file) may not replace the spec …
     parsed = load_spec(spec)
     check_distinct([out], inputs={"patterns.catalog": parsed.patterns.catalog})  # … or the catalog it reads
-    names = steps(parsed)
+    names = steps(parsed, predict)
     bar = None
     if progress:
         from rich.console import Console
@@ -50,8 +60,9 @@ def assemble_cmd(spec: str, out: str, progress: bool, timestamp: str | None, for
 
         console = Console(stderr=True)
         # no bar when stderr is not a terminal: a piped stderr gets only the error or warning lines
-        bar = Progress(TextColumn("{task.description:<10}"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
-                       TimeElapsedColumn(), console=console, transient=True, disable=not console.is_terminal)
+        bar = Progress(TextColumn("{task.description:<10}"), BarColumn(),
+                       TextColumn("{task.completed:g}/{task.total:g}"), TimeElapsedColumn(), console=console,
+                       transient=True, disable=not console.is_terminal)
         bar.start()
         task = bar.add_task("assemble", total=len(names))
     done = 0
@@ -62,12 +73,17 @@ def assemble_cmd(spec: str, out: str, progress: bool, timestamp: str | None, for
             bar.update(task, description=step, completed=done)
         done += 1
 
+    def closing(lam: float) -> None:  # within the "prediction" step: λ of the closure path
+        if bar is not None:
+            bar.update(task, completed=done - 1 + lam)
+
     try:
-        result = assemble(parsed, out, tell, timestamp, force=force)
+        result = assemble(parsed, out, tell, timestamp, force=force, predict=predict, predict_h=predict_h,
+                          predict_progress=closing)
     finally:
         if bar is not None:
             bar.stop()
-    for line in result.report.lines():
+    for line in (*result.report.lines(), *result.notes):
         click.echo(f"check: {line}", err=True)
     for line in result.warnings:
         click.echo(f"fabpat: warning: {line}", err=True)

@@ -186,8 +186,13 @@ def _transform(T: NDArray[np.float64]) -> Any:
     return xf
 
 
-def write_assembly(lib: PartLibrary, path: str | os.PathLike[str], name: str, mesh_tolerance: float) -> None:
+def write_assembly(lib: PartLibrary, path: str | os.PathLike[str], name: str, mesh_tolerance: float,
+                   placed: list[tuple[str, str, Any]] | None = None) -> None:
     """The placed parts of an assembly as one ``.3dm``: a layer and a block per part type, one instance per part.
+
+    ``placed`` (label, part key, 4 × 4 transform) defaults to the assembled object
+    (:meth:`~fabpat.assembly.parts.PartLibrary.placed`); :func:`fabpat.assembly.export.flat_layout`
+    lays the distinct parts out flat instead.
 
     Plates are exact extrusions (their outline curves go into the block too, on the same layer);
     sleeves are meshes within ``mesh_tolerance`` mm. Instances carry the 4 × 4 rigid transforms of
@@ -216,7 +221,7 @@ def write_assembly(lib: PartLibrary, path: str | os.PathLike[str], name: str, me
         if index < 0:
             raise ExportError(f"openNURBS rejected the block of part {key!r}")
         blocks[key] = model.InstanceDefinitions.FindIndex(index).Id
-    for label, key, T in lib.placed():
+    for label, key, T in lib.placed() if placed is None else placed:
         model.Objects.AddInstanceObject(r3.InstanceReference(blocks[key], _transform(T)),
                                         _attributes(layers[key], label))
     _save(model, path)

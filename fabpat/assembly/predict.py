@@ -1,0 +1,138 @@
+"""The kit's prediction: close a bent-sleeve assembly in the shell solver before any file is written.
+
+Used by :func:`fabpat.assembly.build.assemble` when some sleeve is printed at another angle than its
+joint's dihedral (:func:`bent`): :func:`predict` runs the closure (:mod:`fabpat.assembly.closure`) at
+mesh edge ``h`` and turns it into the preview's plain data (:mod:`fabpat.assembly.preview`);
+:func:`strain_problems` refuses plates over ``[material] strain_limit`` (or, forced, warns);
+:func:`choose_roundest` is ``rule = "roundest"``: it closes the sphere with each candidate pattern pair
+(:func:`fabpat.assembly.rules.similar_pairs`) and keeps the roundest (smallest ``sphericity_rms``)
+whose plates all stay under the strain limit.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from fabpat.assembly.placement import Assembly
+from fabpat.assembly.spec import AssemblySpec
+from fabpat.errors import ExportError, FabpatError
+
+#: default mesh edge (mm) of the kit's closure prediction, the simulate-assembly default: the shipped
+#: sphere's whole kit takes 26 s on the shared 2-core machine with it, and h = 2 or 1.5 move the radius
+#: by < 0.02 % and sphericity_rms by < 2 % (docs/fabrication-files.md)
+PREDICT_H = 3.0
+#: a sleeve whose printed angle differs from its joint's dihedral by more than this (rad) bends plates
+BENT_TOLERANCE = 1e-9
+
+
+def bent(assembly: Assembly) -> bool:
+    """True when some sleeve is printed at an angle other than its joint's dihedral (the plates bend)."""
+    return any(abs(s.angle - s.dihedral) > BENT_TOLERANCE for s in assembly.sleeves)
+
+
+@dataclass(frozen=True, eq=False)
+class Prediction:
+    """The kit's closure: ``run`` (a ClosureRun), ``shape`` (a PredictedShape), ``fit`` (the
+    :func:`~fabpat.assembly.preview.joint_fit` of the printed sleeves, mm), ``h`` (mm), ``seconds``."""
+
+    run: Any
+    shape: Any
+    fit: tuple[float, float]
+    h: float
+    seconds: float
+
+
+def close(spec: AssemblySpec, ids: list[str], h: float, progress: Callable[[float], None] | None = None) -> Any:
+    """The ClosureRun of the spec with face pattern IDs ``ids`` at mesh edge h (mm), checked against
+    ``[material] strain_limit``. Raises GeometryError (h too coarse) or SolverError (path lost)."""
+    from fabpat.assembly.closure import closure_setup, run_closure
+
+    setup = closure_setup(spec, ids, h=h)
+    return run_closure(setup, strain_limit=spec.material.strain_limit, progress=progress)
+
+
+def finish(run: Any, assembly: Assembly, h: float, seconds: float) -> Prediction:
+    """The :class:`Prediction` of a ClosureRun of ``assembly`` (its sleeve types the printed ones)."""
+    from fabpat.assembly.preview import joint_fit, predicted_shape
+
+    fit = joint_fit(run, assembly.sleeve_types, [s.kind for s in assembly.sleeves])
+    return Prediction(run, predicted_shape(run, assembly), fit, h, seconds)
+
+
+def predict(spec: AssemblySpec, assembly: Assembly, h: float,
+            progress: Callable[[float], None] | None = None) -> Prediction:
+    """Close the placed ``assembly`` in the shell solver at mesh edge h (mm); ``progress(λ)`` per step."""
+    t0 = time.perf_counter()
+    run = close(spec, [p.type.pattern_id for p in assembly.plates], h, progress)
+    return finish(run, assembly, h, time.perf_counter() - t0)
+
+
+def strain_problems(spec: AssemblySpec, run: Any, force: bool) -> list[str]:
+    """Refuse (ExportError, one line naming the worst plate, its peak strain and the limit) a kit whose
+    plates would exceed ``material.strain_limit``, or with ``force`` one warning line per such plate,
+    worst first."""
+    over = sorted(run.over_limit, key=lambda k: -run.plate_peak_strain[k])
+    if not over:
+        return []
+    lim = run.strain_limit
+    if not force:
+        more = f" (and {len(over) - 1} more plates)" if len(over) > 1 else ""
+        raise ExportError(f"{spec.source}: plate {over[0]} would reach a peak strain of "
+                          f"{run.plate_peak_strain[over[0]]:.4g} when the sleeves close the object, over "
+                          f"material.strain_limit = {lim:g}{more}: choose other patterns, thinner plates or "
+                          "sleeve.angle, or give --force to build the kit anyway")
+    return [f"plate {k}: predicted peak strain {run.plate_peak_strain[k]:.4g} exceeds material.strain_limit = "
+            f"{lim:g} (built anyway: --force)" for k in over]
+
+
+def choose_roundest(spec: AssemblySpec, pairs: list[tuple[str, str]], faces: list[int], h: float, force: bool,
+                    fits: Callable[[list[str]], None],
+                    progress: Callable[[float], None] | None = None) -> tuple[list[str], Any, float, list[dict]]:
+    """``rule = "roundest"``: close the object with every (hexagon ID, pentagon ID) of ``pairs`` and keep the
+    roundest (smallest ``sphericity_rms``) whose plates all stay under ``material.strain_limit``.
+
+    ``faces`` are the tiling's polygon sizes (face order); ``fits(ids)`` raises a FabpatError when a pair
+    cannot be built (e.g. a neck wider than its slot): that pair is reported and skipped, as is a pair
+    whose closure fails. ``progress(f)``, f from 0 to 1 over all pairs. Returns (the chosen face IDs, its
+    ClosureRun, its seconds, one record per pair tried: ``hexagon``, ``pentagon`` and either ``radius``
+    (mm), ``sphericity_rms``, ``sphericity_max``, ``peak_strain``, ``plates_over_limit``, ``seconds`` or
+    ``error``; ``chosen`` true for the kept one). With no pair under the limit it raises ExportError, or
+    with ``force`` keeps the roundest of all; with no pair that closes it raises ExportError naming the
+    first failure.
+    """
+    tried: list[dict] = []
+    runs: list[tuple[list[str], Any, float, dict]] = []
+    for i, (hid, pid) in enumerate(pairs):
+        ids = [hid if n == 6 else pid for n in faces]
+        rec: dict[str, Any] = {"hexagon": hid, "pentagon": pid}
+        tell = None if progress is None else (lambda lam, i=i: progress((i + lam) / len(pairs)))
+        t0 = time.perf_counter()
+        try:
+            fits(ids)
+            run = close(spec, ids, h, tell)
+        except FabpatError as e:
+            rec["error"] = str(e)
+        else:
+            seconds = time.perf_counter() - t0
+            rec.update(radius=run.radius, sphericity_rms=run.sphericity_rms, sphericity_max=run.sphericity_max,
+                       peak_strain=run.peak_strain, plates_over_limit=len(run.over_limit), seconds=round(seconds, 3))
+            runs.append((ids, run, seconds, rec))
+        rec["chosen"] = False
+        tried.append(rec)
+    if not runs:
+        raise ExportError(f"{spec.source}: patterns.rule = 'roundest': none of the {len(pairs)} candidate pairs "
+                          f"closes ({tried[0]['hexagon']}/{tried[0]['pentagon']}: {tried[0]['error']})")
+    ok = [r for r in runs if not r[1].over_limit]
+    if not ok and not force:
+        best = min(runs, key=lambda r: r[1].peak_strain)
+        raise ExportError(f"{spec.source}: patterns.rule = 'roundest': none of the {len(runs)} candidate pairs that "
+                          f"close stays under material.strain_limit = {spec.material.strain_limit:g} (lowest peak "
+                          f"strain {best[1].peak_strain:.4g}, hexagon {best[3]['hexagon']} / pentagon "
+                          f"{best[3]['pentagon']}): raise patterns.candidates or the limit, or give --force to build "
+                          "the roundest anyway")
+    ids, run, seconds, rec = min(ok or runs, key=lambda r: r[1].sphericity_rms)
+    rec["chosen"] = True
+    return ids, run, seconds, tried
