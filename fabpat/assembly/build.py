@@ -379,7 +379,7 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
     if prediction is not None:
         from fabpat.assembly.preview import prediction_record
 
-        record = prediction_record(prediction.run, prediction.seconds, prediction.h)
+        record = prediction_record(prediction.run, prediction.seconds, prediction.h, spec.name, spec.tiling.kind)
     return AssembleResult(out, (*files, MANIFEST), report, nesting.n_sheets if nesting else 0, tuple(problems),
                           record, tuple(notes))
 
@@ -438,7 +438,7 @@ def _write_all(spec: AssemblySpec, lib: Any, nesting: Any, net: Any, check_lines
     if prediction is not None:
         from fabpat.assembly.preview import prediction_record, write_predicted_stl
 
-        record = prediction_record(prediction.run, prediction.seconds, prediction.h)
+        record = prediction_record(prediction.run, prediction.seconds, prediction.h, spec.name, spec.tiling.kind)
         (tmp / PREDICTION).write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
         write_predicted_stl(prediction.shape, lib, tmp / "predicted.stl", spec.mesh_tolerance)
         files += [PREDICTION, "predicted.stl"]

@@ -272,10 +272,12 @@ def write_predicted_stl(shape: PredictedShape, lib: Any, path: str | os.PathLike
     return len(mesh.faces)
 
 
-def render_predicted_png(shape: PredictedShape, lib: Any, path: str | os.PathLike[str], title: str,
-                         dpi: int = 110) -> None:
-    """Draw the predicted object (painter's projection of :mod:`fabpat.assembly.render`): plates
-    coloured by strain-energy density with a colour bar, sleeves grey; ``title`` on top."""
+def _paint_png(plates: list[tuple[Arr, NDArray[np.int64], Arr]], sleeves: list[tuple[Arr, NDArray[np.int64]]],
+               path: str | os.PathLike[str], title: str, label: str, cmap: str, lo: float, hi: float,
+               dpi: int = 110) -> None:
+    """Painter's projection (:mod:`fabpat.assembly.render`) of plate mid-surfaces (V, F, one value per
+    face; both sides visible) coloured on ``cmap`` over [lo, hi] with a colour bar ``label``, and grey
+    closed sleeve meshes (V world, F)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -284,27 +286,79 @@ def render_predicted_png(shape: PredictedShape, lib: Any, path: str | os.PathLik
     from matplotlib.colors import Normalize
 
     from fabpat.assembly.export import SLEEVE_COLOUR
-    from fabpat.assembly.parts import PICTURE_TOLERANCE, apply
     from fabpat.assembly.render import _camera, _hex, draw, project
 
     C = _camera(np.array([1.0, -1.4, 0.9]))
-    lo, hi = shape.density_range
-    items = []
-    for pl in shape.plates:  # the mid-surface, both sides visible (no culling)
-        face = pl.vertex_density[pl.F].mean(axis=1)
-        items.append((pl.V, pl.F, colour_of(face, lo, hi)[:, :3], False))
+    span = hi - lo if hi > lo else 1.0
+    colours = matplotlib.colormaps[cmap]
+    items = [(V, F, np.asarray(colours(np.clip((vals - lo) / span, 0.0, 1.0)))[:, :3], False) for V, F, vals in plates]
     grey = _hex(SLEEVE_COLOUR)
-    for _, key, T in shape.sleeves:
-        V, F = lib.mesh(key, PICTURE_TOLERANCE)
-        items.append((apply(T, V), F, np.tile(grey, (len(F), 1)), True))
+    items += [(V, F, np.tile(grey, (len(F), 1)), True) for V, F in sleeves]
     fig, ax = plt.subplots(figsize=(9.5, 8.0))
     draw(ax, *project(items, C))
-    sm = ScalarMappable(norm=Normalize(lo, hi if hi > lo else lo + 1.0), cmap=COLOUR_MAP)
-    fig.colorbar(sm, ax=ax, shrink=0.7, label=f"strain-energy density ({DENSITY_UNIT})")
+    fig.colorbar(ScalarMappable(norm=Normalize(lo, lo + span), cmap=cmap), ax=ax, shrink=0.7, label=label)
     ax.set_title(title, fontsize=9)
     fig.tight_layout()
     fig.savefig(os.fspath(path), dpi=dpi, format="png")
     plt.close(fig)
+
+
+def render_predicted_png(shape: PredictedShape, lib: Any, path: str | os.PathLike[str], title: str,
+                         dpi: int = 110) -> None:
+    """Draw the predicted object: plates coloured by strain-energy density (:data:`COLOUR_MAP`, the GLB's
+    range) with a colour bar, sleeves grey on their deformed joints; ``title`` on top."""
+    from fabpat.assembly.parts import PICTURE_TOLERANCE, apply
+
+    lo, hi = shape.density_range
+    plates = [(pl.V, pl.F, pl.vertex_density[pl.F].mean(axis=1)) for pl in shape.plates]
+    sleeves = []
+    for _, key, T in shape.sleeves:
+        V, F = lib.mesh(key, PICTURE_TOLERANCE)
+        sleeves.append((apply(T, V), F))
+    _paint_png(plates, sleeves, path, title, f"strain-energy density ({DENSITY_UNIT})", COLOUR_MAP, lo, hi, dpi)
+
+
+#: colour bar label and unit of each field of :func:`render_prediction_png`
+FIELD_LABELS = {"energy": f"strain-energy density ({DENSITY_UNIT})", "strain": "peak surface strain (%)",
+                "mean_curvature": "mean curvature (1/mm)", "gaussian_curvature": "gaussian curvature (1/mm²)"}
+
+
+def render_prediction_png(sim: Any, path: str | os.PathLike[str], field: str = "energy", dpi: int = 110) -> None:
+    """Draw a closed assembly of ``fabpat simulate-assembly`` (an :class:`~fabpat.assembly.simulation.
+    AssemblySimulation`): its deformed plates (mid-surfaces; no sleeve solids: the simulation keeps no
+    part geometry) coloured by ``field``: ``energy`` (strain-energy density, N·mm/mm², per element over
+    its reference area), ``strain`` (each element's peak surface strain, %), ``mean_curvature`` (1/mm)
+    or ``gaussian_curvature`` (1/mm²) (nodal fields averaged per triangle; a diverging map symmetric
+    about 0). Title: name, h, radius, sphericity. Raises SpecError for another field."""
+    from fabpat.errors import SpecError
+
+    if field not in FIELD_LABELS:
+        raise SpecError(f"png field must be one of {', '.join(FIELD_LABELS)}, got {field!r}")
+    m, run = sim.model, sim.run
+    n = len(m.X)
+    x = run.x[:n] if getattr(run, "x", None) is not None else sim.deformed()
+    if field == "energy":
+        cell = np.asarray(run.result.element_energy, dtype=np.float64).sum(axis=1) / np.maximum(_areas(m.X, m.F),
+                                                                                                1e-300)
+    elif field == "strain":
+        cell = 100.0 * np.asarray(sim.element_strain, dtype=np.float64)
+    else:
+        cell = np.asarray(sim.curvature[field], dtype=np.float64)[m.F].mean(axis=1)
+    signed = field.endswith("curvature")
+    if signed:
+        top = float(np.abs(cell).max()) or 1.0
+        lo, hi, cmap = -top, top, "coolwarm"
+    else:
+        lo, hi, cmap = 0.0, float(cell.max()), COLOUR_MAP
+    plates = []
+    for p in range(len(m.plates)):
+        a, b = int(m.offsets[p]), int(m.offsets[p + 1])
+        ea, eb = int(m.element_offsets[p]), int(m.element_offsets[p + 1])
+        plates.append((x[a:b], m.F[ea:eb] - a, cell[ea:eb]))
+    title = (f"{sim.name}: closed by its sleeves (shell solver, h = {sim.h:g} mm), coloured by {field}\n"
+             f"radius {run.radius:.2f} mm, sphericity rms {100 * run.sphericity_rms:.2f} % "
+             f"(max {100 * run.sphericity_max:.2f} %)")
+    _paint_png(plates, [], path, title, FIELD_LABELS[field], cmap, lo, hi, dpi)
 
 
 def prediction_title(name: str, run: Any, h: float) -> str:
@@ -316,18 +370,16 @@ def prediction_title(name: str, run: Any, h: float) -> str:
             + (f"; {len(run.over_limit)} plates over it)" if run.over_limit else ")"))
 
 
-def prediction_record(run: Any, seconds: float, h: float) -> dict[str, Any]:
-    """The ``prediction.json`` fields (those of ``fabpat simulate-assembly`` on a closed spec): counts,
-    solver effort, energies (N·mm), sleeve moments (N·mm), reaction (N), lengths (mm), strains."""
+def prediction_record(run: Any, seconds: float, h: float, name: str = "",
+                      kind: str = "truncated-icosahedron") -> dict[str, Any]:
+    """The ``prediction.json`` fields: exactly those of ``fabpat simulate-assembly --json`` on a closed
+    spec (:meth:`fabpat.assembly.simulation.AssemblySimulation.fields`: counts, solver effort, energies
+    N·mm, sleeve moments N·mm, reaction N, lengths mm, strains; ``peak``/``half_ratio`` are a strip's and
+    None here), for a ClosureRun solved in ``seconds`` at mesh edge ``h`` (mm)."""
+    from fabpat.assembly.simulation import AssemblySimulation
+
     m = run.setup.model
-    r = run.result
-    return {
-        "converged": True, "plates": len(m.plates), "sleeves": len(m.sleeves), "nodes": m.n_nodes,
-        "dofs": r.dofs, "iterations": r.iterations, "seconds": round(seconds, 3), "energy": run.energy,
-        "plate_energies": run.plate_energies, "sleeve_moments": run.sleeve_moments, "reaction": run.reaction,
-        "max_deflection": run.max_deflection, "radius": run.radius, "sphericity_rms": run.sphericity_rms,
-        "sphericity_max": run.sphericity_max, "peak_strain": run.peak_strain,
-        "peak_strain_plate": run.peak_strain_plate, "strain_limit": run.strain_limit,
-        "over_limit": list(run.over_limit), "h": h, "path": run.path,
-    }
+    sim = AssemblySimulation(kind, name, m, run, round(seconds, 3), run.element_strain, {},
+                             run.strain_limit, h)
+    return sim.fields()
 
