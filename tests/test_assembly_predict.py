@@ -354,3 +354,12 @@ def test_simulation_png_fields(closed, tmp_path: Path) -> None:  # type: ignore[
     assert not np.array_equal(images["energy"], images["mean_curvature"])  # the field changes the colours
     with pytest.raises(SpecError, match="png field"):
         sim.to_png(tmp_path / "x.png", "pressure")
+
+
+def test_too_coarse_predict_h_is_refused_up_front(tmp_path: Path) -> None:
+    out = tmp_path / "kit"
+    r = run_cli("assemble", str(SPHERE), "--out", str(out), "--no-progress", "--predict-h", "8")
+    assert r.returncode == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "--predict-h" in lines[0] and "h ≤ 7.5 mm" in lines[0], r.stderr
+    assert not out.exists()

@@ -304,6 +304,14 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
         spec = load_spec(spec)
     out = Path(out)
     check_out(out)
+    if predict and bends(spec):  # before any work: a mesh too coarse for the interfaces cannot predict
+        from fabpat.assembly.simulate import check_h
+        from fabpat.errors import GeometryError
+
+        try:
+            check_h(predict_h, spec.tiling.edge, spec.plates.weight)
+        except GeometryError as e:
+            raise GeometryError(f"{spec.source}: predict_h (--predict-h): {e}") from e
     tell = progress or (lambda _step: None)
     f = spec.formats
 
