@@ -363,3 +363,14 @@ def test_too_coarse_predict_h_is_refused_up_front(tmp_path: Path) -> None:
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "--predict-h" in lines[0] and "h ≤ 7.5 mm" in lines[0], r.stderr
     assert not out.exists()
+
+
+def test_default_predict_h_fits_the_interfaces() -> None:
+    """3 mm on the shipped 36 mm plates; on 12 mm plates the interface segment is 2·12/16/1.2 = 1.25 mm, so
+    the default drops to the largest h the mesher allows there, 2 × 1.25 mm."""
+    from fabpat.assembly.build import default_predict_h
+    from fabpat.assembly.spec import load_spec
+
+    spec = load_spec(SPHERE)
+    assert default_predict_h(spec) == 3.0
+    assert default_predict_h(replace(spec, tiling=replace(spec.tiling, edge=12.0))) == pytest.approx(2.5)

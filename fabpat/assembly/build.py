@@ -14,7 +14,7 @@ and a block per part type, block instances), ``sheets/sheet-NN.dxf``,
 
 **Bent sleeves** (``[sleeve] angle`` other than the joints' dihedral angles, e.g. the paper's sphere of
 straight sleeves): the plates bend when the sleeves close the object, so the kit predicts that shape
-first (:mod:`fabpat.assembly.closure`, mesh edge ``predict_h``, default :data:`PREDICT_H`) and refuses
+first (:mod:`fabpat.assembly.closure`, mesh edge ``predict_h``, default :func:`default_predict_h`) and refuses
 a kit whose plates would exceed ``[material] strain_limit`` (``force`` builds it with a warning per
 plate). The kit then holds ``prediction.json`` (the ``simulate-assembly`` fields), ``predicted.stl``
 (the predicted object as closed meshes), ``assembly.glb``/``assembly.png`` of the predicted shape
@@ -248,6 +248,16 @@ def bends(spec: AssemblySpec) -> bool:
     return bent(place(spec, ["0x0488"] * len(faces)))
 
 
+def default_predict_h(spec: AssemblySpec) -> float:
+    """The kit's default prediction mesh edge (mm): :data:`~fabpat.assembly.predict.PREDICT_H`, or the
+    largest h the interfaces allow when that is smaller (small plates;
+    :data:`fabpat.assembly.simulate.MAX_H_PER_INTERFACE` × the interface segment 2d)."""
+    from fabpat.assembly.simulate import MAX_H_PER_INTERFACE
+
+    segment = 2.0 * spec.tiling.edge / 16.0 / (1.0 + spec.plates.weight)  # fabpat.mesh.interface_segments
+    return min(PREDICT_H, MAX_H_PER_INTERFACE * segment)
+
+
 def steps(spec: AssemblySpec, predict: bool = True) -> list[str]:
     """Names of the progress steps for this spec, in order (``predict``: as :func:`assemble`'s).
 
@@ -270,7 +280,7 @@ def steps(spec: AssemblySpec, predict: bool = True) -> list[str]:
 def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike[str],
              progress: Callable[[str], None] | None = None, timestamp: str | None = None,
              energies: Callable[[int], dict[str, float]] | None = None, force: bool = False,
-             predict: bool = True, predict_h: float = PREDICT_H,
+             predict: bool = True, predict_h: float | None = None,
              predict_progress: Callable[[float], None] | None = None) -> AssembleResult:
     """Build and check the assembly of ``spec``, then write every requested output into ``out``.
 
@@ -280,10 +290,11 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
     :class:`ExportError`, or with ``force`` built anyway and listed in ``AssembleResult.warnings``.
 
     With bent sleeves (:func:`bent`) and ``predict``, the closure is solved at mesh edge ``predict_h``
-    (mm; ``predict_progress(λ)`` after each report step of it) before any file is written; plates whose
-    peak strain exceeds ``[material] strain_limit`` are refused with an :class:`ExportError` naming the
-    worst, or with ``force`` listed in the warnings. ``rule = "roundest"`` closes the sphere with each of
-    its ``patterns.candidates`` pairs (:func:`candidate_pairs`) and builds the roundest under the limit
+    (mm; default :func:`default_predict_h`; ``predict_progress(λ)`` after each report step of it)
+    before any file is written; plates whose peak strain exceeds ``[material] strain_limit`` are
+    refused with an :class:`ExportError` naming the worst, or with ``force`` listed in the warnings.
+    ``rule = "roundest"`` closes the sphere with each of its ``patterns.candidates`` pairs
+    (:func:`candidate_pairs`) and builds the roundest under the limit
     (:func:`fabpat.assembly.predict.choose_roundest`; the pairs tried go to the manifest's
     ``candidates`` and the BOM); it needs bent sleeves and ``predict``. Raises :class:`SpecError` /
     :class:`GeometryError` (``predict_h`` too coarse) / :class:`ExportError` / :class:`SolverError` (the
@@ -296,7 +307,7 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
     from fabpat.exchange.step import check_timestamp
 
     timestamp = check_timestamp(timestamp)
-    if predict:
+    if predict and predict_h is not None:
         from fabpat.validate import check
 
         check("h", predict_h, "predict_h")
@@ -304,7 +315,9 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
         spec = load_spec(spec)
     out = Path(out)
     check_out(out)
-    if predict and bends(spec):  # before any work: a mesh too coarse for the interfaces cannot predict
+    if predict_h is None:
+        predict_h = default_predict_h(spec)
+    elif predict and bends(spec):  # before any work: a mesh too coarse for the interfaces cannot predict
         from fabpat.assembly.simulate import check_h
         from fabpat.errors import GeometryError
 

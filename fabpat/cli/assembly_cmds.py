@@ -29,10 +29,11 @@ from fabpat.cli.options import h_option, number_option
 @click.option("--predict/--no-predict", default=True, show_default=True,
               help="With sleeves not at the dihedral angles: predict the bent shape (shell solver) for the "
                    "preview, prediction.json and the strain check.")
-@number_option("--predict-h", "predict_h", range_name="h", default=3.0, show_default=True,
-               help="Target mesh edge (mm) of the prediction.")
+@number_option("--predict-h", "predict_h", range_name="h", default=None,
+               help="Target mesh edge (mm) of the prediction [default: 3, or the largest the plates' interfaces "
+                    "allow when smaller].")
 def assemble_cmd(spec: str, out: str, progress: bool, timestamp: str | None, force: bool, predict: bool,
-                 predict_h: float) -> None:
+                 predict_h: float | None) -> None:
     """Build, check and write everything to fabricate and assemble the SPEC (a TOML file).
 
     Writes a STEP assembly, one STL per distinct part, a GLB preview, laser sheets (DXF), the net
