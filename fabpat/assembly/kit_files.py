@@ -1,0 +1,115 @@
+"""The kit's files: every output of :func:`fabpat.assembly.build.assemble` written into a folder.
+
+Not atomic on its own: ``assemble`` passes a temporary folder that becomes ``--out`` only when
+everything succeeded. With bent sleeves (:func:`fabpat.assembly.predict.bent`) the STEP and 3DM hold
+the distinct flat parts side by side (``parts.step``, ``parts.3dm``: :func:`fabpat.assembly.export.
+flat_layout`) and the GLB, PNG, ``predicted.stl`` and ``prediction.json`` show the predicted shape
+(:mod:`fabpat.assembly.preview`), or are left out without a prediction.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from fabpat.assembly.placement import Assembly
+from fabpat.assembly.predict import Prediction
+from fabpat.assembly.spec import AssemblySpec
+
+PREDICTION = "prediction.json"
+
+
+def write_all(spec: AssemblySpec, lib: Any, nesting: Any, net: Any, check_lines: list[str], tmp: Path,
+              tell: Callable[[str], None], timestamp: str | None, bent_sleeves: bool = False,
+              prediction: Prediction | None = None, candidates: list[dict[str, Any]] | None = None) -> list[str]:
+    """Write every requested file into ``tmp``; returns their paths relative to it.
+
+    With ``bent_sleeves`` the STEP and 3DM hold the flat parts side by side (``parts.*``) and the GLB,
+    PNG (and ``predicted.stl``, ``prediction.json``) show the ``prediction``, or are left out without it.
+    """
+    from fabpat.assembly import export
+
+    asm: Assembly = lib.assembly
+    f = spec.formats
+    files: list[str] = []
+    stl_files: dict[str, str] = {}
+    sheet_files: list[str] = []
+    layout = export.flat_layout(lib) if bent_sleeves else None
+    if prediction is not None:
+        from fabpat.assembly.preview import prediction_record, write_predicted_stl
+
+        record = prediction_record(prediction.run, prediction.seconds, prediction.h, spec.name, spec.tiling.kind)
+        (tmp / PREDICTION).write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
+        write_predicted_stl(prediction.shape, lib, tmp / "predicted.stl", spec.mesh_tolerance)
+        files += [PREDICTION, "predicted.stl"]
+    if "step" in f:
+        tell("STEP")
+        name = "parts.step" if bent_sleeves else "assembly.step"
+        export.write_step_assembly(lib, tmp / name, spec.name, timestamp, layout)
+        files.append(name)
+    if "stl" in f:
+        tell("STL")
+        (tmp / "parts").mkdir()
+        for key, path in export.write_part_stls(lib, tmp / "parts", spec.mesh_tolerance).items():
+            stl_files[key] = f"parts/{path.name}"
+        files += list(stl_files.values())
+    show = not bent_sleeves or prediction is not None
+    if "glb" in f and show:
+        tell("GLB")
+        if prediction is not None:
+            from fabpat.assembly.parts import CHECK_TOLERANCE
+            from fabpat.assembly.preview import write_predicted_glb
+
+            write_predicted_glb(prediction.shape, lib, tmp / "assembly.glb", spec.name, CHECK_TOLERANCE)
+        else:
+            export.write_glb(lib, tmp / "assembly.glb")
+        files.append("assembly.glb")
+    if "3dm" in f:
+        tell("3DM")
+        from fabpat.exchange.rhino import write_assembly
+
+        name = "parts.3dm" if bent_sleeves else "assembly.3dm"
+        write_assembly(lib, tmp / name, spec.name, spec.mesh_tolerance, layout)
+        files.append(name)
+    if "dxf" in f:
+        tell("sheets")
+        from fabpat.assembly.sheets import write_sheets
+
+        (tmp / "sheets").mkdir()
+        sheet_files = [f"sheets/{n}" for n in write_sheets(asm, nesting, tmp / "sheets", lib.filleted)]
+        files += sheet_files
+    if "svg" in f:
+        tell("net SVG")
+        from fabpat.assembly.export import colours
+        from fabpat.assembly.net import net_svg
+
+        cols = colours(lib)
+        svg = net_svg(net, [p.label for p in asm.plates], [p.edge_labels for p in asm.plates],
+                      f"{spec.name}: net", [cols[p.type.label] for p in asm.plates])
+        (tmp / "net.svg").write_text(svg, encoding="utf-8")
+        files.append("net.svg")
+    if "png" in f and show:
+        tell("PNG")
+        if prediction is not None:
+            from fabpat.assembly.preview import prediction_title, render_predicted_png
+
+            render_predicted_png(prediction.shape, lib, tmp / "assembly.png",
+                                 prediction_title(spec.name, prediction.run, prediction.h))
+        else:
+            from fabpat.assembly.render import render_png
+
+            render_png(lib, tmp / "assembly.png", spec.name)
+        files.append("assembly.png")
+    if "bom" in f:
+        tell("BOM")
+        from fabpat.assembly.bom import bom_csv, bom_markdown, bom_rows
+
+        rows = bom_rows(lib, stl_files, nesting, sheet_files)
+        (tmp / "bom.csv").write_text(bom_csv(rows), encoding="utf-8")
+        moments = prediction.run.sleeve_moments if prediction is not None else None
+        md = bom_markdown(lib, rows, nesting, check_lines, moments, candidates)
+        (tmp / "bom.md").write_text(md, encoding="utf-8")
+        files += ["bom.csv", "bom.md"]
+    return files
