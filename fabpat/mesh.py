@@ -40,6 +40,9 @@ AREA_FACTOR = 1.5
 #: 182 MB and 8 s, 14 458 (h = 0.5) 685 MB and 41 s, 38 662 (h = 0.3) 1.72 GB and 147 s, i.e. about
 #: 40 kB and 4 ms per element and nonlinear scenario. 50 000 elements stay near 2 GB and 4 minutes.
 DEFAULT_MAX_ELEMENTS = 50_000
+#: Default limit of a whole assembly's plate meshes (``simulate-assembly --max-elements``): at the same
+#: ~40 kB per element, 200 000 elements stay near 8 GB; the shipped sphere has about 21 000 at h = 3
+ASSEMBLY_MAX_ELEMENTS = 200_000
 
 #: A mesh whose target edge is longer than this many times the pattern's narrowest feature
 #: (``min_width``) is refused: with h = 2 × min_width the Dome energy of 0x2d88 is 4.8 % below

@@ -12,6 +12,7 @@ Surface strain and mid-surface curvature are computed for both.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import time
 from collections.abc import Callable
@@ -23,6 +24,7 @@ from numpy.typing import NDArray
 
 from fabpat.assembly.model import AssemblyModel
 from fabpat.errors import SpecError
+from fabpat.mesh import ASSEMBLY_MAX_ELEMENTS
 
 Arr = NDArray[np.float64]
 
@@ -71,12 +73,14 @@ class AssemblySimulation:
         res = r.result
         peak = self.plate_peak_strain()
         worst = max(peak, key=lambda k: peak[k])
+        # a closed assembly has no deflection profile; a strip that never left its plane has a flat one
+        flat = self.closed or not abs(r.max_deflection) > 1e-9 * r.setup.length
         row: dict[str, Any] = {
             "converged": True, "plates": len(m.plates), "sleeves": len(m.sleeves), "nodes": m.n_nodes,
             "dofs": res.dofs, "iterations": res.iterations, "seconds": self.seconds, "energy": r.energy,
             "plate_energies": r.plate_energies, "sleeve_moments": r.sleeve_moments, "reaction": r.reaction,
-            "max_deflection": r.max_deflection, "peak": None if self.closed else r.peak,
-            "half_ratio": None if self.closed else r.half_ratio, "path": r.path,
+            "max_deflection": r.max_deflection, "peak": None if flat else r.peak,
+            "half_ratio": None if flat else r.half_ratio, "path": r.path,
             "radius": r.radius if self.closed else None,
             "sphericity_rms": r.sphericity_rms if self.closed else None,
             "sphericity_max": r.sphericity_max if self.closed else None,
@@ -96,6 +100,7 @@ class AssemblySimulation:
         ``surface_strain``."""
         from fabpat.exchange.vtu import write_vtu
 
+        _check_path(path)
         m = self.model
         write_vtu(path, m.X, m.F, self.shell_result(),
                   point_data={"plate": m.plate_of_node[: len(m.X)].astype(np.int64), **self.curvature},
@@ -103,7 +108,9 @@ class AssemblySimulation:
 
     def to_png(self, path: str | os.PathLike[str], field: str = "energy") -> None:
         """A strip: its deflection profile and reaction curve; a closed assembly: the bent shape
-        coloured by ``field`` (one of :data:`PNG_FIELDS`). Raises SpecError for another field."""
+        coloured by ``field`` (one of :data:`PNG_FIELDS`). Raises SpecError for another field, ExportError
+        for a path that is not one."""
+        _check_path(path)
         if not self.closed:
             from fabpat.assembly.simulate import write_profiles_png
 
@@ -127,43 +134,115 @@ class AssemblySimulation:
                            dict(r.seconds))
 
 
-def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, end_shortening: float = 0.1,
+#: what ``spec`` may be: an AssemblySpec or the path of its TOML file
+_SPEC_TYPES = (str, os.PathLike)
+
+
+def _check_path(path: object) -> None:
+    from fabpat.errors import ExportError
+
+    if not isinstance(path, _SPEC_TYPES) or not str(path):
+        raise ExportError(f"an output path must be a non-empty file name, got {path!r}")
+
+
+def check_assembly_size(spec: Any, patterns: list[str], h: float, max_elements: int) -> float:
+    """Refuse (GeometryError, naming --max-elements and an h that passes) an assembly whose plate meshes
+    at edge h (mm) would hold more than ``max_elements`` triangles in total, before any meshing; the
+    estimate is :func:`fabpat.mesh.estimate_elements` of each distinct filleted outline × its count."""
+    import math
+
+    from fabpat.assembly.placement import build_tiling
+    from fabpat.errors import GeometryError
+    from fabpat.fillet import fillet_pattern
+    from fabpat.library import get_pattern
+    from fabpat.mesh import estimate_elements
+    from fabpat.validate import check, check_size, round_up
+
+    max_elements = int(check("max_elements", max_elements, "max_elements", error=GeometryError))
+    count: dict[tuple[str, int], int] = {}
+    for pid, face in zip(patterns, build_tiling(spec).faces, strict=True):
+        count[(pid, len(face))] = count.get((pid, len(face)), 0) + 1
+    area = perimeter = 0.0
+    for (pid, sides), k in count.items():
+        o = fillet_pattern(get_pattern(pid, sides, None, spec.tiling.edge), spec.plates.weight).outline
+        area += k * o.area
+        perimeter += k * o.perimeter
+    n = estimate_elements(area, perimeter, h)
+    c = math.sqrt(3.0) / 4.0
+    suggest = (perimeter + math.sqrt(perimeter**2 + 4.0 * max_elements * area / c)) / (2.0 * max_elements)
+    check_size(n, max_elements, f"mesh elements of the whole assembly at h = {h:g} mm", "raise it with --max-elements",
+               f"or use h ≥ {round_up(suggest):g} mm", error=GeometryError)
+    return n
+
+
+def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, end_shortening: float | None = None,
                       imperfection: float | None = None, youngs_modulus: float | None = None,
-                      poisson: float | None = None, progress: Callable[[float], None] | None = None
-                      ) -> AssemblySimulation:
+                      poisson: float | None = None, progress: Callable[[float], None] | None = None,
+                      max_elements: int = ASSEMBLY_MAX_ELEMENTS) -> AssemblySimulation:
     """Solve the assembly of ``spec`` (an AssemblySpec or a path to its TOML file).
 
     ``h`` target mesh edge (mm); ``steps`` report steps (default :data:`DEFAULT_STEPS` of the kind);
-    ``end_shortening`` and ``imperfection`` (N) apply to strips only; ``youngs_modulus`` (N/mm²) and
-    ``poisson`` override the spec's ``[material]``. ``progress(λ)`` is told after every report step
-    of a closure. Raises SpecError (bad spec or option for this kind), GeometryError (h too coarse
-    for the interfaces), SolverError (path lost, naming the load or angle fraction reached).
+    ``end_shortening`` (default 0.1) and ``imperfection`` (N, default
+    :data:`fabpat.assembly.simulate.IMPERFECTION`) apply to strips only and are refused on a closed
+    assembly; ``youngs_modulus`` (N/mm²) and ``poisson`` override the spec's ``[material]``;
+    ``max_elements`` bounds the whole assembly's mesh (:func:`check_assembly_size`). A sphere with
+    ``rule = "roundest"`` is closed with each candidate pair and the roundest is reported, as ``fabpat
+    assemble`` builds it (:func:`fabpat.assembly.predict.choose_roundest`; the roundest of all if none
+    is under the limit). ``progress(λ)`` is told after every report step of a closure. Raises
+    SpecError (bad spec, argument or option for this kind), GeometryError (h too coarse for the
+    interfaces, or a mesh too large), SolverError (path lost, naming the load or angle fraction reached).
     """
     from fabpat.assembly.build import face_patterns
     from fabpat.assembly.spec import AssemblySpec, load_spec
     from fabpat.validate import check
 
     if not isinstance(spec, AssemblySpec):
+        if not isinstance(spec, _SPEC_TYPES) or isinstance(spec, bytes):
+            raise SpecError(f"spec must be an AssemblySpec or the path of a TOML spec file, got {type(spec).__name__}")
         spec = load_spec(spec)
-    check("h", h, "h")
+    check("h", h, "h", error=SpecError)
+    if progress is not None and not callable(progress):
+        raise SpecError(f"progress must be a callable or None, got {type(progress).__name__}")
     kind = spec.tiling.kind
-    steps = DEFAULT_STEPS[kind] if steps is None else check("steps", steps, "steps")
+    closed = kind != "honeycomb-strip"
+    steps = DEFAULT_STEPS[kind] if steps is None else check("steps", steps, "steps", error=SpecError)
+    for name, value in (("end_shortening", end_shortening), ("imperfection", imperfection)):
+        if value is not None and closed:
+            raise SpecError(f"{spec.source}: {name} applies to strips (end shortening and the buckle it "
+                            f"selects); a closed assembly is bent by its sleeves: leave {name} out")
+    if not closed:
+        end_shortening = 0.1 if end_shortening is None else check("end_shortening", end_shortening,
+                                                                    "end_shortening", error=SpecError)
+        if imperfection is not None:
+            imperfection = check("imperfection_force", imperfection, "imperfection", error=SpecError)
     mat = spec.material
-    E = mat.youngs_modulus if youngs_modulus is None else check("youngs_modulus", youngs_modulus, "youngs_modulus")
-    nu = mat.poisson if poisson is None else check("poisson", poisson, "poisson")
+    E = mat.youngs_modulus if youngs_modulus is None else check("youngs_modulus", youngs_modulus, "youngs_modulus",
+                                                                 error=SpecError)
+    nu = mat.poisson if poisson is None else check("poisson", poisson, "poisson", error=SpecError)
+    if (E, nu) != (mat.youngs_modulus, mat.poisson):
+        spec = dataclasses.replace(spec, material=dataclasses.replace(mat, youngs_modulus=E, poisson=nu))
     t0 = time.perf_counter()
+    if closed and spec.patterns.rule == "roundest":
+        # the pair the kit would build: each candidate closed, the roundest kept (under the strain limit if any is)
+        from fabpat.assembly.build import candidate_pairs
+        from fabpat.assembly.placement import build_tiling
+        from fabpat.assembly.predict import choose_roundest
+
+        pairs = candidate_pairs(spec)
+        faces = [len(f) for f in build_tiling(spec).faces]
+        check_assembly_size(spec, [pairs[0][0] if n == 6 else pairs[0][1] for n in faces], h, max_elements)
+        _, run, _, _ = choose_roundest(spec, pairs, faces, h, True, lambda _ids: None, progress)
+        return _read_outs(kind, spec.name, run.setup.model, run, time.perf_counter() - t0, mat.strain_limit, h)
     patterns = face_patterns(spec)
-    if kind == "honeycomb-strip":
+    check_assembly_size(spec, patterns, h, max_elements)
+    if not closed:
         from fabpat.assembly.simulate import IMPERFECTION, run_strip, strip_setup
 
         setup = strip_setup(spec, patterns, h=h, E=E, nu=nu)
-        run = run_strip(setup, end_shortening, steps=steps,
+        run = run_strip(setup, float(end_shortening), steps=steps,  # type: ignore[arg-type]
                         imperfection=IMPERFECTION if imperfection is None else imperfection)
         model = setup.model
     else:
-        if imperfection is not None:
-            raise SpecError(f"{spec.source}: --imperfection applies to strips (it selects the buckle); a "
-                            "closed assembly has no buckle to select")
         from fabpat.assembly.closure import closure_setup, run_closure
 
         csetup = closure_setup(spec, patterns, h=h, E=E, nu=nu)

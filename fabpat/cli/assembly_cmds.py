@@ -13,7 +13,8 @@ from pathlib import Path
 
 import click
 
-from fabpat.cli.options import h_option, number_option
+from fabpat.cli.options import h_option, max_elements_option, number_option
+from fabpat.mesh import ASSEMBLY_MAX_ELEMENTS
 
 
 @click.command("assemble")
@@ -94,8 +95,9 @@ def assemble_cmd(spec: str, out: str, progress: bool, timestamp: str | None, for
 
 @click.command("simulate-assembly")
 @click.argument("spec", type=click.Path(dir_okay=False))
-@number_option("--end-shortening", range_name="end_shortening", default=0.1, show_default=True,
-               help="Strips: the end pins move towards each other by this fraction of the strip length.")
+@number_option("--end-shortening", range_name="end_shortening", default=None,
+               help="Strips: the end pins move towards each other by this fraction of the strip length "
+                    "[default: 0.1].")
 @h_option(3.0)
 @number_option("--steps", range_name="steps", default=None,
                help="Report steps of the path [default: 10 for a strip, 4 for a closed assembly].")
@@ -110,11 +112,12 @@ def assemble_cmd(spec: str, out: str, progress: bool, timestamp: str | None, for
 @click.option("--png", type=click.Path(dir_okay=False),
               help="Strips: deflection profile and reaction curve; closed assemblies: the bent shape (.png).")
 @click.option("--png-field", type=click.Choice(["energy", "mean_curvature", "gaussian_curvature", "strain"]),
-              default="energy", show_default=True, help="Closed assemblies: what colours the --png picture.")
+              default=None, help="Closed assemblies: what colours the --png picture [default: energy].")
+@max_elements_option(ASSEMBLY_MAX_ELEMENTS, "mesh elements of the whole assembly")
 @click.option("--json", "as_json", is_flag=True, help="Print the results as one JSON object.")
-def simulate_assembly_cmd(spec: str, end_shortening: float, h: float, steps: int | None, imperfection: float | None,
-                          E: float | None, nu: float | None, vtu: str | None, png: str | None, png_field: str,
-                          as_json: bool) -> None:
+def simulate_assembly_cmd(spec: str, end_shortening: float | None, h: float, steps: int | None,
+                          imperfection: float | None, E: float | None, nu: float | None, vtu: str | None,
+                          png: str | None, png_field: str | None, max_elements: int, as_json: bool) -> None:
     """Solve an assembly SPEC as one shell model: plates joined by rigid sleeves.
 
     A honeycomb-strip's end pins (as in the kit) are pushed towards each other by --end-shortening ×
@@ -131,12 +134,14 @@ def simulate_assembly_cmd(spec: str, end_shortening: float, h: float, steps: int
 
     Example: fabpat simulate-assembly assemblies/truncated-icosahedron.toml --png sphere.png --vtu sphere.vtu
     """
-    _simulate_assembly(spec, end_shortening, h, steps, imperfection, E, nu, vtu, png, as_json, png_field)
+    _simulate_assembly(spec, end_shortening, h, steps, imperfection, E, nu, vtu, png, as_json, png_field,
+                       max_elements)
 
 
-def _simulate_assembly(spec: str, end_shortening: float, h: float, steps: int | None, imperfection: float | None,
-                       E: float | None, nu: float | None, vtu: str | None, png: str | None, as_json: bool,
-                       png_field: str = "energy") -> None:
+def _simulate_assembly(spec: str, end_shortening: float | None, h: float, steps: int | None,
+                       imperfection: float | None, E: float | None, nu: float | None, vtu: str | None,
+                       png: str | None, as_json: bool, png_field: str | None = None,
+                       max_elements: int = ASSEMBLY_MAX_ELEMENTS) -> None:
     import json
 
     from fabpat.assembly.simulation import simulate_assembly
@@ -150,14 +155,19 @@ def _simulate_assembly(spec: str, end_shortening: float, h: float, steps: int | 
         if path is not None:
             check_suffix(path, valid, option)
     parsed = load_spec(spec)
+    if png_field is not None and (png is None or parsed.tiling.kind == "honeycomb-strip"):
+        from fabpat.errors import SpecError
+
+        raise SpecError("--png-field colours the --png picture of a closed assembly (a strip's PNG is its "
+                        "deflection profile): give --png with a closed assembly's spec, or leave --png-field out")
     with atomic_outputs(*outputs) as temps:
         sim = simulate_assembly(parsed, h=h, steps=steps, end_shortening=end_shortening, imperfection=imperfection,
-                                youngs_modulus=E, poisson=nu)
+                                youngs_modulus=E, poisson=nu, max_elements=max_elements)
         tmp = dict(zip(outputs, temps, strict=True))
         if vtu is not None:
             sim.to_vtu(tmp[vtu])
         if png is not None:
-            sim.to_png(tmp[png], png_field)
+            sim.to_png(tmp[png], png_field or "energy")
     row = sim.fields()
     if as_json:
         click.echo(json.dumps(row, indent=1))
@@ -185,8 +195,7 @@ def _simulate_assembly(spec: str, end_shortening: float, h: float, steps: int | 
 
 @click.command("simulate-strip")
 @click.argument("spec", type=click.Path(dir_okay=False))
-@number_option("--end-shortening", range_name="end_shortening", default=0.1, show_default=True,
-               help="See simulate-assembly.")
+@number_option("--end-shortening", range_name="end_shortening", default=None, help="See simulate-assembly.")
 @h_option(3.0)
 @number_option("--steps", range_name="steps", default=None, help="See simulate-assembly.")
 @number_option("--imperfection", range_name="imperfection_force", default=None, help="See simulate-assembly.")
@@ -195,7 +204,7 @@ def _simulate_assembly(spec: str, end_shortening: float, h: float, steps: int | 
 @click.option("--vtu", type=click.Path(dir_okay=False), help="See simulate-assembly.")
 @click.option("--png", type=click.Path(dir_okay=False), help="See simulate-assembly.")
 @click.option("--json", "as_json", is_flag=True, help="See simulate-assembly.")
-def simulate_strip_cmd(spec: str, end_shortening: float, h: float, steps: int | None, imperfection: float | None,
+def simulate_strip_cmd(spec: str, end_shortening: float | None, h: float, steps: int | None, imperfection: float | None,
                        E: float | None, nu: float | None, vtu: str | None, png: str | None, as_json: bool) -> None:
     """Deprecated alias of `fabpat simulate-assembly` (same options and output); removed in the next release."""
     click.echo("fabpat: simulate-strip is deprecated and will be removed in the next release: use "
