@@ -14,6 +14,10 @@ fabpat show 0x0688 --filleted --svg "$img/filleted-0x0688.svg"
 fabpat show 0x0688 --sides 5 --filleted --svg "$img/filleted-0x0688-pentagon.svg"
 fabpat sheet --sides 6 --out "$tmp/library.png"
 fabpat assemble assemblies/truncated-icosahedron.toml --out "$tmp/sphere-kit" --no-progress >/dev/null
+# the paper's claim as pictures: the shipped pair (Dome energies 1.45× apart) and one 3.4× apart
+fabpat simulate-assembly assemblies/truncated-icosahedron.toml --png "$tmp/sphere-similar.png" >/dev/null
+sed 's/pentagon = "0x0508"/pentagon = "0x2f88"/' assemblies/truncated-icosahedron.toml > "$tmp/differing.toml"
+fabpat simulate-assembly "$tmp/differing.toml" --png "$tmp/sphere-differing.png" >/dev/null
 
 python - "$tmp" "$img" <<'PY'
 import sys
@@ -26,4 +30,8 @@ sheet.save(f"{img}/library-sheet.png", optimize=True, bits=4)
 sphere = Image.open(f"{tmp}/sphere-kit/assembly.png").convert("RGB")
 sphere = sphere.resize((640, round(sphere.height * 640 / sphere.width)), Image.LANCZOS)
 sphere.quantize(colors=64, method=Image.Quantize.MEDIANCUT).save(f"{img}/sphere-assembly.png", optimize=True)
+for name in ("similar", "differing"):
+    pic = Image.open(f"{tmp}/sphere-{name}.png").convert("RGB")
+    pic = pic.resize((480, round(pic.height * 480 / pic.width)), Image.LANCZOS)
+    pic.quantize(colors=64, method=Image.Quantize.MEDIANCUT).save(f"{img}/sphere-{name}.png", optimize=True)
 PY
