@@ -105,19 +105,14 @@ def closure_setup(spec: object, face_patterns: list[str], *, h: float = 3.0, E: 
     Raises GeometryError if h is too coarse for the interfaces (as the strip).
     """
     from fabpat.assembly.placement import place
-    from fabpat.assembly.simulate import check_h, plate_mesh
+    from fabpat.assembly.simulate import check_h, model_plates
 
     asm = place(spec, face_patterns)  # type: ignore[arg-type]
     t = spec.plates.thickness  # type: ignore[attr-defined]
     w = spec.plates.weight  # type: ignore[attr-defined]
     check_h(h, asm.plate_edge, w)
     mat = spec.material  # type: ignore[attr-defined]
-    plates = []
-    for pl in asm.plates:
-        mesh = plate_mesh(pl.type.pattern_id, pl.type.sides, asm.plate_edge, w, h)
-        T = pl.transform.copy()
-        T[:3, 3] += T[:3, 2] * (0.5 * t)  # the transform maps the solid z ∈ [0, t]: mid-surface at t/2
-        plates.append(ModelPlate(pl.label, mesh, T))
+    plates = model_plates(asm, h, t, w)
     sleeves = [ModelSleeve(s.label, s.transform, s.plates, float(s.dihedral - s.angle)) for s in asm.sleeves]
     material = Material(mat.youngs_modulus if E is None else E, mat.poisson if nu is None else nu, t)
     return closure_model(plates, sleeves, material)

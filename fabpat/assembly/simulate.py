@@ -78,6 +78,18 @@ def check_h(h: float, plate_edge: float, weight: float) -> None:
                             f"long; use h ≤ {MAX_H_PER_INTERFACE * seg:.3g} mm")
 
 
+def model_plates(asm: object, h: float, thickness: float, weight: float) -> list[ModelPlate]:
+    """The placed plates of a kit's Assembly as model plates: each type meshed once (target edge h, mm),
+    its mid-surface placed at half the thickness (mm) of the solid the placement maps."""
+    plates = []
+    for pl in asm.plates:  # type: ignore[attr-defined]
+        mesh = plate_mesh(pl.type.pattern_id, pl.type.sides, asm.plate_edge, weight, h)  # type: ignore[attr-defined]
+        T = pl.transform.copy()
+        T[:3, 3] += T[:3, 2] * (0.5 * thickness)  # the transform maps the solid z ∈ [0, t]: mid-surface at t/2
+        plates.append(ModelPlate(pl.label, mesh, T))
+    return plates
+
+
 @dataclass(frozen=True, eq=False)
 class StripSetup:
     """An assembled strip ready for the end-shortening path: ``model``, pin nodes ``left`` (fixed) and
@@ -102,12 +114,7 @@ def strip_setup(spec: object, face_patterns: list[str], *, h: float = 3.0, E: fl
     t = spec.plates.thickness  # type: ignore[attr-defined]
     w = spec.plates.weight  # type: ignore[attr-defined]
     check_h(h, asm.plate_edge, w)
-    plates = []
-    for pl in asm.plates:
-        mesh = plate_mesh(pl.type.pattern_id, pl.type.sides, asm.plate_edge, w, h)
-        T = pl.transform.copy()
-        T[:3, 3] += T[:3, 2] * (0.5 * t)  # the transform maps the solid z ∈ [0, t]: mid-surface at t/2
-        plates.append(ModelPlate(pl.label, mesh, T))
+    plates = model_plates(asm, h, t, w)
     sleeves = [ModelSleeve(s.label, s.transform, s.plates) for s in asm.sleeves]
     model = assembly_model(plates, sleeves, Material(E, nu, t))
     grid = asm.skeleton.grid

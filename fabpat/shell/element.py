@@ -78,6 +78,27 @@ class LocalStiffness:
     area: Arr
 
 
+def opt_basic_strain(x: Arr, y: Arr, alpha_b: float = 1.5) -> Arr:
+    """(m, 3, 9) OPT basic (constant) strain–displacement matrix B = Lᵀ / A of the Allman-type boundary
+    field on dofs (u, v, θz) per node (Felippa 2003 eq. 22; α_b = 3/2 for OPT). x, y: (m, 3) local
+    corner coordinates. :func:`opt_membrane` integrates it; :mod:`fabpat.shell.strain` reads strains with it."""
+    x12, x23, x31 = x[:, 0] - x[:, 1], x[:, 1] - x[:, 2], x[:, 2] - x[:, 0]
+    y12, y23, y31 = y[:, 0] - y[:, 1], y[:, 1] - y[:, 2], y[:, 2] - y[:, 0]
+    x21, x32, x13, y21, y32, y13 = -x12, -x23, -x31, -y12, -y23, -y31
+    A2 = x21 * y31 - x31 * y21
+    z = np.zeros_like(A2)
+    ab6 = alpha_b / 6.0
+    cols = [
+        (y23, z, x32), (z, x32, y23),
+        (ab6 * y23 * (y13 - y21), ab6 * x32 * (x31 - x12), ab6 * 2 * (x31 * y13 - x12 * y21)),
+        (y31, z, x13), (z, x13, y31),
+        (ab6 * y31 * (y21 - y32), ab6 * x13 * (x12 - x23), ab6 * 2 * (x12 * y21 - x23 * y32)),
+        (y12, z, x21), (z, x21, y12),
+        (ab6 * y12 * (y32 - y13), ab6 * x21 * (x23 - x31), ab6 * 2 * (x23 * y32 - x31 * y13)),
+    ]
+    return np.stack([np.stack(c, axis=-1) for c in cols], axis=-1) / A2[:, None, None]
+
+
 def opt_membrane(x: Arr, y: Arr, mat: Material) -> Arr:
     """OPT membrane stiffness (m, 9, 9), dofs (u, v, θz) per node. x, y: (m, 3) local corner coords."""
     nu = mat.nu
@@ -92,17 +113,7 @@ def opt_membrane(x: Arr, y: Arr, mat: Material) -> Arr:
     A = 0.5 * A2
     m = x.shape[0]
     z = np.zeros(m)
-    ab6 = alpha_b / 6.0
-    # basic (constant) strain of the Allman-type boundary field: B = Lᵀ / A (Felippa 2003 eq. 22)
-    cols = [
-        (y23, z, x32), (z, x32, y23),
-        (ab6 * y23 * (y13 - y21), ab6 * x32 * (x31 - x12), ab6 * 2 * (x31 * y13 - x12 * y21)),
-        (y31, z, x13), (z, x13, y31),
-        (ab6 * y31 * (y21 - y32), ab6 * x13 * (x12 - x23), ab6 * 2 * (x12 * y21 - x23 * y32)),
-        (y12, z, x21), (z, x21, y12),
-        (ab6 * y12 * (y32 - y13), ab6 * x21 * (x23 - x31), ab6 * 2 * (x23 * y32 - x31 * y13)),
-    ]
-    B = np.stack([np.stack(c, axis=-1) for c in cols], axis=-1) / A2[:, None, None]  # (m, 3, 9)
+    B = opt_basic_strain(x, y, alpha_b)  # (m, 3, 9)
     # hierarchical (deviatoric) corner rotations θ̃ᵢ = θᵢ − θ_CST (eq. 16)
     row = np.stack([x32, y32, z, x13, y13, z, x21, y21, z], axis=-1) / (2 * A2)[:, None]
     Tth = np.repeat(row[:, None, :], 3, axis=1)

@@ -34,7 +34,7 @@ from numpy.typing import NDArray
 
 from fabpat.errors import GeometryError
 from fabpat.shell.corotational import CorotationalTriangles
-from fabpat.shell.element import BENDING_DOFS, MEMBRANE_DOFS, Material
+from fabpat.shell.element import BENDING_DOFS, MEMBRANE_DOFS, Material, opt_basic_strain
 from fabpat.shell.rotations import expmap
 
 Arr = NDArray[np.float64]
@@ -65,26 +65,6 @@ class SurfaceStrain:
         """(m,) that principal strain with its sign (> 0 tension, < 0 compression)."""
         p = self.principal.reshape(len(self.principal), 4)
         return p[np.arange(len(p)), np.abs(p).argmax(axis=1)]
-
-
-def opt_basic_strain(x: Arr, y: Arr) -> Arr:
-    """(m, 3, 9) OPT basic strain–displacement matrix on dofs (u, v, θz) per node (Felippa 2003 eq. 22,
-    α_b = 3/2), the same matrix :func:`fabpat.shell.element.opt_membrane` integrates. x, y: (m, 3)."""
-    x12, x23, x31 = x[:, 0] - x[:, 1], x[:, 1] - x[:, 2], x[:, 2] - x[:, 0]
-    y12, y23, y31 = y[:, 0] - y[:, 1], y[:, 1] - y[:, 2], y[:, 2] - y[:, 0]
-    x21, x32, x13, y21, y32, y13 = -x12, -x23, -x31, -y12, -y23, -y31
-    A2 = x21 * y31 - x31 * y21
-    z = np.zeros_like(A2)
-    ab6 = 1.5 / 6.0
-    cols = [
-        (y23, z, x32), (z, x32, y23),
-        (ab6 * y23 * (y13 - y21), ab6 * x32 * (x31 - x12), ab6 * 2 * (x31 * y13 - x12 * y21)),
-        (y31, z, x13), (z, x13, y31),
-        (ab6 * y31 * (y21 - y32), ab6 * x13 * (x12 - x23), ab6 * 2 * (x12 * y21 - x23 * y32)),
-        (y12, z, x21), (z, x21, y12),
-        (ab6 * y12 * (y32 - y13), ab6 * x21 * (x23 - x31), ab6 * 2 * (x23 * y32 - x31 * y13)),
-    ]
-    return np.stack([np.stack(c, axis=-1) for c in cols], axis=-1) / A2[:, None, None]
 
 
 def dkmt_mean_curvature(x: Arr, y: Arr, mat: Material) -> Arr:
