@@ -374,3 +374,47 @@ def test_default_predict_h_fits_the_interfaces() -> None:
     spec = load_spec(SPHERE)
     assert default_predict_h(spec) == 3.0
     assert default_predict_h(replace(spec, tiling=replace(spec.tiling, edge=12.0))) == pytest.approx(2.5)
+
+
+# -- found by a hostile pass: arguments, the whole-assembly mesh bound, the unchecked strain limit ------
+
+
+@pytest.mark.parametrize("kwargs", [{"predict": "yes"}, {"predict": None}, {"force": "no"}, {"force": 1},
+                                    {"predict": False, "predict_h": 2.0}, {"predict_h": float("nan")}])
+def test_assemble_arguments_are_checked_first(kwargs: dict, tmp_path: Path) -> None:
+    from fabpat.assembly.build import assemble
+    from fabpat.errors import FabpatError
+
+    spec = Path(__file__).resolve().parents[1] / "assemblies" / "truncated-icosahedron.toml"
+    with pytest.raises(FabpatError) as err:
+        assemble(spec, tmp_path / "kit", **kwargs)
+    assert "\n" not in str(err.value) and not (tmp_path / "kit").exists()
+
+
+@pytest.mark.parametrize("spec, out", [(123, "kit"), (None, "kit"), ("SPEC", None), ("SPEC", 123)])
+def test_assemble_spec_and_out_types(spec: object, out: object, tmp_path: Path) -> None:
+    from fabpat.assembly.build import assemble
+    from fabpat.errors import SpecError
+
+    path = str(Path(__file__).resolve().parents[1] / "assemblies" / "truncated-icosahedron.toml")
+    with pytest.raises(SpecError):
+        assemble(path if spec == "SPEC" else spec, tmp_path / out if isinstance(out, str) else out)
+
+
+def test_a_fine_prediction_mesh_is_refused_before_it_fills_memory(tmp_path: Path) -> None:
+    """--predict-h 0.5 meshed the 32 plates into ~210 000 triangles and reached 7.5 GB before it was
+    killed; it is refused with the h that passes, naming --predict-h, and no folder is written."""
+    spec = Path(__file__).resolve().parents[1] / "assemblies" / "truncated-icosahedron.toml"
+    r = run_cli("assemble", str(spec), "--out", str(tmp_path / "kit"), "--no-progress", "--predict-h", "0.5")
+    assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+    assert "--predict-h ≥" in r.stderr and "whole assembly" in r.stderr and not (tmp_path / "kit").exists()
+
+
+def test_no_predict_says_the_strain_limit_was_not_checked(tmp_path: Path) -> None:
+    from fabpat.assembly.build import assemble
+
+    spec = Path(__file__).resolve().parents[1] / "assemblies" / "truncated-icosahedron.toml"
+    res = assemble(spec, tmp_path / "kit", predict=False)
+    assert any("strain_limit" in w and "not checked" in w for w in res.warnings)
+    manifest = json.loads((tmp_path / "kit" / "manifest.json").read_text(encoding="utf-8"))
+    assert any("not checked" in w for w in manifest["warnings"])

@@ -307,12 +307,22 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
     from fabpat.exchange.step import check_timestamp
 
     timestamp = check_timestamp(timestamp)
-    if predict and predict_h is not None:
+    for name, value in (("force", force), ("predict", predict)):
+        if not isinstance(value, bool):
+            raise SpecError(f"{name} must be True or False, got {value!r}")
+    if predict_h is not None:
         from fabpat.validate import check
 
-        check("h", predict_h, "predict_h")
+        check("h", predict_h, "predict_h (--predict-h)")
+        if not predict:
+            raise SpecError("predict_h (--predict-h) is the mesh of the prediction, which predict = False "
+                            "(--no-predict) skips: give one or the other")
     if not isinstance(spec, AssemblySpec):
+        if not isinstance(spec, str | os.PathLike):
+            raise SpecError(f"spec must be an AssemblySpec or the path of a TOML spec file, got {type(spec).__name__}")
         spec = load_spec(spec)
+    if not isinstance(out, str | os.PathLike) or not str(out):
+        raise SpecError(f"out must be the path of the kit's folder, got {out!r}")
     out = Path(out)
     check_out(out)
     if predict_h is None:
@@ -368,6 +378,9 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
         notes.append(f"predicted shape: sleeves grip the deformed plates, interface nodes within {fit[0]:.1e} mm "
                      f"of their slots' mid-planes and {fit[1]:.1e} mm of the slots")
         check_lines += notes
+    elif bent(assembly):  # the plates bend but nothing checked how far: say so where the user looks
+        problems.append(f"material.strain_limit = {spec.material.strain_limit:g} not checked: the prediction was "
+                        "skipped (--no-predict), and the plates bend when the sleeves close the object")
     status = (NOT_NEEDED if not bent(assembly) else PREDICTION if prediction is not None else SKIPPED)
 
     parent = out.parent if str(out.parent) else Path(".")

@@ -19,6 +19,7 @@ from typing import Any
 from fabpat.assembly.placement import Assembly
 from fabpat.assembly.spec import AssemblySpec
 from fabpat.errors import ExportError, FabpatError
+from fabpat.mesh import ASSEMBLY_MAX_ELEMENTS
 
 #: default mesh edge (mm) of the kit's closure prediction, the simulate-assembly default: the shipped
 #: sphere's whole kit takes 26 s on the shared 2-core machine with it, and h = 2 or 1.5 move the radius
@@ -49,7 +50,10 @@ def close(spec: AssemblySpec, ids: list[str], h: float, progress: Callable[[floa
     """The ClosureRun of the spec with face pattern IDs ``ids`` at mesh edge h (mm), checked against
     ``[material] strain_limit``. Raises GeometryError (h too coarse) or SolverError (path lost)."""
     from fabpat.assembly.closure import closure_setup, run_closure
+    from fabpat.assembly.simulation import check_assembly_size
 
+    check_assembly_size(spec, ids, h, ASSEMBLY_MAX_ELEMENTS, option="the limit of a kit's prediction, ≈ 8 GB",
+                        h_name="--predict-h")
     setup = closure_setup(spec, ids, h=h)
     return run_closure(setup, strain_limit=spec.material.strain_limit, progress=progress)
 

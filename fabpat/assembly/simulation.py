@@ -145,10 +145,12 @@ def _check_path(path: object) -> None:
         raise ExportError(f"an output path must be a non-empty file name, got {path!r}")
 
 
-def check_assembly_size(spec: Any, patterns: list[str], h: float, max_elements: int) -> float:
+def check_assembly_size(spec: Any, patterns: list[str], h: float, max_elements: int,
+                        option: str = "raise it with --max-elements", h_name: str = "h") -> float:
     """Refuse (GeometryError, naming --max-elements and an h that passes) an assembly whose plate meshes
     at edge h (mm) would hold more than ``max_elements`` triangles in total, before any meshing; the
-    estimate is :func:`fabpat.mesh.estimate_elements` of each distinct filleted outline × its count."""
+    estimate is :func:`fabpat.mesh.estimate_elements` of each distinct filleted outline × its count.
+    ``option`` (how to raise the limit) and ``h_name`` (how the caller spells h) word the message."""
     import math
 
     from fabpat.assembly.placement import build_tiling
@@ -170,8 +172,8 @@ def check_assembly_size(spec: Any, patterns: list[str], h: float, max_elements: 
     n = estimate_elements(area, perimeter, h)
     c = math.sqrt(3.0) / 4.0
     suggest = (perimeter + math.sqrt(perimeter**2 + 4.0 * max_elements * area / c)) / (2.0 * max_elements)
-    check_size(n, max_elements, f"mesh elements of the whole assembly at h = {h:g} mm", "raise it with --max-elements",
-               f"or use h ≥ {round_up(suggest):g} mm", error=GeometryError)
+    check_size(n, max_elements, f"{spec.source}: mesh elements of the whole assembly at {h_name} = {h:g} mm", option,
+               f"use {h_name} ≥ {round_up(suggest):g} mm", error=GeometryError)
     return n
 
 
