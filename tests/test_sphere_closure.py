@@ -220,3 +220,12 @@ def test_the_whole_assembly_mesh_is_bounded(tmp_path: Path) -> None:
         r = subprocess.run([sys.executable, "-m", "fabpat", "simulate-assembly", str(FLAT), *args],
                            capture_output=True, text=True, timeout=120)
         assert r.returncode == 2 and r.stderr.count("\n") == 1, (args, r.stderr)
+
+
+def test_a_strip_that_never_leaves_its_plane_has_no_peak() -> None:
+    """--imperfection 0: nothing selects the buckle and the strip is shortened in its plane; a deflection
+    profile of zeros has no peak (it was reported as the first bin)."""
+    f = simulate_assembly(ROOT / "assemblies" / "test-small.toml", h=5.0, end_shortening=0.005, steps=1,
+                          imperfection=0.0).fields()
+    assert f["max_deflection"] == pytest.approx(0.0, abs=1e-9)
+    assert f["peak"] is None and f["half_ratio"] is None and f["reaction"] > 0
