@@ -121,9 +121,11 @@ def test_plates_too_thin_to_print(tmp_path: Path) -> None:
     res = invoke("assemble", str(spec), "--out", str(tmp_path / "kit"), "--no-progress", "--force", "--no-predict")
     assert res.exit_code == 0, res.stderr
     warnings = [ln for ln in res.stderr.splitlines() if ln.startswith("fabpat: warning:")]
-    assert len(warnings) == 2 and "plate pent 0x0508" in warnings[1] and "0.8 mm for printing" in warnings[0]
+    # the two plates too thin to print, then the strain limit that --no-predict left unchecked
+    assert len(warnings) == 3 and "plate pent 0x0508" in warnings[1] and "0.8 mm for printing" in warnings[0]
+    assert "strain_limit" in warnings[2] and "not checked" in warnings[2]
     manifest = json.loads((tmp_path / "kit" / "manifest.json").read_text(encoding="utf-8"))
-    assert len(manifest["warnings"]) == 2
+    assert len(manifest["warnings"]) == 3
 
 
 def test_laser_plates_use_the_kerf_limit(tmp_path: Path) -> None:
