@@ -1,12 +1,13 @@
 """Sweep benchmark: time per pattern-scenario, the share spent meshing / assembling / solving, and the
 estimated full-library sweep (430 patterns × 3 nonlinear scenarios) on this machine.
 
-Run: ``python benchmarks/bench_sweep.py [--patterns K] [--seed S] [--h MM] [--workers N]``.
+Run: ``python benchmarks/bench_sweep.py [--patterns K] [--seed S] [--h MM] [--workers N] [--extrapolate]``.
 Part 1 runs K random patterns one after the other in this process and splits the time by phase
 (fillet + mesh once per pattern, shared by its three scenarios; tangent assembly; internal forces /
 residual; LU factorisation + back-substitution). Part 2 runs the same K patterns through ``run_sweep``
 with N worker processes into a temporary catalog, which measures the real parallel throughput
-(including process start-up and catalog commits); the estimate scales that to 430 × 3.
+(including process start-up and catalog commits); the estimate scales that to 430 × 3. With
+``--extrapolate`` part 2 runs the sweep of ``fabpat sweep --extrapolate`` (meshes h and h/1.5).
 Prints Markdown tables.
 """
 
@@ -24,7 +25,7 @@ from fabpat.fillet import fillet_pattern
 from fabpat.library import enumerate_library, sample_library
 from fabpat.mesh import mesh_outline
 from fabpat.scenarios import SCENARIOS, run_scenario
-from fabpat.sweep import SweepSetup, run_sweep
+from fabpat.sweep import SweepSetup, fine_mesh, run_sweep
 
 
 def sequential(ids: list[str], h: float) -> list[dict[str, float | str]]:
@@ -53,6 +54,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--h", type=float, default=1.5, help="mesh size in mm (the sweep's default 1.5)")
     ap.add_argument("--workers", type=int, default=2, help="worker processes for part 2 (default 2)")
+    ap.add_argument("--extrapolate", action="store_true", help="part 2: extrapolated energies (h and h/1.5)")
     a = ap.parse_args()
     ids = list(sample_library(6, 2, a.patterns, a.seed).ids)
 
@@ -83,11 +85,13 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as d:
         cpu0 = _children_cpu()
         t0 = time.perf_counter()
-        rep = run_sweep(Path(d) / "bench.sqlite", ids, SweepSetup(h=a.h), workers=a.workers)
+        rep = run_sweep(Path(d) / "bench.sqlite", ids, SweepSetup(h=a.h, extrapolate=a.extrapolate),
+                        workers=a.workers)
         wall = time.perf_counter() - t0
         cpu = _children_cpu() - cpu0  # CPU seconds of the (finished) worker processes
     per_par = wall / rep.computed
-    print(f"## Part 2: run_sweep, {a.workers} workers, load average {os.getloadavg()[0]:.1f}\n")
+    how = f", extrapolated from h = {a.h:g} and {fine_mesh(a.h):g} mm" if a.extrapolate else ""
+    print(f"## Part 2: run_sweep{how}, {a.workers} workers, load average {os.getloadavg()[0]:.1f}\n")
     print("Wall time is what this (possibly shared) machine gave; worker CPU time / cores is what "
           f"{a.workers} dedicated cores would take.\n")
     print("| pattern-scenarios | wall s | wall s per pattern-scenario | estimate 430 × 3 (wall) | "

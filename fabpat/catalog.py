@@ -9,7 +9,10 @@ Two tables (stdlib :mod:`sqlite3`, no pandas):
 * ``results``: one row per pattern × scenario — the same key plus ``scenario``; material (E N/mm², nu),
   mesh size h (mm), ``energy`` (N·mm), ``max_displacement`` (mm), ``converged``, ``iterations``,
   ``seconds``, mesh size in nodes/elements, ``error`` (message of a deterministic failure: no
-  convergence, unmeshable outline), ``solver_version`` and ``input_hash``.
+  convergence, unmeshable outline), ``solver_version``, ``input_hash`` and ``h_fine`` (mm): NULL for
+  the energy of one mesh of size h; else the energy is Richardson-extrapolated from meshes h and
+  h_fine (``fabpat sweep --extrapolate``, :mod:`fabpat.convergence`) and the other fields are the
+  h_fine mesh's (``seconds`` summed over both).
 
 ``input_hash`` digests every input that affects a result (the key, the material, h, nonlinear, the
 solver version — which includes a digest of the source of every module the pipeline imports, see
@@ -67,7 +70,11 @@ RESULT_COLUMNS: dict[str, str] = {
     "energy": "REAL", "max_displacement": "REAL", "converged": "INTEGER NOT NULL", "iterations": "INTEGER",
     "seconds": "REAL", "nodes": "INTEGER", "elements": "INTEGER", "error": "TEXT",
     "solver_version": "TEXT NOT NULL", "input_hash": "TEXT NOT NULL", "computed_at": "TEXT NOT NULL",
+    "h_fine": "REAL",
 }
+#: columns added after schema 1 was released: a catalog without them is still sound (its rows read as
+#: NULL there, i.e. the single-mesh default); opening it for writing adds them (``ALTER TABLE … ADD``)
+ADDED_COLUMNS: dict[str, tuple[str, ...]] = {"patterns": (), "results": ("h_fine",)}
 #: metrics copied from ``patterns`` into the wide rows of :meth:`Catalog.pattern_rows`
 METRICS = ("area", "perimeter", "ratio", "polar_moment", "filleted_area", "filleted_perimeter", "filleted_ratio",
            "filleted_polar_moment", "min_width")
@@ -75,7 +82,7 @@ METRICS = ("area", "perimeter", "ratio", "polar_moment", "filleted_area", "fille
 # The results depend on the code of these modules and of every fabpat module they import (found by
 # reading their import statements): that code's digest is part of the solver version, so a code change
 # invalidates stored results instead of silently mixing them, and an unrelated module does not.
-_PIPELINE_ROOTS = ("fabpat.library", "fabpat.fillet", "fabpat.mesh", "fabpat.scenarios")
+_PIPELINE_ROOTS = ("fabpat.library", "fabpat.fillet", "fabpat.mesh", "fabpat.scenarios", "fabpat.convergence")
 # Writers and pictures that pipeline objects reach for on request (``FilletedPattern.export``,
 # ``ScenarioResult.to_vtu``, notebook pictures) never change a stored number: not part of the digest.
 _OUTPUT_ONLY = ("fabpat.exchange", "fabpat.cad", "fabpat.pictures", "fabpat.plots", "fabpat.io")
@@ -205,10 +212,12 @@ class Catalog:
                           "GROUP BY sides, depth, edge, thickness, weight ORDER BY sides, depth, edge")
 
     def results(self, scenario: str | None = None, **setup: object) -> list[dict[str, object]]:
-        """Rows of ``results`` (long form), optionally filtered by scenario and key columns."""
+        """Rows of ``results`` (long form), optionally filtered by scenario and key columns; every
+        column of :data:`RESULT_COLUMNS` is a key (None where a catalog made before it has none)."""
         where, params = _where({**setup, **({"scenario": scenario} if scenario else {})})
-        return self.query(f"SELECT * FROM results{where} ORDER BY sides, depth, edge, thickness, weight, id, "
+        rows = self.query(f"SELECT * FROM results{where} ORDER BY sides, depth, edge, thickness, weight, id, "
                           "scenario", params)
+        return [{**r, **{c: None for c in ADDED_COLUMNS["results"] if c not in r}} for r in rows]
 
     def pattern_rows(self, *, pictures: bool = False, **setup: object) -> list[dict[str, object]]:
         """One dict per pattern (wide form): key, metrics and, per scenario, ``energy_<s>`` (N·mm),
@@ -395,6 +404,13 @@ def open_catalog(path: str | Path | None = None, *, write: bool = False) -> Cata
         conn.execute("PRAGMA journal_mode=WAL")
         conn.execute("PRAGMA synchronous=NORMAL")
         conn.execute("SELECT COUNT(*) FROM meta").fetchone()  # WAL's -shm index is made now: a full disk shows here
+        for table, added in ADDED_COLUMNS.items():  # a catalog made before these columns existed
+            have = {str(r[1]) for r in conn.execute(f"PRAGMA table_info({table})")}
+            for c in added:
+                if c not in have:
+                    with conn:
+                        kind = (PATTERN_COLUMNS if table == "patterns" else RESULT_COLUMNS)[c]
+                        conn.execute(f"ALTER TABLE {table} ADD COLUMN {c} {kind}")
     except sqlite3.Error as e:
         cat.close(failed=True)  # back to one file as it was, no -wal/-shm
         raise _cause(e, p, "write to") from e
@@ -439,7 +455,7 @@ def _check_schema(conn: sqlite3.Connection, p: Path) -> None:
                                f"version): move it away or give another --db, and `fabpat sweep` makes a new one")
         for table, columns in (("patterns", PATTERN_COLUMNS), ("results", RESULT_COLUMNS)):
             have = {str(r[1]) for r in conn.execute(f"PRAGMA table_info({table})")}
-            lost = [c for c in columns if c not in have]
+            lost = [c for c in columns if c not in have and c not in ADDED_COLUMNS[table]]
             if lost:
                 what = f"table {table} is missing" if not have else f"table {table} has no column {', '.join(lost)}"
                 raise CatalogError(f"catalog {p} is damaged: {what}; move it away and re-create it with "

@@ -6,8 +6,8 @@ the catalog — one transaction per finished pattern, committed as soon as it ar
 at any point (even SIGKILL) keeps every finished pattern and leaves no half-written one, and the next
 run resumes: a row is skipped when its stored ``input_hash`` equals the one it would get now.
 
-A pattern's scenarios share one mesh, which is why the task is a pattern, not a pattern-scenario
-(meshing is ~3 % of a solve, but would be repeated three times).
+A pattern's scenarios share its mesh (or, with ``extrapolate``, its two meshes), which is why the task
+is a pattern, not a pattern-scenario (meshing is ~3 % of a solve, but would be repeated three times).
 """
 
 from __future__ import annotations
@@ -44,11 +44,26 @@ class SweepSetup:
     nu: float = PLA_NU
     h: float = DEFAULT_H
     scenarios: tuple[str, ...] = ("cantilever", "cylinder", "dome")
+    #: also mesh at h/1.5 and store the Richardson-extrapolated energy (≈ 3× the time; docs/accuracy.md)
+    extrapolate: bool = False
+
+    @property
+    def h_fine(self) -> float | None:
+        """Mesh size (mm) of the second mesh of an extrapolating sweep, else None."""
+        return fine_mesh(self.h) if self.extrapolate else None
 
     def key(self, pattern_id: str) -> dict[str, object]:
         """The catalog row key of one pattern under this setup."""
         return {"id": pattern_id, "sides": self.sides, "depth": self.depth, "edge": float(self.edge),
                 "thickness": float(self.thickness), "weight": float(self.weight)}
+
+
+def fine_mesh(h: float) -> float:
+    """The second mesh (mm) of an extrapolated energy: h × 1.0/1.5, the ratio of
+    :data:`fabpat.convergence.CONVERGED_MESHES` (as ``fabpat simulate --extrapolate``)."""
+    from fabpat.convergence import CONVERGED_MESHES
+
+    return float(h) * CONVERGED_MESHES[1] / CONVERGED_MESHES[0]
 
 
 def pattern_hash(pattern_id: str, sides: int, depth: int, edge: float, thickness: float, weight: float,
@@ -59,37 +74,50 @@ def pattern_hash(pattern_id: str, sides: int, depth: int, edge: float, thickness
 
 
 def result_hash(pattern_id: str, sides: int, depth: int, edge: float, thickness: float, weight: float,
-                E: float, nu: float, h: float, scenario: str, version: str) -> str:
-    """Input hash of a ``results`` row: the key, material, mesh size, nonlinear flag, solver version."""
-    return input_hash({"id": pattern_id, "sides": sides, "depth": depth, "edge": float(edge),
-                       "thickness": float(thickness), "weight": float(weight), "E": float(E), "nu": float(nu),
-                       "h": float(h), "nonlinear": True, "scenario": scenario, "solver": version})
+                E: float, nu: float, h: float, scenario: str, version: str, h_fine: float | None = None) -> str:
+    """Input hash of a ``results`` row: the key, material, mesh size(s), nonlinear flag, solver version.
+    ``h_fine``: the second mesh of an extrapolated energy (None: one mesh; the hash is then the same as
+    before extrapolation existed)."""
+    inputs: dict[str, object] = {"id": pattern_id, "sides": sides, "depth": depth, "edge": float(edge),
+                                 "thickness": float(thickness), "weight": float(weight), "E": float(E),
+                                 "nu": float(nu), "h": float(h), "nonlinear": True, "scenario": scenario,
+                                 "solver": version}
+    if h_fine is not None:
+        inputs["h_fine"] = float(h_fine)
+    return input_hash(inputs)
 
 
 def simulate_pattern(pattern_id: str, sides: int, depth: int, edge: float, thickness: float, weight: float,
-                     E: float, nu: float, h: float, scenarios: Sequence[str]) -> list[dict[str, object]]:
+                     E: float, nu: float, h: float, scenarios: Sequence[str],
+                     extrapolate: bool = False) -> list[dict[str, object]]:
     """Fillet, mesh and run ``scenarios`` (nonlinear) on one pattern; the catalog rows to store.
 
     Returns one ``patterns`` row (``"table": "patterns"``) and one ``results`` row per scenario.
+    ``extrapolate``: also mesh at :func:`fine_mesh` (h) and store the Richardson-extrapolated energy
+    (:func:`fabpat.convergence.run_converged`, as ``fabpat simulate --extrapolate``) with ``h_fine``;
+    the row's other fields are then the fine mesh's, and ``seconds`` the sum over both (as the JSON of
+    ``fabpat simulate --extrapolate``).
     Deterministic failures (:class:`~fabpat.errors.FabpatError`: an outline that cannot be filleted
     or meshed, a solve that does not converge) become rows with ``converged = 0`` and ``error``, so a
     resumed sweep does not retry them; anything else propagates (a bug: nothing is stored).
     Hashes use the solver version of the process that computes (a dask worker with other code gets
     a different hash, and a later sweep recomputes its rows).
     """
+    from fabpat.convergence import run_converged
     from fabpat.fillet import fillet_pattern
     from fabpat.library import get_pattern
-    from fabpat.mesh import check_resolves, mesh_outline
-    from fabpat.scenarios import run_scenario
+    from fabpat.mesh import ShellMesh, check_resolves, mesh_outline
 
     version = solver_version()
+    h_fine = fine_mesh(h) if extrapolate else None
+    sizes = (h,) if h_fine is None else (h, h_fine)
     key = {"id": pattern_id, "sides": sides, "depth": depth, "edge": float(edge), "thickness": float(thickness),
            "weight": float(weight)}
     prow: dict[str, object] = {"table": "patterns", **key,
                                "input_hash": pattern_hash(pattern_id, sides, depth, edge, thickness, weight,
                                                           version)}
     rows: list[dict[str, object]] = [prow]
-    mesh = None
+    meshes: list[tuple[float, ShellMesh]] = []
     geometry_error: str | None = None
     try:
         pattern = get_pattern(pattern_id, sides, depth, edge)
@@ -99,24 +127,29 @@ def simulate_pattern(pattern_id: str, sides: int, depth: int, edge: float, thick
         prow.update(filleted.catalog_columns())  # as `fabpat library`; an invalid outline raises GeometryError
         prow["svg_path"] = filleted.outline.to_svg_path()
         check_resolves(h, float(prow["min_width"]), f"pattern {pattern_id}")  # as `fabpat simulate`
-        mesh = mesh_outline(filleted.outline, h, sides, edge, weight=weight)
+        meshes = [(s, mesh_outline(filleted.outline, s, sides, edge, weight=weight)) for s in sizes]
     except FabpatError as e:
         geometry_error = f"{type(e).__name__}: {e}"
         prow["error"] = geometry_error
     for scenario in scenarios:
         row: dict[str, object] = {"table": "results", **key, "scenario": scenario, "E": float(E), "nu": float(nu),
-                                  "h": float(h), "nonlinear": 1, "converged": 0, "solver_version": version,
+                                  "h": float(h), "h_fine": h_fine, "nonlinear": 1, "converged": 0,
+                                  "solver_version": version,
                                   "input_hash": result_hash(pattern_id, sides, depth, edge, thickness, weight, E,
-                                                            nu, h, scenario, version),
+                                                            nu, h, scenario, version, h_fine),
                                   "error": geometry_error}
-        if mesh is not None:
+        if meshes:
             t0 = time.perf_counter()
-            row.update(nodes=mesh.n_nodes, elements=mesh.n_elements)
+            fine = meshes[-1][1]
+            row.update(nodes=fine.n_nodes, elements=fine.n_elements)
             try:
-                r = run_scenario(mesh, scenario, sides=sides, edge=edge, thickness=thickness, E=E, nu=nu,
-                                 nonlinear=True)
-                row.update(energy=float(r.energy), max_displacement=float(r.max_displacement),
-                           converged=int(r.converged), iterations=int(r.iterations), seconds=float(r.seconds))
+                c = run_converged(meshes, scenario, sides=sides, edge=edge, thickness=thickness, E=E, nu=nu,
+                                  nonlinear=True)
+                r = c.fine
+                row.update(energy=float(c.energy), max_displacement=float(r.max_displacement),
+                           converged=int(all(x.converged for x in c.runs)),
+                           iterations=int(r.iterations),
+                           seconds=float(sum(x.seconds for x in c.runs)))
             except FabpatError as e:
                 row.update(error=f"{type(e).__name__}: {e}", seconds=time.perf_counter() - t0)
         row["computed_at"] = datetime.now(UTC).isoformat(timespec="seconds")
@@ -148,7 +181,7 @@ def plan(cat: Catalog, ids: Sequence[str], setup: SweepSetup, force: bool) -> li
     jobs = []
     for pid in ids:
         todo = tuple(sc for sc in s.scenarios if force or res.get((pid, sc)) != result_hash(
-            pid, s.sides, s.depth, s.edge, s.thickness, s.weight, s.E, s.nu, s.h, sc, version))
+            pid, s.sides, s.depth, s.edge, s.thickness, s.weight, s.E, s.nu, s.h, sc, version, s.h_fine))
         pattern_stale = pats.get(pid) != pattern_hash(pid, s.sides, s.depth, s.edge, s.thickness, s.weight, version)
         if todo or pattern_stale:
             jobs.append((pid, todo))
@@ -258,6 +291,7 @@ def run_sweep(db: str | Path, ids: Sequence[str], setup: SweepSetup = SweepSetup
     if task is simulate_pattern:
         # import the pipeline before forking workers: they all run the code the version digest describes,
         # even if a source file is edited while the sweep runs
+        import fabpat.convergence  # noqa: F401
         import fabpat.fillet  # noqa: F401
         import fabpat.mesh  # noqa: F401
         import fabpat.scenarios  # noqa: F401
@@ -272,7 +306,7 @@ def run_sweep(db: str | Path, ids: Sequence[str], setup: SweepSetup = SweepSetup
         report = SweepReport(len(ids), len(ids) * len(s.scenarios), len(ids) * len(s.scenarios) - total, 0, 0)
         if progress is not None:
             progress(0, total)
-        work = [((pid, s.sides, s.depth, s.edge, s.thickness, s.weight, s.E, s.nu, s.h, sc), pid)
+        work = [((pid, s.sides, s.depth, s.edge, s.thickness, s.weight, s.E, s.nu, s.h, sc, s.extrapolate), pid)
                 for pid, sc in jobs]
         if client is not None:
             stream = _run_dask(task, work, client)

@@ -26,7 +26,7 @@ IDS = [f"0x{k:04x}" for k in range(0x1008, 0x1008 + 16 * 12, 16)]  # 12 fake IDs
 
 
 def fake_task(pattern_id: str, sides: int, depth: int, edge: float, thickness: float, weight: float, E: float,
-              nu: float, h: float, scenarios: tuple[str, ...]) -> list[dict[str, object]]:
+              nu: float, h: float, scenarios: tuple[str, ...], extrapolate: bool = False) -> list[dict[str, object]]:
     """Rows shaped like simulate_pattern's, with energy = E/1000 · (index of the scenario + 1)."""
     from fabpat.catalog import solver_version
     from fabpat.sweep import pattern_hash, result_hash
@@ -214,3 +214,67 @@ def test_cli_errors_are_one_line(tmp_path: Path) -> None:
     assert res.exit_code == 2 and res.stderr.count("\n") == 1 and "does not exist" in res.stderr
     res = invoke("sweep", "--depth", "3", "--db", str(tmp_path / "c.sqlite"))
     assert res.exit_code == 2 and "--sample" in res.stderr
+
+
+def test_extrapolated_sweep_stores_richardson_energy_and_switching_recomputes(tmp_path: Path) -> None:
+    """``--extrapolate``: the stored energy is E₁ + (E₁ − E₁.₅)/(1.5/1 − 1) of the two meshes' own runs
+    (Richardson with order 1), the other fields are the fine mesh's, ``h_fine`` says so; switching the
+    option off recomputes the row as one mesh (the hash covers it)."""
+    from fabpat.fillet import fillet_pattern
+    from fabpat.library import get_pattern
+    from fabpat.mesh import mesh_outline
+    from fabpat.scenarios import run_scenario
+
+    db = tmp_path / "c.sqlite"
+    res = run_cli("sweep", "--sample", "1", "--seed", "0", "--db", str(db), "--workers", "1", "--extrapolate")
+    assert res.returncode == 0, res.stderr
+    with open_catalog(db) as cat:
+        ids = {r["id"] for r in cat.results()}
+    assert len(ids) == 1
+    pid = ids.pop()
+    fp = fillet_pattern(get_pattern(pid, 6, 2, 36.0), 0.2)
+    runs = {h: run_scenario(mesh_outline(fp.outline, h, 6, 36.0), "cylinder", sides=6) for h in (1.5, 1.0)}
+    e15, e10 = runs[1.5].energy, runs[1.0].energy
+    with open_catalog(db) as cat:
+        row = next(r for r in cat.results(scenario="cylinder"))
+    assert row["h"] == 1.5 and row["h_fine"] == 1.0 and row["converged"] == 1
+    assert row["energy"] == pytest.approx(e10 + (e10 - e15) / 0.5, rel=1e-7)
+    assert row["energy"] > e10 > e15  # the energy rises towards the converged value (docs/accuracy.md)
+    assert row["nodes"] == runs[1.0].nodes and row["iterations"] == runs[1.0].iterations
+    res = run_cli("sweep", "--sample", "1", "--seed", "0", "--db", str(db), "--workers", "1")
+    assert "3 pattern-scenarios computed" in res.stdout, res.stdout
+    with open_catalog(db) as cat:
+        row = next(r for r in cat.results(scenario="cylinder"))
+    assert row["h_fine"] is None and row["energy"] == pytest.approx(e15, rel=1e-7)
+
+
+def test_catalog_without_h_fine_reads_as_single_mesh_and_gains_the_column_when_written(tmp_path: Path) -> None:
+    """A catalog made before ``h_fine`` existed (schema 1 as first released) is sound: read, its rows say
+    None; opened read-only it is not modified; opened for writing it gains the column."""
+    import hashlib
+
+    db = tmp_path / "old.sqlite"
+    conn = sqlite3.connect(db)
+    from fabpat.catalog import PATTERN_COLUMNS, RESULT_COLUMNS, SCHEMA_VERSION
+
+    conn.execute("CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)")
+    conn.execute("INSERT INTO meta VALUES ('schema_version', ?)", (SCHEMA_VERSION,))
+    conn.execute(f"CREATE TABLE patterns ({', '.join(f'{c} {t}' for c, t in PATTERN_COLUMNS.items())}, "
+                 "PRIMARY KEY (id, sides, depth, edge, thickness, weight))")
+    old = {c: t for c, t in RESULT_COLUMNS.items() if c != "h_fine"}
+    conn.execute(f"CREATE TABLE results ({', '.join(f'{c} {t}' for c, t in old.items())}, "
+                 "PRIMARY KEY (id, sides, depth, edge, thickness, weight, scenario))")
+    conn.execute("INSERT INTO results (id, sides, depth, edge, thickness, weight, scenario, E, nu, h, nonlinear, "
+                 "energy, converged, solver_version, input_hash, computed_at) VALUES "
+                 "('0x2d08', 6, 2, 36, 2, 0.2, 'dome', 1000, 0.35, 1.5, 1, 180.0, 1, 'v', 'x', 'now')")
+    conn.commit()
+    conn.close()
+    before = hashlib.sha256(db.read_bytes()).hexdigest()
+    with open_catalog(db) as cat:
+        rows = cat.results()
+    assert rows[0]["h_fine"] is None and rows[0]["energy"] == 180.0
+    assert hashlib.sha256(db.read_bytes()).hexdigest() == before  # readers never modify
+    with open_catalog(db, write=True):
+        pass
+    cols = {r[1] for r in sqlite3.connect(db).execute("PRAGMA table_info(results)")}
+    assert "h_fine" in cols

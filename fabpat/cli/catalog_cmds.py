@@ -43,13 +43,18 @@ _db_help = "Catalog file (SQLite) [default: the built-in catalog of the default 
 @number_option("--poisson", range_name="poisson", default=0.35, show_default=True, help="Poisson's ratio (PLA: 0.35).")
 @number_option("--h", "--mesh-size", "h", range_name="h", default=1.5, show_default=True,
                help="Target mesh edge length in mm (at most twice each pattern's min_width).")
+@click.option("--extrapolate", is_flag=True,
+              help="Also mesh each pattern at h/1.5 and store the energy extrapolated to the mesh-converged "
+                   "value (Richardson, as `fabpat simulate --extrapolate`; ≈ 3× the time; docs/accuracy.md).")
 def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, workers: int | None,
               dask_address: str | None, force: bool, edge: float, thickness: float, weight: float, modulus: float,
-              poisson: float, h: float) -> int:
+              poisson: float, h: float, extrapolate: bool) -> int:
     """Simulate every pattern (fillet → mesh → cantilever, cylinder, dome, nonlinear) into a catalog.
 
     Each pattern's results are committed as soon as they are computed; re-running resumes (rows whose
     input hash matches are skipped), so an interrupted sweep loses only the patterns in progress.
+    With --extrapolate each energy is extrapolated from meshes of h and h/1.5 (the rows' h_fine says
+    so); switching it on or off recomputes the rows.
 
     Example: fabpat sweep --db catalog.sqlite --workers 2
     """
@@ -69,11 +74,11 @@ def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, wo
     from fabpat.sweep import SweepSetup, run_sweep
 
     check_distinct([], inputs={"--db": db})  # the library cache, say, may never replace the catalog
-    check_polygon_elements(sides, edge, h, DEFAULT_MAX_ELEMENTS)
+    setup = SweepSetup(sides, depth, edge, thickness, weight, modulus, poisson, h, extrapolate=extrapolate)
+    check_polygon_elements(sides, edge, setup.h_fine or h, DEFAULT_MAX_ELEMENTS)
     if dask_address and workers:
         raise click.UsageError("--workers is for local processes; the dask cluster decides with --dask")
     ids = load_library(sides, depth, sample, seed).ids
-    setup = SweepSetup(sides, depth, edge, thickness, weight, modulus, poisson, h)
     console = Console(stderr=True)
     columns = (TextColumn("simulating"), BarColumn(), MofNCompleteColumn(), TextColumn("pattern-scenarios"),
                TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn())
