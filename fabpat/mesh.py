@@ -121,22 +121,29 @@ def estimate_elements(area: float, perimeter: float, h: float) -> float:
     return area / (math.sqrt(3.0) / 4.0 * h * h) + perimeter / h
 
 
-def check_element_count(area: float, perimeter: float, h: float, max_elements: int) -> None:
-    """Raise GeometryError before meshing if :func:`estimate_elements` is above ``max_elements``."""
+def check_element_count(area: float, perimeter: float, h: float, max_elements: int, *, fine_ratio: float = 1.0,
+                        option: str = "raise it with --max-elements") -> None:
+    """Raise GeometryError before meshing if :func:`estimate_elements` is above ``max_elements``.
+
+    ``fine_ratio``: the mesh checked is h × fine_ratio (the finer mesh of an extrapolation), but the
+    message speaks of, and suggests, the h the user gave. ``option``: how to raise the limit.
+    """
     max_elements = int(check("max_elements", max_elements, error=GeometryError))
-    n = estimate_elements(area, perimeter, h)
+    n = estimate_elements(area, perimeter, h * fine_ratio)
     # the h at which the estimate equals the limit: N·c·h² − P·h − A = 0 with c = √3/4 (both terms of
     # estimate_elements), rounded up so that the suggested h passes this very check
     c = math.sqrt(3.0) / 4.0
     suggest = (perimeter + math.sqrt(perimeter**2 + 4.0 * max_elements * area / c)) / (2.0 * max_elements)
-    check_size(n, max_elements, f"mesh elements at h = {h:g} mm", "raise it with --max-elements",
-               f"or use h ≥ {round_up(suggest):g} mm", error=GeometryError)
+    what = f"mesh elements at h = {h:g} mm" if fine_ratio == 1.0 else \
+        f"mesh elements of the finer mesh of h = {h:g} mm (h × {fine_ratio:.4g} = {h * fine_ratio:g} mm)"
+    check_size(n, max_elements, what, option, f"or use h ≥ {round_up(suggest / fine_ratio):g} mm", error=GeometryError)
 
 
-def check_polygon_elements(sides: int, edge: float, h: float, max_elements: int = DEFAULT_MAX_ELEMENTS) -> None:
+def check_polygon_elements(sides: int, edge: float, h: float, max_elements: int = DEFAULT_MAX_ELEMENTS, *,
+                           fine_ratio: float = 1.0, option: str = "raise it with --max-elements") -> None:
     """:func:`check_element_count` for the solid regular polygon, which bounds every pattern's mesh."""
     area = sides * edge * edge / (4.0 * math.tan(math.pi / sides))
-    check_element_count(area, sides * edge, h, max_elements)
+    check_element_count(area, sides * edge, h, max_elements, fine_ratio=fine_ratio, option=option)
 
 
 def check_resolves(h: float, min_width: float, what: str = "the pattern") -> None:

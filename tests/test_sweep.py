@@ -226,8 +226,17 @@ def test_extrapolated_sweep_stores_richardson_energy_and_switching_recomputes(tm
     from fabpat.scenarios import run_scenario
 
     db = tmp_path / "c.sqlite"
+    other = {"table": "results", "id": "0xffff", "sides": 6, "depth": 2, "edge": 36.0, "thickness": 2.0,
+             "weight": 0.2, "scenario": "dome", "E": 1000.0, "nu": 0.35, "h": 1.5, "nonlinear": 1, "energy": 1.0,
+             "converged": 1, "solver_version": "v", "input_hash": "x", "computed_at": "now"}
+    with open_catalog(db, write=True) as cat:  # a one-mesh row of another pattern: the sweep makes a mix
+        cat.write_rows([other])
     res = run_cli("sweep", "--sample", "1", "--seed", "0", "--db", str(db), "--workers", "1", "--extrapolate")
     assert res.returncode == 0, res.stderr
+    assert "3 extrapolated and 1 one-mesh energies" in res.stderr and res.stderr.count("warning") == 1
+    with open_catalog(db, write=True) as cat:
+        cat.conn.execute("DELETE FROM results WHERE id = '0xffff'")
+        cat.conn.commit()
     with open_catalog(db) as cat:
         ids = {r["id"] for r in cat.results()}
     assert len(ids) == 1
@@ -242,7 +251,7 @@ def test_extrapolated_sweep_stores_richardson_energy_and_switching_recomputes(tm
     assert row["energy"] > e10 > e15  # the energy rises towards the converged value (docs/accuracy.md)
     assert row["nodes"] == runs[1.0].nodes and row["iterations"] == runs[1.0].iterations
     res = run_cli("sweep", "--sample", "1", "--seed", "0", "--db", str(db), "--workers", "1")
-    assert "3 pattern-scenarios computed" in res.stdout, res.stdout
+    assert "3 pattern-scenarios computed" in res.stdout and "warning" not in res.stderr, res.stdout
     with open_catalog(db) as cat:
         row = next(r for r in cat.results(scenario="cylinder"))
     assert row["h_fine"] is None and row["energy"] == pytest.approx(e15, rel=1e-7)
@@ -278,3 +287,16 @@ def test_catalog_without_h_fine_reads_as_single_mesh_and_gains_the_column_when_w
         pass
     cols = {r[1] for r in sqlite3.connect(db).execute("PRAGMA table_info(results)")}
     assert "h_fine" in cols
+
+
+def test_extrapolated_sweep_too_fine_names_the_finer_mesh_and_a_valid_h(tmp_path: Path) -> None:
+    """The size check covers the finer mesh h/1.5 and suggests an --h that passes (one line, exit 2, no file)."""
+    from fabpat.mesh import check_polygon_elements
+
+    db = tmp_path / "c.sqlite"
+    res = invoke("sweep", "--sample", "1", "--extrapolate", "--h", "0.5", "--db", str(db))
+    assert res.exit_code == 2 and res.stderr.count("\n") == 1 and not db.exists()
+    assert "finer mesh of h = 0.5 mm" in res.stderr and "h ≥ 0.6 mm" in res.stderr, res.stderr
+    check_polygon_elements(6, 36.0, 0.6, fine_ratio=1 / 1.5)  # the suggestion passes
+    with pytest.raises(FabpatError):
+        check_polygon_elements(6, 36.0, 0.59, fine_ratio=1 / 1.5)

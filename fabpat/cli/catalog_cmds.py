@@ -6,6 +6,7 @@ from __future__ import annotations
 import os
 import time
 from pathlib import Path
+from typing import Any
 
 import click
 
@@ -75,7 +76,9 @@ def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, wo
 
     check_distinct([], inputs={"--db": db})  # the library cache, say, may never replace the catalog
     setup = SweepSetup(sides, depth, edge, thickness, weight, modulus, poisson, h, extrapolate=extrapolate)
-    check_polygon_elements(sides, edge, setup.h_fine or h, DEFAULT_MAX_ELEMENTS)
+    # a sweep has no --max-elements: the limit protects every worker's memory
+    check_polygon_elements(sides, edge, h, DEFAULT_MAX_ELEMENTS, fine_ratio=(setup.h_fine or h) / h,
+                           option="fixed for sweeps")
     if dask_address and workers:
         raise click.UsageError("--workers is for local processes; the dask cluster decides with --dask")
     ids = load_library(sides, depth, sample, seed).ids
@@ -104,11 +107,29 @@ def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, wo
             return 130
     click.echo(f"{db}: {report.computed} pattern-scenarios computed ({report.failed_rows} did not converge), "
                f"{report.skipped} already up to date, {len(ids)} patterns, {report.seconds:.1f} s")
+    _warn_mixed(db, setup)
     if report.crashed:
         click.echo(f"fabpat: warning: {len(report.crashed)} patterns raised and were not stored (re-run to retry): "
                    f"{report.crashed[0]}", err=True)
         return 1
     return 0
+
+
+def _warn_mixed(db: str, setup: Any) -> None:
+    """One stderr line if the catalog now mixes extrapolated and one-mesh energies for this set-up:
+    they are not comparable (docs/accuracy.md), and a sample sweep into a full catalog makes such a mix."""
+    from fabpat.catalog import open_catalog
+
+    with open_catalog(db) as cat:
+        (row,) = cat.query("SELECT SUM(h_fine IS NULL) AS one, SUM(h_fine IS NOT NULL) AS two FROM results WHERE "
+                           "sides = ? AND depth = ? AND edge = ? AND thickness = ? AND weight = ?",
+                           (setup.sides, setup.depth, float(setup.edge), float(setup.thickness),
+                            float(setup.weight)))
+    one, two = int(row["one"] or 0), int(row["two"] or 0)
+    if one and two:
+        click.echo(f"fabpat: warning: {db} now holds {two} extrapolated and {one} one-mesh energies for this "
+                   "set-up, which do not rank together (one-mesh energies are 1.5–11 % low); sweep the whole "
+                   "library the same way to make them one kind", err=True)
 
 
 _TABLE_COLUMNS = ("id", "area", "perimeter", "polar_moment", "min_width")
@@ -151,7 +172,7 @@ def catalog_cmd(db: str | None, fmt: str, long_: bool, sides: int | None) -> Non
             rows = [{k: r[k] for k in keep} for r in rows]
         elif fmt == "table":
             keep = ["id", "sides", "scenario", "energy", "max_displacement", "converged", "iterations", "seconds",
-                    "nodes", "error"]
+                    "nodes", "h", "h_fine", "error"]
             rows = [{k: "" if r[k] is None else r[k] for k in keep} for r in rows]
     if not rows and fmt == "table":
         click.echo(f"{title} (empty catalog)")
