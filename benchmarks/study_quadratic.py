@@ -34,6 +34,7 @@ import scipy.sparse.linalg as spla
 from numpy.typing import NDArray
 
 from fabpat.mesh import mesh_polygons
+from fabpat.scenarios import tributary_weights
 from fabpat.shell import Material, ShellProblem, solve_linear
 
 L_BAR, B_BAR, T_BAR, E_BAR = 60.0, 3.0, 2.0, 1000.0
@@ -131,13 +132,9 @@ def t3_twist(V: NDArray, F: NDArray) -> float:
     fixed = np.zeros((n, 6), bool)
     fixed[V[:, 0] < 1e-9] = True
     tip = np.flatnonzero(np.abs(V[:, 0] - L_BAR) < 1e-9)
-    s = np.argsort(V[tip, 1])
-    seg = np.diff(V[tip[s], 1])
-    w = np.zeros(tip.size)
-    w[s[:-1]] += seg / 2
-    w[s[1:]] += seg / 2
+    tip = tip[np.argsort(V[tip, 1])]
     loads = np.zeros((n, 6))
-    loads[tip, 3] = w / w.sum()
+    loads[tip, 3] = tributary_weights(V, tip)
     r = solve_linear(ShellProblem(V, F, Material(E_BAR, 0.0, T_BAR), fixed, loads))
     mid = (V[:, 0] > L_BAR / 3) & (V[:, 0] < 2 * L_BAR / 3)
     return float(np.polyfit(V[mid, 0], r.rotation[mid, 0], 1)[0] * G_BAR * J_BAR)
