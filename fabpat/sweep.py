@@ -47,6 +47,20 @@ class SweepSetup:
     #: also mesh at h/1.5 and store the Richardson-extrapolated energy (≈ 3× the time; docs/accuracy.md)
     extrapolate: bool = False
 
+    def __post_init__(self) -> None:
+        """Raises :class:`~fabpat.errors.RangeError` (one line) for a value outside
+        :data:`fabpat.validate.RANGES`, as the CLI options do, before any row is computed."""
+        from fabpat.validate import check
+
+        for name, value in (("sides", self.sides), ("depth", self.depth), ("edge", self.edge),
+                            ("thickness", self.thickness), ("weight", self.weight), ("youngs_modulus", self.E),
+                            ("poisson", self.nu), ("h", self.h)):
+            check(name, value, f"SweepSetup {name}")
+        if not isinstance(self.extrapolate, bool):
+            from fabpat.errors import RangeError
+
+            raise RangeError(f"SweepSetup extrapolate must be True or False, got {self.extrapolate!r}")
+
     @property
     def h_fine(self) -> float | None:
         """Mesh size (mm) of the second mesh of an extrapolating sweep, else None."""

@@ -300,3 +300,13 @@ def test_extrapolated_sweep_too_fine_names_the_finer_mesh_and_a_valid_h(tmp_path
     check_polygon_elements(6, 36.0, 0.6, fine_ratio=1 / 1.5)  # the suggestion passes
     with pytest.raises(FabpatError):
         check_polygon_elements(6, 36.0, 0.59, fine_ratio=1 / 1.5)
+
+
+@pytest.mark.parametrize("bad", [{"h": 0.0}, {"h": -1.0}, {"E": -1.0}, {"nu": 0.5}, {"sides": 2},
+                                 {"extrapolate": "yes"}, {"h": float("nan")}])
+def test_sweep_setup_refuses_bad_values_before_any_row(bad: dict[str, object]) -> None:
+    """From Python as from the CLI: a value outside the valid ranges is one RangeError, not failed rows."""
+    from fabpat.errors import RangeError
+
+    with pytest.raises(RangeError, match="SweepSetup"):
+        SweepSetup(**bad)  # type: ignore[arg-type]
