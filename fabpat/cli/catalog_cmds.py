@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import click
 
@@ -20,6 +20,9 @@ from fabpat.cli.options import (
     thickness_option,
     weight_option,
 )
+
+if TYPE_CHECKING:
+    from fabpat.sweep import SweepSetup
 
 DEFAULT_DB = "catalog.sqlite"
 _db_help = "Catalog file (SQLite) [default: the built-in catalog of the default library]."
@@ -115,7 +118,7 @@ def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, wo
     return 0
 
 
-def _warn_mixed(db: str, setup: Any) -> None:
+def _warn_mixed(db: str, setup: SweepSetup) -> None:
     """One stderr line if the catalog now mixes extrapolated and one-mesh energies for this set-up:
     they are not comparable (docs/accuracy.md), and a sample sweep into a full catalog makes such a mix."""
     from fabpat.catalog import open_catalog
