@@ -59,27 +59,36 @@ def to_t6(V: NDArray, F: NDArray) -> tuple[NDArray, NDArray]:
     return np.vstack([V, mids]), np.column_stack([F, len(V) + inv.reshape(3, m).T])
 
 
+def t6_geometry(x: NDArray, y: NDArray) -> tuple[NDArray, NDArray]:
+    """Areas (m,) and area-coordinate gradients (m, 3, 2) of triangles with corners x, y (m, 3)."""
+    A2 = (x[:, 1] - x[:, 0]) * (y[:, 2] - y[:, 0]) - (x[:, 2] - x[:, 0]) * (y[:, 1] - y[:, 0])
+    gL = np.stack([np.stack([y[:, 1] - y[:, 2], x[:, 2] - x[:, 1]], -1),
+                   np.stack([y[:, 2] - y[:, 0], x[:, 0] - x[:, 2]], -1),
+                   np.stack([y[:, 0] - y[:, 1], x[:, 1] - x[:, 0]], -1)], axis=1) / A2[:, None, None]
+    return 0.5 * A2, gL
+
+
+def t6_shape(lam: NDArray, gL: NDArray) -> tuple[NDArray, NDArray]:
+    """Quadratic shape functions N (6,) and their gradients (m, 6, 2) at area coordinates lam (3,): corners,
+    then the mid-sides 01, 12, 20."""
+    N = np.array([lam[0] * (2 * lam[0] - 1), lam[1] * (2 * lam[1] - 1), lam[2] * (2 * lam[2] - 1),
+                  4 * lam[0] * lam[1], 4 * lam[1] * lam[2], 4 * lam[2] * lam[0]])
+    dN = np.stack([(4 * lam[0] - 1) * gL[:, 0], (4 * lam[1] - 1) * gL[:, 1], (4 * lam[2] - 1) * gL[:, 2],
+                   4 * (lam[0] * gL[:, 1] + lam[1] * gL[:, 0]), 4 * (lam[1] * gL[:, 2] + lam[2] * gL[:, 1]),
+                   4 * (lam[2] * gL[:, 0] + lam[0] * gL[:, 2])], axis=1)
+    return N, dN
+
+
 def t6_stiffness(V: NDArray, F6: NDArray, mat: Material, shear_rule: tuple[NDArray, NDArray]) -> sp.csr_matrix:
     """Global stiffness on dofs (w, θx, θy) per node of the quadratic Reissner–Mindlin triangles F6 (m, 6)."""
     D = mat.D_bending
     Ds = mat.D_shear
     P = V[F6[:, :3]]
-    x, y = P[..., 0], P[..., 1]
-    A2 = (x[:, 1] - x[:, 0]) * (y[:, 2] - y[:, 0]) - (x[:, 2] - x[:, 0]) * (y[:, 1] - y[:, 0])
-    gL = np.stack([np.stack([y[:, 1] - y[:, 2], x[:, 2] - x[:, 1]], -1),
-                   np.stack([y[:, 2] - y[:, 0], x[:, 0] - x[:, 2]], -1),
-                   np.stack([y[:, 0] - y[:, 1], x[:, 1] - x[:, 0]], -1)], axis=1) / A2[:, None, None]  # (m, 3, 2)
-    area = 0.5 * A2
+    area, gL = t6_geometry(P[..., 0], P[..., 1])
     m = len(F6)
 
     def shape(lam: NDArray) -> tuple[NDArray, NDArray]:
-        """N (6,) and ∇N (m, 6, 2) at area coordinates lam."""
-        N = np.array([lam[0] * (2 * lam[0] - 1), lam[1] * (2 * lam[1] - 1), lam[2] * (2 * lam[2] - 1),
-                      4 * lam[0] * lam[1], 4 * lam[1] * lam[2], 4 * lam[2] * lam[0]])
-        dN = np.stack([(4 * lam[0] - 1) * gL[:, 0], (4 * lam[1] - 1) * gL[:, 1], (4 * lam[2] - 1) * gL[:, 2],
-                       4 * (lam[0] * gL[:, 1] + lam[1] * gL[:, 0]), 4 * (lam[1] * gL[:, 2] + lam[2] * gL[:, 1]),
-                       4 * (lam[2] * gL[:, 0] + lam[0] * gL[:, 2])], axis=1)
-        return N, dN
+        return t6_shape(lam, gL)
 
     K = np.zeros((m, 18, 18))
     for lam, wq in zip(*RULE6, strict=True):  # bending

@@ -45,7 +45,7 @@ from numpy.typing import NDArray
 
 sys.path.insert(0, str(Path(__file__).parent))
 from study_boundary_layer import REFERENCE  # noqa: E402
-from study_quadratic import RULE6, t6_scenario, to_t6  # noqa: E402
+from study_quadratic import RULE6, t6_geometry, t6_scenario, t6_shape, to_t6  # noqa: E402
 
 from fabpat.shell.corotational import CorotationalTriangles  # noqa: E402
 from fabpat.shell.element import Material, element_frames  # noqa: E402
@@ -56,23 +56,13 @@ Arr = NDArray[np.float64]
 
 def local_stiffness6(xy: Arr, mat: Material) -> Arr:
     """(m, 36, 36) local stiffness of flat 6-node triangles with local node coordinates xy (m, 6, 2)."""
-    x, y = xy[:, :3, 0], xy[:, :3, 1]
-    A2 = (x[:, 1] - x[:, 0]) * (y[:, 2] - y[:, 0]) - (x[:, 2] - x[:, 0]) * (y[:, 1] - y[:, 0])
-    gL = np.stack([np.stack([y[:, 1] - y[:, 2], x[:, 2] - x[:, 1]], -1),
-                   np.stack([y[:, 2] - y[:, 0], x[:, 0] - x[:, 2]], -1),
-                   np.stack([y[:, 0] - y[:, 1], x[:, 1] - x[:, 0]], -1)], axis=1) / A2[:, None, None]
-    area = 0.5 * A2
+    area, gL = t6_geometry(xy[:, :3, 0], xy[:, :3, 1])
     m = len(xy)
     Dm, Db, Ds = mat.D_membrane, mat.D_bending, mat.D_shear
     gamma = mat.E / (2 * (1 + mat.nu)) * mat.t
 
     def shape(lam: Arr) -> tuple[Arr, Arr]:
-        N = np.array([lam[0] * (2 * lam[0] - 1), lam[1] * (2 * lam[1] - 1), lam[2] * (2 * lam[2] - 1),
-                      4 * lam[0] * lam[1], 4 * lam[1] * lam[2], 4 * lam[2] * lam[0]])
-        dN = np.stack([(4 * lam[0] - 1) * gL[:, 0], (4 * lam[1] - 1) * gL[:, 1], (4 * lam[2] - 1) * gL[:, 2],
-                       4 * (lam[0] * gL[:, 1] + lam[1] * gL[:, 0]), 4 * (lam[1] * gL[:, 2] + lam[2] * gL[:, 1]),
-                       4 * (lam[2] * gL[:, 0] + lam[0] * gL[:, 2])], axis=1)
-        return N, dN
+        return t6_shape(lam, gL)
 
     K = np.zeros((m, 36, 36))
     for lam, wq in zip(*RULE6, strict=True):
