@@ -44,8 +44,9 @@ from fabpat.errors import SolverError
 from fabpat.shell.assembly import Assembler
 from fabpat.shell.corotational import CorotationalTriangles
 from fabpat.shell.element import Material
+from fabpat.shell.linalg import factorizer
 from fabpat.shell.rotations import expmap, logmap, skew
-from fabpat.shell.solve import ROUNDOFF_FACTOR, _lu
+from fabpat.shell.solve import ROUNDOFF_FACTOR
 
 Arr = NDArray[np.float64]
 
@@ -298,6 +299,7 @@ def solve_path(
         raise ValueError(f"steps must be ≥ 1, got {steps}")
     t0 = time.perf_counter()
     red = _Reduced(p)
+    fz = factorizer()
     N, n = red.N, red.n
     X = np.vstack([p.X, p.masters])
     K0 = red.model.linear_element_matrices()
@@ -375,7 +377,7 @@ def solve_path(
             du = np.zeros(6 * N)
             try:
                 if not reuse:
-                    lu = _lu(K)
+                    lu = fz.factor(K)
                     n_fact += 1
                 du[red.asm.free] = lu.solve(rhs[red.asm.free])
             except SolverError:

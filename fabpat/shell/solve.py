@@ -9,17 +9,18 @@ one; a run that cannot reach λ = 1 raises :class:`fabpat.errors.SolverError`.
 
 from __future__ import annotations
 
+import hashlib
 import time
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse.linalg as spla
 from numpy.typing import NDArray
 
 from fabpat.errors import SolverError
 from fabpat.shell.assembly import Assembler
 from fabpat.shell.corotational import CorotationalTriangles
 from fabpat.shell.element import Material
+from fabpat.shell.linalg import factorizer, superlu
 from fabpat.shell.results import ShellResult
 from fabpat.shell.rotations import expmap, logmap
 
@@ -51,12 +52,6 @@ class ShellProblem:
         object.__setattr__(self, "loads", np.asarray(self.loads, dtype=np.float64).reshape(-1, 6))
 
 
-#: SuperLU threshold pivoting: a row swap only where the diagonal is below 0.1 × the column's largest
-#: entry. The tangent is nearly symmetric with a dominant diagonal, so this keeps the fill of the
-#: Assembler's symmetric ordering (−25 % nonzeros in L + U and ~30 % less factor time than full
-#: partial pivoting at 7 k dofs) with the same residuals (~1e-9 relative).
-PIVOT_THRESHOLD = 0.1
-
 #: Round-off floor of the residual test, as a multiple of ε·L·‖diag K‖ (ε machine epsilon, L the
 #: largest node coordinate, K the linear stiffness on the free dofs). The corotational internal
 #: forces subtract positions of size L, so their round-off is about ε·L·K: measured on 0x2d88
@@ -66,18 +61,26 @@ PIVOT_THRESHOLD = 0.1
 ROUNDOFF_FACTOR = 0.5
 
 
-def _lu(K: object) -> object:
-    try:
-        # the Assembler already numbers the dofs in a fill-reducing order: no reordering here
-        # (symmetric mode keeps it)
-        return spla.splu(K, permc_spec="NATURAL", diag_pivot_thresh=PIVOT_THRESHOLD,
-                         options={"SymmetricMode": True})
-    except RuntimeError as exc:  # "Factor is exactly singular"
-        raise SolverError(f"singular stiffness matrix ({exc}): supports leave a rigid-body motion free?") from exc
+#: The last meshes' corotational models (key: node and triangle bytes, material). A catalog row runs three
+#: scenarios on one mesh; their problems differ only in supports and loads, so the element set-up
+#: (local stiffness, linear element matrices: ≈ 80 ms of a 1 s run at 2 k nodes) is built once.
+_MODELS: dict[tuple[bytes, bytes, Material], CorotationalTriangles] = {}
+_MODELS_KEPT = 2
+
+
+def _model(p: ShellProblem) -> CorotationalTriangles:
+    key = (hashlib.sha1(p.X.tobytes()).digest(), hashlib.sha1(p.F.tobytes()).digest(), p.material)
+    model = _MODELS.pop(key, None)
+    if model is None:
+        model = CorotationalTriangles(p.X, p.F, p.material)
+    _MODELS[key] = model  # most recent last
+    while len(_MODELS) > _MODELS_KEPT:
+        del _MODELS[next(iter(_MODELS))]
+    return model
 
 
 def _setup(p: ShellProblem) -> tuple[CorotationalTriangles, Assembler, Arr]:
-    model = CorotationalTriangles(p.X, p.F, p.material)
+    model = _model(p)
     asm = Assembler(model.edofs, ~p.fixed.ravel())
     return model, asm, p.loads.ravel()
 
@@ -90,7 +93,7 @@ def solve_linear(p: ShellProblem) -> ShellResult:
     K = asm.matrix(Ke)
     t1 = time.perf_counter()
     u = np.zeros(asm.n_dofs)
-    u[asm.free] = _lu(K).solve(f[asm.free])
+    u[asm.free] = superlu(K).solve(f[asm.free])
     if not np.all(np.isfinite(u)):
         raise SolverError("linear solve produced non-finite displacements (ill-posed supports?)")
     t2 = time.perf_counter()
@@ -114,6 +117,7 @@ def solve_nonlinear(
     max_rotation_step: float = 0.5,
     predictor: bool = False,
     reuse_ratio: float = 0.1,
+    linear_solver: str = "auto",
 ) -> ShellResult:
     """Geometrically nonlinear (corotational) solution under the loads ``p.loads`` at λ = 1.
 
@@ -125,9 +129,11 @@ def solve_nonlinear(
     residual drops by at least ``reuse_ratio`` per iteration (0 → full Newton).
     A step that fails (no convergence in ``max_iter``, growing residual, still 100× its first residual
     after 10 iterations, or non-finite values) is halved; below ``min_step`` of the load a
-    SolverError is raised. Steps double after ≤ 4 iterations.
+    SolverError is raised. Steps double after ≤ 4 iterations. ``linear_solver``: "auto", "pardiso" or
+    "superlu" (:func:`fabpat.shell.linalg.factorizer`; the results agree to the Newton tolerance).
     """
     t0 = time.perf_counter()
+    fz = factorizer(linear_solver)
     model, asm, f = _setup(p)
     free = asm.free
     fnorm = float(np.linalg.norm(f[free]))
@@ -196,7 +202,7 @@ def solve_nonlinear(
             du = np.zeros(asm.n_dofs)
             try:
                 if not reuse:
-                    lu = _lu(K)
+                    lu = fz.factor(K)
                     n_fact += 1
                 du[free] = lu.solve(r[free])
             except SolverError:
