@@ -23,7 +23,7 @@ def _model_and_state(seed: int = 0) -> tuple[CorotationalTriangles, np.ndarray, 
 
 def test_stiffness_root_reproduces_local_stiffness() -> None:
     model, _, _ = _model_and_state()
-    Q = model._stiffness_root()[0]
+    Q = model._stiffness_root()
     K = model.local.K
     assert np.abs(Q.transpose(0, 2, 1) @ Q - K).max() <= 1e-12 * np.abs(K).max()
 

@@ -33,6 +33,8 @@ from fabpat.shell.rotations import dexp_inv, dexp_inv_t_apply, dexp_inv_t_jacobi
 
 Arr = NDArray[np.float64]
 
+#: inner dimension of the geometric factors of the tangent (see CorotationalTriangles._geometric_rows)
+_NG = 10
 #: δ(b − a, −b, a) = Σ_b s_cb δx_b for the sides a = x1 − x0, b = x2 − x0 of the normal-tilt vectors v_c
 _SNUM = np.array([[0.0, -1.0, 1.0], [1.0, 0.0, -1.0], [-1.0, 1.0, 0.0]])
 
@@ -47,6 +49,13 @@ def _cross(u: Arr, w: Arr) -> Arr:
 def _dot(u: Arr, w: Arr) -> Arr:
     """u · w along the last axis (same shapes)."""
     return np.einsum("...i,...i->...", u, w)
+
+
+def _set_skew(out: Arr, v: Arr) -> None:
+    """Set the off-diagonal entries of out (…, 3, 3) to those of [v]× (the diagonal is left as is)."""
+    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
+    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
+    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
 
 
 def _add_skew(out: Arr, v: Arr, scale: float = 1.0) -> None:
@@ -81,19 +90,40 @@ class CorotationalTriangles:
         ], axis=1) / A2[:, None, None]
         self.edofs = (6 * self.F[:, :, None] + np.arange(6)).reshape(-1, 18)  # (m, 18) global dofs
         self._K_lin: Arr | None = None
-        self._Q: tuple[Arr, Arr, Arr] | None = None
+        self._Q: Arr | None = None
+        self._ws: dict[str, Arr] | None = None
 
-    def _stiffness_root(self) -> tuple[Arr, Arr, Arr]:
-        """Q (m, r, 18) with K = QᵀQ (cached), and for :meth:`element_tangents` Qc (m, r, 18): Q's
-        translational columns less their mean over the nodes, rotational columns 0, and Qθ (m, r, 9):
-        Q's rotational columns.
+    def _workspace(self) -> dict[str, Arr]:
+        """Scratch arrays of :meth:`element_tangents`, kept between calls (not thread-safe).
+
+        Fresh tens-of-MB temporaries cost as much in page faults as in arithmetic here. Their sparsity
+        pattern is fixed: every call assigns the same entries and the zeros elsewhere are never written,
+        so they are zeroed once; parts of ``left`` and ``right`` are constant.
+        """
+        if self._ws is None:
+            Q = self._stiffness_root()
+            m, r = Q.shape[:2]
+            rows = 2 * (_NG + r)
+            Q5 = Q.reshape(m, r, 3, 6)
+            left = np.zeros((m, r, 21))  # [QY | Qθ | Qt], QY set per call
+            left[:, :, 3:12] = Q5[..., 3:].reshape(m, r, 9)
+            left[:, :, 12:] = Q5[..., :3].reshape(m, r, 9)
+            right = np.zeros((m, 21, 3, 2, 3))  # [Ω̃ ; diag(H⁻¹) ; B₀ₜ], the first two set per call
+            # rows 12–20 (node a, axis i) → columns (b, x, k): (δ_ab − 1/3) δ_ik, the B₀ of translations
+            eye = np.eye(3)
+            b0 = (eye[:, None, :, None] - 1.0 / 3.0) * eye[None, :, None, :]  # (a, i, b, k)
+            right[:, 12:].reshape(m, 3, 3, 3, 2, 3)[..., 0, :] = b0
+            self._ws = {"big": np.zeros((m, rows, 3, 2, 3)), "bigE": np.empty((m, 6 * rows, 3)),
+                        "Y": np.zeros((m, 3, 6, 3)), "left": left, "right": right}
+        return self._ws
+
+    def _stiffness_root(self) -> Arr:
+        """Q (m, r, 18) with K = QᵀQ (cached), for :meth:`element_tangents`.
 
         From the eigen-decomposition of the uncoupled membrane and bending 9 × 9 blocks. Each block has 3
         rigid-body modes (zero eigenvalues up to round-off) that are dropped, r = 12, so Bᵀ K B =
         (Q B)ᵀ (Q B) costs two thin products instead of two 18³ ones. Should a block have a non-negligible
-        smallest eigenvalue (never for a valid triangle), all 9 modes are kept. Qc: K's columns sum to 0
-        over the nodes' translations only up to round-off, so the mean of δx (the (δ_ab − 1/3) of B) is
-        kept exactly as the old B did.
+        smallest eigenvalue (never for a valid triangle), all 9 modes are kept.
         """
         if self._Q is None:
             K = self.local.K
@@ -106,12 +136,7 @@ class CorotationalTriangles:
                 Qb = np.zeros((m, root.shape[1], 18))
                 Qb[:, :, dofs] = root
                 parts.append(Qb)
-            Q = np.concatenate(parts, axis=1)
-            r = Q.shape[1]
-            Q5 = Q.reshape(m, r, 3, 6)
-            Qc = np.zeros((m, r, 3, 6))
-            Qc[..., :3] = Q5[..., :3] - Q5[..., :3].mean(axis=2, keepdims=True)
-            self._Q = (Q, Qc.reshape(m, r, 18), np.ascontiguousarray(Q5[..., 3:]).reshape(m, r, 9))
+            self._Q = np.concatenate(parts, axis=1)
         return self._Q
 
     # ------------------------------------------------------------------ linear
@@ -165,7 +190,8 @@ class CorotationalTriangles:
         ly = np.einsum("...ai,...i->...a", r, e2)
         # θ_a = log(Eᵀ R_a E₀): the axial vector of Eᵀ R_a E₀ is Eᵀ times that of R_a (E₀ Eᵀ) and the
         # traces agree, so one 3 × 3 product per node replaces two
-        RQ = Re @ (self.E0 @ np.swapaxes(E, -1, -2))[..., None, :, :]
+        Q0 = self.E0 @ np.swapaxes(E, -1, -2)
+        RQ = (Re.reshape(*Re.shape[:-3], 9, 3) @ Q0).reshape(Re.shape)  # rows of all R_a times Q0 at once
         ax = 0.5 * np.stack([RQ[..., 2, 1] - RQ[..., 1, 2], RQ[..., 0, 2] - RQ[..., 2, 0],
                              RQ[..., 1, 0] - RQ[..., 0, 1]], axis=-1)
         cos_t = 0.5 * (RQ[..., 0, 0] + RQ[..., 1, 1] + RQ[..., 2, 2] - 1.0)
@@ -223,14 +249,13 @@ class CorotationalTriangles:
 
     @staticmethod
     def _spin_parts_static(fr: dict[str, Arr], gN: Arr) -> tuple[Arr, Arr, Arr]:
+        """Global v (…, m, 3, 3), q (…, m, 3, 3), n (…, m, 3) of the frame spin (the kernels here use their
+        element-frame components; kept for ``benchmarks/study_quadratic_shell.py``)."""
         n = fr["n"]
         # ω_e = Σ_b W_b δx_b with W_b = v_b nᵀ (tilt of the normal) + n q_bᵀ (in-plane polar spin)
         v = np.stack([fr["b"] - fr["a"], -fr["b"], fr["a"]], axis=-2) / fr["cn"][..., None, None]
         q = (gN[..., 0:1] * fr["e2"][..., None, :] - gN[..., 1:2] * fr["e1"][..., None, :]) / fr["trF"][..., None, None]
         return v, q, n
-
-    def _spin_parts(self, fr: dict[str, Arr]) -> tuple[Arr, Arr, Arr]:
-        return self._spin_parts_static(fr, self.gN)
 
     def _local_forces(self, d: Arr) -> Arr:
         """f_l = K d (…, m, 18); einsum beats a batched (18 × 18)(18 × 1) matmul."""
@@ -259,8 +284,9 @@ class CorotationalTriangles:
         in-plane and the frame-spin matrices are sparse), K_t = diag(E) (Lᵀ R) diag(Eᵀ) + diag(M_a):
         the material part is CᵀC with C = Q B̃ (K = QᵀQ, :meth:`_stiffness_root`), the geometric part
         L_gᵀ R_g (:meth:`_geometric_rows`). All rows are turned to global columns by one batched
-        product with Eᵀ, and one batched (18 × 22)(22 × 18) product gives K_t: ~20 ms for 3.3 k
-        elements against 69 ms for the former B (18 × 18) products and (m, 3, 3, 9) elementwise chains.
+        product with Eᵀ, and one batched (18 × 22)(22 × 18) product gives K_t. On 3.3 k elements this
+        takes ~30 ms against 69 ms for the former 18 × 18 products with B and (m, 3, 3, 9) elementwise
+        chains; scratch arrays are reused between calls (:meth:`_workspace`).
         """
         m = xe.shape[0]
         _, fr = self.deformational(xe, Re)
@@ -268,44 +294,41 @@ class CorotationalTriangles:
         lp = self._local_parts(self._local_forces(d), fr)
         Hi = dexp_inv(th)  # (m, a, 3, 3)
         M = dexp_inv_t_jacobian(th, lp["ml"]) @ Hi  # element-frame M_a = ∂(H⁻ᵀm_a)/∂θ H_a⁻¹
-        Q, Qc, Qth = self._stiffness_root()
-        r = Q.shape[1]
-        ng = 10  # geometric inner dimension (see _geometric_rows)
+        Q = self._stiffness_root()
+        r, ng = Q.shape[1], _NG
+        ws = self._workspace()
         # rows of `big` (element-frame columns (node, [x | m or ω], axis)): L_g, C, R_g, C
-        big = np.zeros((m, 2 * (ng + r), 3, 2, 3))
+        big = ws["big"]
         self._geometric_rows(big[:, :ng], big[:, ng + r:2 * ng + r], fr, lp, M)
         # C̃ = Q B̃ with B̃ = B₀ + Y Ω̃: Y = [[r_a]× ; −H_a⁻¹] (18 × 3), Ω̃ = rows 0–2 of R_g (the frame
-        # spin per translation), B₀ = (δ_ab − 1/3) I on (t, x) (Qc) and δ_ab H_a⁻¹ on (θ, ω)
+        # spin per translation), B₀ = (δ_ab − 1/3) I on (t, x) and δ_ab H_a⁻¹ on (θ, ω), so
+        # C̃ = [QY | Qθ | Qt] [Ω̃ ; diag(H⁻¹) ; B₀ₜ] (the last blocks of both are constant)
         lx, ly = fr["lx"], fr["ly"]
-        Y = np.zeros((m, 3, 6, 3))
+        Y, left, right = ws["Y"], ws["left"], ws["right"]
         Y[:, :, 0, 2], Y[:, :, 1, 2] = ly, -lx
         Y[:, :, 2, 0], Y[:, :, 2, 1] = -ly, lx
-        Y[:, :, 3:] = -Hi
-        left = np.empty((m, r, 12))
+        np.negative(Hi, out=Y[:, :, 3:])
         np.matmul(Q, Y.reshape(m, 18, 3), out=left[:, :, :3])
-        left[:, :, 3:] = Qth
-        right = np.zeros((m, 12, 3, 2, 3))
         right[:, :3] = big[:, ng + r:ng + r + 3]
-        for b_ in range(3):
-            right[:, 3 + 3 * b_:6 + 3 * b_, b_, 1] = Hi[:, b_]
-        C = left @ right.reshape(m, 12, 18)
-        C += Qc
+        # rows 3 + 3b + i, columns (b, ω, k): H_b⁻¹[i, k] (a writeable diagonal view over b)
+        np.einsum("mbibk->mbik", right[:, 3:12].reshape(m, 3, 3, 3, 2, 3)[..., 1, :])[...] = Hi
         big6 = big.reshape(m, 2 * (ng + r), 18)
-        big6[:, ng:ng + r] = C
+        C = big6[:, ng:ng + r]
+        np.matmul(left, right.reshape(m, 21, 18), out=C)
         big6[:, 2 * ng + r:] = C
-        bigE = (big.reshape(m, -1, 3) @ np.ascontiguousarray(E.transpose(0, 2, 1))).reshape(m, 2 * (ng + r), 18)
+        Et = np.ascontiguousarray(E.transpose(0, 2, 1))
+        bigE = np.matmul(big.reshape(m, -1, 3), Et, out=ws["bigE"]).reshape(m, 2 * (ng + r), 18)
         Kt = bigE[:, :ng + r].transpose(0, 2, 1) @ bigE[:, ng + r:]
-        # δmg_a = M_a δω_a: the global E M_a Eᵀ on the (m, ω) diagonal blocks
-        MEt = (M.reshape(m, 9, 3) @ np.ascontiguousarray(E.transpose(0, 2, 1))).reshape(m, 3, 3, 3)
-        Mg = (E @ MEt.transpose(0, 2, 1, 3).reshape(m, 3, 9)).reshape(m, 3, 3, 3)  # (m, i, a, k)
-        Kt5 = Kt.reshape(m, 3, 6, 3, 6)
-        for a_ in range(3):
-            Kt5[:, a_, 3:, a_, 3:] += Mg[:, :, a_]
+        # δmg_a = M_a δω_a: the global E M_a Eᵀ on the (m, ω) diagonal blocks; R_g rows 3–5 hold −M_b Eᵀ
+        MEt = bigE[:, ng + r + 3:ng + r + 6].reshape(m, 3, 3, 6)[..., 3:]  # (m, j, b, k)
+        Mg = (E @ MEt.reshape(m, 3, 9)).reshape(m, 3, 3, 3)  # −E M_b Eᵀ as (m, i, b, k)
+        diag = np.einsum("maiak->maik", Kt.reshape(m, 3, 6, 3, 6)[:, :, 3:, :, 3:])  # writeable view
+        diag -= Mg.transpose(0, 2, 1, 3)
         return Kt
 
     def _geometric_rows(self, Lg: Arr, Rg: Arr, fr: dict[str, Arr], lp: dict[str, Arr], M: Arr) -> None:
-        """Fill L_g, R_g (m, 10, 3, 2, 3) (zeroed, element-frame columns) with L_gᵀ R_g = ∂(Bᵀ f_l)/∂q at
-        fixed f_l, less the diagonal blocks M_a of :meth:`element_tangents`.
+        """Fill L_g, R_g (m, 10, 3, 2, 3) (element-frame columns; zero where not assigned here) with
+        L_gᵀ R_g = ∂(Bᵀ f_l)/∂q at fixed f_l, less the diagonal blocks M_a of :meth:`element_tangents`.
 
         With the frame spin ω = Ω δx = Σ_b W_b δx_b (W_b = v_b nᵀ + n q_bᵀ) and δθ_a = H_a⁻¹(δω_a − ω):
         δf_t → δg_a = ω × g_a; δmg_a = ω × mg_a + M_a (δω_a − ω); δh = Σ_b [G_b]× δx_b + S ω − Σ_b M_b δω_b
@@ -357,7 +380,7 @@ class CorotationalTriangles:
         # R_g: Ω (rows i, columns (b, k)) = W_b; [G_b]× and −M_b; δv_c·h; p_b
         Rg[:, 2, :, 0, 0], Rg[:, 2, :, 0, 1] = qx, qy
         Rg[:, 0, :, 0, 2], Rg[:, 1, :, 0, 2] = vx, vy
-        _add_skew(Rg[:, 3:6, :, 0].transpose(0, 2, 1, 3), ft - ft.mean(axis=1, keepdims=True))
+        _set_skew(Rg[:, 3:6, :, 0].transpose(0, 2, 1, 3), ft - ft.mean(axis=1, keepdims=True))
         Rg[:, 3:6, :, 1] = -M.transpose(0, 2, 1, 3)
         # δ|a × b| = δa·(b × n) + δb·(n × a), δa = δx1 − δx0, δb = δx2 − δx0: in-plane (b × n, n × a)
         ax_, ay_ = lx[:, 1] - lx[:, 0], ly[:, 1] - ly[:, 0]

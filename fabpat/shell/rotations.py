@@ -116,8 +116,18 @@ def dexp_inv_t_jacobian(theta: Arr, m: Arr) -> Arr:
     dc = 0.5 / np.tan(half) - 0.25 * ts / np.sin(half) ** 2
     deta_t = np.where(small, 1.0 / 360.0 + t2 / 7560.0, -dc / ts**3 - 2.0 * (1.0 - c) / ts**4)
     tm = np.einsum("...i,...i->...", theta, m)
-    J = -0.5 * skew(m) + eta[..., None, None] * (theta[..., :, None] * m[..., None, :]
-                                                 + tm[..., None, None] * np.eye(3)
-                                                 - 2.0 * m[..., :, None] * theta[..., None, :])
-    J += (theta * tm[..., None] - t2[..., None] * m)[..., :, None] * (deta_t[..., None] * theta)[..., None, :]
+    # θ (η m)ᵀ + (η'/t (θ(θ·m) − |θ|² m) − 2η m) θᵀ, then the diagonal and skew parts entry by entry
+    w = deta_t[..., None] * (theta * tm[..., None] - t2[..., None] * m) - 2.0 * eta[..., None] * m
+    J = theta[..., :, None] * (eta[..., None] * m)[..., None, :] + w[..., :, None] * theta[..., None, :]
+    diag = eta * tm
+    J[..., 0, 0] += diag
+    J[..., 1, 1] += diag
+    J[..., 2, 2] += diag
+    hm = 0.5 * m
+    J[..., 0, 1] += hm[..., 2]
+    J[..., 1, 0] -= hm[..., 2]
+    J[..., 0, 2] -= hm[..., 1]
+    J[..., 2, 0] += hm[..., 1]
+    J[..., 1, 2] += hm[..., 0]
+    J[..., 2, 1] -= hm[..., 0]
     return J
