@@ -41,12 +41,26 @@ def logmap(R: Arr) -> Arr:
     """
     w = 0.5 * np.stack([R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0],
                         R[..., 1, 0] - R[..., 0, 1]], axis=-1)
-    s = np.linalg.norm(w, axis=-1)
-    c = 0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0)
+    return log_from_axial(w, 0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0))
+
+
+def log_from_axial(w: Arr, c: Arr) -> Arr:
+    """Rotation vectors (…, 3) of rotations given by their axial vector w = sin(t) axis (…, 3), the
+    axial vector of (R − Rᵀ)/2, and c = cos t = (tr R − 1)/2 (…): what :func:`logmap` needs of R, for
+    callers that get these two without forming R."""
+    s = np.sqrt(np.einsum("...i,...i->...", w, w))
     t = np.arctan2(s, c)
     small = s < 1e-7
     f = np.where(small, 1.0 + s * s / 6.0, t / np.where(small, 1.0, s))
     return f[..., None] * w
+
+
+def _eta(t2: Arr) -> Arr:
+    """η = (1 − (t/2) cot(t/2)) / t² of squared angles t2 = t² (…); series 1/12 + t²/720 below t = 10⁻³."""
+    t = np.sqrt(t2)
+    small = t < 1e-3
+    ts = np.where(small, 1.0, t)
+    return np.where(small, 1.0 / 12.0 + t2 / 720.0, (1.0 - 0.5 * ts / np.tan(0.5 * ts)) / (ts * ts))
 
 
 def dexp_inv(theta: Arr) -> Arr:
@@ -55,13 +69,34 @@ def dexp_inv(theta: Arr) -> Arr:
     H⁻¹ = I − ½Θ + η Θ², η = (1 − (t/2) cot(t/2)) / t² (series 1/12 + t²/720 for small t).
     """
     t2 = np.einsum("...i,...i->...", theta, theta)
-    t = np.sqrt(t2)
-    small = t < 1e-3
-    ts = np.where(small, 1.0, t)
-    eta = np.where(small, 1.0 / 12.0 + t2 / 720.0, (1.0 - 0.5 * ts / np.tan(0.5 * ts)) / (ts * ts))
-    # Θ² = θθᵀ − |θ|² I avoids a batched matrix product
-    K2 = theta[..., :, None] * theta[..., None, :] - t2[..., None, None] * np.eye(3)
-    return np.eye(3) - 0.5 * skew(theta) + eta[..., None, None] * K2
+    eta = _eta(t2)
+    # Θ² = θθᵀ − |θ|² I; written entry by entry (no skew/eye temporaries: this runs per element node)
+    et = eta[..., None] * theta
+    H = et[..., :, None] * theta[..., None, :]
+    diag = 1.0 - eta * t2
+    half = 0.5 * theta
+    H[..., 0, 0] += diag
+    H[..., 1, 1] += diag
+    H[..., 2, 2] += diag
+    H[..., 0, 1] += half[..., 2]
+    H[..., 1, 0] -= half[..., 2]
+    H[..., 0, 2] -= half[..., 1]
+    H[..., 2, 0] += half[..., 1]
+    H[..., 1, 2] += half[..., 0]
+    H[..., 2, 1] -= half[..., 0]
+    return H
+
+
+def dexp_inv_t_apply(theta: Arr, m: Arr) -> Arr:
+    """H⁻ᵀ(θ) m (…, 3) = m + ½ θ × m + η (θ(θ·m) − |θ|² m): a local moment sent through H⁻ᵀ without
+    forming the matrix (same η as :func:`dexp_inv`)."""
+    t2 = np.einsum("...i,...i->...", theta, theta)
+    eta = _eta(t2)
+    tm = np.einsum("...i,...i->...", theta, m)
+    t0, t1, t2_ = theta[..., 0], theta[..., 1], theta[..., 2]
+    m0, m1, m2 = m[..., 0], m[..., 1], m[..., 2]
+    txm = np.stack([t1 * m2 - t2_ * m1, t2_ * m0 - t0 * m2, t0 * m1 - t1 * m0], axis=-1)
+    return m + 0.5 * txm + eta[..., None] * (theta * tm[..., None] - t2[..., None] * m)
 
 
 def dexp_inv_t_jacobian(theta: Arr, m: Arr) -> Arr:
@@ -81,8 +116,18 @@ def dexp_inv_t_jacobian(theta: Arr, m: Arr) -> Arr:
     dc = 0.5 / np.tan(half) - 0.25 * ts / np.sin(half) ** 2
     deta_t = np.where(small, 1.0 / 360.0 + t2 / 7560.0, -dc / ts**3 - 2.0 * (1.0 - c) / ts**4)
     tm = np.einsum("...i,...i->...", theta, m)
-    J = -0.5 * skew(m) + eta[..., None, None] * (theta[..., :, None] * m[..., None, :]
-                                                 + tm[..., None, None] * np.eye(3)
-                                                 - 2.0 * m[..., :, None] * theta[..., None, :])
-    J += (theta * tm[..., None] - t2[..., None] * m)[..., :, None] * (deta_t[..., None] * theta)[..., None, :]
+    # θ (η m)ᵀ + (η'/t (θ(θ·m) − |θ|² m) − 2η m) θᵀ, then the diagonal and skew parts entry by entry
+    w = deta_t[..., None] * (theta * tm[..., None] - t2[..., None] * m) - 2.0 * eta[..., None] * m
+    J = theta[..., :, None] * (eta[..., None] * m)[..., None, :] + w[..., :, None] * theta[..., None, :]
+    diag = eta * tm
+    J[..., 0, 0] += diag
+    J[..., 1, 1] += diag
+    J[..., 2, 2] += diag
+    hm = 0.5 * m
+    J[..., 0, 1] += hm[..., 2]
+    J[..., 1, 0] -= hm[..., 2]
+    J[..., 0, 2] -= hm[..., 1]
+    J[..., 2, 0] += hm[..., 1]
+    J[..., 1, 2] += hm[..., 0]
+    J[..., 2, 1] -= hm[..., 0]
     return J
