@@ -90,3 +90,53 @@ class Assembler:
     def vector(self, fe: NDArray[np.float64]) -> NDArray[np.float64]:
         """(N,) global vector of element vectors fe (m, 18) (all dofs)."""
         return np.bincount(self.edofs.ravel(), weights=fe.ravel(), minlength=self.n_dofs)
+
+
+class SupportedAssembler:
+    """Assembly over *every* dof of a mesh, with the fixed dofs imposed as unit rows and columns.
+
+    full: an :class:`Assembler` of the mesh with all dofs free; fixed: (N,) bool, the supported dofs;
+    scale: the diagonal entry of a fixed dof's row (a typical stiffness keeps the matrix well scaled).
+    The matrix pattern, and with it a factoriser's symbolic analysis, then depends on the mesh only and
+    is shared by problems that differ only in supports (a pattern's three scenarios): at 2 k nodes this
+    saves the ≈ 30 ms pattern set-up and ≈ 20 ms PARDISO analysis per problem. The free block is the
+    same matrix as :class:`Assembler`'s over the free dofs, so the solutions are the same to round-off.
+    ``free`` lists the free global dofs (ascending).
+    """
+
+    def __init__(self, full: Assembler, fixed: NDArray[np.bool_], scale: float) -> None:
+        self.full = full
+        self.n_dofs = full.n_dofs
+        fixed = np.asarray(fixed, dtype=bool).ravel()
+        self.order = full.free  # every dof, in matrix order
+        self.free = np.flatnonzero(~fixed)
+        self._fixed_rows = fixed[self.order]
+        rows = full._indices
+        cols = np.repeat(np.arange(full.n_free, dtype=np.int32), np.diff(full._indptr))
+        hit = self._fixed_rows[rows] | self._fixed_rows[cols]
+        self._zero = np.flatnonzero(hit)
+        self._diag = np.flatnonzero(hit & (rows == cols))
+        self._scale = float(scale)
+
+    def matrix(self, Ke: NDArray[np.float64]) -> sp.csc_matrix:
+        """(N, N) CSC matrix of element matrices Ke (m, 18, 18), fixed rows and columns replaced by unit ones."""
+        K = self.full.matrix(Ke)
+        K.data[self._zero] = 0.0
+        K.data[self._diag] = self._scale
+        return K
+
+    def vector(self, fe: NDArray[np.float64]) -> NDArray[np.float64]:
+        """(N,) global vector of element vectors fe (m, 18)."""
+        return self.full.vector(fe)
+
+    def rhs(self, r: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Right-hand side in matrix order of a global (N,) vector, 0 at the fixed dofs."""
+        b = r[self.order]
+        b[self._fixed_rows] = 0.0
+        return b
+
+    def scatter(self, y: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Global (N,) vector of a solution y in matrix order (0 at the fixed dofs)."""
+        u = np.empty(self.n_dofs)
+        u[self.order] = y
+        return u

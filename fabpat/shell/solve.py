@@ -10,6 +10,7 @@ one; a run that cannot reach λ = 1 raises :class:`fabpat.errors.SolverError`.
 from __future__ import annotations
 
 import hashlib
+import threading
 import time
 from dataclasses import dataclass
 
@@ -17,10 +18,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import SolverError
-from fabpat.shell.assembly import Assembler
+from fabpat.shell.assembly import Assembler, SupportedAssembler
 from fabpat.shell.corotational import CorotationalTriangles
 from fabpat.shell.element import Material
-from fabpat.shell.linalg import factorizer, superlu
+from fabpat.shell.linalg import BACKENDS, Pardiso, SuperLUFactorizer, factorizer, superlu
 from fabpat.shell.results import ShellResult
 from fabpat.shell.rotations import expmap, logmap
 
@@ -61,28 +62,48 @@ class ShellProblem:
 ROUNDOFF_FACTOR = 0.5
 
 
-#: The last meshes' corotational models (key: node and triangle bytes, material). A catalog row runs three
-#: scenarios on one mesh; their problems differ only in supports and loads, so the element set-up
-#: (local stiffness, linear element matrices: ≈ 80 ms of a 1 s run at 2 k nodes) is built once.
-_MODELS: dict[tuple[bytes, bytes, Material], CorotationalTriangles] = {}
-_MODELS_KEPT = 2
+class _MeshSetup:
+    """What problems on one mesh and material share: the corotational model (local stiffness, linear
+    element matrices), the all-dofs Assembler and the factorisers (their symbolic analysis)."""
+
+    def __init__(self, p: ShellProblem) -> None:
+        self.model = CorotationalTriangles(p.X, p.F, p.material)
+        self.full = Assembler(self.model.edofs, np.ones(6 * p.X.shape[0], dtype=bool))
+        self.factorizers: dict[str, Pardiso | SuperLUFactorizer] = {}
+
+    def factorizer(self, backend: str) -> Pardiso | SuperLUFactorizer:
+        if backend not in self.factorizers:
+            self.factorizers[backend] = factorizer(backend)
+        return self.factorizers[backend]
 
 
-def _model(p: ShellProblem) -> CorotationalTriangles:
+#: The last meshes' set-ups (key: node and triangle bytes, material), per thread. A catalog row runs
+#: three scenarios on one mesh; their problems differ only in supports and loads, so the element
+#: set-up, the assembly pattern and the factoriser's analysis are built once (≈ 130 ms of a 1 s run at
+#: 2 k nodes). Per thread because a model keeps scratch arrays for its tangents (dask workers run tasks
+#: in threads).
+_SETUPS = threading.local()
+_SETUPS_KEPT = 2
+
+
+def _mesh_setup(p: ShellProblem) -> _MeshSetup:
+    cache: dict[tuple[bytes, bytes, Material], _MeshSetup] = _SETUPS.__dict__.setdefault("cache", {})
     key = (hashlib.sha1(p.X.tobytes()).digest(), hashlib.sha1(p.F.tobytes()).digest(), p.material)
-    model = _MODELS.pop(key, None)
-    if model is None:
-        model = CorotationalTriangles(p.X, p.F, p.material)
-    _MODELS[key] = model  # most recent last
-    while len(_MODELS) > _MODELS_KEPT:
-        del _MODELS[next(iter(_MODELS))]
-    return model
+    entry = cache.pop(key, None)
+    if entry is None:
+        entry = _MeshSetup(p)
+    cache[key] = entry  # most recent last
+    while len(cache) > _SETUPS_KEPT:
+        del cache[next(iter(cache))]
+    return entry
 
 
-def _setup(p: ShellProblem) -> tuple[CorotationalTriangles, Assembler, Arr]:
-    model = _model(p)
-    asm = Assembler(model.edofs, ~p.fixed.ravel())
-    return model, asm, p.loads.ravel()
+def _setup(p: ShellProblem) -> tuple[CorotationalTriangles, SupportedAssembler, Arr]:
+    ms = _mesh_setup(p)
+    free = ~p.fixed.ravel()
+    diag = ms.full.vector(np.einsum("mii->mi", ms.model.linear_element_matrices()))[free]
+    scale = float(np.abs(diag).mean()) if diag.size else 1.0
+    return ms.model, SupportedAssembler(ms.full, p.fixed, scale), p.loads.ravel()
 
 
 def solve_linear(p: ShellProblem) -> ShellResult:
@@ -92,8 +113,7 @@ def solve_linear(p: ShellProblem) -> ShellResult:
     Ke = model.linear_element_matrices()
     K = asm.matrix(Ke)
     t1 = time.perf_counter()
-    u = np.zeros(asm.n_dofs)
-    u[asm.free] = superlu(K).solve(f[asm.free])
+    u = asm.scatter(superlu(K).solve(asm.rhs(f)))
     if not np.all(np.isfinite(u)):
         raise SolverError("linear solve produced non-finite displacements (ill-posed supports?)")
     t2 = time.perf_counter()
@@ -133,8 +153,10 @@ def solve_nonlinear(
     "superlu" (:func:`fabpat.shell.linalg.factorizer`; the results agree to the Newton tolerance).
     """
     t0 = time.perf_counter()
-    fz = factorizer(linear_solver)
+    if linear_solver not in BACKENDS:
+        factorizer(linear_solver)  # raises, naming the choices
     model, asm, f = _setup(p)
+    fz = _mesh_setup(p).factorizer(linear_solver)
     free = asm.free
     fnorm = float(np.linalg.norm(f[free]))
     if fnorm == 0.0:
@@ -199,12 +221,11 @@ def solve_nonlinear(
                     model.element_tangents(*model.gather(x_try, R_try), d)
                 K = asm.matrix(Ke)
             tb = time.perf_counter()
-            du = np.zeros(asm.n_dofs)
             try:
                 if not reuse:
                     lu = fz.factor(K)
                     n_fact += 1
-                du[free] = lu.solve(r[free])
+                du = asm.scatter(lu.solve(asm.rhs(r)))
             except SolverError:
                 break
             t_tan += tb - ta
