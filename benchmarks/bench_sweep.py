@@ -1,13 +1,14 @@
 """Sweep benchmark: time per pattern-scenario, the share spent meshing / assembling / solving, and the
 estimated full-library sweep (430 patterns × 3 nonlinear scenarios) on this machine.
 
-Run: ``python benchmarks/bench_sweep.py [--patterns K] [--seed S] [--h MM] [--workers N] [--extrapolate]``.
+Run: ``python benchmarks/bench_sweep.py [--patterns K] [--seed S] [--h MM] [--workers N] [--no-extrapolate]``.
 Part 1 runs K random patterns one after the other in this process and splits the time by phase
 (fillet + mesh once per pattern, shared by its three scenarios; tangent assembly; internal forces /
 residual; LU factorisation + back-substitution). Part 2 runs the same K patterns through ``run_sweep``
 with N worker processes into a temporary catalog, which measures the real parallel throughput
-(including process start-up and catalog commits); the estimate scales that to 430 × 3. With
-``--extrapolate`` part 2 runs the sweep of ``fabpat sweep --extrapolate`` (meshes h and h/1.5).
+(including process start-up and catalog commits); the estimate scales that to 430 × 3. By default
+part 2 runs ``fabpat sweep`` (energies extrapolated from meshes h and h/1.5); with
+``--no-extrapolate``, ``fabpat sweep --no-extrapolate`` (one mesh of h).
 Prints Markdown tables.
 """
 
@@ -54,7 +55,8 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--h", type=float, default=1.5, help="mesh size in mm (the sweep's default 1.5)")
     ap.add_argument("--workers", type=int, default=2, help="worker processes for part 2 (default 2)")
-    ap.add_argument("--extrapolate", action="store_true", help="part 2: extrapolated energies (h and h/1.5)")
+    ap.add_argument("--extrapolate", action=argparse.BooleanOptionalAction, default=True,
+                    help="part 2: extrapolated energies from h and h/1.5 (the default), or one mesh of h")
     a = ap.parse_args()
     ids = list(sample_library(6, 2, a.patterns, a.seed).ids)
 

@@ -8,7 +8,7 @@ The Python front door (everything is imported on first use, so ``import fabpat``
     p = fabpat.pattern("0x0488")                          # depth from the ID's length
     fp = p.fillet(weight=0.2)                             # exact outline; knows sides, edge, weight
     fp.export("p.step")                                   # .step .stl .3mf .dxf .svg, by suffix
-    r = fabpat.simulate(fp, "dome")                       # r.energy (N·mm), r.to_vtu("dome.vtu")
+    r = fabpat.simulate(fp, "dome")                       # r.energy (N·mm, mesh-converged), r.to_vtu(…)
     rows = fabpat.catalog()                               # the built-in catalog; rows.to_dataframe()
     sim = fabpat.simulate_assembly("assemblies/truncated-icosahedron.toml")  # the sphere, closed
     sim.fields()["sphericity_rms"]                        # and every simulate-assembly field
@@ -27,7 +27,7 @@ _LAZY = {
     "library": "fabpat.library",
     "pattern": "fabpat.pattern",
     "catalog": "fabpat.catalog",
-    "simulate": "fabpat.scenarios:simulate",
+    "simulate": "fabpat.convergence:simulate",
     "simulate_assembly": "fabpat.assembly.simulation:simulate_assembly",
     "Library": "fabpat.library:Library",
     "Pattern": "fabpat.pattern:Pattern",

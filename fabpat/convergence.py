@@ -14,20 +14,25 @@ extrapolation: with E(h) ≈ E∞ − C·hᵖ, two meshes h₁ > h₂ give
 E∞ ≈ E₂ + (E₂ − E₁) / ((h₁/h₂)ᵖ − 1)  (Richardson, Phil. Trans. R. Soc. A 210 (1911) 307).
 
 Displacements, rotations and fields of a converged run are those of the finer mesh; only the
-energy is extrapolated. Used by ``fabpat simulate --extrapolate`` and ``fabpat sweep --extrapolate``
-(:func:`fabpat.sweep.simulate_pattern`). A quadratic triangle forms the edge layers on a 1.5 mm mesh
-and would converge without extrapolation at about 5× today's nodes (``benchmarks/study_quadratic.py``).
+energy is extrapolated. Used by ``fabpat simulate`` and ``fabpat.simulate`` (:func:`simulate`) unless
+they are given a mesh size, and by ``fabpat sweep`` (:func:`fabpat.sweep.simulate_pattern`) unless
+told ``--no-extrapolate``: the built-in catalog's energies are extrapolated this way. A quadratic
+triangle forms the edge layers on a 1.5 mm mesh and would converge without extrapolation at about
+5× the nodes (``benchmarks/study_quadratic.py``).
 Units: mm, N·mm.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 from fabpat.errors import SolverError
-from fabpat.mesh import ShellMesh
-from fabpat.scenarios import ScenarioResult, run_scenario
+from fabpat.mesh import DEFAULT_MAX_ELEMENTS, ShellMesh
+from fabpat.scenarios import ScenarioResult, mesh_filleted, run_scenario, simulate_inputs
+from fabpat.scenarios import simulate as simulate_mesh
 
 #: order p used for the pair :data:`CONVERGED_MESHES`. On nested meshes the order is 1.1–1.3
 #: (docs/accuracy.md), but between h = 1.5 and 1.0 the energy rises more slowly than that predicts:
@@ -66,6 +71,14 @@ class ConvergedResult:
         """The run on the finest mesh (its fields are the ones reported besides the energy)."""
         return self.runs[-1]
 
+    def as_result(self) -> ScenarioResult:
+        """The finest run with the extrapolated ``energy``, all meshes' ``h`` and ``mesh_energies`` and the
+        summed ``seconds``."""
+        return dataclasses.replace(self.fine, energy=self.energy, h=self.h,
+                                   mesh_energies=tuple(r.energy for r in self.runs),
+                                   seconds=sum(r.seconds for r in self.runs),
+                                   converged=all(r.converged for r in self.runs))
+
     def summary(self) -> dict[str, object]:
         """JSON-ready scalars: the finest run's summary with the extrapolated ``energy``, the mesh sizes
         ``h`` (mm), the per-mesh ``mesh_energies`` (N·mm) and the total ``seconds``."""
@@ -94,3 +107,38 @@ def run_converged(meshes: Sequence[tuple[float, ShellMesh]], scenario: str, *, s
     energy = runs[0].energy if len(runs) == 1 else richardson(runs[-2].energy, runs[-1].energy, hs[-2], hs[-1],
                                                               order)
     return ConvergedResult(scenario, energy, hs, runs)
+
+
+def simulate(
+    filleted: Any, scenario: str, *, h: float | None = None, extrapolate: bool | None = None, linear: bool = False,
+    thickness: float = 2.0, youngs_modulus: float = 1000.0, poisson: float = 0.35,
+    max_elements: int = DEFAULT_MAX_ELEMENTS,
+) -> ScenarioResult:
+    """Run one of the paper's scenarios (§4.1) on a filleted pattern — ``fabpat.simulate``, as ``fabpat simulate``.
+
+    By default the energy is the mesh-converged value, as in the built-in catalog: the pattern is
+    meshed at h = 1.5 and 1.0 mm and the energies extrapolated (:func:`richardson`); every other field
+    (displacements, iterations, nodes, ``to_vtu``) is the 1.0 mm mesh's. Given ``h`` (mm), it solves
+    one mesh of that size, for a user who wants a given mesh; ``extrapolate=True`` then uses h and
+    h/1.5, and ``extrapolate=False`` without ``h`` one mesh of 1.5 mm. ``scenario``: "cantilever",
+    "cylinder" or "dome" (any capitalisation); ``linear``: small displacements; ``thickness`` (mm),
+    ``youngs_modulus`` (N/mm², PLA 1000 as in the paper), ``poisson`` (0.35). The result's ``h`` and
+    ``mesh_energies`` name the meshes used. Raises :class:`SolverError` (bad argument, nonconvergence,
+    implausible result) and :class:`~fabpat.errors.GeometryError` (outline not meshable at this h), as
+    :func:`fabpat.scenarios.simulate`.
+    """
+    if extrapolate is None:
+        extrapolate = h is None
+    if not isinstance(extrapolate, bool):
+        raise SolverError(f"extrapolate must be True, False or None, got {extrapolate!r}")
+    coarse = CONVERGED_MESHES[0] if h is None else h
+    if not extrapolate:
+        return simulate_mesh(filleted, scenario, h=coarse, linear=linear, thickness=thickness,
+                             youngs_modulus=youngs_modulus, poisson=poisson, max_elements=max_elements)
+    scenario, coarse, thickness, E, nu = simulate_inputs(filleted, scenario, coarse, thickness, youngs_modulus,
+                                                         poisson)
+    sizes = (coarse, coarse * CONVERGED_MESHES[1] / CONVERGED_MESHES[0])
+    meshes = [(s, mesh_filleted(filleted, s, max_elements=max_elements)) for s in sizes]
+    c = run_converged(meshes, scenario, sides=filleted.sides, edge=filleted.edge, thickness=thickness, E=E, nu=nu,
+                      nonlinear=not linear)
+    return c.as_result()

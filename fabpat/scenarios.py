@@ -32,12 +32,13 @@ already remove all six rigid motions (cylinder: the pins' line is locked against
 rollers; dome: likewise by the other rollers), so no extra constraint is added; a singular system
 raises :class:`fabpat.errors.SolverError`.
 
-:func:`simulate` is the one-call entry (``fabpat.simulate(filleted, "dome")``): it meshes a filleted
+:func:`simulate` is the one-mesh entry (``fabpat.simulate(filleted, "dome", h=1.5)``): it meshes a filleted
 pattern (whose outline knows its polygon) and runs one scenario.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import time
@@ -83,7 +84,10 @@ class ScenarioResult:
     """Summary of one pattern-scenario run; ``result`` and ``problem`` hold the full fields.
 
     ``energy``: total strain energy (N·mm); ``max_displacement`` (mm); ``mesh`` the meshed pattern
-    (set by :func:`run_scenario`), which :meth:`to_vtu` and :meth:`to_png` draw deformed.
+    (set by :func:`run_scenario`), which :meth:`to_vtu` and :meth:`to_png` draw deformed. ``h``: the mesh
+    sizes (mm) the energy comes from and ``mesh_energies`` (N·mm) their energies: one mesh, or two when
+    the energy is extrapolated to the mesh-converged value (:func:`fabpat.convergence.simulate`; every
+    other field is then the finer mesh's); empty when the caller did not say (:func:`run_scenario`).
     """
 
     scenario: str
@@ -98,6 +102,8 @@ class ScenarioResult:
     result: ShellResult
     problem: ShellProblem
     mesh: ShellMesh | None = None
+    h: tuple[float, ...] = ()
+    mesh_energies: tuple[float, ...] = ()
 
     def __repr__(self) -> str:
         kind = "nonlinear" if self.nonlinear else "linear"
@@ -226,7 +232,10 @@ def simulate(
     filleted: Any, scenario: str, *, h: float = 1.5, linear: bool = False, thickness: float = 2.0,
     youngs_modulus: float = 1000.0, poisson: float = 0.35, max_elements: int = DEFAULT_MAX_ELEMENTS,
 ) -> ScenarioResult:
-    """Mesh a filleted pattern and run one of the paper's scenarios (§4.1) — ``fabpat simulate``.
+    """Mesh a filleted pattern once (size h) and run one of the paper's scenarios (§4.1).
+
+    ``fabpat.simulate`` (:func:`fabpat.convergence.simulate`) calls this when given ``h``; without it,
+    it extrapolates the energy from two meshes to the mesh-converged value, as ``fabpat simulate``.
 
     ``filleted``: a :class:`~fabpat.fillet.FilletedPattern` (its polygon and interfaces come with it);
     ``scenario``: "cantilever", "cylinder" or "dome" (any capitalisation); ``h``: target mesh edge (mm);
@@ -238,15 +247,21 @@ def simulate(
     cannot be meshed at this h (too coarse for its narrowest feature, or more than ``max_elements``
     triangles).
     """
+    scenario, h, thickness, E, nu = simulate_inputs(filleted, scenario, h, thickness, youngs_modulus, poisson)
+    mesh = mesh_filleted(filleted, h, max_elements=max_elements)
+    r = run_scenario(mesh, scenario, sides=filleted.sides, edge=filleted.edge, thickness=thickness, E=E,
+                     nu=nu, nonlinear=not linear)
+    return dataclasses.replace(r, h=(float(h),), mesh_energies=(r.energy,))
+
+
+def simulate_inputs(filleted: Any, scenario: str, h: float, thickness: float, youngs_modulus: float,
+                    poisson: float) -> tuple[str, float, float, float, float]:
+    """(scenario, h, thickness, E, ν) of :func:`simulate`'s arguments, checked against
+    :mod:`fabpat.validate`'s ranges; SolverError (one line) for a bad one or a non-filleted pattern."""
     if not hasattr(filleted, "outline") or not hasattr(filleted, "sides"):
         raise SolverError(f"simulate needs a FilletedPattern (pattern.fillet()), got {type(filleted).__name__}")
-    scenario = scenario_name(scenario)
-    h = check("h", h, error=SolverError)
-    thickness = check("thickness", thickness, error=SolverError)
-    E, nu = check("youngs_modulus", youngs_modulus, error=SolverError), check("poisson", poisson, error=SolverError)
-    mesh = mesh_filleted(filleted, h, max_elements=max_elements)
-    return run_scenario(mesh, scenario, sides=filleted.sides, edge=filleted.edge, thickness=thickness, E=E,
-                        nu=nu, nonlinear=not linear)
+    return (scenario_name(scenario), check("h", h, error=SolverError), check("thickness", thickness, error=SolverError),
+            check("youngs_modulus", youngs_modulus, error=SolverError), check("poisson", poisson, error=SolverError))
 
 
 def plate_size(sides: int, edge: float) -> float:

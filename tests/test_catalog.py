@@ -39,6 +39,8 @@ def test_builtin_catalog_is_the_default_library(hex_library) -> None:
     assert len(results) == 3 * 430
     assert {(r["E"], r["nu"], r["nonlinear"]) for r in results} == {(1000.0, 0.35, 1)}  # PLA, nonlinear
     assert len({r["h"] for r in results}) == 1 and len({r["solver_version"] for r in results}) == 1
+    # mesh-converged: every energy extrapolated from h = 1.5 and 1.0 mm (docs/accuracy.md)
+    assert {(r["h"], r["h_fine"]) for r in results} == {(1.5, 1.0)}
     failed = [f"{r['id']} {r['scenario']}: {r['error']}" for r in results if not r["converged"]]
     assert not failed, failed[:3]
     for s in SCENARIOS:
@@ -58,7 +60,7 @@ def test_builtin_rows_recompute_to_the_same_numbers() -> None:
         pats = {r["id"]: r for r in cat.pattern_rows()}
     for r in rows:
         new = simulate_pattern(r["id"], r["sides"], r["depth"], r["edge"], r["thickness"], r["weight"], r["E"],
-                               r["nu"], r["h"], [r["scenario"]])
+                               r["nu"], r["h"], [r["scenario"]], extrapolate=r["h_fine"] is not None)
         p, q = new
         where = f"{r['id']} {r['scenario']} (seed {seed}); {REGENERATE}"
         assert q["converged"] == 1, where

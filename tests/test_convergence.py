@@ -68,17 +68,33 @@ def test_lacy_pattern_shortfall_is_what_docs_accuracy_says() -> None:
         assert abs(r.runs[0].energy / ref - 1) > 0.015, sc
 
 
-def test_simulate_extrapolate_and_default_one_mesh() -> None:
+def test_simulate_extrapolates_by_default_and_solves_one_mesh_given_h() -> None:
+    """CLI: the default is the converged energy from 1.5 and 1.0 mm; ``--h`` means that one mesh,
+    ``--h X --extrapolate`` X and X/1.5, ``--no-extrapolate`` one mesh of 1.5 mm; ``fabpat.simulate`` alike."""
     import json
 
+    import fabpat
     from tests.conftest import run_cli
 
-    r = run_cli("simulate", "0x7f88", "--scenario", "cylinder", "--linear", "--json", "--extrapolate")
-    assert r.returncode == 0, r.stderr
-    row = json.loads(r.stdout)
+    def sim(*args: str) -> dict:
+        r = run_cli("simulate", "0x7f88", "--scenario", "cylinder", "--linear", "--json", *args)
+        assert r.returncode == 0, r.stderr
+        return json.loads(r.stdout)
+
+    row = sim()
     assert row["h"] == [1.5, 1.0] and row["extrapolated"] is True
     e1, e2 = row["mesh_energies"]
     assert e1 < e2 < row["energy"]
     assert row["energy"] == pytest.approx(e2 + (e2 - e1) / (1.5 / 1.0 - 1.0), rel=1e-12)  # p = 1
-    one = json.loads(run_cli("simulate", "0x7f88", "--scenario", "cylinder", "--linear", "--json").stdout)
-    assert one["h"] == [1.5] and one["extrapolated"] is False and one["energy"] == pytest.approx(e1, rel=1e-9)
+    assert sim("--extrapolate")["energy"] == row["energy"]
+    for args in (("--h", "1.5"), ("--no-extrapolate",)):
+        one = sim(*args)
+        assert one["h"] == [1.5] and one["extrapolated"] is False and one["energy"] == pytest.approx(e1, rel=1e-9)
+    two = sim("--h", "2", "--extrapolate")
+    assert two["h"] == [2.0, pytest.approx(4 / 3)] and two["extrapolated"] is True
+    fp = fabpat.pattern("0x7f88").fillet()
+    r = fabpat.simulate(fp, "cylinder", linear=True)
+    assert r.h == (1.5, 1.0) and r.energy == pytest.approx(row["energy"], rel=1e-9)
+    assert r.mesh_energies == pytest.approx((e1, e2), rel=1e-9) and r.nodes == row["nodes"]
+    r1 = fabpat.simulate(fp, "cylinder", linear=True, h=1.5)
+    assert r1.h == (1.5,) and r1.energy == pytest.approx(e1, rel=1e-9)

@@ -140,7 +140,8 @@ def test_cli_fields_and_strain_warnings(tmp_path: Path) -> None:
 
 def test_the_similar_energy_pair_is_rounder() -> None:
     """The paper's claim (§5) as a number: the shipped pair, whose Dome energies in the catalog differ by
-    1.45×, closes rounder than a pair differing by ≥ 3× (0x0488 hexagons with 0x2f88 pentagons)."""
+    1.51× (mesh-converged; 1.45× with the one-mesh catalog before), closes rounder than a pair differing by
+    ≥ 3× (0x0488 hexagons with 0x2f88 pentagons)."""
     import fabpat
 
     dome = {r["id"]: r["energy_dome"] for r in fabpat.catalog(sides=6)}
@@ -148,7 +149,7 @@ def test_the_similar_energy_pair_is_rounder() -> None:
     similar = (spec.patterns.hexagon, spec.patterns.pentagon)
     differing = ("0x0488", "0x2f88")
     ratio = [max(dome[a], dome[b]) / min(dome[a], dome[b]) for a, b in (similar, differing)]
-    assert ratio[0] < 1.5 and ratio[1] >= 3.0
+    assert ratio[0] < 1.6 and ratio[1] >= 3.0
     rms = [simulate_assembly(with_pair(FLAT, *pair), h=4.0).fields()["sphericity_rms"] for pair in (similar, differing)]
     assert rms[0] < 0.5 * rms[1], rms
 

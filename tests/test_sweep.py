@@ -29,7 +29,7 @@ def fake_task(pattern_id: str, sides: int, depth: int, edge: float, thickness: f
               nu: float, h: float, scenarios: tuple[str, ...], extrapolate: bool = False) -> list[dict[str, object]]:
     """Rows shaped like simulate_pattern's, with energy = E/1000 · (index of the scenario + 1)."""
     from fabpat.catalog import solver_version
-    from fabpat.sweep import pattern_hash, result_hash
+    from fabpat.sweep import fine_mesh, pattern_hash, result_hash
 
     if os.environ.get("FAKE_PID_FILE"):  # the kill test checks that workers die with the parent
         with open(os.environ["FAKE_PID_FILE"], "a") as f:
@@ -43,10 +43,12 @@ def fake_task(pattern_id: str, sides: int, depth: int, edge: float, thickness: f
                                       "input_hash": pattern_hash(pattern_id, sides, depth, edge, thickness, weight, v)}]
     for k, sc in enumerate(scenarios):
         ok = pattern_id != os.environ.get("FAKE_DIVERGE")
-        rows.append({"table": "results", **key, "scenario": sc, "E": E, "nu": nu, "h": h, "nonlinear": 1,
-                     "energy": E / 1000 * (k + 1) if ok else None, "converged": int(ok), "solver_version": v,
-                     "error": None if ok else "SolverError: fake", "computed_at": "now",
-                     "input_hash": result_hash(pattern_id, sides, depth, edge, thickness, weight, E, nu, h, sc, v)})
+        h_fine = fine_mesh(h) if extrapolate else None
+        rows.append({"table": "results", **key, "scenario": sc, "E": E, "nu": nu, "h": h, "h_fine": h_fine,
+                     "nonlinear": 1, "energy": E / 1000 * (k + 1) if ok else None, "converged": int(ok),
+                     "solver_version": v, "error": None if ok else "SolverError: fake", "computed_at": "now",
+                     "input_hash": result_hash(pattern_id, sides, depth, edge, thickness, weight, E, nu, h, sc, v,
+                                               h_fine)})
     return rows
 
 
@@ -217,9 +219,10 @@ def test_cli_errors_are_one_line(tmp_path: Path) -> None:
 
 
 def test_extrapolated_sweep_stores_richardson_energy_and_switching_recomputes(tmp_path: Path) -> None:
-    """``--extrapolate``: the stored energy is E₁ + (E₁ − E₁.₅)/(1.5/1 − 1) of the two meshes' own runs
-    (Richardson with order 1), the other fields are the fine mesh's, ``h_fine`` says so; switching the
-    option off recomputes the row as one mesh (the hash covers it)."""
+    """``--extrapolate`` (the default): the stored energy is E₁ + (E₁ − E₁.₅)/(1.5/1 − 1) of the two meshes'
+    own runs (Richardson with order 1), the other fields are the fine mesh's, ``h_fine`` says so;
+    ``--no-extrapolate`` recomputes the row as one mesh (the hash covers it), and the default again
+    recomputes it extrapolated."""
     from fabpat.fillet import fillet_pattern
     from fabpat.library import get_pattern
     from fabpat.mesh import mesh_outline
@@ -250,11 +253,16 @@ def test_extrapolated_sweep_stores_richardson_energy_and_switching_recomputes(tm
     assert row["energy"] == pytest.approx(e10 + (e10 - e15) / 0.5, rel=1e-7)
     assert row["energy"] > e10 > e15  # the energy rises towards the converged value (docs/accuracy.md)
     assert row["nodes"] == runs[1.0].nodes and row["iterations"] == runs[1.0].iterations
-    res = run_cli("sweep", "--sample", "1", "--seed", "0", "--db", str(db), "--workers", "1")
+    res = run_cli("sweep", "--sample", "1", "--seed", "0", "--db", str(db), "--workers", "1", "--no-extrapolate")
     assert "3 pattern-scenarios computed" in res.stdout and "warning" not in res.stderr, res.stdout
     with open_catalog(db) as cat:
         row = next(r for r in cat.results(scenario="cylinder"))
     assert row["h_fine"] is None and row["energy"] == pytest.approx(e15, rel=1e-7)
+    res = run_cli("sweep", "--sample", "1", "--seed", "0", "--db", str(db), "--workers", "1")
+    assert "3 pattern-scenarios computed" in res.stdout, res.stdout
+    with open_catalog(db) as cat:
+        row = next(r for r in cat.results(scenario="cylinder"))
+    assert row["h_fine"] == 1.0 and row["energy"] == pytest.approx(e10 + (e10 - e15) / 0.5, rel=1e-7)
 
 
 def test_catalog_without_h_fine_reads_as_single_mesh_and_gains_the_column_when_written(tmp_path: Path) -> None:

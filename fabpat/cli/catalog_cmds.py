@@ -47,9 +47,10 @@ _db_help = "Catalog file (SQLite) [default: the built-in catalog of the default 
 @number_option("--poisson", range_name="poisson", default=0.35, show_default=True, help="Poisson's ratio (PLA: 0.35).")
 @number_option("--h", "--mesh-size", "h", range_name="h", default=1.5, show_default=True,
                help="Target mesh edge length in mm (at most twice each pattern's min_width).")
-@click.option("--extrapolate", is_flag=True,
-              help="Also mesh each pattern at h/1.5 and store the energy extrapolated to the mesh-converged "
-                   "value (Richardson, as `fabpat simulate --extrapolate`; ≈ 3× the time; docs/accuracy.md).")
+@click.option("--extrapolate/--no-extrapolate", default=True, show_default=True,
+              help="Mesh each pattern at h and h/1.5 and store the energy extrapolated to the mesh-converged "
+                   "value (Richardson, as the built-in catalog and `fabpat simulate`); --no-extrapolate: one "
+                   "mesh of h, ≈ 2.5× faster and 3–5 % low in the median (docs/accuracy.md).")
 def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, workers: int | None,
               dask_address: str | None, force: bool, edge: float, thickness: float, weight: float, modulus: float,
               poisson: float, h: float, extrapolate: bool) -> int:
@@ -57,8 +58,8 @@ def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, wo
 
     Each pattern's results are committed as soon as they are computed; re-running resumes (rows whose
     input hash matches are skipped), so an interrupted sweep loses only the patterns in progress.
-    With --extrapolate each energy is extrapolated from meshes of h and h/1.5 (the rows' h_fine says
-    so); switching it on or off recomputes the rows.
+    Each energy is extrapolated from meshes of h and h/1.5 (the rows' h_fine says so), or with
+    --no-extrapolate taken from one mesh of h; switching between them recomputes the rows.
 
     Example: fabpat sweep --db catalog.sqlite --workers 2
     """

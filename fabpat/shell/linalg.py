@@ -45,7 +45,11 @@ PIVOT_THRESHOLD = 0.1
 
 
 class Factor(Protocol):
-    def solve(self, b: Arr) -> Arr: ...
+    """A factorised matrix K: ``solve(b)`` returns x (n,) with K x = b for b (n,)."""
+
+    def solve(self, b: Arr) -> Arr:
+        """x (n,) with K x = b."""
+        ...
 
 
 def superlu(K: sp.csc_matrix) -> Factor:
@@ -188,6 +192,7 @@ class SuperLUFactorizer:
     """A complete SuperLU factorisation per matrix (the fallback; same interface as :class:`Pardiso`)."""
 
     def factor(self, K: sp.csc_matrix) -> Factor:
+        """SuperLU factor of K (CSC). Raises SolverError if K is exactly singular."""
         return superlu(K)
 
 
