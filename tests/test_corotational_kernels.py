@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from fabpat.shell.assembly import Assembler
 from fabpat.shell.corotational import CorotationalTriangles
 from fabpat.shell.element import Material
 from fabpat.shell.rotations import dexp_inv, dexp_inv_t_apply, expmap
@@ -32,22 +31,6 @@ def test_stiffness_root_reproduces_local_stiffness() -> None:
     Qe = model._stiffness_root_eigh()
     assert Qe.shape[1] == 12
     assert np.abs(Qe.transpose(0, 2, 1) @ Qe - K).max() <= 1e-12 * np.abs(K).max()
-
-
-def test_assembler_gather_matches_bincount() -> None:
-    # the gather matrix used after GATHER_AFTER calls must give the bincount matrix bit for bit
-    model, x, R = _model_and_state()
-    free = np.ones(6 * len(x), dtype=bool)
-    free[:6] = False
-    asm = Assembler(model.edofs, free)
-    rng = np.random.default_rng(1)
-    Ke = rng.normal(size=(model.F.shape[0], 18, 18))
-    ref = asm.matrix(Ke)
-    for _ in range(Assembler.GATHER_AFTER + 1):
-        K = asm.matrix(Ke)
-    assert asm._gather is not None
-    assert np.array_equal(K.indptr, ref.indptr) and np.array_equal(K.indices, ref.indices)
-    assert np.array_equal(K.data, ref.data)
 
 
 def test_dexp_inv_t_apply_matches_matrix() -> None:

@@ -2,8 +2,7 @@
 
 The element → global scatter is computed once per mesh and support set (from the node adjacency,
 ≈ 10 ms for 2 k triangles): the sum of duplicate entries is then one ``np.bincount`` per assembly
-(≈ 3 ms), or, once a pattern is reused, one product with a precomputed sparse gather matrix (≈ 2×
-faster), and the matrix comes out directly in CSC order for SuperLU.
+(≈ 3 ms), and the matrix comes out directly in CSC order for SuperLU.
 """
 
 from __future__ import annotations
@@ -72,9 +71,17 @@ class Assembler:
         pos = (base[RJ][:, None, None, :, None] + (pf[Fn] * colnnz[RJ][..., None])[:, None, None, :, :]
                + rowoff[inv.reshape(m, 3, 3)][:, :, None, :, None] + pI[:, :, :, None, None])
         valid = (pI >= 0)[:, :, :, None, None] & (pf[Fn] >= 0)[:, None, None, :, :]
-        self._valid = np.flatnonzero(valid)
-        self._inv = pos.ravel()[self._valid]
-        rows = np.broadcast_to((start[Fn][..., None] + pI)[:, :, :, None, None], pos.shape).ravel()[self._valid]
+        rows = np.broadcast_to((start[Fn][..., None] + pI)[:, :, :, None, None], pos.shape)
+        # _valid: the element-matrix entries on free rows and columns; None when all are (the shared
+        # all-dofs assembler of solve.py), which skips three gathers of m·324 entries here and one per matrix
+        self._valid: NDArray[np.int64] | None = None
+        if valid.all():
+            self._inv = pos.reshape(-1)
+            rows = rows.reshape(-1)
+        else:
+            self._valid = np.flatnonzero(valid)
+            self._inv = pos.ravel()[self._valid]
+            rows = rows.ravel()[self._valid]
         self._indices = np.zeros(self._nnz, dtype=np.int32)
         self._indices[self._inv] = rows
         nfree = glob.size
@@ -82,27 +89,13 @@ class Assembler:
         self._indptr[fidx] = base[order[glob // 6]] + pf.ravel()[glob] * colnnz[order[glob // 6]]
         self._indptr[nfree] = self._nnz
         self.n_free = nfree
-        self._gather: sp.csr_matrix | None = None
-        self._calls = 0
-
-    #: matrix() calls served by np.bincount before the gather matrix is built (see :meth:`matrix`)
-    GATHER_AFTER = 2
 
     def matrix(self, Ke: NDArray[np.float64]) -> sp.csc_matrix:
         """(n_free, n_free) CSC matrix of element matrices Ke (m, 18, 18) (free rows/columns only)."""
-        # A gather matrix S (nnz × m·324, one 1 per element entry) makes the sum S @ Ke.ravel(), ~2× faster
-        # than bincount (2 against 4.5 ms at 3 k elements) and bit-identical: the COO → CSR conversion
-        # keeps the entries of a row in element order, the order bincount adds them in. Building S costs
-        # ~5 bincounts, so it is built only once the pattern has been used GATHER_AFTER times (a
-        # nonlinear solve assembles ~15 tangents per mesh, a linear one a single matrix).
-        self._calls += 1
-        if self._gather is None and self._calls > self.GATHER_AFTER:
-            self._gather = sp.csr_matrix((np.ones(self._inv.size), (self._inv, self._valid)),
-                                         shape=(self._nnz, Ke.size))
-        if self._gather is not None and self._gather.shape[1] == Ke.size:
-            data = self._gather @ Ke.reshape(-1)
-        else:
-            data = np.bincount(self._inv, weights=Ke.reshape(-1)[self._valid], minlength=self._nnz)
+        # all-free: no gather of Ke; a precomputed sparse gather matrix (S @ Ke.ravel()) is only ~15 %
+        # faster than this bincount and costs ~8 bincounts to build, so it does not pay off
+        w = Ke.reshape(-1) if self._valid is None else Ke.reshape(-1)[self._valid]
+        data = np.bincount(self._inv, weights=w, minlength=self._nnz)
         return sp.csc_matrix((data, self._indices, self._indptr), shape=(self.n_free, self.n_free))
 
     def vector(self, fe: NDArray[np.float64]) -> NDArray[np.float64]:
