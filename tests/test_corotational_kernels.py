@@ -26,6 +26,11 @@ def test_stiffness_root_reproduces_local_stiffness() -> None:
     Q = model._stiffness_root()
     K = model.local.K
     assert np.abs(Q.transpose(0, 2, 1) @ Q - K).max() <= 1e-12 * np.abs(K).max()
+    assert Q.shape[1] == 12  # the rigid-body modes are dropped
+    # the eigen-decomposition fallback spans the same 12-dimensional root
+    Qe = model._stiffness_root_eigh()
+    assert Qe.shape[1] == 12
+    assert np.abs(Qe.transpose(0, 2, 1) @ Qe - K).max() <= 1e-12 * np.abs(K).max()
 
 
 def test_dexp_inv_t_apply_matches_matrix() -> None:
