@@ -3,8 +3,8 @@
 Newton factors many matrices with *one* sparsity pattern (the Assembler's). Intel MKL's PARDISO can
 split a factorisation into a symbolic analysis (fill-reducing ordering, elimination tree), done
 once per pattern, and a numerical factorisation, done per matrix: on the scenarios' tangents
-(7–12 k dofs, one thread) the numerical step takes 9–21 ms against 35–67 ms for a complete SuperLU
-factorisation (``benchmarks/bench_linalg.py``). MKL ships as the ``mkl`` wheel on Linux x86-64, where
+(4–23 k dofs, one thread) the numerical step takes 2.4–7× less time than a complete SuperLU
+factorisation (``benchmarks/bench_linalg.py``; docs/benchmarks.md). MKL ships as the ``mkl`` wheel on Linux x86-64, where
 fabpat installs it; elsewhere, or if ``libmkl_rt`` cannot be loaded, SuperLU (SciPy) is used with the
 same results to the Newton tolerance.
 
