@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from fabpat.errors import SolverError
-from fabpat.mesh import DEFAULT_MAX_ELEMENTS, ShellMesh
+from fabpat.mesh import DEFAULT_MAX_ELEMENTS, ShellMesh, check_element_count
 from fabpat.scenarios import ScenarioResult, mesh_filleted, run_scenario, simulate_inputs
 from fabpat.scenarios import simulate as simulate_mesh
 
@@ -109,23 +109,38 @@ def run_converged(meshes: Sequence[tuple[float, ShellMesh]], scenario: str, *, s
     return ConvergedResult(scenario, energy, hs, runs)
 
 
+def mesh_converged(filleted: Any, h: float, *, max_elements: int = DEFAULT_MAX_ELEMENTS,
+                   option: str = "raise it with --max-elements") -> list[tuple[float, ShellMesh]]:
+    """The two meshes [(h, mesh), (h·2/3, mesh)] of an extrapolated run of a filleted pattern (mm).
+
+    Raises GeometryError before meshing if the finer mesh would exceed ``max_elements`` (the message
+    names it and suggests a coarse h that fits; ``option``: how to raise the limit), or if h is too
+    coarse for the outline (:func:`fabpat.scenarios.mesh_filleted`).
+    """
+    ratio = CONVERGED_MESHES[1] / CONVERGED_MESHES[0]
+    outline = filleted.outline
+    check_element_count(outline.area, outline.perimeter, h, max_elements, fine_ratio=ratio, option=option)
+    return [(s, mesh_filleted(filleted, s, max_elements=max_elements)) for s in (h, h * ratio)]
+
+
 def simulate(
     filleted: Any, scenario: str, *, h: float | None = None, extrapolate: bool | None = None, linear: bool = False,
     thickness: float = 2.0, youngs_modulus: float = 1000.0, poisson: float = 0.35,
     max_elements: int = DEFAULT_MAX_ELEMENTS,
 ) -> ScenarioResult:
-    """Run one of the paper's scenarios (§4.1) on a filleted pattern — ``fabpat.simulate``, as ``fabpat simulate``.
+    """Run one of the paper's scenarios (§4.1) on a filleted pattern — ``fabpat.simulate``, as the CLI's.
 
     By default the energy is the mesh-converged value, as in the built-in catalog: the pattern is
     meshed at h = 1.5 and 1.0 mm and the energies extrapolated (:func:`richardson`); every other field
-    (displacements, iterations, nodes, ``to_vtu``) is the 1.0 mm mesh's. Given ``h`` (mm), it solves
-    one mesh of that size, for a user who wants a given mesh; ``extrapolate=True`` then uses h and
-    h/1.5, and ``extrapolate=False`` without ``h`` one mesh of 1.5 mm. ``scenario``: "cantilever",
-    "cylinder" or "dome" (any capitalisation); ``linear``: small displacements; ``thickness`` (mm),
-    ``youngs_modulus`` (N/mm², PLA 1000 as in the paper), ``poisson`` (0.35). The result's ``h`` and
-    ``mesh_energies`` name the meshes used. Raises :class:`SolverError` (bad argument, nonconvergence,
-    implausible result) and :class:`~fabpat.errors.GeometryError` (outline not meshable at this h), as
-    :func:`fabpat.scenarios.simulate`.
+    (displacements, iterations, nodes, ``to_vtu``) is the 1.0 mm mesh's, and ``seconds`` the sum of
+    both. Given ``h`` (mm), it solves one mesh of that size, for a user who wants a given mesh;
+    ``extrapolate=True`` then uses h and h/1.5, and ``extrapolate=False`` without ``h`` one mesh of
+    1.5 mm. ``scenario``: "cantilever", "cylinder" or "dome" (any capitalisation); ``linear``: small
+    displacements; ``thickness`` (mm), ``youngs_modulus`` (N/mm², PLA 1000 as in the paper),
+    ``poisson`` (0.35). The result's ``h`` and ``mesh_energies`` name the meshes used. Raises
+    :class:`SolverError` (bad argument, nonconvergence, implausible result) and
+    :class:`~fabpat.errors.GeometryError` (outline not meshable at this h, or the finer mesh above
+    ``max_elements``), as :func:`fabpat.scenarios.simulate`.
     """
     if extrapolate is None:
         extrapolate = h is None
@@ -137,8 +152,7 @@ def simulate(
                              youngs_modulus=youngs_modulus, poisson=poisson, max_elements=max_elements)
     scenario, coarse, thickness, E, nu = simulate_inputs(filleted, scenario, coarse, thickness, youngs_modulus,
                                                          poisson)
-    sizes = (coarse, coarse * CONVERGED_MESHES[1] / CONVERGED_MESHES[0])
-    meshes = [(s, mesh_filleted(filleted, s, max_elements=max_elements)) for s in sizes]
+    meshes = mesh_converged(filleted, coarse, max_elements=max_elements, option="raise max_elements")
     c = run_converged(meshes, scenario, sides=filleted.sides, edge=filleted.edge, thickness=thickness, E=E, nu=nu,
                       nonlinear=not linear)
     return c.as_result()

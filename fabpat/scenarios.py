@@ -141,10 +141,15 @@ class ScenarioResult:
         return Path(path)
 
     def summary(self) -> dict[str, object]:
-        """JSON-ready dict of the scalar fields."""
-        return {"scenario": self.scenario, "energy": self.energy, "max_displacement": self.max_displacement,
-                "converged": self.converged, "iterations": self.iterations, "seconds": self.seconds,
-                "nodes": self.nodes, "elements": self.elements, "nonlinear": self.nonlinear}
+        """JSON-ready dict of the scalar fields (with ``h``, ``mesh_energies`` and ``extrapolated``, as the
+        JSON of ``fabpat simulate``, when the result names its meshes)."""
+        out: dict[str, object] = {
+            "scenario": self.scenario, "energy": self.energy, "max_displacement": self.max_displacement,
+            "converged": self.converged, "iterations": self.iterations, "seconds": self.seconds,
+            "nodes": self.nodes, "elements": self.elements, "nonlinear": self.nonlinear}
+        if self.h:
+            out.update(h=list(self.h), mesh_energies=list(self.mesh_energies), extrapolated=len(self.h) > 1)
+        return out
 
 
 def opposite(i: int, sides: int) -> int:

@@ -45,7 +45,7 @@ class SweepSetup:
     h: float = DEFAULT_H
     scenarios: tuple[str, ...] = ("cantilever", "cylinder", "dome")
     #: also mesh at h/1.5 and store the Richardson-extrapolated energy (the mesh-converged value, as the
-    #: built-in catalog; False: one mesh of h, ≈ 2.5× faster and 3–5 % low in the median; docs/accuracy.md)
+    #: built-in catalog; False: one mesh of h, ≈ 3× faster and 3–5 % low in the median; docs/accuracy.md)
     extrapolate: bool = True
 
     def __post_init__(self) -> None:

@@ -98,3 +98,20 @@ def test_simulate_extrapolates_by_default_and_solves_one_mesh_given_h() -> None:
     assert r.mesh_energies == pytest.approx((e1, e2), rel=1e-9) and r.nodes == row["nodes"]
     r1 = fabpat.simulate(fp, "cylinder", linear=True, h=1.5)
     assert r1.h == (1.5,) and r1.energy == pytest.approx(e1, rel=1e-9)
+    assert r.summary()["mesh_energies"] == list(r.mesh_energies) and r.summary()["extrapolated"] is True
+    assert r1.summary()["h"] == [1.5] and r1.summary()["extrapolated"] is False
+
+
+def test_simulate_size_check_names_the_finer_mesh_and_suggests_an_h_that_fits() -> None:
+    """``--h X --extrapolate`` is limited by the finer mesh X/1.5: the refusal says so and suggests an X
+    that passes the same check (one line, exit 2)."""
+    import re
+
+    from tests.conftest import run_cli
+
+    r = run_cli("simulate", "0x0488", "--scenario", "dome", "--h", "2", "--max-elements", "1000", "--extrapolate")
+    assert r.returncode == 2 and "finer mesh of h = 2 mm" in r.stderr and len(r.stderr.splitlines()) == 1
+    h = re.search(r"use h ≥ ([0-9.]+) mm", r.stderr).group(1)
+    ok = run_cli("simulate", "0x0488", "--scenario", "cylinder", "--linear", "--h", h, "--max-elements", "1000",
+                 "--extrapolate", "--json")
+    assert ok.returncode == 0, ok.stderr

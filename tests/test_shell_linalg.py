@@ -87,6 +87,11 @@ def test_nonlinear_results_do_not_depend_on_the_back_end() -> None:
     assert np.abs(a.displacement - b.displacement).max() <= 1e-7 * np.abs(b.displacement).max()
 
 
-def test_unknown_back_end_is_refused() -> None:
+def test_unknown_back_end_is_refused(monkeypatch: pytest.MonkeyPatch) -> None:
     with pytest.raises(SolverError, match="expected one of auto, pardiso, superlu"):
         factorizer("umfpack")
+    monkeypatch.setenv("FABPAT_LINEAR_SOLVER", " SuperLU ")  # the variable names "auto"'s choice, any case
+    assert isinstance(factorizer(), SuperLUFactorizer)
+    monkeypatch.setenv("FABPAT_LINEAR_SOLVER", "bogus")
+    with pytest.raises(SolverError, match="FABPAT_LINEAR_SOLVER='bogus' is not a linear solver; expected one of"):
+        factorizer()

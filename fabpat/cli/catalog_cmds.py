@@ -50,7 +50,7 @@ _db_help = "Catalog file (SQLite) [default: the built-in catalog of the default 
 @click.option("--extrapolate/--no-extrapolate", default=True, show_default=True,
               help="Mesh each pattern at h and h/1.5 and store the energy extrapolated to the mesh-converged "
                    "value (Richardson, as the built-in catalog and `fabpat simulate`); --no-extrapolate: one "
-                   "mesh of h, ≈ 2.5× faster and 3–5 % low in the median (docs/accuracy.md).")
+                   "mesh of h, ≈ 3× faster and 3–5 % low in the median (docs/accuracy.md).")
 def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, workers: int | None,
               dask_address: str | None, force: bool, edge: float, thickness: float, weight: float, modulus: float,
               poisson: float, h: float, extrapolate: bool) -> int:

@@ -9,10 +9,10 @@ import click
 
 from fabpat.cli.options import (
     edge_option,
-    h_option,
     id_depth_option,
     max_elements_option,
     modulus_option,
+    number_option,
     poisson_option,
     sides_option,
     thickness_option,
@@ -42,7 +42,9 @@ def _per_scenario(path: str | None, scenario: str, many: bool) -> str | None:
 @click.option("--scenario", type=click.Choice(SCENARIO_CHOICES, case_sensitive=False), default="all", show_default=True,
               help="Load case of the paper (all = the three in turn).")
 @click.option("--linear", is_flag=True, help="Linear analysis instead of geometrically nonlinear.")
-@h_option(1.5)
+@number_option("--h", "h", range_name="h", default=1.5, show_default="1.5 and 1.0, extrapolated",
+               help="Target mesh edge length in mm (at most twice the pattern's min_width): one mesh of this "
+                    "size unless --extrapolate is also given.")
 @click.option("--extrapolate/--no-extrapolate", default=None,
               help="Mesh at h and h/1.5 and report the energy extrapolated to the mesh-converged value "
                    "(Richardson, order 1; other fields from the finer mesh) [default: on, as the built-in "
@@ -70,13 +72,14 @@ def simulate_cmd(
     energy (total strain energy, N·mm), max_displacement (mm), converged, iterations, seconds (s),
     nodes, elements. By default the energy is the mesh-converged value, as in the built-in catalog:
     extrapolated from meshes of 1.5 and 1.0 mm (Richardson; JSON ``h`` and ``mesh_energies`` list both;
-    the other fields and the files are the finer mesh's). With --h the pattern is solved on one mesh of
-    that size (add --extrapolate for h and h/1.5); --no-extrapolate solves one mesh of 1.5 mm. With
+    the other fields and the files are the finer mesh's, seconds the sum of both). With --h the pattern
+    is solved on one mesh of that size (add --extrapolate for h and h/1.5); --no-extrapolate solves one
+    mesh of 1.5 mm. With
     --scenario all, file options get the scenario appended (out.vtu → out-dome.vtu).
 
     Example: fabpat simulate 0x2d88 --scenario dome --vtu dome.vtu --png dome.png --json
     """
-    from fabpat.convergence import CONVERGED_MESHES, run_converged
+    from fabpat.convergence import mesh_converged, run_converged
     from fabpat.exchange.inp import write_inp
     from fabpat.exchange.png_result import write_png
     from fabpat.exchange.vtu import write_vtu
@@ -102,8 +105,8 @@ def simulate_cmd(
             check_suffix(path, valid, option)
     pattern = get_pattern(pattern_id, sides, depth, edge)
     filleted = fillet_pattern(pattern, weight)  # its outline carries its polygon
-    sizes = (h, h * CONVERGED_MESHES[1] / CONVERGED_MESHES[0]) if extrapolate else (h,)
-    meshes = [(s, mesh_filleted(filleted, s, max_elements=max_elements)) for s in sizes]
+    meshes = mesh_converged(filleted, h, max_elements=max_elements) if extrapolate else \
+        [(h, mesh_filleted(filleted, h, max_elements=max_elements))]
     mesh = meshes[-1][1]  # fields, files and node counts come from the finest mesh
     rows = []
     with atomic_outputs(*outputs.values()) as temps:

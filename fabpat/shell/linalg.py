@@ -4,9 +4,9 @@ Newton factors many matrices with *one* sparsity pattern (the Assembler's). Inte
 split a factorisation into a symbolic analysis (fill-reducing ordering, elimination tree), done
 once per pattern, and a numerical factorisation, done per matrix: on the scenarios' tangents
 (4–23 k dofs, one thread) the numerical step takes 2.4–7× less time than a complete SuperLU
-factorisation (``benchmarks/bench_linalg.py``; docs/benchmarks.md). MKL ships as the ``mkl`` wheel on Linux x86-64, where
-fabpat installs it; elsewhere, or if ``libmkl_rt`` cannot be loaded, SuperLU (SciPy) is used with the
-same results to the Newton tolerance.
+factorisation (``benchmarks/bench_linalg.py``; docs/benchmarks.md). MKL ships as the ``mkl`` wheel
+on Linux x86-64, where fabpat installs it; elsewhere, or if ``libmkl_rt`` cannot be loaded, SuperLU
+(SciPy) is used with the same results to the Newton tolerance.
 
 PARDISO runs on one thread here: the sweep already keeps every core busy with worker processes,
 and one thread makes results bitwise reproducible from run to run.
@@ -91,7 +91,7 @@ def mkl() -> ctypes.CDLL | None:
     """The loaded MKL runtime, or None when it is not installed (looked for once per process)."""
     global _MKL
     if _MKL is False:
-        _MKL = _find_mkl() if os.environ.get("FABPAT_LINEAR_SOLVER", "auto") != "superlu" else None
+        _MKL = _find_mkl()
     return _MKL  # type: ignore[return-value]
 
 
@@ -200,10 +200,17 @@ def factorizer(backend: str = "auto") -> Pardiso | SuperLUFactorizer:
     """A factoriser for a sequence of matrices with one pattern.
 
     backend: "auto" (PARDISO if MKL loads, else SuperLU), "pardiso" (SolverError if MKL is missing) or
-    "superlu". The environment variable ``FABPAT_LINEAR_SOLVER=superlu`` makes "auto" mean SuperLU.
+    "superlu". The environment variable ``FABPAT_LINEAR_SOLVER`` (one of these, any case) says what "auto"
+    means; another value raises SolverError.
     """
     if backend not in BACKENDS:
         raise SolverError(f"unknown linear solver {backend!r}; expected one of {', '.join(BACKENDS)}")
+    if backend == "auto":
+        env = os.environ.get("FABPAT_LINEAR_SOLVER", "auto").strip().lower() or "auto"
+        if env not in BACKENDS:
+            raise SolverError(f"FABPAT_LINEAR_SOLVER={os.environ['FABPAT_LINEAR_SOLVER']!r} is not a linear solver; "
+                              f"expected one of {', '.join(BACKENDS)} (any case)")
+        backend = env
     if backend == "superlu":
         return SuperLUFactorizer()
     lib = mkl()
