@@ -77,6 +77,14 @@ def test_builtin_version_is_reported() -> None:
     assert stored.startswith("fabpat ") and solver_version().startswith("fabpat ")
 
 
+def test_builtin_catalog_was_computed_by_this_code() -> None:
+    """Every row carries the digest of the pipeline that ships: a sweep into a copy of the built-in
+    catalog then recomputes nothing, and a changed solver (or mesher) cannot ship with old numbers."""
+    with open_catalog() as cat:
+        stored = {r["solver_version"] for r in cat.query("SELECT DISTINCT solver_version FROM results")}
+    assert stored == {solver_version()}, REGENERATE
+
+
 def test_solver_version_covers_exactly_the_pipeline_code() -> None:
     names = {p.relative_to(builtin_path().parents[1]).as_posix() for p in pipeline_modules()}
     assert {"fillet.py", "mesh.py", "scenarios.py", "shell/solve.py", "shell/element.py", "shell/__init__.py",
