@@ -2,7 +2,7 @@
 
 Run (from the repository root)::
 
-    python benchmarks/study_convergence.py                      # 24 patterns, ≈ 15 min on 2 free cores
+    python benchmarks/study_convergence.py                      # 24 patterns, ≈ 4 min on 2 free cores
     python benchmarks/study_convergence.py --patterns 6 --workers 1
     python benchmarks/study_convergence.py --h 2 1.5 1 0.7 0.5 0.35 --patterns 6   # the pilot
 
