@@ -8,6 +8,7 @@ from fabpat.shell.corotational import CorotationalTriangles
 from fabpat.shell.element import Material
 from fabpat.shell.rotations import dexp_inv, dexp_inv_t_apply, expmap
 from tests.shell_fixtures import rect_mesh
+from tests.test_shell_nonlinear import _perturbed
 
 
 def _model_and_state(seed: int = 0) -> tuple[CorotationalTriangles, np.ndarray, np.ndarray]:
@@ -51,16 +52,5 @@ def test_batched_forces_match_and_tangent_matches_finite_differences() -> None:
     Kt = model.element_tangents(xe, Re, d)
     e = 1e-6
     for j in (0, 4, 8, 9, 13, 17):  # translations and spins of the three nodes
-        a, k = divmod(j, 6)
-        fp = []
-        for s in (e, -e):
-            xp, Rp = xe.copy(), Re.copy()
-            if k < 3:
-                xp[:, a, k] += s
-            else:
-                w = np.zeros(3)
-                w[k - 3] = s
-                Rp[:, a] = expmap(w) @ Re[:, a]
-            fp.append(model.element_forces(xp, Rp)[0])
-        fd = (fp[0] - fp[1]) / (2 * e)
+        fd = (_perturbed(model, xe, Re, j, e)[0] - _perturbed(model, xe, Re, j, -e)[0]) / (2 * e)
         assert np.allclose(Kt[:, :, j], fd, atol=1e-5 * np.abs(Kt).max())
