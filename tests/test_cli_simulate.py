@@ -65,7 +65,10 @@ def test_simulate_text_output_is_plain_key_value() -> None:
     fields = dict(tok.split("=") for tok in tokens)
     row = json.loads(run_cli(*args, "--json").stdout)
     assert set(fields) == {"id", "scenario", "energy", "max_displacement", "converged", "iterations", "seconds",
-                           "nodes", "elements"} <= set(row)
+                           "nodes", "elements", "h"} <= set(row)
+    assert [float(x) for x in fields["h"].split(",")] == row["h"] == [4.0]  # --h alone: that one mesh
+    default = dict(tok.split("=") for tok in run_cli(*args[:-2]).stdout.split())
+    assert default["h"] == "1.5,1"  # the default: extrapolated from two meshes
     assert fields["id"] == "0x7f88" and fields["scenario"] == "cantilever" and fields["converged"] == "true"
     assert float(fields["energy"]) == pytest.approx(row["energy"], rel=1e-5)
     assert float(fields["max_displacement"]) == pytest.approx(row["max_displacement"], rel=1e-3)

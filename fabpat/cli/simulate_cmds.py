@@ -70,12 +70,12 @@ def simulate_cmd(
 
     Prints one line per scenario of plain key=value fields (the --json field names): id, scenario,
     energy (total strain energy, N·mm), max_displacement (mm), converged, iterations, seconds (s),
-    nodes, elements. By default the energy is the mesh-converged value, as in the built-in catalog:
-    extrapolated from meshes of 1.5 and 1.0 mm (Richardson; JSON ``h`` and ``mesh_energies`` list both;
-    the other fields and the files are the finer mesh's, seconds the sum of both). With --h the pattern
-    is solved on one mesh of that size (add --extrapolate for h and h/1.5); --no-extrapolate solves one
-    mesh of 1.5 mm. With
-    --scenario all, file options get the scenario appended (out.vtu → out-dome.vtu).
+    nodes, elements, h (the mesh sizes in mm, comma-separated: two when the energy is extrapolated).
+    By default the energy is the mesh-converged value, as in the built-in catalog: extrapolated from
+    meshes of 1.5 and 1.0 mm (Richardson; JSON ``h`` and ``mesh_energies`` list both; the other fields
+    and the files are the finer mesh's, seconds the sum of both). With --h the pattern is solved on one
+    mesh of that size (add --extrapolate for h and h/1.5); --no-extrapolate solves one mesh of 1.5 mm.
+    With --scenario all, file options get the scenario appended (out.vtu → out-dome.vtu).
 
     Example: fabpat simulate 0x2d88 --scenario dome --vtu dome.vtu --png dome.png --json
     """
@@ -134,7 +134,7 @@ def simulate_cmd(
                 f"id={row['id']} scenario={row['scenario']} energy={row['energy']:.6g} "
                 f"max_displacement={row['max_displacement']:.4g} converged={str(bool(row['converged'])).lower()} "
                 f"iterations={row['iterations']} seconds={row['seconds']:.2f} nodes={row['nodes']} "
-                f"elements={row['elements']}"
+                f"elements={row['elements']} h={','.join(f'{x:g}' for x in row['h'])}"
             )
     for path in outputs.values():
         click.echo(f"wrote {path}", err=True)  # stdout is data (key=value lines or JSON)
