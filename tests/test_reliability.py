@@ -379,6 +379,18 @@ run()
 """
 
 
+def test_ctrl_c_wrapped_by_a_class_body_is_one_line_exit_130(tmp_path: Path) -> None:
+    """A Ctrl-C or SIGTERM inside a class body reaches us as RuntimeError("Error calling __set_name__")
+    caused by KeyboardInterrupt (seen in CI: SIGTERM during `export --all`): still an interrupt."""
+    script = INTERRUPT_AT_IMPORT.replace("raise KeyboardInterrupt",
+                                         "raise RuntimeError('Error calling __set_name__') from KeyboardInterrupt()")
+    p = subprocess.run([FABPAT[0], "-c", script, "OCP", "export", "0x2d88", "--step", "a.step"],
+                       capture_output=True, text=True, cwd=tmp_path, timeout=120)
+    assert p.returncode == 130, (p.returncode, p.stderr)
+    assert p.stderr == "fabpat: interrupted\n"
+    assert list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.parametrize("module", ["click", "numpy", "numpy.testing", "OCP"])
 def test_ctrl_c_during_an_import_is_one_line_exit_130(tmp_path: Path, module: str) -> None:
     # click and numpy load with the CLI (the first half second); numpy.testing inside scipy's

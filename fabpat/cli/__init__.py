@@ -45,6 +45,20 @@ def _sigterm_unwinds() -> Iterator[None]:
         signal.signal(signal.SIGTERM, previous)
 
 
+def _caused_by_interrupt(e: BaseException) -> bool:
+    """Whether a Ctrl-C or SIGTERM (KeyboardInterrupt) lies in e's chain of causes. One that lands
+    inside an import comes back wrapped: as ImportError from a C extension (OCP), as RuntimeError
+    ("Error calling __set_name__") when it interrupts a class body."""
+    seen: set[int] = set()
+    cur: BaseException | None = e
+    while cur is not None and id(cur) not in seen:
+        if isinstance(cur, KeyboardInterrupt):
+            return True
+        seen.add(id(cur))
+        cur = cur.__cause__ or cur.__context__
+    return False
+
+
 class _Interrupted(BaseException):
     """Ctrl-C inside a command, carried past click (which would print a blank line and "Aborted!")."""
 
@@ -58,8 +72,8 @@ class FabpatGroup(click.Group):
             return super().invoke(ctx)
         except KeyboardInterrupt as e:
             raise _Interrupted from e
-        except ImportError as e:  # a C extension (OCP) reports a Ctrl-C during its import as ImportError
-            if isinstance(e.__cause__ or e.__context__, KeyboardInterrupt):
+        except Exception as e:
+            if _caused_by_interrupt(e):
                 raise _Interrupted from e
             raise
 
