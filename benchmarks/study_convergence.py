@@ -22,10 +22,14 @@ Methods compared against it (each reports the worst and median error, the discor
 ranking against the reference ranking per scenario — out of N(N−1)/2 — and the seconds per
 pattern-scenario, meshing included, summed over the meshes it needs):
 
-* a single mesh h (h = 1.5 is what the catalog shipped with before, marked "before");
-* two-mesh Richardson extrapolation E₂ + (E₂ − E₁)/((h₁/h₂)ᵖ − 1) with the order
-  :data:`fabpat.convergence.RICHARDSON_ORDER` that the code uses (the pair
-  :data:`fabpat.convergence.CONVERGED_MESHES`, 1.5 / 1.0 mm, is the shipped catalog's, "shipped").
+* a single mesh h (h = 1.5 is what the catalog first shipped with, marked "one mesh before");
+* two-mesh Richardson extrapolation E₂ + (E₂ − E₁)/((h₁/h₂)ᵖ − 1) from two independent Triangle meshes,
+  p = 1 (the pair 1.5 / 1.0 mm was the catalog's next method, marked "two meshes before");
+* the shipped method (:func:`fabpat.convergence.nested_meshes`): a Triangle mesh of
+  h = :data:`fabpat.convergence.CONVERGED_MESHES` [0] = 2 mm with its chord tolerance, and its nested
+  refinement (every triangle split into four, new boundary nodes on the exact outline), extrapolated
+  with p = :data:`fabpat.convergence.RICHARDSON_ORDER` (1.2; the rows with p = 1.0 and 1.1 show how much
+  the order matters) — and the refined mesh alone.
 
 Seconds are CPU seconds of the worker process (one BLAS thread), so a machine shared with other jobs
 (the load average is printed) slows the wall clock but hardly the figures.
@@ -45,11 +49,16 @@ from pathlib import Path
 
 import numpy as np
 
-from fabpat.convergence import CONVERGED_MESHES, RICHARDSON_ORDER, richardson
+from fabpat.convergence import CONVERGED_MESHES, RICHARDSON_ORDER, nested_meshes, richardson
 from fabpat.library import sample_library
 from fabpat.scenarios import SCENARIOS
 
-Row = dict[tuple[str, float], tuple[float, float, int]]  # (scenario, h) → (energy, seconds, nodes)
+#: (scenario, h) → (energy, seconds, nodes); h a float for uniform meshes, "nested 2" / "nested 1" for the
+#: shipped method's pair
+Row = dict[tuple[str, float | str], tuple[float, float, int]]
+
+#: the order of the two-independent-mesh extrapolation shipped before the nested meshes
+BEFORE_ORDER = 1.0
 
 
 def _init() -> None:
@@ -77,7 +86,18 @@ def run_pattern(pid: str, hs: tuple[float, ...]) -> tuple[str, Row]:
             t0 = time.process_time()
             r = run_scenario(mesh, sc, sides=6)
             out[sc, h] = (r.energy, time.process_time() - t0 + t_mesh, mesh.n_nodes)
+    t0 = time.process_time()
+    pair = nested_meshes(outline, CONVERGED_MESHES[0], 6, 36.0)
+    t_mesh = (time.process_time() - t0 + t_fillet) / len(SCENARIOS) / 2
+    for (_h, mesh), label in zip(pair, NESTED, strict=True):
+        for sc in SCENARIOS:
+            t0 = time.process_time()
+            r = run_scenario(mesh, sc, sides=6)
+            out[sc, label] = (r.energy, time.process_time() - t0 + t_mesh, mesh.n_nodes)
     return pid, out
+
+
+NESTED = ("nested 2", "nested 1")
 
 
 #: asymptotic order of the energy error, measured on nested meshes (module docstring)
@@ -132,11 +152,16 @@ def main() -> None:
     ref_h = np.array(hs[-3:])
     print(f"{len(ids)} patterns: {', '.join(ids)}; meshes h = {', '.join(f'{h:g}' for h in hs)} "
           f"mm; {wall:.0f} s wall with {workers} workers (load average {load0:.1f} → {load1:.1f})\n")
-    methods: list[tuple[str, tuple[float, ...]]] = [(f"h = {h:g}" + (" (before)" if h == 1.5 else ""), (h,))
-                                                    for h in hs[:-1]]
-    methods += [(f"Richardson h = {h1:g} / {h2:g}, p = {RICHARDSON_ORDER:g}"
-                 + (" (shipped)" if (h1, h2) == CONVERGED_MESHES else ""), (h1, h2))
+    # (name, meshes, order): one mesh, or Richardson from the last two with that order
+    methods: list[tuple[str, tuple[float | str, ...], float]] = [
+        (f"h = {h:g}" + (" (one mesh before)" if h == 1.5 else ""), (h,), 0.0) for h in hs[:-1]]
+    methods += [(f"Richardson h = {h1:g} / {h2:g}, p = {BEFORE_ORDER:g}"
+                 + (" (two meshes before)" if (h1, h2) == (1.5, 1.0) else ""), (h1, h2), BEFORE_ORDER)
                 for h1, h2 in itertools.combinations(hs[:-1], 2)]
+    if all((SCENARIOS[0], NESTED[1]) in data[pid] for pid in ids):  # files saved before nested meshes lack it
+        methods += [("nested h = 1 alone", (NESTED[1],), 0.0)]
+        methods += [(f"nested 2 / 1, p = {p:g}" + (" (shipped)" if p == RICHARDSON_ORDER else ""), NESTED, p)
+                    for p in (1.0, 1.1, RICHARDSON_ORDER)]
     print(f"Reference: h = {', '.join(f'{h:g}' for h in ref_h)} mm extrapolated with p = {REFERENCE_ORDER:g}.\n")
     print("| scenario | method | worst error | median error | discordant pairs "
           "| CPU s per pattern-scenario | nodes (median) |")
@@ -145,11 +170,13 @@ def main() -> None:
         E = np.array([[data[pid][sc, h][0] for h in ref_h] for pid in ids])
         ref = extrapolate(E, ref_h)
         pairs = len(ids) * (len(ids) - 1) // 2
-        for name, mh in methods:
+        for name, mh, p in methods:
             if len(mh) == 1:
                 est = [data[pid][sc, mh[0]][0] for pid in ids]
             else:
-                est = [richardson(data[pid][sc, mh[0]][0], data[pid][sc, mh[1]][0], mh[0], mh[1]) for pid in ids]
+                h1, h2 = CONVERGED_MESHES if mh == NESTED else mh
+                est = [richardson(data[pid][sc, mh[0]][0], data[pid][sc, mh[1]][0], float(h1), float(h2), p)
+                       for pid in ids]
             err = [100.0 * (e / r - 1.0) for e, r in zip(est, ref, strict=True)]
             worst = max(err, key=abs)
             secs = statistics.mean(sum(data[pid][sc, h][1] for h in mh) for pid in ids)

@@ -1,24 +1,26 @@
-"""Mesh-converged scenario energies by Richardson extrapolation from two uniform meshes.
+"""Mesh-converged scenario energies by Richardson extrapolation from a mesh and its nested refinement.
 
 Why (measured; ``benchmarks/study_convergence.py`` and docs/accuracy.md): on library patterns the
 strain energy of the flat shell triangles rises towards its mesh-converged value only like h^1.1–1.3, and
 at h = 1.5 mm it is 1.5–11 % low. The deficit sits in the narrow necks and bars (2–3 mm wide, 1–2
-elements across): on 0x0488 (Cylinder) 5 % of the elements carry 60 % of it, the elements within 2 mm of
-the interface-segment ends almost none. The membrane is not the cause (Felippa's OPT triangle, exact
-in in-plane bending; membrane energy < 0.1 % of the total there); the transverse shear is: the
-Kirchhoff limit of the same element (DKT) is only 1.8 % low at h = 1.5 but 13–23 % stiffer, because
-bars about as wide as they are thick twist with Reissner–Mindlin free-edge layers of width
-t/√(12κ) ≈ 0.6 mm that a 1.5 mm mesh cannot form. Grading the mesh by local width saved ≈ 20 % of the
-nodes for the same energy; refining a band along the free edges saved none. So the cure kept is
+elements across), where bars about as wide as they are thick twist with Reissner–Mindlin free-edge
+layers of width t/√(12κ) ≈ 0.6 mm that a 1.5 mm mesh cannot form; the membrane is not the cause
+(Felippa's OPT triangle; membrane energy < 0.1 % of the Cylinder's). Grading the mesh by local width
+or refining a band along the free edges saved nodes but did not converge faster. So the cure kept is
 extrapolation: with E(h) ≈ E∞ − C·hᵖ, two meshes h₁ > h₂ give
 E∞ ≈ E₂ + (E₂ − E₁) / ((h₁/h₂)ᵖ − 1)  (Richardson, Phil. Trans. R. Soc. A 210 (1911) 307).
+
+The two meshes are *nested* (:func:`fabpat.mesh.refine_nested`: the finer one splits every triangle of
+the coarser into four, its new boundary nodes on the exact outline), not two independent Delaunay
+meshes: independent meshes of neighbouring h scatter by tenths of a percent, and on narrow necks by
+whole percents (0x4888, Dome: 296–300 N·mm for h = 1.1–1.5 mm, in plateaus as the necks' triangles
+change), which the extrapolation multiplies. With nested meshes every one of the 72 studied
+pattern-scenarios is within 1 % (two independent meshes 1.5 / 1.0 mm: 67, worst −4.2 %).
 
 Displacements, rotations and fields of a converged run are those of the finer mesh; only the
 energy is extrapolated. Used by ``fabpat simulate`` and ``fabpat.simulate`` (:func:`simulate`) unless
 they are given a mesh size, and by ``fabpat sweep`` (:func:`fabpat.sweep.simulate_pattern`) unless
-told ``--no-extrapolate``: the built-in catalog's energies are extrapolated this way. A quadratic
-triangle forms the edge layers on a 1.5 mm mesh and would converge without extrapolation at about
-5× the nodes (``benchmarks/study_quadratic.py``).
+told ``--no-extrapolate``: the built-in catalog's energies are extrapolated this way.
 Units: mm, N·mm.
 """
 
@@ -29,19 +31,31 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from fabpat.errors import SolverError
-from fabpat.mesh import DEFAULT_MAX_ELEMENTS, ShellMesh, check_element_count
-from fabpat.scenarios import ScenarioResult, mesh_filleted, run_scenario, simulate_inputs
+from fabpat.errors import GeometryError, SolverError
+from fabpat.mesh import DEFAULT_MAX_ELEMENTS, MAX_H_PER_MIN_WIDTH, ShellMesh
+from fabpat.scenarios import ScenarioResult, run_scenario, simulate_inputs
 from fabpat.scenarios import simulate as simulate_mesh
+from fabpat.validate import check, check_size, round_down, round_up
 
-#: order p used for the pair :data:`CONVERGED_MESHES`. On nested meshes the order is 1.1–1.3
-#: (docs/accuracy.md), but between h = 1.5 and 1.0 the energy rises more slowly than that predicts:
-#: on the pilot (0x2d08, 0xf608, 0x0488 × 3 scenarios) p = 1 came within 0.25 % of the reference in
-#: 7 of 9 cases (0x0488: Cylinder −0.65 %, Dome −2.0 %), p = 1.2 up to 1 % lower
-RICHARDSON_ORDER = 1.0
+#: order p of the extrapolation. Measured on nested meshes (each triangle split into four; the same
+#: domain): the energy error falls like h^1.1–1.3 (docs/accuracy.md); on the 24-pattern study the
+#: nested pair 2.0 / 1.0 mm is within 1 % of the references in all 72 pattern-scenarios with p = 1.2
+#: (p = 1.1: one Cylinder +1.1 %), ``benchmarks/study_convergence.py``
+RICHARDSON_ORDER = 1.2
 
-#: the two mesh sizes (mm) of a converged run: coarse, fine
-CONVERGED_MESHES = (1.5, 1.0)
+#: the two mesh sizes (mm) of a converged run: a Triangle mesh of h = 2.0 and its nested refinement
+#: (:func:`fabpat.mesh.refine_nested`, half the edge length)
+CONVERGED_MESHES = (2.0, 1.0)
+
+#: mesh size (mm) of a one-mesh run when none is given (``extrapolate=False``, ``--no-extrapolate``)
+ONE_MESH_H = 1.5
+
+#: chord tolerance of the coarse mesh of a converged run, per mm of its h (0.03 mm at h = 2): finer
+#: than the one-mesh default (``fabpat.mesh.FLATTEN_TOL_PER_H``) because the refined mesh inherits the
+#: coarse mesh's boundary vertices. Measured (study, p = 1.2): 0.04 mm leaves the lacy 0x4888 2.5 %
+#: low in the Dome (its 2.3 mm necks), 0.03 mm within 1 % everywhere, 0.02 mm within 0.6 % at ≈ 25 %
+#: more nodes.
+NESTED_FLATTEN_TOL_PER_H = 0.015
 
 
 def richardson(e_coarse: float, e_fine: float, h_coarse: float, h_fine: float,
@@ -109,18 +123,70 @@ def run_converged(meshes: Sequence[tuple[float, ShellMesh]], scenario: str, *, s
     return ConvergedResult(scenario, energy, hs, runs)
 
 
+def nested_meshes(outline: Any, h: float, sides: int | None = None, edge: float | None = None, *,
+                  weight: float | None = None, max_elements: int = DEFAULT_MAX_ELEMENTS,
+                  option: str = "raise it with --max-elements", h_max: float | None = None,
+                  ) -> list[tuple[float, ShellMesh]]:
+    """[(h, coarse), (h/2, fine)]: a Triangle mesh of ``outline`` and its nested refinement (mm).
+
+    The coarse mesh follows curves to ``NESTED_FLATTEN_TOL_PER_H`` · h; the fine one is
+    :func:`fabpat.mesh.refine_nested` of it (new boundary nodes on the exact outline), with exactly 4×
+    its triangles. ``sides``, ``edge``, ``weight``: as :func:`fabpat.mesh.mesh_outline`. Raises
+    GeometryError if the finer mesh would exceed ``max_elements``: the message names it and the
+    smallest coarse h (in steps of 15 %, up to ``h_max`` mm if given) whose refinement fits, found by
+    meshing (``option``: how to raise the limit).
+    """
+    from fabpat.mesh import INTERFACE_WEIGHT, estimate_elements, mesh_outline, refine_nested
+
+    outline = getattr(outline, "outline", outline)
+    w = INTERFACE_WEIGHT if weight is None else weight
+
+    def coarse_mesh(x: float) -> ShellMesh:
+        return mesh_outline(outline, x, sides, edge, weight=w, max_elements=max(max_elements, 10**9),
+                            flatten_tol=NESTED_FLATTEN_TOL_PER_H * x)
+
+    def refuse(count: float) -> None:
+        # the smallest h that fits, by meshing: curved boundaries, followed to a tolerance ∝ h, make the
+        # count fall more slowly than 1/h², so no formula gives an h that surely passes
+        x = h
+        while estimate_elements(outline.area, outline.perimeter, x / 2) > max_elements:
+            x *= 1.15  # meshing is only tried where even the (low) estimate fits
+        found = None
+        while h_max is None or x <= h_max:
+            x = round_up(x * 1.15)
+            if 4 * coarse_mesh(x).n_elements <= max_elements:
+                found = x
+                break
+            if x > 1000.0:
+                break
+        hint = f"or use h ≥ {found:g} mm" if found is not None else \
+            f"no h up to {h_max:g} mm (the most this outline allows) fits" if h_max is not None else ""
+        check_size(count, max_elements, f"mesh elements of the finer mesh of h = {h:g} mm (its refinement to "
+                   f"{h * CONVERGED_MESHES[1] / CONVERGED_MESHES[0]:g} mm)", option, hint, error=GeometryError)
+
+    estimate = 4 * estimate_elements(outline.area, outline.perimeter, h)
+    if estimate > max_elements:  # before meshing: a tiny h must not reach Triangle
+        refuse(estimate)
+    coarse = coarse_mesh(h)
+    if 4 * coarse.n_elements > max_elements:
+        refuse(4 * coarse.n_elements)
+    return [(h, coarse), (h * CONVERGED_MESHES[1] / CONVERGED_MESHES[0], refine_nested(coarse, outline))]
+
+
 def mesh_converged(filleted: Any, h: float, *, max_elements: int = DEFAULT_MAX_ELEMENTS,
                    option: str = "raise it with --max-elements") -> list[tuple[float, ShellMesh]]:
-    """The two meshes [(h, mesh), (h·2/3, mesh)] of an extrapolated run of a filleted pattern (mm).
+    """The two meshes [(h, mesh), (h/2, nested refinement)] of an extrapolated run of a filleted pattern.
 
-    Raises GeometryError before meshing if the finer mesh would exceed ``max_elements`` (the message
-    names it and suggests a coarse h that fits; ``option``: how to raise the limit), or if h is too
-    coarse for the outline (:func:`fabpat.scenarios.mesh_filleted`).
+    Raises GeometryError before meshing if the finer mesh would exceed ``max_elements`` (see
+    :func:`nested_meshes`), or if h is too coarse for the outline (as :func:`fabpat.scenarios.mesh_filleted`).
     """
-    ratio = CONVERGED_MESHES[1] / CONVERGED_MESHES[0]
-    outline = filleted.outline
-    check_element_count(outline.area, outline.perimeter, h, max_elements, fine_ratio=ratio, option=option)
-    return [(s, mesh_filleted(filleted, s, max_elements=max_elements)) for s in (h, h * ratio)]
+    from fabpat.mesh import check_resolves
+
+    h = check("h", h, "mesh size h", error=GeometryError)
+    min_width = filleted.validate(raise_on_error=False).min_width
+    check_resolves(h, min_width, f"pattern {filleted.pattern.id}")
+    return nested_meshes(filleted, h, max_elements=max_elements, option=option,
+                         h_max=round_down(MAX_H_PER_MIN_WIDTH * min_width))
 
 
 def simulate(
@@ -131,25 +197,26 @@ def simulate(
     """Run one of the paper's scenarios (§4.1) on a filleted pattern — ``fabpat.simulate``, as the CLI's.
 
     By default the energy is the mesh-converged value, as in the built-in catalog: the pattern is
-    meshed at h = 1.5 and 1.0 mm and the energies extrapolated (:func:`richardson`); every other field
-    (displacements, iterations, nodes, ``to_vtu``) is the 1.0 mm mesh's, and ``seconds`` the sum of
-    both. Given ``h`` (mm), it solves one mesh of that size, for a user who wants a given mesh;
-    ``extrapolate=True`` then uses h and h/1.5, and ``extrapolate=False`` without ``h`` one mesh of
-    1.5 mm. ``scenario``: "cantilever", "cylinder" or "dome" (any capitalisation); ``linear``: small
-    displacements; ``thickness`` (mm), ``youngs_modulus`` (N/mm², PLA 1000 as in the paper),
-    ``poisson`` (0.35). The result's ``h`` and ``mesh_energies`` name the meshes used. Raises
-    :class:`SolverError` (bad argument, nonconvergence, implausible result) and
-    :class:`~fabpat.errors.GeometryError` (outline not meshable at this h, or the finer mesh above
-    ``max_elements``), as :func:`fabpat.scenarios.simulate`.
+    meshed at h = 2.0 mm, that mesh refined once (1.0 mm, :func:`nested_meshes`) and the two energies
+    extrapolated (:func:`richardson`, p = 1.2); every other field (displacements, iterations, nodes,
+    ``to_vtu``) is the refined mesh's, and ``seconds`` the sum of both. Given ``h`` (mm), it solves one
+    mesh of that size, for a user who wants a given mesh; ``extrapolate=True`` then uses h and its
+    refinement h/2, and ``extrapolate=False`` without ``h`` one mesh of 1.5 mm. ``scenario``:
+    "cantilever", "cylinder" or "dome" (any capitalisation); ``linear``: small displacements;
+    ``thickness`` (mm), ``youngs_modulus`` (N/mm², PLA 1000 as in the paper), ``poisson`` (0.35). The
+    result's ``h`` and ``mesh_energies`` name the meshes used. Raises :class:`SolverError` (bad
+    argument, nonconvergence, implausible result) and :class:`~fabpat.errors.GeometryError` (outline
+    not meshable at this h, or the finer mesh above ``max_elements``), as
+    :func:`fabpat.scenarios.simulate`.
     """
     if extrapolate is None:
         extrapolate = h is None
     if not isinstance(extrapolate, bool):
         raise SolverError(f"extrapolate must be True, False or None, got {extrapolate!r}")
-    coarse = CONVERGED_MESHES[0] if h is None else h
     if not extrapolate:
-        return simulate_mesh(filleted, scenario, h=coarse, linear=linear, thickness=thickness,
+        return simulate_mesh(filleted, scenario, h=ONE_MESH_H if h is None else h, linear=linear, thickness=thickness,
                              youngs_modulus=youngs_modulus, poisson=poisson, max_elements=max_elements)
+    coarse = CONVERGED_MESHES[0] if h is None else h
     scenario, coarse, thickness, E, nu = simulate_inputs(filleted, scenario, coarse, thickness, youngs_modulus,
                                                          poisson)
     meshes = mesh_converged(filleted, coarse, max_elements=max_elements, option="raise max_elements")

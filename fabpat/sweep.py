@@ -28,7 +28,7 @@ from fabpat.errors import FabpatError
 #: the paper's PLA: E = 1 GPa (§4.1); ν is not given, 0.35 is usual for PLA (notes)
 PLA_E = 1000.0  # N/mm²
 PLA_NU = 0.35
-DEFAULT_H = 1.5  # mm: mesh size (fabpat.mesh.mesh_outline default; within 0.4 % of h = 1 on the hexagon)
+DEFAULT_H = 1.5  # mm: mesh size of a one-mesh sweep (--no-extrapolate; fabpat.mesh.mesh_outline's default)
 
 
 @dataclass(frozen=True)
@@ -42,10 +42,13 @@ class SweepSetup:
     weight: float = 0.2
     E: float = PLA_E
     nu: float = PLA_NU
-    h: float = DEFAULT_H
+    #: mesh size (mm); None: the coarse mesh of a converged run (2.0, refined once to 1.0) when
+    #: extrapolating, else DEFAULT_H
+    h: float | None = None
     scenarios: tuple[str, ...] = ("cantilever", "cylinder", "dome")
-    #: also mesh at h/1.5 and store the Richardson-extrapolated energy (the mesh-converged value, as the
-    #: built-in catalog; False: one mesh of h, ≈ 3× faster and 3–5 % low in the median; docs/accuracy.md)
+    #: also refine the mesh once (nested, h/2) and store the Richardson-extrapolated energy (the
+    #: mesh-converged value, as the built-in catalog; False: one mesh of h, ≈ 3× faster and 3–5 % low in
+    #: the median; docs/accuracy.md)
     extrapolate: bool = True
 
     def __post_init__(self) -> None:
@@ -53,6 +56,10 @@ class SweepSetup:
         :data:`fabpat.validate.RANGES`, as the CLI options do, before any row is computed."""
         from fabpat.validate import check
 
+        if self.h is None:
+            from fabpat.convergence import CONVERGED_MESHES
+
+            object.__setattr__(self, "h", CONVERGED_MESHES[0] if self.extrapolate is True else DEFAULT_H)
         for name, value in (("sides", self.sides), ("depth", self.depth), ("edge", self.edge),
                             ("thickness", self.thickness), ("weight", self.weight), ("youngs_modulus", self.E),
                             ("poisson", self.nu), ("h", self.h)):
@@ -74,8 +81,8 @@ class SweepSetup:
 
 
 def fine_mesh(h: float) -> float:
-    """The second mesh (mm) of an extrapolated energy: h × 1.0/1.5, the ratio of
-    :data:`fabpat.convergence.CONVERGED_MESHES` (as ``fabpat simulate --extrapolate``)."""
+    """The second mesh (mm) of an extrapolated energy: h/2, the nested refinement of the mesh of h
+    (:data:`fabpat.convergence.CONVERGED_MESHES`, as ``fabpat simulate --extrapolate``)."""
     from fabpat.convergence import CONVERGED_MESHES
 
     return float(h) * CONVERGED_MESHES[1] / CONVERGED_MESHES[0]
@@ -108,8 +115,9 @@ def simulate_pattern(pattern_id: str, sides: int, depth: int, edge: float, thick
     """Fillet, mesh and run ``scenarios`` (nonlinear) on one pattern; the catalog rows to store.
 
     Returns one ``patterns`` row (``"table": "patterns"``) and one ``results`` row per scenario.
-    ``extrapolate``: also mesh at :func:`fine_mesh` (h) and store the Richardson-extrapolated energy
-    (:func:`fabpat.convergence.run_converged`, as ``fabpat simulate --extrapolate``) with ``h_fine``;
+    ``extrapolate``: also refine the mesh once (:func:`fabpat.convergence.nested_meshes`, h/2) and
+    store the Richardson-extrapolated energy (:func:`fabpat.convergence.run_converged`, as ``fabpat
+    simulate --extrapolate``) with ``h_fine``;
     the row's other fields are then the fine mesh's, and ``seconds`` the sum over both (as the JSON of
     ``fabpat simulate --extrapolate``).
     Deterministic failures (:class:`~fabpat.errors.FabpatError`: an outline that cannot be filleted
@@ -118,14 +126,13 @@ def simulate_pattern(pattern_id: str, sides: int, depth: int, edge: float, thick
     Hashes use the solver version of the process that computes (a dask worker with other code gets
     a different hash, and a later sweep recomputes its rows).
     """
-    from fabpat.convergence import run_converged
+    from fabpat.convergence import nested_meshes, run_converged
     from fabpat.fillet import fillet_pattern
     from fabpat.library import get_pattern
     from fabpat.mesh import ShellMesh, check_resolves, mesh_outline
 
     version = solver_version()
     h_fine = fine_mesh(h) if extrapolate else None
-    sizes = (h,) if h_fine is None else (h, h_fine)
     key = {"id": pattern_id, "sides": sides, "depth": depth, "edge": float(edge), "thickness": float(thickness),
            "weight": float(weight)}
     prow: dict[str, object] = {"table": "patterns", **key,
@@ -142,7 +149,8 @@ def simulate_pattern(pattern_id: str, sides: int, depth: int, edge: float, thick
         prow.update(filleted.catalog_columns())  # as `fabpat library`; an invalid outline raises GeometryError
         prow["svg_path"] = filleted.outline.to_svg_path()
         check_resolves(h, float(prow["min_width"]), f"pattern {pattern_id}")  # as `fabpat simulate`
-        meshes = [(s, mesh_outline(filleted.outline, s, sides, edge, weight=weight)) for s in sizes]
+        meshes = [(h, mesh_outline(filleted.outline, h, sides, edge, weight=weight))] if h_fine is None else \
+            nested_meshes(filleted.outline, h, sides, edge, weight=weight)
     except FabpatError as e:
         geometry_error = f"{type(e).__name__}: {e}"
         prow["error"] = geometry_error

@@ -71,6 +71,7 @@ RANGES: dict[str, Range] = {r.name: r for r in (
        "feature of 0x2d88 is 0.42 mm, at w = 1e9 the interface is 4.5e-9 mm long"),
     _r("h", 0.001, 1000.0, "mm", "target mesh edge; the element-count estimate and the narrowest feature bound "
        "it further"),
+    _r("refine", 0, 4, "", "nested refinements of a mesh: each makes 4× the triangles (4 → 256×)", integer=True),
     _r("youngs_modulus", 1e-3, 1e7, "N/mm²", "from soft gels (1 kPa) past diamond (1.2e6 N/mm²)"),
     _r("poisson", -1.0, 0.5, "", "isotropic elasticity needs -1 < ν < 1/2 (positive-definite stiffness)",
        low_open=True, high_open=True),

@@ -88,3 +88,85 @@ def test_filleted_pattern_interfaces_follow_the_fillet_weight(weight: float) -> 
         assert sorted(nodes.tolist()) == sorted(on_edge.tolist())
         span = (mesh.V[nodes] - 0.5 * (a + b)) @ t
         assert span.max() - span.min() == pytest.approx(2 * fp.interface_half_length, abs=1e-9)
+
+
+# --- chord polygons that keep the area, and nested refinement ------------------------------------------
+
+
+def _distance_to(loops: list[np.ndarray], X: np.ndarray) -> np.ndarray:
+    """(m,) distance of points X to closed polylines (a reference flattening of the exact outline)."""
+    from scipy.spatial import cKDTree
+
+    from fabpat.mesh import _subdivide
+
+    loops = [_subdivide(L, 0.02) for L in loops]  # short pieces: a point's own piece is among its nearest
+    A = np.vstack(loops)
+    D = np.vstack([np.roll(L, -1, axis=0) for L in loops]) - A
+    _, near = cKDTree(A + 0.5 * D).query(X, k=16)
+    a, d = A[near], D[near]
+    s = np.clip(np.einsum("ijk,ijk->ij", X[:, None] - a, d) / np.einsum("ijk,ijk->ij", d, d), 0.0, 1.0)
+    return np.linalg.norm(a + s[..., None] * d - X[:, None], axis=2).min(axis=1)
+
+
+def _signed_area_of(loops: list[np.ndarray]) -> float:
+    return sum(0.5 * float(np.sum(L[:, 0] * np.roll(L[:, 1], -1) - np.roll(L[:, 0], -1) * L[:, 1])) for L in loops)
+
+
+@pytest.mark.parametrize("pid", ["0x4888", "0x2d08"])
+def test_shifted_chords_keep_the_area_and_the_tolerance(pid: str) -> None:
+    from fabpat.fillet import fillet_pattern
+    from fabpat.library import get_pattern
+    from fabpat.mesh import _subdivide, flatten_outline
+
+    outline = fillet_pattern(get_pattern(pid)).outline
+    tol = 0.03
+    shifted, plain = flatten_outline(outline, tol), outline.flatten(tol)
+    exact = outline.area  # closed form (Green's theorem on the rational arcs)
+    # chords on the arcs cut or fill every arc by ≈ 2/3·chord·sagitta; moved chords cancel that to second order
+    assert abs(_signed_area_of(plain) - exact) > 0.3  # mm², e.g. 0x4888: +2.96 mm² at 0.03 mm
+    assert abs(_signed_area_of(shifted) - exact) < 0.25 * abs(_signed_area_of(plain) - exact)
+    # still within the tolerance of the exact outline, at the vertices and along the chords
+    ref = [np.asarray(L) for L in outline.flatten(1e-6)]
+    pts = np.vstack([_subdivide(L, 0.02) for L in shifted])
+    assert _distance_to(ref, pts).max() <= tol
+
+
+def test_refine_nested_splits_every_triangle_and_puts_new_boundary_nodes_on_the_outline() -> None:
+    from fabpat.fillet import fillet_pattern
+    from fabpat.library import get_pattern
+    from fabpat.mesh import mesh_outline, refine_nested
+
+    outline = fillet_pattern(get_pattern("0x4888")).outline
+    coarse = mesh_outline(outline, 2.0)
+    fine = refine_nested(coarse, outline)
+    m, n = coarse.n_elements, coarse.n_nodes
+    sides = {tuple(sorted(e)) for t in coarse.F.tolist() for e in ((t[0], t[1]), (t[1], t[2]), (t[2], t[0]))}
+    assert fine.n_elements == 4 * m and fine.n_nodes == n + len(sides)
+    np.testing.assert_array_equal(fine.V[:n], coarse.V)  # nested: the coarse nodes keep their numbers
+    # each coarse triangle is the union of its four children (the interior ones exactly)
+    assert fine.areas.reshape(m, 4).sum(axis=1) == pytest.approx(coarse.areas, rel=0.02)
+    assert (fine.areas > 0).all() and fine.min_angle() > 10.0
+    # new boundary nodes lie on the exact outline; new interior nodes are side midpoints
+    E = np.sort(np.concatenate([fine.F[:, [0, 1]], fine.F[:, [1, 2]], fine.F[:, [2, 0]]]), axis=1)
+    u, c = np.unique(E, axis=0, return_counts=True)
+    bnew = np.setdiff1d(np.unique(u[c == 1]), np.arange(n))
+    ref = [np.asarray(L) for L in outline.flatten(1e-6)]
+    assert len(bnew) > 100 and _distance_to(ref, fine.V[bnew]).max() < 2e-4
+    off_curve = _distance_to(ref, 0.5 * (coarse.V[u[c == 1][:, 0] % n] + coarse.V[u[c == 1][:, 1] % n]))
+    assert off_curve.max() > 1e-3  # the plain midpoints would not have been on it
+    # interfaces: the coarse nodes with the midpoints between them, in order, as tagging finds them
+    segs = [(a, b) for a, b in outline.polygon.interfaces]
+    for got, tagged, old in zip(fine.interfaces, tag_segments(fine.V, segs), coarse.interfaces, strict=True):
+        np.testing.assert_array_equal(got, tagged)
+        assert len(got) == 2 * len(old) - 1
+
+
+def test_nested_meshes_are_the_converged_pair() -> None:
+    from fabpat.convergence import CONVERGED_MESHES, nested_meshes
+    from fabpat.fillet import fillet_pattern
+    from fabpat.library import get_pattern
+
+    (h1, coarse), (h2, fine) = nested_meshes(fillet_pattern(get_pattern("0x2d08")), CONVERGED_MESHES[0])
+    assert (h1, h2) == CONVERGED_MESHES and fine.n_elements == 4 * coarse.n_elements
+    with pytest.raises(GeometryError, match="finer mesh"):
+        nested_meshes(fillet_pattern(get_pattern("0x2d08")), 2.0, max_elements=5000)

@@ -45,21 +45,23 @@ _db_help = "Catalog file (SQLite) [default: the built-in catalog of the default 
 @number_option("--youngs-modulus", "modulus", range_name="youngs_modulus", default=1000.0, show_default=True,
                help="Young's modulus in N/mm² (PLA: 1000).")
 @number_option("--poisson", range_name="poisson", default=0.35, show_default=True, help="Poisson's ratio (PLA: 0.35).")
-@number_option("--h", "--mesh-size", "h", range_name="h", default=1.5, show_default=True,
-               help="Target mesh edge length in mm (at most twice each pattern's min_width).")
+@number_option("--h", "--mesh-size", "h", range_name="h", default=None,
+               help="Target mesh edge length in mm (at most twice each pattern's min_width) "
+                    "[default: 2.0, refined to 1.0; with --no-extrapolate 1.5].")
 @click.option("--extrapolate/--no-extrapolate", default=True, show_default=True,
-              help="Mesh each pattern at h and h/1.5 and store the energy extrapolated to the mesh-converged "
-                   "value (Richardson, as the built-in catalog and `fabpat simulate`); --no-extrapolate: one "
-                   "mesh of h, ≈ 3× faster and 3–5 % low in the median (docs/accuracy.md).")
+              help="Mesh each pattern at h, refine that mesh once (h/2, nested) and store the energy "
+                   "extrapolated to the mesh-converged value (Richardson, as the built-in catalog and `fabpat "
+                   "simulate`); --no-extrapolate: one mesh of h, ≈ 3× faster and 3–5 % low in the median "
+                   "(docs/accuracy.md).")
 def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, workers: int | None,
               dask_address: str | None, force: bool, edge: float, thickness: float, weight: float, modulus: float,
-              poisson: float, h: float, extrapolate: bool) -> int:
+              poisson: float, h: float | None, extrapolate: bool) -> int:
     """Simulate every pattern (fillet → mesh → cantilever, cylinder, dome, nonlinear) into a catalog.
 
     Each pattern's results are committed as soon as they are computed; re-running resumes (rows whose
     input hash matches are skipped), so an interrupted sweep loses only the patterns in progress.
-    Each energy is extrapolated from meshes of h and h/1.5 (the rows' h_fine says so), or with
-    --no-extrapolate taken from one mesh of h; switching between them recomputes the rows.
+    Each energy is extrapolated from a mesh of h and its nested refinement h/2 (the rows' h_fine says
+    so), or with --no-extrapolate taken from one mesh of h; switching between them recomputes the rows.
 
     Example: fabpat sweep --db catalog.sqlite --workers 2
     """
@@ -81,6 +83,7 @@ def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, wo
     check_distinct([], inputs={"--db": db})  # the library cache, say, may never replace the catalog
     setup = SweepSetup(sides, depth, edge, thickness, weight, modulus, poisson, h, extrapolate=extrapolate)
     # a sweep has no --max-elements: the limit protects every worker's memory
+    h = float(setup.h)  # type: ignore[arg-type]  # resolved by SweepSetup
     check_polygon_elements(sides, edge, h, DEFAULT_MAX_ELEMENTS, fine_ratio=(setup.h_fine or h) / h,
                            option="fixed for sweeps")
     if dask_address and workers:

@@ -42,13 +42,14 @@ def _per_scenario(path: str | None, scenario: str, many: bool) -> str | None:
 @click.option("--scenario", type=click.Choice(SCENARIO_CHOICES, case_sensitive=False), default="all", show_default=True,
               help="Load case of the paper (all = the three in turn).")
 @click.option("--linear", is_flag=True, help="Linear analysis instead of geometrically nonlinear.")
-@number_option("--h", "h", range_name="h", default=1.5, show_default="1.5 and 1.0, extrapolated",
+@number_option("--h", "h", range_name="h", default=None,
                help="Target mesh edge length in mm (at most twice the pattern's min_width): one mesh of this "
-                    "size unless --extrapolate is also given.")
+                    "size unless --extrapolate is also given [default: 2.0 refined to 1.0, extrapolated; "
+                    "with --no-extrapolate 1.5].")
 @click.option("--extrapolate/--no-extrapolate", default=None,
-              help="Mesh at h and h/1.5 and report the energy extrapolated to the mesh-converged value "
-                   "(Richardson, order 1; other fields from the finer mesh) [default: on, as the built-in "
-                   "catalog, unless --h is given: then one mesh of that size].")
+              help="Mesh at h, refine that mesh once (h/2, nested) and report the energy extrapolated to the "
+                   "mesh-converged value (Richardson, order 1.2; other fields from the finer mesh) [default: "
+                   "on, as the built-in catalog, unless --h is given: then one mesh of that size].")
 @thickness_option
 @modulus_option
 @poisson_option
@@ -62,7 +63,7 @@ def _per_scenario(path: str | None, scenario: str, many: bool) -> str | None:
 @click.option("--json", "as_json", is_flag=True, help="Print the results as JSON.")
 def simulate_cmd(
     pattern_id: str, sides: int, depth: int | None, edge: float, weight: float, scenario: str, linear: bool,
-    h: float, extrapolate: bool | None,
+    h: float | None, extrapolate: bool | None,
     thickness: float, E: float, nu: float, vtu: str | None, png: str | None, inp: str | None, inp_element: str,
     as_json: bool, max_elements: int,
 ) -> None:
@@ -71,15 +72,16 @@ def simulate_cmd(
     Prints one line per scenario of plain key=value fields (the --json field names): id, scenario,
     energy (total strain energy, N·mm), max_displacement (mm), converged, iterations, seconds (s),
     nodes, elements, h (the mesh sizes in mm, comma-separated: two when the energy is extrapolated).
-    By default the energy is the mesh-converged value, as in the built-in catalog: extrapolated from
-    meshes of 1.5 and 1.0 mm (Richardson; JSON ``h`` and ``mesh_energies`` list both; the other fields
-    and the files are the finer mesh's, seconds the sum of both). With --h the pattern is solved on one
-    mesh of that size (add --extrapolate for h and h/1.5); --no-extrapolate solves one mesh of 1.5 mm.
+    By default the energy is the mesh-converged value, as in the built-in catalog: extrapolated from a
+    mesh of 2.0 mm and its nested refinement, 1.0 mm (Richardson; JSON ``h`` and ``mesh_energies`` list
+    both; the other fields and the files are the finer mesh's, seconds the sum of both). With --h the
+    pattern is solved on one mesh of that size (add --extrapolate for h and its refinement h/2);
+    --no-extrapolate solves one mesh of 1.5 mm.
     With --scenario all, file options get the scenario appended (out.vtu → out-dome.vtu).
 
     Example: fabpat simulate 0x2d88 --scenario dome --vtu dome.vtu --png dome.png --json
     """
-    from fabpat.convergence import mesh_converged, run_converged
+    from fabpat.convergence import CONVERGED_MESHES, ONE_MESH_H, mesh_converged, run_converged
     from fabpat.exchange.inp import write_inp
     from fabpat.exchange.png_result import write_png
     from fabpat.exchange.vtu import write_vtu
@@ -88,8 +90,9 @@ def simulate_cmd(
     from fabpat.scenarios import PNG_SUFFIXES, SCENARIOS, VTU_SUFFIXES, mesh_filleted
 
     if extrapolate is None:  # converged by default; a mesh size given means that mesh
-        source = click.get_current_context().get_parameter_source("h")
-        extrapolate = source in (None, click.core.ParameterSource.DEFAULT)
+        extrapolate = h is None
+    if h is None:
+        h = CONVERGED_MESHES[0] if extrapolate else ONE_MESH_H
     scenarios = SCENARIOS if scenario == "all" else (scenario,)
     many = len(scenarios) > 1
     outputs = {
