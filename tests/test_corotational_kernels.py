@@ -54,3 +54,21 @@ def test_batched_forces_match_and_tangent_matches_finite_differences() -> None:
     for j in (0, 4, 8, 9, 13, 17):  # translations and spins of the three nodes
         fd = (_perturbed(model, xe, Re, j, e)[0] - _perturbed(model, xe, Re, j, -e)[0]) / (2 * e)
         assert np.allclose(Kt[:, :, j], fd, atol=1e-5 * np.abs(Kt).max())
+
+
+def test_tangent_reuses_the_force_evaluation_only_at_the_same_state() -> None:
+    model, x, R = _model_and_state()
+    xe, Re = model.gather(x, R)
+    _, _, d = model.element_forces(xe, Re)
+    fresh, _, _ = _model_and_state()  # no force evaluation: frame and local parts computed afresh
+    ref = fresh.element_tangents(xe, Re, d)
+    assert np.array_equal(model.element_tangents(*model.gather(x, R), d), ref)
+    # changing the evaluated arrays in place, or a force evaluation elsewhere, must not leave a stale frame
+    moved = xe + np.random.default_rng(1).normal(size=xe.shape) * 0.02
+    _, _, d2 = model.element_forces(moved, Re)
+    stale = fresh.element_tangents(moved, Re, d2)
+    moved[:, 0] += 0.05
+    now = model.element_tangents(moved, Re, d2)
+    assert np.array_equal(now, fresh.element_tangents(moved, Re, d2))
+    assert not np.allclose(now, stale)  # the two states differ enough to tell
+    assert np.array_equal(model.element_tangents(xe, Re, d), ref)
