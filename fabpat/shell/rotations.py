@@ -63,6 +63,20 @@ def _eta(t2: Arr) -> Arr:
     return np.where(small, 1.0 / 12.0 + t2 / 720.0, (1.0 - 0.5 * ts / np.tan(0.5 * ts)) / (ts * ts))
 
 
+def _add_diag_minus_skew(out: Arr, diag: Arr, v: Arr) -> None:
+    """out += diag I − [v]× in place, out (…, 3, 3), diag (…), v (…, 3): entry by entry, because these
+    run per element node and skew/eye temporaries would cost more than the arithmetic."""
+    out[..., 0, 0] += diag
+    out[..., 1, 1] += diag
+    out[..., 2, 2] += diag
+    out[..., 0, 1] += v[..., 2]
+    out[..., 1, 0] -= v[..., 2]
+    out[..., 0, 2] -= v[..., 1]
+    out[..., 2, 0] += v[..., 1]
+    out[..., 1, 2] += v[..., 0]
+    out[..., 2, 1] -= v[..., 0]
+
+
 def dexp_inv(theta: Arr) -> Arr:
     """H⁻¹(θ) (…, 3, 3) with δθ = H⁻¹(θ) δψ when δR Rᵀ = [δψ]×, R = exp([θ]×).
 
@@ -70,20 +84,12 @@ def dexp_inv(theta: Arr) -> Arr:
     """
     t2 = np.einsum("...i,...i->...", theta, theta)
     eta = _eta(t2)
-    # Θ² = θθᵀ − |θ|² I; written entry by entry (no skew/eye temporaries: this runs per element node)
+    # Θ² = θθᵀ − |θ|² I
     et = eta[..., None] * theta
     H = et[..., :, None] * theta[..., None, :]
     diag = 1.0 - eta * t2
     half = 0.5 * theta
-    H[..., 0, 0] += diag
-    H[..., 1, 1] += diag
-    H[..., 2, 2] += diag
-    H[..., 0, 1] += half[..., 2]
-    H[..., 1, 0] -= half[..., 2]
-    H[..., 0, 2] -= half[..., 1]
-    H[..., 2, 0] += half[..., 1]
-    H[..., 1, 2] += half[..., 0]
-    H[..., 2, 1] -= half[..., 0]
+    _add_diag_minus_skew(H, diag, half)
     return H
 
 
@@ -116,18 +122,9 @@ def dexp_inv_t_jacobian(theta: Arr, m: Arr) -> Arr:
     dc = 0.5 / np.tan(half) - 0.25 * ts / np.sin(half) ** 2
     deta_t = np.where(small, 1.0 / 360.0 + t2 / 7560.0, -dc / ts**3 - 2.0 * (1.0 - c) / ts**4)
     tm = np.einsum("...i,...i->...", theta, m)
-    # θ (η m)ᵀ + (η'/t (θ(θ·m) − |θ|² m) − 2η m) θᵀ, then the diagonal and skew parts entry by entry
+    # θ (η m)ᵀ + (η'/t (θ(θ·m) − |θ|² m) − 2η m) θᵀ, then the diagonal and skew parts
     w = deta_t[..., None] * (theta * tm[..., None] - t2[..., None] * m) - 2.0 * eta[..., None] * m
     J = theta[..., :, None] * (eta[..., None] * m)[..., None, :] + w[..., :, None] * theta[..., None, :]
     diag = eta * tm
-    J[..., 0, 0] += diag
-    J[..., 1, 1] += diag
-    J[..., 2, 2] += diag
-    hm = 0.5 * m
-    J[..., 0, 1] += hm[..., 2]
-    J[..., 1, 0] -= hm[..., 2]
-    J[..., 0, 2] -= hm[..., 1]
-    J[..., 2, 0] += hm[..., 1]
-    J[..., 1, 2] += hm[..., 0]
-    J[..., 2, 1] -= hm[..., 0]
+    _add_diag_minus_skew(J, diag, 0.5 * m)
     return J
