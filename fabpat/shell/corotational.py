@@ -105,8 +105,8 @@ class CorotationalTriangles:
         self._K_lin: Arr | None = None
         self._Q: Arr | None = None
         self._ws: dict[str, Arr] | None = None
-        # last force evaluation's (xe, Re, d) copies, frame and local parts (_remember)
-        self._memo: tuple[Arr, Arr, Arr, dict[str, Arr], dict[str, Arr]] | None = None
+        # last force evaluation's (xe, d) copies, frame and local parts (_remember)
+        self._memo: tuple[Arr, Arr, dict[str, Arr], dict[str, Arr]] | None = None
 
     def _workspace(self) -> dict[str, Arr]:
         """Scratch arrays of :meth:`element_tangents`, kept between calls (not thread-safe).
@@ -128,7 +128,12 @@ class CorotationalTriangles:
             eye = np.eye(3)
             b0 = (eye[:, None, :, None] - 1.0 / 3.0) * eye[None, :, None, :]  # (a, i, b, k)
             right[:, 12:].reshape(m, 3, 3, 3, 2, 3)[..., 0, :] = b0
-            self._ws = {"big": np.zeros((m, rows, 3, 2, 3)), "bigE": np.empty((m, 6 * rows, 3)),
+            big = np.zeros((m, rows, 3, 2, 3))
+            # the constant entries of L_g and R_g (_geometric_rows): n δ_ac and p_b
+            for c in range(3):
+                big[:, 6 + c, c, 0, 2] = 1.0
+            big[:, _NG + r + 9, :, 0, :2] = self.gN
+            self._ws = {"big": big, "bigE": np.empty((m, 6 * rows, 3)),
                         "Y": np.zeros((m, 3, 6, 3)), "left": left, "right": right}
         return self._ws
 
@@ -309,32 +314,31 @@ class CorotationalTriangles:
         U = 0.5 * _dot(d, fl)
         lp = self._local_parts(fl, fr)
         if xe.ndim == 3:
-            self._remember(xe, Re, d, fr, lp)
+            self._remember(xe, d, fr, lp)
         return self._to_global(lp, fr), U, d
 
-    def _remember(self, xe: Arr, Re: Arr, d: Arr, fr: dict[str, Arr], lp: dict[str, Arr]) -> None:
+    def _remember(self, xe: Arr, d: Arr, fr: dict[str, Arr], lp: dict[str, Arr]) -> None:
         """Keep the frame and local parts of the last force evaluation for :meth:`_frame_and_parts`.
 
         The Newton loop asks for the tangent at the state whose residual it just evaluated; both need
-        the frame and the local parts (~9 ms of a 32 ms tangent at 3 k elements). The state is
-        copied, not referenced, so that a caller who changes its arrays in place cannot get a stale
-        frame; the copies into kept buffers cost ~0.1 ms.
+        the frame and the local parts (~5 ms of a 32 ms tangent at 3 k elements). The frame depends
+        on xe only and the local parts on it and d (which holds θ), so these two identify the state.
+        They are copied, not referenced, so that a caller who changes its arrays in place cannot get a
+        stale frame; the copies into kept buffers cost ~0.1 ms.
         """
-        if self._memo is None or self._memo[0].shape != xe.shape:
-            self._memo = (np.empty_like(xe), np.empty_like(Re), np.empty_like(d), fr, lp)
-        kx, kR, kd = self._memo[:3]
+        if self._memo is None or self._memo[0].shape != xe.shape or self._memo[1].shape != d.shape:
+            self._memo = (np.empty_like(xe), np.empty_like(d), fr, lp)
+        kx, kd = self._memo[:2]
         np.copyto(kx, xe)
-        np.copyto(kR, Re)
         np.copyto(kd, d)
-        self._memo = (kx, kR, kd, fr, lp)
+        self._memo = (kx, kd, fr, lp)
 
     def _frame_and_parts(self, xe: Arr, Re: Arr, d: Arr) -> tuple[dict[str, Arr], dict[str, Arr]]:
-        """Frame (:meth:`deformational`) and local parts of K d (:meth:`_local_parts`) at (xe, Re),
-        from the last force evaluation when it was at this very state (bitwise), else computed."""
+        """Frame (:meth:`deformational`) and local parts of K d (:meth:`_local_parts`) at (xe, Re) with
+        local dofs d, from the last force evaluation when it had the same xe and d (bitwise), else computed."""
         if self._memo is not None:
-            kx, kR, kd, fr, lp = self._memo
-            if (kx.shape == xe.shape and kd.shape == d.shape and np.array_equal(kx, xe)
-                    and np.array_equal(kR, Re) and np.array_equal(kd, d)):
+            kx, kd, fr, lp = self._memo
+            if kx.shape == xe.shape and kd.shape == d.shape and np.array_equal(kx, xe) and np.array_equal(kd, d):
                 return fr, lp
         _, fr = self.deformational(xe, Re)
         return fr, self._local_parts(self._local_forces(d), fr)
@@ -396,8 +400,9 @@ class CorotationalTriangles:
         return Kt
 
     def _geometric_rows(self, Lg: Arr, Rg: Arr, fr: dict[str, Arr], lp: dict[str, Arr], M: Arr) -> None:
-        """Fill L_g, R_g (m, 10, 3, 2, 3) (element-frame columns; zero where not assigned here) with
-        L_gᵀ R_g = ∂(Bᵀ f_l)/∂q at fixed f_l, less the diagonal blocks M_a of :meth:`element_tangents`.
+        """Fill L_g, R_g (m, 10, 3, 2, 3) (element-frame columns; the entries not assigned here are zero
+        or constant, set by :meth:`_workspace`) with L_gᵀ R_g = ∂(Bᵀ f_l)/∂q at fixed f_l, less the
+        diagonal blocks M_a of :meth:`element_tangents`.
 
         With the frame spin ω = Ω δx = Σ_b W_b δx_b (W_b = v_b nᵀ + n q_bᵀ) and δθ_a = H_a⁻¹(δω_a − ω):
         δf_t → δg_a = ω × g_a; δmg_a = ω × mg_a + M_a (δω_a − ω); δh = Σ_b [G_b]× δx_b + S ω − Σ_b M_b δω_b
@@ -411,7 +416,6 @@ class CorotationalTriangles:
         −([mg_a]× + M_a) ω + M_a δω_a. Inner index: 0–2 ω-coefficients ⟷ Ω; 3–5 W_aᵀ ⟷ ([G_b]×, −M_b);
         6–8 n δ_ac ⟷ δv_c·h; 9 −(n·h)/trF q_a ⟷ p_b.
         """
-        m = M.shape[0]
         lx, ly, trF, cn, gN = fr["lx"], fr["ly"], fr["trF"], fr["cn"], self.gN
         ft, mg, h, fx = lp["ft"], lp["mg"], lp["h"], lp["fx"]
         vx, vy, qx, qy, vh = lp["vx"], lp["vy"], lp["qx"], lp["qy"], lp["vh"]
@@ -429,28 +433,27 @@ class CorotationalTriangles:
         sk[:, 1] += h[:, 0]
         sk[:, 2] -= nh / trF * (_dot(gN[:, :, 0], ly) - _dot(gN[:, :, 1], lx))
         # ω-coefficients (transposed: Lg[:, j, a, ·, i] = Λ_a[i, j]): x rows −[f_x,a]× + W_aᵀ S + q_a κᵀ
-        # with W_aᵀ S = n (Sᵀv_a)ᵀ + q_a (Sᵀn)ᵀ; m rows −[mg_a]× − M_a
-        Lx = np.zeros((m, 3, 3, 3))  # (m, j, a, i)
+        # with W_aᵀ S = n (Sᵀv_a)ᵀ + q_a (Sᵀn)ᵀ; m rows −[mg_a]× − M_a. Written in place: a temporary
+        # and its strided copy into Lg cost as much as the arithmetic.
+        Lx = Lg[:, 0:3, :, 0]  # (m, j, a, i)
+        np.multiply(sk[:, :, None], qx[:, None], out=Lx[..., 0])
+        np.multiply(sk[:, :, None], qy[:, None], out=Lx[..., 1])
+        Lx[..., 2] = S[:, 0, :, None] * vx[:, None] + S[:, 1, :, None] * vy[:, None]
         _add_skew(Lx.transpose(0, 2, 3, 1), fx, -1.0)
-        Lx[:, :, :, 0] += sk[:, :, None] * qx[:, None]
-        Lx[:, :, :, 1] += sk[:, :, None] * qy[:, None]
-        Lx[:, :, :, 2] += S[:, 0, :, None] * vx[:, None] + S[:, 1, :, None] * vy[:, None]
-        Lg[:, 0:3, :, 0] = Lx
-        Lm = -M.transpose(0, 3, 1, 2)  # (m, j, a, i)
+        Lm = Lg[:, 0:3, :, 1]
+        np.negative(M.transpose(0, 3, 1, 2), out=Lm)
         _add_skew(Lm.transpose(0, 2, 3, 1), mg, -1.0)
-        Lg[:, 0:3, :, 1] = Lm
-        # W_aᵀ: W_a = [[0, 0, vx], [0, 0, vy], [qx, qy, 0]]; and n δ_ac; and −(n·h)/trF q_a
-        Lg[:, 3, :, 0, 2], Lg[:, 4, :, 0, 2] = vx, vy
-        Lg[:, 5, :, 0, 0], Lg[:, 5, :, 0, 1] = qx, qy
-        for c in range(3):
-            Lg[:, 6 + c, c, 0, 2] = 1.0
-        s9 = -(nh / trF)[:, None]
-        Lg[:, 9, :, 0, 0], Lg[:, 9, :, 0, 1] = s9 * qx, s9 * qy
-        # R_g: Ω (rows i, columns (b, k)) = W_b; [G_b]× and −M_b; δv_c·h; p_b
-        Rg[:, 2, :, 0, 0], Rg[:, 2, :, 0, 1] = qx, qy
+        # R_g: Ω (rows i, columns (b, k)) = W_b = [[0, 0, vx], [0, 0, vy], [qx, qy, 0]]; [G_b]× and −M_b;
+        # δv_c·h; p_b (constant, set by _workspace)
         Rg[:, 0, :, 0, 2], Rg[:, 1, :, 0, 2] = vx, vy
+        Rg[:, 2, :, 0, 0], Rg[:, 2, :, 0, 1] = qx, qy
+        # W_aᵀ (rows 3–5 of L_g are rows 0–2 of R_g: one block copy); n δ_ac (constant); −(n·h)/trF q_a
+        Lg[:, 3:6] = Rg[:, 0:3]
+        s9 = -(nh / trF)[:, None]
+        np.multiply(s9, qx, out=Lg[:, 9, :, 0, 0])
+        np.multiply(s9, qy, out=Lg[:, 9, :, 0, 1])
         _set_skew(Rg[:, 3:6, :, 0].transpose(0, 2, 1, 3), ft - ft.mean(axis=1, keepdims=True))
-        Rg[:, 3:6, :, 1] = -M.transpose(0, 2, 1, 3)
+        np.negative(M.transpose(0, 2, 1, 3), out=Rg[:, 3:6, :, 1])
         # δ|a × b| = δa·(b × n) + δb·(n × a), δa = δx1 − δx0, δb = δx2 − δx0: in-plane (b × n, n × a)
         ax_, ay_ = lx[:, 1] - lx[:, 0], ly[:, 1] - ly[:, 0]
         bx_, by_ = lx[:, 2] - lx[:, 0], ly[:, 2] - ly[:, 0]
@@ -460,7 +463,6 @@ class CorotationalTriangles:
         Rg[:, 6:9, :, 0, 0] = (_SNUM * h[:, 0, None, None] - vh[:, :, None] * dcn_x[:, None]) * inv_cn
         Rg[:, 6:9, :, 0, 1] = (_SNUM * h[:, 1, None, None] - vh[:, :, None] * dcn_y[:, None]) * inv_cn
         Rg[:, 6:9, :, 0, 2] = _SNUM * (h[:, 2] / cn)[:, None, None]
-        Rg[:, 9, :, 0, 0], Rg[:, 9, :, 0, 1] = gN[:, :, 0], gN[:, :, 1]
 
     def energy_split(self, d: Arr) -> Arr:
         """(m, 3) element energies (membrane, bending, transverse shear) of local dofs d (m, 18), N·mm."""
