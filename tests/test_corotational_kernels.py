@@ -6,7 +6,7 @@ import numpy as np
 
 from fabpat.shell.corotational import CorotationalTriangles
 from fabpat.shell.element import Material
-from fabpat.shell.rotations import dexp_inv, dexp_inv_t_apply, expmap
+from fabpat.shell.rotations import dexp_inv, dexp_inv_and_moment_jacobian, dexp_inv_t_apply, expmap
 from tests.shell_fixtures import rect_mesh
 from tests.test_shell_nonlinear import _perturbed
 
@@ -40,6 +40,20 @@ def test_dexp_inv_t_apply_matches_matrix() -> None:
     m = rng.normal(size=(50, 3))
     ref = np.einsum("nji,nj->ni", dexp_inv(th), m)
     assert np.allclose(dexp_inv_t_apply(th, m), ref, atol=1e-13)
+
+
+def test_moment_jacobian_matches_finite_differences() -> None:
+    rng = np.random.default_rng(5)
+    # angles on both sides of the series switches (10⁻³ for H⁻¹, 10⁻² for the jacobian) and large ones
+    scale = np.repeat([1e-4, 3e-3, 3e-2, 0.8], 10)[:, None, None]
+    th = (rng.normal(size=(40, 3, 3)) * scale)
+    m = rng.normal(size=(40, 3, 3))
+    H, M = dexp_inv_and_moment_jacobian(th, m)
+    assert np.allclose(H, dexp_inv(th), rtol=0, atol=1e-15)
+    e = 1e-6
+    J = np.stack([(dexp_inv_t_apply(th + e * np.eye(3)[k], m) - dexp_inv_t_apply(th - e * np.eye(3)[k], m)) / (2 * e)
+                  for k in range(3)], axis=-1)
+    assert np.allclose(M, J @ dexp_inv(th), rtol=0, atol=1e-8)
 
 
 def test_batched_forces_match_and_tangent_matches_finite_differences() -> None:

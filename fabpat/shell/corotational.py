@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 
 from fabpat.shell.element import BENDING_DOFS, MEMBRANE_DOFS, LocalStiffness, Material, element_frames
 from fabpat.shell.element import local_stiffness as _local_stiffness
-from fabpat.shell.rotations import dexp_inv, dexp_inv_t_apply, dexp_inv_t_jacobian, log_from_axial
+from fabpat.shell.rotations import dexp_inv_and_moment_jacobian, dexp_inv_t_apply, log_from_axial
 
 Arr = NDArray[np.float64]
 
@@ -365,8 +365,7 @@ class CorotationalTriangles:
         m = xe.shape[0]
         fr, lp = self._frame_and_parts(xe, Re, d)
         E, th = fr["E"], fr["th"]
-        Hi = dexp_inv(th)  # (m, a, 3, 3)
-        M = dexp_inv_t_jacobian(th, lp["ml"]) @ Hi  # element-frame M_a = ∂(H⁻ᵀm_a)/∂θ H_a⁻¹
+        Hi, M = dexp_inv_and_moment_jacobian(th, lp["ml"])  # (m, a, 3, 3), M_a = ∂(H⁻ᵀm_a)/∂θ H_a⁻¹
         Q = self._stiffness_root()
         r, ng = Q.shape[1], _NG
         ws = self._workspace()

@@ -63,20 +63,6 @@ def _eta(t2: Arr) -> Arr:
     return np.where(small, 1.0 / 12.0 + t2 / 720.0, (1.0 - 0.5 * ts / np.tan(0.5 * ts)) / (ts * ts))
 
 
-def _add_diag_minus_skew(out: Arr, diag: Arr, v: Arr) -> None:
-    """out += diag I − [v]× in place, out (…, 3, 3), diag (…), v (…, 3): entry by entry, because these
-    run per element node and skew/eye temporaries would cost more than the arithmetic."""
-    out[..., 0, 0] += diag
-    out[..., 1, 1] += diag
-    out[..., 2, 2] += diag
-    out[..., 0, 1] += v[..., 2]
-    out[..., 1, 0] -= v[..., 2]
-    out[..., 0, 2] -= v[..., 1]
-    out[..., 2, 0] += v[..., 1]
-    out[..., 1, 2] += v[..., 0]
-    out[..., 2, 1] -= v[..., 0]
-
-
 def dexp_inv(theta: Arr) -> Arr:
     """H⁻¹(θ) (…, 3, 3) with δθ = H⁻¹(θ) δψ when δR Rᵀ = [δψ]×, R = exp([θ]×).
 
@@ -84,12 +70,20 @@ def dexp_inv(theta: Arr) -> Arr:
     """
     t2 = np.einsum("...i,...i->...", theta, theta)
     eta = _eta(t2)
-    # Θ² = θθᵀ − |θ|² I
+    # Θ² = θθᵀ − |θ|² I; written entry by entry (no skew/eye temporaries: this runs per element node)
     et = eta[..., None] * theta
     H = et[..., :, None] * theta[..., None, :]
     diag = 1.0 - eta * t2
     half = 0.5 * theta
-    _add_diag_minus_skew(H, diag, half)
+    H[..., 0, 0] += diag
+    H[..., 1, 1] += diag
+    H[..., 2, 2] += diag
+    H[..., 0, 1] += half[..., 2]
+    H[..., 1, 0] -= half[..., 2]
+    H[..., 0, 2] -= half[..., 1]
+    H[..., 2, 0] += half[..., 1]
+    H[..., 1, 2] += half[..., 0]
+    H[..., 2, 1] -= half[..., 0]
     return H
 
 
@@ -105,26 +99,51 @@ def dexp_inv_t_apply(theta: Arr, m: Arr) -> Arr:
     return m + 0.5 * txm + eta[..., None] * (theta * tm[..., None] - t2[..., None] * m)
 
 
-def dexp_inv_t_jacobian(theta: Arr, m: Arr) -> Arr:
-    """∂(H⁻ᵀ(θ) m)/∂θ (…, 3, 3) at fixed m (…, 3): the variation of a local moment sent through H⁻ᵀ.
+def dexp_inv_and_moment_jacobian(theta: Arr, m: Arr) -> tuple[Arr, Arr]:
+    """H⁻¹(θ) (:func:`dexp_inv`) and M = ∂(H⁻ᵀ(θ) m)/∂θ H⁻¹(θ) at fixed m, both (…, 3, 3), of rotation
+    vectors θ and local moments m (…, 3): what the corotational tangent needs per element node (the
+    variation of a moment sent through H⁻ᵀ, :func:`dexp_inv_t_apply`, per spatial spin).
 
-    H⁻ᵀ m = m + ½ θ×m + η (θ(θ·m) − |θ|² m), so the derivative is −½[m]× + η (θ mᵀ + (θ·m) I − 2 m θᵀ)
-    + (θ(θ·m) − |θ|² m)(η'/t) θᵀ, with η'/t → 1/360 + t²/7560 below t = 10⁻² (where the closed form
-    starts to cancel).
+    H⁻ᵀ m = m + ½ θ×m + η (θ(θ·m) − |θ|² m), so its derivative is J = −½[m]× + η (θ mᵀ + (θ·m) I − 2 m θᵀ)
+    + (θ(θ·m) − |θ|² m)(η'/t) θᵀ, with η'/t → 1/360 + t²/7560 below t = 10⁻², where the closed form
+    starts to cancel (and η's series there too, for consistency; :func:`dexp_inv` switches at 10⁻³).
+
+    The nine entries are computed as vectors over all θ: numpy's loops over axes of length 3 (outer
+    products, batched 3 × 3 products) cost several times more per entry than long vectors, so this
+    takes ~1.7 ms for 10 k θ against ~3.3 ms for the (…, 3, 3) version it replaces.
     """
-    t2 = np.einsum("...i,...i->...", theta, theta)
+    shape = theta.shape[:-1]
+    th = np.ascontiguousarray(theta.reshape(-1, 3).T)  # (3, N)
+    mm = np.ascontiguousarray(m.reshape(-1, 3).T)
+    t2 = th[0] * th[0] + th[1] * th[1] + th[2] * th[2]
     t = np.sqrt(t2)
-    small = t < 1e-2
-    ts = np.where(small, 1.0, t)
+    ts = np.where(t < 1e-3, 1.0, t)  # the closed forms are used from t = 10⁻³ on (no 0/0 below)
     half = 0.5 * ts
-    c = half / np.tan(half)
-    eta = np.where(small, 1.0 / 12.0 + t2 / 720.0, (1.0 - c) / (ts * ts))
-    dc = 0.5 / np.tan(half) - 0.25 * ts / np.sin(half) ** 2
+    tan_h = np.tan(half)
+    c = half / tan_h
+    eta_closed = (1.0 - c) / (ts * ts)
+    eta_h = np.where(t < 1e-3, 1.0 / 12.0 + t2 / 720.0, eta_closed)  # dexp_inv's switch
+    small = t < 1e-2  # J's switch: η' cancels sooner than η
+    eta = np.where(small, 1.0 / 12.0 + t2 / 720.0, eta_closed)
+    dc = 0.5 / tan_h - 0.25 * ts / np.sin(half) ** 2
     deta_t = np.where(small, 1.0 / 360.0 + t2 / 7560.0, -dc / ts**3 - 2.0 * (1.0 - c) / ts**4)
-    tm = np.einsum("...i,...i->...", theta, m)
-    # θ (η m)ᵀ + (η'/t (θ(θ·m) − |θ|² m) − 2η m) θᵀ, then the diagonal and skew parts
-    w = deta_t[..., None] * (theta * tm[..., None] - t2[..., None] * m) - 2.0 * eta[..., None] * m
-    J = theta[..., :, None] * (eta[..., None] * m)[..., None, :] + w[..., :, None] * theta[..., None, :]
-    diag = eta * tm
-    _add_diag_minus_skew(J, diag, 0.5 * m)
-    return J
+    tm = th[0] * mm[0] + th[1] * mm[1] + th[2] * mm[2]
+    # H = η θθᵀ + (1 − η|θ|²) I − ½[θ]×; J = θ (η m)ᵀ + w θᵀ + η (θ·m) I − ½[m]× with
+    # w = η'/t (θ(θ·m) − |θ|² m) − 2η m; −[v]×_ij = ε_ijk v_k
+    et, em = eta_h * th, eta * mm
+    w = deta_t * (th * tm - t2 * mm) - 2.0 * eta * mm
+    dh, dj = 1.0 - eta_h * t2, eta * tm
+    hth, hm = 0.5 * th, 0.5 * mm
+    H = [[et[i] * th[j] for j in range(3)] for i in range(3)]
+    J = [[th[i] * em[j] + w[i] * th[j] for j in range(3)] for i in range(3)]
+    for i in range(3):
+        H[i][i] += dh
+        J[i][i] += dj
+    for i, j, k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):  # ε_ijk = 1, ε_jik = −1
+        H[i][j] += hth[k]
+        H[j][i] -= hth[k]
+        J[i][j] += hm[k]
+        J[j][i] -= hm[k]
+    M = [[J[i][0] * H[0][j] + J[i][1] * H[1][j] + J[i][2] * H[2][j] for j in range(3)] for i in range(3)]
+    return (np.stack([H[i][j] for i in range(3) for j in range(3)], axis=-1).reshape(*shape, 3, 3),
+            np.stack([M[i][j] for i in range(3) for j in range(3)], axis=-1).reshape(*shape, 3, 3))
