@@ -145,5 +145,10 @@ def dexp_inv_and_moment_jacobian(theta: Arr, m: Arr) -> tuple[Arr, Arr]:
         J[i][j] += hm[k]
         J[j][i] -= hm[k]
     M = [[J[i][0] * H[0][j] + J[i][1] * H[1][j] + J[i][2] * H[2][j] for j in range(3)] for i in range(3)]
-    return (np.stack([H[i][j] for i in range(3) for j in range(3)], axis=-1).reshape(*shape, 3, 3),
-            np.stack([M[i][j] for i in range(3) for j in range(3)], axis=-1).reshape(*shape, 3, 3))
+
+    def matrix(A: list[list[Arr]]) -> Arr:
+        # a view of (3, 3, …) storage: a caller that works on component vectors takes them as they are
+        stacked = np.stack([A[i][j] for i in range(3) for j in range(3)]).reshape(3, 3, *shape)
+        return np.moveaxis(stacked, (0, 1), (-2, -1))
+
+    return matrix(H), matrix(M)
