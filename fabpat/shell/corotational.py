@@ -29,15 +29,10 @@ from numpy.typing import NDArray
 
 from fabpat.shell.element import BENDING_DOFS, MEMBRANE_DOFS, LocalStiffness, Material, element_frames
 from fabpat.shell.element import local_stiffness as _local_stiffness
+from fabpat.shell.geometric import NG, geometric_constants, geometric_rows
 from fabpat.shell.rotations import dexp_inv_and_moment_jacobian, dexp_inv_t_apply, log_from_axial
 
 Arr = NDArray[np.float64]
-
-#: inner dimension of the geometric factors of the tangent (see CorotationalTriangles._geometric_rows)
-_NG = 10
-#: δ(b − a, −b, a) = Σ_b s_cb δx_b for the sides a = x1 − x0, b = x2 − x0 of the normal-tilt vectors v_c
-_SNUM = np.array([[0.0, -1.0, 1.0], [1.0, 0.0, -1.0], [-1.0, 1.0, 0.0]])
-
 
 def _cross(u: Arr, w: Arr) -> Arr:
     """u × w along the last axis, broadcasting (elementwise: np.cross is several times slower here)."""
@@ -49,23 +44,6 @@ def _cross(u: Arr, w: Arr) -> Arr:
 def _dot(u: Arr, w: Arr) -> Arr:
     """u · w along the last axis (same shapes)."""
     return np.einsum("...i,...i->...", u, w)
-
-
-def _set_skew(out: Arr, v: Arr) -> None:
-    """Set the off-diagonal entries of out (…, 3, 3) to those of [v]× (the diagonal is left as is)."""
-    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
-    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
-    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
-
-
-def _add_skew(out: Arr, v: Arr, scale: float = 1.0) -> None:
-    """out += scale [v]× in place, out (…, 3, 3), v (…, 3): six strided adds, no (…, 3, 3) temporary."""
-    out[..., 0, 1] -= scale * v[..., 2]
-    out[..., 0, 2] += scale * v[..., 1]
-    out[..., 1, 0] += scale * v[..., 2]
-    out[..., 1, 2] -= scale * v[..., 0]
-    out[..., 2, 0] -= scale * v[..., 1]
-    out[..., 2, 1] += scale * v[..., 0]
 
 
 def _rigid_modes(x: Arr, y: Arr) -> tuple[Arr, Arr]:
@@ -118,7 +96,7 @@ class CorotationalTriangles:
         if self._ws is None:
             Q = self._stiffness_root()
             m, r = Q.shape[:2]
-            rows = 2 * (_NG + r)
+            rows = 2 * (NG + r)
             Q5 = Q.reshape(m, r, 3, 6)
             left = np.zeros((m, r, 21))  # [QY | Qθ | Qt], QY set per call
             left[:, :, 3:12] = Q5[..., 3:].reshape(m, r, 9)
@@ -128,12 +106,7 @@ class CorotationalTriangles:
             eye = np.eye(3)
             b0 = (eye[:, None, :, None] - 1.0 / 3.0) * eye[None, :, None, :]  # (a, i, b, k)
             right[:, 12:].reshape(m, 3, 3, 3, 2, 3)[..., 0, :] = b0
-            # L_g, R_g with the element index last (_geometric_rows), and their constant entries:
-            # n δ_ac and p_b
-            LgS, RgS = np.zeros((_NG, 3, 2, 3, m)), np.zeros((_NG, 3, 2, 3, m))
-            for c in range(3):
-                LgS[6 + c, c, 0, 2] = 1.0
-            RgS[9, :, 0, :2] = self.gN.transpose(1, 2, 0)
+            LgS, RgS = geometric_constants(self.gN)
             self._ws = {"big": np.zeros((m, rows, 3, 2, 3)), "bigE": np.empty((m, 6 * rows, 3)),
                         "Y": np.zeros((m, 3, 6, 3)), "left": left, "right": right, "LgS": LgS, "RgS": RgS}
         return self._ws
@@ -358,10 +331,10 @@ class CorotationalTriangles:
         Both parts are products of thin factors formed in the element frame (where n = ẑ, r_a is
         in-plane and the frame-spin matrices are sparse), K_t = diag(E) (Lᵀ R) diag(Eᵀ) + diag(M_a):
         the material part is CᵀC with C = Q B̃ (K = QᵀQ, :meth:`_stiffness_root`), the geometric part
-        L_gᵀ R_g (:meth:`_geometric_rows`). All rows are turned to global columns by one batched
-        product with Eᵀ, and one batched (18 × 22)(22 × 18) product gives K_t. On 3.3 k elements this
-        takes ~30 ms against 69 ms for the former 18 × 18 products with B and (m, 3, 3, 9) elementwise
-        chains; scratch arrays are reused between calls (:meth:`_workspace`).
+        L_gᵀ R_g (:func:`fabpat.shell.geometric.geometric_rows`). All rows are turned to global columns
+        by one batched product with Eᵀ, and one batched (18 × 22)(22 × 18) product gives K_t. On 3.3 k
+        elements this takes ~30 ms against 69 ms for the former 18 × 18 products with B and
+        (m, 3, 3, 9) elementwise chains; scratch arrays are reused between calls (:meth:`_workspace`).
         """
         m = xe.shape[0]
         fr, lp = self._frame_and_parts(xe, Re, d)
@@ -370,11 +343,12 @@ class CorotationalTriangles:
         Hi, M = dexp_inv_and_moment_jacobian(th.swapaxes(0, 1), lp["ml"].swapaxes(0, 1))
         Hi = Hi.swapaxes(0, 1)  # (m, a, 3, 3)
         Q = self._stiffness_root()
-        r, ng = Q.shape[1], _NG
+        r, ng = Q.shape[1], NG
         ws = self._workspace()
         # rows of `big` (element-frame columns (node, [x | m or ω], axis)): L_g, C, R_g, C
         big = ws["big"]
-        self._geometric_rows(big[:, :ng], big[:, ng + r:2 * ng + r], fr, lp, M.transpose(2, 3, 0, 1))
+        geometric_rows(big[:, :ng], big[:, ng + r:2 * ng + r], fr, lp, M.transpose(2, 3, 0, 1), self.gN,
+                       ws["LgS"], ws["RgS"])
         # C̃ = Q B̃ with B̃ = B₀ + Y Ω̃: Y = [[r_a]× ; −H_a⁻¹] (18 × 3), Ω̃ = rows 0–2 of R_g (the frame
         # spin per translation), B₀ = (δ_ab − 1/3) I on (t, x) and δ_ab H_a⁻¹ on (θ, ω), so
         # C̃ = [QY | Qθ | Qt] [Ω̃ ; diag(H⁻¹) ; B₀ₜ] (the last blocks of both are constant)
@@ -400,97 +374,6 @@ class CorotationalTriangles:
         diag = np.einsum("maiak->maik", Kt.reshape(m, 3, 6, 3, 6)[:, :, 3:, :, 3:])  # writeable view
         diag -= Mg.transpose(0, 2, 1, 3)
         return Kt
-
-    def _geometric_rows(self, Lg: Arr, Rg: Arr, fr: dict[str, Arr], lp: dict[str, Arr], MS: Arr) -> None:
-        """Fill L_g, R_g (m, 10, 3, 2, 3) (element-frame columns) with L_gᵀ R_g = ∂(Bᵀ f_l)/∂q at fixed
-        f_l, less the diagonal blocks M_a of :meth:`element_tangents`; MS (3, 3, 3, m) holds M_a[i, j]
-        as MS[i, j, a].
-
-        Computed with the element index last (numpy's loops over the many length-3 axes here cost
-        several times more per entry than over elements; ~3 ms instead of ~10 ms at 3 k elements),
-        into kept arrays whose entries not assigned here are zero or constant (:meth:`_workspace`),
-        then copied into L_g and R_g.
-
-        With the frame spin ω = Ω δx = Σ_b W_b δx_b (W_b = v_b nᵀ + n q_bᵀ) and δθ_a = H_a⁻¹(δω_a − ω):
-        δf_t → δg_a = ω × g_a; δmg_a = ω × mg_a + M_a (δω_a − ω); δh = Σ_b [G_b]× δx_b + S ω − Σ_b M_b δω_b
-        with G_b = f_t,b − mean f_t and S = Σ_a (f_t,a r_aᵀ − (r_a·f_t,a) I + [mg_a]× + M_a). Then
-        f_x,a = f_t,a − mean f_t + n (v_a·h) + q_a (n·h) varies by
-          −[f_x,a]× ω                 (f_t, n and the e1, e2 in q_a turn with the frame)
-          + W_aᵀ δh                   (δh sent to the nodes)
-          + n (δv_a·h)                (v_a = num_a/|a × b|: the triangle's sides)
-          + q_a (ω·(n × h) − (n·h)/trF δtrF)   (δn·h and the tr F in q_a),
-        δtrF = Σ_a p_a·(δr_a + r_a × ω), p_a = (∂N_a/∂X, ∂N_a/∂Y, 0); and f_m,a = mg_a by
-        −([mg_a]× + M_a) ω + M_a δω_a. Inner index: 0–2 ω-coefficients ⟷ Ω; 3–5 W_aᵀ ⟷ ([G_b]×, −M_b);
-        6–8 n δ_ac ⟷ δv_c·h; 9 −(n·h)/trF q_a ⟷ p_b.
-        """
-        ws = self._workspace()
-        LgS, RgS = ws["LgS"], ws["RgS"]  # (row, node, [x | m or ω], axis, element)
-        lx, ly, trF, cn = fr["lx"].T, fr["ly"].T, fr["trF"], fr["cn"]  # (a, m) and (m,)
-        gx, gy = self.gN[:, :, 0].T, self.gN[:, :, 1].T
-        ft, mg, fx = (np.ascontiguousarray(lp[k].transpose(1, 2, 0)) for k in ("ft", "mg", "fx"))  # (a, i, m)
-        h = lp["h"].T
-        vx, vy, qx, qy, vh = (lp[k].T for k in ("vx", "vy", "qx", "qy", "vh"))
-        nh = h[2]
-
-        def dot3(u: Arr, w: Arr) -> Arr:
-            return u[0] * w[0] + u[1] * w[1] + u[2] * w[2]
-
-        # S = Σ_a f_a r_aᵀ − Σ_a (r_a·f_a) I + [Σ mg_a]× + Σ M_a, r_a = (x_a, y_a, 0)
-        S = MS.sum(axis=2)  # (i, j, m)
-        rf = dot3(lx, ft[:, 0]) + dot3(ly, ft[:, 1])
-        for i in range(3):
-            S[i, 0] += dot3(ft[:, i], lx)
-            S[i, 1] += dot3(ft[:, i], ly)
-            S[i, i] -= rf
-        g = mg.sum(axis=0)
-        # −[v]×_ij = ε_ijk v_k: over the cyclic (i, j, k), +v_k at (i, j) and −v_k at (j, i)
-        cyclic = ((0, 1, 2), (1, 2, 0), (2, 0, 1))
-        for i, j, k in cyclic:
-            S[i, j] -= g[k]
-            S[j, i] += g[k]
-        # κ = n × h − (n·h)/trF Σ_a p_a × r_a; z-row of S plus κ multiplies q_a
-        sk = S[2].copy()
-        sk[0] -= h[1]
-        sk[1] += h[0]
-        sk[2] -= nh / trF * (dot3(gx, ly) - dot3(gy, lx))
-        # ω-coefficients (transposed: L_g[j, a, ·, i] = Λ_a[i, j]): x rows −[f_x,a]× + W_aᵀ S + q_a κᵀ
-        # with W_aᵀ S = n (Sᵀv_a)ᵀ + q_a (Sᵀn)ᵀ; m rows −[mg_a]× − M_a
-        np.multiply(sk[:, None], qx, out=LgS[0:3, :, 0, 0])
-        np.multiply(sk[:, None], qy, out=LgS[0:3, :, 0, 1])
-        np.multiply(S[0][:, None], vx, out=LgS[0:3, :, 0, 2])
-        LgS[0:3, :, 0, 2] += S[1][:, None] * vy
-        np.negative(MS.transpose(1, 2, 0, 3), out=LgS[0:3, :, 1])
-        for i, j, k in cyclic:
-            LgS[j, :, 0, i] += fx[:, k]
-            LgS[i, :, 0, j] -= fx[:, k]
-            LgS[j, :, 1, i] += mg[:, k]
-            LgS[i, :, 1, j] -= mg[:, k]
-        # R_g: Ω (rows i, columns (b, k)) = W_b = [[0, 0, vx], [0, 0, vy], [qx, qy, 0]]; [G_b]× and −M_b;
-        # δv_c·h; p_b (constant)
-        RgS[0, :, 0, 2], RgS[1, :, 0, 2] = vx, vy
-        RgS[2, :, 0, 0], RgS[2, :, 0, 1] = qx, qy
-        # L_g: W_aᵀ (rows 3–5, the same entries as rows 0–2 of R_g); n δ_ac (constant); −(n·h)/trF q_a
-        LgS[3:6] = RgS[0:3]
-        s9 = -(nh / trF)
-        np.multiply(s9, qx, out=LgS[9, :, 0, 0])
-        np.multiply(s9, qy, out=LgS[9, :, 0, 1])
-        G = ft - ft.mean(axis=0)
-        for i, j, k in cyclic:  # [G_b]×_ij = −ε_ijk G_k
-            np.negative(G[:, k], out=RgS[3 + i, :, 0, j])
-            RgS[3 + j, :, 0, i] = G[:, k]
-        np.negative(MS.transpose(0, 2, 1, 3), out=RgS[3:6, :, 1])
-        # δ|a × b| = δa·(b × n) + δb·(n × a), δa = δx1 − δx0, δb = δx2 − δx0: in-plane (b × n, n × a)
-        ax_, ay_ = lx[1] - lx[0], ly[1] - ly[0]
-        bx_, by_ = lx[2] - lx[0], ly[2] - ly[0]
-        dcn_x = np.stack([ay_ - by_, by_, -ay_])  # (b, m)
-        dcn_y = np.stack([bx_ - ax_, -bx_, ax_])
-        inv_cn = 1.0 / cn
-        snum = _SNUM[:, :, None]
-        RgS[6:9, :, 0, 0] = (snum * h[0] - vh[:, None] * dcn_x) * inv_cn
-        RgS[6:9, :, 0, 1] = (snum * h[1] - vh[:, None] * dcn_y) * inv_cn
-        RgS[6:9, :, 0, 2] = snum * (h[2] / cn)
-        Lg[...] = LgS.transpose(4, 0, 1, 2, 3)
-        Rg[...] = RgS.transpose(4, 0, 1, 2, 3)
 
     def energy_split(self, d: Arr) -> Arr:
         """(m, 3) element energies (membrane, bending, transverse shear) of local dofs d (m, 18), N·mm."""
