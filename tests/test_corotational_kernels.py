@@ -6,7 +6,14 @@ import numpy as np
 
 from fabpat.shell.corotational import CorotationalTriangles
 from fabpat.shell.element import Material
-from fabpat.shell.rotations import dexp_inv, dexp_inv_and_moment_jacobian, dexp_inv_t_apply, expmap
+from fabpat.shell.rotations import (
+    dexp_inv,
+    dexp_inv_and_moment_jacobian,
+    dexp_inv_t_apply,
+    expmap,
+    log_from_axial,
+    logmap,
+)
 from tests.shell_fixtures import rect_mesh
 from tests.test_shell_nonlinear import _perturbed
 
@@ -40,6 +47,12 @@ def test_dexp_inv_t_apply_matches_matrix() -> None:
     m = rng.normal(size=(50, 3))
     ref = np.einsum("nji,nj->ni", dexp_inv(th), m)
     assert np.allclose(dexp_inv_t_apply(th, m), ref, atol=1e-13)
+    # components first (the layout of the force kernels)
+    assert np.allclose(dexp_inv_t_apply(th.T, m.T, axis=0).T, ref, atol=1e-13)
+    R = expmap(th)
+    w = 0.5 * np.stack([R[:, 2, 1] - R[:, 1, 2], R[:, 0, 2] - R[:, 2, 0], R[:, 1, 0] - R[:, 0, 1]])
+    c = 0.5 * (np.trace(R, axis1=1, axis2=2) - 1.0)
+    assert np.allclose(log_from_axial(w, c, axis=0).T, logmap(R), rtol=0, atol=1e-13)
 
 
 def test_moment_jacobian_matches_finite_differences() -> None:

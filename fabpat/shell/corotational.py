@@ -34,11 +34,14 @@ from fabpat.shell.rotations import dexp_inv_and_moment_jacobian, dexp_inv_t_appl
 
 Arr = NDArray[np.float64]
 
-def _cross(u: Arr, w: Arr) -> Arr:
-    """u × w along the last axis, broadcasting (elementwise: np.cross is several times slower here)."""
-    u0, u1, u2 = u[..., 0], u[..., 1], u[..., 2]
-    w0, w1, w2 = w[..., 0], w[..., 1], w[..., 2]
-    return np.stack([u1 * w2 - u2 * w1, u2 * w0 - u0 * w2, u0 * w1 - u1 * w0], axis=-1)
+def _cross0(u: Arr, w: Arr) -> Arr:
+    """u × w along the first axis (3, …)."""
+    return np.stack([u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0]])
+
+
+def _dot0(u: Arr, w: Arr) -> Arr:
+    """u · w along the first axis (3, …), broadcasting the rest."""
+    return u[0] * w[0] + u[1] * w[1] + u[2] * w[2]
 
 
 def _dot(u: Arr, w: Arr) -> Arr:
@@ -80,6 +83,10 @@ class CorotationalTriangles:
             np.stack([y[:, 0] - y[:, 1], x[:, 1] - x[:, 0]], -1),
         ], axis=1) / A2[:, None, None]
         self.edofs = (6 * self.F[:, :, None] + np.arange(6)).reshape(-1, 18)  # (m, 18) global dofs
+        # with the element index last, for deformational: (a, X|Y, m), (a, x|y, m), (i, j, m)
+        self._gNs = np.ascontiguousarray(self.gN.transpose(1, 2, 0))
+        self._xl0s = np.ascontiguousarray(self.xl0.transpose(1, 2, 0))
+        self._E0s = np.ascontiguousarray(self.E0.transpose(1, 2, 0))
         self._K_lin: Arr | None = None
         self._Q: Arr | None = None
         self._ws: dict[str, Arr] | None = None
@@ -107,7 +114,7 @@ class CorotationalTriangles:
             b0 = (eye[:, None, :, None] - 1.0 / 3.0) * eye[None, :, None, :]  # (a, i, b, k)
             right[:, 12:].reshape(m, 3, 3, 3, 2, 3)[..., 0, :] = b0
             LgS, RgS = geometric_constants(self.gN)
-            self._ws = {"big": np.zeros((m, rows, 3, 2, 3)), "bigE": np.empty((m, 6 * rows, 3)),
+            self._ws = {"big": np.zeros((m, rows - r, 3, 2, 3)), "bigE": np.empty((m, 6 * rows, 3)),
                         "Y": np.zeros((m, 3, 6, 3)), "left": left, "right": right, "LgS": LgS, "RgS": RgS}
         return self._ws
 
@@ -184,45 +191,57 @@ class CorotationalTriangles:
     # ------------------------------------------------------------- nonlinear
     def deformational(self, xe: Arr, Re: Arr) -> tuple[Arr, dict[str, Arr]]:
         """Local deformational dofs d (…, m, 18) of element node positions xe (…, m, 3, 3) and node
-        rotations Re (…, m, 3, 3, 3); plus the frame quantities the force needs."""
-        gN = self.gN
-        xc = xe.mean(axis=-2)
-        r = xe - xc[..., None, :]
-        a = xe[..., 1, :] - xe[..., 0, :]
-        b = xe[..., 2, :] - xe[..., 0, :]
-        c = _cross(a, b)
-        cn = np.sqrt(_dot(c, c))
-        n = c / cn[..., None]
-        a1 = a / np.sqrt(_dot(a, a))[..., None]
-        a2 = _cross(n, a1)
+        rotations Re (…, m, 3, 3, 3); plus the frame quantities the force needs.
+
+        Computed on component vectors over the elements (numpy's loops over axes of length 3 cost
+        several times more per entry); the frame arrays are views of that storage.
+        """
+        nb = xe.ndim - 3  # leading batch axes
+        one = (1,) * nb
+        P = np.ascontiguousarray(np.moveaxis(xe, (-2, -1), (0, 1)))  # (a, i, …, m)
+        gx, gy = self._gNs[:, 0], self._gNs[:, 1]  # (a, m)
+        xc = (P[0] + P[1] + P[2]) / 3.0
+        r = P - xc
+        a = P[1] - P[0]
+        b = P[2] - P[0]
+        c = _cross0(a, b)
+        cn = np.sqrt(_dot0(c, c))
+        n = c / cn
+        a1 = a / np.sqrt(_dot0(a, a))
+        a2 = _cross0(n, a1)
         # in-plane F = Σ_a p_a ⊗ ∇N_a with p_a the coordinates of r_a in the provisional frame (a1, a2)
-        p1 = np.einsum("...ai,...i->...a", r, a1)
-        p2 = np.einsum("...ai,...i->...a", r, a2)
-        F00, F01 = _dot(p1, gN[:, :, 0]), _dot(p1, gN[:, :, 1])
-        F10, F11 = _dot(p2, gN[:, :, 0]), _dot(p2, gN[:, :, 1])
+        p1 = _dot0(r.swapaxes(0, 1), a1)  # (a, …, m)
+        p2 = _dot0(r.swapaxes(0, 1), a2)
+        F00, F01 = _dot0(p1, gx), _dot0(p1, gy)
+        F10, F11 = _dot0(p2, gx), _dot0(p2, gy)
         phi = np.arctan2(F10 - F01, F00 + F11)
-        cp, sp = np.cos(phi)[..., None], np.sin(phi)[..., None]
+        cp, sp = np.cos(phi), np.sin(phi)
         e1 = cp * a1 + sp * a2
         e2 = -sp * a1 + cp * a2
-        E = np.stack([e1, e2, n], axis=-1)  # (…, m, 3, 3) columns e1 e2 e3
-        lx = np.einsum("...ai,...i->...a", r, e1)
-        ly = np.einsum("...ai,...i->...a", r, e2)
+        lx = _dot0(r.swapaxes(0, 1), e1)
+        ly = _dot0(r.swapaxes(0, 1), e2)
         # θ_a = log(Eᵀ R_a E₀): the axial vector of Eᵀ R_a E₀ is Eᵀ times that of R_a (E₀ Eᵀ) and the
         # traces agree, so one 3 × 3 product per node replaces two
-        Q0 = self.E0 @ np.swapaxes(E, -1, -2)
-        RQ = (Re.reshape(*Re.shape[:-3], 9, 3) @ Q0).reshape(Re.shape)  # rows of all R_a times Q0 at once
-        ax = 0.5 * np.stack([RQ[..., 2, 1] - RQ[..., 1, 2], RQ[..., 0, 2] - RQ[..., 2, 0],
-                             RQ[..., 1, 0] - RQ[..., 0, 1]], axis=-1)
-        cos_t = 0.5 * (RQ[..., 0, 0] + RQ[..., 1, 1] + RQ[..., 2, 2] - 1.0)
-        th = log_from_axial(ax @ E, cos_t)  # (…, m, 3, 3); row-vector ax E = (Eᵀ ax)ᵀ
-        d = np.empty(th.shape[:-1] + (6,))
-        d[..., 0] = lx - self.xl0[..., 0]
-        d[..., 1] = ly - self.xl0[..., 1]
-        d[..., 2] = 0.0  # local z of r_a is 0 by construction
-        d[..., 3:] = th
-        trF = _dot(lx, gN[:, :, 0]) + _dot(ly, gN[:, :, 1])  # tr of the (symmetric) in-plane F
-        frame = {"r": r, "a": a, "b": b, "cn": cn, "n": n, "e1": e1, "e2": e2, "E": E, "th": th, "trF": trF,
-                 "lx": lx, "ly": ly}
+        cols = (e1, e2, n)
+        E0 = self._E0s
+        Q0 = [[E0[i, 0] * e1[k] + E0[i, 1] * e2[k] + E0[i, 2] * n[k] for k in range(3)] for i in range(3)]  # E₀ Eᵀ
+        Rs = np.ascontiguousarray(np.moveaxis(Re, (-3, -2, -1), (0, 1, 2)))  # (a, i, j, …, m)
+        RQ = [[Rs[:, i, 0] * Q0[0][k] + Rs[:, i, 1] * Q0[1][k] + Rs[:, i, 2] * Q0[2][k] for k in range(3)]
+              for i in range(3)]
+        ax = np.stack([RQ[2][1] - RQ[1][2], RQ[0][2] - RQ[2][0], RQ[1][0] - RQ[0][1]]) * 0.5
+        cos_t = 0.5 * (RQ[0][0] + RQ[1][1] + RQ[2][2] - 1.0)
+        th = log_from_axial(np.stack([_dot0(ax, col) for col in cols]), cos_t, axis=0)  # (k, a, …, m)
+        x0 = self._xl0s.reshape(3, 2, *one, -1)
+        zero = np.zeros_like(lx)
+        d = np.moveaxis(np.stack([lx - x0[:, 0], ly - x0[:, 1], zero, *th]), (0, 1), (-1, -2))
+        trF = _dot0(lx, gx) + _dot0(ly, gy)  # tr of the (symmetric) in-plane F
+
+        def last(v: Arr) -> Arr:  # (3, …, m) → (…, m, 3)
+            return np.moveaxis(v, 0, -1)
+
+        frame = {"r": np.moveaxis(r, (0, 1), (-2, -1)), "a": last(a), "b": last(b), "cn": cn, "n": last(n),
+                 "e1": last(e1), "e2": last(e2), "E": np.moveaxis(np.stack(cols), (0, 1), (-1, -2)),
+                 "th": np.moveaxis(th, (0, 1), (-1, -2)), "trF": trF, "lx": last(lx), "ly": last(ly)}
         return d.reshape(*d.shape[:-2], 18), frame
 
     def _local_parts(self, fl: Arr, fr: dict[str, Arr]) -> dict[str, Arr]:
@@ -234,37 +253,50 @@ class CorotationalTriangles:
         f_x,a = f_t,a − mean f_t + W_aᵀ h, W_aᵀ h = ẑ (ṽ_a·h) + q̃_a h_z. In this frame n = ẑ and
         r_a = (x_a, y_a, 0), so the cross products and W_a are sparse.
         """
-        f = fl.reshape(*fl.shape[:-1], 3, 6)
-        ft, ml = f[..., :3], f[..., 3:]
-        lx, ly, cn, trF = fr["lx"], fr["ly"], fr["cn"][..., None], fr["trF"][..., None]
-        mg = dexp_inv_t_apply(fr["th"], ml)
+        one = (1,) * (fl.ndim - 2)  # leading batch axes
+        # component vectors over the elements (as deformational): (c, a, …, m), and the frame's
+        # storage behind its views
+        f = np.ascontiguousarray(np.moveaxis(fl.reshape(*fl.shape[:-1], 3, 6), (-1, -2), (0, 1)))
+        ft, ml = f[:3], f[3:]
+        lx, ly = np.moveaxis(fr["lx"], -1, 0), np.moveaxis(fr["ly"], -1, 0)  # (a, …, m)
+        cn, trF = fr["cn"], fr["trF"]
+        mg = dexp_inv_t_apply(np.moveaxis(fr["th"], (-1, -2), (0, 1)), ml, axis=0)
         # h = −Σ r_a × f_t,a − Σ mg_a with r_a × f = (y f_z, −x f_z, x f_y − y f_x)
-        h = -mg.sum(axis=-2)
-        h[..., 0] -= _dot(ly, ft[..., 2])
-        h[..., 1] += _dot(lx, ft[..., 2])
-        h[..., 2] -= _dot(lx, ft[..., 1]) - _dot(ly, ft[..., 0])
+        h = -mg.sum(axis=1)
+        h[0] -= _dot0(ly, ft[2])
+        h[1] += _dot0(lx, ft[2])
+        h[2] -= _dot0(lx, ft[1]) - _dot0(ly, ft[0])
         # ṽ_b = in-plane sides (x2 − x1, x0 − x2, x1 − x0)/|a × b|; q̃_b = (−∂N_b/∂Y, ∂N_b/∂X)/tr F
-        vx = (lx[..., [2, 0, 1]] - lx[..., [1, 2, 0]]) / cn
-        vy = (ly[..., [2, 0, 1]] - ly[..., [1, 2, 0]]) / cn
-        qx = -self.gN[:, :, 1] / trF
-        qy = self.gN[:, :, 0] / trF
-        nh = h[..., 2:3]
-        vh = vx * h[..., 0:1] + vy * h[..., 1:2]
-        fx = ft - ft.mean(axis=-2, keepdims=True)
-        fx[..., 0] += qx * nh
-        fx[..., 1] += qy * nh
-        fx[..., 2] += vh
-        return {"ft": ft, "ml": ml, "mg": mg, "h": h, "vx": vx, "vy": vy, "qx": qx, "qy": qy, "vh": vh,
-                "fx": fx}
+        vx = (lx[[2, 0, 1]] - lx[[1, 2, 0]]) / cn
+        vy = (ly[[2, 0, 1]] - ly[[1, 2, 0]]) / cn
+        gN = self._gNs.reshape(3, 2, *one, -1)
+        qx = -gN[:, 1] / trF
+        qy = gN[:, 0] / trF
+        nh = h[2]
+        vh = vx * h[0] + vy * h[1]
+        fx = ft - ft.mean(axis=1, keepdims=True)
+        fx[0] += qx * nh
+        fx[1] += qy * nh
+        fx[2] += vh
+
+        def nodes(v: Arr) -> Arr:  # (i, a, …, m) → (…, m, a, i)
+            return np.moveaxis(v, (0, 1), (-1, -2))
+
+        def last(v: Arr) -> Arr:  # (3, …, m) → (…, m, 3)
+            return np.moveaxis(v, 0, -1)
+
+        return {"ft": nodes(ft), "ml": nodes(ml), "mg": nodes(mg), "h": last(h), "vx": last(vx), "vy": last(vy),
+                "qx": last(qx), "qy": last(qy), "vh": last(vh), "fx": nodes(fx)}
 
     @staticmethod
     def _to_global(lp: dict[str, Arr], fr: dict[str, Arr]) -> Arr:
         """Global element force Bᵀ f_l (…, m, 18) of the local parts (:meth:`_local_parts`) of f_l = δU/δd."""
-        fe = np.empty(lp["fx"].shape[:-2] + (6, 3))
-        fe[..., 0::2, :] = lp["fx"]
-        fe[..., 1::2, :] = lp["mg"]
-        fe = fe @ np.swapaxes(fr["E"], -1, -2)  # rows: E times each local 3-vector
-        return fe.reshape(*fe.shape[:-2], 18)
+        cols = np.moveaxis(fr["E"], (-1, -2), (0, 1))  # (column, i, …, m): e1, e2, e3
+        loc = np.stack([np.moveaxis(lp["fx"], (-1, -2), (0, 1)), np.moveaxis(lp["mg"], (-1, -2), (0, 1))])
+        # global component k of each local (t, node) 3-vector: Σ_i loc_i (column i)_k
+        g = np.stack([loc[:, 0] * cols[0, k] + loc[:, 1] * cols[1, k] + loc[:, 2] * cols[2, k] for k in range(3)])
+        fe = np.moveaxis(g, (0, 1, 2), (-1, -2, -3))  # (…, m, a, [x | m], k)
+        return fe.reshape(*fe.shape[:-3], 18)
 
     @staticmethod
     def _spin_parts_static(fr: dict[str, Arr], gN: Arr) -> tuple[Arr, Arr, Arr]:
@@ -345,7 +377,7 @@ class CorotationalTriangles:
         Q = self._stiffness_root()
         r, ng = Q.shape[1], NG
         ws = self._workspace()
-        # rows of `big` (element-frame columns (node, [x | m or ω], axis)): L_g, C, R_g, C
+        # rows of `big` (element-frame columns (node, [x | m or ω], axis)): L_g, C, R_g
         big = ws["big"]
         geometric_rows(big[:, :ng], big[:, ng + r:2 * ng + r], fr, lp, M.transpose(2, 3, 0, 1), self.gN,
                        ws["LgS"], ws["RgS"])
@@ -361,12 +393,13 @@ class CorotationalTriangles:
         right[:, :3] = big[:, ng + r:ng + r + 3]
         # rows 3 + 3b + i, columns (b, ω, k): H_b⁻¹[i, k] (a writeable diagonal view over b)
         np.einsum("mbibk->mbik", right[:, 3:12].reshape(m, 3, 3, 3, 2, 3)[..., 1, :])[...] = Hi
-        big6 = big.reshape(m, 2 * (ng + r), 18)
-        C = big6[:, ng:ng + r]
-        np.matmul(left, right.reshape(m, 21, 18), out=C)
-        big6[:, 2 * ng + r:] = C
+        np.matmul(left, right.reshape(m, 21, 18), out=big.reshape(m, 2 * ng + r, 18)[:, ng:ng + r])
+        # bigE: the rows of big turned to global columns, then C once more: [L_g ; C]ᵀ [R_g ; C] is one
+        # product (two products and a sum cost more than copying C)
         Et = np.ascontiguousarray(E.transpose(0, 2, 1))
-        bigE = np.matmul(big.reshape(m, -1, 3), Et, out=ws["bigE"]).reshape(m, 2 * (ng + r), 18)
+        bigE = ws["bigE"].reshape(m, 2 * (ng + r), 18)
+        np.matmul(big.reshape(m, -1, 3), Et, out=bigE[:, :2 * ng + r].reshape(m, -1, 3))
+        bigE[:, 2 * ng + r:] = bigE[:, ng:ng + r]
         Kt = bigE[:, :ng + r].transpose(0, 2, 1) @ bigE[:, ng + r:]
         # δmg_a = M_a δω_a: the global E M_a Eᵀ on the (m, ω) diagonal blocks; R_g rows 3–5 hold −M_b Eᵀ
         MEt = bigE[:, ng + r + 3:ng + r + 6].reshape(m, 3, 3, 6)[..., 3:]  # (m, j, b, k)

@@ -44,15 +44,19 @@ def logmap(R: Arr) -> Arr:
     return log_from_axial(w, 0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0))
 
 
-def log_from_axial(w: Arr, c: Arr) -> Arr:
+def log_from_axial(w: Arr, c: Arr, *, axis: int = -1) -> Arr:
     """Rotation vectors (…, 3) of rotations given by their axial vector w = sin(t) axis (…, 3), the
     axial vector of (R − Rᵀ)/2, and c = cos t = (tr R − 1)/2 (…): what :func:`logmap` needs of R, for
-    callers that get these two without forming R."""
-    s = np.sqrt(np.einsum("...i,...i->...", w, w))
+    callers that get these two without forming R. ``axis=0``: the components are the first axis of w
+    and of the result, (3, …)."""
+    if axis == 0:
+        s = np.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
+    else:
+        s = np.sqrt(np.einsum("...i,...i->...", w, w))
     t = np.arctan2(s, c)
     small = s < 1e-7
     f = np.where(small, 1.0 + s * s / 6.0, t / np.where(small, 1.0, s))
-    return f[..., None] * w
+    return f * w if axis == 0 else f[..., None] * w
 
 
 def _eta(t2: Arr) -> Arr:
@@ -87,9 +91,17 @@ def dexp_inv(theta: Arr) -> Arr:
     return H
 
 
-def dexp_inv_t_apply(theta: Arr, m: Arr) -> Arr:
+def dexp_inv_t_apply(theta: Arr, m: Arr, *, axis: int = -1) -> Arr:
     """H⁻ᵀ(θ) m (…, 3) = m + ½ θ × m + η (θ(θ·m) − |θ|² m): a local moment sent through H⁻ᵀ without
-    forming the matrix (same η as :func:`dexp_inv`)."""
+    forming the matrix (same η as :func:`dexp_inv`). ``axis=0``: the components are the first axis of
+    θ, m and the result, (3, …)."""
+    if axis == 0:
+        t2 = theta[0] * theta[0] + theta[1] * theta[1] + theta[2] * theta[2]
+        tm = theta[0] * m[0] + theta[1] * m[1] + theta[2] * m[2]
+        t0, t1, t2_ = theta
+        m0, m1, m2 = m
+        txm = np.stack([t1 * m2 - t2_ * m1, t2_ * m0 - t0 * m2, t0 * m1 - t1 * m0])
+        return m + 0.5 * txm + _eta(t2) * (theta * tm - t2 * m)
     t2 = np.einsum("...i,...i->...", theta, theta)
     eta = _eta(t2)
     tm = np.einsum("...i,...i->...", theta, m)
