@@ -67,6 +67,9 @@ def test_moment_jacobian_matches_finite_differences() -> None:
     J = np.stack([(dexp_inv_t_apply(th + e * np.eye(3)[k], m) - dexp_inv_t_apply(th - e * np.eye(3)[k], m)) / (2 * e)
                   for k in range(3)], axis=-1)
     assert np.allclose(M, J @ dexp_inv(th), rtol=0, atol=1e-8)
+    # components first: (3, …) in, (3, 3, …) out
+    H0, M0 = dexp_inv_and_moment_jacobian(np.moveaxis(th, -1, 0), np.moveaxis(m, -1, 0), axis=0)
+    assert np.array_equal(np.moveaxis(H0, (0, 1), (-2, -1)), H) and np.array_equal(np.moveaxis(M0, (0, 1), (-2, -1)), M)
 
 
 def test_batched_forces_match_and_tangent_matches_finite_differences() -> None:

@@ -371,15 +371,16 @@ class CorotationalTriangles:
         m = xe.shape[0]
         fr, lp = self._frame_and_parts(xe, Re, d)
         E, th = fr["E"], fr["th"]
-        # H_a⁻¹ and M_a = ∂(H⁻ᵀm_a)/∂θ H_a⁻¹, node-major so that M's storage is (i, j, a, m)
-        Hi, M = dexp_inv_and_moment_jacobian(th.swapaxes(0, 1), lp["ml"].swapaxes(0, 1))
-        Hi = Hi.swapaxes(0, 1)  # (m, a, 3, 3)
+        # H_a⁻¹ and M_a = ∂(H⁻ᵀm_a)/∂θ H_a⁻¹ from (and as) component vectors: (i, j, a, m)
+        comps = (-1, -2), (0, 1)
+        HS, MS = dexp_inv_and_moment_jacobian(np.moveaxis(th, *comps), np.moveaxis(lp["ml"], *comps), axis=0)
+        Hi = HS.transpose(3, 2, 0, 1)  # (m, a, 3, 3)
         Q = self._stiffness_root()
         r, ng = Q.shape[1], NG
         ws = self._workspace()
         # rows of `big` (element-frame columns (node, [x | m or ω], axis)): L_g, C, R_g
         big = ws["big"]
-        geometric_rows(big[:, :ng], big[:, ng + r:2 * ng + r], fr, lp, M.transpose(2, 3, 0, 1), self.gN,
+        geometric_rows(big[:, :ng], big[:, ng + r:2 * ng + r], fr, lp, MS, self.gN,
                        ws["LgS"], ws["RgS"])
         # C̃ = Q B̃ with B̃ = B₀ + Y Ω̃: Y = [[r_a]× ; −H_a⁻¹] (18 × 3), Ω̃ = rows 0–2 of R_g (the frame
         # spin per translation), B₀ = (δ_ab − 1/3) I on (t, x) and δ_ab H_a⁻¹ on (θ, ω), so
