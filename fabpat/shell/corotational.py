@@ -402,11 +402,13 @@ class CorotationalTriangles:
         np.matmul(big.reshape(m, -1, 3), Et, out=bigE[:, :2 * ng + r].reshape(m, -1, 3))
         bigE[:, 2 * ng + r:] = bigE[:, ng:ng + r]
         Kt = bigE[:, :ng + r].transpose(0, 2, 1) @ bigE[:, ng + r:]
-        # δmg_a = M_a δω_a: the global E M_a Eᵀ on the (m, ω) diagonal blocks; R_g rows 3–5 hold −M_b Eᵀ
-        MEt = bigE[:, ng + r + 3:ng + r + 6].reshape(m, 3, 3, 6)[..., 3:]  # (m, j, b, k)
-        Mg = (E @ MEt.reshape(m, 3, 9)).reshape(m, 3, 3, 3)  # −E M_b Eᵀ as (m, i, b, k)
+        # δmg_a = M_a δω_a: the global E M_a Eᵀ on the (m, ω) diagonal blocks, from component vectors
+        # (E[k, l] = cols[l, k]): P = M Eᵀ as (j, k, a, m), then E P as (i, k, a, m)
+        cols = np.moveaxis(E, (-1, -2), (0, 1))
+        P = sum(MS[:, j, None] * cols[j][None, :, None] for j in range(3))
+        EME = sum(cols[j][:, None, None] * P[j][None] for j in range(3))
         diag = np.einsum("maiak->maik", Kt.reshape(m, 3, 6, 3, 6)[:, :, 3:, :, 3:])  # writeable view
-        diag -= Mg.transpose(0, 2, 1, 3)
+        diag += np.ascontiguousarray(EME.transpose(3, 2, 0, 1))
         return Kt
 
     def energy_split(self, d: Arr) -> Arr:
