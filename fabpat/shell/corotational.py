@@ -232,7 +232,7 @@ class CorotationalTriangles:
         cos_t = 0.5 * (RQ[0][0] + RQ[1][1] + RQ[2][2] - 1.0)
         th = log_from_axial(np.stack([_dot0(ax, col) for col in cols]), cos_t, axis=0)  # (k, a, …, m)
         x0 = self._xl0s.reshape(3, 2, *one, -1)
-        zero = np.zeros_like(lx)
+        zero = np.zeros_like(lx)  # local z of r_a is 0 by construction
         d = np.moveaxis(np.stack([lx - x0[:, 0], ly - x0[:, 1], zero, *th]), (0, 1), (-1, -2))
         trF = _dot0(lx, gx) + _dot0(ly, gy)  # tr of the (symmetric) in-plane F
 

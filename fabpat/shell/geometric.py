@@ -56,7 +56,7 @@ def geometric_rows(Lg: Arr, Rg: Arr, fr: dict[str, Arr], lp: dict[str, Arr], MS:
     # LgS, RgS: (row, node, [x | m or ω], axis, element)
     lx, ly, trF, cn = fr["lx"].T, fr["ly"].T, fr["trF"], fr["cn"]  # (a, m) and (m,)
     gx, gy = gN[:, :, 0].T, gN[:, :, 1].T
-    ft, mg, fx = (np.ascontiguousarray(lp[k].transpose(1, 2, 0)) for k in ("ft", "mg", "fx"))  # (a, i, m)
+    ft, mg, fx = (np.moveaxis(lp[k], (-1, -2), (0, 1)) for k in ("ft", "mg", "fx"))  # (i, a, m)
     h = lp["h"].T
     vx, vy, qx, qy, vh = (lp[k].T for k in ("vx", "vy", "qx", "qy", "vh"))
     nh = h[2]
@@ -66,12 +66,12 @@ def geometric_rows(Lg: Arr, Rg: Arr, fr: dict[str, Arr], lp: dict[str, Arr], MS:
 
     # S = Σ_a f_a r_aᵀ − Σ_a (r_a·f_a) I + [Σ mg_a]× + Σ M_a, r_a = (x_a, y_a, 0)
     S = MS.sum(axis=2)  # (i, j, m)
-    rf = dot3(lx, ft[:, 0]) + dot3(ly, ft[:, 1])
+    rf = dot3(lx, ft[0]) + dot3(ly, ft[1])
     for i in range(3):
-        S[i, 0] += dot3(ft[:, i], lx)
-        S[i, 1] += dot3(ft[:, i], ly)
+        S[i, 0] += dot3(ft[i], lx)
+        S[i, 1] += dot3(ft[i], ly)
         S[i, i] -= rf
-    g = mg.sum(axis=0)
+    g = mg.sum(axis=1)
     # −[v]×_ij = ε_ijk v_k: over the cyclic (i, j, k), +v_k at (i, j) and −v_k at (j, i)
     cyclic = ((0, 1, 2), (1, 2, 0), (2, 0, 1))
     for i, j, k in cyclic:
@@ -90,10 +90,10 @@ def geometric_rows(Lg: Arr, Rg: Arr, fr: dict[str, Arr], lp: dict[str, Arr], MS:
     LgS[0:3, :, 0, 2] += S[1][:, None] * vy
     np.negative(MS.transpose(1, 2, 0, 3), out=LgS[0:3, :, 1])
     for i, j, k in cyclic:
-        LgS[j, :, 0, i] += fx[:, k]
-        LgS[i, :, 0, j] -= fx[:, k]
-        LgS[j, :, 1, i] += mg[:, k]
-        LgS[i, :, 1, j] -= mg[:, k]
+        LgS[j, :, 0, i] += fx[k]
+        LgS[i, :, 0, j] -= fx[k]
+        LgS[j, :, 1, i] += mg[k]
+        LgS[i, :, 1, j] -= mg[k]
     # R_g: Ω (rows i, columns (b, k)) = W_b = [[0, 0, vx], [0, 0, vy], [qx, qy, 0]]; [G_b]× and −M_b;
     # δv_c·h; p_b (constant)
     RgS[0, :, 0, 2], RgS[1, :, 0, 2] = vx, vy
@@ -103,10 +103,10 @@ def geometric_rows(Lg: Arr, Rg: Arr, fr: dict[str, Arr], lp: dict[str, Arr], MS:
     s9 = -(nh / trF)
     np.multiply(s9, qx, out=LgS[9, :, 0, 0])
     np.multiply(s9, qy, out=LgS[9, :, 0, 1])
-    G = ft - ft.mean(axis=0)
+    G = ft - ft.mean(axis=1, keepdims=True)
     for i, j, k in cyclic:  # [G_b]×_ij = −ε_ijk G_k
-        np.negative(G[:, k], out=RgS[3 + i, :, 0, j])
-        RgS[3 + j, :, 0, i] = G[:, k]
+        np.negative(G[k], out=RgS[3 + i, :, 0, j])
+        RgS[3 + j, :, 0, i] = G[k]
     np.negative(MS.transpose(0, 2, 1, 3), out=RgS[3:6, :, 1])
     # δ|a × b| = δa·(b × n) + δb·(n × a), δa = δx1 − δx0, δb = δx2 − δx0: in-plane (b × n, n × a)
     ax_, ay_ = lx[1] - lx[0], ly[1] - ly[0]
