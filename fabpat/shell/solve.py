@@ -98,12 +98,17 @@ def _mesh_setup(p: ShellProblem) -> _MeshSetup:
     return entry
 
 
-def _setup(p: ShellProblem) -> tuple[CorotationalTriangles, SupportedAssembler, Arr]:
-    ms = _mesh_setup(p)
+def _supported(ms: _MeshSetup, p: ShellProblem) -> tuple[SupportedAssembler, Arr]:
+    """The assembler of p's supports on its mesh set-up and the global load vector (N)."""
     free = ~p.fixed.ravel()
     diag = ms.full.vector(np.einsum("mii->mi", ms.model.linear_element_matrices()))[free]
     scale = float(np.abs(diag).mean()) if diag.size else 1.0
-    return ms.model, SupportedAssembler(ms.full, p.fixed, scale), p.loads.ravel()
+    return SupportedAssembler(ms.full, p.fixed, scale), p.loads.ravel()
+
+
+def _setup(p: ShellProblem) -> tuple[CorotationalTriangles, SupportedAssembler, Arr]:
+    ms = _mesh_setup(p)
+    return ms.model, *_supported(ms, p)
 
 
 def solve_linear(p: ShellProblem) -> ShellResult:
@@ -155,8 +160,8 @@ def solve_nonlinear(
     t0 = time.perf_counter()
     if linear_solver not in BACKENDS:
         factorizer(linear_solver)  # raises, naming the choices
-    model, asm, f = _setup(p)
-    fz = _mesh_setup(p).factorizer(linear_solver)
+    ms = _mesh_setup(p)  # hashes the mesh: once per solve
+    model, (asm, f), fz = ms.model, _supported(ms, p), ms.factorizer(linear_solver)
     free = asm.free
     fnorm = float(np.linalg.norm(f[free]))
     if fnorm == 0.0:
