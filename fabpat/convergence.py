@@ -14,8 +14,11 @@ The two meshes are *nested* (:func:`fabpat.mesh.refine_nested`: the finer one sp
 the coarser into four, its new boundary nodes on the exact outline), not two independent Delaunay
 meshes: independent meshes of neighbouring h scatter by tenths of a percent, and on narrow necks by
 whole percents (0x4888, Dome: 296–300 N·mm for h = 1.1–1.5 mm, in plateaus as the necks' triangles
-change), which the extrapolation multiplies. With nested meshes every one of the 72 studied
-pattern-scenarios is within 1 % (two independent meshes 1.5 / 1.0 mm: 67, worst −4.2 %).
+change), which the extrapolation multiplies. With nested meshes all 72 pattern-scenarios of the
+study are within 1 % of references from meshes graded to the local width (worst +0.60 %), 68 of a
+reference from uniform meshes (worst −1.63 %, where the two references differ by 0.8–1.1 %); two
+independent meshes of 1.5 and 1.0 mm are within 1 % in 68 and 66, worst −4.4 and −4.9 %
+(docs/accuracy.md).
 
 Displacements, rotations and fields of a converged run are those of the finer mesh; only the
 energy is extrapolated. Used by ``fabpat simulate`` and ``fabpat.simulate`` (:func:`simulate`) unless
@@ -37,10 +40,10 @@ from fabpat.scenarios import ScenarioResult, run_scenario, simulate_inputs
 from fabpat.scenarios import simulate as simulate_mesh
 from fabpat.validate import check, check_size, round_down, round_up
 
-#: order p of the extrapolation. Measured on nested meshes (each triangle split into four; the same
-#: domain): the energy error falls like h^1.1–1.3 (docs/accuracy.md); on the 24-pattern study the
-#: nested pair 2.0 / 1.0 mm is within 1 % of the references in all 72 pattern-scenarios with p = 1.2
-#: (p = 1.1: one Cylinder +1.1 %), ``benchmarks/study_convergence.py``
+#: order p of the extrapolation, measured on nested meshes (each triangle split into four; the same
+#: domain): the energy error falls like h^1.1–1.3 (docs/accuracy.md). ``benchmarks/study_convergence.py``
+#: (24 patterns × 3 scenarios) with the nested pair 2.0 / 1.0 mm: p = 1.2 within 1 % in 72 / 68 of 72
+#: against its graded- / uniform-mesh reference, p = 1.1 in 72 / 70, p = 1.0 in 57 / 60
 RICHARDSON_ORDER = 1.2
 
 #: the two mesh sizes (mm) of a converged run: a Triangle mesh of h = 2.0 and its nested refinement
@@ -52,9 +55,9 @@ ONE_MESH_H = 1.5
 
 #: chord tolerance of the coarse mesh of a converged run, per mm of its h (0.03 mm at h = 2): finer
 #: than the one-mesh default (``fabpat.mesh.FLATTEN_TOL_PER_H``) because the refined mesh inherits the
-#: coarse mesh's boundary vertices. Measured (study, p = 1.2): 0.04 mm leaves the lacy 0x4888 2.5 %
-#: low in the Dome (its 2.3 mm necks), 0.03 mm within 1 % everywhere, 0.02 mm within 0.6 % at ≈ 25 %
-#: more nodes.
+#: coarse mesh's boundary vertices. One-off runs on the study's 24 patterns (p = 1.2, against the mean
+#: of two references): 0.04 mm left the lacy 0x4888 1.4–1.6 % low (Cylinder, Dome; its 2.3 mm necks),
+#: 0.03 mm kept all within 1 %, 0.02 mm within 0.6 % with 27 % more nodes.
 NESTED_FLATTEN_TOL_PER_H = 0.015
 
 

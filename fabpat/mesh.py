@@ -5,7 +5,10 @@
 shared boundary see the same nodes and curves are followed consistently), then a constrained,
 quality (minimum angle) Delaunay mesh whose mean edge length is ≈ h is built.
 :func:`mesh_outline` flattens an exact :class:`fabpat.outline.Outline` with a chord tolerance
-tied to h and tags the interface node sets of the regular n-gon the pattern lives in.
+tied to h (:func:`flatten_outline`: chords moved towards their arcs, so that the polygon keeps the
+curves' area) and tags the interface node sets of the regular n-gon the pattern lives in.
+:func:`refine_nested` splits every triangle of a mesh into four, its new boundary nodes on the exact
+outline: the finer mesh of a mesh-converged energy (:mod:`fabpat.convergence`).
 
 Lengths are millimetres. Node arrays are float64, triangles int64, counter-clockwise.
 """
@@ -354,18 +357,20 @@ def refine_nested(mesh: ShellMesh, outline: object) -> ShellMesh:
     """
     from scipy.spatial import cKDTree
 
+    from fabpat.polyline import _subdivide as cut_edges
+
     V, F = mesh.V, mesh.F
     m, n = len(F), len(V)
     sides = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
-    uniq, inv, count = np.unique(sides, axis=0, return_inverse=True, return_counts=True)
-    inv = inv.ravel()
+    keys, inv, count = np.unique(sides[:, 0] * n + sides[:, 1], return_inverse=True, return_counts=True)
+    uniq = np.stack([keys // n, keys % n], axis=1)
     mid = 0.5 * (V[uniq[:, 0]] + V[uniq[:, 1]])
     boundary = np.flatnonzero(count == 1)
     # nearest point of a fine flattening cut into pieces ≤ 0.05 mm (so that a long straight side's own
     # piece is among the k nearest piece midpoints)
-    dense = [_subdivide(_clean_loop(L), 0.05) for L in outline.flatten(PROJECTION_TOL)]  # type: ignore[attr-defined]
-    A = np.vstack(dense)
-    D = np.vstack([np.roll(L, -1, axis=0) for L in dense]) - A
+    loops = [_clean_loop(L) for L in outline.flatten(PROJECTION_TOL)]  # type: ignore[attr-defined]
+    A, B = cut_edges(np.vstack(loops), np.vstack([np.roll(L, -1, axis=0) for L in loops]), 0.05)
+    D = B - A
     _, near = cKDTree(A + 0.5 * D).query(mid[boundary], k=8)
     a, d = A[near], D[near]
     X = mid[boundary][:, None, :]
@@ -384,17 +389,16 @@ def refine_nested(mesh: ShellMesh, outline: object) -> ShellMesh:
     if not (u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0] > 0).all():
         raise GeometryError("refining the mesh inverted a triangle at the boundary (a curve bulging across "
                             "a whole element?): mesh with a smaller h")
-    side_id = {(int(i), int(j)): k for k, (i, j) in enumerate(uniq)}
     interfaces = []
     for nodes in mesh.interfaces:
         if nodes.size == 0:
             interfaces.append(nodes)
             continue
-        try:
-            mids = [n + side_id[min(i, j), max(i, j)] for i, j in zip(nodes[:-1].tolist(), nodes[1:].tolist(),
-                                                                        strict=True)]
-        except KeyError:
-            raise GeometryError("an interface's consecutive nodes are not joined by a mesh side") from None
+        want = np.minimum(nodes[:-1], nodes[1:]) * n + np.maximum(nodes[:-1], nodes[1:])
+        at = np.minimum(np.searchsorted(keys, want), len(keys) - 1)
+        if not np.array_equal(keys[at], want):
+            raise GeometryError("an interface's consecutive nodes are not joined by a mesh side")
+        mids = n + at
         merged = np.empty(2 * nodes.size - 1, dtype=np.int64)
         merged[0::2], merged[1::2] = nodes, mids
         interfaces.append(merged)

@@ -39,8 +39,8 @@ def test_builtin_catalog_is_the_default_library(hex_library) -> None:
     assert len(results) == 3 * 430
     assert {(r["E"], r["nu"], r["nonlinear"]) for r in results} == {(1000.0, 0.35, 1)}  # PLA, nonlinear
     assert len({r["h"] for r in results}) == 1 and len({r["solver_version"] for r in results}) == 1
-    # mesh-converged: every energy extrapolated from h = 1.5 and 1.0 mm (docs/accuracy.md)
-    assert {(r["h"], r["h_fine"]) for r in results} == {(1.5, 1.0)}
+    # mesh-converged: every energy extrapolated from h = 2.0 mm and its nested refinement (docs/accuracy.md)
+    assert {(r["h"], r["h_fine"]) for r in results} == {(2.0, 1.0)}
     failed = [f"{r['id']} {r['scenario']}: {r['error']}" for r in results if not r["converged"]]
     assert not failed, failed[:3]
     for s in SCENARIOS:

@@ -219,10 +219,11 @@ def test_cli_errors_are_one_line(tmp_path: Path) -> None:
 
 
 def test_extrapolated_sweep_stores_richardson_energy_and_switching_recomputes(tmp_path: Path) -> None:
-    """``--extrapolate`` (the default): the stored energy is E₁ + (E₁ − E₁.₅)/(1.5/1 − 1) of the two meshes'
-    own runs (Richardson with order 1), the other fields are the fine mesh's, ``h_fine`` says so;
-    ``--no-extrapolate`` recomputes the row as one mesh (the hash covers it), and the default again
-    recomputes it extrapolated."""
+    """``--extrapolate`` (the default): the stored energy is E₁ + (E₁ − E₂)/(2^1.2 − 1) of the runs on a
+    2 mm mesh and its nested refinement (Richardson with order 1.2), the other fields are the fine mesh's,
+    ``h_fine`` says so; ``--no-extrapolate`` recomputes the row as one 1.5 mm mesh (the hash covers it),
+    and the default again recomputes it extrapolated."""
+    from fabpat.convergence import nested_meshes
     from fabpat.fillet import fillet_pattern
     from fabpat.library import get_pattern
     from fabpat.mesh import mesh_outline
@@ -245,24 +246,27 @@ def test_extrapolated_sweep_stores_richardson_energy_and_switching_recomputes(tm
     assert len(ids) == 1
     pid = ids.pop()
     fp = fillet_pattern(get_pattern(pid, 6, 2, 36.0), 0.2)
-    runs = {h: run_scenario(mesh_outline(fp.outline, h, 6, 36.0), "cylinder", sides=6) for h in (1.5, 1.0)}
-    e15, e10 = runs[1.5].energy, runs[1.0].energy
+    (_, coarse), (_, fine) = nested_meshes(fp.outline, 2.0, 6, 36.0)
+    e2, e1 = (run_scenario(m, "cylinder", sides=6).energy for m in (coarse, fine))
+    run1 = run_scenario(fine, "cylinder", sides=6)
+    e15 = run_scenario(mesh_outline(fp.outline, 1.5, 6, 36.0), "cylinder", sides=6).energy
+    converged = e1 + (e1 - e2) / (2.0**1.2 - 1.0)
     with open_catalog(db) as cat:
         row = next(r for r in cat.results(scenario="cylinder"))
-    assert row["h"] == 1.5 and row["h_fine"] == 1.0 and row["converged"] == 1
-    assert row["energy"] == pytest.approx(e10 + (e10 - e15) / 0.5, rel=1e-7)
-    assert row["energy"] > e10 > e15  # the energy rises towards the converged value (docs/accuracy.md)
-    assert row["nodes"] == runs[1.0].nodes and row["iterations"] == runs[1.0].iterations
+    assert row["h"] == 2.0 and row["h_fine"] == 1.0 and row["converged"] == 1
+    assert row["energy"] == pytest.approx(converged, rel=1e-7)
+    assert row["energy"] > e1 > e2  # the energy rises towards the converged value (docs/accuracy.md)
+    assert row["nodes"] == run1.nodes and row["iterations"] == run1.iterations
     res = run_cli("sweep", "--sample", "1", "--seed", "0", "--db", str(db), "--workers", "1", "--no-extrapolate")
     assert "3 pattern-scenarios computed" in res.stdout and "warning" not in res.stderr, res.stdout
     with open_catalog(db) as cat:
         row = next(r for r in cat.results(scenario="cylinder"))
-    assert row["h_fine"] is None and row["energy"] == pytest.approx(e15, rel=1e-7)
+    assert row["h"] == 1.5 and row["h_fine"] is None and row["energy"] == pytest.approx(e15, rel=1e-7)
     res = run_cli("sweep", "--sample", "1", "--seed", "0", "--db", str(db), "--workers", "1")
     assert "3 pattern-scenarios computed" in res.stdout, res.stdout
     with open_catalog(db) as cat:
         row = next(r for r in cat.results(scenario="cylinder"))
-    assert row["h_fine"] == 1.0 and row["energy"] == pytest.approx(e10 + (e10 - e15) / 0.5, rel=1e-7)
+    assert row["h_fine"] == 1.0 and row["energy"] == pytest.approx(converged, rel=1e-7)
 
 
 def test_catalog_without_h_fine_reads_as_single_mesh_and_gains_the_column_when_written(tmp_path: Path) -> None:
@@ -298,16 +302,17 @@ def test_catalog_without_h_fine_reads_as_single_mesh_and_gains_the_column_when_w
 
 
 def test_extrapolated_sweep_too_fine_names_the_finer_mesh_and_a_valid_h(tmp_path: Path) -> None:
-    """The size check covers the finer mesh h/1.5 and suggests an --h that passes (one line, exit 2, no file)."""
+    """The size check covers the finer mesh (the refinement to h/2) and suggests an --h that passes (one
+    line, exit 2, no file)."""
     from fabpat.mesh import check_polygon_elements
 
     db = tmp_path / "c.sqlite"
     res = invoke("sweep", "--sample", "1", "--extrapolate", "--h", "0.5", "--db", str(db))
     assert res.exit_code == 2 and res.stderr.count("\n") == 1 and not db.exists()
-    assert "finer mesh of h = 0.5 mm" in res.stderr and "h ≥ 0.6 mm" in res.stderr, res.stderr
-    check_polygon_elements(6, 36.0, 0.6, fine_ratio=1 / 1.5)  # the suggestion passes
+    assert "finer mesh of h = 0.5 mm" in res.stderr and "h ≥ 0.8 mm" in res.stderr, res.stderr
+    check_polygon_elements(6, 36.0, 0.8, fine_ratio=0.5)  # the suggestion passes
     with pytest.raises(FabpatError):
-        check_polygon_elements(6, 36.0, 0.59, fine_ratio=1 / 1.5)
+        check_polygon_elements(6, 36.0, 0.79, fine_ratio=0.5)
 
 
 @pytest.mark.parametrize("bad", [{"h": 0.0}, {"h": -1.0}, {"E": -1.0}, {"nu": 0.5}, {"sides": 2},
