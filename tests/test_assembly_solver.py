@@ -94,7 +94,9 @@ def test_displacement_control_reproduces_the_load_controlled_cantilever() -> Non
     assert out.final.energy == pytest.approx(sr.energy, rel=1e-6)
     # the reactions at the prescribed tip are the loads the load-controlled run applied there
     assert np.abs(out.final.reactions[tip, :3] - p.loads[tip, :3]).max() < 1e-6 * 1.5
-    assert np.abs(out.final.displacement - r.displacement).max() < 1e-6
+    # both runs stop at a residual of 1e-8 of their loads; on this soft cantilever (21 mm tip deflection)
+    # that leaves the states ~1e-7 of the deflection apart (1.6e-6 mm measured)
+    assert np.abs(out.final.displacement - r.displacement).max() < 2e-7 * np.abs(r.displacement).max()
 
 
 def test_cli_simulate_assembly_fields_files_and_bad_input(tmp_path) -> None:  # noqa: ANN001
