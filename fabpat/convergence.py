@@ -16,7 +16,7 @@ meshes: independent meshes of neighbouring h scatter by tenths of a percent, and
 whole percents (0x4888, Dome: 296–300 N·mm for h = 1.1–1.5 mm, in plateaus as the necks' triangles
 change), which the extrapolation multiplies. With nested meshes all 72 pattern-scenarios of the
 study are within 1 % of references from meshes graded to the local width (worst +0.60 %), 68 of a
-reference from uniform meshes (worst −1.63 %, where the two references differ by 0.8–1.1 %); two
+reference from uniform meshes (worst −1.63 %, where the two references differ by 0.5–1.1 %); two
 independent meshes of 1.5 and 1.0 mm are within 1 % in 68 and 66, worst −4.4 and −4.9 %
 (docs/accuracy.md).
 
@@ -43,7 +43,7 @@ from fabpat.validate import check, check_size, round_down, round_up
 #: order p of the extrapolation, measured on nested meshes (each triangle split into four; the same
 #: domain): the energy error falls like h^1.1–1.3 (docs/accuracy.md). ``benchmarks/study_convergence.py``
 #: (24 patterns × 3 scenarios) with the nested pair 2.0 / 1.0 mm: p = 1.2 within 1 % in 72 / 68 of 72
-#: against its graded- / uniform-mesh reference, p = 1.1 in 72 / 70, p = 1.0 in 57 / 60
+#: against its graded- / uniform-mesh reference, p = 1.1 in 72 / 70, p = 1.0 in 56 / 60
 RICHARDSON_ORDER = 1.2
 
 #: the two mesh sizes (mm) of a converged run: a Triangle mesh of h = 2.0 and its nested refinement
@@ -142,7 +142,12 @@ def nested_meshes(outline: Any, h: float, sides: int | None = None, edge: float 
     from fabpat.mesh import INTERFACE_WEIGHT, estimate_elements, mesh_outline, refine_nested
 
     outline = getattr(outline, "outline", outline)
+    if not hasattr(outline, "flatten"):
+        raise GeometryError(f"nested_meshes needs an Outline or a FilletedPattern, got {type(outline).__name__}")
+    h = check("h", h, "mesh size h", error=GeometryError)
+    max_elements = int(check("max_elements", max_elements, error=GeometryError))
     w = INTERFACE_WEIGHT if weight is None else weight
+    cap = 1000.0 if h_max is None else min(float(h_max), 1000.0)  # the h range's top
 
     def coarse_mesh(x: float) -> ShellMesh:
         return mesh_outline(outline, x, sides, edge, weight=w, max_elements=max(max_elements, 10**9),
@@ -152,18 +157,18 @@ def nested_meshes(outline: Any, h: float, sides: int | None = None, edge: float 
         # the smallest h that fits, by meshing: curved boundaries, followed to a tolerance ∝ h, make the
         # count fall more slowly than 1/h², so no formula gives an h that surely passes
         x = h
-        while estimate_elements(outline.area, outline.perimeter, x / 2) > max_elements:
+        while x <= cap and 4 * estimate_elements(outline.area, outline.perimeter, x) > max_elements:
             x *= 1.15  # meshing is only tried where even the (low) estimate fits
         found = None
-        while h_max is None or x <= h_max:
+        while x <= cap:
             x = round_up(x * 1.15)
+            if x > cap:
+                break
             if 4 * coarse_mesh(x).n_elements <= max_elements:
                 found = x
                 break
-            if x > 1000.0:
-                break
         hint = f"or use h ≥ {found:g} mm" if found is not None else \
-            f"no h up to {h_max:g} mm (the most this outline allows) fits" if h_max is not None else ""
+            f"no h up to {cap:g} mm{' (the most this outline allows)' if h_max is not None else ''} fits"
         check_size(count, max_elements, f"mesh elements of the finer mesh of h = {h:g} mm (its refinement to "
                    f"{h * CONVERGED_MESHES[1] / CONVERGED_MESHES[0]:g} mm)", option, hint, error=GeometryError)
 
@@ -176,17 +181,32 @@ def nested_meshes(outline: Any, h: float, sides: int | None = None, edge: float 
     return [(h, coarse), (h * CONVERGED_MESHES[1] / CONVERGED_MESHES[0], refine_nested(coarse, outline))]
 
 
-def mesh_converged(filleted: Any, h: float, *, max_elements: int = DEFAULT_MAX_ELEMENTS,
+def converged_h(min_width: float, h: float | None = None) -> float:
+    """The coarse mesh size (mm) of a converged run: ``h``, or by default CONVERGED_MESHES[0] (2.0),
+    made finer for an outline whose narrowest feature ``min_width`` (mm) it would not resolve
+    (``fabpat.mesh.MAX_H_PER_MIN_WIDTH`` × min_width, rounded down: 1.76 mm for the triangle 0x0488
+    of min_width 0.881 mm)."""
+    import math
+
+    if h is not None:
+        return float(h)
+    limit = round_down(MAX_H_PER_MIN_WIDTH * min_width) if math.isfinite(min_width) else math.inf
+    return min(CONVERGED_MESHES[0], limit)
+
+
+def mesh_converged(filleted: Any, h: float | None = None, *, max_elements: int = DEFAULT_MAX_ELEMENTS,
                    option: str = "raise it with --max-elements") -> list[tuple[float, ShellMesh]]:
     """The two meshes [(h, mesh), (h/2, nested refinement)] of an extrapolated run of a filleted pattern.
 
-    Raises GeometryError before meshing if the finer mesh would exceed ``max_elements`` (see
-    :func:`nested_meshes`), or if h is too coarse for the outline (as :func:`fabpat.scenarios.mesh_filleted`).
+    ``h`` None: :func:`converged_h` (2.0 mm, finer for an outline narrower than 1 mm). Raises
+    GeometryError before meshing if the finer mesh would exceed ``max_elements`` (see
+    :func:`nested_meshes`), or if a given h is too coarse for the outline (as
+    :func:`fabpat.scenarios.mesh_filleted`).
     """
     from fabpat.mesh import check_resolves
 
-    h = check("h", h, "mesh size h", error=GeometryError)
     min_width = filleted.validate(raise_on_error=False).min_width
+    h = check("h", converged_h(min_width, h), "mesh size h", error=GeometryError)
     check_resolves(h, min_width, f"pattern {filleted.pattern.id}")
     return nested_meshes(filleted, h, max_elements=max_elements, option=option,
                          h_max=round_down(MAX_H_PER_MIN_WIDTH * min_width))
@@ -200,7 +220,8 @@ def simulate(
     """Run one of the paper's scenarios (§4.1) on a filleted pattern — ``fabpat.simulate``, as the CLI's.
 
     By default the energy is the mesh-converged value, as in the built-in catalog: the pattern is
-    meshed at h = 2.0 mm, that mesh refined once (1.0 mm, :func:`nested_meshes`) and the two energies
+    meshed at h = 2.0 mm (finer for outlines narrower than 1 mm, :func:`converged_h`), that mesh refined
+    once (1.0 mm, :func:`nested_meshes`) and the two energies
     extrapolated (:func:`richardson`, p = 1.2); every other field (displacements, iterations, nodes,
     ``to_vtu``) is the refined mesh's, and ``seconds`` the sum of both. Given ``h`` (mm), it solves one
     mesh of that size, for a user who wants a given mesh; ``extrapolate=True`` then uses h and its
@@ -219,10 +240,9 @@ def simulate(
     if not extrapolate:
         return simulate_mesh(filleted, scenario, h=ONE_MESH_H if h is None else h, linear=linear, thickness=thickness,
                              youngs_modulus=youngs_modulus, poisson=poisson, max_elements=max_elements)
-    coarse = CONVERGED_MESHES[0] if h is None else h
-    scenario, coarse, thickness, E, nu = simulate_inputs(filleted, scenario, coarse, thickness, youngs_modulus,
-                                                         poisson)
-    meshes = mesh_converged(filleted, coarse, max_elements=max_elements, option="raise max_elements")
+    scenario, _, thickness, E, nu = simulate_inputs(filleted, scenario, CONVERGED_MESHES[0] if h is None else h,
+                                                    thickness, youngs_modulus, poisson)
+    meshes = mesh_converged(filleted, h, max_elements=max_elements, option="raise max_elements")
     c = run_converged(meshes, scenario, sides=filleted.sides, edge=filleted.edge, thickness=thickness, E=E, nu=nu,
                       nonlinear=not linear)
     return c.as_result()

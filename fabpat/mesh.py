@@ -137,11 +137,12 @@ def estimate_elements(area: float, perimeter: float, h: float) -> float:
 
 
 def check_element_count(area: float, perimeter: float, h: float, max_elements: int, *, fine_ratio: float = 1.0,
-                        option: str = "raise it with --max-elements") -> None:
+                        option: str = "raise it with --max-elements", h_max: float | None = None) -> None:
     """Raise GeometryError before meshing if :func:`estimate_elements` is above ``max_elements``.
 
     ``fine_ratio``: the mesh checked is h × fine_ratio (the finer mesh of an extrapolation), but the
-    message speaks of, and suggests, the h the user gave. ``option``: how to raise the limit.
+    message speaks of, and suggests, the h the user gave. ``option``: how to raise the limit. ``h_max``:
+    the coarsest h the outline allows (mm); a suggestion above it becomes "no h … fits".
     """
     max_elements = int(check("max_elements", max_elements, error=GeometryError))
     n = estimate_elements(area, perimeter, h * fine_ratio)
@@ -151,7 +152,10 @@ def check_element_count(area: float, perimeter: float, h: float, max_elements: i
     suggest = (perimeter + math.sqrt(perimeter**2 + 4.0 * max_elements * area / c)) / (2.0 * max_elements)
     what = f"mesh elements at h = {h:g} mm" if fine_ratio == 1.0 else \
         f"mesh elements of the finer mesh of h = {h:g} mm (h × {fine_ratio:.4g} = {h * fine_ratio:g} mm)"
-    check_size(n, max_elements, what, option, f"or use h ≥ {round_up(suggest / fine_ratio):g} mm", error=GeometryError)
+    fit = round_up(suggest / fine_ratio)
+    hint = f"or use h ≥ {fit:g} mm" if h_max is None or fit <= h_max else \
+        f"no h up to {h_max:g} mm (the most this outline allows) fits"
+    check_size(n, max_elements, what, option, hint, error=GeometryError)
 
 
 def check_polygon_elements(sides: int, edge: float, h: float, max_elements: int = DEFAULT_MAX_ELEMENTS, *,
@@ -297,6 +301,9 @@ def mesh_polygons(
     if not used.all():
         new = np.cumsum(used) - 1
         V, F = V[used], new[F]
+    if F.shape[0] > max_elements:  # the estimate counts boundary pieces of h; finer ones make more
+        raise GeometryError(f"the mesh at h = {h:g} mm has {F.shape[0]} triangles, above the limit of "
+                            f"{max_elements} (max_elements): raise the limit, or use a larger h or a coarser boundary")
     a = V[F[:, 1]] - V[F[:, 0]]
     b = V[F[:, 2]] - V[F[:, 0]]
     cw = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0] < 0
@@ -359,6 +366,10 @@ def refine_nested(mesh: ShellMesh, outline: object) -> ShellMesh:
 
     from fabpat.polyline import _subdivide as cut_edges
 
+    outline = getattr(outline, "outline", outline)  # a FilletedPattern refines along its outline
+    if not hasattr(outline, "flatten") or not isinstance(mesh, ShellMesh):
+        raise GeometryError(f"refine_nested needs a ShellMesh and an Outline (or FilletedPattern), got "
+                            f"{type(mesh).__name__} and {type(outline).__name__}")
     V, F = mesh.V, mesh.F
     m, n = len(F), len(V)
     sides = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
@@ -466,9 +477,14 @@ def mesh_outline(
     else:
         segments = interface_segments(sides, edge, weight=weight)
     refine = int(check("refine", refine, "nested refinements", error=GeometryError))
+    if flatten_tol is not None and not 0.0 < flatten_tol <= h:  # also refuses NaN
+        raise GeometryError(f"flatten_tol = {flatten_tol!r} mm must be in (0, h] = (0, {h:g}] mm")
     check_element_count(outline.area, outline.perimeter, h, max_elements, fine_ratio=0.5**refine)
     loops = flatten_outline(outline, FLATTEN_TOL_PER_H * h if flatten_tol is None else flatten_tol)
     mesh = mesh_polygons(loops, h, min_angle, interfaces=segments, max_elements=max_elements)
+    if 4**refine * mesh.n_elements > max_elements:
+        raise GeometryError(f"refining the mesh at h = {h:g} mm {refine} time(s) makes {4**refine * mesh.n_elements} "
+                            f"triangles, above the limit of {max_elements} (max_elements): use a larger h")
     for _ in range(refine):
         mesh = refine_nested(mesh, outline)
     for i, nodes in enumerate(mesh.interfaces):

@@ -54,7 +54,7 @@ from fabpat.mesh import DEFAULT_MAX_ELEMENTS, ShellMesh, mesh_outline
 from fabpat.shell.element import Material
 from fabpat.shell.results import ShellResult
 from fabpat.shell.solve import ShellProblem, solve_linear, solve_nonlinear
-from fabpat.validate import check
+from fabpat.validate import check, round_down
 
 if TYPE_CHECKING:  # pragma: no cover
     from fabpat.pattern import Pattern
@@ -297,10 +297,14 @@ def mesh_filleted(filleted: Any, h: float, *, max_elements: int = DEFAULT_MAX_EL
     Refuses (GeometryError) an h above ``MAX_H_PER_MIN_WIDTH`` × the outline's min_width, naming the
     h that would work, and a mesh estimated above ``max_elements`` triangles.
     """
-    from fabpat.mesh import check_resolves
+    from fabpat.mesh import MAX_H_PER_MIN_WIDTH, check_element_count, check_resolves
 
     h = check("h", h, "mesh size h", error=GeometryError)
-    check_resolves(h, filleted.validate(raise_on_error=False).min_width, f"pattern {filleted.pattern.id}")
+    min_width = filleted.validate(raise_on_error=False).min_width
+    check_resolves(h, min_width, f"pattern {filleted.pattern.id}")
+    outline = filleted.outline
+    check_element_count(outline.area, outline.perimeter, h, max_elements,
+                        h_max=round_down(MAX_H_PER_MIN_WIDTH * min_width) if math.isfinite(min_width) else None)
     return mesh_outline(filleted, h, max_elements=max_elements)
 
 

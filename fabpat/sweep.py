@@ -129,7 +129,8 @@ def simulate_pattern(pattern_id: str, sides: int, depth: int, edge: float, thick
     from fabpat.convergence import nested_meshes, run_converged
     from fabpat.fillet import fillet_pattern
     from fabpat.library import get_pattern
-    from fabpat.mesh import ShellMesh, check_resolves, mesh_outline
+    from fabpat.mesh import MAX_H_PER_MIN_WIDTH, ShellMesh, check_resolves, mesh_outline
+    from fabpat.validate import round_down
 
     version = solver_version()
     h_fine = fine_mesh(h) if extrapolate else None
@@ -148,9 +149,12 @@ def simulate_pattern(pattern_id: str, sides: int, depth: int, edge: float, thick
         filleted = fillet_pattern(pattern, weight)
         prow.update(filleted.catalog_columns())  # as `fabpat library`; an invalid outline raises GeometryError
         prow["svg_path"] = filleted.outline.to_svg_path()
-        check_resolves(h, float(prow["min_width"]), f"pattern {pattern_id}")  # as `fabpat simulate`
-        meshes = [(h, mesh_outline(filleted.outline, h, sides, edge, weight=weight))] if h_fine is None else \
-            nested_meshes(filleted.outline, h, sides, edge, weight=weight)
+        if h_fine is None:
+            check_resolves(h, float(prow["min_width"]), f"pattern {pattern_id}")  # as `fabpat simulate --h`
+            meshes = [(h, mesh_outline(filleted.outline, h, sides, edge, weight=weight))]
+        else:  # a pattern too narrow for h is meshed at the coarsest h that resolves it (row h says so)
+            limit = round_down(MAX_H_PER_MIN_WIDTH * float(prow["min_width"]))
+            meshes = nested_meshes(filleted.outline, min(h, limit), sides, edge, weight=weight)
     except FabpatError as e:
         geometry_error = f"{type(e).__name__}: {e}"
         prow["error"] = geometry_error
@@ -164,7 +168,9 @@ def simulate_pattern(pattern_id: str, sides: int, depth: int, edge: float, thick
         if meshes:
             t0 = time.perf_counter()
             fine = meshes[-1][1]
-            row.update(nodes=fine.n_nodes, elements=fine.n_elements)
+            # the meshes used (a narrow pattern's coarse h may be below the set-up's; the hash keeps the set-up)
+            row.update(nodes=fine.n_nodes, elements=fine.n_elements, h=float(meshes[0][0]),
+                       h_fine=float(meshes[-1][0]) if len(meshes) > 1 else None)
             try:
                 c = run_converged(meshes, scenario, sides=sides, edge=edge, thickness=thickness, E=E, nu=nu,
                                   nonlinear=True)

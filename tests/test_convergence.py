@@ -115,3 +115,32 @@ def test_simulate_size_check_names_the_finer_mesh_and_suggests_an_h_that_fits() 
     assert ok.returncode == 0, ok.stderr
     none = run_cli("simulate", "0x0488", "--h", "2", "--max-elements", "1000", "--extrapolate")
     assert none.returncode == 2 and "no h up to 3.89 mm" in none.stderr and len(none.stderr.splitlines()) == 1
+
+
+def test_narrow_outline_gets_a_finer_coarse_mesh_by_default() -> None:
+    """The triangle 0x0488 (min_width 0.881 mm) cannot be meshed at 2 mm (≤ 2 × min_width): by default
+    the converged run uses the coarsest h that resolves it, 1.76 mm, and its refinement; a given h is
+    still refused with the h that works."""
+    import fabpat
+    from fabpat.errors import GeometryError
+
+    fp = fabpat.pattern("0x0488", sides=3).fillet()
+    r = fabpat.simulate(fp, "cylinder", linear=True)
+    assert r.h == (1.76, 0.88) and len(r.mesh_energies) == 2
+    with pytest.raises(GeometryError, match="use h ≤ 1.76 mm"):
+        fabpat.simulate(fp, "cylinder", linear=True, h=2.0, extrapolate=True)
+
+
+@pytest.mark.parametrize("bad", [-5, 0, 2.5, None, "a"])
+def test_nested_meshes_refuse_a_bad_max_elements_at_once(bad: object) -> None:
+    from fabpat.errors import GeometryError
+
+    with pytest.raises(GeometryError, match="max_elements"):
+        nested_meshes(fillet_pattern(get_pattern("0x2d08")), 2.0, max_elements=bad)  # type: ignore[arg-type]
+
+
+def test_nested_meshes_say_when_no_h_fits() -> None:
+    from fabpat.errors import GeometryError
+
+    with pytest.raises(GeometryError, match="no h up to 1000 mm fits"):
+        nested_meshes(fillet_pattern(get_pattern("0x2d08")), 2.0, max_elements=100)

@@ -170,3 +170,23 @@ def test_nested_meshes_are_the_converged_pair() -> None:
     assert (h1, h2) == CONVERGED_MESHES and fine.n_elements == 4 * coarse.n_elements
     with pytest.raises(GeometryError, match="finer mesh"):
         nested_meshes(fillet_pattern(get_pattern("0x2d08")), 2.0, max_elements=5000)
+
+
+def test_mesh_limits_count_the_real_triangles_and_bad_tolerances_are_refused() -> None:
+    from fabpat.fillet import fillet_pattern
+    from fabpat.library import get_pattern
+    from fabpat.mesh import mesh_outline, refine_nested
+
+    fp = fillet_pattern(get_pattern("0x4888"))
+    m = mesh_outline(fp, 2.0)
+    with pytest.raises(GeometryError, match="refining the mesh"):  # 4× the real count, not the estimate
+        mesh_outline(fp, 2.0, refine=1, max_elements=4 * m.n_elements - 1)
+    assert mesh_outline(fp, 2.0, refine=1, max_elements=4 * m.n_elements).n_elements == 4 * m.n_elements
+    with pytest.raises(GeometryError, match="triangles, above the limit"):  # a fine boundary makes many more
+        mesh_outline(fp, 2.0, flatten_tol=1e-4, max_elements=5000)
+    for tol in (0.0, -1.0, 5.0, float("nan")):
+        with pytest.raises(GeometryError, match="flatten_tol"):
+            mesh_outline(fp, 2.0, flatten_tol=tol)
+    assert refine_nested(m, fp).n_elements == 4 * m.n_elements  # a FilletedPattern refines along its outline
+    with pytest.raises(GeometryError, match="refine_nested needs"):
+        refine_nested(m, None)

@@ -323,3 +323,17 @@ def test_sweep_setup_refuses_bad_values_before_any_row(bad: dict[str, object]) -
 
     with pytest.raises(RangeError, match="SweepSetup"):
         SweepSetup(**bad)  # type: ignore[arg-type]
+
+
+def test_extrapolated_sweep_meshes_a_narrow_pattern_finer_and_says_so(tmp_path: Path) -> None:
+    """Triangle patterns are narrower than 1 mm: the default 2 mm coarse mesh would not resolve them, so
+    each is meshed at the coarsest h that does (2 × min_width, rounded down) and the rows say which."""
+    db = tmp_path / "t.sqlite"
+    res = run_cli("sweep", "--sides", "3", "--sample", "1", "--seed", "0", "--db", str(db), "--workers", "1")
+    assert res.returncode == 0 and "(0 did not converge)" in res.stdout, res.stdout + res.stderr
+    with open_catalog(db) as cat:
+        rows, pats = cat.results(), {p["id"]: p for p in cat.pattern_rows()}
+    assert len(rows) == 3 and all(r["converged"] for r in rows)
+    for r in rows:
+        w = pats[r["id"]]["min_width"]
+        assert r["h"] < 2.0 and r["h"] <= 2 * w < r["h"] + 0.02 and r["h_fine"] == pytest.approx(r["h"] / 2)

@@ -81,7 +81,7 @@ def simulate_cmd(
 
     Example: fabpat simulate 0x2d88 --scenario dome --vtu dome.vtu --png dome.png --json
     """
-    from fabpat.convergence import CONVERGED_MESHES, ONE_MESH_H, mesh_converged, run_converged
+    from fabpat.convergence import ONE_MESH_H, mesh_converged, run_converged
     from fabpat.exchange.inp import write_inp
     from fabpat.exchange.png_result import write_png
     from fabpat.exchange.vtu import write_vtu
@@ -91,8 +91,8 @@ def simulate_cmd(
 
     if extrapolate is None:  # converged by default; a mesh size given means that mesh
         extrapolate = h is None
-    if h is None:
-        h = CONVERGED_MESHES[0] if extrapolate else ONE_MESH_H
+    if h is None and not extrapolate:
+        h = ONE_MESH_H
     scenarios = SCENARIOS if scenario == "all" else (scenario,)
     many = len(scenarios) > 1
     outputs = {
@@ -108,8 +108,9 @@ def simulate_cmd(
             check_suffix(path, valid, option)
     pattern = get_pattern(pattern_id, sides, depth, edge)
     filleted = fillet_pattern(pattern, weight)  # its outline carries its polygon
+    # by default the converged run's coarse h (2.0 mm, finer for an outline narrower than 1 mm)
     meshes = mesh_converged(filleted, h, max_elements=max_elements) if extrapolate else \
-        [(h, mesh_filleted(filleted, h, max_elements=max_elements))]
+        [(float(h), mesh_filleted(filleted, float(h), max_elements=max_elements))]  # type: ignore[arg-type]
     mesh = meshes[-1][1]  # fields, files and node counts come from the finest mesh
     rows = []
     with atomic_outputs(*outputs.values()) as temps:
