@@ -13,8 +13,8 @@ E∞ ≈ E₂ + (E₂ − E₁) / ((h₁/h₂)ᵖ − 1)  (Richardson, Phil. Tra
 The two meshes are *nested* (:func:`fabpat.mesh.refine_nested`: the finer one splits every triangle of
 the coarser into four, its new boundary nodes on the exact outline), not two independent Delaunay
 meshes: independent meshes of neighbouring h scatter by tenths of a percent, and on narrow necks by
-whole percents (0x4888, Dome: 296–300 N·mm for h = 1.1–1.5 mm, in plateaus as the necks' triangles
-change), which the extrapolation multiplies. With nested meshes all 72 pattern-scenarios of the
+whole percents (0x4888, Dome: 298.7–304.8 N·mm for h = 1.15–1.5 mm, in plateaus as the necks'
+triangles change), which the extrapolation multiplies. With nested meshes all 72 pattern-scenarios of the
 study are within 1 % of references from meshes graded to the local width (worst +0.60 %), 68 of a
 reference from uniform meshes (worst −1.63 %, where the two references differ by 0.5–1.1 %); two
 independent meshes of 1.5 and 1.0 mm are within 1 % in 68 and 66, worst −4.4 and −4.9 %
