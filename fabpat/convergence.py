@@ -182,16 +182,14 @@ def nested_meshes(outline: Any, h: float, sides: int | None = None, edge: float 
 
 
 def converged_h(min_width: float, h: float | None = None) -> float:
-    """The coarse mesh size (mm) of a converged run: ``h``, or by default CONVERGED_MESHES[0] (2.0),
-    made finer for an outline whose narrowest feature ``min_width`` (mm) it would not resolve
-    (``fabpat.mesh.MAX_H_PER_MIN_WIDTH`` × min_width, rounded down: 1.76 mm for the triangle 0x0488
-    of min_width 0.881 mm)."""
+    """The coarse mesh size (mm) of a converged run: ``h`` (default CONVERGED_MESHES[0], 2.0), made finer
+    for an outline whose narrowest feature ``min_width`` (mm) it would not resolve: at most
+    ``fabpat.mesh.MAX_H_PER_MIN_WIDTH`` × min_width, rounded down (1.76 mm for the triangle 0x0488 of
+    min_width 0.881 mm)."""
     import math
 
-    if h is not None:
-        return float(h)
-    limit = round_down(MAX_H_PER_MIN_WIDTH * min_width) if math.isfinite(min_width) else math.inf
-    return min(CONVERGED_MESHES[0], limit)
+    h = CONVERGED_MESHES[0] if h is None else float(h)
+    return min(h, round_down(MAX_H_PER_MIN_WIDTH * min_width)) if math.isfinite(min_width) else h
 
 
 def mesh_converged(filleted: Any, h: float | None = None, *, max_elements: int = DEFAULT_MAX_ELEMENTS,
@@ -206,8 +204,11 @@ def mesh_converged(filleted: Any, h: float | None = None, *, max_elements: int =
     from fabpat.mesh import check_resolves
 
     min_width = filleted.validate(raise_on_error=False).min_width
-    h = check("h", converged_h(min_width, h), "mesh size h", error=GeometryError)
-    check_resolves(h, min_width, f"pattern {filleted.pattern.id}")
+    if h is not None:  # a given h is the user's: refused, naming the h that works, rather than changed
+        h = check("h", h, "mesh size h", error=GeometryError)
+        check_resolves(h, min_width, f"pattern {filleted.pattern.id}")
+    else:
+        h = converged_h(min_width)
     return nested_meshes(filleted, h, max_elements=max_elements, option=option,
                          h_max=round_down(MAX_H_PER_MIN_WIDTH * min_width))
 

@@ -390,8 +390,8 @@ def refine_nested(mesh: ShellMesh, outline: object) -> ShellMesh:
     best = np.argmin(np.linalg.norm(Q - X, axis=2), axis=1)
     mid[boundary] = Q[np.arange(len(boundary)), best]
     e01, e12, e20 = n + inv[:m], n + inv[m:2 * m], n + inv[2 * m:]
-    # the four children of a triangle stay together (memory locality of the element loops: ≈ 2× faster
-    # tangents than the children of all corners one block after the other)
+    # the four children of a triangle stay together (neighbours in space stay neighbours in memory; the
+    # tangent time on 0x2d08 measured the same as with the children of all corners one block after another)
     F2 = np.stack([np.stack([F[:, 0], e01, e20], axis=1), np.stack([e01, F[:, 1], e12], axis=1),
                    np.stack([e20, e12, F[:, 2]], axis=1), np.stack([e01, e12, e20], axis=1)], axis=1).reshape(-1, 3)
     V2 = np.vstack([V, mid])

@@ -126,11 +126,10 @@ def simulate_pattern(pattern_id: str, sides: int, depth: int, edge: float, thick
     Hashes use the solver version of the process that computes (a dask worker with other code gets
     a different hash, and a later sweep recomputes its rows).
     """
-    from fabpat.convergence import nested_meshes, run_converged
+    from fabpat.convergence import converged_h, nested_meshes, run_converged
     from fabpat.fillet import fillet_pattern
     from fabpat.library import get_pattern
-    from fabpat.mesh import MAX_H_PER_MIN_WIDTH, ShellMesh, check_resolves, mesh_outline
-    from fabpat.validate import round_down
+    from fabpat.mesh import ShellMesh, check_resolves, mesh_outline
 
     version = solver_version()
     h_fine = fine_mesh(h) if extrapolate else None
@@ -153,8 +152,8 @@ def simulate_pattern(pattern_id: str, sides: int, depth: int, edge: float, thick
             check_resolves(h, float(prow["min_width"]), f"pattern {pattern_id}")  # as `fabpat simulate --h`
             meshes = [(h, mesh_outline(filleted.outline, h, sides, edge, weight=weight))]
         else:  # a pattern too narrow for h is meshed at the coarsest h that resolves it (row h says so)
-            limit = round_down(MAX_H_PER_MIN_WIDTH * float(prow["min_width"]))
-            meshes = nested_meshes(filleted.outline, min(h, limit), sides, edge, weight=weight)
+            coarse = converged_h(float(prow["min_width"]), h)
+            meshes = nested_meshes(filleted.outline, coarse, sides, edge, weight=weight)
     except FabpatError as e:
         geometry_error = f"{type(e).__name__}: {e}"
         prow["error"] = geometry_error
