@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import click
@@ -43,6 +43,48 @@ def _sigterm_unwinds() -> Iterator[None]:
         yield
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+@contextlib.contextmanager
+def deferred_interrupts() -> Iterator[Callable[[], None]]:
+    """Inside the block a Ctrl-C or SIGTERM is noted, not raised; the yielded ``checkpoint()`` raises it
+    (as KeyboardInterrupt, SIGTERM recorded as by :func:`_on_sigterm`) where the caller knows it is safe,
+    e.g. between the parts of ``export --all``, and so does leaving the block. A second signal while
+    one is pending is raised at once (a user who presses Ctrl-C twice wants out).
+
+    Why: an interrupt raised at an arbitrary point can land inside an import (ezdxf loads submodules
+    while the first DXF is written) or a finalizer; CPython then prints "Exception ignored" and goes on,
+    and measured runs then hung on an import lock or aborted (exit −6) instead of cleaning up.
+    Outside the main thread, where handlers cannot be set, signals behave as usual.
+    """
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield lambda: None
+        return
+    pending: list[int] = []
+
+    def note(signum: int, frame: object) -> None:
+        pending.append(signum)
+        if len(pending) > 1:
+            checkpoint()
+
+    def checkpoint() -> None:
+        if pending:
+            signum = pending[0]
+            pending.clear()
+            if signum == signal.SIGTERM:
+                _TERMINATED.append(signum)
+            raise KeyboardInterrupt
+
+    previous = {s: signal.signal(s, note) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield checkpoint
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+    checkpoint()
 
 
 def _caused_by_interrupt(e: BaseException) -> bool:

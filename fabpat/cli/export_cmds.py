@@ -55,6 +55,8 @@ def _warn(message: str) -> None:
 
 def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> list[Path]:
     """Build each part and write its files in one atomic block, with width warnings and a progress bar."""
+    from fabpat.cli import deferred_interrupts
+
     narrow: list[tuple[str | None, list[str]]] = []
     unlabelled: list[str] = []
     bar = None
@@ -66,6 +68,7 @@ def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> lis
         task = bar.add_task("exporting", total=len(jobs))
 
     def on_part(part: Part, formats: list[str]) -> None:
+        checkpoint()  # a Ctrl-C or SIGTERM since the last part ends the run here, not inside an import
         messages = width_warnings(part.outline, formats, settings.kerf)
         if messages:
             narrow.append((part.label, messages))
@@ -78,7 +81,8 @@ def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> lis
     if bar is not None:
         bar.start()
     try:
-        paths = export_parts(jobs, settings, on_part)
+        with deferred_interrupts() as checkpoint:
+            paths = export_parts(jobs, settings, on_part)
     finally:
         if bar is not None:
             bar.stop()
