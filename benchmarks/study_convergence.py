@@ -25,8 +25,10 @@ pattern-scenario, meshing included, summed over the meshes it needs):
 * a single mesh h (h = 1.5 is what the catalog first shipped with, marked "one mesh before");
 * two-mesh Richardson extrapolation E₂ + (E₂ − E₁)/((h₁/h₂)ᵖ − 1) from two independent Triangle meshes,
   p = 1 (the pair 1.5 / 1.0 mm was the catalog's next method, marked "two meshes before");
-* the shipped method (:func:`fabpat.convergence.nested_meshes`): a Triangle mesh of
-  h = :data:`fabpat.convergence.CONVERGED_MESHES` [0] = 2 mm with its chord tolerance, and its nested
+* the shipped method (:func:`fabpat.convergence.mesh_converged`, as ``fabpat sweep``): a Triangle mesh of
+  h = :data:`fabpat.convergence.CONVERGED_MESHES` [0] = 2.5 mm with its chord tolerance (finer for necks
+  narrower than 2.27 mm: :func:`fabpat.convergence.converged_h`; the table header counts the patterns per
+  coarse h), and its nested
   refinement (every triangle split into four, new boundary nodes on the exact outline), extrapolated
   with p = :data:`fabpat.convergence.RICHARDSON_ORDER` (1.2; the rows with p = 1.0 and 1.1 show how much
   the order matters) — and the refined mesh alone.
@@ -49,12 +51,13 @@ from pathlib import Path
 
 import numpy as np
 
-from fabpat.convergence import CONVERGED_MESHES, RICHARDSON_ORDER, nested_meshes, richardson
+from fabpat.convergence import CONVERGED_MESHES, RICHARDSON_ORDER, mesh_converged, richardson
 from fabpat.library import sample_library
 from fabpat.scenarios import SCENARIOS
 
 #: (scenario, h) → (energy, seconds, nodes); h a float for uniform meshes, "nested 2" / "nested 1" for the
-#: shipped method's pair
+#: coarse and fine mesh of the shipped method's pair (keys from when it was 2 / 1 mm; the file's
+#: "nested_h" says which pair)
 Row = dict[tuple[str, float | str], tuple[float, float, int]]
 
 #: the order of the two-independent-mesh extrapolation shipped before the nested meshes
@@ -75,7 +78,8 @@ def run_pattern(pid: str, hs: tuple[float, ...]) -> tuple[str, Row]:
     from fabpat.scenarios import run_scenario
 
     t0 = time.process_time()
-    outline = fillet_pattern(get_pattern(pid)).outline
+    filleted = fillet_pattern(get_pattern(pid))
+    outline = filleted.outline
     t_fillet = time.process_time() - t0
     out: Row = {}
     for h in hs:
@@ -93,8 +97,9 @@ def run_pattern(pid: str, hs: tuple[float, ...]) -> tuple[str, Row]:
         for sc in SCENARIOS:
             out[sc, f"graded {h:g}"] = (run_scenario(mesh, sc, sides=6).energy, 0.0, mesh.n_nodes)
     t0 = time.process_time()
-    pair = nested_meshes(outline, CONVERGED_MESHES[0], 6, 36.0)
+    pair = mesh_converged(filleted)  # as the sweep: coarse h = converged_h(min_width), its refinement
     t_mesh = (time.process_time() - t0 + t_fillet) / len(SCENARIOS) / 2
+    out[COARSE_H] = (pair[0][0], 0.0, 0)
     for (_h, mesh), label in zip(pair, NESTED, strict=True):
         for sc in SCENARIOS:
             t0 = time.process_time()
@@ -104,6 +109,8 @@ def run_pattern(pid: str, hs: tuple[float, ...]) -> tuple[str, Row]:
 
 
 NESTED = ("nested 2", "nested 1")
+#: the key under which a pattern's row keeps the coarse h of its nested pair (mm)
+COARSE_H = ("nested", "coarse h")
 
 
 #: asymptotic order of the energy error, measured on nested meshes (module docstring)
@@ -136,9 +143,11 @@ def main() -> None:
         raw = json.loads(Path(a.load).read_text())
         ids, hs, wall, load0, load1, workers = (raw[k] for k in ("ids", "h", "wall", "load0", "load1", "workers"))
         hs = tuple(hs)
+        nested_h = tuple(raw.get("nested_h", (2.0, 1.0)))  # files written before 2.5 / 1.25 used 2 / 1
         data = {pid: {(sc, h): tuple(v) for sc, h, *v in raw["data"][pid]} for pid in ids}
     else:
         hs = tuple(sorted(set(a.h), reverse=True))
+        nested_h = CONVERGED_MESHES
         ids = list(sample_library(6, 2, a.patterns, a.seed).ids)
         t0 = time.perf_counter()
         load0, workers = os.getloadavg()[0], a.workers
@@ -152,12 +161,17 @@ def main() -> None:
                 if a.save:  # after every pattern: a long run interrupted keeps what it has (--load it)
                     done = [i for i in ids if i in data]
                     Path(a.save).write_text(json.dumps({
-                        "ids": done, "h": hs, "wall": wall, "load0": load0, "load1": load1, "workers": workers,
+                        "ids": done, "h": hs, "nested_h": nested_h, "wall": wall, "load0": load0, "load1": load1,
+                        "workers": workers,
                         "data": {i: [[sc, h, *v] for (sc, h), v in data[i].items()] for i in done}}))
         ids = [i for i in ids if i in data]
     ref_h = np.array(hs[-3:])
+    coarse = [data[pid][COARSE_H][0] for pid in ids if COARSE_H in data[pid]]
     print(f"{len(ids)} patterns: {', '.join(ids)}; meshes h = {', '.join(f'{h:g}' for h in hs)} "
           f"mm; {wall:.0f} s wall with {workers} workers (load average {load0:.1f} → {load1:.1f})\n")
+    if coarse:
+        counts = ", ".join(f"{h:g} mm × {coarse.count(h)}" for h in sorted(set(coarse), reverse=True))
+        print(f"Coarse h of the nested pairs (converged_h of each pattern's min_width): {counts}.\n")
     # (name, meshes, order): one mesh, or Richardson from the last two with that order
     methods: list[tuple[str, tuple[float | str, ...], float]] = [
         (f"h = {h:g}" + (" (one mesh before)" if h == 1.5 else ""), (h,), 0.0) for h in hs[:-1]]
@@ -165,9 +179,13 @@ def main() -> None:
                  + (" (two meshes before)" if (h1, h2) == (1.5, 1.0) else ""), (h1, h2), BEFORE_ORDER)
                 for h1, h2 in itertools.combinations(hs[:-1], 2)]
     if all((SCENARIOS[0], NESTED[1]) in data[pid] for pid in ids):  # files saved before nested meshes lack it
-        methods += [("nested h = 1 alone", (NESTED[1],), 0.0)]
-        methods += [(f"nested 2 / 1, p = {p:g}" + (" (shipped)" if p == RICHARDSON_ORDER else ""), NESTED, p)
-                    for p in (1.0, 1.1, RICHARDSON_ORDER)]
+        n1, n2 = nested_h
+        current = tuple(nested_h) == CONVERGED_MESHES
+        pair = f"{n1:g} / {n2:g}" if len(set(coarse)) < 2 else f"{max(coarse):g}–{min(coarse):g} / half"
+        methods += [("nested, the refined mesh alone" if len(set(coarse)) > 1 else f"nested h = {n2:g} alone",
+                     (NESTED[1],), 0.0)]
+        methods += [(f"nested {pair}, p = {p:g}" + (" (shipped)" if current and p == RICHARDSON_ORDER else ""),
+                     NESTED, p) for p in (1.0, 1.1, RICHARDSON_ORDER)]
     graded = all((SCENARIOS[0], f"graded {h:g}") in data[pid] for pid in ids for h in ref_h)
     refs: dict[str, dict[str, np.ndarray]] = {"U": {}, "G": {}}
     for sc in SCENARIOS:
@@ -194,7 +212,7 @@ def main() -> None:
             if len(mh) == 1:
                 est = [data[pid][sc, mh[0]][0] for pid in ids]
             else:
-                h1, h2 = CONVERGED_MESHES if mh == NESTED else mh
+                h1, h2 = nested_h if mh == NESTED else mh
                 est = [richardson(data[pid][sc, mh[0]][0], data[pid][sc, mh[1]][0], float(h1), float(h2), p)
                        for pid in ids]
             errs = [100.0 * (np.array(est) / refs[n][sc] - 1.0) for n in names]

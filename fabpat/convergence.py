@@ -14,11 +14,11 @@ The two meshes are *nested* (:func:`fabpat.mesh.refine_nested`: the finer one sp
 the coarser into four, its new boundary nodes on the exact outline), not two independent Delaunay
 meshes: independent meshes of neighbouring h scatter by tenths of a percent, and on narrow necks by
 whole percents (0x4888, Dome: 298.7–304.8 N·mm for h = 1.15–1.5 mm, in plateaus as the necks'
-triangles change), which the extrapolation multiplies. With nested meshes all 72 pattern-scenarios of the
-study are within 1 % of references from meshes graded to the local width (worst +0.60 %), 68 of a
-reference from uniform meshes (worst −1.63 %, where the two references differ by 0.5–1.1 %); two
-independent meshes of 1.5 and 1.0 mm are within 1 % in 68 and 66, worst −4.4 and −4.9 %
-(docs/accuracy.md).
+triangles change), which the extrapolation multiplies. With the nested pair 2.5 / 1.25 mm all 72
+pattern-scenarios of the study are within 1 % of references from meshes graded to the local width
+(worst −0.65 %), 67 of a reference from uniform meshes (worst −1.72 %, where the two references differ
+by 0.5–1.1 %); two independent meshes of 1.5 and 1.0 mm are within 1 % in 68 and 66, worst −4.4 and
+−4.9 % (docs/accuracy.md).
 
 Displacements, rotations and fields of a converged run are those of the finer mesh; only the
 energy is extrapolated. Used by ``fabpat simulate`` and ``fabpat.simulate`` (:func:`simulate`) unless
@@ -43,21 +43,27 @@ from fabpat.validate import check, check_size, round_down, round_up
 #: order p of the extrapolation, measured on nested meshes (each triangle split into four; the same
 #: domain): the energy error falls like h^1.1–1.3 (docs/accuracy.md). ``benchmarks/study_convergence.py``
 #: (24 patterns × 3 scenarios) with the nested pair 2.0 / 1.0 mm: p = 1.2 within 1 % in 72 / 68 of 72
-#: against its graded- / uniform-mesh reference, p = 1.1 in 72 / 70, p = 1.0 in 56 / 60
+#: against its graded- / uniform-mesh reference, p = 1.1 in 72 / 70, p = 1.0 in 56 / 60; with 2.5 / 1.25 mm
+#: p = 1.2 in 72 / 67, p = 1.1 in 72 / 70 (p = 1.1 shifts the median error from +0.1 to +0.35 %)
 RICHARDSON_ORDER = 1.2
 
-#: the two mesh sizes (mm) of a converged run: a Triangle mesh of h = 2.0 and its nested refinement
-#: (:func:`fabpat.mesh.refine_nested`, half the edge length)
-CONVERGED_MESHES = (2.0, 1.0)
+#: the two mesh sizes (mm) of a converged run: a Triangle mesh of h = 2.5 and its nested refinement
+#: (:func:`fabpat.mesh.refine_nested`, half the edge length). The study (docs/accuracy.md) measured
+#: 2.0 / 1.0 within 1 % in 72 / 68 of 72 (graded / uniform reference) and 2.5 / 1.25 in 72 / 67 with
+#: 20 % less CPU (the curved boundary, followed to a tolerance ∝ h, sets most of the node count);
+#: 2.75 / 1.375 and 3.0 / 1.5 (one-off runs) left two and three lacy Cylinder and Dome energies
+#: 1.2–1.4 % below the graded reference.
+CONVERGED_MESHES = (2.5, 1.25)
 
 #: mesh size (mm) of a one-mesh run when none is given (``extrapolate=False``, ``--no-extrapolate``)
 ONE_MESH_H = 1.5
 
-#: chord tolerance of the coarse mesh of a converged run, per mm of its h (0.03 mm at h = 2): finer
+#: chord tolerance of the coarse mesh of a converged run, per mm of its h (0.0375 mm at h = 2.5): finer
 #: than the one-mesh default (``fabpat.mesh.FLATTEN_TOL_PER_H``) because the refined mesh inherits the
-#: coarse mesh's boundary vertices. One-off runs on the study's 24 patterns (p = 1.2, against the mean
-#: of two references): 0.04 mm left the lacy 0x4888 1.4–1.6 % low (Cylinder, Dome; its 2.3 mm necks),
-#: 0.03 mm kept all within 1 %, 0.02 mm within 0.6 % with 27 % more nodes.
+#: coarse mesh's boundary vertices. One-off runs on the study's 24 patterns (p = 1.2), coarse h = 2:
+#: 0.04 mm left the lacy 0x4888 1.4–1.6 % below the mean of the two references (Cylinder, Dome; its
+#: 2.3 mm necks); 0.03 and 0.0375 mm kept all 72 within 1 % of the graded one (worst +0.59, +0.54 %),
+#: 0.02 mm within 0.6 % with 27 % more nodes.
 NESTED_FLATTEN_TOL_PER_H = 0.015
 
 
@@ -170,7 +176,7 @@ def nested_meshes(outline: Any, h: float, sides: int | None = None, edge: float 
         hint = f"or use h ≥ {found:g} mm" if found is not None else \
             f"no h up to {cap:g} mm{' (the most this outline allows)' if h_max is not None else ''} fits"
         check_size(count, max_elements, f"mesh elements of the finer mesh of h = {h:g} mm (its refinement to "
-                   f"{h * CONVERGED_MESHES[1] / CONVERGED_MESHES[0]:g} mm)", option, hint, error=GeometryError)
+                   f"{h * (CONVERGED_MESHES[1] / CONVERGED_MESHES[0]):g} mm)", option, hint, error=GeometryError)
 
     estimate = 4 * estimate_elements(outline.area, outline.perimeter, h)
     if estimate > max_elements:  # before meshing: a tiny h must not reach Triangle
@@ -178,25 +184,37 @@ def nested_meshes(outline: Any, h: float, sides: int | None = None, edge: float 
     coarse = coarse_mesh(h)
     if 4 * coarse.n_elements > max_elements:
         refuse(4 * coarse.n_elements)
-    return [(h, coarse), (h * CONVERGED_MESHES[1] / CONVERGED_MESHES[0], refine_nested(coarse, outline))]
+    return [(h, coarse), (h * (CONVERGED_MESHES[1] / CONVERGED_MESHES[0]), refine_nested(coarse, outline))]
+
+
+#: the coarse mesh of a converged run resolves the outline's narrowest neck: h ≤ this × min_width
+#: (:func:`converged_h`). Coarser, Triangle puts one element across the neck, the pair leaves the range
+#: where the energy error falls like hᵖ and the extrapolation overshoots. Measured on the library's
+#: sparsest patterns (necks of min_width 1.95 mm; Dome, nested pair of coarse h = 2.0 / 2.1 / 2.2 / 2.3 /
+#: 2.4 / 2.5 / 2.6 mm): 0x0488 +0.02 / −0.10 / −0.11 / +0.45 / +0.43 / +0.94 / +0.63 % against its
+#: converged value 430.9 N·mm (nested meshes from 2.0 and 2.5 mm down to 0.25 and 0.31 mm, 29 600 and 23 000
+#: nodes, extrapolated with their observed order 1.7–1.8: 430.8 and 431.0); 0x0b08 +0.00 / +0.03 (2.2) / +0.32
+#: (2.25) / +0.56 % (2.5) against its 2.0 / 1.0 mm value; the jump lies between 2.2 and 2.25 mm, i.e.
+#: 1.13–1.15 × min_width. (A one-mesh run only needs h ≤ ``fabpat.mesh.MAX_H_PER_MIN_WIDTH`` × min_width.)
+CONVERGED_H_PER_MIN_WIDTH = 1.1
 
 
 def converged_h(min_width: float, h: float | None = None) -> float:
-    """The coarse mesh size (mm) of a converged run: ``h`` (default CONVERGED_MESHES[0], 2.0), made finer
+    """The coarse mesh size (mm) of a converged run: ``h`` (default CONVERGED_MESHES[0], 2.5), made finer
     for an outline whose narrowest feature ``min_width`` (mm) it would not resolve: at most
-    ``fabpat.mesh.MAX_H_PER_MIN_WIDTH`` × min_width, rounded down (1.76 mm for the triangle 0x0488 of
-    min_width 0.881 mm)."""
+    :data:`CONVERGED_H_PER_MIN_WIDTH` × min_width, rounded down to 3 digits (2.14 mm for the library's
+    sparsest patterns, min_width 1.95 mm; 0.969 mm for the triangle 0x0488 of min_width 0.881 mm)."""
     import math
 
     h = CONVERGED_MESHES[0] if h is None else float(h)
-    return min(h, round_down(MAX_H_PER_MIN_WIDTH * min_width)) if math.isfinite(min_width) else h
+    return min(h, round_down(CONVERGED_H_PER_MIN_WIDTH * min_width)) if math.isfinite(min_width) else h
 
 
 def mesh_converged(filleted: Any, h: float | None = None, *, max_elements: int = DEFAULT_MAX_ELEMENTS,
                    option: str = "raise it with --max-elements") -> list[tuple[float, ShellMesh]]:
     """The two meshes [(h, mesh), (h/2, nested refinement)] of an extrapolated run of a filleted pattern.
 
-    ``h`` None: :func:`converged_h` (2.0 mm, finer for an outline narrower than 1 mm). Raises
+    ``h`` None: :func:`converged_h` (2.5 mm, finer for an outline with necks narrower than 2.27 mm). Raises
     GeometryError before meshing if the finer mesh would exceed ``max_elements`` (see
     :func:`nested_meshes`), or if a given h is too coarse for the outline (as
     :func:`fabpat.scenarios.mesh_filleted`).
@@ -221,8 +239,8 @@ def simulate(
     """Run one of the paper's scenarios (§4.1) on a filleted pattern — ``fabpat.simulate``, as the CLI's.
 
     By default the energy is the mesh-converged value, as in the built-in catalog: the pattern is
-    meshed at h = 2.0 mm (finer for outlines narrower than 1 mm, :func:`converged_h`), that mesh refined
-    once (1.0 mm, :func:`nested_meshes`) and the two energies
+    meshed at h = 2.5 mm (finer for outlines with necks narrower than 2.27 mm, :func:`converged_h`), that mesh refined
+    once (1.25 mm, :func:`nested_meshes`) and the two energies
     extrapolated (:func:`richardson`, p = 1.2); every other field (displacements, iterations, nodes,
     ``to_vtu``) is the refined mesh's, and ``seconds`` the sum of both. Given ``h`` (mm), it solves one
     mesh of that size, for a user who wants a given mesh; ``extrapolate=True`` then uses h and its

@@ -68,7 +68,7 @@ def test_simulate_text_output_is_plain_key_value() -> None:
                            "nodes", "elements", "h"} <= set(row)
     assert [float(x) for x in fields["h"].split(",")] == row["h"] == [4.0]  # --h alone: that one mesh
     default = dict(tok.split("=") for tok in run_cli(*args[:-2]).stdout.split())
-    assert default["h"] == "2,1"  # the default: extrapolated from a mesh and its nested refinement
+    assert default["h"] == "2.5,1.25"  # the default: extrapolated from a mesh and its nested refinement
     assert fields["id"] == "0x7f88" and fields["scenario"] == "cantilever" and fields["converged"] == "true"
     assert float(fields["energy"]) == pytest.approx(row["energy"], rel=1e-5)
     assert float(fields["max_displacement"]) == pytest.approx(row["max_displacement"], rel=1e-3)

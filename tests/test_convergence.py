@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from fabpat.convergence import CONVERGED_MESHES, nested_meshes, richardson, run_converged
+from fabpat.convergence import CONVERGED_MESHES, mesh_converged, nested_meshes, richardson, run_converged
 from fabpat.errors import SolverError
 from fabpat.fillet import fillet_pattern
 from fabpat.library import get_pattern
@@ -40,7 +40,9 @@ def test_richardson_rejects_meshes_that_do_not_refine(args: tuple[float, ...]) -
 
 
 def _meshes(pid: str) -> list:
-    return nested_meshes(fillet_pattern(get_pattern(pid)).outline, CONVERGED_MESHES[0], 6, 36.0)
+    """The shipped pair: coarse h = converged_h(min_width) (2.5 mm, 2.14 for the 1.95 mm necks of 0x2d08
+    and 0x0488) and its nested refinement."""
+    return mesh_converged(fillet_pattern(get_pattern(pid)))
 
 
 @pytest.mark.parametrize("pid", ["0x2d08", "0xf608"])
@@ -52,7 +54,7 @@ def test_converged_energy_within_one_percent_of_the_refined_reference(pid: str) 
         assert r.energy == pytest.approx(ref, rel=0.01), sc
         # the coarse mesh alone is further off, always low
         assert r.runs[0].energy < r.energy and abs(r.runs[0].energy / ref - 1) > abs(r.energy / ref - 1), sc
-        assert r.h == CONVERGED_MESHES and r.fine.nodes > r.runs[0].nodes
+        assert r.h == {"0x2d08": (2.14, 1.07), "0xf608": CONVERGED_MESHES}[pid] and r.fine.nodes > r.runs[0].nodes
 
 
 def test_lacy_pattern_within_one_percent_too() -> None:
@@ -66,7 +68,7 @@ def test_lacy_pattern_within_one_percent_too() -> None:
         assert abs(r.runs[0].energy / ref - 1) > 0.015, sc
 
 def test_simulate_extrapolates_by_default_and_solves_one_mesh_given_h() -> None:
-    """CLI: the default is the converged energy from 2.0 mm and its refinement (1.0 mm); ``--h`` means that
+    """CLI: the default is the converged energy from 2.5 mm and its refinement (1.25 mm); ``--h`` means that
     one mesh, ``--h X --extrapolate`` X and its refinement X/2, ``--no-extrapolate`` one mesh of 1.5 mm;
     ``fabpat.simulate`` alike."""
     import json
@@ -80,7 +82,7 @@ def test_simulate_extrapolates_by_default_and_solves_one_mesh_given_h() -> None:
         return json.loads(r.stdout)
 
     row = sim()
-    assert row["h"] == [2.0, 1.0] and row["extrapolated"] is True
+    assert row["h"] == [2.5, 1.25] and row["extrapolated"] is True
     e1, e2 = row["mesh_energies"]
     assert e1 < e2 < row["energy"]
     assert row["energy"] == pytest.approx(e2 + (e2 - e1) / (2.0**1.2 - 1.0), rel=1e-12)  # p = 1.2
@@ -92,7 +94,7 @@ def test_simulate_extrapolates_by_default_and_solves_one_mesh_given_h() -> None:
     assert two["h"] == [3.0, 1.5] and two["extrapolated"] is True
     fp = fabpat.pattern("0x7f88").fillet()
     r = fabpat.simulate(fp, "cylinder", linear=True)
-    assert r.h == (2.0, 1.0) and r.energy == pytest.approx(row["energy"], rel=1e-9)
+    assert r.h == (2.5, 1.25) and r.energy == pytest.approx(row["energy"], rel=1e-9)
     assert r.mesh_energies == pytest.approx((e1, e2), rel=1e-9) and r.nodes == row["nodes"]
     r1 = fabpat.simulate(fp, "cylinder", linear=True, h=1.5)
     assert r1.h == (1.5,) and r1.energy == pytest.approx(one15["energy"], rel=1e-9)
@@ -118,15 +120,16 @@ def test_simulate_size_check_names_the_finer_mesh_and_suggests_an_h_that_fits() 
 
 
 def test_narrow_outline_gets_a_finer_coarse_mesh_by_default() -> None:
-    """The triangle 0x0488 (min_width 0.881 mm) cannot be meshed at 2 mm (≤ 2 × min_width): by default
-    the converged run uses the coarsest h that resolves it, 1.76 mm, and its refinement; a given h is
-    still refused with the h that works."""
+    """The triangle 0x0488 (min_width 0.881 mm) is far narrower than the default 2.5 mm: by default the
+    converged run's coarse mesh resolves its necks, h = 1.1 × min_width rounded down = 0.969 mm, and its
+    refinement; a given h is refused only above what one mesh can resolve (2 × min_width), with the h
+    that works."""
     import fabpat
     from fabpat.errors import GeometryError
 
     fp = fabpat.pattern("0x0488", sides=3).fillet()
     r = fabpat.simulate(fp, "cylinder", linear=True)
-    assert r.h == (1.76, 0.88) and len(r.mesh_energies) == 2
+    assert r.h == (0.969, 0.4845) and len(r.mesh_energies) == 2
     with pytest.raises(GeometryError, match="use h ≤ 1.76 mm"):
         fabpat.simulate(fp, "cylinder", linear=True, h=2.0, extrapolate=True)
 
@@ -144,3 +147,15 @@ def test_nested_meshes_say_when_no_h_fits() -> None:
 
     with pytest.raises(GeometryError, match="no h up to 1000 mm fits"):
         nested_meshes(fillet_pattern(get_pattern("0x2d08")), 2.0, max_elements=100)
+
+
+def test_converged_h_resolves_the_narrowest_neck() -> None:
+    """The coarse h of a converged run is at most 1.1 × min_width, rounded down to 3 digits (the library's
+    1.95 and 2.25 mm necks: 2.14 and 2.47 mm), else the default 2.5 mm or the h given."""
+    import math
+
+    from fabpat.convergence import converged_h
+
+    assert converged_h(1.9485571585149866) == 2.14 and converged_h(2.25) == 2.47
+    assert converged_h(2.28) == converged_h(3.75) == converged_h(math.inf) == CONVERGED_MESHES[0] == 2.5
+    assert converged_h(2.0, 3.0) == 2.2 and converged_h(3.0, 1.5) == 1.5
