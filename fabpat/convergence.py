@@ -14,11 +14,11 @@ The two meshes are *nested* (:func:`fabpat.mesh.refine_nested`: the finer one sp
 the coarser into four, its new boundary nodes on the exact outline), not two independent Delaunay
 meshes: independent meshes of neighbouring h scatter by tenths of a percent, and on narrow necks by
 whole percents (0x4888, Dome: 298.7–304.8 N·mm for h = 1.15–1.5 mm, in plateaus as the necks'
-triangles change), which the extrapolation multiplies. With the nested pair 2.5 / 1.25 mm all 72
-pattern-scenarios of the study are within 1 % of references from meshes graded to the local width
-(worst −0.65 %), 67 of a reference from uniform meshes (worst −1.72 %, where the two references differ
-by 0.5–1.1 %); two independent meshes of 1.5 and 1.0 mm are within 1 % in 68 and 66, worst −4.4 and
-−4.9 % (docs/accuracy.md).
+triangles change), which the extrapolation multiplies. With the shipped nested pair (2.5 / 1.25 mm,
+finer where a neck is narrow: :func:`converged_h`) all 72 pattern-scenarios of the study are within 1 %
+of references from meshes graded to the local width (worst −0.65 %), 68 of a reference from uniform
+meshes (worst −1.72 %, where the two references differ by 0.5–1.1 %); two independent meshes of 1.5
+and 1.0 mm are within 1 % in 68 and 66, worst −4.4 and −4.9 % (docs/accuracy.md).
 
 Displacements, rotations and fields of a converged run are those of the finer mesh; only the
 energy is extrapolated. Used by ``fabpat simulate`` and ``fabpat.simulate`` (:func:`simulate`) unless
@@ -43,14 +43,16 @@ from fabpat.validate import check, check_size, round_down, round_up
 #: order p of the extrapolation, measured on nested meshes (each triangle split into four; the same
 #: domain): the energy error falls like h^1.1–1.3 (docs/accuracy.md). ``benchmarks/study_convergence.py``
 #: (24 patterns × 3 scenarios) with the nested pair 2.0 / 1.0 mm: p = 1.2 within 1 % in 72 / 68 of 72
-#: against its graded- / uniform-mesh reference, p = 1.1 in 72 / 70, p = 1.0 in 56 / 60; with 2.5 / 1.25 mm
-#: p = 1.2 in 72 / 67, p = 1.1 in 72 / 70 (p = 1.1 shifts the median error from +0.1 to +0.35 %)
+#: against its graded- / uniform-mesh reference, p = 1.1 in 72 / 70, p = 1.0 in 56 / 60; with the shipped
+#: pair (2.5 mm and the neck rule of :func:`converged_h`) p = 1.2 in 72 / 68, p = 1.1 in 72 / 70, p = 1.0 in
+#: 57 / 61 (p = 1.1 raises the median error by about 0.25 %)
 RICHARDSON_ORDER = 1.2
 
 #: the two mesh sizes (mm) of a converged run: a Triangle mesh of h = 2.5 and its nested refinement
-#: (:func:`fabpat.mesh.refine_nested`, half the edge length). The study (docs/accuracy.md) measured
-#: 2.0 / 1.0 within 1 % in 72 / 68 of 72 (graded / uniform reference) and 2.5 / 1.25 in 72 / 67 with
-#: 20 % less CPU (the curved boundary, followed to a tolerance ∝ h, sets most of the node count);
+#: (:func:`fabpat.mesh.refine_nested`, half the edge length); :func:`converged_h` lowers the coarse h for
+#: narrow necks. The study (docs/accuracy.md) measured 2.0 / 1.0 within 1 % in 72 / 68 of 72 (graded /
+#: uniform reference) and 2.5 / 1.25 with the neck rule in 72 / 68 with 25 % less CPU (the curved
+#: boundary, followed to a tolerance ∝ h, sets much of the node count);
 #: 2.75 / 1.375 and 3.0 / 1.5 (one-off runs) left two and three lacy Cylinder and Dome energies
 #: 1.2–1.4 % below the graded reference.
 CONVERGED_MESHES = (2.5, 1.25)
@@ -239,8 +241,8 @@ def simulate(
     """Run one of the paper's scenarios (§4.1) on a filleted pattern — ``fabpat.simulate``, as the CLI's.
 
     By default the energy is the mesh-converged value, as in the built-in catalog: the pattern is
-    meshed at h = 2.5 mm (finer for outlines with necks narrower than 2.27 mm, :func:`converged_h`), that mesh refined
-    once (1.25 mm, :func:`nested_meshes`) and the two energies
+    meshed at h = 2.5 mm (finer for outlines with necks narrower than 2.27 mm, :func:`converged_h`), that
+    mesh refined once (h/2, :func:`nested_meshes`) and the two energies
     extrapolated (:func:`richardson`, p = 1.2); every other field (displacements, iterations, nodes,
     ``to_vtu``) is the refined mesh's, and ``seconds`` the sum of both. Given ``h`` (mm), it solves one
     mesh of that size, for a user who wants a given mesh; ``extrapolate=True`` then uses h and its
@@ -260,7 +262,7 @@ def simulate(
         return simulate_mesh(filleted, scenario, h=ONE_MESH_H if h is None else h, linear=linear, thickness=thickness,
                              youngs_modulus=youngs_modulus, poisson=poisson, max_elements=max_elements)
     scenario, _, thickness, E, nu = simulate_inputs(filleted, scenario, CONVERGED_MESHES[0] if h is None else h,
-                                                    thickness, youngs_modulus, poisson)
+                                                    thickness, youngs_modulus, poisson, linear)
     meshes = mesh_converged(filleted, h, max_elements=max_elements, option="raise max_elements")
     c = run_converged(meshes, scenario, sides=filleted.sides, edge=filleted.edge, thickness=thickness, E=E, nu=nu,
                       nonlinear=not linear)

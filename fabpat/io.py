@@ -248,10 +248,25 @@ def output_folder(path: str | os.PathLike[str], option: str = "--out") -> Iterat
         yield p
     except BaseException:
         if created:
+            _remove_created_folder(p)
+        raise
+
+
+def _remove_created_folder(p: Path) -> None:
+    """Remove stale temporaries and the folder ``p`` if then empty, finishing even if Ctrl-C or SIGTERM
+    arrives meanwhile (re-raised at the end, as :func:`remove_all`): a third Ctrl-C in quick succession
+    left the created folder behind."""
+    interrupted: BaseException | None = None
+    for _ in range(3):  # each try makes progress; an interrupt can only cut one short
+        try:
             with contextlib.suppress(OSError):
                 remove_stale_temps(p)
                 p.rmdir()  # only if empty: never remove what someone else put there meanwhile
-        raise
+            break
+        except BaseException as e:  # noqa: BLE001 - finish the cleanup first, then re-raise
+            interrupted = interrupted or e
+    if interrupted is not None:
+        raise interrupted
 
 
 def _umask() -> int:

@@ -252,7 +252,8 @@ def simulate(
     cannot be meshed at this h (too coarse for its narrowest feature, or more than ``max_elements``
     triangles).
     """
-    scenario, h, thickness, E, nu = simulate_inputs(filleted, scenario, h, thickness, youngs_modulus, poisson)
+    scenario, h, thickness, E, nu = simulate_inputs(filleted, scenario, h, thickness, youngs_modulus, poisson,
+                                                    linear)
     mesh = mesh_filleted(filleted, h, max_elements=max_elements)
     r = run_scenario(mesh, scenario, sides=filleted.sides, edge=filleted.edge, thickness=thickness, E=E,
                      nu=nu, nonlinear=not linear)
@@ -260,11 +261,14 @@ def simulate(
 
 
 def simulate_inputs(filleted: Any, scenario: str, h: float, thickness: float, youngs_modulus: float,
-                    poisson: float) -> tuple[str, float, float, float, float]:
+                    poisson: float, linear: object = False) -> tuple[str, float, float, float, float]:
     """(scenario, h, thickness, E, ν) of :func:`simulate`'s arguments, checked against
-    :mod:`fabpat.validate`'s ranges; SolverError (one line) for a bad one or a non-filleted pattern."""
+    :mod:`fabpat.validate`'s ranges; SolverError (one line) for a bad one, a ``linear`` that is not a
+    bool (``linear="no"`` would otherwise mean True) or a non-filleted pattern."""
     if not hasattr(filleted, "outline") or not hasattr(filleted, "sides"):
         raise SolverError(f"simulate needs a FilletedPattern (pattern.fillet()), got {type(filleted).__name__}")
+    if not isinstance(linear, bool | np.bool_):
+        raise SolverError(f"linear must be True or False, got {linear!r}")
     return (scenario_name(scenario), check("h", h, error=SolverError), check("thickness", thickness, error=SolverError),
             check("youngs_modulus", youngs_modulus, error=SolverError), check("poisson", poisson, error=SolverError))
 

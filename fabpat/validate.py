@@ -153,7 +153,7 @@ def round_up(x: float, digits: int = 2) -> float:
     if not (math.isfinite(x) and x > 0):
         return x
     scale = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
-    return math.ceil(x / scale * (1 - 1e-12)) * scale
+    return float(f"{math.ceil(x / scale * (1 - 1e-12)) * scale:.{digits}g}")  # 2.4, not 2.4000000000000004
 
 
 def round_down(x: float, digits: int = 3) -> float:
@@ -161,7 +161,8 @@ def round_down(x: float, digits: int = 3) -> float:
     if not (math.isfinite(x) and x > 0):
         return x
     scale = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
-    return math.floor(x / scale * (1 + 1e-12)) * scale
+    # through the decimal digits, so that 1.13 is 1.13 and not 1.1300000000000001 (113 × 0.01)
+    return float(f"{math.floor(x / scale * (1 + 1e-12)) * scale:.{digits}g}")
 
 
 def check_tolerance(tolerance: float, size: float, label: str, error: type[FabpatError] = RangeError) -> float:

@@ -159,3 +159,19 @@ def test_converged_h_resolves_the_narrowest_neck() -> None:
     assert converged_h(1.9485571585149866) == 2.14 and converged_h(2.25) == 2.47
     assert converged_h(2.28) == converged_h(3.75) == converged_h(math.inf) == CONVERGED_MESHES[0] == 2.5
     assert converged_h(2.0, 3.0) == 2.2 and converged_h(3.0, 1.5) == 1.5
+
+
+def test_suggested_sizes_are_clean_decimals() -> None:
+    """h values that reach the JSON and the catalog are the decimals they print as (1.13, not
+    1.1300000000000001, from 113 × 0.01)."""
+    from fabpat.convergence import converged_h
+
+    assert repr(converged_h(1.0273)) == "1.13" and repr(converged_h(1.0273) / 2) == "0.565"
+
+
+@pytest.mark.parametrize("kw", [{"linear": "yes"}, {"linear": "no", "h": 1.5}, {"linear": 1}])
+def test_simulate_refuses_a_linear_that_is_not_a_bool(kw: dict) -> None:
+    import fabpat
+
+    with pytest.raises(SolverError, match="linear must be True or False"):
+        fabpat.simulate(fabpat.pattern("0x7f88").fillet(), "cylinder", **kw)

@@ -120,6 +120,45 @@ def test_interrupted_export_all_leaves_no_part_files(tmp_path: Path, sig: signal
     assert not out.exists()  # the folder this run created is removed again
 
 
+def test_ctrl_c_during_the_last_part_stops_before_the_commit(tmp_path: Path) -> None:
+    """An interrupt held while a part is written (deferred_interrupts, one part at a time) is raised when
+    that part is done, still inside the atomic block: even during the last part no file is committed."""
+    import fabpat
+    from fabpat.cli import deferred_interrupts
+    from fabpat.exchange.registry import export_parts, filleted_part
+
+    part = filleted_part(fabpat.pattern("0x0488").fillet())
+    jobs = [(part, {"svg": tmp_path / f"p{i}.svg"}) for i in range(3)]
+    done: list[int] = []
+
+    def on_part(_part: object, _formats: list[str]) -> None:
+        done.append(1)
+        if len(done) == len(jobs):  # the last part: the signal arrives while it is being finished
+            os.kill(os.getpid(), signal.SIGINT)
+
+    with pytest.raises(KeyboardInterrupt):
+        export_parts(jobs, on_part=on_part, part_guard=deferred_interrupts)
+    assert len(done) == 3 and list(tmp_path.iterdir()) == []
+
+
+def test_deferred_interrupts_keep_an_ignored_sigint_and_surface_a_held_one() -> None:
+    from fabpat.cli import deferred_interrupts
+
+    before = signal.getsignal(signal.SIGINT)
+    try:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # a background job's SIGINT
+        with deferred_interrupts():
+            os.kill(os.getpid(), signal.SIGINT)
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGINT, before)
+    with pytest.raises(KeyboardInterrupt) as info, deferred_interrupts():  # held, then another error
+        os.kill(os.getpid(), signal.SIGINT)
+        raise ValueError("a writer failed")
+    assert isinstance(info.value.__context__, ValueError)
+    assert signal.getsignal(signal.SIGINT) is before
+
+
 def test_stale_part_files_are_removed_by_the_next_run(tmp_path: Path) -> None:
     out = tmp_path / "parts"
     proc = _export_all(out)

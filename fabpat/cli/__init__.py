@@ -49,13 +49,17 @@ def _sigterm_unwinds() -> Iterator[None]:
 def deferred_interrupts() -> Iterator[Callable[[], None]]:
     """Inside the block a Ctrl-C or SIGTERM is noted, not raised; the yielded ``checkpoint()`` raises it
     (as KeyboardInterrupt, SIGTERM recorded as by :func:`_on_sigterm`) where the caller knows it is safe,
-    e.g. between the parts of ``export --all``, and so does leaving the block. A second signal while
-    one is pending is raised at once (a user who presses Ctrl-C twice wants out).
+    and leaving the block does, after the previous handlers are back. A second signal while one is
+    pending is raised at once (a user who presses Ctrl-C twice wants out); a signal that was ignored
+    (SIG_IGN, e.g. a background job's SIGINT) stays ignored; if the block ends with another exception,
+    the interrupt is raised from it (the CLI then still exits 130 or 143).
 
     Why: an interrupt raised at an arbitrary point can land inside an import (ezdxf loads submodules
     while the first DXF is written) or a finalizer; CPython then prints "Exception ignored" and goes on,
-    and measured runs then hung on an import lock or aborted (exit −6) instead of cleaning up.
-    Outside the main thread, where handlers cannot be set, signals behave as usual.
+    and measured runs then hung on an import lock or aborted (exit −6) instead of cleaning up. The
+    export holds interrupts for one part at a time (:func:`fabpat.exchange.registry.export_parts`'s
+    ``part_guard``), so one arriving during the last part still stops the run before its files are
+    committed. Outside the main thread, where handlers cannot be set, signals behave as usual.
     """
     import signal
     import threading
@@ -78,13 +82,27 @@ def deferred_interrupts() -> Iterator[Callable[[], None]]:
                 _TERMINATED.append(signum)
             raise KeyboardInterrupt
 
-    previous = {s: signal.signal(s, note) for s in (signal.SIGINT, signal.SIGTERM)}
+    previous = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    held = [s for s, handler in previous.items() if handler is not signal.SIG_IGN]
+    for s in held:
+        signal.signal(s, note)
     try:
         yield checkpoint
+    except BaseException as e:
+        if pending and not isinstance(e, KeyboardInterrupt):
+            _restore(previous, held)
+            checkpoint()  # raised inside this handler: e becomes its __context__
+        raise
     finally:
-        for s, handler in previous.items():
-            signal.signal(s, handler)
+        _restore(previous, held)
     checkpoint()
+
+
+def _restore(previous: dict[int, Any], held: list[int]) -> None:
+    import signal
+
+    for s in held:
+        signal.signal(s, previous[s])
 
 
 def _caused_by_interrupt(e: BaseException) -> bool:

@@ -47,7 +47,8 @@ _db_help = "Catalog file (SQLite) [default: the built-in catalog of the default 
 @number_option("--poisson", range_name="poisson", default=0.35, show_default=True, help="Poisson's ratio (PLA: 0.35).")
 @number_option("--h", "--mesh-size", "h", range_name="h", default=None,
                help="Target mesh edge length in mm (at most twice each pattern's min_width) "
-                    "[default: 2.5, refined to 1.25; with --no-extrapolate 1.5].")
+                    "[default: 2.5, an upper bound lowered to 1.1 × min_width for narrower necks, refined to "
+                    "half; with --no-extrapolate 1.5].")
 @click.option("--extrapolate/--no-extrapolate", default=True, show_default=True,
               help="Mesh each pattern at h, refine that mesh once (h/2, nested) and store the energy "
                    "extrapolated to the mesh-converged value (Richardson, as the built-in catalog and `fabpat "

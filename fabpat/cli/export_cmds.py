@@ -68,7 +68,6 @@ def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> lis
         task = bar.add_task("exporting", total=len(jobs))
 
     def on_part(part: Part, formats: list[str]) -> None:
-        checkpoint()  # a Ctrl-C or SIGTERM since the last part ends the run here, not inside an import
         messages = width_warnings(part.outline, formats, settings.kerf)
         if messages:
             narrow.append((part.label, messages))
@@ -81,8 +80,8 @@ def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> lis
     if bar is not None:
         bar.start()
     try:
-        with deferred_interrupts() as checkpoint:
-            paths = export_parts(jobs, settings, on_part)
+        # a Ctrl-C or SIGTERM takes effect between parts, not inside an import or a finalizer
+        paths = export_parts(jobs, settings, on_part, part_guard=deferred_interrupts)
     finally:
         if bar is not None:
             bar.stop()

@@ -44,8 +44,8 @@ def _per_scenario(path: str | None, scenario: str, many: bool) -> str | None:
 @click.option("--linear", is_flag=True, help="Linear analysis instead of geometrically nonlinear.")
 @number_option("--h", "h", range_name="h", default=None,
                help="Target mesh edge length in mm (at most twice the pattern's min_width): one mesh of this "
-                    "size unless --extrapolate is also given [default: 2.5 refined to 1.25, extrapolated; "
-                    "with --no-extrapolate 1.5].")
+                    "size unless --extrapolate is also given [default: 2.5, or 1.1 × min_width for narrower "
+                    "necks, refined to half, extrapolated; with --no-extrapolate 1.5].")
 @click.option("--extrapolate/--no-extrapolate", default=None,
               help="Mesh at h, refine that mesh once (h/2, nested) and report the energy extrapolated to the "
                    "mesh-converged value (Richardson, order 1.2; other fields from the finer mesh) [default: "
@@ -73,8 +73,9 @@ def simulate_cmd(
     energy (total strain energy, N·mm), max_displacement (mm), converged, iterations, seconds (s),
     nodes, elements, h (the mesh sizes in mm, comma-separated: two when the energy is extrapolated).
     By default the energy is the mesh-converged value, as in the built-in catalog: extrapolated from a
-    mesh of 2.5 mm and its nested refinement, 1.25 mm (Richardson; JSON ``h`` and ``mesh_energies`` list
-    both; the other fields and the files are the finer mesh's, seconds the sum of both). With --h the
+    mesh of 2.5 mm (1.1 × min_width for necks under 2.27 mm) and its nested refinement, half that
+    (Richardson; JSON ``h`` and ``mesh_energies`` list both; the other fields and the files are the
+    finer mesh's, seconds the sum of both). With --h the
     pattern is solved on one mesh of that size (add --extrapolate for h and its refinement h/2);
     --no-extrapolate solves one mesh of 1.5 mm.
     With --scenario all, file options get the scenario appended (out.vtu → out-dome.vtu).
@@ -108,7 +109,7 @@ def simulate_cmd(
             check_suffix(path, valid, option)
     pattern = get_pattern(pattern_id, sides, depth, edge)
     filleted = fillet_pattern(pattern, weight)  # its outline carries its polygon
-    # by default the converged run's coarse h (2.5 mm, finer for an outline narrower than 1.25 mm)
+    # by default the converged run's coarse h (2.5 mm; 1.1 × min_width for necks under 2.27 mm)
     meshes = mesh_converged(filleted, h, max_elements=max_elements) if extrapolate else \
         [(float(h), mesh_filleted(filleted, float(h), max_elements=max_elements))]  # type: ignore[arg-type]
     mesh = meshes[-1][1]  # fields, files and node counts come from the finest mesh

@@ -14,6 +14,7 @@ Process limits for the minimum-feature-width warning (documented defaults):
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import math
 import os
@@ -254,13 +255,16 @@ def export_parts(
     jobs: Sequence[Job],
     settings: ExportSettings | None = None,
     on_part: Callable[[Part, list[str]], None] | None = None,
+    part_guard: Callable[[], contextlib.AbstractContextManager[object]] = contextlib.nullcontext,
 ) -> list[Path]:
     """Write every job's part to its ``{format: path}`` targets in one atomic block.
 
     A job's part may be a callable that builds it, so a whole library is built one part at a time.
     All options, formats and folders are checked before any file is created, and on any error (in
     any part) no file is left. ``on_part(part, formats)`` runs after each part is written (progress,
-    warnings). Returns the paths written.
+    warnings). Each part's building, writing and ``on_part`` run inside ``part_guard()`` (the CLI holds
+    Ctrl-C there until the part is done, :func:`fabpat.cli.deferred_interrupts`), still inside the
+    atomic block. Returns the paths written.
     """
     settings = settings or ExportSettings()
     settings.check()
@@ -276,13 +280,14 @@ def export_parts(
     with atomic_outputs(*paths) as temps:
         tmp = iter(temps)
         for job, targets in jobs:
-            part = job() if callable(job) else job
-            settings.check_part(part, list(targets))
-            for name in targets:
-                with occt_errors(f"writing the {name.upper()} file of {part.label or part.name}"):
-                    FORMATS[name].write(part, next(tmp), settings)
-            if on_part is not None:
-                on_part(part, list(targets))
+            with part_guard():
+                part = job() if callable(job) else job
+                settings.check_part(part, list(targets))
+                for name in targets:
+                    with occt_errors(f"writing the {name.upper()} file of {part.label or part.name}"):
+                        FORMATS[name].write(part, next(tmp), settings)
+                if on_part is not None:
+                    on_part(part, list(targets))
     return paths
 
 
