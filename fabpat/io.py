@@ -257,7 +257,7 @@ def _remove_created_folder(p: Path) -> None:
     arrives meanwhile (re-raised at the end, as :func:`remove_all`): a third Ctrl-C in quick succession
     left the created folder behind."""
     interrupted: BaseException | None = None
-    for _ in range(3):  # each try makes progress; an interrupt can only cut one short
+    for _ in range(3):  # bounded, unlike remove_all's loop: a fault that is not an interrupt must not spin
         try:
             with contextlib.suppress(OSError):
                 remove_stale_temps(p)
