@@ -151,7 +151,7 @@ def simulate_pattern(pattern_id: str, sides: int, depth: int, edge: float, thick
         if h_fine is None:
             check_resolves(h, float(prow["min_width"]), f"pattern {pattern_id}")  # as `fabpat simulate --h`
             meshes = [(h, mesh_outline(filleted.outline, h, sides, edge, weight=weight))]
-        else:  # a pattern too narrow for h is meshed at the coarsest h that resolves it (row h says so)
+        else:  # h is an upper bound: converged_h lowers it where a neck would be unresolved (row h says so)
             coarse = converged_h(float(prow["min_width"]), h)
             meshes = nested_meshes(filleted.outline, coarse, sides, edge, weight=weight)
     except FabpatError as e:
