@@ -54,7 +54,7 @@ from fabpat.mesh import DEFAULT_MAX_ELEMENTS, ShellMesh, mesh_outline
 from fabpat.shell.element import Material
 from fabpat.shell.results import ShellResult
 from fabpat.shell.solve import ShellProblem, solve_linear, solve_nonlinear
-from fabpat.validate import check, round_down
+from fabpat.validate import check, check_path, round_down
 
 if TYPE_CHECKING:  # pragma: no cover
     from fabpat.pattern import Pattern
@@ -139,7 +139,7 @@ class ScenarioResult:
         from fabpat.exchange.vtu import write_vtu  # a writer: loaded only when a file is asked for
         from fabpat.io import atomic_outputs, check_suffix
 
-        path = _output_path(path, "a VTU file name")
+        path = check_path(path, "a VTU file name", error=ExportError)
         check_suffix(path, VTU_SUFFIXES, "a VTU file name")
         mesh = self._need_mesh()
         with atomic_outputs(path) as (tmp,):
@@ -154,7 +154,7 @@ class ScenarioResult:
         from fabpat.exchange.png_result import write_png
         from fabpat.io import atomic_outputs, check_suffix
 
-        path = _output_path(path, "a PNG file name")
+        path = check_path(path, "a PNG file name", error=ExportError)
         check_suffix(path, PNG_SUFFIXES, "a PNG file name")
         if title is not None and not isinstance(title, str):
             raise ExportError(f"title must be a string, got {type(title).__name__}")
@@ -176,13 +176,6 @@ class ScenarioResult:
         if self.h:
             out.update(h=list(self.h), mesh_energies=list(self.mesh_energies), extrapolated=len(self.h) > 1)
         return out
-
-
-def _output_path(path: object, label: str) -> str | os.PathLike[str]:
-    """``path`` if it is a str or path-like; ExportError naming ``label`` otherwise (``to_png(None)``)."""
-    if not isinstance(path, str | os.PathLike):
-        raise ExportError(f"{label} must be a path (str or pathlib.Path), got {type(path).__name__}")
-    return path
 
 
 def load_label(scenario: str) -> str:
@@ -264,6 +257,8 @@ def run_scenario(mesh: ShellMesh, scenario: str, *, sides: int | None = None, ed
     Raises SolverError if it does not converge, the result is implausible (module docstring) or a
     parameter is outside its range (:mod:`fabpat.validate`).
     """
+    if not isinstance(mesh, ShellMesh):
+        raise SolverError(f"run_scenario needs a ShellMesh (fabpat.mesh.mesh_outline), got {type(mesh).__name__}")
     edge = check("edge", edge, error=SolverError)
     sides = len(mesh.interfaces) if sides is None else sides
     t0 = time.perf_counter()
