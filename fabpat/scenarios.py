@@ -88,6 +88,8 @@ class ScenarioResult:
     sizes (mm) the energy comes from and ``mesh_energies`` (N·mm) their energies: one mesh, or two when
     the energy is extrapolated to the mesh-converged value (:func:`fabpat.convergence.simulate`; every
     other field is then the finer mesh's); empty when the caller did not say (:func:`run_scenario`).
+    ``pattern_id``: the pattern's ID when :func:`simulate` made the result ("" from :func:`run_scenario`).
+    In a notebook it shows as the picture :meth:`to_png` draws (``_repr_png_``).
     """
 
     scenario: str
