@@ -51,12 +51,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.errors import GeometryError
+from fabpat.errors import ExportError, GeometryError
 from fabpat.lattice import polygon_vertices
 from fabpat.metrics import RegionMetrics
 from fabpat.outline import Line, Loop, Outline, OutlineReport, PolygonFrame, RationalQuad, Segment
 from fabpat.pattern import Pattern
-from fabpat.validate import check
+from fabpat.validate import check, check_path
 
 DEFAULT_WEIGHT = 0.2  # interface weight of the paper (§3.3)
 _ANGLE_EPS = 1e-9  # rad: runs this close to 180° are straight
@@ -184,13 +184,14 @@ class FilletedPattern:
 
         ``options``: ``thickness`` (mm, default 2) and the :class:`~fabpat.exchange.registry.ExportSettings`
         fields (``mesh_tolerance``, ``curve_tolerance``, ``kerf`` mm, ``curves``, ``dxf_version``, …).
-        Atomic: on error no file is left. Raises :class:`~fabpat.errors.ExportError` for an unknown
-        suffix or option. Returns the path written.
+        Atomic: on error no file is left. Raises :class:`~fabpat.errors.ExportError` for a path that is
+        not a file name (not a str or path-like, or holding a NUL), an unknown suffix or option. Returns
+        the path written.
         """
         # The writers are the exchange stage's: imported when called, so filleting does not load them.
         from fabpat.exchange.registry import export_filleted
 
-        return export_filleted(self, path, **options)
+        return export_filleted(self, check_path(path, "the export path", error=ExportError), **options)
 
     def plot(self, ax: Any = None, **kwargs: Any) -> Any:
         """:meth:`Outline.plot` of the outline (matplotlib; returns the axes)."""
@@ -502,6 +503,8 @@ def fillet_pattern(pattern: Pattern, weight: float = DEFAULT_WEIGHT) -> Filleted
     (fabpat.validate: GeometryError otherwise).
     Raises :class:`GeometryError` if the pattern cannot be filleted (not expected for library patterns).
     """
+    if not isinstance(pattern, Pattern):
+        raise GeometryError(f"fillet_pattern needs a Pattern (fabpat.pattern('0x0488')), got {type(pattern).__name__}")
     weight = check("weight", weight, "interface weight", error=GeometryError)
     corners = polygon_vertices(pattern.sides, pattern.edge)
     tangents = np.roll(corners, -1, axis=0) - corners

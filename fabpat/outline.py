@@ -24,6 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 from fabpat import conics, curves, polyline
 from fabpat.errors import GeometryError
 from fabpat.metrics import RegionMetrics
+from fabpat.validate import check
 
 Point = NDArray[np.float64]  # shape (2,)
 
@@ -263,7 +264,11 @@ class Loop:
     segments: tuple[Segment, ...]
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "segments", tuple(self.segments))
+        segments = self.segments
+        if isinstance(segments, Line | RationalQuad) or not isinstance(segments, Sequence) or not all(
+                isinstance(s, Line | RationalQuad) for s in segments):
+            raise GeometryError(f"a Loop is a sequence of Line and RationalQuad segments, got {segments!r:.80}")
+        object.__setattr__(self, "segments", tuple(segments))
 
     @cached_property
     def signed_area(self) -> float:
@@ -351,8 +356,8 @@ def flattening_tolerance(tol: object) -> float:
         value = float(tol)  # type: ignore[arg-type]
     except (TypeError, ValueError):
         raise GeometryError(f"tol must be a positive number of mm, got {tol!r}") from None
-    if not value > 0:
-        raise GeometryError(f"tol must be a positive number of mm, got {tol!r}")
+    if not 0 < value < math.inf:  # inf would flatten every curve to its chord
+        raise GeometryError(f"tol must be a positive, finite number of mm, got {tol!r}")
     return value
 
 
@@ -391,12 +396,20 @@ class Outline:
     polygon: PolygonFrame | None = None
 
     def __post_init__(self) -> None:
+        if not isinstance(self.outer, Loop):
+            raise GeometryError(f"an Outline's outer loop must be a Loop, got {type(self.outer).__name__}")
+        if not isinstance(self.holes, Sequence) or not all(isinstance(h, Loop) for h in self.holes):
+            raise GeometryError(f"an Outline's holes must be a sequence of Loops, got {self.holes!r:.80}")
+        if self.polygon is not None and not isinstance(self.polygon, PolygonFrame):
+            raise GeometryError("an Outline's polygon must be a PolygonFrame or None, got "
+                                f"{type(self.polygon).__name__}")
         object.__setattr__(self, "holes", tuple(self.holes))
 
     def __repr__(self) -> str:
         n = sum(len(loop.segments) for loop in self.loops)
         where = "" if self.polygon is None else f", {self.polygon.sides}-gon edge {self.polygon.edge:g} mm"
-        return f"Outline({len(self.holes)} holes, {n} segments, area={self.area:.1f} mm²{where})"
+        holes = f"{len(self.holes)} hole{'' if len(self.holes) == 1 else 's'}"
+        return f"Outline({holes}, {n} segments, area={self.area:.1f} mm²{where})"
 
     def _repr_svg_(self) -> str:
         """Notebook picture: the exact outline (lines, exact arcs ``A``/``Q``) filled black, true size (mm),
@@ -481,7 +494,8 @@ class Outline:
         count scaled by √(reference / tol): a chord c of a curve of radius r has sagitta c²/8r, so the
         count of a smooth curve grows as tol^(-1/2). Lines count 1.
         """
-        coarse = max(float(tol), reference)
+        tol = flattening_tolerance(tol)
+        coarse = max(tol, reference)
         scale = math.sqrt(coarse / tol) if tol > 0 else math.inf
         total = 0.0
         for loop in self.loops:
@@ -517,9 +531,11 @@ class Outline:
         sector of the boundary only, n times fewer.
 
         Raises GeometryError listing every problem if ``raise_on_error`` and the outline is invalid,
-        and if ``tol`` is not a positive number.
+        and if ``tol`` is outside ``width_tolerance`` of :mod:`fabpat.validate` ([1e-5, 1] mm: finer
+        makes the ray cast of min_width grow without bound, 24 GB at 1e-300 mm; coarser replaces the arcs
+        by their chords).
         """
-        tol = flattening_tolerance(tol)
+        tol = check("width_tolerance", tol, "tol", error=GeometryError)
         if any(not loop.segments for loop in self.loops):
             raise GeometryError("invalid outline: a loop has no segments")
         problems: list[str] = []

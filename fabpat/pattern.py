@@ -19,8 +19,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat._callable import make_callable
+from fabpat.errors import PatternError
 from fabpat.lattice import Slice, check_depth, check_sides, polygon_vertices, slice_lattice
 from fabpat.metrics import RegionMetrics, triangle_metrics
+from fabpat.validate import check
 
 if TYPE_CHECKING:  # pragma: no cover
     from fabpat.fillet import FilletedPattern
@@ -104,7 +106,7 @@ class Pattern:
     @classmethod
     def from_id(cls, pattern_id: str, sides: int = 6, depth: int = 2, edge: float = DEFAULT_EDGE) -> Pattern:
         """The pattern of a hex ID in the regular ``sides``-gon of edge ``edge`` mm; raises :class:`PatternError`."""
-        return cls(Slice.from_id(pattern_id, depth), check_sides(sides), float(edge))
+        return cls(Slice.from_id(pattern_id, depth), check_sides(sides), check("edge", edge, error=PatternError))
 
     @property
     def id(self) -> str:

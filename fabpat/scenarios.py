@@ -49,12 +49,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.errors import GeometryError, SolverError
+from fabpat.errors import ExportError, GeometryError, SolverError
 from fabpat.mesh import DEFAULT_MAX_ELEMENTS, ShellMesh, mesh_outline
 from fabpat.shell.element import Material
 from fabpat.shell.results import ShellResult
 from fabpat.shell.solve import ShellProblem, solve_linear, solve_nonlinear
-from fabpat.validate import check, round_down
+from fabpat.validate import check, check_path, round_down
 
 if TYPE_CHECKING:  # pragma: no cover
     from fabpat.pattern import Pattern
@@ -88,6 +88,8 @@ class ScenarioResult:
     sizes (mm) the energy comes from and ``mesh_energies`` (N·mm) their energies: one mesh, or two when
     the energy is extrapolated to the mesh-converged value (:func:`fabpat.convergence.simulate`; every
     other field is then the finer mesh's); empty when the caller did not say (:func:`run_scenario`).
+    ``pattern_id``: the pattern's ID when :func:`simulate` made the result ("" from :func:`run_scenario`).
+    In a notebook it shows as the picture :meth:`to_png` draws (``_repr_png_``).
     """
 
     scenario: str
@@ -104,11 +106,28 @@ class ScenarioResult:
     mesh: ShellMesh | None = None
     h: tuple[float, ...] = ()
     mesh_energies: tuple[float, ...] = ()
+    pattern_id: str = ""  # the simulated pattern's ID, when the caller knew it (:func:`simulate`)
 
     def __repr__(self) -> str:
         kind = "nonlinear" if self.nonlinear else "linear"
-        return (f"ScenarioResult({self.scenario!r}, energy={self.energy:.6g} N·mm, "
-                f"max_displacement={self.max_displacement:.4g} mm, {kind}, {self.nodes} nodes)")
+        who = f"{self.pattern_id!r}, " if self.pattern_id else ""
+        return (f"ScenarioResult({who}{self.scenario!r}, energy={self.energy:.6g} N·mm, "
+                f"max_displacement={self.max_displacement:.4g} mm, {kind}, {self.nodes} nodes, "
+                f"converged={self.converged})")
+
+    def caption(self) -> str:
+        """The picture's caption: pattern, scenario and load, then this result's ``energy`` (the number the
+        API returns, to 4 significant digits) and largest displacement, e.g. ``"0x0488 · Dome, M = 100 N·mm\n
+        U = 430.5 N·mm, max |u| = 3.2 mm"``."""
+        head = " · ".join(x for x in (self.pattern_id, load_label(self.scenario)) if x)
+        return f"{head}\nU = {self.energy:.4g} N·mm, max |u| = {self.max_displacement:.3g} mm"
+
+    def _repr_png_(self) -> bytes:
+        """The deformed pattern as :meth:`to_png` draws it (PNG bytes), for a notebook."""
+        from fabpat.exchange.png_result import png_bytes
+
+        mesh = self._need_mesh()
+        return png_bytes(mesh.V, mesh.F, self.result, caption=self.caption())
 
     def _need_mesh(self) -> ShellMesh:
         if self.mesh is None:
@@ -122,6 +141,7 @@ class ScenarioResult:
         from fabpat.exchange.vtu import write_vtu  # a writer: loaded only when a file is asked for
         from fabpat.io import atomic_outputs, check_suffix
 
+        path = check_path(path, "a VTU file name", error=ExportError)
         check_suffix(path, VTU_SUFFIXES, "a VTU file name")
         mesh = self._need_mesh()
         with atomic_outputs(path) as (tmp,):
@@ -129,15 +149,23 @@ class ScenarioResult:
         return Path(path)
 
     def to_png(self, path: str | os.PathLike[str], *, title: str | None = None) -> Path:
-        """Write a picture of the deformed pattern coloured by strain-energy density (PNG), atomically.
-        Raises :class:`~fabpat.errors.ExportError` if the suffix is not ``.png``."""
+        """Write a picture of the deformed pattern coloured by strain-energy density (PNG), atomically,
+        captioned by :meth:`caption` (``title``, a string, replaces its first line; the energy line stays).
+        Raises :class:`~fabpat.errors.ExportError` if ``path`` is not a path ending in ``.png`` or
+        ``title`` is not a string."""
         from fabpat.exchange.png_result import write_png
         from fabpat.io import atomic_outputs, check_suffix
 
+        path = check_path(path, "a PNG file name", error=ExportError)
         check_suffix(path, PNG_SUFFIXES, "a PNG file name")
+        if title is not None and not isinstance(title, str):
+            raise ExportError(f"title must be a string, got {type(title).__name__}")
         mesh = self._need_mesh()
+        caption = self.caption()
+        if title:
+            caption = title + "\n" + caption.split("\n", 1)[1]
         with atomic_outputs(path) as (tmp,):
-            write_png(tmp, mesh.V, mesh.F, self.result, title=title or "")
+            write_png(tmp, mesh.V, mesh.F, self.result, title=caption)
         return Path(path)
 
     def summary(self) -> dict[str, object]:
@@ -150,6 +178,14 @@ class ScenarioResult:
         if self.h:
             out.update(h=list(self.h), mesh_energies=list(self.mesh_energies), extrapolated=len(self.h) > 1)
         return out
+
+
+def load_label(scenario: str) -> str:
+    """The scenario and its load as a picture names them: ``"Dome, M = 100 N·mm"`` (magnitudes of
+    :data:`CANTILEVER_FORCE`, :data:`CYLINDER_MOMENT`, :data:`DOME_MOMENT`)."""
+    load = {"cantilever": f"F = {CANTILEVER_FORCE:g} N", "cylinder": f"M = {abs(CYLINDER_MOMENT):g} N·mm",
+            "dome": f"M = {abs(DOME_MOMENT):g} N·mm"}.get(scenario)
+    return f"{scenario.capitalize()}, {load}" if load else scenario
 
 
 def opposite(i: int, sides: int) -> int:
@@ -223,6 +259,8 @@ def run_scenario(mesh: ShellMesh, scenario: str, *, sides: int | None = None, ed
     Raises SolverError if it does not converge, the result is implausible (module docstring) or a
     parameter is outside its range (:mod:`fabpat.validate`).
     """
+    if not isinstance(mesh, ShellMesh):
+        raise SolverError(f"run_scenario needs a ShellMesh (fabpat.mesh.mesh_outline), got {type(mesh).__name__}")
     edge = check("edge", edge, error=SolverError)
     sides = len(mesh.interfaces) if sides is None else sides
     t0 = time.perf_counter()
@@ -257,7 +295,7 @@ def simulate(
     mesh = mesh_filleted(filleted, h, max_elements=max_elements)
     r = run_scenario(mesh, scenario, sides=filleted.sides, edge=filleted.edge, thickness=thickness, E=E,
                      nu=nu, nonlinear=not linear)
-    return dataclasses.replace(r, h=(float(h),), mesh_energies=(r.energy,))
+    return dataclasses.replace(r, h=(float(h),), mesh_energies=(r.energy,), pattern_id=filleted.pattern.id)
 
 
 def simulate_inputs(filleted: Any, scenario: str, h: float, thickness: float, youngs_modulus: float,

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -87,6 +88,10 @@ RANGES: dict[str, Range] = {r.name: r for r in (
        "(Standard_NumericError) at 1e-9"),
     _r("curve_tolerance", 1e-6, 10.0, "mm", "DXF/SVG deviation from the exact outline: 1 µm is far below any "
        "laser"),
+    _r("width_tolerance", 1e-5, 1.0, "mm", "flattening tolerance tol of validate/min_width (accurate to about "
+       "2 tol): 10 nm is far below any fabrication, and the ray cast grows as tol falls (0x0488: 0.2 GB at "
+       "1e-5 mm, 1 GB at 1e-6, 24 GB at 1e-300); above 1 mm the arcs collapse to chords (0x0488 at "
+       "tol = 3: 3.80 mm instead of 1.95)"),
     _r("kerf", 0.0, 10.0, "mm", "laser kerf"),
     _r("max_elements", 1, 1_000_000_000, "", "size limit of one mesh (see the size limits)", integer=True),
     _r("end_shortening", 0.0, 0.5, "", "end-pin travel / strip length: at 0.5 the pins would meet in the "
@@ -188,6 +193,18 @@ def check_size(estimate: float, limit: int, what: str, option: str, hint: str = 
         shown = f"{estimate:.3g}" if not estimate < 1e6 else f"{int(estimate)}"
         raise error(f"{what}: about {shown}, above the limit of {limit} ({option})"
                     + (f"; {hint}" if hint else ""))
+
+
+def check_path(path: object, label: str, error: type[FabpatError] = RangeError) -> str | os.PathLike[str]:
+    """``path`` if it is a file name (str or path-like) the operating system can take; ``error`` naming
+    ``label`` for anything else (None, a number) and for a name with a NUL character, which no file
+    system accepts (``os`` raises a bare ValueError "embedded null byte")."""
+    if not isinstance(path, str | os.PathLike):
+        raise error(f"{label} must be a file name (str or pathlib.Path), got {type(path).__name__}")
+    text = os.fspath(path)
+    if (b"\0" if isinstance(text, bytes) else "\0") in text:
+        raise error(f"{label} {text!r} contains a NUL character, which no file name may hold")
+    return path
 
 
 def check_suffix(path: str | Path, suffixes: tuple[str, ...], label: str,

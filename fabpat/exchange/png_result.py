@@ -2,20 +2,27 @@
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from fabpat.errors import ExportError
 from fabpat.shell.results import ShellResult
 
+if TYPE_CHECKING:  # pragma: no cover
+    from matplotlib.figure import Figure
 
-def write_png(path: str | Path, V: np.ndarray, F: np.ndarray, result: ShellResult, *, title: str = "",
-              dpi: int = 150, elev: float = 28.0, azim: float = -60.0) -> Path:
-    """Render the deformed mesh in a 3D view, faces coloured by strain-energy density (N·mm/mm²,
-    log scale so that the narrow, highly loaded necks and the quiet parts are both visible).
 
-    Always PNG, whatever the suffix (the CLI checks it is .png); ExportError if matplotlib cannot write."""
+def draw(V: np.ndarray, F: np.ndarray, result: ShellResult, *, caption: str = "", elev: float = 28.0,
+         azim: float = -60.0) -> Figure:
+    """A matplotlib figure of the deformed mesh in a 3D view, faces coloured by strain-energy density
+    (N·mm/mm², log scale so that the narrow, highly loaded necks and the quiet parts are both visible).
+
+    V: (n, 2) or (n, 3) reference coordinates (mm); F: (m, 3) triangles; ``caption`` is the figure's
+    title, as given (the caller states the energy it reports: :meth:`fabpat.scenarios.ScenarioResult.caption`).
+    The caller closes the figure (``matplotlib.pyplot.close``)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -42,18 +49,42 @@ def write_png(path: str | Path, V: np.ndarray, F: np.ndarray, result: ShellResul
     ax.set(xlim=(c[0] - r, c[0] + r), ylim=(c[1] - r, c[1] + r), zlim=(c[2] - r, c[2] + r),
            xlabel="x (mm)", ylabel="y (mm)", zlabel="z (mm)")
     ax.view_init(elev=elev, azim=azim)
+    # mplot3d draws the z label outside the axes box, where a tight bounding box does not look: a
+    # slightly zoomed-out box keeps every label on the canvas
+    ax.set_box_aspect(None, zoom=0.85)
     sm = plt.cm.ScalarMappable(norm=norm, cmap=cmap)
-    fig.colorbar(sm, ax=ax, shrink=0.6, label="strain energy density (N·mm/mm²)")
-    ax.set_title(title or f"U = {result.energy:.4g} N·mm, max |u| = {result.max_displacement:.3g} mm")
-    path = Path(path)
+    fig.colorbar(sm, ax=ax, shrink=0.6, pad=0.1, label="strain energy density (N·mm/mm²)")
+    ax.set_title(caption)
+    return fig
+
+
+def _save(fig: Figure, target: str | Path | io.BytesIO, dpi: int) -> None:
+    import matplotlib.pyplot as plt
+
     try:
-        fig.savefig(path, dpi=dpi, bbox_inches="tight", format="png")
+        fig.savefig(target, dpi=dpi, bbox_inches="tight", format="png")
     except OSError as exc:  # atomic_outputs names the target, not this temporary file, and a full disk
         from fabpat.io import writer_failed
 
-        raise writer_failed(path, "cannot write the picture", exc) from exc
+        raise writer_failed(Path(str(target)), "cannot write the picture", exc) from exc
     except (ValueError, RuntimeError) as exc:  # matplotlib's refusals become one line at this boundary
-        raise ExportError(f"cannot write {path}: {exc}") from exc
+        raise ExportError(f"cannot write the picture: {exc}") from exc
     finally:
         plt.close(fig)
+
+
+def write_png(path: str | Path, V: np.ndarray, F: np.ndarray, result: ShellResult, *, title: str = "",
+              dpi: int = 150, elev: float = 28.0, azim: float = -60.0) -> Path:
+    """Render :func:`draw`'s figure (captioned ``title``) to ``path``.
+
+    Always PNG, whatever the suffix (the CLI checks it is .png); ExportError if matplotlib cannot write."""
+    path = Path(path)
+    _save(draw(V, F, result, caption=title, elev=elev, azim=azim), path, dpi)
     return path
+
+
+def png_bytes(V: np.ndarray, F: np.ndarray, result: ShellResult, *, caption: str = "", dpi: int = 100) -> bytes:
+    """:func:`draw`'s figure as PNG bytes (a notebook's ``_repr_png_``)."""
+    buf = io.BytesIO()
+    _save(draw(V, F, result, caption=caption), buf, dpi)
+    return buf.getvalue()

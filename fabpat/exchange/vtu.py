@@ -1,4 +1,9 @@
-"""VTU (ParaView) output of a shell result: deformed mesh with displacement, rotation and energies."""
+"""VTU (ParaView) output of a shell result: reference mesh with displacement, rotation and energies.
+
+ParaView's convention: the points are the reference (undeformed) positions and ``displacement`` a point
+vector, so the filter *Warp By Vector* (vectors ``displacement``, scale factor 1) shows the deformed
+shape. Storing deformed points as well would have the filter move them twice.
+"""
 
 from __future__ import annotations
 
@@ -34,17 +39,19 @@ def _extra(fields: dict[str, np.ndarray] | None, count: int, what: str, builtin:
 def write_vtu(path: str | Path, V: np.ndarray, F: np.ndarray, result: ShellResult,
               point_data: dict[str, np.ndarray] | None = None,
               cell_data: dict[str, np.ndarray] | None = None) -> Path:
-    """Write the deformed shell to ``path`` (.vtu).
+    """Write the shell and its result to ``path`` (.vtu), for ParaView's *Warp By Vector*.
 
-    V: (n, 2) or (n, 3) reference coordinates (mm); F: (m, 3) triangles. Points are the *deformed*
-    positions; point data ``displacement`` (mm), ``rotation`` (rad, rotation vector), ``reference``
-    (initial coordinates); cell data ``strain_energy``, ``membrane_energy``, ``bending_energy``,
-    ``shear_energy`` (N·mm per element) and ``energy_density`` (N·mm/mm²). ``point_data`` adds
-    further (n,) or (n, k) point fields (e.g. ``plate``, the plate index of each node of an assembly;
-    ``mean_curvature``, ``gaussian_curvature`` of :func:`fabpat.shell.curvature.curvature_fields`),
-    ``cell_data`` (m,) or (m, k) cell fields (e.g. ``peak_strain`` of
-    :func:`fabpat.shell.strain.surface_strains`). Raises ExportError if an extra field has the wrong
-    length, is not numeric, has a NaN/inf or reuses a built-in name (bool fields are written as 0/1).
+    V: (n, 2) or (n, 3) reference coordinates (mm); F: (m, 3) triangles. Points are the *reference*
+    (undeformed) positions, z = 0 for a flat V; point data ``displacement`` (mm: points + displacement
+    are the deformed positions, which Warp By Vector with scale 1 draws), ``rotation`` (rad, rotation
+    vector), ``reference`` (the same reference coordinates, kept for older readers); cell data
+    ``strain_energy``, ``membrane_energy``, ``bending_energy``, ``shear_energy`` (N·mm per element) and
+    ``energy_density`` (N·mm/mm²). ``point_data`` adds further (n,) or (n, k) point fields (e.g.
+    ``plate``, the plate index of each node of an assembly; ``mean_curvature``, ``gaussian_curvature``
+    of :func:`fabpat.shell.curvature.curvature_fields`), ``cell_data`` (m,) or (m, k) cell fields (e.g.
+    ``peak_strain`` of :func:`fabpat.shell.strain.surface_strains`). Raises ExportError if an extra
+    field has the wrong length, is not numeric, has a NaN/inf or reuses a built-in name (bool fields
+    are written as 0/1).
     """
     import meshio
 
@@ -57,7 +64,7 @@ def write_vtu(path: str | Path, V: np.ndarray, F: np.ndarray, result: ShellResul
     area = 0.5 * np.linalg.norm(np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]), axis=1)
     ee = result.element_energy
     mesh = meshio.Mesh(
-        X + result.displacement, [("triangle", F)],
+        X, [("triangle", F)],
         point_data={"displacement": result.displacement, "rotation": result.rotation, "reference": X,
                     **extra_points},
         cell_data={"strain_energy": [ee.sum(axis=1)], "membrane_energy": [ee[:, 0]],
