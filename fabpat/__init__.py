@@ -12,6 +12,7 @@ The Python front door (everything is imported on first use, so ``import fabpat``
     rows = fabpat.catalog()                               # the built-in catalog; rows.to_dataframe()
     sim = fabpat.simulate_assembly("assemblies/truncated-icosahedron.toml")  # the sphere, closed
     sim.fields()["sphericity_rms"]                        # and every simulate-assembly field
+    d = fabpat.design("arch.csv", "assemblies/graded-strip.toml")  # one pattern per column for a target arch
 
 ``fabpat.library``, ``fabpat.pattern`` and ``fabpat.catalog`` are also the submodules of those names:
 calling one calls :func:`fabpat.library.library`, :func:`fabpat.library.pattern` or
@@ -29,6 +30,7 @@ _LAZY = {
     "catalog": "fabpat.catalog",
     "simulate": "fabpat.convergence:simulate",
     "simulate_assembly": "fabpat.assembly.simulation:simulate_assembly",
+    "design": "fabpat.design:design",
     "Library": "fabpat.library:Library",
     "Pattern": "fabpat.pattern:Pattern",
     "FilletedPattern": "fabpat.fillet:FilletedPattern",
