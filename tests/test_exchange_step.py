@@ -78,3 +78,14 @@ def test_export_part_writes_step_atomically(tmp_path: Path) -> None:
     with pytest.raises(ExportError):
         export_part(part, {"step": tmp_path / "b.step", "stl": tmp_path / "missing" / "b.stl"})
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.step"]
+
+
+def test_export_parts_refuses_a_suffix_of_another_format(tmp_path: Path) -> None:
+    from fabpat.exchange.registry import export_parts, filleted_part
+    from fabpat.fillet import fillet_pattern
+    from fabpat.library import get_pattern
+
+    part = filleted_part(fillet_pattern(get_pattern("0x0488", 6, 2, 36.0), 0.2))
+    with pytest.raises(ExportError, match=r"the DXF file must end in \.dxf, got .*out\.dwg"):
+        export_parts([(part, {"dxf": tmp_path / "out.dwg"})])
+    assert list(tmp_path.iterdir()) == []
