@@ -134,7 +134,7 @@ def test_export_all_in_one_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatc
         (["0x0488", "--svg-curves", "arcs", "--svg", "{dir}/a.svg"], "cubic"),
         (["0x0488"], "no output"),
         (["0x0488", "--stl", "{dir}/ok.stl", "--step", "{dir}/missing/a.step"], "does not exist"),
-        (["0x0488", "--stl", "{dir}/a.stl", "--3mf", "{dir}/a.stl"], "same file"),
+        (["0x0488", "--stl", "{dir}/a.stl", "--3mf", "{dir}/a.stl"], "--3mf must end in .3mf"),  # a 3MF in a .stl
         (["0x0001", "--stl", "{dir}/a.stl"], "not in the"),
         (["--all", "--out", "{dir}/lib", "--formats", "step,obj"], "obj"),
         (["--all", "--out", "{dir}/lib", "--formats", ","], "no format"),

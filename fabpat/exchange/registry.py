@@ -123,7 +123,9 @@ class Part:
     ``support``: whole interface arcs whose halves the outline keeps (see :func:`fabpat.cad.make_face`),
     flat or as the (n, 2) pairs of ``FilletedPattern.interface_arcs`` (flattened here).
     ``solid`` (a ``TopoDS_Solid``) is built on first use and shared by every 3D format.
-    Raises :class:`ExportError` for a thickness ≤ 0 or a support that is not arcs.
+    Raises :class:`ExportError` for a thickness ≤ 0, a support that is not arcs, or a name or label
+    that is not text or holds a control character (:func:`fabpat.exchange.step.check_printable`).
+    Any other character is fine: STEP encodes it (:func:`fabpat.exchange.step.step_string`).
     """
 
     outline: Outline
@@ -133,7 +135,12 @@ class Part:
     support: tuple[RationalQuad, ...] = ()
 
     def __post_init__(self) -> None:
+        from fabpat.exchange.step import check_printable
+
         check("thickness", self.thickness, error=ExportError)
+        check_printable(self.name, "the part name")
+        if self.label is not None:
+            check_printable(self.label, "the part label")
         self.support = flatten_arcs(self.support)
 
     @cached_property
