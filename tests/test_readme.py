@@ -53,8 +53,8 @@ def test_licence_and_citation_agree_with_pyproject() -> None:
     assert (conference["type"], conference["title"], conference["doi"], conference["year"]) == (
         "conference-paper", "Computational Design of Fabricable Geometric Patterns", "10.2312/stag.20231297", 2023)
     assert (journal["type"], journal["title"], journal["doi"], journal["journal"], journal["year"]) == (
-        "article", "Procedural generation of geometric patterns for thin shell fabrication", "10.1016/j.cag.2024.103958",
-        "Computers & Graphics", 2024)
+        "article", "Procedural generation of geometric patterns for thin shell fabrication",
+        "10.1016/j.cag.2024.103958", "Computers & Graphics", 2024)
     authors = ["Scandurra", "Laccone", "Malomo", "Callieri", "Cignoni", "Giorgi"]
     for paper in (conference, journal):
         assert [a["family-names"] for a in paper["authors"]] == authors
