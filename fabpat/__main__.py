@@ -1,10 +1,25 @@
 """``python -m fabpat`` and the ``fabpat`` console script.
 
 The CLI is imported inside :func:`run`, so a Ctrl-C while its modules load (click, numpy, …: the
-first half second) ends with the same one line and exit code 130 as one during a command.
+first half second) ends with the same one line and exit code 130 as one during a command; and
+:func:`run` handles SIGTERM before it imports anything, so a SIGTERM in that first half second ends
+with ``fabpat: terminated`` and 143 too, instead of the silent default death.
 """
 
 import sys
+
+if __name__ == "__main__":  # ``python -m fabpat``: one module, whichever name imports it (TERMINATED is shared)
+    sys.modules.setdefault("fabpat.__main__", sys.modules[__name__])
+
+#: the signals that ended the run through :func:`on_sigterm` (read by the CLI for the exit code)
+TERMINATED: list[int] = []
+
+
+def on_sigterm(signum: int, frame: object) -> None:
+    """SIGTERM unwinds like Ctrl-C, so every ``finally`` runs: temporary files and folders are
+    removed and the catalog's committed rows stay (the default action would end the process at once)."""
+    TERMINATED.append(signum)
+    raise KeyboardInterrupt
 
 
 def forget_interrupt() -> None:
@@ -19,6 +34,11 @@ def forget_interrupt() -> None:
 
 
 def run() -> None:
+    """The console entry point: SIGTERM handled first, then the CLI imported and run."""
+    import signal
+
+    if signal.getsignal(signal.SIGTERM) is signal.SIG_DFL:  # an ignored SIGTERM (SIG_IGN) stays ignored
+        signal.signal(signal.SIGTERM, on_sigterm)
     try:
         from fabpat.cli import main
 
@@ -32,9 +52,13 @@ def run() -> None:
 
 
 def interrupted() -> None:
-    """``fabpat: interrupted`` on stderr and exit code 130 (128 + SIGINT)."""
-    sys.stderr.write("fabpat: interrupted\n")
+    """``fabpat: interrupted`` on stderr and exit code 130 (128 + SIGINT), or ``fabpat: terminated``
+    and 143 (128 + SIGTERM) when SIGTERM ended the run."""
     forget_interrupt()
+    if TERMINATED:
+        sys.stderr.write("fabpat: terminated\n")
+        sys.exit(128 + TERMINATED[0])
+    sys.stderr.write("fabpat: interrupted\n")
     sys.exit(130)
 
 

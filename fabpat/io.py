@@ -12,6 +12,13 @@ crash, Ctrl-C, SIGTERM) never leaves a partial or half-written file behind.
   declared with :func:`input_scope` / ``check_distinct(..., inputs=...)``, also through links.
 * A target that is a symbolic link is written *through*: the link stays and the file it points to
   is replaced (atomically, in the link target's folder). A dangling link is refused.
+* Only regular files are replaced: a target (or link target) that exists and is a directory, a FIFO,
+  a device or a socket is refused, checked again just before the rename, so that ``/dev/null`` or a
+  named pipe never becomes a regular file (as root a rename over ``/dev/null`` succeeds). A path
+  ending in ``/`` names a folder and is refused as a file output. fabpat writes no output to a device:
+  what a command prints on stdout (``fabpat show`` without ``--svg``) is the way to stream.
+* Input files declared to :func:`check_distinct` must be regular files (a FIFO would hang the read,
+  ``/dev/zero`` would read until memory runs out); :func:`read_input` reads one with a size bound.
 * An output folder created by :func:`output_folder` is removed again when nothing could be written
   into it (a full disk, an error), so a failed command leaves no empty folder.
 """
@@ -25,6 +32,7 @@ import os
 import re
 import secrets
 import shutil
+import stat
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 
@@ -78,11 +86,43 @@ def remove_stale_temps(folder: str | os.PathLike[str]) -> list[Path]:
     return removed
 
 
+def file_kind(mode: int) -> str:
+    """What a ``st_mode`` is, for messages: ``"a regular file"``, ``"a directory"``, ``"a FIFO (named
+    pipe)"``, ``"a character device"``, ``"a block device"``, ``"a socket"``."""
+    kinds = ((stat.S_ISREG, "a regular file"), (stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
+             (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
+    return next((text for test, text in kinds if test(mode)), "not a regular file")
+
+
+def special_kind(path: str | os.PathLike[str]) -> str | None:
+    """:func:`file_kind` of what ``path`` names (links followed) if it exists and is not a regular file;
+    None if it is a regular file or does not exist. ``os.stat`` opens nothing, so a FIFO cannot hang it."""
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:  # missing (or a dangling link, or unreadable): not known to be special here
+        return None
+    return None if stat.S_ISREG(mode) else file_kind(mode)
+
+
+def check_file_name(path: str | os.PathLike[str], what: str = "cannot write") -> None:
+    """:class:`ExportError` if ``path`` names a folder by its spelling: it ends in ``/`` (``a.vtu/``),
+    ``/.`` or ``/..``, or is empty. ``Path("a.vtu/")`` drops the slash, so the raw text is checked."""
+    raw = os.fspath(path)
+    if isinstance(raw, bytes):
+        raw = os.fsdecode(raw)
+    seps = tuple(s for s in (os.sep, os.altsep) if s)
+    if not raw or raw.endswith(seps) or os.path.basename(raw) in ("", ".", ".."):
+        raise ExportError(f"{what} {raw!r}: a path ending in {os.sep!r} (or '.', '..') names a folder, "
+                          "not a file: give a file name")
+
+
 def check_suffix(path: str | os.PathLike[str], suffixes: Iterable[str], what: str) -> Path:
     """``path`` as a Path if its suffix (any case) is one of ``suffixes``; else :class:`ExportError`
     naming ``what`` (the option or file kind) and the valid suffixes, so that VTU XML never lands in a
-    ``.txt`` or a PNG in an ``.svg``."""
+    ``.txt`` or a PNG in an ``.svg``. A path that names a folder (``a.vtu/``) is refused too
+    (:func:`check_file_name`)."""
     valid = [s.lower() for s in suffixes]
+    check_file_name(path, what)
     p = Path(path)
     if p.suffix.lower() not in valid:
         raise ExportError(f"{what} must end in {' or '.join(valid)}, got {os.fspath(path)!r}")
@@ -124,9 +164,13 @@ def check_distinct(paths: Iterable[str | os.PathLike[str]],
     ``inputs`` maps how the command names an input (``"--db"``, ``"SPEC"``) to its path (None: not
     given); they are remembered for the rest of the :func:`input_scope` (the CLI command), so every
     later :func:`atomic_outputs` refuses to replace them too — also a file inside an output folder.
+    An input that exists must be a regular file (:func:`check_input`).
     """
     if inputs:
-        _INPUTS.set(_INPUTS.get() + tuple((k, os.fspath(v)) for k, v in inputs.items() if v is not None))
+        declared = tuple((k, os.fspath(v)) for k, v in inputs.items() if v is not None)
+        for name, src in declared:
+            check_input(src, name)
+        _INPUTS.set(_INPUTS.get() + declared)
     seen: dict[str, Path] = {}
     for p in paths:
         for name, src in _INPUTS.get():
@@ -142,6 +186,39 @@ def check_distinct(paths: Iterable[str | os.PathLike[str]],
             same = f"{p}" if str(seen[key]) == str(p) else f"{seen[key]} and {p}"
             raise ExportError(f"two outputs would write the same file ({same}): give each output its own path")
         seen[key] = Path(p)
+
+
+def check_input(path: str | os.PathLike[str], name: str) -> None:
+    """:class:`ExportError` if the input ``path`` (``name``: how the command calls it, ``"SPEC"``,
+    ``"--db"``) exists and is not a regular file, before anything opens it: reading a FIFO waits for a
+    writer for ever, ``/dev/zero`` never ends, and a catalog written over a device replaces it (as
+    root). A missing input is left to the command (a catalog not made yet is created)."""
+    kind = special_kind(path)
+    if kind is not None:
+        raise ExportError(f"{name} {os.fspath(path)} is {kind}, not a regular file: give the path of a file")
+
+
+#: bytes: the default bound of :func:`read_input` (a spec or a cache is kilobytes; 64 MiB is no file of ours)
+MAX_INPUT_BYTES = 64 * 1024 * 1024
+
+
+def read_input(path: str | os.PathLike[str], name: str, max_bytes: int = MAX_INPUT_BYTES) -> bytes:
+    """The bytes of the input file ``path``, refusing (:class:`ExportError`, naming ``name``) anything
+    that is not a regular file (checked before opening, and on the opened file, with ``O_NONBLOCK`` so
+    a FIFO swapped in meanwhile cannot hang the open) or holds more than ``max_bytes``. ``OSError``
+    (missing, unreadable) is left to the caller, which knows what a missing input means."""
+    check_input(path, name)
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
+    with os.fdopen(fd, "rb") as f:
+        mode = os.fstat(fd).st_mode
+        if not stat.S_ISREG(mode):
+            raise ExportError(f"{name} {os.fspath(path)} is {file_kind(mode)}, not a regular file: give the path "
+                              "of a file")
+        data = f.read(max_bytes + 1)
+    if len(data) > max_bytes:
+        raise ExportError(f"{name} {os.fspath(path)} is larger than {max_bytes} bytes: not a file fabpat wrote "
+                          "or reads")
+    return data
 
 
 def _through_link(p: Path) -> Path:
@@ -203,7 +280,10 @@ def writer_failed(path: str | os.PathLike[str], what: str, cause: OSError | None
 
 
 def check_writable(path: str | os.PathLike[str]) -> Path:
-    """The path, if its folder exists and is writable; :class:`ExportError` otherwise."""
+    """The path to replace (a symbolic link's target), if the path names a file (not ``a/``), its
+    folder exists and is writable, and it is absent or a regular file; :class:`ExportError` naming the
+    path and what it is (a directory, a FIFO, a character device, …) otherwise."""
+    check_file_name(path)
     p = Path(path)
     folder = p.parent if str(p.parent) else Path(".")
     if not folder.exists():
@@ -212,9 +292,19 @@ def check_writable(path: str | os.PathLike[str]) -> Path:
         raise ExportError(f"cannot write {p}: {folder} is not a folder")
     if not os.access(folder, os.W_OK):
         raise ExportError(f"cannot write {p}: folder {folder} is not writable")
-    if p.is_dir():
-        raise ExportError(f"cannot write {p}: it is a directory")
-    return _through_link(p)
+    real = _through_link(p)
+    _refuse_special(p, real)
+    return real
+
+
+def _refuse_special(shown: Path, real: Path) -> None:
+    """:class:`ExportError` if ``real`` (the file ``shown`` names, links followed) exists and is not a
+    regular file: fabpat never renames over a directory, a FIFO, a device or a socket."""
+    kind = special_kind(real)
+    if kind is not None:
+        via = f" (a symbolic link to {real})" if real != shown else ""
+        raise ExportError(f"cannot write {shown}{via}: it is {kind}, not a regular file; fabpat replaces only "
+                          "regular files: give another path")
 
 
 def check_output_folder(path: str | os.PathLike[str], option: str = "--out") -> Path:
@@ -306,6 +396,8 @@ def atomic_outputs(*paths: str | os.PathLike[str]) -> Iterator[list[Path]]:
                 raise
             raise write_error(hit, e) from e
         mode = file_mode()  # mkstemp makes 0600 files; give them the user's usual permissions
+        for shown, t in zip(paths, targets, strict=True):  # again: a FIFO may have appeared meanwhile
+            _refuse_special(Path(shown), t)
         for tmp, t in zip(temps, targets, strict=True):
             try:
                 os.chmod(tmp, mode)

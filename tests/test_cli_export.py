@@ -134,7 +134,7 @@ def test_export_all_in_one_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatc
         (["0x0488", "--svg-curves", "arcs", "--svg", "{dir}/a.svg"], "cubic"),
         (["0x0488"], "no output"),
         (["0x0488", "--stl", "{dir}/ok.stl", "--step", "{dir}/missing/a.step"], "does not exist"),
-        (["0x0488", "--stl", "{dir}/a.stl", "--3mf", "{dir}/a.stl"], "same file"),
+        (["0x0488", "--stl", "{dir}/a.stl", "--3mf", "{dir}/a.stl"], "--3mf must end in .3mf"),  # a 3MF in a .stl
         (["0x0001", "--stl", "{dir}/a.stl"], "not in the"),
         (["--all", "--out", "{dir}/lib", "--formats", "step,obj"], "obj"),
         (["--all", "--out", "{dir}/lib", "--formats", ","], "no format"),
@@ -178,3 +178,25 @@ def test_cli_start_up_does_not_load_cad_libraries() -> None:
     code = "import sys, fabpat.cli; print(sorted({'OCP', 'build123d', 'ezdxf', 'trimesh'} & set(sys.modules)))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
+
+
+@pytest.mark.parametrize("option,name", [("--dxf", "out.dwg"), ("--stl", "x.step"), ("--svg", "x.dxf"),
+                                         ("--step", "x.stl"), ("--3mf", "x.stl"), ("--3dm", "x.dxf")])
+def test_a_file_option_refuses_another_formats_suffix(tmp_path: Path, option: str, name: str) -> None:
+    """``--dxf out.dwg`` wrote DXF into a .dwg; the CLI refuses as ``FilletedPattern.export`` does."""
+    r = run_cli("export", "0x0488", option, str(tmp_path / name))
+    assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+    assert r.stderr.startswith(f"fabpat: error: {option} must end in") and name in r.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_file_option_takes_its_formats_suffixes_in_any_case(tmp_path: Path) -> None:
+    r = run_cli("export", "0x0488", "--step", str(tmp_path / "a.STP"), "--svg", str(tmp_path / "a.SVG"))
+    assert r.returncode == 0, r.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.STP", "a.SVG"]
+
+
+def test_show_refuses_an_svg_under_another_suffix(tmp_path: Path) -> None:
+    r = run_cli("show", "0x0488", "--svg", str(tmp_path / "p.png"))
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "--svg must end in .svg" in r.stderr
+    assert list(tmp_path.iterdir()) == []

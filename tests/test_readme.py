@@ -49,6 +49,18 @@ def test_licence_and_citation_agree_with_pyproject() -> None:
     cff = yaml.safe_load((ROOT / "CITATION.cff").read_text(encoding="utf-8"))
     assert cff["cff-version"] == "1.2.0"
     assert cff["license"] == "MIT" and cff["version"] == PYPROJECT["project"]["version"]
-    (paper,) = cff["references"]
-    assert paper["title"] == "Computational design of fabricable geometric patterns"
-    assert "Computational design of fabricable geometric patterns" in README
+    conference, journal = cff["references"]
+    assert (conference["type"], conference["title"], conference["doi"], conference["year"]) == (
+        "conference-paper", "Computational Design of Fabricable Geometric Patterns", "10.2312/stag.20231297", 2023)
+    assert (journal["type"], journal["title"], journal["doi"], journal["journal"], journal["year"]) == (
+        "article", "Procedural generation of geometric patterns for thin shell fabrication",
+        "10.1016/j.cag.2024.103958", "Computers & Graphics", 2024)
+    authors = ["Scandurra", "Laccone", "Malomo", "Callieri", "Cignoni", "Giorgi"]
+    for paper in (conference, journal):
+        assert [a["family-names"] for a in paper["authors"]] == authors
+    citing = README[README.index("## Citing"):README.index("## Licence")]
+    for text in ("Computational Design of Fabricable Geometric Patterns", "STAG 2023", "10.2312/stag.20231297",
+                 "Procedural generation of geometric patterns for thin shell fabrication", "10.1016/j.cag.2024.103958",
+                 "E. Scandurra, F. Laccone, L. Malomo, M. Callieri, P. Cignoni and\nD. Giorgi"):
+        assert text in citing, text
+    assert "not recorded" not in citing and "not known" not in citing

@@ -2,7 +2,8 @@
 
 Errors never show a traceback: a :class:`~fabpat.errors.FabpatError` or a usage error becomes one
 line on stderr (``fabpat: error: …``) and exit code 2; Ctrl-C becomes ``fabpat: interrupted`` and
-exit code 130 (128 + SIGINT, the shell's convention).
+exit code 130 (128 + SIGINT, the shell's convention), SIGTERM ``fabpat: terminated`` and 143, for
+every command (:func:`interrupt_status`).
 """
 
 from __future__ import annotations
@@ -15,16 +16,28 @@ from typing import Any
 import click
 
 from fabpat import __version__
+from fabpat.__main__ import TERMINATED as _TERMINATED  # one list with the entry point's SIGTERM handler
+from fabpat.__main__ import on_sigterm as _on_sigterm
 from fabpat.errors import FabpatError
 
-_TERMINATED: list[int] = []
+#: deprecation notices of the running command (:func:`deprecated`), said once it has run
+_NOTICES: list[str] = []
 
 
-def _on_sigterm(signum: int, frame: object) -> None:
-    """SIGTERM unwinds like Ctrl-C, so every ``finally`` runs: temporary files and folders are
-    removed and the catalog's committed rows stay (the default action would end the process at once)."""
-    _TERMINATED.append(signum)
-    raise KeyboardInterrupt
+def deprecated(old: str, new: str) -> None:
+    """Call from a deprecated alias: after the command succeeds, one warning line says to use ``new``;
+    if it fails, the error line alone is printed, ending with the notice (one line, as every error)."""
+    _NOTICES.append(f"{old} is deprecated and will be removed in the next release: use {new} "
+                    "(same options and output)")
+
+
+def interrupt_status() -> tuple[str, int]:
+    """What ended the command and its exit code: ``("terminated", 143)`` after SIGTERM (128 + 15),
+    ``("interrupted", 130)`` after Ctrl-C (128 + SIGINT). For commands that report an interruption
+    themselves (``fabpat sweep`` says where its results are) and return the code."""
+    if _TERMINATED:
+        return "terminated", 128 + _TERMINATED[0]
+    return "interrupted", 130
 
 
 @contextlib.contextmanager
@@ -143,8 +156,11 @@ class FabpatGroup(click.Group):
         try:
             from fabpat.io import input_scope
 
+            _NOTICES.clear()
             with _sigterm_unwinds(), input_scope():  # no output of the command may replace its inputs
                 rv = super().main(*args, **kwargs)
+            for note in _NOTICES:
+                click.echo(f"fabpat: warning: {note}", err=True)
         except click.exceptions.NoArgsIsHelpError as e:  # `fabpat` alone: the help, not a one-line error
             click.echo(e.ctx.get_help() if e.ctx is not None else e.format_message())
             sys.exit(0)
@@ -165,20 +181,19 @@ class FabpatGroup(click.Group):
 
 
 def _interrupted() -> None:
-    """One line and 128 + the signal: 130 for Ctrl-C (SIGINT), 143 for SIGTERM."""
+    """One line and 128 + the signal: 130 for Ctrl-C (SIGINT), 143 for SIGTERM (:func:`interrupt_status`)."""
     from fabpat.__main__ import forget_interrupt
 
     forget_interrupt()
-    if _TERMINATED:
-        click.echo("fabpat: terminated", err=True)
-        sys.exit(128 + _TERMINATED[0])
-    click.echo("fabpat: interrupted", err=True)
-    sys.exit(130)
+    word, code = interrupt_status()
+    click.echo(f"fabpat: {word}", err=True)
+    sys.exit(code)
 
 
 def _fail(message: str) -> None:
     line = " ".join(message.split())
-    click.echo(f"fabpat: error: {line}", err=True)
+    notes = "".join(f" (note: {n})" for n in _NOTICES)  # a deprecated alias: still one line
+    click.echo(f"fabpat: error: {line}{notes}", err=True)
     sys.exit(2)
 
 

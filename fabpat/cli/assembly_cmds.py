@@ -207,8 +207,9 @@ def _simulate_assembly(spec: str, end_shortening: float | None, h: float, steps:
 def simulate_strip_cmd(spec: str, end_shortening: float | None, h: float, steps: int | None, imperfection: float | None,
                        E: float | None, nu: float | None, vtu: str | None, png: str | None, as_json: bool) -> None:
     """Deprecated alias of `fabpat simulate-assembly` (same options and output); removed in the next release."""
-    click.echo("fabpat: simulate-strip is deprecated and will be removed in the next release: use "
-               "simulate-assembly (same options and output)", err=True)
+    from fabpat.cli import deprecated
+
+    deprecated("simulate-strip", "simulate-assembly")  # said after the output, or inside the one error line
     _simulate_assembly(spec, end_shortening, h, steps, imperfection, E, nu, vtu, png, as_json)
 
 

@@ -29,6 +29,7 @@ from fabpat.exchange.registry import (
     ExportSettings,
     Job,
     Part,
+    check_target,
     export_parts,
     filleted_part,
     label_warning,
@@ -41,6 +42,8 @@ if TYPE_CHECKING:  # pragma: no cover
     from fabpat.pattern import Pattern
 
 DEFAULT_ALL_FORMATS = "step,stl,dxf"
+#: the option that names each format's file
+OPTION_OF = {"step": "--step", "stl": "--stl", "3mf": "--3mf", "dxf": "--dxf", "svg": "--svg", "3dm": "--3dm"}
 
 
 def make_part(pattern: Pattern, thickness: float, weight: float) -> Part:
@@ -173,9 +176,11 @@ def export_cmd(pattern_id: str | None, sides: int, depth: int | None, edge: floa
         raise click.UsageError("missing pattern ID (or --all)")
     if out is not None or formats is not None:
         raise click.UsageError("--out and --formats go with --all; for one pattern use --step, --stl, …")
-    targets = {name: Path(p) for name, p in files.items() if p}
+    targets = {name: p for name, p in files.items() if p}  # raw text: Path("a.stl/") would drop the slash
     if not targets:
         raise ExportError("no output requested: give at least one of --step, --stl, --3mf, --dxf, --svg, --3dm")
+    for name, p in targets.items():  # before the pattern is built: --dxf out.dwg is refused as the API does
+        check_target(name, p, OPTION_OF[name])
     from fabpat.library import get_pattern
 
     pattern = get_pattern(pattern_id, sides, depth, edge)  # depth None: from the ID's length

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
 import csv
 import io
 import json
@@ -10,6 +9,8 @@ from pathlib import Path
 
 import click
 
+from fabpat.cli.library_cache import cache_path as _cache_path
+from fabpat.cli.library_cache import read_cache, write_cache
 from fabpat.cli.options import (
     depth_option,
     edge_option,
@@ -20,7 +21,7 @@ from fabpat.cli.options import (
     weight_option,
 )
 from fabpat.errors import PatternError
-from fabpat.io import atomic_outputs
+from fabpat.io import atomic_outputs, check_suffix
 from fabpat.library import Library, enumerate_library, get_pattern, sample_library
 from fabpat.pattern import DEFAULT_EDGE, Pattern
 
@@ -48,7 +49,7 @@ def library_rows(
 
     Filleting and validating a pattern takes a few milliseconds (min_width by ray casting at
     0.01 mm flattening), so the filleted columns are computed in a process pool with a progress bar
-    on stderr.
+    on stderr, and cached (:mod:`fabpat.cli.library_cache`: checked on reading, never fatal).
     """
     rows: list[dict[str, object]] = []
     for p in lib.patterns(edge):
@@ -69,43 +70,14 @@ def library_rows(
         return rows
     jobs = [(str(r["id"]), lib.sides, lib.depth, edge, weight) for r in rows]
     cache = _cache_path(jobs)
-    extras = None
-    if cache is not None and cache.exists():
-        with contextlib.suppress(ValueError, OSError):
-            extras = json.loads(cache.read_text())
-    if not isinstance(extras, list) or len(extras) != len(rows):
+    extras = read_cache(cache, jobs)  # None unless exactly these jobs' columns: a poisoned cache is recomputed
+    if extras is None:
         extras = _map_with_progress(_filleted_row, jobs, "filleting", workers)
-        if cache is not None:
-            with contextlib.suppress(OSError):
-                cache.parent.mkdir(parents=True, exist_ok=True)
-                with atomic_outputs(cache) as (tmp,):
-                    tmp.write_text(json.dumps(extras))
+        write_cache(cache, jobs, extras, lambda line: click.echo(f"fabpat: warning: {line}", err=True))
     for row, extra in zip(rows, extras, strict=True):
         row["weight"] = weight
         row.update(extra)
     return rows
-
-
-def _cache_path(jobs: list[tuple[str, int, int, float, float]]) -> Path | None:
-    """Where the filleted columns of this exact list are cached.
-
-    Keyed by the list and by :func:`fabpat.catalog.solver_version` (the version plus a digest of the
-    pipeline's source), so an edited fillet or min-width code never reads an old cache.
-
-    ``$FABPAT_CACHE`` (or ``$XDG_CACHE_HOME/fabpat``, default ``~/.cache/fabpat``); set
-    ``FABPAT_CACHE=off`` to disable. A cache is a convenience: it is recomputed when missing or broken.
-    """
-    import hashlib
-    import os
-
-    from fabpat.catalog import solver_version
-
-    root = os.environ.get("FABPAT_CACHE")
-    if root == "off":
-        return None
-    base = Path(root) if root else Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "fabpat"
-    key = hashlib.sha1(repr((solver_version(), jobs)).encode()).hexdigest()[:20]
-    return base / f"library-{key}.json"
 
 
 def _map_with_progress(fn, jobs: list, what: str, workers: int | None = None) -> list:  # noqa: ANN001
@@ -211,6 +183,8 @@ def show_cmd(pattern_id: str, sides: int, depth: int | None, edge: float, svg: s
     """
     from fabpat.pictures import pattern_svg
 
+    if svg is not None:
+        check_suffix(svg, (".svg",), "--svg")  # an SVG in a .png would open as a broken picture
     p = get_pattern(pattern_id, sides, depth, edge)  # depth None: from the ID's length
     text = pattern_svg(p, outline_path=p.fillet(weight).outline.to_svg_path() if filleted else None)
     if svg is None:

@@ -28,7 +28,7 @@ import numpy as np
 
 from fabpat.cad import DEFAULT_ANGULAR, DEFAULT_CHORD, DEFAULT_THICKNESS, make_solid, occt_errors
 from fabpat.errors import ExportError
-from fabpat.io import atomic_outputs, check_distinct
+from fabpat.io import atomic_outputs, check_distinct, check_file_name
 from fabpat.outline import Line, Outline, RationalQuad
 from fabpat.validate import check, check_size, check_tolerance
 
@@ -123,7 +123,9 @@ class Part:
     ``support``: whole interface arcs whose halves the outline keeps (see :func:`fabpat.cad.make_face`),
     flat or as the (n, 2) pairs of ``FilletedPattern.interface_arcs`` (flattened here).
     ``solid`` (a ``TopoDS_Solid``) is built on first use and shared by every 3D format.
-    Raises :class:`ExportError` for a thickness ≤ 0 or a support that is not arcs.
+    Raises :class:`ExportError` for a thickness ≤ 0, a support that is not arcs, or a name or label
+    that is not text or holds a control character (:func:`fabpat.exchange.step.check_printable`).
+    Any other character is fine: STEP encodes it (:func:`fabpat.exchange.step.step_string`).
     """
 
     outline: Outline
@@ -133,7 +135,12 @@ class Part:
     support: tuple[RationalQuad, ...] = ()
 
     def __post_init__(self) -> None:
+        from fabpat.exchange.step import check_printable
+
         check("thickness", self.thickness, error=ExportError)
+        check_printable(self.name, "the part name")
+        if self.label is not None:
+            check_printable(self.label, "the part label")
         self.support = flatten_arcs(self.support)
 
     @cached_property
@@ -204,6 +211,20 @@ def format_of(path: str | os.PathLike[str]) -> str:
     raise ExportError(f"cannot tell the format of {os.fspath(path)!r} from its suffix: use one of {known}")
 
 
+def check_target(name: str, path: str | os.PathLike[str], what: str | None = None) -> None:
+    """:class:`ExportError` unless ``name`` is a registered format and ``path`` names a file whose
+    suffix (any case) is one of that format's (:func:`format_of` would read it as this format).
+    ``what``: how the message names the output (the CLI's ``--dxf``); default ``"the DXF file"``."""
+    if name not in FORMATS:
+        raise ExportError(f"unknown format {name!r}: choose from {', '.join(FORMATS)}")
+    what = what or f"the {name.upper()} file"
+    check_file_name(path, f"cannot write {what}")
+    suffixes = FORMATS[name].suffixes
+    if Path(path).suffix.lower() not in suffixes:
+        raise ExportError(f"{what} must end in {' or '.join(suffixes)}, got {os.fspath(path)!r} (programs tell a "
+                          "file's format by its suffix)")
+
+
 def parse_formats(text: str) -> list[str]:
     """``"step,stl,dxf"`` → ``["step", "stl", "dxf"]``; :class:`ExportError` for unknown or none."""
     names = [s.strip().lower() for s in text.split(",") if s.strip()]
@@ -260,6 +281,8 @@ def export_parts(
     """Write every job's part to its ``{format: path}`` targets in one atomic block.
 
     A job's part may be a callable that builds it, so a whole library is built one part at a time.
+    Every target must end in a suffix of its format (:meth:`Format.suffixes`: no DXF in a ``.dwg``) and
+    name a file, not a folder (``a.stl/``).
     All options, formats and folders are checked before any file is created, and on any error (in
     any part) no file is left. ``on_part(part, formats)`` runs after each part is written (progress,
     warnings). Each part's building, writing and ``on_part`` run inside ``part_guard()`` (the CLI holds
@@ -272,9 +295,8 @@ def export_parts(
     for _, targets in jobs:
         if not targets:
             raise ExportError("no output file requested")
-        for name in targets:
-            if name not in FORMATS:
-                raise ExportError(f"unknown format {name!r}: choose from {', '.join(FORMATS)}")
+        for name, target in targets.items():
+            check_target(name, target)
         paths += [Path(p) for p in targets.values()]
     check_distinct(paths)  # the one check every command shares (atomic_outputs repeats it)
     with atomic_outputs(*paths) as temps:

@@ -4,15 +4,25 @@ Written through OCCT's XDE document so the part carries a product name (pattern 
 see :func:`fabpat.cad.part_name`). Rational Bézier edges are written as
 ``RATIONAL_B_SPLINE_CURVE`` with their weights (1, w, 1): a CAD program re-importing the file gets
 the exact fillet, not a facetted approximation.
+
+Names are written as ISO 10303-21 strings (§6.4.3, :func:`step_string`): printable ASCII as it is,
+every other character as a ``\\X2\\…\\X0\\`` (or ``\\X4\\…\\X0\\``) hexadecimal group, so
+the file is printable ASCII and a reader decodes the name back; control characters are refused.
+With a ``timestamp`` the file is byte-reproducible: OCCT's header fields other than the name and time
+are constants of its version, and the colour blocks of an assembly, which OCCT writes in an order
+that changes from run to run, are put in a fixed one (:mod:`fabpat.exchange.step_order`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
+from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from fabpat.errors import ExportError
+from fabpat.exchange.step_order import sort_trailing_styles
 from fabpat.io import atomic_outputs
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -53,6 +63,59 @@ def check_timestamp(timestamp: str | None, what: str = "--timestamp") -> str | N
     return text
 
 
+def check_printable(text: object, what: str) -> str:
+    """``text`` if it is a str without control characters (U+0000–U+001F, U+007F–U+009F: C0, DEL, C1);
+    :class:`ExportError` naming ``what`` and the first one otherwise. No file fabpat writes may hold
+    them in a name or label: STEP strings (ISO 10303-21 §6.4.3) and XML 1.0 (3MF, SVG) forbid them,
+    and a NUL cuts the name short in OCCT."""
+    if not isinstance(text, str):
+        raise ExportError(f"{what} must be text, got {type(text).__name__}")
+    bad = next((c for c in text if ord(c) < 0x20 or 0x7F <= ord(c) <= 0x9F), None)
+    if bad is not None:
+        raise ExportError(f"{what} {text!r} holds the control character U+{ord(bad):04X}: names and labels in "
+                          "STEP, 3MF, SVG and DXF files hold printable characters only; remove it")
+    return text
+
+
+def step_string(text: str, what: str = "name") -> str:
+    """``text`` as the contents of an ISO 10303-21 string (ISO 10303-21:2016 §6.4.3, "Strings").
+
+    Printable ASCII (U+0020–U+007E) but the reverse solidus is kept as it is (OCCT's writer doubles
+    the apostrophe); every other character is encoded: a run of characters of the Basic Multilingual
+    Plane as ``\\X2\\`` + four hexadecimal digits each + ``\\X0\\``, characters above U+FFFF as
+    ``\\X4\\`` + eight digits each + ``\\X0\\``. The reverse solidus itself
+    goes in an ``\\X2\\`` group too, so no text of the user's can read as a directive. Raises
+    :class:`ExportError` naming ``what`` for a control character (U+0000–U+001F, U+007F–U+009F), which
+    a string may not hold: ``"Kuppel ü"`` → ``"Kuppel \\X2\\00FC\\X0\\"``.
+    """
+    check_printable(text, what)
+    out: list[str] = []
+    group = ""  # the directive of the open hexadecimal group: "X2", "X4" or none
+
+    def switch(to: str) -> None:
+        nonlocal group
+        if group != to:
+            if group:
+                out.append("\\X0\\")
+            if to:
+                out.append(f"\\{to}\\")
+            group = to
+
+    for c in text:
+        code = ord(c)
+        if 0x20 <= code <= 0x7E and c != "\\":
+            switch("")
+            out.append(c)
+        elif code <= 0xFFFF:
+            switch("X2")
+            out.append(f"{code:04X}")
+        else:
+            switch("X4")
+            out.append(f"{code:08X}")
+    switch("")
+    return "".join(out)
+
+
 def _quiet_occt() -> None:
     """Keep OCCT's transfer statistics off stdout (the CLI's stdout is for the user)."""
     from OCP.Message import Message, Message_Gravity
@@ -74,18 +137,61 @@ def dump_step(shape: Any, path: str | os.PathLike[str], name: str, timestamp: st
     from OCP.XCAFDoc import XCAFDoc_DocumentTool
 
     check_timestamp(timestamp, "timestamp")
+    step_string(name, "the STEP product name")  # before OCCT, which cuts a name at a NUL
     shape = getattr(shape, "wrapped", shape)
     _quiet_occt()
     doc = TDocStd_Document(TCollection_ExtendedString("XmlOcaf"))
     XCAFDoc_DocumentTool.SetLengthUnit_s(doc, 0.001)  # the value is metres per unit: the shape is in mm
     label = XCAFDoc_DocumentTool.ShapeTool_s(doc.Main()).AddShape(shape, False)
-    TDataStd_Name.Set_s(label, TCollection_ExtendedString(name))
+    TDataStd_Name.Set_s(label, TCollection_ExtendedString(name, True))  # True: the str's UTF-8 decoded
 
     write_document(doc, path, name, timestamp)
 
 
+def _text(name: Any) -> str:
+    """The text of a ``TCollection_ExtendedString``. One made from a Python str without the multi-byte
+    flag holds the str's UTF-8 bytes one per character (``"ü"`` → ``"Ã¼"``); such a string is decoded
+    back, so a name reaches the file as the caller wrote it, whichever way it was stored."""
+    text: str = name.ToExtString()
+    if any(ord(c) > 0x7F for c in text) and all(ord(c) < 0x100 for c in text):
+        try:
+            return text.encode("latin-1").decode("utf-8")
+        except UnicodeDecodeError:  # real Latin-1 text
+            pass
+    return text
+
+
+@contextlib.contextmanager
+def _names_encoded(doc: Any) -> Iterator[None]:
+    """Every ``TDataStd_Name`` in the document as its :func:`step_string` for the block (the transfer and
+    the write), then as it was: the caller's document is left unchanged."""
+    from OCP.TCollection import TCollection_ExtendedString
+    from OCP.TDataStd import TDataStd_Name
+    from OCP.TDF import TDF_ChildIterator
+
+    changed = []
+    try:
+        it = TDF_ChildIterator(doc.Main(), True)  # True: every level, the whole tree
+        while it.More():
+            label, attr = it.Value(), TDataStd_Name()
+            if label.FindAttribute(TDataStd_Name.GetID_s(), attr):  # attr: a copy (OCP), so Set_s below
+                before = TCollection_ExtendedString(attr.Get())
+                text = _text(before)
+                TDataStd_Name.Set_s(label, TCollection_ExtendedString(step_string(text, f"the STEP name {text!r}")))
+                changed.append((label, before))
+            it.Next()
+        yield
+    finally:
+        for label, before in changed:
+            TDataStd_Name.Set_s(label, before)
+
+
 def write_document(doc: Any, path: str | os.PathLike[str], name: str, timestamp: str | None = None) -> None:
-    """Write an XDE document (a part or an assembly) to ``path`` as STEP AP214 in mm. Not atomic."""
+    """Write an XDE document (a part or an assembly) to ``path`` as STEP AP214 in mm. Not atomic.
+
+    Every name in the document and ``name`` (the header's file name) are written as ISO 10303-21
+    strings (:func:`step_string`); :class:`ExportError` for one with a control character. With
+    ``timestamp`` the same document gives the same bytes in every run (module docstring)."""
     from OCP.APIHeaderSection import APIHeaderSection_MakeHeader
     from OCP.IFSelect import IFSelect_ReturnStatus
     from OCP.Interface import Interface_Static
@@ -100,17 +206,23 @@ def write_document(doc: Any, path: str | os.PathLike[str], name: str, timestamp:
     Interface_Static.SetCVal_s("write.step.unit", "MM")
     writer = STEPCAFControl_Writer()
     writer.SetNameMode(True)
-    if not writer.Transfer(doc, STEPControl_StepModelType.STEPControl_AsIs):
-        raise ExportError(f"OCCT could not translate {name!r} to STEP")
-    header = APIHeaderSection_MakeHeader(writer.ChangeWriter().Model())
-    header.SetName(TCollection_HAsciiString(name))
-    header.SetOriginatingSystem(TCollection_HAsciiString(ORIGINATING_SYSTEM))
-    if timestamp is not None:
-        header.SetTimeStamp(TCollection_HAsciiString(timestamp))
-    if writer.Write(os.fsdecode(path)) != IFSelect_ReturnStatus.IFSelect_RetDone:
-        from fabpat.io import writer_failed
+    with _names_encoded(doc):  # the whole write: OCCT reads the names in Transfer or in Write
+        if not writer.Transfer(doc, STEPControl_StepModelType.STEPControl_AsIs):
+            raise ExportError(f"OCCT could not translate {name!r} to STEP")
+        header = APIHeaderSection_MakeHeader(writer.ChangeWriter().Model())
+        header.SetName(TCollection_HAsciiString(step_string(name, "the STEP file name")))
+        header.SetOriginatingSystem(TCollection_HAsciiString(ORIGINATING_SYSTEM))
+        if timestamp is not None:
+            header.SetTimeStamp(TCollection_HAsciiString(timestamp))
+        status = writer.Write(os.fsdecode(path))
+    from fabpat.io import writer_failed
 
+    if status != IFSelect_ReturnStatus.IFSelect_RetDone:
         raise writer_failed(path, "OCCT could not write the STEP file")
+    try:  # OCCT orders an assembly's colours by memory address: one order, so one file for one input
+        sort_trailing_styles(path)
+    except OSError as e:
+        raise writer_failed(path, "could not rewrite the STEP file", e) from e
 
 
 def write(part: Part, path: Path, settings: ExportSettings) -> None:
