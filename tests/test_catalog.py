@@ -98,6 +98,32 @@ def test_solver_version_covers_exactly_the_pipeline_code() -> None:
     assert solver_version() == solver_version() and solver_version().startswith("fabpat ")
 
 
+def fake_rows(pattern_id: str, sides: int, energies: dict[str, object], *, area: float = 1000.0,
+              thickness: float = 2.0, **result: object) -> list[dict[str, object]]:
+    """A pattern's catalog rows written by hand (no solve): one ``patterns`` row with plausible metrics and
+    a converged ``results`` row per scenario of ``energies`` (N·mm; ``result`` overrides other columns)."""
+    key = {"id": pattern_id, "sides": sides, "depth": 2, "edge": 36.0, "thickness": thickness, "weight": 0.2}
+    rows: list[dict[str, object]] = [
+        {"table": "patterns", **key, "area": area, "perimeter": 300.0, "ratio": 0.14, "polar_moment": 4.0e5,
+         "filleted_area": area + 50.0, "filleted_perimeter": 290.0, "filleted_ratio": 0.15,
+         "filleted_polar_moment": 4.2e5, "min_width": 2.0, "input_hash": "x"}]
+    for s, e in energies.items():
+        rows.append({"table": "results", **key, "scenario": s, "E": 1000.0, "nu": 0.35, "h": 2.5, "nonlinear": 1,
+                     "energy": e, "max_displacement": 3.0, "converged": 1, "solver_version": "test",
+                     "input_hash": "x", "computed_at": "now", **result})
+    return rows
+
+
+def fake_catalog(path: Path, table: dict[int, dict[str, dict[str, object]]], thickness: float = 2.0) -> Path:
+    """A catalog of hand-made rows: ``{sides: {ID: {scenario: energy}}}`` (see :func:`fake_rows`)."""
+    with open_catalog(path, write=True) as cat:
+        for sides, by_id in table.items():
+            for k, (pid, en) in enumerate(by_id.items()):
+                cat.write_rows(fake_rows(pid, sides, en, area=800.0 + 100 * k, thickness=thickness))
+        cat.finish()
+    return path
+
+
 def _tiny(path: Path) -> Path:
     rows = simulate_pattern("0xf608", 6, 2, 36.0, 2.0, 0.2, 1000.0, 0.35, 1.5, [])  # geometry only: fast
     rows.append({"table": "results", "id": "0xf608", "sides": 6, "depth": 2, "edge": 36.0, "thickness": 2.0,
