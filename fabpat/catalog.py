@@ -16,8 +16,8 @@ Two tables (stdlib :mod:`sqlite3`, no pandas):
 
 ``input_hash`` digests every input that affects a result (the key, the material, h, nonlinear, the
 solver version — which includes a digest of the source of every module the pipeline imports, see
-:func:`fabpat.catalog_version.pipeline_modules`): a sweep skips a row whose stored hash equals the one it would compute, so
-changing any input or the solver code recomputes exactly the affected rows.
+:func:`fabpat.catalog_version.pipeline_modules`): a sweep skips a row whose stored hash equals the one
+it would compute, so changing any input or the solver code recomputes exactly the affected rows.
 
 Readers: :func:`open_catalog` (``None`` → the built-in catalog shipped in ``fabpat/data``),
 :meth:`Catalog.pattern_rows` (one plain dict per pattern with ``energy_<scenario>`` and
@@ -272,10 +272,11 @@ class Catalog:
                 self.conn.execute("PRAGMA journal_mode=DELETE")
 
     def close(self, failed: bool = False) -> None:
-        """Close the SQLite connection. A writable catalog is left as ONE file: if a failure (a full
-        disk that refused SQLite's ``-shm`` index, say) kept :meth:`finish` from leaving WAL mode, the
-        ``-wal``/``-shm`` files are folded back and removed, provided no other process has the catalog
-        open. With ``failed``, a catalog this call created that holds no pattern yet is removed too."""
+        """Close the SQLite connection. A writable catalog is left as ONE file out of WAL mode: if
+        :meth:`finish` was not called or a failure (a full disk that refused SQLite's ``-shm`` index,
+        say) kept it from leaving WAL mode, the ``-wal``/``-shm`` files are folded back and removed and
+        the mode left, provided no other process has the catalog open. With ``failed``, a catalog this
+        call created that holds no pattern yet is removed too."""
         self.conn.close()
         if self.writable:
             _tidy(self.path, remove_empty=failed and self.created, keep_file=self.replaced_empty)
@@ -293,7 +294,7 @@ def _tidy(p: Path, remove_empty: bool, keep_file: bool = False) -> None:
     holding SQLite's exclusive lock: every WAL-mode connection holds a shared lock on the file, so
     getting the exclusive one proves nobody else uses them."""
     side = [p.with_name(p.name + s) for s in ("-wal", "-shm")]
-    if not remove_empty and not any(f.exists() for f in side):
+    if not remove_empty and not any(f.exists() for f in side) and not _in_wal_mode(p):
         return
     with contextlib.suppress(sqlite3.Error, OSError):
         # EXCLUSIVE locking keeps the WAL index in memory: this works where the -shm file could not grow
@@ -315,6 +316,16 @@ def _tidy(p: Path, remove_empty: bool, keep_file: bool = False) -> None:
                 conn.rollback()
         finally:
             conn.close()
+
+
+def _in_wal_mode(p: Path) -> bool:
+    """Whether the file's header says WAL mode (bytes 18–19 = 2, 2): SQLite removes the -wal/-shm files
+    when the last connection closes, but the mode stays, and a reader would then make them again."""
+    try:
+        with p.open("rb") as f:
+            return f.read(20)[18:20] == b"\x02\x02"
+    except OSError:
+        return False
 
 
 def _where(filters: Mapping[str, object]) -> tuple[str, list[object]]:

@@ -157,8 +157,8 @@ def test_a_poisoned_catalog_in_assemble_is_one_line(tmp_path: Path) -> None:
 
     from fabpat.cli import cli
 
-    db = fake_catalog(tmp_path / "c.sqlite", {6: {**HEX, "0x0688": {"dome": -5.0}}, 5: PENT})
-    spec = tmp_path / "s.toml"
+    fake_catalog(tmp_path / "c.sqlite", {6: {**HEX, "0x0688": {"dome": -5.0}}, 5: PENT})
+    spec = tmp_path / "s.toml"  # its patterns.catalog, c.sqlite, is next to it
     spec.write_text('[tiling]\nkind = "truncated-icosahedron"\nedge = 36.0\n[patterns]\nrule = "similar-energy"\n'
                     'catalog = "c.sqlite"\n[sheet]\nwidth = 600.0\nheight = 400.0\n')
     res = CliRunner().invoke(cli, ["assemble", str(spec), "--out", str(tmp_path / "kit"), "--no-progress"])
