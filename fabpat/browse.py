@@ -125,7 +125,9 @@ def render_page(data: dict[str, object]) -> str:
 
 
 def write_page(cat: Catalog, out: str, sides: int | None = None) -> int:
-    """Write the browsing page to ``out`` atomically; returns the number of patterns shown."""
+    """Write the browsing page of the polygon ``sides`` (None: the default set-up's) to ``out``
+    atomically; returns the number of patterns shown. :class:`CatalogError` as :func:`choose_setup`, or
+    for a bad stored value."""
     from fabpat.io import atomic_outputs
 
     data = page_data(cat, sides)

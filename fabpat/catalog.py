@@ -39,26 +39,16 @@ from __future__ import annotations
 import contextlib
 import errno
 import os
-import shlex
 import sqlite3
 import stat
 import tempfile
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from functools import cache
 from importlib import resources
 from pathlib import Path
 
 from fabpat._callable import make_callable
-from fabpat.catalog_rows import (
-    CatalogRows,
-    find_rows,
-    pattern_problem,
-    polygon_name,
-    result_problem,
-    specific_stiffness,
-    stored_error,
-)
+from fabpat.catalog_rows import check_row, pattern_problem, result_problem, specific_stiffness
 from fabpat.catalog_version import input_hash, pipeline_modules, solver_version  # noqa: F401 - part of this API
 from fabpat.errors import FabpatError
 
@@ -100,14 +90,6 @@ METRICS = ("area", "perimeter", "ratio", "polar_moment", "filleted_area", "fille
 class CatalogError(FabpatError, ValueError):
     """A catalog file that is missing, not a fabpat catalog, from an incompatible schema or holding a
     bad value; a bad filter or query argument (a ``ValueError`` too, as before it was one of these)."""
-
-
-def _checked(path: Path, r: Mapping[str, object]) -> None:
-    """Raise :func:`~fabpat.catalog_rows.stored_error` for a bad stored row (a results row if it has a
-    scenario)."""
-    problem = (result_problem(r) if "scenario" in r else None) or pattern_problem(r, METRICS)
-    if problem:
-        raise stored_error(path, r, problem)
 
 
 def builtin_path() -> Path:
@@ -178,7 +160,7 @@ class Catalog:
         rows = self.query(f"SELECT * FROM results{where} ORDER BY sides, depth, edge, thickness, weight, id, "
                           "scenario", params)
         for r in rows:
-            _checked(self.path, r)
+            check_row(self.path, r, METRICS)
         return [{**r, **{c: None for c in ADDED_COLUMNS["results"] if c not in r}} for r in rows]
 
     def pattern_rows(self, *, pictures: bool = False, **setup: object) -> list[dict[str, object]]:
@@ -196,7 +178,7 @@ class Catalog:
         scen = self.scenarios()
         by_key = {tuple(r[k] for k in KEY): r for r in rows}
         for r in rows:
-            _checked(self.path, r)
+            check_row(self.path, r, METRICS)
             for s in scen:
                 r[f"energy_{s}"] = r[f"max_displacement_{s}"] = r[f"converged_{s}"] = None
         res = self.query(f"SELECT {', '.join(KEY)}, scenario, energy, max_displacement, converged FROM results"
@@ -204,7 +186,7 @@ class Catalog:
         for q in res:
             r = by_key.get(tuple(q[k] for k in KEY))
             if r is not None:
-                _checked(self.path, q)
+                check_row(self.path, q, METRICS)
                 s = q["scenario"]
                 r[f"energy_{s}"] = q["energy"] if q["converged"] else None
                 r[f"max_displacement_{s}"] = q["max_displacement"] if q["converged"] else None
@@ -622,145 +604,18 @@ def _cause(e: sqlite3.Error, p: Path, doing: str) -> CatalogError:
     return CatalogError(f"cannot {doing} catalog {p}: {e}")
 
 
-@cache
-def _builtin_energies(scenario: str, sides: int, depth: int, edge: float, thickness: float,
-                      weight: float) -> tuple[tuple[str, float], ...]:
-    with open_catalog(None) as cat:
-        return tuple(_energy_items(cat, scenario, sides, depth, edge, thickness, weight))
+#: the readers built on this module, in fabpat.catalog_read (which imports this one): part of this
+#: module's API, imported on first use (PEP 562), as the package's own names are
+_READERS = ("catalog", "energies", "polygon_energies", "require_polygon", "missing_polygon_message",
+            "no_match_message", "held_setups")
 
 
-def _energy_items(cat: Catalog, scenario: str, sides: int, depth: int, edge: float, thickness: float,
-                  weight: float) -> Iterator[tuple[str, float]]:
-    for r in cat.query("SELECT * FROM results WHERE scenario = ? AND sides = ? AND depth = ? AND edge = ? AND "
-                       "thickness = ? AND weight = ? ORDER BY id", (scenario, sides, depth, edge, thickness, weight)):
-        _checked(cat.path, r)  # a bad stored energy is an error, never a silently used (or dropped) number
-        if r["converged"]:
-            yield str(r["id"]), float(r["energy"])  # type: ignore[arg-type]
+def __getattr__(name: str) -> object:
+    if name in _READERS:
+        from fabpat import catalog_read
+
+        return getattr(catalog_read, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-@contextlib.contextmanager
-def _reading(catalog: Catalog | str | Path | None) -> Iterator[Catalog]:
-    """An open catalog: ``catalog`` itself, or the file it names (None: the built-in one), closed after."""
-    if isinstance(catalog, Catalog):
-        yield catalog
-        return
-    if catalog is not None and not isinstance(catalog, str | os.PathLike):
-        raise CatalogError(f"catalog must be a catalog file name, an open Catalog or None (the built-in one), "
-                           f"got {catalog!r}")
-    with open_catalog(catalog) as cat:
-        yield cat
-
-
-def energies(catalog: Catalog | str | Path | None, scenario: str, sides: int = 6, *, depth: int = 2,
-             edge: float = 36.0, thickness: float = 2.0, weight: float = 0.2) -> dict[str, float]:
-    """Total strain energy (N·mm) of every converged pattern in one scenario: {pattern ID: energy}.
-
-    ``catalog``: an open :class:`Catalog`, a path, or None for the built-in catalog (cached).
-    Lower energy = stiffer pattern (constant loads, paper §5). Empty if the scenario was not simulated
-    for this polygon and set-up (:func:`polygon_energies` refuses that instead). Raises
-    :class:`CatalogError` for an unknown scenario or a bad stored value.
-    """
-    from fabpat.scenarios import SCENARIOS
-
-    if scenario not in SCENARIOS:
-        raise CatalogError(f"unknown scenario {scenario!r}; expected one of {', '.join(SCENARIOS)}")
-    args = (scenario, sides, depth, float(edge), float(thickness), float(weight))
-    if catalog is None:
-        return dict(_builtin_energies(*args))
-    with _reading(catalog) as cat:
-        return dict(_energy_items(cat, *args))
-
-
-def polygon_energies(catalog: Catalog | str | Path | None, scenario: str, sides: int, *, depth: int = 2,
-                     edge: float = 36.0, thickness: float = 2.0, weight: float = 0.2) -> dict[str, float]:
-    """{pattern ID: energy (N·mm)} from the rows of the polygon ``sides`` itself, for the assembly rules:
-    a pentagon face is ranked by pentagon energies, never by another polygon's.
-
-    The set-up (depth, edge mm, thickness mm, weight) is the one asked for if the catalog holds any
-    ``scenario`` energies there, else the default one (:data:`DEFAULT_SETUP`): energies rank patterns, and
-    a catalog simulated at the default plate set-up ranks them just as well. The choice does not depend
-    on ``sides``, so the polygons of one tiling are compared at one set-up. Raises :class:`CatalogError`
-    naming the ``fabpat sweep`` command to run if the polygon has no energies there.
-    """
-    asked = {"depth": depth, "edge": float(edge), "thickness": float(thickness), "weight": float(weight)}
-    with _reading(catalog) as cat:
-        held = cat.query("SELECT 1 FROM results WHERE scenario = ? AND depth = ? AND edge = ? AND thickness = ? "
-                         "AND weight = ? AND converged = 1 LIMIT 1", (scenario, *asked.values()))
-        setup = asked if held else {k: DEFAULT_SETUP[k] for k in asked}
-        found = energies(cat if catalog is not None else None, scenario, sides, **setup)  # type: ignore[arg-type]
-        if not found:
-            raise CatalogError(missing_polygon_message(cat, sides, setup))
-        return found
-
-
-def missing_polygon_message(cat: Catalog, sides: int, setup: Mapping[str, object] | None = None) -> str:
-    """The one line for a polygon without catalog energies: the ``fabpat sweep`` command that adds them
-    (with the options of ``setup`` that differ from :data:`DEFAULT_SETUP`) and the polygons it holds."""
-    options = [f"--sides {sides}"] + [f"--{k} {v:g}" for k, v in (setup or {}).items()
-                                      if k in DEFAULT_SETUP and k != "sides" and v != DEFAULT_SETUP[k]]
-    builtin = cat.path == builtin_path()
-    db = "catalog.sqlite" if builtin else shlex.quote(str(cat.path))
-    then = " and read that catalog (--db catalog.sqlite; in a spec, patterns.catalog)" if builtin else ""
-    others = sorted({int(s["sides"]) for s in cat.setups()} - {sides})  # type: ignore[call-overload]
-    held = f"; it holds {', '.join(f'{polygon_name(n)} (sides = {n})' for n in others)}" if others else ""
-    return (f"no catalog energies for {polygon_name(sides)} (sides = {sides}) in "
-            f"{'the built-in catalog' if builtin else cat.path}: run `fabpat sweep {' '.join(options)} "
-            f"--db {db}`{then}{held}")
-
-
-def catalog(path: str | Path | None = None, *, sides: int | None = 6, where: Sequence[str] | str = (),
-            sort: str | None = None, top: int | None = None, **setup: object) -> CatalogRows:
-    """The rows of a catalog (``None``: the built-in one) — ``fabpat.catalog()``.
-
-    One dict per pattern (see :meth:`Catalog.pattern_rows`): ``id``, the set-up (``sides``, ``depth``,
-    ``edge`` mm, ``thickness`` mm, ``weight``), lattice and filleted metrics (mm², mm, mm⁴),
-    ``min_width`` (mm) and per scenario ``energy_<scenario>`` (N·mm), ``max_displacement_<scenario>``
-    (mm) and ``specific_stiffness_<scenario>`` (1/(N·mm³), stiffness per mass:
-    :func:`~fabpat.catalog_rows.specific_stiffness`).
-
-    ``sides``: the polygon (default 6, the hexagon; None: every polygon, whose energies do not compare);
-    other set-up keys filter too. ``where``: filters ``"FIELD OP NUMBER"`` that all hold (``OP`` one of
-    ``< <= > >= = !=``), ``sort``: ``"FIELD"`` ascending or ``"-FIELD"`` descending, ``top``: keep the
-    first N (:func:`~fabpat.catalog_rows.find_rows`). The stiffest patterns per gram in the Dome
-    scenario: ``fabpat.catalog(sort="-specific_stiffness_dome", top=5)``. Raises :class:`CatalogError`
-    (a polygon the catalog lacks names the ``fabpat sweep`` command that adds it).
-    """
-    bad = sorted(set(setup) - set(KEY[1:]))
-    if bad:
-        raise CatalogError(f"unknown catalog filter {bad[0]!r}: choose from {', '.join(KEY[1:])}, where, sort, top")
-    if path is not None and not isinstance(path, str | os.PathLike):
-        raise CatalogError(f"path must be a catalog file name or None (the built-in one), got {path!r}")
-    for key, value in (("sides", sides), *setup.items()):
-        if value is not None and (isinstance(value, bool) or not isinstance(value, int | float)):
-            raise CatalogError(f"catalog filter {key} must be a number, got {value!r}")
-    with open_catalog(path) as cat:
-        if sides is not None:
-            require_polygon(cat, int(sides))
-            setup["sides"] = sides
-        rows = cat.pattern_rows(**setup)
-        if not rows and setup:
-            raise CatalogError(no_match_message(cat, setup))
-        rows = find_rows(rows, cat.number_columns(), where=where, sort=sort, top=top)
-        return CatalogRows(rows, source=cat.path.name)
-
-
-def require_polygon(cat: Catalog, sides: int) -> None:
-    """:class:`CatalogError` (:func:`missing_polygon_message`) if ``cat`` holds no pattern of ``sides``."""
-    if not cat.query("SELECT 1 FROM patterns WHERE sides = ? LIMIT 1", (sides,)):
-        raise CatalogError(missing_polygon_message(cat, sides))
-
-
-def no_match_message(cat: Catalog, setup: dict[str, object]) -> str:
-    """Why a filter found no rows: the filter, and the set-ups (sides, depth, edge mm, thickness mm,
-    weight, pattern count) the catalog does hold, so an empty answer is never mistaken for an empty
-    catalog."""
-    held = "; ".join(
-        f"sides={s['sides']} depth={s['depth']} edge={s['edge']:g} thickness={s['thickness']:g} "
-        f"weight={s['weight']:g} ({s['patterns']} patterns)"
-        for s in cat.setups()
-    )
-    asked = " ".join(f"{k}={v}" for k, v in setup.items())
-    return f"no patterns with {asked} in {cat.path}; it holds {held or 'nothing'}"
-
-
-make_callable(__name__, catalog)
+make_callable(__name__, "fabpat.catalog_read:catalog")

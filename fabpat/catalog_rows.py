@@ -91,6 +91,14 @@ def stored_error(path: object, r: Mapping[str, object], problem: str) -> Excepti
                         "such rows) or give another --db")
 
 
+def check_row(path: object, r: Mapping[str, object], columns: Iterable[str] = ()) -> None:
+    """Raise :func:`stored_error` for a bad stored row of catalog ``path``: a results row (one with a
+    ``scenario``) by :func:`result_problem`, every row's key and ``columns`` by :func:`pattern_problem`."""
+    problem = (result_problem(r) if "scenario" in r else None) or pattern_problem(r, columns)
+    if problem:
+        raise stored_error(path, r, problem)
+
+
 def specific_stiffness(energy: float | None, filleted_area: float | None) -> float | None:
     """Stiffness per mass of a plate in one scenario, in 1/(N·mm³): ``1 / (energy × filleted_area)``
     (energy N·mm, filleted area mm²); None if either is missing. The column ``specific_stiffness_<s>``.

@@ -69,7 +69,8 @@ def test_a_polygon_the_catalog_lacks_names_the_sweep(tmp_path: Path) -> None:
     with pytest.raises(CatalogError, match="fabpat sweep --sides 5"):
         fabpat.catalog(db, sides=5)
     tri = fake_catalog(tmp_path / "tri.sqlite", {3: {"0x0488": {"dome": 1.0}}})
-    one_line_error(("catalog", "--db", str(tri)), "sweep --sides 6", "it holds triangles (sides = 3)")
+    one_line_error(("catalog", "--db", str(tri)), "no catalog energies for hexagons (sides = 6)",
+                   f"sweep --sides 6 --db {tri}", "it holds sides=3 depth=2 edge=36 thickness=2 weight=0.2")
 
 
 def test_browse_and_plot_use_the_pentagon_rows(db: Path, tmp_path: Path) -> None:
@@ -148,6 +149,12 @@ def test_api_finding_errors_are_catalog_errors(db: Path) -> None:
             fabpat.catalog(db, **kwargs)
         assert "\n" not in str(err.value)
     assert parse_condition(" energy_dome >= -2.5e2 ", ["energy_dome"]).value == -250.0
+    with open_catalog(db) as cat:  # the low-level readers raise CatalogError too, not a bare ValueError
+        for call in (lambda: cat.results(bogus=1), lambda: cat.pattern_rows(colour="red")):
+            with pytest.raises(CatalogError, match="cannot filter by"):
+                call()
+    with pytest.raises(CatalogError, match="unknown scenario 'twist'"):
+        fabpat.catalog.energies(db, "twist")
 
 
 # -- stiffness per mass ---------------------------------------------------------------------------------
