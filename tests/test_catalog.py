@@ -29,28 +29,39 @@ def invoke(*args: str) -> Result:
 
 
 def test_builtin_catalog_is_the_default_library(hex_library) -> None:
+    """The hexagons of the default set-up, and beside them, once swept, the pentagons of the same set-up
+    (each polygon its own rows): every pattern of the library, mesh-converged, every solve converged."""
+    from fabpat.library import enumerate_library
+
+    default = {"depth": 2, "edge": 36.0, "thickness": 2.0, "weight": 0.2, "patterns": 430}
     with open_catalog() as cat:
-        assert cat.setups() == [{"sides": 6, "depth": 2, "edge": 36.0, "thickness": 2.0, "weight": 0.2,
-                                 "patterns": 430}]
+        setups = cat.setups()
+        assert {"sides": 6, **default} in setups
+        assert all(s == {"sides": s["sides"], **default} and s["sides"] in (5, 6) for s in setups), setups
         assert cat.scenarios() == list(SCENARIOS)
-        rows = cat.pattern_rows(pictures=True)
-        results = cat.results()
-    assert [r["id"] for r in rows] == sorted(hex_library.ids)
-    assert all(r["svg_path"] and r["min_width"] > 1.5 for r in rows)  # notes: necks ≈ 1.95 mm at the narrowest
-    assert len(results) == 3 * 430
-    assert {(r["E"], r["nu"], r["nonlinear"]) for r in results} == {(1000.0, 0.35, 1)}  # PLA, nonlinear
-    assert len({r["solver_version"] for r in results}) == 1
-    # mesh-converged: every energy extrapolated from a mesh of h = 2.5 mm and its nested refinement, finer
-    # (1.1 × min_width, rounded down) for patterns with necks narrower than 2.27 mm (docs/accuracy.md)
-    min_width = {r["id"]: r["min_width"] for r in rows}
-    expected = {r["id"]: min(2.5, math.floor(1.1 * min_width[r["id"]] * 100 * (1 + 1e-12)) / 100) for r in results}
-    assert all(r["h"] == pytest.approx(expected[r["id"]], abs=1e-12) and r["h_fine"] == r["h"] / 2 for r in results)
-    assert {r["h"] for r in results} == {2.5, 2.47, 2.14}  # necks of 1.95 and 2.25 mm (notes)
-    failed = [f"{r['id']} {r['scenario']}: {r['error']}" for r in results if not r["converged"]]
-    assert not failed, failed[:3]
-    for s in SCENARIOS:
-        e = energies(None, s)
-        assert len(e) == 430 and min(e.values()) > 0
+        polygons = {int(s["sides"]): (cat.pattern_rows(pictures=True, sides=s["sides"]), cat.results(sides=s["sides"]))
+                    for s in setups}
+    for sides, (rows, results) in polygons.items():
+        library = hex_library if sides == 6 else enumerate_library(sides, 2)
+        assert [r["id"] for r in rows] == sorted(library.ids)
+        assert all(r["svg_path"] and r["min_width"] > 0 for r in rows)
+        assert len(results) == 3 * 430
+        assert {(r["E"], r["nu"], r["nonlinear"]) for r in results} == {(1000.0, 0.35, 1)}  # PLA, nonlinear
+        assert len({r["solver_version"] for r in results}) == 1
+        # mesh-converged: every energy extrapolated from a mesh of h = 2.5 mm and its nested refinement, finer
+        # (1.1 × min_width, rounded down) for patterns with necks narrower than 2.27 mm (docs/accuracy.md)
+        min_width = {r["id"]: r["min_width"] for r in rows}
+        expected = {r["id"]: min(2.5, math.floor(1.1 * min_width[r["id"]] * 100 * (1 + 1e-12)) / 100) for r in results}
+        assert all(r["h"] == pytest.approx(expected[r["id"]], abs=1e-12) and r["h_fine"] == r["h"] / 2
+                   for r in results)
+        failed = [f"{r['id']} {r['scenario']}: {r['error']}" for r in results if not r["converged"]]
+        assert not failed, failed[:3]
+        for s in SCENARIOS:
+            e = energies(None, s, sides)
+            assert len(e) == 430 and min(e.values()) > 0
+    hexagons, hex_results = polygons[6]
+    assert all(r["min_width"] > 1.5 for r in hexagons)  # notes: necks ≈ 1.95 mm at the narrowest
+    assert {r["h"] for r in hex_results} == {2.5, 2.47, 2.14}  # necks of 1.95 and 2.25 mm (notes)
     # the notes' solid hexagon (the stiffest possible plate) has cantilever energy 2.6 N·mm: every pattern,
     # having less material, is softer
     assert min(energies(None, "cantilever").values()) > 2.6
@@ -62,7 +73,7 @@ def test_builtin_rows_recompute_to_the_same_numbers() -> None:
     rng = random.Random(seed)
     with open_catalog() as cat:
         rows = [rng.choice(cat.results(scenario=s)) for s in SCENARIOS]
-        pats = {r["id"]: r for r in cat.pattern_rows()}
+        pats = {(r["id"], r["sides"]): r for r in cat.pattern_rows()}
     for r in rows:
         new = simulate_pattern(r["id"], r["sides"], r["depth"], r["edge"], r["thickness"], r["weight"], r["E"],
                                r["nu"], r["h"], [r["scenario"]], extrapolate=r["h_fine"] is not None)
@@ -73,7 +84,7 @@ def test_builtin_rows_recompute_to_the_same_numbers() -> None:
         assert q["max_displacement"] == pytest.approx(r["max_displacement"], rel=1e-6), where
         assert q["nodes"] == r["nodes"], where
         for k in ("area", "perimeter", "polar_moment", "filleted_area", "filleted_polar_moment", "min_width"):
-            assert p[k] == pytest.approx(pats[r["id"]][k], rel=1e-9), f"{k}: {where}"
+            assert p[k] == pytest.approx(pats[r["id"], r["sides"]][k], rel=1e-9), f"{k}: {where}"
 
 
 def test_builtin_version_is_reported() -> None:
