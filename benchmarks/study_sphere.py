@@ -8,7 +8,8 @@
 Columns: h (mm), nodes (plate nodes + sleeves), dofs (unknowns of the linear systems), LU
 factorizations, seconds of the closure (meshing and set-up included), radius (mm), sphericity_rms and
 sphericity_max (radial deviation / radius), peak surface strain and its plate, strain energy (N·mm),
-and for each pair the ratio of the two patterns' Dome energies in the built-in catalog.
+and for each pair the ratio of the two plates' Dome energies in the built-in catalog (the hexagon's
+hexagon energy and the pentagon's pentagon energy).
 """
 
 from __future__ import annotations
@@ -24,11 +25,18 @@ from fabpat.assembly.spec import load_spec
 SPEC = "assemblies/truncated-icosahedron.toml"
 
 
-def dome_energies() -> dict[str, float]:
-    """Dome energies (N·mm) of the built-in catalog (hexagon plates, the rule's scenario)."""
-    import fabpat
+def dome_energies(sides: int) -> dict[str, float]:
+    """Dome energies (N·mm) of the built-in catalog's plates of ``sides`` (the rule's scenario); empty,
+    with the sweep command that adds them on stderr, if the catalog has none."""
+    import sys
 
-    return {r["id"]: r["energy_dome"] for r in fabpat.catalog(sides=6) if r.get("energy_dome")}
+    from fabpat.catalog import CatalogError, polygon_energies
+
+    try:
+        return polygon_energies(None, "dome", sides)
+    except CatalogError as e:
+        print(f"no Dome energy ratio: {e}", file=sys.stderr)
+        return {}
 
 
 def main() -> None:
@@ -40,13 +48,14 @@ def main() -> None:
     args = ap.parse_args()
     spec = load_spec(SPEC)
     pairs = [tuple(p.split("/")) for p in args.pairs] or [(spec.patterns.hexagon, spec.patterns.pentagon)]
-    dome = dome_energies()
+    hexagon, pentagon = dome_energies(6), dome_energies(5)
     print(f"{'pair':>13} {'dome ratio':>10} {'h mm':>5} {'nodes':>7} {'dofs':>7} {'fact.':>5} {'s':>6} "
           f"{'radius':>8} {'sph. rms':>9} {'sph. max':>9} {'peak strain':>11} {'plate':>5} {'energy':>8}")
     for hid, pid in pairs:
         ps = dataclasses.replace(spec.patterns, hexagon=hid, pentagon=pid)
         sp = dataclasses.replace(spec, patterns=ps)
-        ratio = max(dome[hid], dome[pid]) / min(dome[hid], dome[pid]) if hid in dome and pid in dome else float("nan")
+        e = (hexagon[hid], pentagon[pid]) if hid in hexagon and pid in pentagon else (float("nan"),) * 2
+        ratio = max(e) / min(e)
         for h in args.h:
             t0 = time.perf_counter()
             sim = simulate_assembly(sp, h=h)

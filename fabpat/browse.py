@@ -20,7 +20,7 @@ from importlib import resources
 
 import numpy as np
 
-from fabpat.catalog import DEFAULT_SETUP, Catalog, CatalogError
+from fabpat.catalog import DEFAULT_SETUP, Catalog, CatalogError, missing_polygon_message
 
 _LABELS = {
     "area": ("area", "mm²"), "perimeter": ("perimeter", "mm"), "ratio": ("ratio 4πA/P²", ""),
@@ -39,17 +39,22 @@ def metric_info(key: str) -> dict[str, object]:
     if key in _LABELS:
         label, unit = _LABELS[key]
         return {"key": key, "label": label, "unit": unit, "log": False}
-    for prefix, label, unit in (("energy_", "energy", "N·mm"), ("max_displacement_", "max displacement", "mm")):
+    for prefix, label, unit in (("energy_", "energy", "N·mm"), ("max_displacement_", "max displacement", "mm"),
+                                ("specific_stiffness_", "stiffness per mass", "1/(N·mm³)")):
         if key.startswith(prefix):
             return {"key": key, "label": f"{label}, {key[len(prefix):]}", "unit": unit, "log": True}
     return {"key": key, "label": key, "unit": "", "log": False}
 
 
 def choose_setup(cat: Catalog, sides: int | None = None) -> dict[str, object]:
-    """The set-up to show: the default one if present (and matching ``sides``), else the largest."""
+    """The set-up to show: the default one if present (and matching ``sides``), else the largest of
+    that polygon. :class:`CatalogError` if the catalog has no patterns (of that polygon: the message
+    names the ``fabpat sweep --sides`` command that adds them)."""
     setups = [s for s in cat.setups() if sides is None or s["sides"] == sides]
     if not setups:
-        raise CatalogError(f"catalog {cat.path} has no patterns" + (f" with {sides} sides" if sides else ""))
+        if sides is not None:
+            raise CatalogError(missing_polygon_message(cat, sides))
+        raise CatalogError(f"catalog {cat.path} has no patterns; fill it with `fabpat sweep --db {cat.path}`")
     for s in setups:
         if all(s[k] == v for k, v in DEFAULT_SETUP.items()):
             return {k: s[k] for k in DEFAULT_SETUP}
@@ -120,7 +125,9 @@ def render_page(data: dict[str, object]) -> str:
 
 
 def write_page(cat: Catalog, out: str, sides: int | None = None) -> int:
-    """Write the browsing page to ``out`` atomically; returns the number of patterns shown."""
+    """Write the browsing page of the polygon ``sides`` (None: the default set-up's) to ``out``
+    atomically; returns the number of patterns shown. :class:`CatalogError` as :func:`choose_setup`, or
+    for a bad stored value."""
     from fabpat.io import atomic_outputs
 
     data = page_data(cat, sides)

@@ -16,32 +16,40 @@ Two tables (stdlib :mod:`sqlite3`, no pandas):
 
 ``input_hash`` digests every input that affects a result (the key, the material, h, nonlinear, the
 solver version — which includes a digest of the source of every module the pipeline imports, see
-:func:`pipeline_modules`): a sweep skips a row whose stored hash equals the one it would compute, so
-changing any input or the solver code recomputes exactly the affected rows.
+:func:`fabpat.catalog_version.pipeline_modules`): a sweep skips a row whose stored hash equals the one
+it would compute, so changing any input or the solver code recomputes exactly the affected rows.
 
 Readers: :func:`open_catalog` (``None`` → the built-in catalog shipped in ``fabpat/data``),
-:meth:`Catalog.pattern_rows` (one plain dict per pattern with ``energy_<scenario>`` columns),
-:meth:`Catalog.query` and :func:`energies`. Calling the module is :func:`catalog`:
-``fabpat.catalog()`` → those rows as a list, with ``to_dataframe()`` when pandas is installed.
+:meth:`Catalog.pattern_rows` (one plain dict per pattern with ``energy_<scenario>`` and
+``specific_stiffness_<scenario>`` columns, see :func:`fabpat.catalog_rows.specific_stiffness`),
+:meth:`Catalog.query`,
+:func:`energies` and :func:`polygon_energies` (one polygon's own energies, for the assembly rules).
+Calling the module is :func:`catalog`: ``fabpat.catalog()`` → those rows as a list
+(:class:`fabpat.catalog_rows.CatalogRows`: filter, sort, top N, ``to_dataframe()`` with pandas).
+
+What is read back is checked as strictly as what a user types (a catalog is a file anyone can edit):
+an energy must be a finite, positive number (a converged row must have one), a displacement and every
+metric finite; a row that is not raises :class:`CatalogError` naming the catalog, the pattern, the
+scenario and the value, so that no listing, picture or assembly rule ever uses it. A sweep recomputes
+such rows (their stored hash is not trusted).
 """
 
 from __future__ import annotations
 
 import contextlib
 import errno
-import hashlib
-import json
 import os
 import sqlite3
+import stat
 import tempfile
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from functools import cache
 from importlib import resources
 from pathlib import Path
-from typing import Any
 
 from fabpat._callable import make_callable
+from fabpat.catalog_rows import check_row, pattern_problem, result_problem, specific_stiffness
+from fabpat.catalog_version import input_hash, pipeline_modules, solver_version  # noqa: F401 - part of this API
 from fabpat.errors import FabpatError
 
 SCHEMA_VERSION = "1"
@@ -79,83 +87,9 @@ ADDED_COLUMNS: dict[str, tuple[str, ...]] = {"patterns": (), "results": ("h_fine
 METRICS = ("area", "perimeter", "ratio", "polar_moment", "filleted_area", "filleted_perimeter", "filleted_ratio",
            "filleted_polar_moment", "min_width")
 
-# The results depend on the code of these modules and of every fabpat module they import (found by
-# reading their import statements): that code's digest is part of the solver version, so a code change
-# invalidates stored results instead of silently mixing them, and an unrelated module does not.
-_PIPELINE_ROOTS = ("fabpat.library", "fabpat.fillet", "fabpat.mesh", "fabpat.scenarios", "fabpat.convergence")
-# Writers and pictures that pipeline objects reach for on request (``FilletedPattern.export``,
-# ``ScenarioResult.to_vtu``, notebook pictures) never change a stored number: not part of the digest.
-_OUTPUT_ONLY = ("fabpat.exchange", "fabpat.cad", "fabpat.pictures", "fabpat.plots", "fabpat.io")
-
-
-class CatalogError(FabpatError):
-    """A catalog file that is missing, not a fabpat catalog, or from an incompatible schema."""
-
-
-def pipeline_modules(roots: Sequence[str] = _PIPELINE_ROOTS) -> list[Path]:
-    """Source files of ``roots`` and of every fabpat module they import, directly or not (sorted).
-
-    Imports are read from the source (``ast``), including the lazy ones inside functions; the
-    output-only modules (:data:`_OUTPUT_ONLY`: file writers, pictures) are left out.
-    """
-    import ast
-
-    base = Path(str(resources.files("fabpat")))
-
-    def path_of(module: str) -> Path | None:
-        parts = module.split(".")[1:]
-        if not parts:
-            return base / "__init__.py"
-        for cand in (base.joinpath(*parts[:-1], parts[-1] + ".py"), base.joinpath(*parts, "__init__.py")):
-            if cand.is_file():
-                return cand
-        return None
-
-    seen: dict[str, Path] = {}
-    todo = list(roots)
-    while todo:
-        mod = todo.pop()
-        if any(mod == o or mod.startswith(o + ".") for o in _OUTPUT_ONLY):
-            continue
-        path = path_of(mod)
-        if mod in seen or path is None:
-            continue
-        seen[mod] = path
-        parts = mod.split(".")
-        todo.extend(".".join(parts[:k]) for k in range(2, len(parts)))  # importing a.b.c runs a.b's __init__
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-            if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("fabpat"):
-                todo.append(node.module)
-                todo.extend(f"{node.module}.{a.name}" for a in node.names)  # `from fabpat.shell import solve`
-            elif isinstance(node, ast.Import):
-                todo.extend(a.name for a in node.names if a.name.startswith("fabpat"))
-    return sorted(set(seen.values()))
-
-
-@cache
-def solver_version() -> str:
-    """``fabpat <version>+<digest>``: the package version and a digest of the pipeline's source files
-    (:func:`pipeline_modules`) and of the mesher's version (another Delaunay mesh, another energy)."""
-    from fabpat import __version__
-
-    base = Path(str(resources.files("fabpat")))
-    h = hashlib.sha256()
-    for f in pipeline_modules():
-        h.update(f.relative_to(base).as_posix().encode())
-        h.update(f.read_bytes())
-    try:
-        from importlib.metadata import version
-
-        h.update(version("triangle").encode())
-    except Exception:  # noqa: BLE001 - metadata missing in odd installs: the digest still covers the code
-        pass
-    return f"fabpat {__version__}+{h.hexdigest()[:12]}"
-
-
-def input_hash(inputs: Mapping[str, object]) -> str:
-    """A 16-hex-digit SHA-256 of a flat mapping of inputs (keys sorted; floats by ``repr``)."""
-    text = json.dumps({k: inputs[k] for k in sorted(inputs)}, sort_keys=True, default=repr)
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
+class CatalogError(FabpatError, ValueError):
+    """A catalog file that is missing, not a fabpat catalog, from an incompatible schema or holding a
+    bad value; a bad filter or query argument (a ``ValueError`` too, as before it was one of these)."""
 
 
 def builtin_path() -> Path:
@@ -207,23 +141,35 @@ class Catalog:
         return [s for s in SCENARIOS if s in found] + sorted(str(s) for s in found - set(SCENARIOS))
 
     def setups(self) -> list[dict[str, object]]:
-        """Distinct (sides, depth, edge, thickness, weight) set-ups with their pattern counts."""
-        return self.query("SELECT sides, depth, edge, thickness, weight, COUNT(*) AS patterns FROM patterns "
+        """Distinct (sides, depth, edge, thickness, weight) set-ups with their pattern counts.
+        :class:`CatalogError` if a stored key is not a valid one (text, a negative edge, …)."""
+        rows = self.query("SELECT sides, depth, edge, thickness, weight, COUNT(*) AS patterns FROM patterns "
                           "GROUP BY sides, depth, edge, thickness, weight ORDER BY sides, depth, edge")
+        for r in rows:
+            problem = pattern_problem(r)
+            if problem:
+                raise CatalogError(f"catalog {self.path} holds a bad set-up: {problem}; the file was edited or "
+                                   "damaged: give another --db")
+        return rows
 
     def results(self, scenario: str | None = None, **setup: object) -> list[dict[str, object]]:
         """Rows of ``results`` (long form), optionally filtered by scenario and key columns; every
-        column of :data:`RESULT_COLUMNS` is a key (None where a catalog made before it has none)."""
+        column of :data:`RESULT_COLUMNS` is a key (None where a catalog made before it has none).
+        :class:`CatalogError` for an unknown filter or a bad stored value (see the module notes)."""
         where, params = _where({**setup, **({"scenario": scenario} if scenario else {})})
         rows = self.query(f"SELECT * FROM results{where} ORDER BY sides, depth, edge, thickness, weight, id, "
                           "scenario", params)
+        for r in rows:
+            check_row(self.path, r, METRICS)
         return [{**r, **{c: None for c in ADDED_COLUMNS["results"] if c not in r}} for r in rows]
 
     def pattern_rows(self, *, pictures: bool = False, **setup: object) -> list[dict[str, object]]:
         """One dict per pattern (wide form): key, metrics and, per scenario, ``energy_<s>`` (N·mm),
-        ``max_displacement_<s>`` (mm) and ``converged_<s>``; None where no result is stored.
+        ``max_displacement_<s>`` (mm), ``converged_<s>`` and ``specific_stiffness_<s>``
+        (1/(N·mm³), :func:`~fabpat.catalog_rows.specific_stiffness`); None where no result is stored.
 
         ``setup`` filters by key columns (e.g. ``sides=6``); ``pictures`` adds ``svg_path``.
+        :class:`CatalogError` for an unknown filter or a bad stored value (see the module notes).
         """
         where, params = _where(setup)
         cols = ", ".join([*KEY, *METRICS, *(("svg_path",) if pictures else ())])
@@ -232,6 +178,7 @@ class Catalog:
         scen = self.scenarios()
         by_key = {tuple(r[k] for k in KEY): r for r in rows}
         for r in rows:
+            check_row(self.path, r, METRICS)
             for s in scen:
                 r[f"energy_{s}"] = r[f"max_displacement_{s}"] = r[f"converged_{s}"] = None
         res = self.query(f"SELECT {', '.join(KEY)}, scenario, energy, max_displacement, converged FROM results"
@@ -239,21 +186,35 @@ class Catalog:
         for q in res:
             r = by_key.get(tuple(q[k] for k in KEY))
             if r is not None:
+                check_row(self.path, q, METRICS)
                 s = q["scenario"]
                 r[f"energy_{s}"] = q["energy"] if q["converged"] else None
                 r[f"max_displacement_{s}"] = q["max_displacement"] if q["converged"] else None
                 r[f"converged_{s}"] = bool(q["converged"])
+        for r in rows:
+            for s in scen:
+                r[f"specific_stiffness_{s}"] = specific_stiffness(r[f"energy_{s}"], r["filleted_area"])  # type: ignore[arg-type]
         return rows
+
+    def number_columns(self, long: bool = False) -> list[str]:
+        """The numeric columns of :meth:`pattern_rows` (``long``: of :meth:`results`) that rows can be
+        filtered and sorted by (:func:`fabpat.catalog_rows.find_rows`), for this catalog's scenarios."""
+        if long:
+            return [c for c, t in RESULT_COLUMNS.items() if t.split()[0] in ("REAL", "INTEGER")]
+        per = [f"{p}_{s}" for s in self.scenarios() for p in ("energy", "max_displacement", "specific_stiffness")]
+        return [*KEY[1:], *METRICS, *per]
 
     def stored_hashes(self, sides: int, depth: int, edge: float, thickness: float,
                       weight: float) -> tuple[dict[str, str], dict[tuple[str, str], str]]:
-        """Input hashes of one set-up: {id: pattern hash}, {(id, scenario): result hash}."""
+        """Input hashes of one set-up: {id: pattern hash}, {(id, scenario): result hash}. A row holding a
+        bad value (see the module notes) is left out, so a sweep recomputes it rather than trust it."""
         p = (sides, depth, edge, thickness, weight)
         cond = "sides = ? AND depth = ? AND edge = ? AND thickness = ? AND weight = ?"
         pats = {str(r["id"]): str(r["input_hash"])
-                for r in self.query(f"SELECT id, input_hash FROM patterns WHERE {cond}", p)}
+                for r in self.query(f"SELECT {', '.join(KEY)}, {', '.join(METRICS)}, input_hash FROM patterns "
+                                    f"WHERE {cond}", p) if not pattern_problem(r, METRICS)}
         res = {(str(r["id"]), str(r["scenario"])): str(r["input_hash"])
-               for r in self.query(f"SELECT id, scenario, input_hash FROM results WHERE {cond}", p)}
+               for r in self.query(f"SELECT * FROM results WHERE {cond}", p) if not result_problem(r)}
         return pats, res
 
     # ------------------------------------------------------------------------------ writing
@@ -274,7 +235,7 @@ class Catalog:
                     table = row["table"]
                     cols = PATTERN_COLUMNS if table == "patterns" else RESULT_COLUMNS if table == "results" else None
                     if cols is None:
-                        raise ValueError(f"unknown table {table!r}")
+                        raise CatalogError(f"unknown table {table!r}: rows go to 'patterns' or 'results'")
                     names = [c for c in cols if c in row]
                     self.conn.execute(f"INSERT OR REPLACE INTO {table} ({', '.join(names)}) "
                                       f"VALUES ({', '.join('?' * len(names))})", [row[c] for c in names])
@@ -293,10 +254,11 @@ class Catalog:
                 self.conn.execute("PRAGMA journal_mode=DELETE")
 
     def close(self, failed: bool = False) -> None:
-        """Close the SQLite connection. A writable catalog is left as ONE file: if a failure (a full
-        disk that refused SQLite's ``-shm`` index, say) kept :meth:`finish` from leaving WAL mode, the
-        ``-wal``/``-shm`` files are folded back and removed, provided no other process has the catalog
-        open. With ``failed``, a catalog this call created that holds no pattern yet is removed too."""
+        """Close the SQLite connection. A writable catalog is left as ONE file out of WAL mode: if
+        :meth:`finish` was not called or a failure (a full disk that refused SQLite's ``-shm`` index,
+        say) kept it from leaving WAL mode, the ``-wal``/``-shm`` files are folded back and removed and
+        the mode left, provided no other process has the catalog open. With ``failed``, a catalog this
+        call created that holds no pattern yet is removed too."""
         self.conn.close()
         if self.writable:
             _tidy(self.path, remove_empty=failed and self.created, keep_file=self.replaced_empty)
@@ -314,7 +276,7 @@ def _tidy(p: Path, remove_empty: bool, keep_file: bool = False) -> None:
     holding SQLite's exclusive lock: every WAL-mode connection holds a shared lock on the file, so
     getting the exclusive one proves nobody else uses them."""
     side = [p.with_name(p.name + s) for s in ("-wal", "-shm")]
-    if not remove_empty and not any(f.exists() for f in side):
+    if not remove_empty and not any(f.exists() for f in side) and not _in_wal_mode(p):
         return
     with contextlib.suppress(sqlite3.Error, OSError):
         # EXCLUSIVE locking keeps the WAL index in memory: this works where the -shm file could not grow
@@ -338,11 +300,21 @@ def _tidy(p: Path, remove_empty: bool, keep_file: bool = False) -> None:
             conn.close()
 
 
+def _in_wal_mode(p: Path) -> bool:
+    """Whether the file's header says WAL mode (bytes 18–19 = 2, 2): SQLite removes the -wal/-shm files
+    when the last connection closes, but the mode stays, and a reader would then make them again."""
+    try:
+        with p.open("rb") as f:
+            return f.read(20)[18:20] == b"\x02\x02"
+    except OSError:
+        return False
+
+
 def _where(filters: Mapping[str, object]) -> tuple[str, list[object]]:
     allowed = set(KEY) | {"scenario"}
     bad = set(filters) - allowed
     if bad:
-        raise ValueError(f"cannot filter by {', '.join(sorted(bad))}; use {', '.join(sorted(allowed))}")
+        raise CatalogError(f"cannot filter by {', '.join(sorted(bad))}; use {', '.join(sorted(allowed))}")
     items = [(k, v) for k, v in filters.items() if v is not None]
     if not items:
         return "", []
@@ -360,21 +332,25 @@ def open_catalog(path: str | Path | None = None, *, write: bool = False) -> Cata
     2. Only then, for ``write=True``, is it opened read-write and switched to WAL journaling with
        ``synchronous=NORMAL``: every commit survives a crash or kill of the process (only a power loss
        can lose the last commits), and readers never block the writer.
-    3. A new catalog is built under a temporary name next to ``path`` and linked into place when
-       complete, so a full disk or a kill leaves no empty or half-made file; leaving the returned
-       catalog's ``with`` block by an exception before any pattern is stored removes it again.
-       An empty (0-byte) file counts as no catalog yet: readers refuse it as such, ``write=True``
-       makes the catalog in it.
+    3. A new catalog is built under a temporary name next to ``path`` and hard-linked into place when
+       complete; the link fails if another process made the file meanwhile, and that catalog is then
+       opened instead (two sweeps starting together share one catalog, neither replaces the other's).
+       So a full disk or a kill leaves no empty or half-made file, and leaving the returned catalog's
+       ``with`` block by an exception before any pattern is stored removes it again. An empty (0-byte)
+       regular file counts as no catalog yet: readers refuse it as such, ``write=True`` makes the
+       catalog in it, in place, in one SQLite transaction (so two writers cannot both make it).
+    4. Anything that is not absent or a regular file (a folder, FIFO, device, socket; a symbolic link
+       is followed and its target checked) is refused and never renamed over: ``--db /dev/zero`` must
+       not replace the device with a file.
 
-    Raises :class:`CatalogError` naming the real cause: missing, read-only, locked (for longer than
-    :data:`LOCK_TIMEOUT`), disk full, damaged (with the ``sqlite3 FILE .recover`` hint), not a fabpat
-    catalog, or another schema.
+    Raises :class:`CatalogError` naming the real cause: missing, not a regular file, read-only, locked
+    (for longer than :data:`LOCK_TIMEOUT`), disk full, damaged (with the ``sqlite3 FILE .recover``
+    hint), not a fabpat catalog, or another schema.
     """
     p = builtin_path() if path is None else Path(path)
     if write and path is None:
         raise CatalogError("the built-in catalog is read-only here; give --db FILE")
-    if p.is_dir():
-        raise CatalogError(f"cannot use {p} as a catalog: it is a folder")
+    _refuse_special(p)
     if not write:
         if not p.is_file():
             what = "the built-in catalog" if path is None else "catalog"
@@ -383,18 +359,22 @@ def open_catalog(path: str | Path | None = None, *, write: bool = False) -> Cata
             raise CatalogError(f"catalog {p} is an empty file (0 bytes), not a catalog yet; create one with "
                                f"`fabpat sweep --db {p}`")
         return Catalog(p, _checked_connection(p), False)
+    if p.is_symlink():  # write the file it points to: SQLite's -wal/-shm files live next to that one
+        p = Path(os.path.realpath(p))
     folder = p.parent if str(p.parent) else Path(".")
     if not folder.is_dir():
         raise CatalogError(f"cannot create catalog {p}: folder {folder} does not exist")
-    replaced_empty = p.exists() and p.stat().st_size == 0  # an empty file is a catalog not made yet
-    created = replaced_empty or not p.exists()
-    if created:
-        _create(p, folder)
-    else:
-        _checked_connection(p).close()  # read-only: a foreign or damaged file is refused unchanged
-        if not os.access(p, os.W_OK) or not os.access(folder, os.W_OK):
-            where = p if not os.access(p, os.W_OK) else f"folder {folder} (SQLite writes its journal there)"
-            raise CatalogError(f"catalog {p} is read-only: cannot write {where}; give another --db")
+    created = replaced_empty = False
+    if not p.exists():
+        created = _create(p, folder)  # False: another process made it just now; use that one
+    if not created:
+        _refuse_special(p)
+        if p.stat().st_size == 0:  # an empty file is a catalog not made yet
+            _check_writable(p, folder)
+            created = replaced_empty = _create_in_place(p)
+        if not created:
+            _checked_connection(p).close()  # read-only: a foreign or damaged file is refused unchanged
+            _check_writable(p, folder)
     try:
         conn = sqlite3.connect(f"{p.resolve().as_uri()}?mode=rw", uri=True, timeout=LOCK_TIMEOUT)
     except sqlite3.Error as e:
@@ -468,9 +448,65 @@ def _check_schema(conn: sqlite3.Connection, p: Path) -> None:
                            "to save what is left, or give another --db")
 
 
-def _create(p: Path, folder: Path) -> None:
-    """Make a new, empty catalog at ``p`` (missing or an empty file): built under a temporary name and
-    linked into place only when complete, so a full disk leaves nothing behind."""
+def _kind(p: Path) -> str | None:
+    """What ``p`` is, if it is neither absent nor a regular file (a symbolic link is followed)."""
+    try:
+        mode = os.stat(p).st_mode
+    except (FileNotFoundError, NotADirectoryError):
+        return None  # absent (a dangling link too): a catalog can be made there
+    except OSError as e:
+        raise _os_cause(e, p, "open") from e
+    kinds = ((stat.S_ISREG, None), (stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
+             (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
+    return next((k for test, k in kinds if test(mode)), "not a regular file")
+
+
+def _refuse_special(p: Path) -> None:
+    """:class:`CatalogError` if ``p`` exists and is not a regular file (through a symbolic link too)."""
+    kind = _kind(p)
+    if kind is not None:
+        link = f" (a symbolic link to {os.path.realpath(p)})" if p.is_symlink() else ""
+        raise CatalogError(f"cannot use {p}{link} as a catalog: it is {kind}, not a regular file; "
+                           "give another --db")
+
+
+def _check_writable(p: Path, folder: Path) -> None:
+    if not os.access(p, os.W_OK) or not os.access(folder, os.W_OK):
+        where = p if not os.access(p, os.W_OK) else f"folder {folder} (SQLite writes its journal there)"
+        raise CatalogError(f"catalog {p} is read-only: cannot write {where}; give another --db")
+
+
+def _initialise(conn: sqlite3.Connection, statements: Sequence[str]) -> None:
+    for sql in statements:
+        conn.execute(sql)
+    conn.execute("INSERT INTO meta VALUES ('schema_version', ?)", (SCHEMA_VERSION,))
+
+
+def _create_in_place(p: Path) -> bool:
+    """Make the catalog inside the empty file ``p`` in one transaction; False if another process made
+    it meanwhile (its tables are there once this one gets SQLite's write lock: nothing is replaced)."""
+    statements = _create_sql()
+    try:
+        conn = sqlite3.connect(f"{p.resolve().as_uri()}?mode=rw", uri=True, timeout=LOCK_TIMEOUT,
+                               isolation_level=None)
+        try:
+            conn.execute("BEGIN IMMEDIATE")  # waits for a writer making it now, then sees its tables
+            if conn.execute("SELECT COUNT(*) FROM sqlite_master").fetchone()[0]:
+                conn.execute("ROLLBACK")
+                return False
+            _initialise(conn, statements)
+            conn.execute("COMMIT")
+            return True
+        finally:
+            conn.close()  # without COMMIT: rolled back, the file empty as it was
+    except sqlite3.Error as e:
+        raise _cause(e, p, "create") from e
+
+
+def _create(p: Path, folder: Path) -> bool:
+    """Make a new catalog at the missing path ``p``: built under a temporary name and hard-linked into
+    place only when complete (a full disk leaves nothing behind). False if another process created
+    ``p`` meanwhile: the link refuses to replace it, and the caller opens that catalog instead."""
     from fabpat.io import file_mode, remove_stale_temps, temp_prefix
 
     remove_stale_temps(folder)
@@ -481,25 +517,23 @@ def _create(p: Path, folder: Path) -> None:
     os.close(fd)
     tmp = Path(name)
     try:
-        conn = sqlite3.connect(tmp)
+        conn = sqlite3.connect(tmp, isolation_level=None)
         try:
-            for sql in _create_sql():
-                conn.execute(sql)
-            with conn:
-                conn.execute("INSERT INTO meta VALUES ('schema_version', ?)", (SCHEMA_VERSION,))
+            conn.execute("BEGIN")
+            _initialise(conn, _create_sql())
+            conn.execute("COMMIT")
         finally:
             conn.close()
         os.chmod(tmp, file_mode())  # mkstemp makes 0600 files; give the user's usual permissions
-        if p.exists():  # an empty file: replace it
-            os.replace(tmp, p)
-        else:
-            try:
-                os.link(tmp, p)  # fails if another process created p meanwhile: never replace its catalog
-            except FileExistsError:
-                raise CatalogError(f"cannot create catalog {p}: another process created it just now; "
-                                   "run again") from None
-            except OSError:  # a file system without hard links
-                os.replace(tmp, p)
+        try:
+            os.link(tmp, p)  # atomic, and fails if p exists: never replace another process's catalog
+        except FileExistsError:
+            return False
+        except OSError as e:
+            if e.errno not in (errno.EPERM, errno.EOPNOTSUPP, errno.ENOTSUP, errno.EMLINK):
+                raise
+            return _create_exclusive(p)  # a file system without hard links (FAT, some network shares)
+        return True
     except sqlite3.Error as e:
         raise _cause(e, p, "create") from e
     except OSError as e:
@@ -508,6 +542,24 @@ def _create(p: Path, folder: Path) -> None:
         for junk in (tmp, tmp.with_name(tmp.name + "-journal")):
             with contextlib.suppress(OSError):
                 junk.unlink()
+
+
+def _create_exclusive(p: Path) -> bool:
+    """Without hard links: claim ``p`` as an empty file (``O_EXCL``: fails if it exists) and make the
+    catalog in it (:func:`_create_in_place`); an empty file left by a failure is "no catalog yet"."""
+    from fabpat.io import file_mode
+
+    try:
+        os.close(os.open(p, os.O_WRONLY | os.O_CREAT | os.O_EXCL, file_mode()))
+    except FileExistsError:
+        return False
+    try:
+        return _create_in_place(p)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            if p.stat().st_size == 0:
+                p.unlink()
+        raise
 
 
 def _os_cause(e: OSError, p: Path, doing: str) -> CatalogError:
@@ -552,90 +604,18 @@ def _cause(e: sqlite3.Error, p: Path, doing: str) -> CatalogError:
     return CatalogError(f"cannot {doing} catalog {p}: {e}")
 
 
-@cache
-def _builtin_energies(scenario: str, sides: int, depth: int, edge: float, thickness: float,
-                      weight: float) -> tuple[tuple[str, float], ...]:
-    with open_catalog(None) as cat:
-        return tuple(_energy_items(cat, scenario, sides, depth, edge, thickness, weight))
+#: the readers built on this module, in fabpat.catalog_read (which imports this one): part of this
+#: module's API, imported on first use (PEP 562), as the package's own names are
+_READERS = ("catalog", "energies", "polygon_energies", "require_polygon", "missing_polygon_message",
+            "no_match_message", "held_setups")
 
 
-def _energy_items(cat: Catalog, scenario: str, sides: int, depth: int, edge: float, thickness: float,
-                  weight: float) -> Iterator[tuple[str, float]]:
-    for r in cat.query("SELECT id, energy FROM results WHERE scenario = ? AND sides = ? AND depth = ? AND edge = ? "
-                       "AND thickness = ? AND weight = ? AND converged = 1 ORDER BY id",
-                       (scenario, sides, depth, edge, thickness, weight)):
-        yield str(r["id"]), float(r["energy"])  # type: ignore[arg-type]
+def __getattr__(name: str) -> object:
+    if name in _READERS:
+        from fabpat import catalog_read
+
+        return getattr(catalog_read, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-def energies(catalog: Catalog | str | Path | None, scenario: str, sides: int = 6, *, depth: int = 2,
-             edge: float = 36.0, thickness: float = 2.0, weight: float = 0.2) -> dict[str, float]:
-    """Total strain energy (N·mm) of every converged pattern in one scenario: {pattern ID: energy}.
-
-    ``catalog``: an open :class:`Catalog`, a path, or None for the built-in catalog (cached).
-    Lower energy = stiffer pattern (constant loads, paper §5). Empty if the scenario was not simulated.
-    """
-    from fabpat.scenarios import SCENARIOS
-
-    if scenario not in SCENARIOS:
-        raise ValueError(f"unknown scenario {scenario!r}; expected one of {', '.join(SCENARIOS)}")
-    args = (scenario, sides, depth, float(edge), float(thickness), float(weight))
-    if catalog is None:
-        return dict(_builtin_energies(*args))
-    if isinstance(catalog, Catalog):
-        return dict(_energy_items(catalog, *args))
-    with open_catalog(catalog) as cat:
-        return dict(_energy_items(cat, *args))
-
-
-class CatalogRows(list[dict[str, object]]):
-    """The rows of :func:`catalog`: a list of dicts (one per pattern), plus :meth:`to_dataframe`."""
-
-    def to_dataframe(self) -> Any:
-        """A pandas ``DataFrame`` of the rows, indexed by pattern ID. Needs pandas
-        (``pip install 'fabpat[pandas]'``); raises :class:`CatalogError` without it."""
-        try:
-            import pandas as pd
-        except ImportError:
-            raise CatalogError("to_dataframe needs pandas: pip install 'fabpat[pandas]'") from None
-        return pd.DataFrame(list(self)).set_index("id", drop=False)
-
-
-def catalog(path: str | Path | None = None, *, sides: int | None = None, **setup: object) -> CatalogRows:
-    """The rows of a catalog (``None``: the built-in one) — ``fabpat.catalog()``.
-
-    One dict per pattern (see :meth:`Catalog.pattern_rows`): ``id``, the set-up (``sides``, ``depth``,
-    ``edge`` mm, ``thickness`` mm, ``weight``), lattice and filleted metrics (mm², mm, mm⁴),
-    ``min_width`` (mm) and per scenario ``energy_<scenario>`` (N·mm) and ``max_displacement_<scenario>``
-    (mm). ``sides`` and other set-up keys filter the rows. Raises :class:`CatalogError`.
-    """
-    bad = sorted(set(setup) - set(KEY[1:]))
-    if bad:
-        raise CatalogError(f"unknown catalog filter {bad[0]!r}: choose from {', '.join(KEY[1:])}")
-    if path is not None and not isinstance(path, str | os.PathLike):
-        raise CatalogError(f"path must be a catalog file name or None (the built-in one), got {path!r}")
-    for key, value in (("sides", sides), *setup.items()):
-        if value is not None and (isinstance(value, bool) or not isinstance(value, int | float)):
-            raise CatalogError(f"catalog filter {key} must be a number, got {value!r}")
-    if sides is not None:
-        setup["sides"] = sides
-    with open_catalog(path) as cat:
-        rows = cat.pattern_rows(**setup)
-        if not rows and setup:
-            raise CatalogError(no_match_message(cat, setup))
-        return CatalogRows(rows)
-
-
-def no_match_message(cat: Catalog, setup: dict[str, object]) -> str:
-    """Why a filter found no rows: the filter, and the set-ups (sides, depth, edge mm, thickness mm,
-    weight, pattern count) the catalog does hold, so an empty answer is never mistaken for an empty
-    catalog."""
-    held = "; ".join(
-        f"sides={s['sides']} depth={s['depth']} edge={s['edge']:g} thickness={s['thickness']:g} "
-        f"weight={s['weight']:g} ({s['patterns']} patterns)"
-        for s in cat.setups()
-    )
-    asked = " ".join(f"{k}={v}" for k, v in setup.items())
-    return f"no patterns with {asked} in {cat.path}; it holds {held or 'nothing'}"
-
-
-make_callable(__name__, catalog)
+make_callable(__name__, "fabpat.catalog_read:catalog")

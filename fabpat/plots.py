@@ -52,8 +52,10 @@ def plot_catalog(cat: Catalog, out: str | Path, highlight: Sequence[str] = (), s
     """Write the figures into folder ``out`` (created if missing; its parent must exist); returns the
     files written. A folder created here is removed again when the figures cannot be written.
 
-    Raises PatternError if a highlighted ID is not in the catalog, ExportError if ``out`` cannot be
-    written (a full disk is named as such).
+    ``sides``: the polygon whose rows (and energies) to draw; None: the default set-up's (see
+    :func:`fabpat.browse.choose_setup`). Raises PatternError if a highlighted ID is not among them,
+    CatalogError if the catalog has no patterns of ``sides`` (naming the ``fabpat sweep`` command that
+    adds them) or holds a bad value, ExportError if ``out`` cannot be written (a full disk is named as such).
     """
     import matplotlib
 

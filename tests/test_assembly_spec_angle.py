@@ -173,8 +173,8 @@ def test_similar_pairs_by_hand() -> None:
 
 def test_similar_pairs_in_one_scenario_never_pair_a_pattern_with_itself() -> None:
     energies = {"a": 1.0, "b": 1.05, "c": 4.0, "d": 4.1, "e": 16.0, "f": 17.0, "g": 33.0}
-    pairs = similar_pairs(energies, None, 3)
-    assert pairs[0] == similar_pair(energies) == ("d", "c")  # median 4.1 (d), nearest other 4.0 (c)
+    pairs = similar_pairs(energies, energies, 3)  # the same energies for both polygons
+    assert pairs[0] == similar_pair(energies, energies) == ("d", "c")  # median 4.1 (d), nearest other 4.0 (c)
     # the 6 nearest 4.1: d, c, e (×3.90), b (×3.905), a, f; their log ratios: d–c and c–d 0.0247,
     # b–a and a–b 0.0488, e–f and f–e 0.0606; ties go to the smaller hexagon ID
     assert pairs == [("d", "c"), ("c", "d"), ("a", "b")]

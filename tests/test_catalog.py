@@ -29,28 +29,39 @@ def invoke(*args: str) -> Result:
 
 
 def test_builtin_catalog_is_the_default_library(hex_library) -> None:
+    """The hexagons of the default set-up, and beside them, once swept, the pentagons of the same set-up
+    (each polygon its own rows): every pattern of the library, mesh-converged, every solve converged."""
+    from fabpat.library import enumerate_library
+
+    default = {"depth": 2, "edge": 36.0, "thickness": 2.0, "weight": 0.2, "patterns": 430}
     with open_catalog() as cat:
-        assert cat.setups() == [{"sides": 6, "depth": 2, "edge": 36.0, "thickness": 2.0, "weight": 0.2,
-                                 "patterns": 430}]
+        setups = cat.setups()
+        assert {"sides": 6, **default} in setups
+        assert all(s == {"sides": s["sides"], **default} and s["sides"] in (5, 6) for s in setups), setups
         assert cat.scenarios() == list(SCENARIOS)
-        rows = cat.pattern_rows(pictures=True)
-        results = cat.results()
-    assert [r["id"] for r in rows] == sorted(hex_library.ids)
-    assert all(r["svg_path"] and r["min_width"] > 1.5 for r in rows)  # notes: necks ≈ 1.95 mm at the narrowest
-    assert len(results) == 3 * 430
-    assert {(r["E"], r["nu"], r["nonlinear"]) for r in results} == {(1000.0, 0.35, 1)}  # PLA, nonlinear
-    assert len({r["solver_version"] for r in results}) == 1
-    # mesh-converged: every energy extrapolated from a mesh of h = 2.5 mm and its nested refinement, finer
-    # (1.1 × min_width, rounded down) for patterns with necks narrower than 2.27 mm (docs/accuracy.md)
-    min_width = {r["id"]: r["min_width"] for r in rows}
-    expected = {r["id"]: min(2.5, math.floor(1.1 * min_width[r["id"]] * 100 * (1 + 1e-12)) / 100) for r in results}
-    assert all(r["h"] == pytest.approx(expected[r["id"]], abs=1e-12) and r["h_fine"] == r["h"] / 2 for r in results)
-    assert {r["h"] for r in results} == {2.5, 2.47, 2.14}  # necks of 1.95 and 2.25 mm (notes)
-    failed = [f"{r['id']} {r['scenario']}: {r['error']}" for r in results if not r["converged"]]
-    assert not failed, failed[:3]
-    for s in SCENARIOS:
-        e = energies(None, s)
-        assert len(e) == 430 and min(e.values()) > 0
+        polygons = {int(s["sides"]): (cat.pattern_rows(pictures=True, sides=s["sides"]), cat.results(sides=s["sides"]))
+                    for s in setups}
+    for sides, (rows, results) in polygons.items():
+        library = hex_library if sides == 6 else enumerate_library(sides, 2)
+        assert [r["id"] for r in rows] == sorted(library.ids)
+        assert all(r["svg_path"] and r["min_width"] > 0 for r in rows)
+        assert len(results) == 3 * 430
+        assert {(r["E"], r["nu"], r["nonlinear"]) for r in results} == {(1000.0, 0.35, 1)}  # PLA, nonlinear
+        assert len({r["solver_version"] for r in results}) == 1
+        # mesh-converged: every energy extrapolated from a mesh of h = 2.5 mm and its nested refinement, finer
+        # (1.1 × min_width, rounded down) for patterns with necks narrower than 2.27 mm (docs/accuracy.md)
+        min_width = {r["id"]: r["min_width"] for r in rows}
+        expected = {r["id"]: min(2.5, math.floor(1.1 * min_width[r["id"]] * 100 * (1 + 1e-12)) / 100) for r in results}
+        assert all(r["h"] == pytest.approx(expected[r["id"]], abs=1e-12) and r["h_fine"] == r["h"] / 2
+                   for r in results)
+        failed = [f"{r['id']} {r['scenario']}: {r['error']}" for r in results if not r["converged"]]
+        assert not failed, failed[:3]
+        for s in SCENARIOS:
+            e = energies(None, s, sides)
+            assert len(e) == 430 and min(e.values()) > 0
+    hexagons, hex_results = polygons[6]
+    assert all(r["min_width"] > 1.5 for r in hexagons)  # notes: necks ≈ 1.95 mm at the narrowest
+    assert {r["h"] for r in hex_results} == {2.5, 2.47, 2.14}  # necks of 1.95 and 2.25 mm (notes)
     # the notes' solid hexagon (the stiffest possible plate) has cantilever energy 2.6 N·mm: every pattern,
     # having less material, is softer
     assert min(energies(None, "cantilever").values()) > 2.6
@@ -62,7 +73,7 @@ def test_builtin_rows_recompute_to_the_same_numbers() -> None:
     rng = random.Random(seed)
     with open_catalog() as cat:
         rows = [rng.choice(cat.results(scenario=s)) for s in SCENARIOS]
-        pats = {r["id"]: r for r in cat.pattern_rows()}
+        pats = {(r["id"], r["sides"]): r for r in cat.pattern_rows()}
     for r in rows:
         new = simulate_pattern(r["id"], r["sides"], r["depth"], r["edge"], r["thickness"], r["weight"], r["E"],
                                r["nu"], r["h"], [r["scenario"]], extrapolate=r["h_fine"] is not None)
@@ -73,7 +84,7 @@ def test_builtin_rows_recompute_to_the_same_numbers() -> None:
         assert q["max_displacement"] == pytest.approx(r["max_displacement"], rel=1e-6), where
         assert q["nodes"] == r["nodes"], where
         for k in ("area", "perimeter", "polar_moment", "filleted_area", "filleted_polar_moment", "min_width"):
-            assert p[k] == pytest.approx(pats[r["id"]][k], rel=1e-9), f"{k}: {where}"
+            assert p[k] == pytest.approx(pats[r["id"], r["sides"]][k], rel=1e-9), f"{k}: {where}"
 
 
 def test_builtin_version_is_reported() -> None:
@@ -96,6 +107,32 @@ def test_solver_version_covers_exactly_the_pipeline_code() -> None:
             "lattice.py", "curves.py"} <= names
     assert not {n for n in names if n.startswith("cli/") or n in ("catalog.py", "sweep.py", "browse.py")}
     assert solver_version() == solver_version() and solver_version().startswith("fabpat ")
+
+
+def fake_rows(pattern_id: str, sides: int, energies: dict[str, object], *, area: float = 1000.0,
+              thickness: float = 2.0, **result: object) -> list[dict[str, object]]:
+    """A pattern's catalog rows written by hand (no solve): one ``patterns`` row with plausible metrics and
+    a converged ``results`` row per scenario of ``energies`` (N·mm; ``result`` overrides other columns)."""
+    key = {"id": pattern_id, "sides": sides, "depth": 2, "edge": 36.0, "thickness": thickness, "weight": 0.2}
+    rows: list[dict[str, object]] = [
+        {"table": "patterns", **key, "area": area, "perimeter": 300.0, "ratio": 0.14, "polar_moment": 4.0e5,
+         "filleted_area": area + 50.0, "filleted_perimeter": 290.0, "filleted_ratio": 0.15,
+         "filleted_polar_moment": 4.2e5, "min_width": 2.0, "input_hash": "x"}]
+    for s, e in energies.items():
+        rows.append({"table": "results", **key, "scenario": s, "E": 1000.0, "nu": 0.35, "h": 2.5, "nonlinear": 1,
+                     "energy": e, "max_displacement": 3.0, "converged": 1, "solver_version": "test",
+                     "input_hash": "x", "computed_at": "now", **result})
+    return rows
+
+
+def fake_catalog(path: Path, table: dict[int, dict[str, dict[str, object]]], thickness: float = 2.0) -> Path:
+    """A catalog of hand-made rows: ``{sides: {ID: {scenario: energy}}}`` (see :func:`fake_rows`)."""
+    with open_catalog(path, write=True) as cat:
+        for sides, by_id in table.items():
+            for k, (pid, en) in enumerate(by_id.items()):
+                cat.write_rows(fake_rows(pid, sides, en, area=800.0 + 100 * k, thickness=thickness))
+        cat.finish()
+    return path
 
 
 def _tiny(path: Path) -> Path:

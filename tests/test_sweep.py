@@ -6,6 +6,7 @@ fillet → mesh → solver pipeline on two patterns at a coarse mesh through the
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import sqlite3
@@ -341,3 +342,34 @@ def test_extrapolated_sweep_meshes_a_narrow_pattern_finer_and_says_so(tmp_path: 
     for r in rows:
         w = pats[r["id"]]["min_width"]
         assert r["h"] < 2.0 and r["h"] <= 1.1 * w < r["h"] + 0.01 and r["h_fine"] == pytest.approx(r["h"] / 2)
+
+
+@pytest.mark.parametrize("sig, code, word", [(signal.SIGTERM, 143, "terminated"), (signal.SIGINT, 130, "interrupted")])
+def test_a_signal_to_the_sweep_command_exits_128_plus_it(tmp_path: Path, sig: int, code: int, word: str) -> None:
+    """`fabpat sweep` (the real CLI and pipeline) signalled once a pattern is stored: SIGTERM exits 143
+    "terminated", Ctrl-C 130 "interrupted" (the shell's 128 + signal), one line, the stored rows kept."""
+    db = tmp_path / "c.sqlite"
+    env = dict(os.environ, FABPAT_CACHE="off")
+    proc = subprocess.Popen([sys.executable, "-m", "fabpat", "sweep", "--sample", "6", "--h", "8", "--workers", "1",
+                             "--db", str(db)], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and proc.poll() is None:  # a pattern committed: the sweep is under way
+            if db.exists():
+                with contextlib.suppress(sqlite3.Error), contextlib.closing(
+                        sqlite3.connect(f"{db.as_uri()}?mode=ro", uri=True)) as c:
+                    if c.execute("SELECT COUNT(*) FROM patterns").fetchone()[0] >= 1:
+                        break
+            time.sleep(0.05)
+        assert proc.poll() is None, "the sweep ended before it could be signalled"
+        proc.send_signal(sig)
+        out, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == code, (proc.returncode, err)
+    lines = [line for line in err.splitlines() if not line.startswith("simulated ")]  # a slow run's progress
+    assert len(lines) == 1 and lines[0].startswith(f"fabpat: {word};") and "Traceback" not in err, err
+    assert "run the same command again to resume" in err and out == ""
+    n_patterns, n_results = _count(db)
+    assert 1 <= n_patterns < 6 and n_results == 3 * n_patterns

@@ -72,7 +72,8 @@ class AssembleResult:
 
 
 def _energies(spec: AssemblySpec, sides: int) -> dict[str, float]:
-    """Energies of the spec's scenario from the catalog (imported only here: it is optional)."""
+    """Energies of the spec's scenario for the faces of ``sides``, from that polygon's own catalog rows
+    (:func:`fabpat.catalog.polygon_energies`; imported only here: the catalog is optional)."""
     try:
         from fabpat import catalog as cat
     except ImportError as e:
@@ -81,30 +82,19 @@ def _energies(spec: AssemblySpec, sides: int) -> dict[str, float]:
             f"which cannot be imported ({e}); name the patterns instead (patterns.pattern, groups, tiles or "
             "hexagon + pentagon)"
         ) from e
-    source = spec.patterns.catalog  # None: the built-in catalog
     pl = spec.plates
     try:
-        found = cat.energies(source, spec.patterns.scenario, sides=sides, edge=spec.tiling.edge,
-                             thickness=pl.thickness, weight=pl.weight)
-        if not found and sides == 6:
-            # Energies rank patterns; a catalog simulated at the default plate setup ranks them just as well.
-            found = cat.energies(source, spec.patterns.scenario, sides=sides)
+        return cat.polygon_energies(spec.patterns.catalog, spec.patterns.scenario, sides, edge=spec.tiling.edge,
+                                    thickness=pl.thickness, weight=pl.weight)
     except FabpatError as e:
         raise SpecError(f"{spec.source}: patterns.rule = {spec.patterns.rule!r} needs catalog energies, but {e} "
                         "(or name the patterns instead: patterns.groups / patterns.hexagon + pentagon)") from e
-    if not found and sides == 6:
-        raise SpecError(f"{spec.source}: the catalog has no {spec.patterns.scenario!r} energies for hexagons "
-                        f"(patterns.scenario); run `fabpat sweep` for it or name the patterns explicitly")
-    return dict(found)
 
 
-def _pair_energies(get: Callable[[int], dict[str, float]]) -> tuple[dict[str, float], dict[str, float] | None]:
-    """Hexagon and pentagon energies for a sphere rule; None for the pentagons when the catalog has none."""
-    try:
-        pentagon: dict[str, float] | None = get(5) or None
-    except (FabpatError, KeyError, ValueError):
-        pentagon = None  # a catalog of hexagons only: compare in the hexagon scenario
-    return get(6), pentagon
+def _pair_energies(get: Callable[[int], dict[str, float]]) -> tuple[dict[str, float], dict[str, float]]:
+    """Hexagon and pentagon energies for a sphere rule, each polygon's own (a catalog without pentagons
+    is refused by ``get``, never answered with hexagon energies)."""
+    return get(6), get(5)
 
 
 def candidate_pairs(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | None = None

@@ -1,8 +1,10 @@
 """Stiffness-based pattern choices (paper §5), as pure functions of ``{pattern ID: strain energy}``.
 
 Every scenario applies the same load to every pattern, so a smaller strain energy (N·mm) means a
-stiffer pattern. The catalog supplies the energies; these functions only choose, so they are tested
-on small hand-made dictionaries.
+stiffer pattern. The catalog supplies the energies, each face's from the rows of its own polygon
+(:func:`fabpat.catalog.polygon_energies`: a pentagon plate of a pattern is another plate than its
+hexagon, with another energy); these functions only choose, so they are tested on small hand-made
+dictionaries.
 
 * :func:`graded` — ``count`` patterns with well-separated energies, ordered stiff → soft (the graded
   strip of Fig. 15 left: five patterns, Cylinder scenario).
@@ -91,22 +93,31 @@ def separation(energies: Mapping[str, float], ids: list[str]) -> float:
     return min(b / a for a, b in zip(e, e[1:], strict=False))
 
 
-def similar_pair(hexagon: Mapping[str, float], pentagon: Mapping[str, float] | None = None,
-                 quantile: float = 0.5) -> tuple[str, str]:
-    """(hexagon ID, pentagon ID): two different patterns with similar energy.
+def _pentagon_pool(pentagon: Mapping[str, float] | None) -> dict[str, float]:
+    if not pentagon:  # comparing with hexagon energies instead would pair the wrong plates, silently
+        raise SpecError("the catalog has no pentagon energies to compare with the hexagons' (run `fabpat sweep "
+                        "--sides 5` for the catalog)")
+    return dict(pentagon)
 
-    The hexagon pattern is the one nearest the ``quantile`` of the hexagon log-energies (the median:
-    a typical stiffness, away from outliers); the pentagon pattern is the other ID whose energy —
-    in the pentagon scenario if ``pentagon`` is given, else in the hexagon one — is nearest to it.
-    Ties go to the smaller ID, so the choice is reproducible.
+
+def similar_pair(hexagon: Mapping[str, float], pentagon: Mapping[str, float],
+                 quantile: float = 0.5) -> tuple[str, str]:
+    """(hexagon ID, pentagon ID): two different patterns with similar energy, each on its own polygon.
+
+    ``hexagon``: {ID: energy (N·mm)} of the hexagon plates, ``pentagon``: of the pentagon plates (the
+    same scenario and set-up). The hexagon pattern is the one nearest the ``quantile`` of the hexagon
+    log-energies (the median: a typical stiffness, away from outliers); the pentagon pattern is the
+    other ID whose *pentagon* energy is nearest its hexagon energy. Ties go to the smaller ID, so the
+    choice is reproducible. Raises :class:`SpecError` without two hexagon energies or without pentagon
+    energies (never falls back to comparing hexagon energies).
     """
     ids, logs = _clean(hexagon)
     if len(ids) < 2:
         raise SpecError("the catalog needs at least two patterns with an energy to pick a similar pair")
+    pool = _pentagon_pool(pentagon)
     target = float(np.quantile(logs, quantile))
     h = min(range(len(ids)), key=lambda i: (abs(logs[i] - target), ids[i]))
     hid, e = ids[h], math.exp(logs[h])
-    pool = dict(pentagon) if pentagon else dict(hexagon)
     pids, plogs = _clean({k: v for k, v in pool.items() if k != hid})
     if not pids:
         raise SpecError("the catalog has no second pattern with a pentagon energy")
@@ -114,18 +125,18 @@ def similar_pair(hexagon: Mapping[str, float], pentagon: Mapping[str, float] | N
     return hid, pids[p]
 
 
-def similar_pairs(hexagon: Mapping[str, float], pentagon: Mapping[str, float] | None, count: int,
+def similar_pairs(hexagon: Mapping[str, float], pentagon: Mapping[str, float], count: int,
                   quantile: float = 0.5) -> list[tuple[str, str]]:
     """Up to ``count`` (hexagon ID, pentagon ID) pairs of similar energy, best first.
 
     Pair 0 is exactly :func:`similar_pair` (``hexagon``, ``pentagon``, ``quantile``). The others come
     from the ``2 · count`` hexagon patterns whose log-energies are nearest the ``quantile`` of the
     hexagon log-energies (ties to the smaller ID) — typical stiffnesses, as for :func:`similar_pair` —
-    each paired with the other ID whose energy (pentagon scenario if ``pentagon`` is given, else the
-    hexagon one) is nearest its own, ties to the smaller ID. They are ranked by
-    |log E_hex − log E_pent| (the energy ratio), then by hexagon ID, then pentagon ID; a pair is
-    listed once. Fewer than ``count`` pairs come back only when the catalog has fewer candidates.
-    Raises :class:`SpecError` if ``count`` < 1 or :func:`similar_pair` finds no pair.
+    each paired with the other ID whose pentagon energy is nearest its own hexagon energy, ties to the
+    smaller ID. They are ranked by |log E_hex − log E_pent| (the energy ratio), then by hexagon ID,
+    then pentagon ID; a pair is listed once. Fewer than ``count`` pairs come back only when the
+    catalog has fewer candidates. Raises :class:`SpecError` if ``count`` < 1 or :func:`similar_pair`
+    finds no pair.
     """
     if count < 1:
         raise SpecError(f"patterns.candidates must be at least 1, got {count}")
@@ -133,8 +144,7 @@ def similar_pairs(hexagon: Mapping[str, float], pentagon: Mapping[str, float] | 
     ids, logs = _clean(hexagon)
     target = float(np.quantile(logs, quantile))
     near = sorted(range(len(ids)), key=lambda i: (abs(logs[i] - target), ids[i]))[:2 * count]
-    pool = dict(pentagon) if pentagon else dict(hexagon)
-    pids, plogs = _clean(pool)
+    pids, plogs = _clean(_pentagon_pool(pentagon))
     ranked = []
     for h in near:
         others = [j for j in range(len(pids)) if pids[j] != ids[h]]

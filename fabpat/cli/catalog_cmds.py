@@ -110,9 +110,12 @@ def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, wo
         try:
             report = run_sweep(db, ids, setup, workers=workers, dask=dask_address, force=force, progress=progress)
         except KeyboardInterrupt:
-            click.echo(f"fabpat: interrupted; every finished pattern is stored in {db}: run the same command "
+            from fabpat.cli import _TERMINATED  # the CLI's SIGTERM handler records the signal there
+
+            how, code = ("terminated", 128 + _TERMINATED[0]) if _TERMINATED else ("interrupted", 130)
+            click.echo(f"fabpat: {how}; every finished pattern is stored in {db}: run the same command "
                        "again to resume", err=True)
-            return 130
+            return code
     click.echo(f"{db}: {report.computed} pattern-scenarios computed ({report.failed_rows} did not converge), "
                f"{report.skipped} already up to date, {len(ids)} patterns, {report.seconds:.1f} s")
     _warn_mixed(db, setup)
@@ -141,6 +144,7 @@ def _warn_mixed(db: str, setup: SweepSetup) -> None:
 
 
 _TABLE_COLUMNS = ("id", "area", "perimeter", "polar_moment", "min_width")
+_sides_help = "Polygon whose patterns and energies to use (each polygon has its own rows)."
 
 
 @click.command("catalog")
@@ -148,23 +152,39 @@ _TABLE_COLUMNS = ("id", "area", "perimeter", "polar_moment", "min_width")
 @click.option("--format", "fmt", type=click.Choice(["table", "csv", "json"]), default="table", show_default=True,
               help="Output format.")
 @click.option("--long", "long_", is_flag=True, help="One row per pattern × scenario with every stored column.")
-@number_option("--sides", range_name="sides", default=None, help="Only patterns of this polygon.")
-def catalog_cmd(db: str | None, fmt: str, long_: bool, sides: int | None) -> None:
+@number_option("--sides", range_name="sides", default=6, show_default=True, help=_sides_help)
+@click.option("--where", "where", metavar="FILTER", multiple=True,
+              help="Keep rows with FIELD OP NUMBER, e.g. \"energy_dome<300\" (OP: < <= > >= = !=; any numeric "
+                   "column; repeat for several, all must hold).")
+@click.option("--sort", "sort", metavar="FIELD", default=None,
+              help="Sort by a numeric column, ascending; -FIELD (e.g. --sort=-specific_stiffness_dome) descending. "
+                   "Rows without a value come last.")
+@number_option("--top", range_name="sample", default=None, help="Print only the first N rows (after --sort).")
+def catalog_cmd(db: str | None, fmt: str, long_: bool, sides: int, where: tuple[str, ...], sort: str | None,
+                top: int | None) -> None:
     """Print a catalog: one row per pattern with its metrics and energies (N·mm) per scenario.
 
     Columns: area (mm²), perimeter (mm), ratio, polar_moment (mm⁴), the filleted ones, min_width (mm),
-    energy_<scenario> (N·mm), max_displacement_<scenario> (mm); table format shows the main ones.
+    energy_<scenario> (N·mm), max_displacement_<scenario> (mm) and specific_stiffness_<scenario> =
+    1 / (energy × filleted_area) in 1/(N·mm³): stiffness per mass (under the scenario's fixed load the
+    energy is inversely proportional to the stiffness, the mass proportional to the filleted area),
+    larger = stiffer per gram; table format shows the main ones and those --sort and --where name.
 
-    Example: fabpat catalog --format csv > catalog.csv
+    \b
+    Examples:
+      fabpat catalog --format csv > catalog.csv
+      fabpat catalog --sort=-specific_stiffness_dome --top 5     # the stiffest per gram (Dome)
+      fabpat catalog --where "filleted_area<1200" --sort energy_dome --top 5
     """
-    from fabpat.catalog import CatalogError, no_match_message, open_catalog
+    from fabpat.catalog import open_catalog, require_polygon
+    from fabpat.catalog_rows import find_rows, parse_condition, parse_sort
     from fabpat.cli.library_cmds import _print_rows
     from fabpat.io import check_distinct
 
     check_distinct([], inputs={"--db": db})
     with open_catalog(db) as cat:
-        if sides is not None and not cat.pattern_rows(sides=sides):
-            raise CatalogError(no_match_message(cat, {"sides": sides}))
+        require_polygon(cat, sides)
+        fields = cat.number_columns(long=long_)
         if long_:
             rows = cat.results(sides=sides)
         else:
@@ -172,18 +192,23 @@ def catalog_cmd(db: str | None, fmt: str, long_: bool, sides: int | None) -> Non
             for r in rows:
                 for k in [k for k in r if k.startswith("converged_")]:
                     del r[k]
+        rows = find_rows(rows, fields, where=where, sort=sort, top=top)
+        asked = [parse_condition(w, fields).field for w in where] + ([parse_sort(sort, fields)[0]] if sort else [])
         title = f"{cat.path}: {len(rows)} rows"
         if fmt == "table" and not long_:
             keep = [*_TABLE_COLUMNS, *(f"energy_{s}" for s in cat.scenarios())]
-            if len(cat.setups()) > 1:
-                keep[1:1] = ["sides", "depth", "edge", "thickness", "weight"]
+            setup = ("depth", "edge", "thickness", "weight")
+            if len({tuple(r[k] for k in setup) for r in rows}) > 1:
+                keep[1:1] = setup
+            keep += [f for f in dict.fromkeys(asked) if f not in keep]
             rows = [{k: r[k] for k in keep} for r in rows]
         elif fmt == "table":
             keep = ["id", "sides", "scenario", "energy", "max_displacement", "converged", "iterations", "seconds",
                     "nodes", "h", "h_fine", "error"]
+            keep += [f for f in dict.fromkeys(asked) if f not in keep]
             rows = [{k: "" if r[k] is None else r[k] for k in keep} for r in rows]
     if not rows and fmt == "table":
-        click.echo(f"{title} (empty catalog)")
+        click.echo(f"{title} (no rows)" if where else f"{title} (empty catalog)")
         return
     _print_rows(rows, fmt, title)
 
@@ -192,8 +217,8 @@ def catalog_cmd(db: str | None, fmt: str, long_: bool, sides: int | None) -> Non
 @click.option("--db", type=click.Path(dir_okay=False), default=None, help=_db_help)
 @click.option("--out", type=click.Path(dir_okay=False), required=True, help="HTML file to write.")
 @click.option("--open", "open_", is_flag=True, help="Open the page in the default web browser.")
-@number_option("--sides", range_name="sides", default=None, help="Polygon to show if the catalog holds several.")
-def browse_cmd(db: str | None, out: str, open_: bool, sides: int | None) -> None:
+@number_option("--sides", range_name="sides", default=6, show_default=True, help=_sides_help)
+def browse_cmd(db: str | None, out: str, open_: bool, sides: int) -> None:
     """Write the browsing page: linked scatter plots of the catalog in one offline HTML file.
 
     Hover a dot for the pattern's picture; box/lasso-select in any plot to highlight the patterns in
@@ -220,8 +245,8 @@ def browse_cmd(db: str | None, out: str, open_: bool, sides: int | None) -> None
 @click.option("--db", type=click.Path(dir_okay=False), default=None, help=_db_help)
 @click.option("--out", type=click.Path(file_okay=False), required=True, help="Folder for the figures.")
 @click.option("--highlight", default=None, help="Comma-separated IDs to colour in every figure (a cluster).")
-@number_option("--sides", range_name="sides", default=None, help="Polygon to show if the catalog holds several.")
-def plot_cmd(db: str | None, out: str, highlight: str | None, sides: int | None) -> None:
+@number_option("--sides", range_name="sides", default=6, show_default=True, help=_sides_help)
+def plot_cmd(db: str | None, out: str, highlight: str | None, sides: int) -> None:
     """Write the static scatter plots (paper Figs 13–14) as PNG and SVG.
 
     Example: fabpat plot --out figures --highlight 0x0488,0x0688
