@@ -148,6 +148,8 @@ class Search:
         max_distinct (else to the nearest pattern already used); None if nothing changes."""
         ls = self.log_s
         j = int(np.argmin(np.abs(ls - value)))
+        if j == key[c]:  # a step smaller than the spacing there: the next candidate that way
+            j = int(np.clip(j + (1 if value > ls[j] else -1), 0, len(ls) - 1))
         used = set(key)
         others = set(key[:c] + key[c + 1:])
         if self.max_distinct is not None and j not in others and len(others) >= self.max_distinct:
