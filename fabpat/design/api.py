@@ -1,9 +1,10 @@
 """``design``: a target shape in, one pattern per tile out (the Python front door of ``fabpat design``).
 
 Order of work: read and check the target and the base spec (every refusal before the first solve),
-fix the end shortening from the target's span, solve the baselines and the reduced model's first
-guess in one parallel batch, refine (:mod:`fabpat.design.search`), then write the outputs
-(:mod:`fabpat.design.outputs`) if ``out`` is given.
+fix the end shortening from the target's span, solve the baselines (one parallel batch), design on
+the elastica and correct it with each solve (:mod:`fabpat.design.mapping`), polish with the pattern
+search (:mod:`fabpat.design.search`), then write the outputs (:mod:`fabpat.design.outputs`) if ``out``
+is given.
 """
 
 from __future__ import annotations
@@ -18,8 +19,10 @@ from typing import Any
 import numpy as np
 
 from fabpat.design.base import DesignBase, load_base
+from fabpat.design.beam import Elastica
+from fabpat.design.mapping import space_mapping
 from fabpat.design.search import Evaluated, Runner, Search
-from fabpat.design.strip import assign, column_needs, column_turning, errors, pin_length
+from fabpat.design.strip import column_needs, column_turning, errors, pin_length
 from fabpat.design.target import StripTarget, TargetError, read_target, require_strip
 
 #: largest relative difference between the target's arc length and the strip's pin-to-pin length
@@ -54,8 +57,10 @@ class DesignResult:
         return write_design(self, out, kit)
 
 
-def _geometry(base: DesignBase, pattern: str, h: float) -> tuple[float, list[str], list[int]]:
-    """Pin-to-pin length (mm), plate labels and the column of each face, from one placement."""
+def _geometry(base: DesignBase, pattern: str, h: float) -> tuple[float, list[str], list[int], tuple[float, ...]]:
+    """Pin-to-pin length (mm), plate labels, the column of each face and the columns' edges in arc length
+    from the fixed pin (mm: 0, the midpoints between neighbouring columns' centres, the length), from one
+    placement."""
     from fabpat.assembly.placement import build_tiling
     from fabpat.assembly.simulate import strip_setup
 
@@ -64,7 +69,14 @@ def _geometry(base: DesignBase, pattern: str, h: float) -> tuple[float, list[str
     setup = strip_setup(spec, [pattern] * n, h=h)
     grid = build_tiling(spec).grid
     assert grid is not None
-    return pin_length(setup), [p.label for p in setup.model.plates], [int(g[1]) for g in grid]
+    face_col = [int(g[1]) for g in grid]
+    m = setup.model
+    left = float(m.X[setup.left, 0].mean())
+    cx = np.array([m.X[m.offsets[f]:m.offsets[f + 1], 0].mean() for f in range(n)]) - left
+    centres = [float(cx[[f for f in range(n) if face_col[f] == c]].mean()) for c in range(max(face_col) + 1)]
+    length = pin_length(setup)
+    edges = (0.0, *(0.5 * (a + b) for a, b in zip(centres[:-1], centres[1:], strict=True)), length)
+    return length, [p.label for p in setup.model.plates], face_col, edges
 
 
 def _check_arc(target: StripTarget, length: float, scale_target: bool) -> tuple[StripTarget, float]:
@@ -112,7 +124,7 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
     strip = require_strip(tgt, base.spec.source, base.spec.tiling.kind)
     ids = sorted(base.energies, key=lambda k: (-base.energies[k], k))  # ascending stiffness 1/U
     log_s = -np.log([base.energies[k] for k in ids])
-    length, labels, face_col = _geometry(base, ids[len(ids) // 2], h)
+    length, labels, face_col, edges = _geometry(base, ids[len(ids) // 2], h)
     strip, scale = _check_arc(strip, length, scale_target)
     travel = length - strip.span
     if not travel > 0:
@@ -122,14 +134,13 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
     runner = Runner(base.spec, h, travel, workers, dask, progress)
     search = Search(strip.x, strip.z, ids, log_s, columns, face_col, base.max_distinct, runner)
     needs = column_needs(strip.x, strip.z, columns)
-    guess = tuple(int(i) for i in assign(needs, log_s, base.max_distinct)[0])
     single = (len(ids) // 2,) * columns  # a uniform elastica's shape does not depend on its stiffness
-    evs = search.evaluate([guess, single])
+    evs = search.evaluate([single])
     baselines: dict[str, Any] = {}
     runs: dict[str, Evaluated] = {}
-    if evs[1] is not None:
-        runs["single"] = evs[1]
-        baselines["single"] = _summary(evs[1], strip.span, {"pattern": ids[single[0]]})
+    if evs[0] is not None:
+        runs["single"] = evs[0]
+        baselines["single"] = _summary(evs[0], strip.span, {"pattern": ids[single[0]]})
     rule_faces = _rule_faces(base)
     if rule_faces is not None:
         rule = _solve_faces(runner, rule_faces, strip)
@@ -137,6 +148,8 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
             runs["rule"] = rule
             baselines["rule"] = _summary(rule, strip.span, dict(zip(labels, rule_faces, strict=True)))
     extra = runner.solves - 1  # the baselines' solves come on top of the budget
+    if evs[0] is not None:
+        space_mapping(search, Elastica(length, edges), evs[0], strip.span, max_solves + extra)
     search.refine(column_turning(strip.x, strip.z, columns), max_solves + extra, max(2, workers))
     best = search.best
     if best is None:
