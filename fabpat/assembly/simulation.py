@@ -184,7 +184,7 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
     """Solve the assembly of ``spec`` (an AssemblySpec or a path to its TOML file).
 
     ``h`` target mesh edge (mm); ``steps`` report steps (default :data:`DEFAULT_STEPS` of the kind);
-    ``end_shortening`` (default 0.1) and ``imperfection`` (N, default
+    ``end_shortening`` (default the spec's ``[load] end_shortening``, else 0.1) and ``imperfection`` (N, default
     :data:`fabpat.assembly.simulate.IMPERFECTION`) apply to strips only and are refused on a closed
     assembly; ``youngs_modulus`` (N/mm²) and ``poisson`` override the spec's ``[material]``;
     ``max_elements`` bounds the whole assembly's mesh (:func:`check_assembly_size`). A sphere with
@@ -213,6 +213,8 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
             raise SpecError(f"{spec.source}: {name} applies to strips (end shortening and the buckle it "
                             f"selects); a closed assembly is bent by its sleeves: leave {name} out")
     if not closed:
+        if end_shortening is None and spec.end_shortening is not None:  # the spec's [load] default
+            end_shortening = spec.end_shortening
         end_shortening = 0.1 if end_shortening is None else check("end_shortening", end_shortening,
                                                                     "end_shortening", error=SpecError)
         if imperfection is not None:

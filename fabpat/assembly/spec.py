@@ -5,7 +5,8 @@ A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented 
 * ``[tiling]``  ``kind`` ("honeycomb-strip" | "truncated-icosahedron"), ``edge`` (plate polygon edge),
   ``rows`` and ``columns`` (strip only).
 * ``[patterns]`` one of: ``pattern`` (every tile); ``groups`` (one ID per group of ``group_columns``
-  columns, stiff → soft) or ``tiles`` (rows × columns IDs) on a strip; ``hexagon`` + ``pentagon`` on the
+  columns, stiff → soft) or ``tiles`` (rows × columns IDs, or a table {plate label = ID} naming every
+  plate as the kit labels it, e.g. ``{T1 = "0x0488", …}``) on a strip; ``hexagon`` + ``pentagon`` on the
   truncated icosahedron; or ``rule`` = "graded" (strip: ``count`` patterns with well-separated energies
   in ``scenario``) / "similar-energy" (sphere: two patterns with similar energy in ``scenario``) /
   "roundest" (sphere: the ``candidates`` best similar-energy pairs, default 8, of which the closure
@@ -27,6 +28,8 @@ A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented 
   ``dxf_entities`` ("polyline" | "segments", default "polyline": closed LWPOLYLINEs with bulges for
   laser fills, or one LINE / ARC per piece for OpenSCAD; as ``fabpat export --dxf-entities``).
 * ``[estimates]`` ``cut_speed`` (mm/s), ``print_rate`` (mm³/s).
+* ``[load]``  ``end_shortening`` (strips): the end-pin travel over the strip length that
+  ``simulate-assembly`` uses when ``--end-shortening`` is not given (default 0.1).
 * ``[output]``  ``formats``: any of step, stl, glb, 3dm, dxf, svg, bom, png; ``mesh_tolerance`` (STL chord of
   the parts and of the sleeves in the .3dm, default 0.005), ``curve_tolerance`` (largest deviation of
   the sheets' DXF arcs from the exact outlines, default 0.01).
@@ -164,6 +167,7 @@ class AssemblySpec:
     mesh_tolerance: float = 0.005  # mm: STL chord of the parts (fabpat.cad.DEFAULT_CHORD)
     curve_tolerance: float = 0.01  # mm: DXF sheets' arcs from the exact outlines
     material: MaterialSpec = MaterialSpec()
+    end_shortening: float | None = None  # [load]: strips' default end-pin travel / strip length
 
     @property
     def polygon_sides(self) -> tuple[int, ...]:
@@ -345,6 +349,8 @@ def _patterns(source: str, data: Any, tiling: TilingSpec) -> PatternSpec:
                          f"patterns.group_columns = {gc} makes {need} groups")
         return PatternSpec(groups=ids, group_columns=gc)
     tiles = t.data["tiles"]
+    if isinstance(tiles, Mapping):
+        return PatternSpec(tiles=_tile_table(source, tiles, tiling, sides))
     if (not isinstance(tiles, list) or len(tiles) != tiling.rows
             or any(not isinstance(r, list) or len(r) != tiling.columns for r in tiles)):
         raise t.fail("tiles", f"must be {tiling.rows} rows (tiling.rows) of {tiling.columns} IDs (tiling.columns)")
@@ -360,6 +366,41 @@ def _patterns(source: str, data: Any, tiling: TilingSpec) -> PatternSpec:
             out.append(cache[pid])
         rows.append(tuple(out))
     return PatternSpec(tiles=tuple(rows))
+
+
+def strip_labels(rows: int, columns: int) -> list[str]:
+    """The kit's plate labels of a strip, in face order (column by column): "T" and the face number,
+    zero-padded to the width of the largest (as :func:`fabpat.assembly.placement.place` labels them)."""
+    n = rows * columns
+    return [f"T{f + 1:0{len(str(n))}d}" for f in range(n)]
+
+
+def _tile_table(source: str, table: Mapping[str, Any], tiling: TilingSpec,
+                sides: tuple[int, ...]) -> tuple[tuple[str, ...], ...]:
+    """``tiles = {LABEL = "0x....", …}``: one pattern per plate label, every label of the strip once; the
+    rows × columns IDs it stands for."""
+    labels = strip_labels(tiling.rows, tiling.columns)
+    unknown = [k for k in table if k not in labels]
+    if unknown:
+        raise SpecError(f"{source}: patterns.tiles.{unknown[0]} is not a plate of this strip (labels "
+                        f"{labels[0]} … {labels[-1]})")
+    missing = [k for k in labels if k not in table]
+    if missing:
+        raise SpecError(f"{source}: patterns.tiles has no pattern for plate {missing[0]} (give every plate "
+                        f"{labels[0]} … {labels[-1]} one)")
+    grid = [[""] * tiling.columns for _ in range(tiling.rows)]
+    for f, lab in enumerate(labels):  # faces run column by column (fabpat.assembly.tiling.honeycomb_strip)
+        grid[f % tiling.rows][f // tiling.rows] = _pattern_id(source, f"patterns.tiles.{lab}", table[lab], sides)
+    return tuple(tuple(r) for r in grid)
+
+
+def _load(source: str, data: Any, kind: str) -> float | None:
+    """``[load] end_shortening``: the strip's default end-pin travel over its length (simulate-assembly)."""
+    t = _Table(source, "load", data, ("end_shortening",))
+    if kind != "honeycomb-strip" and t.has("end_shortening"):
+        raise t.fail("end_shortening", "applies to strips (a closed assembly is bent by its sleeves): leave "
+                     "[load] out")
+    return t.number("end_shortening", None, "end_shortening") if t.has("end_shortening") else None
 
 
 def _plates(source: str, data: Any) -> PlateSpec:
@@ -497,7 +538,7 @@ def check_sheet_fits(spec: AssemblySpec) -> None:
 
 def parse_spec(data: Mapping[str, Any], source: str = "<spec>") -> AssemblySpec:
     """Validate a decoded TOML document; raises :class:`SpecError` naming the key and allowed values."""
-    top = ("name", "tiling", "patterns", "plates", "sleeve", "material", "sheet", "estimates", "output")
+    top = ("name", "tiling", "patterns", "plates", "sleeve", "material", "sheet", "estimates", "output", "load")
     for key in data:
         if key not in top:
             raise SpecError(f"{source}: unknown key {key} (allowed: {', '.join(top)})")
@@ -519,7 +560,8 @@ def parse_spec(data: Mapping[str, Any], source: str = "<spec>") -> AssemblySpec:
     values = {k: f() for k, f in readers.items()}
     spec = AssemblySpec(name.strip(), source, tiling, _patterns(source, data["patterns"], tiling), plates,
                         values["sleeve"], values["sheet"], values["estimates"], *values["output"],
-                        material=values["material"])
+                        material=values["material"],
+                        end_shortening=_load(source, data.get("load", {}), tiling.kind))
     check_sheet_fits(spec)
     return spec
 

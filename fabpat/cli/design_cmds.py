@@ -1,0 +1,91 @@
+"""``fabpat design TARGET --spec BASE.toml --out DIR``: one pattern per tile for a target shape (see
+fabpat.design). The command only parses its options, shows progress on stderr and prints the files
+written; an unreachable target is one warning line on stderr (the best design is still written).
+"""
+
+from __future__ import annotations
+
+import click
+
+from fabpat.cli.options import h_option, number_option
+
+
+@click.command("design")
+@click.argument("target")
+@click.option("--spec", "spec", required=True, type=click.Path(dir_okay=False),
+              help="Base assembly spec (TOML); [patterns] may narrow the candidates: allowed, min_width, max_distinct.")
+@click.option("--out", required=True, type=click.Path(file_okay=False),
+              help="Output folder (created; an earlier `fabpat design` output there is replaced).")
+@h_option(3.0)
+@click.option("--max-solves", type=click.IntRange(1, 10_000), default=12, show_default=True,
+              help="Budget of full assembly solves for the search (the baselines' one or two come on top).")
+@click.option("--tolerance", type=click.FloatRange(0.0, 1.0, min_open=True, max_open=True), default=0.01,
+              show_default=True, help="Reachable when the rms error is at most this fraction of the span.")
+@click.option("--scale-target", is_flag=True,
+              help="Scale a target whose arc length differs from the strip's by more than 2 % to its length.")
+@number_option("--workers", range_name="workers", default=None, help="Local worker processes [default: 1].")
+@click.option("--dask", "dask_address", metavar="ADDRESS", default=None,
+              help="Send the solves to this dask.distributed scheduler (e.g. tcp://host:8786) instead.")
+@click.option("--kit", is_flag=True, help="Also run `fabpat assemble` on design.toml into DIR/kit.")
+@click.option("--progress/--no-progress", default=True, show_default=True, help="Progress on stderr.")
+def design_cmd(target: str, spec: str, out: str, h: float, max_solves: int, tolerance: float, scale_target: bool,
+               workers: int | None, dask_address: str | None, kit: bool, progress: bool) -> None:
+    """Choose one pattern per tile so that the assembled strip matches TARGET.
+
+    TARGET is a CSV of the arch's mid-line (header x,z, mm; x from column 0's pin, z up, both pins at
+    z = 0). Writes DIR/design.toml (a spec for `fabpat assemble` and `fabpat simulate-assembly`, with
+    every tile's pattern and [load] end_shortening), DIR/design.json and DIR/design.png.
+
+    Example: fabpat design arch.csv --spec assemblies/graded-strip.toml --out arch-design
+    """
+    from fabpat.design import design
+    from fabpat.io import check_distinct
+
+    if dask_address and workers:
+        raise click.UsageError("--workers is for local processes; the dask cluster decides with --dask")
+    check_distinct([out], inputs={"TARGET": target, "--spec": spec})
+    tell = _progress(max_solves) if progress else None
+    try:
+        res = design(target, spec, out=out, h=h, max_solves=max_solves, tolerance=tolerance,
+                     scale_target=scale_target, workers=workers or 1, dask=dask_address, kit=kit, progress=tell)
+    finally:
+        if tell is not None:
+            tell.close()
+    rec = res.record
+    click.echo(f"rms_error={rec['rms_error']:.4g} mm relative_rms={rec['relative_rms']:.4g} solves={rec['solves']} "
+               f"reachable={str(rec['reachable']).lower()}", err=True)
+    if res.warning:
+        click.echo(f"fabpat: warning: {res.warning}", err=True)
+    for f in ("design.toml", "design.json", "design.png", *(["kit/"] if kit else [])):
+        click.echo(f"{out.rstrip('/')}/{f}")
+
+
+class _progress:  # noqa: N801 - used like a function
+    """A rich bar on a terminal, else a plain line at most every few seconds: one tick per solve."""
+
+    def __init__(self, budget: int) -> None:
+        import sys
+
+        self.budget, self.last = budget, 0.0
+        self.bar = None
+        if sys.stderr.isatty():
+            from rich.progress import Progress
+
+            self.bar = Progress(transient=True)
+            self.bar.start()
+            self.task = self.bar.add_task("design solves", total=budget + 2)
+
+    def __call__(self, solves: int, seconds: float) -> None:
+        if self.bar is not None:
+            self.bar.update(self.task, completed=solves)
+        elif seconds - self.last >= 5.0 or solves == 1:
+            self.last = seconds
+            click.echo(f"design: {solves} solves, {seconds:.0f} s", err=True)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.stop()
+
+
+
+COMMANDS = [design_cmd]

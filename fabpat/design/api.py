@@ -1,0 +1,220 @@
+"""``design``: a target shape in, one pattern per tile out (the Python front door of ``fabpat design``).
+
+Order of work: read and check the target and the base spec (every refusal before the first solve),
+fix the end shortening from the target's span, solve the baselines (one parallel batch), design on
+the elastica and correct it with each solve (:mod:`fabpat.design.mapping`), polish with the pattern
+search (:mod:`fabpat.design.search`), then write the outputs (:mod:`fabpat.design.outputs`) if ``out``
+is given.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from fabpat.design.base import DesignBase, load_base
+from fabpat.design.beam import Elastica
+from fabpat.design.mapping import space_mapping
+from fabpat.design.search import Evaluated, Runner, Search
+from fabpat.design.strip import column_needs, column_turning, errors, pin_length
+from fabpat.design.target import StripTarget, TargetError, read_target, require_strip
+
+#: largest relative difference between the target's arc length and the strip's pin-to-pin length
+#: before the target is refused (the strip is inextensible: its mid-line keeps its length)
+ARC_TOLERANCE = 0.02
+#: default solve budget of the search (the baselines come on top)
+MAX_SOLVES = 12
+#: default reachability tolerance: relative_rms (rms error over the span) at most 1 %
+TOLERANCE = 0.01
+
+
+@dataclass(frozen=True, eq=False)
+class DesignResult:
+    """The design: ``record`` the design.json fields, ``spec`` the design's AssemblySpec, ``base``,
+    ``target`` (as designed, after any scaling), ``best`` the solved design, ``labels`` the plate labels,
+    ``warning`` the one-line unreachable warning (None when reachable)."""
+
+    record: dict[str, Any]
+    base: DesignBase
+    target: StripTarget
+    best: Evaluated
+    labels: list[str]
+    face_col: list[int]
+    warning: str | None
+    baseline_runs: dict[str, Evaluated] = field(default_factory=dict)
+
+    def write(self, out: str | os.PathLike[str], kit: bool = False) -> list[str]:
+        """Write design.toml, design.json, design.png (and with ``kit`` the kit in out/kit) atomically;
+        returns the files written, relative to ``out``."""
+        from fabpat.design.outputs import write_design
+
+        return write_design(self, out, kit)
+
+
+def _geometry(base: DesignBase, pattern: str, h: float) -> tuple[float, list[str], list[int], tuple[float, ...]]:
+    """Pin-to-pin length (mm), plate labels, the column of each face and the columns' edges in arc length
+    from the fixed pin (mm: 0, the midpoints between neighbouring columns' centres, the length), from one
+    placement."""
+    from fabpat.assembly.placement import build_tiling
+    from fabpat.assembly.simulate import strip_setup
+
+    spec = base.spec
+    n = len(build_tiling(spec).faces)
+    setup = strip_setup(spec, [pattern] * n, h=h)
+    grid = build_tiling(spec).grid
+    assert grid is not None
+    face_col = [int(g[1]) for g in grid]
+    m = setup.model
+    left = float(m.X[setup.left, 0].mean())
+    cx = np.array([m.X[m.offsets[f]:m.offsets[f + 1], 0].mean() for f in range(n)]) - left
+    centres = [float(cx[[f for f in range(n) if face_col[f] == c]].mean()) for c in range(max(face_col) + 1)]
+    length = pin_length(setup)
+    edges = (0.0, *(0.5 * (a + b) for a, b in zip(centres[:-1], centres[1:], strict=True)), length)
+    return length, [p.label for p in setup.model.plates], face_col, edges
+
+
+def _check_arc(target: StripTarget, length: float, scale_target: bool) -> tuple[StripTarget, float]:
+    arc = target.arc_length
+    if abs(arc - length) <= ARC_TOLERANCE * length:
+        return target, 1.0
+    if not scale_target:
+        raise TargetError(f"target {target.source}: its arc length {arc:.1f} mm differs from the strip's pin-to-pin "
+                          f"length {length:.1f} mm by more than {ARC_TOLERANCE:.0%} (the strip is inextensible): "
+                          "give a target of that length or use --scale-target")
+    factor = length / arc
+    return target.scaled(factor), factor
+
+
+def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[str] | None = None,
+           h: float = 3.0, max_solves: int = MAX_SOLVES, tolerance: float = TOLERANCE, scale_target: bool = False,
+           workers: int = 1, dask: str | None = None, kit: bool = False,
+           progress: Callable[[int, float], None] | None = None) -> DesignResult:
+    """Design a honeycomb strip whose predicted mid-line matches ``target``.
+
+    ``target``: a CSV path (header x,z, mm), an (n, 2) array of (x, z) mm, or a closed-tiling target
+    ("sphere", "ellipsoid:A,B,C", a mesh file), which this version refuses; ``spec``: the base spec
+    (TOML path; :mod:`fabpat.design.base`). ``h`` mesh edge (mm) of every solve; ``max_solves`` the
+    search's budget of full assembly solves (the baselines come on top); ``tolerance``: reachable when
+    relative_rms ≤ it; ``scale_target`` scales a target whose arc length is off by > 2 % to the strip's
+    length; ``workers`` local processes or ``dask`` a scheduler address for the parallel solves;
+    ``out`` writes the outputs there (``kit``: also ``fabpat assemble`` into out/kit); ``progress(solves,
+    seconds)`` after every solve. Raises TargetError, SpecError (bad input, one line), SolverError (no
+    candidate converged), ExportError (outputs).
+    """
+    from fabpat.errors import SolverError, SpecError
+
+    t0 = time.perf_counter()
+    for name, v, lo in (("max_solves", max_solves, 1), ("workers", workers, 1)):
+        if isinstance(v, bool) or not isinstance(v, int) or v < lo:
+            raise SpecError(f"{name} must be an integer ≥ {lo}, got {v!r}")
+    if isinstance(tolerance, bool) or not isinstance(tolerance, int | float) or not 0 < tolerance < 1:
+        raise SpecError(f"tolerance must be a fraction of the span in (0, 1), got {tolerance!r}")
+    if out is not None:
+        from fabpat.design.outputs import check_design_out
+
+        check_design_out(out)
+    tgt = read_target(target)
+    base = load_base(spec)
+    strip = require_strip(tgt, base.spec.source, base.spec.tiling.kind)
+    ids = sorted(base.energies, key=lambda k: (-base.energies[k], k))  # ascending stiffness 1/U
+    log_s = -np.log([base.energies[k] for k in ids])
+    length, labels, face_col, edges = _geometry(base, ids[len(ids) // 2], h)
+    strip, scale = _check_arc(strip, length, scale_target)
+    travel = length - strip.span
+    if not travel > 0:
+        raise TargetError(f"target {strip.source}: its span {strip.span:.1f} mm is not shorter than the strip's "
+                          f"pin-to-pin length {length:.1f} mm: the pins must move together to bend it")
+    columns = max(face_col) + 1
+    runner = Runner(base.spec, h, travel, workers, dask, progress)
+    search = Search(strip.x, strip.z, ids, log_s, columns, face_col, base.max_distinct, runner)
+    needs = column_needs(strip.x, strip.z, columns)
+    single = (len(ids) // 2,) * columns  # a uniform elastica's shape does not depend on its stiffness
+    evs = search.evaluate([single])
+    baselines: dict[str, Any] = {}
+    runs: dict[str, Evaluated] = {}
+    if evs[0] is not None:
+        runs["single"] = evs[0]
+        baselines["single"] = _summary(evs[0], strip.span, {"pattern": ids[single[0]]})
+    rule_faces = _rule_faces(base)
+    if rule_faces is not None:
+        rule = _solve_faces(runner, rule_faces, strip)
+        if rule is not None:
+            runs["rule"] = rule
+            baselines["rule"] = _summary(rule, strip.span, dict(zip(labels, rule_faces, strict=True)))
+    extra = runner.solves - 1  # the baselines' solves come on top of the budget
+    if evs[0] is not None:
+        space_mapping(search, Elastica(length, edges), evs[0], strip.span, max_solves + extra)
+    search.refine(column_turning(strip.x, strip.z, columns), max_solves + extra, max(2, workers))
+    best = search.best
+    if best is None:
+        raise SolverError(f"no candidate design converged in {runner.solves} solves (h = {h:g} mm)")
+    rec = _record(strip, tgt, base, best, labels, face_col, ids, runner.solves, time.perf_counter() - t0,
+                  tolerance, scale, length, baselines)
+    warning = None if rec["reachable"] else _unreachable(rec, needs, log_s, base, tolerance, max_solves)
+    res = DesignResult(rec, base, strip, best, labels, face_col, warning, runs)
+    if out is not None:
+        res.write(out, kit)
+    return res
+
+
+def _rule_faces(base: DesignBase) -> list[str] | None:
+    """The face patterns of the base spec's rule (the second baseline), or None without one."""
+    if not base.has_rule:
+        return None
+    from fabpat.assembly.build import face_patterns
+
+    return face_patterns(base.spec)
+
+
+def _solve_faces(runner: Runner, faces: list[str], strip: StripTarget) -> Evaluated | None:
+    res = runner.run([tuple(faces)])[0]
+    if isinstance(res, BaseException):
+        return None
+    rms, mx, _ = errors(res["x"], res["z"], strip.x, strip.z)
+    return Evaluated((), rms, mx, np.zeros(0), np.zeros(0), res)
+
+
+def _summary(ev: Evaluated, span: float, what: dict[str, str]) -> dict[str, Any]:
+    return {**({"pattern": what["pattern"]} if "pattern" in what else {"patterns": what}),
+            "rms_error": ev.rms, "max_error": ev.max, "relative_rms": ev.rms / span}
+
+
+def _record(strip: StripTarget, tgt: Any, base: DesignBase, best: Evaluated, labels: list[str], face_col: list[int],
+            ids: list[str], solves: int, seconds: float, tolerance: float, scale: float, length: float,
+            baselines: dict[str, Any]) -> dict[str, Any]:
+    rel = best.rms / strip.span
+    return {
+        "target": tgt.source, "kind": base.spec.tiling.kind,
+        "patterns": {lab: ids[best.key[face_col[f]]] for f, lab in enumerate(labels)},
+        "rms_error": best.rms, "max_error": best.max, "relative_rms": rel,
+        "end_shortening": best.data["end_shortening"], "scale": scale, "solves": solves, "seconds": seconds,
+        "reachable": bool(rel <= tolerance), "tolerance": tolerance, "span": strip.span, "pin_length": length,
+        "strip_length": best.data["length"], "baselines": baselines,
+    }
+
+
+def _unreachable(rec: dict[str, Any], needs: np.ndarray, log_s: np.ndarray, base: DesignBase, tolerance: float,
+                 max_solves: int) -> str:
+    """The one warning line: how far the design is and what limits it."""
+    head = (f"target not reached: rms error {rec['rms_error']:.3g} mm is {rec['relative_rms']:.2%} of the span "
+            f"(tolerance {tolerance:.2%})")
+    bad = [str(c) for c in range(len(needs)) if needs[c] == math.inf]
+    fin = needs[np.isfinite(needs)]
+    have = math.exp(float(log_s[-1] - log_s[0]))
+    if bad:
+        why = (f"column(s) {', '.join(bad)} of the target turn the wrong way or not at all, which a pinned strip "
+               "(moment = thrust × deflection) cannot do with any pattern")
+    elif len(fin) > 1 and math.exp(float(np.ptp(fin))) > have:
+        why = (f"the target needs a column stiffness ratio of {math.exp(float(np.ptp(fin))):.3g}, the stiffest and "
+               f"softest candidates make at most {have:.3g}")
+    elif base.max_distinct is not None:
+        why = f"at most patterns.max_distinct = {base.max_distinct} distinct patterns"
+    else:
+        why = f"the best of {rec['solves']} solves (--max-solves {max_solves}); more solves may get closer"
+    return f"{head}: {why}"

@@ -1,0 +1,142 @@
+"""The base spec of a design: an assembly spec whose pattern choice is left open, and its candidates.
+
+``[patterns]`` of the base may hold, besides (optionally) one of the spec's ways of choosing patterns
+(a ``rule`` there is the design's second baseline), the design keys:
+
+* ``allowed``: a list of pattern IDs, the only candidates;
+* ``min_width``: mm, drop candidates whose narrowest feature (the catalog's ``min_width``) is smaller;
+* ``max_distinct``: the largest number of distinct patterns in the design (each is one more part type).
+
+Candidates are the hexagon patterns with a converged Cylinder energy in the catalog (``catalog`` key
+or the built-in one), at the base's plate set-up when the catalog has it, else at the default one
+(energies only rank patterns, as for ``rule = "graded"``).
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from fabpat.assembly.spec import AssemblySpec, parse_spec
+from fabpat.errors import FabpatError, SpecError
+
+#: the [patterns] keys that only ``fabpat design`` reads
+DESIGN_KEYS = ("allowed", "min_width", "max_distinct")
+#: the ways of choosing patterns an assembly spec has (fabpat.assembly.spec)
+_WAYS = ("pattern", "groups", "tiles", "hexagon", "pentagon", "rule")
+#: the scenario whose energy gives a pattern's bending stiffness (two end moments bend the plate)
+SCENARIO = "cylinder"
+
+
+@dataclass(frozen=True, eq=False)
+class DesignBase:
+    """The parsed base: ``spec`` (its patterns a placeholder unless the base names a way), the decoded
+    TOML ``data`` without the design keys, ``energies`` {candidate ID: Cylinder energy N·mm} and the
+    design keys' values (``max_distinct`` None: no cap)."""
+
+    spec: AssemblySpec
+    data: dict[str, Any]
+    energies: dict[str, float]
+    max_distinct: int | None
+    has_rule: bool
+
+
+def _read_toml(path: str | Path) -> dict[str, Any]:
+    import tomllib
+
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8-sig")
+    except OSError as e:
+        raise SpecError(f"cannot read spec {p}: {e.strerror or e}") from e
+    except UnicodeDecodeError as e:
+        raise SpecError(f"{p}: not a UTF-8 text file") from e
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise SpecError(f"{p}: invalid TOML: {e}") from e
+
+
+def load_base(path: str | Path) -> DesignBase:
+    """Read the base spec and its candidate patterns. Raises SpecError (one line): a bad spec, a bad
+    design key, or no candidate left."""
+    source = str(path)
+    data = _read_toml(path)
+    pats = data.get("patterns", {})
+    if not isinstance(pats, dict):
+        raise SpecError(f"{source}: [patterns] must be a table")
+    keys = {k: pats[k] for k in DESIGN_KEYS if k in pats}
+    rest = {k: v for k, v in pats.items() if k not in DESIGN_KEYS}
+    has_way = any(k in rest for k in _WAYS)
+    catalog = rest.pop("catalog", None) if "rule" not in rest else rest.get("catalog")
+    if not has_way:
+        for k in rest:  # a rule's own keys without the rule: the spec reader would name them; so do we
+            raise SpecError(f"{source}: patterns.{k} does not apply without a way of choosing patterns (the design "
+                            f"reads only {', '.join(DESIGN_KEYS)} and catalog)")
+        rest = {"pattern": "0x0488"}  # a placeholder: every design names each tile's pattern itself
+    parsed = dict(data, patterns=rest)
+    spec = parse_spec(parsed, source)
+    clean = copy.deepcopy(data)
+    clean["patterns"] = {k: v for k, v in pats.items() if k not in DESIGN_KEYS}
+    if catalog is not None and not isinstance(catalog, str):
+        raise SpecError(f"{source}: patterns.catalog = {catalog!r} must be a file name")
+    if catalog and not Path(catalog).is_absolute():
+        catalog = str(Path(source).parent / catalog)
+    if spec.tiling.kind != "honeycomb-strip":  # the candidates are the strip's; the caller refuses this spec
+        return DesignBase(spec, clean, {}, None, spec.patterns.rule is not None)
+    energies = candidates(spec, source, catalog, keys)
+    k = keys.get("max_distinct")
+    if k is not None and (isinstance(k, bool) or not isinstance(k, int) or k < 1):
+        raise SpecError(f"{source}: patterns.max_distinct = {k!r} must be an integer ≥ 1 (distinct patterns allowed)")
+    return DesignBase(spec, clean, energies, k, spec.patterns.rule is not None)
+
+
+def _catalog_energies(spec: AssemblySpec, catalog: str | None) -> dict[str, float]:
+    from fabpat import catalog as cat
+
+    pl = spec.plates
+    try:
+        found = cat.energies(catalog, SCENARIO, sides=6, edge=spec.tiling.edge, thickness=pl.thickness,
+                             weight=pl.weight)
+        return found or cat.energies(catalog, SCENARIO, sides=6)
+    except FabpatError as e:
+        raise SpecError(f"{spec.source}: the design needs the catalog's {SCENARIO} energies, but {e}") from e
+
+
+def _min_widths(spec: AssemblySpec, catalog: str | None) -> dict[str, float]:
+    from fabpat import catalog as cat
+
+    pl = spec.plates
+    try:
+        rows = cat.catalog(catalog, sides=6, edge=spec.tiling.edge, thickness=pl.thickness, weight=pl.weight)
+    except FabpatError:
+        rows = cat.catalog(catalog, sides=6)
+    return {str(r["id"]): float(r["min_width"]) for r in rows if r.get("min_width") is not None}  # type: ignore[arg-type]
+
+
+def candidates(spec: AssemblySpec, source: str, catalog: str | None, keys: dict[str, Any]) -> dict[str, float]:
+    """{ID: Cylinder energy} of the candidates that ``allowed`` and ``min_width`` leave; SpecError if none."""
+    from fabpat.assembly.spec import _pattern_id
+
+    energies = {k: v for k, v in _catalog_energies(spec, catalog).items() if math.isfinite(v) and v > 0}
+    why = [f"the catalog's {len(energies)} hexagon patterns with a {SCENARIO} energy"]
+    if "allowed" in keys:
+        allowed = keys["allowed"]
+        if not isinstance(allowed, list) or not allowed:
+            raise SpecError(f"{source}: patterns.allowed must be a non-empty list of pattern IDs")
+        ids = {_pattern_id(source, f"patterns.allowed[{i}]", a, (6,)) for i, a in enumerate(allowed)}
+        energies = {k: v for k, v in energies.items() if k in ids}
+        why.append(f"patterns.allowed ({len(ids)} IDs)")
+    if "min_width" in keys:
+        w = keys["min_width"]
+        if isinstance(w, bool) or not isinstance(w, int | float) or not math.isfinite(w) or w < 0:
+            raise SpecError(f"{source}: patterns.min_width = {w!r} must be a number of mm ≥ 0")
+        widths = _min_widths(spec, catalog)
+        energies = {k: v for k, v in energies.items() if widths.get(k, -1.0) >= w}
+        why.append(f"patterns.min_width = {w:g} mm")
+    if not energies:
+        raise SpecError(f"{source}: no candidate pattern is left after {' and '.join(why)}: widen the choice")
+    return energies

@@ -1,0 +1,150 @@
+"""The design's files: ``design.toml`` (a complete spec with every tile's pattern), ``design.json`` (the
+record), ``design.png`` (target and predicted mid-lines, each column's pattern) and, with ``kit``, the
+``fabpat assemble`` kit of design.toml in ``kit/``.
+
+Everything is written into a temporary folder next to the output folder and renamed to it at the end
+(as ``fabpat assemble`` does): on any error nothing is left, and an earlier design output there is
+replaced only on success; any other non-empty folder is refused before any work.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from fabpat.errors import ExportError
+
+GENERATOR = "fabpat design"
+FILES = ("design.toml", "design.json", "design.png")
+
+
+def check_design_out(out: str | os.PathLike[str]) -> Path:
+    """The output folder, if it is missing, empty or an earlier design output; ExportError otherwise."""
+    p = Path(out)
+    parent = p.parent if str(p.parent) else Path(".")
+    if not parent.is_dir():
+        raise ExportError(f"cannot write {p}: folder {parent} does not exist")
+    if p.exists():
+        if not p.is_dir():
+            raise ExportError(f"--out {p} exists and is not a folder")
+        if any(p.iterdir()):
+            earlier = False
+            with contextlib.suppress(OSError, ValueError, AttributeError):
+                earlier = json.loads((p / "design.json").read_text(encoding="utf-8")).get("generator") == GENERATOR
+            if not earlier:
+                raise ExportError(f"--out {p} exists and is not an earlier `fabpat design` output: choose a new folder")
+    return p
+
+
+def _toml_value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        return repr(v)
+    if isinstance(v, str):
+        return json.dumps(v, ensure_ascii=False)  # a JSON string is a valid TOML basic string
+    if isinstance(v, list):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{k} = {_toml_value(x)}" for k, x in v.items()) + "}"
+    raise ExportError(f"cannot write {v!r} to design.toml")
+
+
+def spec_toml(data: dict[str, Any]) -> str:
+    """TOML text of a decoded spec (top-level keys, then one table per section; values as inline TOML)."""
+    lines = [f"{k} = {_toml_value(v)}" for k, v in data.items() if not isinstance(v, dict)]
+    for k, v in data.items():
+        if isinstance(v, dict):
+            lines += ["", f"[{k}]"] + [f"{kk} = {_toml_value(vv)}" for kk, vv in v.items()]
+    return "\n".join(lines) + "\n"
+
+
+def design_spec_data(res: Any) -> dict[str, Any]:
+    """The base spec's tables with ``[patterns] tiles`` = every plate's pattern and ``[load]
+    end_shortening`` = the design's."""
+    data = {k: v for k, v in res.base.data.items() if k not in ("patterns", "load")}
+    data["patterns"] = {"tiles": dict(res.record["patterns"])}
+    data["load"] = {"end_shortening": float(res.record["end_shortening"])}
+    return data
+
+
+def write_png(res: Any, path: Path) -> None:
+    """Target and predicted mid-lines, and each column's pattern (coloured by log-stiffness 1/U)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rec, t, d = res.record, res.target, res.best.data
+    fig, (ax, bx) = plt.subplots(2, 1, figsize=(10, 4.6), dpi=120, gridspec_kw={"height_ratios": [3.2, 1]})
+    ax.plot(t.x, t.z, "k--", lw=1.6, label="target")
+    ax.plot(d["x"], d["z"], color="C3", lw=2, label=f"design: rms {rec['rms_error']:.2f} mm "
+            f"({rec['relative_rms']:.2%} of the span)")
+    if "single" in res.baseline_runs:
+        s = res.baseline_runs["single"].data
+        ax.plot(s["x"], s["z"], color="0.6", lw=1, label="best single pattern")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x from column 0's pin, mm")
+    ax.set_ylabel("z, mm")
+    ax.legend(fontsize=8, loc="lower center")
+    columns = max(res.face_col) + 1
+    ids = [rec["patterns"][res.labels[res.face_col.index(c)]] for c in range(columns)]
+    e = res.base.energies
+    logs = np.array([-math.log(e[i]) for i in ids])
+    all_logs = -np.log(list(e.values()))
+    lo, hi = float(all_logs.min()), float(all_logs.max())
+    cmap = plt.get_cmap("viridis")
+    for c, (pid, v) in enumerate(zip(ids, logs, strict=True)):
+        bx.add_patch(plt.Rectangle((c, 0), 1, 1, color=cmap((v - lo) / max(hi - lo, 1e-12))))
+        bx.text(c + 0.5, 0.5, pid, ha="center", va="center", rotation=90 if columns > 10 else 0, fontsize=7,
+                color="white" if (v - lo) / max(hi - lo, 1e-12) < 0.6 else "black")
+    bx.set_xlim(0, columns)
+    bx.set_ylim(0, 1)
+    bx.set_yticks([])
+    bx.set_xlabel("column (colour: stiffness 1/U_cylinder, dark = soft)")
+    fig.tight_layout()
+    fig.savefig(path, format="png")
+    plt.close(fig)
+
+
+def write_design(res: Any, out: str | os.PathLike[str], kit: bool = False) -> list[str]:
+    """Write the design's files into ``out`` atomically (module doc); returns their names in ``out``."""
+    from fabpat.assembly.build import _swap_in
+    from fabpat.io import remove_stale_temps, temp_prefix, write_error
+
+    p = check_design_out(out)
+    parent = p.parent if str(p.parent) else Path(".")
+    remove_stale_temps(parent)
+    tmp = Path(tempfile.mkdtemp(prefix=temp_prefix(p.name), suffix=".part", dir=parent))
+    try:
+        (tmp / "design.toml").write_text(spec_toml(design_spec_data(res)), encoding="utf-8")
+        record = {**res.record, "generator": GENERATOR}
+        (tmp / "design.json").write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
+        write_png(res, tmp / "design.png")
+        files = list(FILES)
+        if kit:
+            from fabpat.assembly.build import assemble
+
+            made = assemble(str(tmp / "design.toml"), tmp / "kit")
+            files += [f"kit/{f}" for f in made.files]
+        mask = os.umask(0)
+        os.umask(mask)
+        os.chmod(tmp, 0o777 & ~mask)  # mkdtemp makes 0700 folders
+        _swap_in(tmp, p)
+    except OSError as e:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise write_error(p, e) from e
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return files

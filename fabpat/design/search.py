@@ -1,0 +1,191 @@
+"""The design search: full assembly solves of candidate strips, in parallel, refined from the reduced model.
+
+Each candidate is one pattern per column. A solve (:func:`solve_candidate`) is the ``simulate-assembly``
+strip path (:func:`fabpat.assembly.simulate.strip_setup` and :func:`~fabpat.assembly.simulate.run_strip`
+with the spec's material, the default steps and imperfection), with the pins moved by the travel that
+makes the target's span. Batches of independent candidates run on the sweep's engine (local worker
+processes, or a dask.distributed scheduler).
+
+Refinement (docs/design.md), from the best design so far, one batch per round:
+
+1. **Curvature update** (one candidate): κ = M / EI column by column, so with the bending moments of
+   the last solve each column's stiffness is scaled by its realised over its target turning
+   (:func:`fabpat.design.strip.curvature_update`) and re-assigned with a free overall scale
+   (:func:`fabpat.design.strip.assign`).
+2. **Pattern search** (the rest of the batch): the worst-fitting columns each move by a step δ in
+   log-stiffness (towards the corrected need), to the nearest candidate; δ halves after a round
+   without improvement.
+
+It stops when the budget is spent, or when δ is below the candidates' spacing and the update proposes
+nothing new.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fabpat.design.strip import assign, column_errors, column_turning, curvature_update, errors
+
+Arr = NDArray[np.float64]
+
+#: first pattern-search step in log-stiffness (a factor e^0.25 ≈ 1.28 in stiffness)
+FIRST_STEP = 0.25
+
+
+def solve_candidate(spec: Any, patterns: tuple[str, ...], h: float, travel: float) -> dict[str, Any]:
+    """One full strip solve: the face patterns ``patterns``, mesh edge ``h`` mm, pins moved together by
+    ``travel`` mm. Returns plain data (it crosses process boundaries): ``x``, ``z`` the mid-line (mm,
+    :func:`fabpat.design.strip.midline`), ``end_shortening`` (travel over the strip length, as
+    ``simulate-assembly`` reads it), ``length`` (mm), ``seconds``. Raises SolverError, GeometryError."""
+    from fabpat.assembly.simulate import IMPERFECTION, run_strip, strip_setup
+    from fabpat.assembly.simulation import DEFAULT_STEPS
+    from fabpat.design.strip import midline
+
+    t0 = time.perf_counter()
+    mat = spec.material
+    setup = strip_setup(spec, list(patterns), h=h, E=mat.youngs_modulus, nu=mat.poisson)
+    es = travel / setup.length
+    run = run_strip(setup, es, steps=DEFAULT_STEPS["honeycomb-strip"], imperfection=IMPERFECTION)
+    x, z = midline(setup, run.result.final.displacement)
+    return {"x": x, "z": z, "end_shortening": es, "length": setup.length, "seconds": time.perf_counter() - t0}
+
+
+@dataclass(frozen=True, eq=False)
+class Evaluated:
+    """A solved candidate: ``key`` the candidate index per column, errors in mm, the solve's data."""
+
+    key: tuple[int, ...]
+    rms: float
+    max: float
+    col_err: Arr
+    turning: Arr  # realised downward turning per column, rad
+    data: dict[str, Any]
+
+
+@dataclass
+class Runner:
+    """Runs batches of candidate solves: ``workers`` local processes, or ``dask`` (a scheduler address);
+    counts every solve and tells ``progress(solves done, elapsed s)`` after each."""
+
+    spec: Any
+    h: float
+    travel: float
+    workers: int = 1
+    dask: str | None = None
+    progress: Callable[[int, float], None] | None = None
+    solves: int = 0
+    t0: float = field(default_factory=time.perf_counter)
+
+    def run(self, batch: list[tuple[str, ...]]) -> list[dict[str, Any] | BaseException]:
+        """Solve every face-pattern tuple of ``batch``; a failed solve comes back as its exception."""
+        from fabpat.sweep import _dask_client, _run_dask, _run_local
+
+        jobs = [((self.spec, pats, self.h, self.travel), str(i)) for i, pats in enumerate(batch)]
+        if self.dask:
+            stream = _run_dask(solve_candidate, jobs, _dask_client(self.dask, 10.0))
+        else:
+            stream = _run_local(solve_candidate, jobs, min(self.workers, len(jobs)))
+        out: list[Any] = [None] * len(batch)
+        for key, res in stream:
+            out[int(key)] = res
+            self.solves += 1
+            if self.progress is not None:
+                self.progress(self.solves, time.perf_counter() - self.t0)
+        return out
+
+
+@dataclass
+class Search:
+    """State of one design search over ``ids`` (candidate IDs sorted stiff-last: ascending 1/U) with
+    ``log_s`` their log-stiffnesses log(1/U); ``columns`` of the strip, face → column ``face_col``."""
+
+    target_x: Arr
+    target_z: Arr
+    ids: list[str]
+    log_s: Arr
+    columns: int
+    face_col: list[int]
+    max_distinct: int | None
+    runner: Runner
+    seen: dict[tuple[int, ...], Evaluated | None] = field(default_factory=dict)
+    best: Evaluated | None = None
+
+    def faces(self, key: tuple[int, ...]) -> tuple[str, ...]:
+        """Face patterns of a candidate (every tile of a column the same)."""
+        return tuple(self.ids[key[c]] for c in self.face_col)
+
+    def evaluate(self, keys: list[tuple[int, ...]]) -> list[Evaluated | None]:
+        """Solve the candidates not seen yet (one batch); None for a failed solve."""
+        new = list(dict.fromkeys(k for k in keys if k not in self.seen))
+        for k, res in zip(new, self.runner.run([self.faces(k) for k in new]), strict=True):
+            if isinstance(res, BaseException):
+                self.seen[k] = None
+                continue
+            rms, mx, e = errors(res["x"], res["z"], self.target_x, self.target_z)
+            ev = Evaluated(k, rms, mx, column_errors(self.target_x, e, self.columns),
+                           column_turning(res["x"], res["z"], self.columns), res)
+            self.seen[k] = ev
+            if self.best is None or ev.rms < self.best.rms:
+                self.best = ev
+        return [self.seen[k] for k in keys]
+
+    def corrected(self, ev: Evaluated, target_turning: Arr) -> tuple[tuple[int, ...], Arr]:
+        """The curvature update of ``ev`` (step 1 of the module doc): the candidate assigned to the
+        corrected log-stiffnesses, and those (on the candidates' log scale)."""
+        need = self.log_s[list(ev.key)] + curvature_update(ev.turning, target_turning)
+        idx, b = assign(need, self.log_s, self.max_distinct)
+        return tuple(int(i) for i in idx), need + b
+
+    def move(self, key: tuple[int, ...], c: int, value: float) -> tuple[int, ...] | None:
+        """``key`` with column c moved to the candidate nearest log-stiffness ``value``, staying within
+        max_distinct (else to the nearest pattern already used); None if nothing changes."""
+        ls = self.log_s
+        j = int(np.argmin(np.abs(ls - value)))
+        if j == key[c]:  # a step smaller than the spacing there: the next candidate that way
+            j = int(np.clip(j + (1 if value > ls[j] else -1), 0, len(ls) - 1))
+        used = set(key)
+        others = set(key[:c] + key[c + 1:])
+        if self.max_distinct is not None and j not in others and len(others) >= self.max_distinct:
+            pool = sorted(others, key=lambda i: abs(ls[i] - value))
+            j = pool[0]
+        if j == key[c] or (j not in used and self.max_distinct is not None
+                           and len(others | {j}) > self.max_distinct):
+            return None
+        return key[:c] + (j,) + key[c + 1:]
+
+    def refine(self, target_turning: Arr, budget: int, batch: int) -> None:
+        """Rounds of update + pattern search (module doc) until ``budget`` solves are spent or nothing new
+        is proposed with the step below the candidates' spacing."""
+        step = FIRST_STEP
+        spacing = float(np.min(np.diff(self.log_s))) if len(self.log_s) > 1 else math.inf
+        while self.runner.solves < budget and self.best is not None:
+            best = self.best
+            room = min(batch, budget - self.runner.solves)
+            update, need = self.corrected(best, target_turning)
+            props = [] if update in self.seen else [update]
+            for c in np.argsort(-best.col_err, kind="stable"):
+                if len(props) >= room:
+                    break
+                cur = float(self.log_s[best.key[c]])
+                d = need[c] - cur
+                for sign in ([np.sign(d)] if abs(d) > 1e-12 else [1.0, -1.0]):
+                    k = self.move(best.key, int(c), cur + sign * step)
+                    if k is not None and k not in self.seen and k not in props and len(props) < room:
+                        props.append(k)
+            if not props:
+                if step <= spacing:
+                    return
+                step /= 2
+                continue
+            self.evaluate(props)
+            if self.best is best:
+                if step <= spacing and update in self.seen:
+                    return
+                step = max(step / 2, spacing)

@@ -1,0 +1,190 @@
+"""Design targets: what shape ``fabpat design`` should reach, read and checked before any work.
+
+* **Strip target** (:class:`StripTarget`): a CSV of the arch's mid-line, header ``x,z``, in mm; x along
+  the span from column 0's pin, z up, both pins at z = 0 (within :data:`END_TOLERANCE` of the span).
+* **Closed-tiling targets** (:class:`ClosedTarget`): ``sphere``, ``ellipsoid:A,B,C`` (axis ratios) or a
+  surface mesh file (``.obj``, ``.stl``, ``.ply``). They are recognised so that a refusal can say
+  precisely what was given; this version designs strip targets only (:func:`require_strip`).
+
+Every problem is a :class:`TargetError` whose one line names the target and what is expected.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fabpat.errors import FabpatError
+
+Arr = NDArray[np.float64]
+
+#: both ends of a strip target must lie within this fraction of the span of z = 0 (the pins' height):
+#: 0.5 % is the accuracy the design aims at (docs/design.md), so a target whose pins are off by more
+#: cannot be met even in principle
+END_TOLERANCE = 0.005
+#: surface mesh files a closed-tiling target may be
+MESH_SUFFIXES = (".obj", ".stl", ".ply")
+#: the named closed-tiling targets
+CLOSED_NAMES = ("sphere", "ellipsoid:A,B,C")
+#: what a strip target file must look like (said in every refusal of one)
+STRIP_FORMAT = "a CSV of the arch's mid-line with header x,z (mm; x from column 0's pin, z up, both ends at z = 0)"
+
+
+class TargetError(FabpatError, ValueError):
+    """A design target that cannot be read or is not a shape this version can design."""
+
+
+@dataclass(frozen=True, eq=False)
+class StripTarget:
+    """A strip's target mid-line: ``x`` (n,) increasing and ``z`` (n,) heights, both mm, x = 0 at column
+    0's pin, z = 0 at both pins; ``source`` names it in messages."""
+
+    source: str
+    x: Arr
+    z: Arr
+
+    @property
+    def span(self) -> float:
+        """Pin-to-pin distance (mm)."""
+        return float(self.x[-1] - self.x[0])
+
+    @property
+    def arc_length(self) -> float:
+        """Length of the polyline through the points (mm)."""
+        return float(np.hypot(np.diff(self.x), np.diff(self.z)).sum())
+
+    def scaled(self, factor: float) -> StripTarget:
+        """The target scaled uniformly by ``factor`` about column 0's pin."""
+        return StripTarget(self.source, (self.x - self.x[0]) * factor, self.z * factor)
+
+
+@dataclass(frozen=True)
+class ClosedTarget:
+    """A closed-tiling target: ``kind`` "sphere", "ellipsoid" (``axes`` the three ratios) or "mesh"
+    (``path`` the surface file)."""
+
+    source: str
+    kind: str
+    axes: tuple[float, float, float] | None = None
+    path: str | None = None
+
+
+def read_target(target: Any) -> StripTarget | ClosedTarget:
+    """The target named by ``target``: "sphere", "ellipsoid:A,B,C", a mesh file path, a CSV path, or an
+    (n, 2) array of (x, z) points in mm. Raises :class:`TargetError` (one line)."""
+    if isinstance(target, str | os.PathLike) and not isinstance(target, bytes):
+        text = os.fspath(target)
+        closed = _closed(text)
+        if closed is not None:
+            return closed
+        return _read_csv(Path(text))
+    try:
+        pts = np.asarray(target, dtype=np.float64)
+    except (TypeError, ValueError) as e:
+        raise TargetError(f"target must be a file name, 'sphere', 'ellipsoid:A,B,C' or an (n, 2) array of (x, z) "
+                          f"points in mm, got {type(target).__name__}") from e
+    if pts.ndim != 2 or pts.shape[1] != 2:
+        raise TargetError(f"a target array must have shape (n, 2) (columns x, z in mm), got {pts.shape}")
+    return check_strip("target array", pts[:, 0], pts[:, 1])
+
+
+def _closed(text: str) -> ClosedTarget | None:
+    """A closed-tiling target, or None if ``text`` names a file that should be a strip CSV."""
+    low = text.strip().lower()
+    if low == "sphere":
+        return ClosedTarget("sphere", "sphere")
+    if low.startswith("ellipsoid"):
+        parts = low.removeprefix("ellipsoid").removeprefix(":").split(",")
+        try:
+            axes = tuple(float(p) for p in parts)
+        except ValueError:
+            axes = ()
+        if len(axes) != 3 or not all(math.isfinite(a) and a > 0 for a in axes):
+            raise TargetError(f"target {text!r}: an ellipsoid is ellipsoid:A,B,C with three positive axis ratios, "
+                              "e.g. ellipsoid:1,1,1.15")
+        return ClosedTarget(text, "ellipsoid", axes)  # type: ignore[arg-type]
+    if Path(text).suffix.lower() in MESH_SUFFIXES:
+        if not Path(text).is_file():
+            raise TargetError(f"cannot read target {text}: no such file")
+        return ClosedTarget(text, "mesh", path=text)
+    return None
+
+
+def _read_csv(path: Path) -> StripTarget:
+    try:
+        raw = path.read_bytes()
+    except OSError as e:
+        raise TargetError(f"cannot read target {path}: {e.strerror or e}") from e
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        raise TargetError(f"target {path} is not a text file: expected {STRIP_FORMAT}") from None
+    lines = [ln.strip() for ln in text.splitlines()]
+    lines = [ln for ln in lines if ln and not ln.startswith("#")]
+    if not lines or [c.strip().lower() for c in lines[0].split(",")] != ["x", "z"]:
+        first = lines[0][:40] if lines else "(empty)"
+        raise TargetError(f"target {path} is not a strip curve: its first line is {first!r}, expected {STRIP_FORMAT}")
+    pts = []
+    for n, ln in enumerate(lines[1:], start=2):
+        cells = ln.split(",")
+        try:
+            if len(cells) != 2:
+                raise ValueError
+            pts.append((float(cells[0]), float(cells[1])))
+        except ValueError:
+            raise TargetError(f"target {path}: row {n} ({ln[:40]!r}) is not two numbers x,z (mm)") from None
+    a = np.array(pts, dtype=np.float64).reshape(-1, 2)
+    return check_strip(str(path), a[:, 0], a[:, 1])
+
+
+def check_strip(source: str, x: Arr, z: Arr) -> StripTarget:
+    """A :class:`StripTarget` of points (x, z) mm, or :class:`TargetError`: fewer than 3 points, a value
+    that is not finite, x not strictly increasing, or an end farther than :data:`END_TOLERANCE` × span
+    from z = 0. x is shifted so that the first point is at 0."""
+    x = np.asarray(x, dtype=np.float64)
+    z = np.asarray(z, dtype=np.float64)
+    if len(x) < 3:
+        raise TargetError(f"target {source} has {len(x)} point(s): a strip target needs at least 3 (x, z) points")
+    bad = ~(np.isfinite(x) & np.isfinite(z))
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise TargetError(f"target {source}: point {k + 1} (x = {x[k]:g}, z = {z[k]:g}) is not finite: every x and "
+                          "z must be a finite number of mm")
+    step = np.diff(x)
+    if (step <= 0).any():
+        k = int(np.argmax(step <= 0))
+        raise TargetError(f"target {source}: x must increase strictly along the curve, but point {k + 2} (x = "
+                          f"{x[k + 1]:g}) follows x = {x[k]:g}")
+    span = float(x[-1] - x[0])
+    tol = END_TOLERANCE * span
+    for name, v in (("first", z[0]), ("last", z[-1])):
+        if abs(v) > tol:
+            raise TargetError(f"target {source}: the {name} point is at z = {v:g} mm, but both ends are the pins at "
+                              f"z = 0 (within {END_TOLERANCE:.1%} of the span, {tol:.3g} mm)")
+    return StripTarget(source, x - x[0], z)
+
+
+def require_strip(target: StripTarget | ClosedTarget, spec_source: str, kind: str) -> StripTarget:
+    """The strip target, or :class:`TargetError` for a closed target or a closed-tiling spec (this
+    version designs strip targets: a CSV mid-line on a honeycomb-strip spec)."""
+    if kind != "honeycomb-strip":
+        raise TargetError(f"{spec_source}: tiling.kind = {kind!r} is a closed tiling; this version designs strip "
+                          "targets only (a CSV mid-line with a tiling.kind = \"honeycomb-strip\" spec)")
+    if isinstance(target, ClosedTarget):
+        raise TargetError(f"target {target.source!r} is a closed-tiling target ({target.kind}); this version designs "
+                          f"strip targets only: give {STRIP_FORMAT}")
+    return target
+
+
+def write_target_csv(path: str | os.PathLike[str], x: Arr, z: Arr) -> None:
+    """Write points (mm) as a strip target CSV (header ``x,z``), atomically."""
+    from fabpat.io import atomic_outputs
+
+    with atomic_outputs(path) as (tmp,):
+        tmp.write_text("x,z\n" + "".join(f"{a:.6f},{b:.6f}\n" for a, b in zip(x, z, strict=True)), encoding="utf-8")
