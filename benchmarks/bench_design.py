@@ -44,7 +44,7 @@ def random_target(spec: Path, seed: int, h: float, out: Path) -> tuple[Path, flo
     """A CSV of the predicted mid-line of random per-column patterns (seeded); returns it and the solve's s."""
     base = load_base(spec)
     ids = sorted(base.energies)
-    length, _, face_col = _geometry(base, ids[0], h)
+    length, _, face_col, _ = _geometry(base, ids[0], h)
     rng = np.random.default_rng(seed)
     cols = rng.choice(ids, max(face_col) + 1)
     t0 = time.perf_counter()
