@@ -41,7 +41,7 @@ from typing import Any
 from fabpat.assembly.checks import CheckReport, check_assembly
 from fabpat.assembly.kit_files import PREDICTION, write_all
 from fabpat.assembly.placement import Assembly, PlateType, build_tiling, check_geometry, check_necks, place
-from fabpat.assembly.predict import PREDICT_H, Prediction, bent, finish, strain_problems
+from fabpat.assembly.predict import PREDICT_H, Prediction, bent, finish, predicted, strain_problems, use
 from fabpat.assembly.predict import predict as predict_kit
 from fabpat.assembly.spec import AssemblySpec, load_spec
 from fabpat.errors import ExportError, FabpatError, SpecError
@@ -258,6 +258,11 @@ def default_predict_h(spec: AssemblySpec) -> float:
     return min(PREDICT_H, MAX_H_PER_INTERFACE * segment)
 
 
+def predicts(spec: AssemblySpec) -> bool:
+    """:func:`~fabpat.assembly.predict.predicted` from the spec alone: a strip, or bent sleeves (:func:`bends`)."""
+    return spec.tiling.kind == "honeycomb-strip" or bends(spec)
+
+
 def steps(spec: AssemblySpec, predict: bool = True) -> list[str]:
     """Names of the progress steps for this spec, in order (``predict``: as :func:`assemble`'s).
 
@@ -266,9 +271,9 @@ def steps(spec: AssemblySpec, predict: bool = True) -> list[str]:
     f = spec.formats
     names = ["patterns", "placement", "nesting", "net", "checks"]
     show = True
+    if predicts(spec) and predict:
+        names.insert(1 if spec.patterns.rule == "roundest" else len(names), "prediction")
     if bends(spec):
-        if predict:
-            names.insert(1 if spec.patterns.rule == "roundest" else len(names), "prediction")
         show = predict  # no prediction: no picture of the assembled shape
     names += [n for n, want in (("STEP", "step"), ("STL", "stl"), ("GLB", "glb"), ("3DM", "3dm"),
                                 ("sheets", "dxf"),
@@ -327,7 +332,7 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
     check_out(out)
     if predict_h is None:
         predict_h = default_predict_h(spec)
-    elif predict and bends(spec):  # before any work: a mesh too coarse for the interfaces cannot predict
+    elif predict and predicts(spec):  # before any work: a mesh too coarse for the interfaces cannot predict
         from fabpat.assembly.simulate import check_h
         from fabpat.errors import GeometryError
 
@@ -363,25 +368,19 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
         check_lines.append(f"net without overlaps ({len(net.folds)} folds)")
     prediction: Prediction | None = None
     notes: list[str] = []
-    if bent(assembly) and predict:
+    if predicted(assembly) and predict:
         if chosen is None:
             tell("prediction")
             prediction = predict_kit(spec, assembly, predict_h, predict_progress)
         else:
             prediction = finish(chosen[0], assembly, predict_h, chosen[1])
         problems += strain_problems(spec, prediction.run, force)
-        fit, run = prediction.fit, prediction.run
-        notes.append(f"predicted shape (h = {predict_h:g} mm): radius {run.radius:.2f} mm, sphericity rms "
-                     f"{100 * run.sphericity_rms:.2f} % (max {100 * run.sphericity_max:.2f} %), peak strain "
-                     f"{run.peak_strain:.4g} on {run.peak_strain_plate} (material.strain_limit = "
-                     f"{run.strain_limit:g}), largest sleeve moment {max(run.sleeve_moments.values()):.3g} N·mm")
-        notes.append(f"predicted shape: sleeves grip the deformed plates, interface nodes within {fit[0]:.1e} mm "
-                     f"of their slots' mid-planes and {fit[1]:.1e} mm of the slots")
+        notes += prediction_notes(prediction)
         check_lines += notes
-    elif bent(assembly):  # the plates bend but nothing checked how far: say so where the user looks
+    elif predicted(assembly):  # the plates bend but nothing checked how far: say so where the user looks
         problems.append(f"material.strain_limit = {spec.material.strain_limit:g} not checked: the prediction was "
-                        "skipped (--no-predict), and the plates bend when the sleeves close the object")
-    status = (NOT_NEEDED if not bent(assembly) else PREDICTION if prediction is not None else SKIPPED)
+                        f"skipped (--no-predict), and the plates bend when {use(spec)}")
+    status = (NOT_NEEDED if not predicted(assembly) else PREDICTION if prediction is not None else SKIPPED)
 
     parent = out.parent if str(out.parent) else Path(".")
     remove_stale_temps(parent)  # the temporary folders of a killed earlier run
@@ -400,6 +399,11 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
                                  f"({PREDICTION}); parts.step and parts.3dm hold the flat parts" if prediction else
                                  "not predicted (--no-predict): no file shows the assembled shape; the flat parts "
                                  "bend when the sleeves close the object (parts.step, parts.3dm)")
+        elif predicted(assembly):
+            manifest["shape"] = (f"assembly.* show the flat strip as assembled; predicted.glb, predicted.png and "
+                                 f"predicted.stl show it when {use(spec)} ({PREDICTION})" if prediction else
+                                 "not predicted (--no-predict): assembly.* show the flat strip as assembled, no file "
+                                 f"shows it when {use(spec)}")
         (tmp / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
         os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes 0700 folders; give the user's usual permissions
         _swap_in(tmp, out)
@@ -416,6 +420,23 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
         record = prediction_record(prediction.run, prediction.seconds, prediction.h, spec.name, spec.tiling.kind)
     return AssembleResult(out, (*files, MANIFEST), report, nesting.n_sheets if nesting else 0, tuple(problems),
                           record, tuple(notes))
+
+
+def prediction_notes(prediction: Prediction) -> list[str]:
+    """The check lines of a kit's prediction: its shape (a closure's radius and sphericity, a strip's arch),
+    peak strain and largest sleeve moment, then how well the printed sleeves grip the deformed plates."""
+    run, h, fit = prediction.run, prediction.h, prediction.fit
+    if getattr(run, "radius", None) is not None:
+        shape = (f"radius {run.radius:.2f} mm, sphericity rms {100 * run.sphericity_rms:.2f} % (max "
+                 f"{100 * run.sphericity_max:.2f} %)")
+    else:
+        shape = (f"pushed together by {100 * run.end_shortening:g} % of its length: arch {run.max_deflection:.1f} mm "
+                 f"high, peak at {run.peak:.3f} of the length, reaction {run.reaction:.3g} N")
+    moment = max(run.sleeve_moments.values(), default=0.0)
+    return [f"predicted shape (h = {h:g} mm): {shape}, peak strain {run.peak_strain:.4g} on {run.peak_strain_plate} "
+            f"(material.strain_limit = {run.strain_limit:g}), largest sleeve moment {moment:.3g} N·mm",
+            f"predicted shape: sleeves grip the deformed plates, interface nodes within {fit[0]:.1e} mm of their "
+            f"slots' mid-planes and {fit[1]:.1e} mm of the slots"]
 
 
 def _roundest(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | None, tell: Callable[[str], None],

@@ -190,7 +190,8 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
     ``max_elements`` bounds the whole assembly's mesh (:func:`check_assembly_size`). A sphere with
     ``rule = "roundest"`` is closed with each candidate pair and the roundest is reported, as ``fabpat
     assemble`` builds it (:func:`fabpat.assembly.predict.choose_roundest`; the roundest of all if none
-    is under the limit). ``progress(λ)`` is told after every report step of a closure. Raises
+    is under the limit). ``progress(f)`` is told the fraction f done after every report step of the path
+(of the end shortening, of the sleeves' turn, or over all the candidate pairs of "roundest"). Raises
     SpecError (bad spec, argument or option for this kind), GeometryError (h too coarse for the
     interfaces, or a mesh too large), SolverError (path lost, naming the load or angle fraction reached).
     """
@@ -213,7 +214,9 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
             raise SpecError(f"{spec.source}: {name} applies to strips (end shortening and the buckle it "
                             f"selects); a closed assembly is bent by its sleeves: leave {name} out")
     if not closed:
-        end_shortening = 0.1 if end_shortening is None else check("end_shortening", end_shortening,
+        from fabpat.assembly.simulate import kit_end_shortening
+
+        end_shortening = kit_end_shortening(spec) if end_shortening is None else check("end_shortening", end_shortening,
                                                                     "end_shortening", error=SpecError)
         if imperfection is not None:
             imperfection = check("imperfection_force", imperfection, "imperfection", error=SpecError)
@@ -242,7 +245,8 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
 
         setup = strip_setup(spec, patterns, h=h, E=E, nu=nu)
         run = run_strip(setup, float(end_shortening), steps=steps,  # type: ignore[arg-type]
-                        imperfection=IMPERFECTION if imperfection is None else imperfection)
+                        imperfection=IMPERFECTION if imperfection is None else imperfection, progress=progress,
+                        strain_limit=mat.strain_limit)
         model = setup.model
     else:
         from fabpat.assembly.closure import closure_setup, run_closure
