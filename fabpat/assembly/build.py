@@ -5,7 +5,8 @@ plate, place plates and sleeves, nest the sheets, unfold the net, run every chec
 first file is written, so a bad spec costs no disk writes. Files are then written into a temporary
 folder next to ``--out`` and renamed to it at the very end: on any error the temporary folder is
 removed and ``--out`` is left as it was (an earlier ``assemble`` output there is replaced only on
-success; any other existing folder is refused).
+success, and only if it holds nothing but the files its manifest lists with their SHA-256, unchanged;
+any other existing folder is refused: :mod:`fabpat.assembly.kit_folder`).
 
 Folder contents: ``assembly.step``, ``parts/*.stl``, ``assembly.glb``, ``assembly.3dm`` (Rhino: a layer
 and a block per part type, block instances), ``sheets/sheet-NN.dxf``,
@@ -27,7 +28,6 @@ says so.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import math
 import os
@@ -40,15 +40,15 @@ from typing import Any
 
 from fabpat.assembly.checks import CheckReport, check_assembly
 from fabpat.assembly.kit_files import PREDICTION, write_all
+from fabpat.assembly.kit_folder import GENERATOR, MANIFEST, check_out, digests, swap_in
 from fabpat.assembly.placement import Assembly, PlateType, build_tiling, check_geometry, check_necks, place
 from fabpat.assembly.predict import PREDICT_H, Prediction, bent, finish, predicted, strain_problems, use
 from fabpat.assembly.predict import predict as predict_kit
+from fabpat.assembly.provenance import pattern_records
 from fabpat.assembly.spec import AssemblySpec, load_spec
 from fabpat.errors import ExportError, FabpatError, SpecError
 from fabpat.io import remove_stale_temps, temp_prefix, write_error
 
-MANIFEST = "manifest.json"
-GENERATOR = "fabpat assemble"
 NOT_NEEDED = "not needed: the sleeves are at the dihedral angles (the plates stay flat)"
 SKIPPED = "skipped (--no-predict)"
 
@@ -199,44 +199,6 @@ def fabrication_problems(spec: AssemblySpec, filleted: dict[PlateType, Any]) -> 
     return out
 
 
-# -- the output folder ------------------------------------------------------------------------------
-
-
-def _replaceable(out: Path) -> bool:
-    """True if ``out`` may be replaced: missing, empty, or an earlier ``assemble`` output."""
-    if not out.exists():
-        return True
-    if not out.is_dir():
-        return False
-    if not any(out.iterdir()):
-        return True
-    with contextlib.suppress(OSError, ValueError):
-        return json.loads((out / MANIFEST).read_text(encoding="utf-8")).get("generator") == GENERATOR
-    return False
-
-
-def check_out(out: Path) -> None:
-    """Raise :class:`ExportError` unless ``out`` can receive an assembly (before any work is done)."""
-    parent = out.parent if str(out.parent) else Path(".")
-    if not parent.is_dir():
-        raise ExportError(f"cannot write {out}: folder {parent} does not exist")
-    if not os.access(parent, os.W_OK):
-        raise ExportError(f"cannot write {out}: folder {parent} is not writable")
-    if not _replaceable(out):
-        raise ExportError(f"--out {out} exists and is not an earlier `fabpat assemble` output: choose a new folder")
-
-
-def _swap_in(tmp: Path, out: Path) -> None:
-    """Rename the finished ``tmp`` folder to ``out``, replacing an earlier output only now."""
-    old = None
-    if out.exists():
-        old = Path(tempfile.mkdtemp(prefix=temp_prefix(out.name), suffix=".part", dir=out.parent))
-        os.replace(out, old / out.name)
-    os.replace(tmp, out)
-    if old is not None:
-        shutil.rmtree(old, ignore_errors=True)
-
-
 # -- the whole thing --------------------------------------------------------------------------------
 
 
@@ -381,17 +343,22 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
         problems.append(f"material.strain_limit = {spec.material.strain_limit:g} not checked: the prediction was "
                         f"skipped (--no-predict), and the plates bend when {use(spec)}")
     status = (NOT_NEEDED if not predicted(assembly) else PREDICTION if prediction is not None else SKIPPED)
+    records = pattern_records(spec, assembly.plate_types)
 
     parent = out.parent if str(out.parent) else Path(".")
     remove_stale_temps(parent)  # the temporary folders of a killed earlier run
-    tmp = Path(tempfile.mkdtemp(prefix=temp_prefix(out.name), suffix=".part", dir=parent))
+    try:
+        tmp = Path(tempfile.mkdtemp(prefix=temp_prefix(out.name), suffix=".part", dir=parent))
+    except OSError as e:  # a read-only or immutable parent: one line naming --out
+        raise write_error(out, e) from e
     try:
         files = write_all(spec, lib, nesting, net, check_lines, tmp, tell, timestamp, bent(assembly), prediction,
-                           tried)
+                          tried, records)
         manifest = {"generator": GENERATOR, "spec": spec.name, "source": spec.source, "files": files,
-                    "counts": assembly.counts(), "sheets": nesting.n_sheets if nesting else 0,
+                    "counts": assembly.counts(), "patterns": [r.as_dict() for r in records],
+                    "sheets": nesting.n_sheets if nesting else 0,
                     "skeleton_edge_mm": round(assembly.skeleton.edge_length(), 6), "checks": check_lines,
-                    "warnings": problems, "prediction": status}
+                    "warnings": problems, "prediction": status, "sha256": digests(tmp, files)}
         if tried is not None:
             manifest["candidates"] = tried
         if bent(assembly):
@@ -406,7 +373,7 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
                                  f"shows it when {use(spec)}")
         (tmp / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
         os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes 0700 folders; give the user's usual permissions
-        _swap_in(tmp, out)
+        swap_in(tmp, out)
     except OSError as e:  # a full disk while writing: one line naming --out, not a temporary file
         shutil.rmtree(tmp, ignore_errors=True)
         raise write_error(out, e) from e

@@ -12,12 +12,13 @@ it flat, as assembled, and its prediction (the end pins pushing it together) add
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 from fabpat.assembly.placement import Assembly
 from fabpat.assembly.predict import Prediction
+from fabpat.assembly.provenance import PatternRecord
 from fabpat.assembly.spec import AssemblySpec
 
 PREDICTION = "prediction.json"
@@ -25,8 +26,10 @@ PREDICTION = "prediction.json"
 
 def write_all(spec: AssemblySpec, lib: Any, nesting: Any, net: Any, check_lines: list[str], tmp: Path,
               tell: Callable[[str], None], timestamp: str | None, bent_sleeves: bool = False,
-              prediction: Prediction | None = None, candidates: list[dict[str, Any]] | None = None) -> list[str]:
-    """Write every requested file into ``tmp``; returns their paths relative to it.
+              prediction: Prediction | None = None, candidates: list[dict[str, Any]] | None = None,
+              patterns: Sequence[PatternRecord] = ()) -> list[str]:
+    """Write every requested file into ``tmp``; returns their paths relative to it. ``patterns``: the
+    plates' pattern records for the BOM (:mod:`fabpat.assembly.provenance`).
 
     With ``bent_sleeves`` the STEP and 3DM hold the flat parts side by side (``parts.*``) and the GLB,
     PNG (and ``predicted.stl``, ``prediction.json``) show the ``prediction``, or are left out without it.
@@ -115,10 +118,10 @@ def write_all(spec: AssemblySpec, lib: Any, nesting: Any, net: Any, check_lines:
         tell("BOM")
         from fabpat.assembly.bom import bom_csv, bom_markdown, bom_rows
 
-        rows = bom_rows(lib, stl_files, nesting, sheet_files)
+        rows = bom_rows(lib, stl_files, nesting, sheet_files, patterns)
         (tmp / "bom.csv").write_text(bom_csv(rows), encoding="utf-8")
         moments = prediction.run.sleeve_moments if prediction is not None else None
-        md = bom_markdown(lib, rows, nesting, check_lines, moments, candidates)
+        md = bom_markdown(lib, rows, nesting, check_lines, moments, candidates, patterns)
         (tmp / "bom.md").write_text(md, encoding="utf-8")
         files += ["bom.csv", "bom.md"]
     return files
