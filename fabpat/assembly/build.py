@@ -277,6 +277,9 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
     for name, value in (("force", force), ("predict", predict)):
         if not isinstance(value, bool):
             raise SpecError(f"{name} must be True or False, got {value!r}")
+    for name, fn in (("progress", progress), ("energies", energies), ("predict_progress", predict_progress)):
+        if fn is not None and not callable(fn):
+            raise SpecError(f"{name} must be a callable or None, got {type(fn).__name__}")
     if predict_h is not None:
         from fabpat.validate import check
 
@@ -287,7 +290,10 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
     if not isinstance(spec, AssemblySpec):
         if not isinstance(spec, str | os.PathLike):
             raise SpecError(f"spec must be an AssemblySpec or the path of a TOML spec file, got {type(spec).__name__}")
-        spec = load_spec(spec)
+        spec = load_spec(spec, need_sheet=True)
+    if spec.sheet is None:
+        raise SpecError(f"{spec.source}: missing table [sheet] (fabpat assemble nests the plates on this laser sheet "
+                        "or print bed: give its width and height)")
     if not isinstance(out, str | os.PathLike) or not str(out):
         raise SpecError(f"out must be the path of the kit's folder, got {out!r}")
     out = Path(out)
