@@ -629,14 +629,16 @@ def parse_spec(data: Mapping[str, Any], source: str = "<spec>", *, need_sheet: b
 
 def _read_tables(data: Mapping[str, Any], source: str, need_sheet: bool, problems: list[str]) -> AssemblySpec | None:
     """Every table of :func:`parse_spec`, each read on after another's problems (collected in ``problems``)."""
-    def read(f: Callable[[], Any]) -> Any:
+    def read(f: Callable[[], Any]) -> Any:  # a table with a problem gives None: nothing reads its fallbacks
+        before = len(problems)
         try:
-            return f()
+            value = f()
         except _Settled:
             return None
         except SpecError as e:
             problems.extend(_problems_of(e))
             return None
+        return value if len(problems) == before else None
 
     top = ("name", "tiling", "patterns", "plates", "sleeve", "material", "sheet", "estimates", "output")
     for key in data:
