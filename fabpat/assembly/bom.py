@@ -26,7 +26,8 @@ from fabpat.assembly.provenance import PatternRecord
 COLUMNS = ("part", "kind", "process", "count", "file", "unit_area_mm2", "unit_volume_mm3", "unit_mass_g",
            "total_mass_g", "unit_cut_length_mm", "total_time_min", "pattern", "chosen_by", "energy_cantilever_Nmm",
            "energy_cylinder_Nmm", "energy_dome_Nmm", "utilisation_pct")
-#: decimals of each number column, the same in every row (CSV and Markdown)
+#: decimals of each number column in bom.md, the same in every row (bom.csv, data, gives every number to
+#: CSV_DECIMALS)
 DECIMALS = {"unit_area_mm2": 1, "unit_volume_mm3": 1, "unit_mass_g": 2, "total_mass_g": 2, "unit_cut_length_mm": 1,
             "total_time_min": 1, "energy_cantilever_Nmm": 2, "energy_cylinder_Nmm": 2, "energy_dome_Nmm": 2,
             "utilisation_pct": 1}
@@ -115,18 +116,22 @@ def _fmt(v: float | int | str | None, digits: int = 2) -> str:
     return str(v)
 
 
-def _cell(r: BomRow, column: str) -> str:
-    return _fmt(getattr(r, column), DECIMALS.get(column, 2))
+#: decimals of every number in bom.csv
+CSV_DECIMALS = 3
+
+
+def _cell(r: BomRow, column: str, digits: int | None = None) -> str:
+    return _fmt(getattr(r, column), DECIMALS.get(column, 2) if digits is None else digits)
 
 
 def bom_csv(rows: list[BomRow]) -> str:
     """CSV text with :data:`COLUMNS` (lengths mm, areas mm², volumes mm³, masses g, times min, energies
-    N·mm, utilisation %), each number column with its fixed :data:`DECIMALS`."""
+    N·mm, utilisation %), every number with :data:`CSV_DECIMALS` decimals."""
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(COLUMNS)
     for r in rows:
-        w.writerow([_cell(r, c) for c in COLUMNS])
+        w.writerow([_cell(r, c, CSV_DECIMALS) for c in COLUMNS])
     return buf.getvalue()
 
 

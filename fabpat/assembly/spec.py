@@ -44,16 +44,19 @@ from __future__ import annotations
 
 import math
 import os
-import stat
-import tomllib
 from collections.abc import Callable, Mapping
-from contextvars import ContextVar
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from fabpat.errors import PatternError, RangeError, SpecError
-from fabpat.validate import RANGES, check
+from fabpat.assembly.spec_tables import COLLECTED as _COLLECTED
+from fabpat.assembly.spec_tables import Settled as _Settled
+from fabpat.assembly.spec_tables import SpecProblems, read_spec_file
+from fabpat.assembly.spec_tables import Table as _Table
+from fabpat.assembly.spec_tables import key_text as _key_text
+from fabpat.assembly.spec_tables import problems_of as _problems_of
+from fabpat.assembly.spec_tables import show as _show
+from fabpat.errors import PatternError, SpecError
 
 TILINGS = ("honeycomb-strip", "truncated-icosahedron")
 PROCESSES = ("print", "laser")
@@ -72,9 +75,6 @@ _ONLY_RULE = {"candidates": "roundest"}
 #: h = 3 on the shared 2-core machine, docs/fabrication-files.md), so 20 bound the choice to about
 #: 12 minutes; the similar-energy ranking puts the likely winners first anyway
 MAX_CANDIDATES = 20
-#: largest spec file read (bytes): the shipped specs are 1–3 kB; a larger file is not a spec (or is
-#: /dev/zero), and reading it whole would only use memory
-MAX_SPEC_BYTES = 1024 * 1024
 #: longest ``name`` (characters): it titles pictures, the STEP product and the net
 MAX_NAME_LENGTH = 80
 
@@ -185,138 +185,6 @@ class AssemblySpec:
 
 
 # -- small typed readers ----------------------------------------------------------------------------
-
-
-class SpecProblems(SpecError):
-    """Every problem found in one spec, one line each (``problems``); ``str()`` is a first line counting
-    them followed by the problems, or the one problem alone."""
-
-    def __init__(self, problems: list[str] | tuple[str, ...], source: str = "<spec>") -> None:
-        self.problems = tuple(problems)
-        head = [] if len(self.problems) == 1 else [f"{source}: {len(self.problems)} problems in the spec:"]
-        super().__init__("\n".join([*head, *self.problems]))
-
-
-def _problems_of(e: SpecError) -> tuple[str, ...]:
-    return e.problems if isinstance(e, SpecProblems) else (str(e),)
-
-
-#: the problems of the spec :func:`parse_spec` is reading (None outside it: a table then raises at once)
-_COLLECTED: ContextVar[list[str] | None] = ContextVar("fabpat_spec_problems", default=None)
-
-
-class _Settled(Exception):
-    """A table stops being read: its problems are already collected (see :meth:`_Table.settle`)."""
-
-
-class _Table:
-    """One TOML table being read: remembers the keys used so unknown keys can be reported.
-
-    Inside :func:`parse_spec` a key's problem is noted and reading goes on with a fallback value, so one
-    run reports every problem of the spec; :meth:`settle` stops the table before a check that would
-    read a fallback. Outside it (no collector) the first problem is raised, one line."""
-
-    def __init__(self, source: str, name: str, data: Any, allowed: tuple[str, ...]) -> None:
-        if not isinstance(data, Mapping):
-            raise SpecError(f"{source}: [{name}] must be a table")
-        self.source, self.name, self.data = source, name, dict(data)
-        self.problems: list[str] = []
-        self._collected = _COLLECTED.get()
-        for key in self.data:
-            if key not in allowed:
-                self.note(SpecError(f"{source}: unknown key {name}.{_key(key)} (allowed: {', '.join(allowed)})"),
-                          None)
-
-    def fail(self, key: str, message: str) -> SpecError:
-        return SpecError(f"{self.source}: {self.name}.{key} {message}")
-
-    def note(self, e: SpecError, fallback: Any) -> Any:
-        """Collect the problem ``e`` and go on with ``fallback`` (outside :func:`parse_spec`: raise it)."""
-        if self._collected is None:
-            raise e
-        self.problems.extend(_problems_of(e))
-        self._collected.extend(_problems_of(e))
-        return fallback
-
-    def settle(self) -> None:
-        """Stop reading this table if it has problems (they are collected already)."""
-        if self.problems:
-            raise _Settled
-
-    def has(self, key: str) -> bool:
-        return key in self.data
-
-    def only_for(self, key: str, process: str | None, needed: str) -> None:
-        """A key read only for one ``plates.process`` is an error elsewhere, like a key of another tiling
-        (``process`` None: plates.process itself is wrong, so nothing is said)."""
-        if key in self.data and process is not None and process != needed:
-            self.note(self.fail(key, f"does not apply to plates.process = {process!r} (it goes with "
-                                     f"plates.process = {needed!r})"), None)
-
-    def number(self, key: str, default: float | None, range_name: str) -> float:
-        """A finite number in ``fabpat.validate.RANGES[range_name]`` (the same check as the CLI's)."""
-        if key not in self.data:
-            if default is None:
-                return self.note(SpecError(f"{self.source}: missing key {self.name}.{key} (a number in "
-                                           f"{RANGES[range_name].describe()})"), math.nan)
-            return default
-        try:
-            return check(range_name, self.data[key], f"{self.name}.{key}")
-        except RangeError as e:
-            return self.note(SpecError(f"{self.source}: {e}"), math.nan if default is None else default)
-
-    def integer(self, key: str, default: int | None, minimum: int = 1, top: int | None = None) -> int:
-        """An integer from ``minimum`` to ``top`` (default: the ``strip_cells`` range's top, fabpat.validate)."""
-        top = int(RANGES["strip_cells"].high) if top is None else top
-        if key not in self.data:
-            if default is None:
-                return self.note(SpecError(f"{self.source}: missing key {self.name}.{key} (an integer in "
-                                           f"[{minimum}, {top}])"), minimum)
-            return default
-        v = self.data[key]
-        if isinstance(v, bool) or not isinstance(v, int) or not minimum <= v <= top:
-            return self.note(self.fail(key, f"= {_show(v)} must be an integer in [{minimum}, {top}]"),
-                             minimum if default is None else default)
-        return int(v)
-
-    def choice(self, key: str, allowed: tuple[str, ...], default: str | None) -> str:
-        if key not in self.data:
-            if default is None:
-                return self.note(SpecError(f"{self.source}: missing key {self.name}.{key} (one of: "
-                                           f"{', '.join(allowed)})"), allowed[0])
-            return default
-        v = self.data[key]
-        if v not in allowed:
-            return self.note(self.fail(key, f"= {_show(v)} is not allowed: choose one of {', '.join(allowed)}"),
-                             allowed[0] if default is None else default)
-        return str(v)
-
-    def boolean(self, key: str, default: bool) -> bool:
-        v = self.data.get(key, default)
-        if not isinstance(v, bool):
-            return self.note(self.fail(key, f"= {_show(v)} must be true or false"), default)
-        return v
-
-    def string(self, key: str) -> str | None:
-        v = self.data.get(key)
-        if v is not None and not isinstance(v, str):
-            return self.note(self.fail(key, f"= {_show(v)} must be a string"), None)
-        return v
-
-
-def _key(key: Any) -> str:
-    """A table key as a message shows it: itself when it is plain text, else its short repr."""
-    return key if isinstance(key, str) and key.isprintable() and 0 < len(key) <= 60 else _show(key)
-
-
-def _show(value: Any, limit: int = 60) -> str:
-    """``repr(value)`` for a message, cut to ``limit`` characters (a pasted table or a deep list stays one
-    short line)."""
-    try:
-        text = repr(value)
-    except RecursionError:
-        text = f"<a {type(value).__name__} nested too deep>"
-    return text if len(text) <= limit else text[: limit - 1] + "…"
 
 
 def _pattern_id(source: str, key: str, pid: Any, sides: tuple[int, ...]) -> str:
@@ -643,7 +511,7 @@ def _read_tables(data: Mapping[str, Any], source: str, need_sheet: bool, problem
     top = ("name", "tiling", "patterns", "plates", "sleeve", "material", "sheet", "estimates", "output")
     for key in data:
         if key not in top:
-            problems.append(f"{source}: unknown key {_key(key)} (allowed: {', '.join(top)})")
+            problems.append(f"{source}: unknown key {_key_text(key)} (allowed: {', '.join(top)})")
     for key in ("tiling", "patterns", "sheet") if need_sheet else ("tiling", "patterns"):
         if key not in data:
             problems.append(f"{source}: missing table [{key}]" + (
@@ -669,38 +537,9 @@ def load_spec(path: str | os.PathLike[str], *, need_sheet: bool = False) -> Asse
     """Read and validate a spec file (:func:`parse_spec`; ``need_sheet`` as there).
 
     Raises :class:`SpecError` (one line per problem) if ``path`` is not a path, not a regular file (a
-    folder, FIFO or device such as /dev/zero is refused before it is opened for reading), larger than
-    :data:`MAX_SPEC_BYTES`, not UTF-8 TOML, or not a valid spec.
+    folder, FIFO or device such as /dev/zero is refused before it is read), larger than
+    :data:`~fabpat.assembly.spec_tables.MAX_SPEC_BYTES`, not UTF-8 TOML, or not a valid spec
+    (:func:`fabpat.assembly.spec_tables.read_spec_file`).
     """
-    if isinstance(path, bytes) or not isinstance(path, str | os.PathLike):
-        raise SpecError(f"a spec must be the path of a TOML file (str or os.PathLike), got {type(path).__name__}")
-    p = Path(path)
-    try:
-        with open(p, "rb", opener=_nonblocking) as f:  # a FIFO must not block: it is refused below
-            info = os.fstat(f.fileno())
-            if not stat.S_ISREG(info.st_mode):
-                raise SpecError(f"{p}: not a regular file (a folder, FIFO or device cannot be a spec)")
-            if info.st_size > MAX_SPEC_BYTES:
-                raise SpecError(f"{p}: {info.st_size} bytes is larger than a spec can be (at most "
-                                f"{MAX_SPEC_BYTES} bytes)")
-            raw = f.read(MAX_SPEC_BYTES + 1)
-    except OSError as e:
-        raise SpecError(f"cannot read spec {p}: {e.strerror or e}") from e
-    if len(raw) > MAX_SPEC_BYTES:  # it grew while being read
-        raise SpecError(f"{p}: larger than a spec can be (at most {MAX_SPEC_BYTES} bytes)")
-    try:
-        text = raw.decode("utf-8-sig")  # Windows editors save UTF-8 with a byte-order mark
-    except UnicodeDecodeError as e:
-        raise SpecError(f"{p}: not a UTF-8 text file") from e
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        raise SpecError(f"{p}: invalid TOML: {e}") from e
-    except RecursionError as e:
-        raise SpecError(f"{p}: invalid TOML: nested too deep to be a spec") from e
+    p, data = read_spec_file(path)
     return parse_spec(data, str(p), need_sheet=need_sheet)
-
-
-def _nonblocking(path: str, flags: int) -> int:
-    """``open`` without blocking on a FIFO that has no writer (a regular file is unaffected)."""
-    return os.open(path, flags | getattr(os, "O_NONBLOCK", 0))
