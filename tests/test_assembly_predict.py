@@ -275,7 +275,8 @@ def test_steps_name_the_prediction() -> None:
     assert "prediction" in steps(load_spec(SPHERE))
     assert "prediction" not in steps(load_spec(SPHERE), predict=False)
     assert "prediction" not in steps(load_spec(RIGID))
-    assert "prediction" not in steps(load_spec(ROOT / "assemblies" / "graded-strip.toml"))
+    strip = load_spec(ROOT / "assemblies" / "graded-strip.toml")  # pushed together by its pins: predicted too
+    assert "prediction" in steps(strip) and "prediction" not in steps(strip, predict=False)
 
 
 # -- rule = "roundest" -----------------------------------------------------------------------------------

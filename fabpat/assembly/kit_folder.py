@@ -85,7 +85,9 @@ def foreign_entries(out: Path) -> str | None:
     it does not exist, is an empty folder, or holds exactly the files its manifest lists, unchanged."""
     if not out.exists() and not out.is_symlink():
         return None
-    if out.is_symlink() or not out.is_dir():
+    if out.is_symlink():
+        return "it is a symbolic link (the kit would replace the link, not the folder it points to)"
+    if not out.is_dir():
         return "it is not a folder"
     files, other = _entries(out)
     if not files and not other:

@@ -37,6 +37,7 @@ class SpecProblems(SpecError):
 
 
 def problems_of(e: SpecError) -> tuple[str, ...]:
+    """The one-line problems an error stands for: a :class:`SpecProblems`' lines, or its own message."""
     return e.problems if isinstance(e, SpecProblems) else (str(e),)
 
 
@@ -67,6 +68,7 @@ class Table:
                           None)
 
     def fail(self, key: str, message: str) -> SpecError:
+        """The error for ``key``: ``<source>: <table>.<key> <message>``."""
         return SpecError(f"{self.source}: {self.name}.{key} {message}")
 
     def note(self, e: SpecError, fallback: Any) -> Any:
@@ -83,6 +85,7 @@ class Table:
             raise Settled
 
     def has(self, key: str) -> bool:
+        """Whether the table sets ``key``."""
         return key in self.data
 
     def only_for(self, key: str, process: str | None, needed: str) -> None:
@@ -119,6 +122,7 @@ class Table:
         return int(v)
 
     def choice(self, key: str, allowed: tuple[str, ...], default: str | None) -> str:
+        """One of ``allowed`` (``default`` when absent; None: the key is required)."""
         if key not in self.data:
             if default is None:
                 return self.note(SpecError(f"{self.source}: missing key {self.name}.{key} (one of: "
@@ -131,12 +135,14 @@ class Table:
         return str(v)
 
     def boolean(self, key: str, default: bool) -> bool:
+        """``true`` or ``false`` (``default`` when absent)."""
         v = self.data.get(key, default)
         if not isinstance(v, bool):
             return self.note(self.fail(key, f"= {show(v)} must be true or false"), default)
         return v
 
     def string(self, key: str) -> str | None:
+        """A string, or None when absent."""
         v = self.data.get(key)
         if v is not None and not isinstance(v, str):
             return self.note(self.fail(key, f"= {show(v)} must be a string"), None)
