@@ -220,7 +220,8 @@ def _patterns_section(rows: list[BomRow], patterns: Sequence[PatternRecord]) -> 
         return (f"{p.catalog} catalog at edge {s['edge']:g} mm, thickness {s['thickness']:g} mm, weight "
                 f"{s['weight']:g}" if s else f"{p.catalog} catalog")
 
-    where = "; ".join(sorted({setup(p) for p in patterns}))
+    where = "; ".join(sorted({setup(p) for p in patterns if p.catalog_setup})) or \
+        "; ".join(sorted({f"{p.catalog} catalog" for p in patterns}))
     notes = sorted({f"{p.part}: {p.note}" for p in patterns if p.note})
     out = ["## Patterns", "",
            "How each plate's pattern was chosen, and its strain energy in the paper's three scenarios (N·mm, lower = "

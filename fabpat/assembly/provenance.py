@@ -51,9 +51,9 @@ def chosen_by(spec: AssemblySpec) -> str:
     p = spec.patterns
     if p.rule:
         return f"rule = {p.rule!r} ({p.scenario} energies)"
-    way = next(k for k, v in (("pattern", p.pattern), ("groups", p.groups), ("tiles", p.tiles),
-                              ("hexagon + pentagon", p.hexagon)) if v)
-    return f"explicit (patterns.{way})"
+    way = next(k for k, v in (("patterns.pattern", p.pattern), ("patterns.groups", p.groups),
+                              ("patterns.tiles", p.tiles), ("patterns.hexagon, patterns.pentagon", p.hexagon)) if v)
+    return f"explicit ({way})"
 
 
 def _lookup(spec: AssemblySpec, sides: int, depth: int) -> tuple[dict[str, dict[str, float]], dict[str, float] | None,
