@@ -68,9 +68,9 @@ MAX_H_PER_INTERFACE = 2.0
 
 def kit_end_shortening(spec: object) -> float:
     """The end shortening (fraction of the length) a strip spec is used at, for its kit's prediction and
-    ``simulate-assembly``'s default: the spec's ``[load] end_shortening`` when it has one, else
-    :data:`END_SHORTENING`."""
-    value = getattr(getattr(spec, "load", None), "end_shortening", None)
+    ``simulate-assembly``'s default: the spec's own (``[load] end_shortening``, its ``end_shortening``
+    field, where specs have one) when given, else :data:`END_SHORTENING`."""
+    value = getattr(spec, "end_shortening", None)
     return END_SHORTENING if value is None else float(value)
 
 
