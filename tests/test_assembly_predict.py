@@ -275,7 +275,8 @@ def test_steps_name_the_prediction() -> None:
     assert "prediction" in steps(load_spec(SPHERE))
     assert "prediction" not in steps(load_spec(SPHERE), predict=False)
     assert "prediction" not in steps(load_spec(RIGID))
-    assert "prediction" not in steps(load_spec(ROOT / "assemblies" / "graded-strip.toml"))
+    strip = load_spec(ROOT / "assemblies" / "graded-strip.toml")  # pushed together by its pins: predicted too
+    assert "prediction" in steps(strip) and "prediction" not in steps(strip, predict=False)
 
 
 # -- rule = "roundest" -----------------------------------------------------------------------------------
@@ -418,3 +419,18 @@ def test_no_predict_says_the_strain_limit_was_not_checked(tmp_path: Path) -> Non
     assert any("strain_limit" in w and "not checked" in w for w in res.warnings)
     manifest = json.loads((tmp_path / "kit" / "manifest.json").read_text(encoding="utf-8"))
     assert any("not checked" in w for w in manifest["warnings"])
+
+
+def test_a_closed_simulation_reprs_in_one_line(closed) -> None:  # type: ignore[no-untyped-def]
+    """The sphere's AssemblySimulation printed over 25 000 lines (every array); now one short line."""
+    from fabpat.assembly.simulation import AssemblySimulation
+
+    spec, _, _, run = closed
+    sim = AssemblySimulation("truncated-icosahedron", spec.name, run.setup.model, run, 1.0, run.element_strain, {},
+                             spec.material.strain_limit, float(PREDICT_H))
+    text = repr(sim)
+    assert "\n" not in text and len(text) < 300, text
+    assert "plates=32, sleeves=90" in text and f"radius={run.radius:.2f} mm" in text
+    assert f"sphericity_rms={100 * run.sphericity_rms:.3f} %" in text
+    html = sim._repr_html_()
+    assert html.count("<tr>") == sum(not isinstance(v, dict | list) for v in sim.fields().values()) < 40

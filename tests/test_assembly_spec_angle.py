@@ -141,7 +141,7 @@ def test_roundest_rule_parses() -> None:
     ({"pattern": "0x0488", "candidates": 4}, ("patterns.candidates does not apply to patterns.pattern", "roundest")),
     ({"rule": "similar-energy", "candidates": 4},
      ("patterns.candidates does not apply to patterns.rule = 'similar-energy'", "roundest")),
-    ({"rule": "roundest", "candidates": 0}, ("patterns.candidates", "integer in [1, 1000]")),
+    ({"rule": "roundest", "candidates": 0}, ("patterns.candidates", "integer in [1, 20]")),
     ({"rule": "roundest", "candidates": True}, ("patterns.candidates", "integer")),
     ({"rule": "roundest", "count": 2}, ("patterns.count does not apply to rule = 'roundest'", "candidates")),
     ({"rule": "round"}, ("patterns.rule", "similar-energy, roundest")),

@@ -21,14 +21,25 @@ from dataclasses import dataclass
 
 from fabpat.assembly.nesting import Nesting
 from fabpat.assembly.parts import PartLibrary
+from fabpat.assembly.provenance import PatternRecord
 
 COLUMNS = ("part", "kind", "process", "count", "file", "unit_area_mm2", "unit_volume_mm3", "unit_mass_g",
-           "total_mass_g", "unit_cut_length_mm", "total_time_min")
+           "total_mass_g", "unit_cut_length_mm", "total_time_min", "pattern", "chosen_by", "energy_cantilever_Nmm",
+           "energy_cylinder_Nmm", "energy_dome_Nmm", "utilisation_pct")
+#: decimals of each number column in bom.md, the same in every row (bom.csv, data, gives every number to
+#: CSV_DECIMALS)
+DECIMALS = {"unit_area_mm2": 1, "unit_volume_mm3": 1, "unit_mass_g": 2, "total_mass_g": 2, "unit_cut_length_mm": 1,
+            "total_time_min": 1, "energy_cantilever_Nmm": 2, "energy_cylinder_Nmm": 2, "energy_dome_Nmm": 2,
+            "utilisation_pct": 1}
 
 
 @dataclass(frozen=True)
 class BomRow:
-    """One line of the BOM; ``None`` where a value does not apply (e.g. cut length of a printed part)."""
+    """One line of the BOM; ``None`` where a value does not apply (e.g. cut length of a printed part).
+
+    Plates carry their ``pattern``, how it was chosen (``chosen_by``) and its catalog energies (N·mm,
+    :mod:`fabpat.assembly.provenance`); the sheet line its ``utilisation_pct``: the plates' polygons
+    (as nested, grown by kerf/2) over the area of all sheets used, in %."""
 
     part: str
     kind: str
@@ -41,15 +52,23 @@ class BomRow:
     total_mass_g: float | None
     unit_cut_length_mm: float | None
     total_time_min: float | None
+    pattern: str | None = None
+    chosen_by: str | None = None
+    energy_cantilever_Nmm: float | None = None
+    energy_cylinder_Nmm: float | None = None
+    energy_dome_Nmm: float | None = None
+    utilisation_pct: float | None = None
 
 
 def bom_rows(lib: PartLibrary, files: dict[str, str], nesting: Nesting | None,
-             sheet_files: Sequence[str] = ()) -> list[BomRow]:
+             sheet_files: Sequence[str] = (), patterns: Sequence[PatternRecord] = ()) -> list[BomRow]:
     """Rows for every distinct part (plates, then sleeves) and, if nested, the sheets.
 
     ``file`` is what the part's process uses: the part's STL (``files``, by key) for printed parts, the
     DXF sheets it is nested on (``sheet_files``, by sheet number, space-separated) for laser-cut plates.
+    ``patterns``: the plates' :class:`~fabpat.assembly.provenance.PatternRecord` (by part key).
     """
+    records = {r.part: r for r in patterns}
     asm = lib.assembly
     spec = asm.spec
     counts = asm.counts()
@@ -74,13 +93,18 @@ def bom_rows(lib: PartLibrary, files: dict[str, str], nesting: Nesting | None,
             file = " ".join(sheet_files[s] for s in on)
         else:
             file = files.get(key, "")
+        rec = records.get(key)
+        e = rec.energies if rec is not None else {}
         rows.append(BomRow(key, kind, process, n, file, area, vol, vol * rho, n * vol * rho, cut,
-                           n * unit_s / 60.0))
+                           n * unit_s / 60.0, rec.pattern if rec else None, rec.chosen_by if rec else None,
+                           e.get("cantilever"), e.get("cylinder"), e.get("dome")))
     if nesting is not None:
         s = spec.sheet
         what = "laser sheet" if spec.plates.process == "laser" else "print bed"
+        used = math.fsum(nesting.utilisation(k) for k in range(nesting.n_sheets)) / max(nesting.n_sheets, 1)
         rows.append(BomRow(f"{what} {s.width:g} × {s.height:g} mm", "sheet", spec.plates.process,
-                           nesting.n_sheets, "sheets/", s.width * s.height, None, None, None, None, None))
+                           nesting.n_sheets, "sheets/", s.width * s.height, None, None, None, None, None,
+                           utilisation_pct=100.0 * used))
     return rows
 
 
@@ -92,18 +116,28 @@ def _fmt(v: float | int | str | None, digits: int = 2) -> str:
     return str(v)
 
 
+#: decimals of every number in bom.csv
+CSV_DECIMALS = 3
+
+
+def _cell(r: BomRow, column: str, digits: int | None = None) -> str:
+    return _fmt(getattr(r, column), DECIMALS.get(column, 2) if digits is None else digits)
+
+
 def bom_csv(rows: list[BomRow]) -> str:
-    """CSV text with :data:`COLUMNS` (lengths mm, areas mm², volumes mm³, masses g, times min)."""
+    """CSV text with :data:`COLUMNS` (lengths mm, areas mm², volumes mm³, masses g, times min, energies
+    N·mm, utilisation %), every number with :data:`CSV_DECIMALS` decimals."""
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(COLUMNS)
     for r in rows:
-        w.writerow([_fmt(getattr(r, c), 3) for c in COLUMNS])
+        w.writerow([_cell(r, c, CSV_DECIMALS) for c in COLUMNS])
     return buf.getvalue()
 
 
 def bom_markdown(lib: PartLibrary, rows: list[BomRow], nesting: Nesting | None, checks: list[str],
-                 moments: dict[str, float] | None = None, candidates: list[dict] | None = None) -> str:
+                 moments: dict[str, float] | None = None, candidates: list[dict] | None = None,
+                 patterns: Sequence[PatternRecord] = ()) -> str:
     """The BOM as Markdown: parts table, totals, assumptions, sheets, joints (what joins what: the joint's
     skeleton dihedral angle, the angle its sleeve is printed at and, given the predicted closure's
     ``moments`` {joint label: N·mm}, the moment the sleeve holds), the pattern pairs ``rule = "roundest"``
@@ -117,10 +151,11 @@ def bom_markdown(lib: PartLibrary, rows: list[BomRow], nesting: Nesting | None, 
            "| part | kind | process | count | file | area (mm²) | volume (mm³) | mass each (g) | mass total (g) "
            "| cut length (mm) | time total (min) |",
            "|---|---|---|---:|---|---:|---:|---:|---:|---:|---:|"]
+    numbers = ("unit_area_mm2", "unit_volume_mm3", "unit_mass_g", "total_mass_g", "unit_cut_length_mm",
+               "total_time_min")
     for r in rows:
-        out.append(f"| {r.part} | {r.kind} | {r.process} | {r.count} | {r.file} | {_fmt(r.unit_area_mm2, 1)} | "
-                   f"{_fmt(r.unit_volume_mm3, 1)} | {_fmt(r.unit_mass_g)} | {_fmt(r.total_mass_g)} | "
-                   f"{_fmt(r.unit_cut_length_mm, 1)} | {_fmt(r.total_time_min, 1)} |")
+        out.append(f"| {r.part} | {r.kind} | {r.process} | {r.count} | {r.file} | "
+                   + " | ".join(_cell(r, c) for c in numbers) + " |")
     mass = math.fsum(r.total_mass_g or 0.0 for r in rows)
     time = math.fsum(r.total_time_min or 0.0 for r in rows)
     out += ["", f"Total: {sum(r.count for r in rows if r.kind != 'sheet')} parts, {mass:.1f} g, "
@@ -128,11 +163,19 @@ def bom_markdown(lib: PartLibrary, rows: list[BomRow], nesting: Nesting | None, 
             f"Estimates: cutting = cut length / {spec.estimates.cut_speed:g} mm/s; printing = volume / "
             f"{spec.estimates.print_rate:g} mm³/s (effective rate, travel included); masses at "
             f"{spec.plates.density:g} g/cm³. Change them under [estimates] and [plates] in the spec.", ""]
+    out += _patterns_section(rows, patterns)
     if nesting is not None:
-        out += ["## Sheets", "", "| sheet | plates | utilisation |", "|---|---|---:|"]
+        out += ["## Sheets", "",
+                "Utilisation: the area of the plates' polygons as nested (grown by kerf/2) over the sheet's area; "
+                "material: the plates' own (filleted) area over the sheet's area.", "",
+                "| sheet | plates | utilisation (%) | material (%) | used height (mm) |", "|---|---|---:|---:|---:|"]
         for s in range(nesting.n_sheets):
-            labels = ", ".join(asm.plates[i].label for i in nesting.on_sheet(s))
-            out.append(f"| {s + 1} | {labels} | {100 * nesting.utilisation(s):.0f} % |")
+            items = nesting.on_sheet(s)
+            labels = ", ".join(asm.plates[i].label for i in items)
+            material = math.fsum(lib.filleted[asm.plates[i].type].outline.area for i in items)
+            top = max((float(nesting.placed(i)[:, 1].max()) for i in items), default=0.0)
+            out.append(f"| {s + 1} | {labels} | {100 * nesting.utilisation(s):.1f} | "
+                       f"{100 * material / (nesting.width * nesting.height):.1f} | {top:.1f} |")
         out.append("")
     out += ["## Joints", "",
             "A joint's label is engraved on both plates it joins, next to the interface its sleeve grips.", "",
@@ -143,10 +186,10 @@ def bom_markdown(lib: PartLibrary, rows: list[BomRow], nesting: Nesting | None, 
         (pa, ia), (pb, ib) = s.plates
         a, b = asm.plates[pa].label, asm.plates[pb].label
         out.append(f"| {s.label} | {s.kind} | {math.degrees(s.dihedral):.2f} | {math.degrees(s.angle):.2f} | "
-                   f"{a} ({ia}) | {b} ({ib}) |" + (f" {moments[s.label]:.3g} |" if moments else ""))
+                   f"{a} ({ia}) | {b} ({ib}) |" + (f" {moments[s.label]:.2f} |" if moments else ""))
     if moments:
-        out += ["", "Sleeve moment: the moment (N·mm) each sleeve transmits between its plates once the sleeves "
-                "have closed the object (predicted, prediction.json)."]
+        out += ["", "Sleeve moment: the moment (N·mm) each sleeve transmits between its plates in the predicted "
+                "shape of the object in use (prediction.json)."]
     if asm.pins:
         pins = ", ".join(f"{asm.plates[f].label} ({i})" for f, i in asm.pins)
         out += ["", f"Pinned interfaces (both ends of the strip): {pins}."]
@@ -161,7 +204,31 @@ def bom_markdown(lib: PartLibrary, rows: list[BomRow], nesting: Nesting | None, 
                 out.append(f"| {c['hexagon']} | {c['pentagon']} | not built: {c['error']} | | | | |")
             else:
                 out.append(f"| {c['hexagon']} | {c['pentagon']} | {c['radius']:.2f} | "
-                           f"{100 * c['sphericity_rms']:.3f} | {c['peak_strain']:.4g} | {c['plates_over_limit']} | "
+                           f"{100 * c['sphericity_rms']:.3f} | {c['peak_strain']:.4f} | {c['plates_over_limit']} | "
                            f"{'yes' if c['chosen'] else ''} |")
     out += ["", "## Checks", ""] + [f"- {line}" for line in checks] + [""]
     return "\n".join(out)
+
+
+def _patterns_section(rows: list[BomRow], patterns: Sequence[PatternRecord]) -> list[str]:
+    """The Markdown table of the plates' patterns: how each was chosen and its catalog energies (N·mm)."""
+    plates = [r for r in rows if r.kind == "plate"]
+    if not plates:
+        return []
+    def setup(p: PatternRecord) -> str:
+        s = p.catalog_setup
+        return (f"{p.catalog} catalog at edge {s['edge']:g} mm, thickness {s['thickness']:g} mm, weight "
+                f"{s['weight']:g}" if s else f"{p.catalog} catalog")
+
+    where = "; ".join(sorted({setup(p) for p in patterns if p.catalog_setup})) or \
+        "; ".join(sorted({f"{p.catalog} catalog" for p in patterns}))
+    notes = sorted({f"{p.part}: {p.note}" for p in patterns if p.note})
+    out = ["## Patterns", "",
+           "How each plate's pattern was chosen, and its strain energy in the paper's three scenarios (N·mm, lower = "
+           f"stiffer; {where or 'no catalog'}" + (f"; {'; '.join(notes)}" if notes else "") + ").", "",
+           "| part | pattern | chosen by | Cantilever (N·mm) | Cylinder (N·mm) | Dome (N·mm) |",
+           "|---|---|---|---:|---:|---:|"]
+    for r in plates:
+        cells = [_cell(r, c) or "–" for c in ("energy_cantilever_Nmm", "energy_cylinder_Nmm", "energy_dome_Nmm")]
+        out.append(f"| {r.part} | {r.pattern or ''} | {r.chosen_by or ''} | " + " | ".join(cells) + " |")
+    return [*out, ""]

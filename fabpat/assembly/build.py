@@ -5,7 +5,8 @@ plate, place plates and sleeves, nest the sheets, unfold the net, run every chec
 first file is written, so a bad spec costs no disk writes. Files are then written into a temporary
 folder next to ``--out`` and renamed to it at the very end: on any error the temporary folder is
 removed and ``--out`` is left as it was (an earlier ``assemble`` output there is replaced only on
-success; any other existing folder is refused).
+success, and only if it holds nothing but the files its manifest lists with their SHA-256, unchanged;
+any other existing folder is refused: :mod:`fabpat.assembly.kit_folder`).
 
 Folder contents: ``assembly.step``, ``parts/*.stl``, ``assembly.glb``, ``assembly.3dm`` (Rhino: a layer
 and a block per part type, block instances), ``sheets/sheet-NN.dxf``,
@@ -27,7 +28,6 @@ says so.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import math
 import os
@@ -40,15 +40,15 @@ from typing import Any
 
 from fabpat.assembly.checks import CheckReport, check_assembly
 from fabpat.assembly.kit_files import PREDICTION, write_all
+from fabpat.assembly.kit_folder import GENERATOR, MANIFEST, check_out, digests, swap_in
 from fabpat.assembly.placement import Assembly, PlateType, build_tiling, check_geometry, check_necks, place
-from fabpat.assembly.predict import PREDICT_H, Prediction, bent, finish, strain_problems
+from fabpat.assembly.predict import PREDICT_H, Prediction, bent, finish, predicted, strain_problems, use
 from fabpat.assembly.predict import predict as predict_kit
+from fabpat.assembly.provenance import pattern_records
 from fabpat.assembly.spec import AssemblySpec, load_spec
 from fabpat.errors import ExportError, FabpatError, SpecError
 from fabpat.io import remove_stale_temps, temp_prefix, write_error
 
-MANIFEST = "manifest.json"
-GENERATOR = "fabpat assemble"
 NOT_NEEDED = "not needed: the sleeves are at the dihedral angles (the plates stay flat)"
 SKIPPED = "skipped (--no-predict)"
 
@@ -189,44 +189,6 @@ def fabrication_problems(spec: AssemblySpec, filleted: dict[PlateType, Any]) -> 
     return out
 
 
-# -- the output folder ------------------------------------------------------------------------------
-
-
-def _replaceable(out: Path) -> bool:
-    """True if ``out`` may be replaced: missing, empty, or an earlier ``assemble`` output."""
-    if not out.exists():
-        return True
-    if not out.is_dir():
-        return False
-    if not any(out.iterdir()):
-        return True
-    with contextlib.suppress(OSError, ValueError):
-        return json.loads((out / MANIFEST).read_text(encoding="utf-8")).get("generator") == GENERATOR
-    return False
-
-
-def check_out(out: Path) -> None:
-    """Raise :class:`ExportError` unless ``out`` can receive an assembly (before any work is done)."""
-    parent = out.parent if str(out.parent) else Path(".")
-    if not parent.is_dir():
-        raise ExportError(f"cannot write {out}: folder {parent} does not exist")
-    if not os.access(parent, os.W_OK):
-        raise ExportError(f"cannot write {out}: folder {parent} is not writable")
-    if not _replaceable(out):
-        raise ExportError(f"--out {out} exists and is not an earlier `fabpat assemble` output: choose a new folder")
-
-
-def _swap_in(tmp: Path, out: Path) -> None:
-    """Rename the finished ``tmp`` folder to ``out``, replacing an earlier output only now."""
-    old = None
-    if out.exists():
-        old = Path(tempfile.mkdtemp(prefix=temp_prefix(out.name), suffix=".part", dir=out.parent))
-        os.replace(out, old / out.name)
-    os.replace(tmp, out)
-    if old is not None:
-        shutil.rmtree(old, ignore_errors=True)
-
-
 # -- the whole thing --------------------------------------------------------------------------------
 
 
@@ -248,6 +210,11 @@ def default_predict_h(spec: AssemblySpec) -> float:
     return min(PREDICT_H, MAX_H_PER_INTERFACE * segment)
 
 
+def predicts(spec: AssemblySpec) -> bool:
+    """:func:`~fabpat.assembly.predict.predicted` from the spec alone: a strip, or bent sleeves (:func:`bends`)."""
+    return spec.tiling.kind == "honeycomb-strip" or bends(spec)
+
+
 def steps(spec: AssemblySpec, predict: bool = True) -> list[str]:
     """Names of the progress steps for this spec, in order (``predict``: as :func:`assemble`'s).
 
@@ -256,9 +223,9 @@ def steps(spec: AssemblySpec, predict: bool = True) -> list[str]:
     f = spec.formats
     names = ["patterns", "placement", "nesting", "net", "checks"]
     show = True
+    if predicts(spec) and predict:
+        names.insert(1 if spec.patterns.rule == "roundest" else len(names), "prediction")
     if bends(spec):
-        if predict:
-            names.insert(1 if spec.patterns.rule == "roundest" else len(names), "prediction")
         show = predict  # no prediction: no picture of the assembled shape
     names += [n for n, want in (("STEP", "step"), ("STL", "stl"), ("GLB", "glb"), ("3DM", "3dm"),
                                 ("sheets", "dxf"),
@@ -300,6 +267,9 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
     for name, value in (("force", force), ("predict", predict)):
         if not isinstance(value, bool):
             raise SpecError(f"{name} must be True or False, got {value!r}")
+    for name, fn in (("progress", progress), ("energies", energies), ("predict_progress", predict_progress)):
+        if fn is not None and not callable(fn):
+            raise SpecError(f"{name} must be a callable or None, got {type(fn).__name__}")
     if predict_h is not None:
         from fabpat.validate import check
 
@@ -310,14 +280,17 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
     if not isinstance(spec, AssemblySpec):
         if not isinstance(spec, str | os.PathLike):
             raise SpecError(f"spec must be an AssemblySpec or the path of a TOML spec file, got {type(spec).__name__}")
-        spec = load_spec(spec)
+        spec = load_spec(spec, need_sheet=True)
+    if spec.sheet is None:
+        raise SpecError(f"{spec.source}: missing table [sheet] (fabpat assemble nests the plates on this laser sheet "
+                        "or print bed: give its width and height)")
     if not isinstance(out, str | os.PathLike) or not str(out):
         raise SpecError(f"out must be the path of the kit's folder, got {out!r}")
     out = Path(out)
     check_out(out)
     if predict_h is None:
         predict_h = default_predict_h(spec)
-    elif predict and bends(spec):  # before any work: a mesh too coarse for the interfaces cannot predict
+    elif predict and predicts(spec):  # before any work: a mesh too coarse for the interfaces cannot predict
         from fabpat.assembly.simulate import check_h
         from fabpat.errors import GeometryError
 
@@ -353,36 +326,35 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
         check_lines.append(f"net without overlaps ({len(net.folds)} folds)")
     prediction: Prediction | None = None
     notes: list[str] = []
-    if bent(assembly) and predict:
+    if predicted(assembly) and predict:
         if chosen is None:
             tell("prediction")
             prediction = predict_kit(spec, assembly, predict_h, predict_progress)
         else:
             prediction = finish(chosen[0], assembly, predict_h, chosen[1])
         problems += strain_problems(spec, prediction.run, force)
-        fit, run = prediction.fit, prediction.run
-        notes.append(f"predicted shape (h = {predict_h:g} mm): radius {run.radius:.2f} mm, sphericity rms "
-                     f"{100 * run.sphericity_rms:.2f} % (max {100 * run.sphericity_max:.2f} %), peak strain "
-                     f"{run.peak_strain:.4g} on {run.peak_strain_plate} (material.strain_limit = "
-                     f"{run.strain_limit:g}), largest sleeve moment {max(run.sleeve_moments.values()):.3g} N·mm")
-        notes.append(f"predicted shape: sleeves grip the deformed plates, interface nodes within {fit[0]:.1e} mm "
-                     f"of their slots' mid-planes and {fit[1]:.1e} mm of the slots")
+        notes += prediction_notes(prediction)
         check_lines += notes
-    elif bent(assembly):  # the plates bend but nothing checked how far: say so where the user looks
+    elif predicted(assembly):  # the plates bend but nothing checked how far: say so where the user looks
         problems.append(f"material.strain_limit = {spec.material.strain_limit:g} not checked: the prediction was "
-                        "skipped (--no-predict), and the plates bend when the sleeves close the object")
-    status = (NOT_NEEDED if not bent(assembly) else PREDICTION if prediction is not None else SKIPPED)
+                        f"skipped (--no-predict), and the plates bend when {use(spec)}")
+    status = (NOT_NEEDED if not predicted(assembly) else PREDICTION if prediction is not None else SKIPPED)
+    records = pattern_records(spec, assembly.plate_types)
 
     parent = out.parent if str(out.parent) else Path(".")
     remove_stale_temps(parent)  # the temporary folders of a killed earlier run
-    tmp = Path(tempfile.mkdtemp(prefix=temp_prefix(out.name), suffix=".part", dir=parent))
+    try:
+        tmp = Path(tempfile.mkdtemp(prefix=temp_prefix(out.name), suffix=".part", dir=parent))
+    except OSError as e:  # a read-only or immutable parent: one line naming --out
+        raise write_error(out, e) from e
     try:
         files = write_all(spec, lib, nesting, net, check_lines, tmp, tell, timestamp, bent(assembly), prediction,
-                           tried)
+                          tried, records)
         manifest = {"generator": GENERATOR, "spec": spec.name, "source": spec.source, "files": files,
-                    "counts": assembly.counts(), "sheets": nesting.n_sheets if nesting else 0,
+                    "counts": assembly.counts(), "patterns": [r.as_dict() for r in records],
+                    "sheets": nesting.n_sheets if nesting else 0,
                     "skeleton_edge_mm": round(assembly.skeleton.edge_length(), 6), "checks": check_lines,
-                    "warnings": problems, "prediction": status}
+                    "warnings": problems, "prediction": status, "sha256": digests(tmp, files)}
         if tried is not None:
             manifest["candidates"] = tried
         if bent(assembly):
@@ -390,9 +362,14 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
                                  f"({PREDICTION}); parts.step and parts.3dm hold the flat parts" if prediction else
                                  "not predicted (--no-predict): no file shows the assembled shape; the flat parts "
                                  "bend when the sleeves close the object (parts.step, parts.3dm)")
+        elif predicted(assembly):
+            manifest["shape"] = (f"assembly.* show the flat strip as assembled; predicted.glb, predicted.png and "
+                                 f"predicted.stl show it when {use(spec)} ({PREDICTION})" if prediction else
+                                 "not predicted (--no-predict): assembly.* show the flat strip as assembled, no file "
+                                 f"shows it when {use(spec)}")
         (tmp / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
         os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes 0700 folders; give the user's usual permissions
-        _swap_in(tmp, out)
+        swap_in(tmp, out)
     except OSError as e:  # a full disk while writing: one line naming --out, not a temporary file
         shutil.rmtree(tmp, ignore_errors=True)
         raise write_error(out, e) from e
@@ -406,6 +383,23 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
         record = prediction_record(prediction.run, prediction.seconds, prediction.h, spec.name, spec.tiling.kind)
     return AssembleResult(out, (*files, MANIFEST), report, nesting.n_sheets if nesting else 0, tuple(problems),
                           record, tuple(notes))
+
+
+def prediction_notes(prediction: Prediction) -> list[str]:
+    """The check lines of a kit's prediction: its shape (a closure's radius and sphericity, a strip's arch),
+    peak strain and largest sleeve moment, then how well the printed sleeves grip the deformed plates."""
+    run, h, fit = prediction.run, prediction.h, prediction.fit
+    if getattr(run, "radius", None) is not None:
+        shape = (f"radius {run.radius:.2f} mm, sphericity rms {100 * run.sphericity_rms:.2f} % (max "
+                 f"{100 * run.sphericity_max:.2f} %)")
+    else:
+        shape = (f"pushed together by {100 * run.end_shortening:g} % of its length: arch {run.max_deflection:.1f} mm "
+                 f"high, peak at {run.peak:.3f} of the length, reaction {run.reaction:.3g} N")
+    moment = max(run.sleeve_moments.values(), default=0.0)
+    return [f"predicted shape (h = {h:g} mm): {shape}, peak strain {run.peak_strain:.4g} on {run.peak_strain_plate} "
+            f"(material.strain_limit = {run.strain_limit:g}), largest sleeve moment {moment:.3g} N·mm",
+            f"predicted shape: sleeves grip the deformed plates, interface nodes within {fit[0]:.1e} mm of their "
+            f"slots' mid-planes and {fit[1]:.1e} mm of the slots"]
 
 
 def _roundest(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | None, tell: Callable[[str], None],

@@ -34,7 +34,14 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.assembly.model import AssemblyModel, ModelPlate, ModelSleeve, assembly_model, sleeve_moments
+from fabpat.assembly.model import (
+    AssemblyModel,
+    ModelPlate,
+    ModelSleeve,
+    assembly_model,
+    check_plausible,
+    sleeve_moments,
+)
 from fabpat.shell.element import Material
 from fabpat.shell.linked import PathResult, solve_path
 
@@ -187,6 +194,7 @@ def run_closure(setup: ClosureSetup, *, steps: int = CLOSURE_STEPS, strain_limit
     eps = surface_strains(m.X, m.F, m.material, P, expmap(fin.rotation[:n]))
     plate_peak = {lab: float(eps[m.element_offsets[i]:m.element_offsets[i + 1]].max()) for i, lab in enumerate(labels)}
     worst = max(plate_peak, key=lambda k: plate_peak[k])
+    check_plausible(m, float(ee.sum()), fin.displacement, plate_peak[worst], "closure by the sleeves")
     return ClosureRun(setup, float(ee.sum()), pe, {s.label: float(v) for s, v in zip(m.sleeves, moments, strict=True)},
                       float(np.linalg.norm(fin.reactions)), float(rigid_residual(m.X, P).max()), radius, centre,
                       float(np.sqrt(np.mean(dev * dev))), float(dev.max()), plate_peak[worst], worst, plate_peak,

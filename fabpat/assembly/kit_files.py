@@ -4,18 +4,21 @@ Not atomic on its own: ``assemble`` passes a temporary folder that becomes ``--o
 everything succeeded. With bent sleeves (:func:`fabpat.assembly.predict.bent`) the STEP and 3DM hold
 the distinct flat parts side by side (``parts.step``, ``parts.3dm``: :func:`fabpat.assembly.export.
 flat_layout`) and the GLB, PNG, ``predicted.stl`` and ``prediction.json`` show the predicted shape
-(:mod:`fabpat.assembly.preview`), or are left out without a prediction.
+(:mod:`fabpat.assembly.preview`), or are left out without a prediction. A strip's ``assembly.*`` show
+it flat, as assembled, and its prediction (the end pins pushing it together) adds ``prediction.json``,
+``predicted.stl``, ``predicted.glb`` and ``predicted.png``.
 """
 
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 from fabpat.assembly.placement import Assembly
 from fabpat.assembly.predict import Prediction
+from fabpat.assembly.provenance import PatternRecord
 from fabpat.assembly.spec import AssemblySpec
 
 PREDICTION = "prediction.json"
@@ -23,8 +26,10 @@ PREDICTION = "prediction.json"
 
 def write_all(spec: AssemblySpec, lib: Any, nesting: Any, net: Any, check_lines: list[str], tmp: Path,
               tell: Callable[[str], None], timestamp: str | None, bent_sleeves: bool = False,
-              prediction: Prediction | None = None, candidates: list[dict[str, Any]] | None = None) -> list[str]:
-    """Write every requested file into ``tmp``; returns their paths relative to it.
+              prediction: Prediction | None = None, candidates: list[dict[str, Any]] | None = None,
+              patterns: Sequence[PatternRecord] = ()) -> list[str]:
+    """Write every requested file into ``tmp``; returns their paths relative to it. ``patterns``: the
+    plates' pattern records for the BOM (:mod:`fabpat.assembly.provenance`).
 
     With ``bent_sleeves`` the STEP and 3DM hold the flat parts side by side (``parts.*``) and the GLB,
     PNG (and ``predicted.stl``, ``prediction.json``) show the ``prediction``, or are left out without it.
@@ -58,14 +63,17 @@ def write_all(spec: AssemblySpec, lib: Any, nesting: Any, net: Any, check_lines:
     show = not bent_sleeves or prediction is not None
     if "glb" in f and show:
         tell("GLB")
-        if prediction is not None:
-            from fabpat.assembly.parts import CHECK_TOLERANCE
-            from fabpat.assembly.preview import write_predicted_glb
+        from fabpat.assembly.parts import CHECK_TOLERANCE
+        from fabpat.assembly.preview import write_predicted_glb
 
+        if prediction is not None and bent_sleeves:
             write_predicted_glb(prediction.shape, lib, tmp / "assembly.glb", spec.name, CHECK_TOLERANCE)
         else:
             export.write_glb(lib, tmp / "assembly.glb")
         files.append("assembly.glb")
+        if prediction is not None and not bent_sleeves:  # a loaded strip: as assembled, and in use
+            write_predicted_glb(prediction.shape, lib, tmp / "predicted.glb", spec.name, CHECK_TOLERANCE)
+            files.append("predicted.glb")
     if "3dm" in f:
         tell("3DM")
         from fabpat.exchange.rhino import write_assembly
@@ -92,9 +100,9 @@ def write_all(spec: AssemblySpec, lib: Any, nesting: Any, net: Any, check_lines:
         files.append("net.svg")
     if "png" in f and show:
         tell("PNG")
-        if prediction is not None:
-            from fabpat.assembly.preview import prediction_title, render_predicted_png
+        from fabpat.assembly.preview import prediction_title, render_predicted_png
 
+        if prediction is not None and bent_sleeves:
             render_predicted_png(prediction.shape, lib, tmp / "assembly.png",
                                  prediction_title(spec.name, prediction.run, prediction.h))
         else:
@@ -102,14 +110,18 @@ def write_all(spec: AssemblySpec, lib: Any, nesting: Any, net: Any, check_lines:
 
             render_png(lib, tmp / "assembly.png", spec.name)
         files.append("assembly.png")
+        if prediction is not None and not bent_sleeves:
+            render_predicted_png(prediction.shape, lib, tmp / "predicted.png",
+                                 prediction_title(spec.name, prediction.run, prediction.h))
+            files.append("predicted.png")
     if "bom" in f:
         tell("BOM")
         from fabpat.assembly.bom import bom_csv, bom_markdown, bom_rows
 
-        rows = bom_rows(lib, stl_files, nesting, sheet_files)
+        rows = bom_rows(lib, stl_files, nesting, sheet_files, patterns)
         (tmp / "bom.csv").write_text(bom_csv(rows), encoding="utf-8")
         moments = prediction.run.sleeve_moments if prediction is not None else None
-        md = bom_markdown(lib, rows, nesting, check_lines, moments, candidates)
+        md = bom_markdown(lib, rows, nesting, check_lines, moments, candidates, patterns)
         (tmp / "bom.md").write_text(md, encoding="utf-8")
         files += ["bom.csv", "bom.md"]
     return files

@@ -155,3 +155,30 @@ def sleeve_moments(model: AssemblyModel, x: Arr, link_forces: Arr) -> Arr:
     a = slot == 0
     np.add.at(out, ma[a], m[a])
     return np.linalg.norm(out, axis=1)
+
+
+#: largest peak surface strain a solved assembly may show and still be reported: the shell element's
+#: material is linear elastic in small strains (fabpat.shell.element), so beyond a few per cent its
+#: energies are a model's, not a plastic's; 20 % is ten times PLA's yield strain (the default
+#: ``[material] strain_limit``), far past anything a kit could be built to, yet above every result of
+#: the shipped specs (at most 3.5 %, the 1 × 3 test strip at 10 % end shortening)
+PLAUSIBLE_STRAIN = 0.2
+
+
+def check_plausible(model: AssemblyModel, energy: float, displacement: Arr, peak_strain: float, what: str) -> None:
+    """Raise SolverError unless a solved assembly is plausible: finite and within the displacement bound
+    of the scenarios (:func:`fabpat.scenarios.check_plausible`, nonlinear: at most twice the assembly's
+    size, the diagonal of its plates' bounding box, mm), and with a peak surface strain (dimensionless)
+    at most :data:`PLAUSIBLE_STRAIN`. ``displacement`` (N, ≥ 3) is the nodes' final displacement (mm);
+    ``what`` starts the message."""
+    from fabpat.errors import SolverError
+    from fabpat.scenarios import check_plausible as check_scenario
+
+    n = len(model.X)
+    size = float(np.linalg.norm(np.ptp(model.X, axis=0)))
+    moved = float(np.linalg.norm(np.asarray(displacement)[:n, :3], axis=1).max()) if n else 0.0
+    check_scenario(energy, moved, size, True, what)
+    if not peak_strain <= PLAUSIBLE_STRAIN:  # NaN too
+        raise SolverError(f"{what}: a peak surface strain of {100 * peak_strain:.3g} % is outside the validity of the "
+                          f"small-strain shell model (at most {100 * PLAUSIBLE_STRAIN:g} %): the material is far too "
+                          "soft for the load (material.youngs_modulus, --youngs-modulus) or the plates far too thick")

@@ -16,6 +16,7 @@ exact polygon distances.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 
@@ -118,15 +119,39 @@ def nest(polygons: list[NDArray[np.float64]], width: float, height: float, margi
 
     ``turns`` orientations per n-gon, at angles 2πk / (n · turns): 0 and π/n for ``turns`` = 2 (a
     hexagon flat- or point-up, a pentagon point-up or point-down). Items go largest first; each takes
-    the lowest-then-leftmost free position over the open sheets (first fit), or opens a new sheet.
-    Raises :class:`GeometryError` if an item does not fit on an empty sheet.
+    the free position whose top edge is lowest (then leftmost) over the open sheets (first fit), or
+    opens a new sheet. That greedy fill is run with each n-gon free to take any of its turns and with
+    every combination of one turn per n-gon (point-up hexagons interlock in a honeycomb, which a free
+    choice misses: it takes the flat-up hexagon's lower top), and the best layout is kept: fewest
+    sheets, then the lowest top edge on the last sheet (the largest offcut left), then the lowest on
+    all sheets. Raises :class:`GeometryError` if an item does not fit on an empty sheet.
     """
-    from scipy import fft as sfft  # scipy.fft: ≈ 2× numpy's FFT here; scipy.signal would cost seconds to import
-
     h = float(resolution)
     check_size((width / h + 1) * (height / h + 1), MAX_RASTER_NODES,
                f"raster nodes of a {width:g} × {height:g} mm sheet at {h:g} mm", "a fixed limit",
                "use a smaller sheet.width × sheet.height", error=GeometryError)
+    sizes = sorted({len(p) for p in polygons})
+    policies: list[dict[int, tuple[int, ...]]] = [{n: tuple(range(turns)) for n in sizes}]
+    if turns > 1 and len(sizes) <= 3:  # at most 2³ fixed combinations: the shipped kits have 1 or 2 polygons
+        policies += [dict(zip(sizes, ((t,) for t in combo), strict=True))
+                     for combo in itertools.product(range(turns), repeat=len(sizes))]
+    best: tuple[tuple[int, float, float], Nesting] | None = None
+    for allowed in policies:
+        n = _fill(polygons, width, height, margin, spacing, h, turns, allowed)
+        tops = [max(float(n.placed(i)[:, 1].max()) for i in n.on_sheet(s)) for s in range(n.n_sheets)]
+        score = (n.n_sheets, tops[-1] if tops else 0.0, math.fsum(tops))
+        if best is None or score < best[0]:
+            best = (score, n)
+    assert best is not None
+    return best[1]
+
+
+def _fill(polygons: list[NDArray[np.float64]], width: float, height: float, margin: float, spacing: float,
+          h: float, turns: int, allowed: dict[int, tuple[int, ...]]) -> Nesting:
+    """One greedy bottom-left fill of :func:`nest` on a raster of step h (mm); ``allowed[n]``: the turns
+    an n-gon may take."""
+    from scipy import fft as sfft  # scipy.fft: ≈ 2× numpy's FFT here; scipy.signal would cost seconds to import
+
     nx, ny = int(math.floor(width / h)) + 1, int(math.floor(height / h)) + 1
     radius = 0.5 * spacing + h / math.sqrt(2.0)
     sheets: list[NDArray[np.bool_]] = []
@@ -141,7 +166,7 @@ def nest(polygons: list[NDArray[np.float64]], width: float, height: float, margi
         P = np.asarray(polygons[i], dtype=np.float64)
         shape = shapes.setdefault(np.round(P, 9).tobytes(), len(shapes))
         n = len(P)
-        for turn in range(turns):
+        for turn in allowed[n]:
             if (shape, turn) not in stencils:
                 angle = 2.0 * math.pi * turn / (n * turns)
                 Q = _rotate(P, angle)
@@ -152,7 +177,7 @@ def nest(polygons: list[NDArray[np.float64]], width: float, height: float, margi
                 sheets.append(np.zeros((ny, nx), dtype=bool))
             occ = sheets[sheet]
             occ_hat = None
-            for turn in range(turns):
+            for turn in allowed[n]:
                 if (sheet, shape, turn) in full:
                     continue
                 K, Q, _ = stencils[shape, turn]
@@ -175,7 +200,7 @@ def nest(polygons: list[NDArray[np.float64]], width: float, height: float, margi
                     continue
                 r = int(rows[0])
                 c = int(np.flatnonzero(free[r])[0])
-                cand = (sheet, r * h, c * h, r, c, turn)
+                cand = (sheet, r * h + float(Q[:, 1].max()), c * h + float(Q[:, 0].min()), r, c, turn)
                 if best is None or cand[:3] < best[:3]:
                     best = cand
             if best is not None:

@@ -1,8 +1,11 @@
-"""The kit's prediction: close a bent-sleeve assembly in the shell solver before any file is written.
+"""The kit's prediction: the assembly in use, solved in the shell solver before any file is written.
 
-Used by :func:`fabpat.assembly.build.assemble` when some sleeve is printed at another angle than its
-joint's dihedral (:func:`bent`): :func:`predict` runs the closure (:mod:`fabpat.assembly.closure`) at
-mesh edge ``h`` and turns it into the preview's plain data (:mod:`fabpat.assembly.preview`);
+Used by :func:`fabpat.assembly.build.assemble` for every kit whose plates are loaded in use
+(:func:`predicted`): a closed assembly whose sleeves are printed at another angle than their joints'
+dihedral (:func:`bent`) is closed by them (:mod:`fabpat.assembly.closure`); a honeycomb strip is
+pushed together by its end pins, by :func:`fabpat.assembly.simulate.kit_end_shortening` of its
+length, as ``simulate-assembly`` does (:mod:`fabpat.assembly.simulate`). :func:`predict` runs that
+at mesh edge ``h`` and turns it into the preview's plain data (:mod:`fabpat.assembly.preview`);
 :func:`strain_problems` refuses plates over ``[material] strain_limit`` (or, forced, warns);
 :func:`choose_roundest` is ``rule = "roundest"``: it closes the sphere with each candidate pattern pair
 (:func:`fabpat.assembly.rules.similar_pairs`) and keeps the roundest (smallest ``sphericity_rms``)
@@ -32,6 +35,22 @@ BENT_TOLERANCE = 1e-9
 def bent(assembly: Assembly) -> bool:
     """True when some sleeve is printed at an angle other than its joint's dihedral (the plates bend)."""
     return any(abs(s.angle - s.dihedral) > BENT_TOLERANCE for s in assembly.sleeves)
+
+
+def predicted(assembly: Assembly) -> bool:
+    """True when the kit's plates are loaded in use, so :func:`predict` checks them: bent sleeves close the
+    object (:func:`bent`), or the assembly is a strip whose end pins push it together."""
+    return bent(assembly) or assembly.spec.tiling.kind == "honeycomb-strip"
+
+
+def use(spec: AssemblySpec) -> str:
+    """What loads the plates in use, for messages: "the sleeves close the object" or "its end pins push
+    the strip together by 10 % of its length"."""
+    if spec.tiling.kind != "honeycomb-strip":
+        return "the sleeves close the object"
+    from fabpat.assembly.simulate import kit_end_shortening
+
+    return f"its end pins push the strip together by {100 * kit_end_shortening(spec):g} % of its length"
 
 
 @dataclass(frozen=True, eq=False)
@@ -66,11 +85,28 @@ def finish(run: Any, assembly: Assembly, h: float, seconds: float) -> Prediction
     return Prediction(run, predicted_shape(run, assembly), fit, h, seconds)
 
 
+def push(spec: AssemblySpec, ids: list[str], h: float, progress: Callable[[float], None] | None = None) -> Any:
+    """The StripRun of a strip spec with face pattern IDs ``ids`` at mesh edge h (mm): the end pins pushed
+    together by :func:`fabpat.assembly.simulate.kit_end_shortening` of the length, as ``simulate-assembly``
+    does with its defaults, checked against ``[material] strain_limit``. Raises GeometryError (h too coarse,
+    mesh too large) or SolverError (path lost, implausible result)."""
+    from fabpat.assembly.simulate import kit_end_shortening, run_strip, strip_setup
+    from fabpat.assembly.simulation import check_assembly_size
+
+    check_assembly_size(spec, ids, h, ASSEMBLY_MAX_ELEMENTS, option="the limit of a kit's prediction, ≈ 8 GB",
+                        h_name="--predict-h")
+    mat = spec.material
+    setup = strip_setup(spec, ids, h=h, E=mat.youngs_modulus, nu=mat.poisson)
+    return run_strip(setup, kit_end_shortening(spec), progress=progress, strain_limit=mat.strain_limit)
+
+
 def predict(spec: AssemblySpec, assembly: Assembly, h: float,
             progress: Callable[[float], None] | None = None) -> Prediction:
-    """Close the placed ``assembly`` in the shell solver at mesh edge h (mm); ``progress(λ)`` per step."""
+    """Solve the placed ``assembly`` in use (:func:`predicted`: closed by its sleeves, or a strip pushed
+    together) at mesh edge h (mm); ``progress(λ)`` per report step."""
     t0 = time.perf_counter()
-    run = close(spec, [p.type.pattern_id for p in assembly.plates], h, progress)
+    ids = [p.type.pattern_id for p in assembly.plates]
+    run = (push if spec.tiling.kind == "honeycomb-strip" else close)(spec, ids, h, progress)
     return finish(run, assembly, h, time.perf_counter() - t0)
 
 
@@ -84,10 +120,12 @@ def strain_problems(spec: AssemblySpec, run: Any, force: bool) -> list[str]:
     lim = run.strain_limit
     if not force:
         more = f" (and {len(over) - 1} more plates)" if len(over) > 1 else ""
+        fix = ("other patterns, thinner plates or sleeve.angle" if spec.tiling.kind != "honeycomb-strip"
+               else "other patterns or thinner plates")
         raise ExportError(f"{spec.source}: plate {over[0]} would reach a peak strain of "
-                          f"{run.plate_peak_strain[over[0]]:.4g} when the sleeves close the object, over "
-                          f"material.strain_limit = {lim:g}{more}: choose other patterns, thinner plates or "
-                          "sleeve.angle, or give --force to build the kit anyway")
+                          f"{run.plate_peak_strain[over[0]]:.4g} when {use(spec)}, over "
+                          f"material.strain_limit = {lim:g}{more}: choose {fix}, or give --force to build the kit "
+                          "anyway")
     return [f"plate {k}: predicted peak strain {run.plate_peak_strain[k]:.4g} exceeds material.strain_limit = "
             f"{lim:g} (built anyway: --force)" for k in over]
 

@@ -4,7 +4,7 @@ With sleeves printed at an angle other than the joint's dihedral (``[sleeve] ang
 bend when the sleeves close the object (:mod:`fabpat.assembly.closure`). This module turns a
 :class:`~fabpat.assembly.closure.ClosureRun` into plain data (:class:`PredictedShape`) and writes it:
 
-* **Plates**: the solver's deformed mid-surface per plate (``run.x[:n]`` and the model's triangles split
+* **Plates**: the solver's deformed mid-surface per plate (:func:`positions` and the model's triangles split
   by ``element_offsets``), thickened by ±t/2 along each node's director (the plate normal turned by
   the node's rotation, ``expmap(rotation) @ n₀``: the shell's own kinematics) into a closed shell
   with side walls on the mesh boundary, so slicers and CAD open it as a solid per plate.
@@ -58,21 +58,30 @@ class PredictedPlate:
 @dataclass(frozen=True, eq=False)
 class PredictedShape:
     """The assembled object as predicted: ``plates``; ``sleeves`` one (label, part key, pose (4, 4))
-    per sleeve; ``thickness`` (mm); ``density_range`` (lo, hi) of the colour map (N·mm/mm²); and the
-    closure's ``radius`` (mm), ``sphericity_rms``/``sphericity_max`` (fractions of the radius)."""
+    per sleeve; ``thickness`` (mm); ``density_range`` (lo, hi) of the colour map (N·mm/mm²); and a
+    closure's ``radius`` (mm), ``sphericity_rms``/``sphericity_max`` (fractions of the radius; None for
+    a strip, which is not closed)."""
 
     plates: tuple[PredictedPlate, ...]
     sleeves: tuple[tuple[str, str, Arr], ...]
     thickness: float
     density_range: tuple[float, float]
-    radius: float
-    sphericity_rms: float
-    sphericity_max: float
+    radius: float | None
+    sphericity_rms: float | None
+    sphericity_max: float | None
 
 
 def _areas(P: Arr, F: NDArray[np.int64]) -> Arr:
     A = P[F]
     return 0.5 * np.linalg.norm(np.cross(A[:, 1] - A[:, 0], A[:, 2] - A[:, 0]), axis=1)
+
+
+def positions(run: Any) -> Arr:
+    """(n + s, 3) deformed positions (mm) of every node of a ClosureRun or StripRun at λ = 1: the plates'
+    nodes, then one per sleeve (its centre)."""
+    m = run.setup.model
+    masters = np.array([np.asarray(s.frame)[:3, 3] for s in m.sleeves]).reshape(-1, 3)
+    return np.vstack([m.X, masters]) + np.asarray(run.result.final.displacement)[:, :3]
 
 
 def sleeve_poses(run: Any) -> list[Arr]:
@@ -81,25 +90,28 @@ def sleeve_poses(run: Any) -> list[Arr]:
 
     m = run.setup.model
     n = len(m.X)
+    x = positions(run)
     out = []
     for j, s in enumerate(m.sleeves):
         T = np.eye(4)
         T[:3, :3] = expmap(run.result.final.rotation[n + j]) @ np.asarray(s.frame)[:3, :3]
-        T[:3, 3] = run.x[n + j]
+        T[:3, 3] = x[n + j]
         out.append(T)
     return out
 
 
 def predicted_shape(run: Any, assembly: Any) -> PredictedShape:
-    """The deformed plates and placed sleeves of a ClosureRun of ``assembly`` (plain arrays, mm).
+    """The deformed plates and placed sleeves of a ClosureRun or StripRun of ``assembly`` (plain arrays, mm).
 
     ``assembly`` (:class:`~fabpat.assembly.placement.Assembly`) gives each plate's part key and each
-    sleeve's kind; its plates and sleeves are in the model's order (``closure_setup`` builds both).
+    sleeve's kind; its plates and sleeves are in the model's order (``closure_setup`` and
+    ``strip_setup`` build both).
     """
     from fabpat.shell.rotations import expmap
 
     m = run.setup.model
     n = len(m.X)
+    x = positions(run)
     energy = np.asarray(run.result.element_energy, dtype=np.float64).sum(axis=1)
     area0 = _areas(m.X, m.F)
     dens = energy / np.maximum(area0, 1e-300)
@@ -114,13 +126,14 @@ def predicted_shape(run: Any, assembly: Any) -> PredictedShape:
         N /= np.linalg.norm(N, axis=1, keepdims=True)
         w = np.bincount(F.ravel(), np.repeat(area0[ea:eb], 3), minlength=b - a)
         vd = np.bincount(F.ravel(), np.repeat(area0[ea:eb] * dens[ea:eb], 3), minlength=b - a) / np.maximum(w, 1e-300)
-        plates.append(PredictedPlate(mp.label, assembly.plates[p].type.label, run.x[a:b].copy(), F, N,
+        plates.append(PredictedPlate(mp.label, assembly.plates[p].type.label, x[a:b].copy(), F, N,
                                      dens[ea:eb].copy(), vd))
     hi = max(float(pl.vertex_density.max()) for pl in plates) if plates else 0.0
     sleeves = tuple((s.label, ps.kind, T) for s, ps, T in zip(m.sleeves, assembly.sleeves, sleeve_poses(run),
                                                               strict=True))
-    return PredictedShape(tuple(plates), sleeves, float(m.material.t), (0.0, hi), float(run.radius),
-                          float(run.sphericity_rms), float(run.sphericity_max))
+    closed = [getattr(run, k, None) for k in ("radius", "sphericity_rms", "sphericity_max")]
+    return PredictedShape(tuple(plates), sleeves, float(m.material.t), (0.0, hi),
+                          *(None if v is None else float(v) for v in closed))
 
 
 def joint_fit(run: Any, sleeve_types: dict[str, Any], kinds: list[str]) -> tuple[float, float]:
@@ -133,11 +146,12 @@ def joint_fit(run: Any, sleeve_types: dict[str, Any], kinds: list[str]) -> tuple
     when the sleeve fits.
     """
     m = run.setup.model
+    x = positions(run)
     plane, outside = 0.0, 0.0
     for j, (s, T) in enumerate(zip(m.sleeves, sleeve_poses(run), strict=True)):
         sl = sleeve_types[kinds[j]]
         for side, (p, i) in enumerate(s.slots):
-            L = (run.x[m.nodes(p, i)] - T[:3, 3]) @ T[:3, :3]  # world → sleeve frame
+            L = (x[m.nodes(p, i)] - T[:3, 3]) @ T[:3, :3]  # world → sleeve frame
             YZ = L[:, 1:]
             plane = max(plane, float(np.abs(YZ @ sl.plate_normal(side)).max()))
             depth = YZ @ sl.direction(side)
@@ -229,9 +243,10 @@ def predicted_scene(shape: PredictedShape, lib: Any, name: str, tolerance: float
         M = np.array(T, dtype=np.float64)
         M[:3, 3] *= GLB_UNIT
         sc.graph.update(frame_from=root, frame_to=label, matrix=M, geometry=slug(key))
-    sc.metadata.update({"density_range": [lo, hi], "density_unit": DENSITY_UNIT, "colour_map": COLOUR_MAP,
-                        "radius_mm": shape.radius, "sphericity_rms": shape.sphericity_rms,
-                        "sphericity_max": shape.sphericity_max})
+    sc.metadata.update({"density_range": [lo, hi], "density_unit": DENSITY_UNIT, "colour_map": COLOUR_MAP})
+    if shape.radius is not None:  # a closed object's roundness
+        sc.metadata.update({"radius_mm": shape.radius, "sphericity_rms": shape.sphericity_rms,
+                            "sphericity_max": shape.sphericity_max})
     return sc
 
 
@@ -272,12 +287,19 @@ def write_predicted_stl(shape: PredictedShape, lib: Any, path: str | os.PathLike
     return len(mesh.faces)
 
 
+#: direction from the object to the camera of the predicted pictures: a closed object from above one side;
+#: a strip (x along its length, z up) nearly from the side, so its arch shows
+VIEW_CLOSED = (1.0, -1.4, 0.9)
+VIEW_STRIP = (0.2, -1.0, 0.35)
+
+
 def _paint_png(plates: list[tuple[Arr, NDArray[np.int64], Arr]], sleeves: list[tuple[Arr, NDArray[np.int64]]],
                path: str | os.PathLike[str], title: str, label: str, cmap: str, lo: float, hi: float,
-               dpi: int = 110) -> None:
+               dpi: int = 110, view: tuple[float, float, float] = VIEW_CLOSED) -> None:
     """Painter's projection (:mod:`fabpat.assembly.render`) of plate mid-surfaces (V, F, one value per
     face; both sides visible) coloured on ``cmap`` over [lo, hi] with a colour bar ``label``, and grey
-    closed sleeve meshes (V world, F)."""
+    closed sleeve meshes (V world, F), seen from ``view``; the figure's height follows the picture's
+    aspect (a long strip gets no blank bands)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -288,14 +310,17 @@ def _paint_png(plates: list[tuple[Arr, NDArray[np.int64], Arr]], sleeves: list[t
     from fabpat.assembly.export import SLEEVE_COLOUR
     from fabpat.assembly.render import _camera, _hex, draw, project
 
-    C = _camera(np.array([1.0, -1.4, 0.9]))
+    C = _camera(np.array(view, dtype=np.float64))
     span = hi - lo if hi > lo else 1.0
     colours = matplotlib.colormaps[cmap]
     items = [(V, F, np.asarray(colours(np.clip((vals - lo) / span, 0.0, 1.0)))[:, :3], False) for V, F, vals in plates]
     grey = _hex(SLEEVE_COLOUR)
     items += [(V, F, np.tile(grey, (len(F), 1)), True) for V, F in sleeves]
-    fig, ax = plt.subplots(figsize=(9.5, 8.0))
-    draw(ax, *project(items, C))
+    P2, S = project(items, C)
+    extent = np.ptp(P2.reshape(-1, 2), axis=0)
+    aspect = float(extent[1] / extent[0]) if extent[0] > 0 else 1.0
+    fig, ax = plt.subplots(figsize=(9.5, min(8.0, max(3.5, 7.5 * aspect + 1.5))))
+    draw(ax, P2, S)
     fig.colorbar(ScalarMappable(norm=Normalize(lo, lo + span), cmap=cmap), ax=ax, shrink=0.7, label=label)
     ax.set_title(title, fontsize=9)
     fig.tight_layout()
@@ -315,7 +340,9 @@ def render_predicted_png(shape: PredictedShape, lib: Any, path: str | os.PathLik
     for _, key, T in shape.sleeves:
         V, F = lib.mesh(key, PICTURE_TOLERANCE)
         sleeves.append((apply(T, V), F))
-    _paint_png(plates, sleeves, path, title, f"strain-energy density ({DENSITY_UNIT})", COLOUR_MAP, lo, hi, dpi)
+    view = VIEW_CLOSED if shape.radius is not None else VIEW_STRIP
+    _paint_png(plates, sleeves, path, title, f"strain-energy density ({DENSITY_UNIT})", COLOUR_MAP, lo, hi, dpi,
+               view)
 
 
 #: colour bar label and unit of each field of :func:`render_prediction_png`
@@ -336,7 +363,7 @@ def render_prediction_png(sim: Any, path: str | os.PathLike[str], field: str = "
         raise SpecError(f"png field must be one of {', '.join(FIELD_LABELS)}, got {field!r}")
     m, run = sim.model, sim.run
     n = len(m.X)
-    x = run.x[:n] if getattr(run, "x", None) is not None else sim.deformed()
+    x = positions(run)[:n]
     if field == "energy":
         cell = np.asarray(run.result.element_energy, dtype=np.float64).sum(axis=1) / np.maximum(_areas(m.X, m.F),
                                                                                                 1e-300)
@@ -355,14 +382,26 @@ def render_prediction_png(sim: Any, path: str | os.PathLike[str], field: str = "
         a, b = int(m.offsets[p]), int(m.offsets[p + 1])
         ea, eb = int(m.element_offsets[p]), int(m.element_offsets[p + 1])
         plates.append((x[a:b], m.F[ea:eb] - a, cell[ea:eb]))
-    title = (f"{sim.name}: closed by its sleeves (shell solver, h = {sim.h:g} mm), coloured by {field}\n"
+    from fabpat.assembly.render import plain_text
+
+    title = (f"{plain_text(sim.name)}: closed by its sleeves (shell solver, h = {sim.h:g} mm), coloured by {field}\n"
              f"radius {run.radius:.2f} mm, sphericity rms {100 * run.sphericity_rms:.2f} % "
              f"(max {100 * run.sphericity_max:.2f} %)")
     _paint_png(plates, [], path, title, FIELD_LABELS[field], cmap, lo, hi, dpi)
 
 
 def prediction_title(name: str, run: Any, h: float) -> str:
-    """Title of the predicted picture: what it is, radius, sphericity, peak strain."""
+    """Title of the predicted picture: what it is, radius and sphericity (a closure) or the arch's peak
+    and height (a strip), peak strain."""
+    from fabpat.assembly.render import plain_text
+
+    name = plain_text(name)
+    if getattr(run, "radius", None) is None:  # a StripRun
+        return (f"{name}: predicted shape once its end pins push it together by {100 * run.end_shortening:g} % of "
+                f"its length (shell solver, h = {h:g} mm)\npeak of the arch at {run.peak:.3f} of the length, "
+                f"{run.max_deflection:.1f} mm high; peak strain {100 * run.peak_strain:.2f} % on "
+                f"{run.peak_strain_plate} (limit {100 * run.strain_limit:.2f} %"
+                + (f"; {len(run.over_limit)} plates over it)" if run.over_limit else ")"))
     return (f"{name}: predicted shape once the sleeves close it (shell solver, h = {h:g} mm)\n"
             f"radius {run.radius:.2f} mm, sphericity rms {100 * run.sphericity_rms:.2f} % "
             f"(max {100 * run.sphericity_max:.2f} %), peak strain {100 * run.peak_strain:.2f} % on "

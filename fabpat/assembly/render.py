@@ -30,6 +30,12 @@ def _camera(view: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.stack([r, np.cross(w, r), w])
 
 
+def plain_text(text: str) -> str:
+    """``text`` as matplotlib draws it literally: every ``$`` escaped, so a user's name such as
+    ``$\\frac{ $`` is not parsed as mathtext (an unbalanced formula would stop the picture)."""
+    return text.replace("$", r"\$")
+
+
 def _hex(c: str) -> NDArray[np.float64]:
     return np.array([int(c[i:i + 2], 16) / 255 for i in (1, 3, 5)])
 
@@ -106,7 +112,7 @@ def render_png(lib: PartLibrary, path: str | os.PathLike[str], title: str, dpi: 
         m = apply(plate.transform, np.array([[*seg.mean(axis=0), 0.5 * t]]))[0] @ C.T
         ax.plot(m[0], m[1], marker="^", color="#d00000", markersize=8, zorder=6)
     counts = ", ".join(f"{v} × {k}" for k, v in asm.counts().items())
-    ax.set_title(f"{title}\n{counts}" + ("\n▲ pinned interfaces" if asm.pins else ""), fontsize=9)
+    ax.set_title(f"{plain_text(title)}\n{counts}" + ("\n▲ pinned interfaces" if asm.pins else ""), fontsize=9)
     fig.tight_layout()
     fig.savefig(os.fspath(path), dpi=dpi, format="png")
     plt.close(fig)

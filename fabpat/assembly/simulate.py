@@ -24,6 +24,7 @@ Model (every decision in one place):
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -31,13 +32,22 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.assembly.model import AssemblyModel, ModelPlate, ModelSleeve, assembly_model, sleeve_moments
+from fabpat.assembly.model import (
+    AssemblyModel,
+    ModelPlate,
+    ModelSleeve,
+    assembly_model,
+    check_plausible,
+    sleeve_moments,
+)
 from fabpat.errors import GeometryError
 from fabpat.shell.element import Material
 from fabpat.shell.linked import PathResult, solve_path
 
 Arr = NDArray[np.float64]
 
+#: default end shortening of a strip, as a fraction of its length L (``simulate-assembly``, the kit's prediction)
+END_SHORTENING = 0.1
 #: total upward imperfection force (N) of the end-shortening path (see module doc)
 IMPERFECTION = 1e-2
 #: Newton tolerance relative to the reaction norm: the pin forces are a fraction of a newton while
@@ -54,6 +64,14 @@ MIN_STEP = 2.0**-20
 #: hexagon): a sleeve grips the segment and the plate's load passes through the neck behind it, so
 #: elements much larger than the segment cannot carry it (the mesher would still put 2 nodes on it)
 MAX_H_PER_INTERFACE = 2.0
+
+
+def kit_end_shortening(spec: object) -> float:
+    """The end shortening (fraction of the length) a strip spec is used at, for its kit's prediction and
+    ``simulate-assembly``'s default: the spec's own (``[load] end_shortening``, its ``end_shortening``
+    field, where specs have one) when given, else :data:`END_SHORTENING`."""
+    value = getattr(spec, "end_shortening", None)
+    return END_SHORTENING if value is None else float(value)
 
 
 @lru_cache(maxsize=32)
@@ -134,8 +152,10 @@ def strip_setup(spec: object, face_patterns: list[str], *, h: float = 3.0, E: fl
 @dataclass(frozen=True, eq=False)
 class StripRun:
     """The bent strip. ``path``: one dict {end_shortening, reaction, max_deflection} per report step;
-    ``x``, ``w`` the final width-averaged profile (mm from column 0's end, mm); the rest as the
-    ``simulate-assembly`` output fields (see :func:`run_strip`)."""
+    ``x``, ``w`` the final width-averaged profile (mm from column 0's end, mm); ``element_strain`` (m,)
+    each element's peak surface strain, ``plate_peak_strain`` {plate label: its peak}, ``over_limit``
+    the labels above ``strain_limit``; the rest as the ``simulate-assembly`` output fields (see
+    :func:`run_strip`)."""
 
     setup: StripSetup
     end_shortening: float
@@ -151,6 +171,12 @@ class StripRun:
     x: Arr
     w: Arr
     result: PathResult
+    element_strain: Arr
+    plate_peak_strain: dict[str, float]
+    peak_strain: float
+    peak_strain_plate: str
+    strain_limit: float
+    over_limit: list[str]
 
 
 def profile(setup: StripSetup, uz: Arr, bins: int = PROFILE_BINS) -> tuple[Arr, Arr]:
@@ -179,13 +205,20 @@ def peak_position(x: Arr, w: Arr, length: float) -> float:
     return float(x[k] / length)
 
 
-def run_strip(setup: StripSetup, end_shortening: float = 0.1, *, steps: int = 10,
-              imperfection: float = IMPERFECTION) -> StripRun:
-    """Push the pins together by ``end_shortening`` × L in ``steps`` report increments.
+def run_strip(setup: StripSetup, end_shortening: float = END_SHORTENING, *, steps: int = 10,
+              imperfection: float = IMPERFECTION, progress: Callable[[float], None] | None = None,
+              strain_limit: float = 0.02) -> StripRun:
+    """Push the pins together by ``end_shortening`` × L in ``steps`` report increments; ``progress(λ)``
+    (optional) is told the fraction of the end shortening reached after every report step. Plates
+    whose peak surface strain (:func:`fabpat.shell.strain.surface_strains`) exceeds ``strain_limit``
+    are listed in ``over_limit``.
 
     Raises ValueError if end_shortening is not in (0, 0.5) or imperfection < 0, SolverError if the
     path is lost (naming the load fraction reached).
     """
+    from fabpat.shell.rotations import expmap
+    from fabpat.shell.strain import surface_strains
+
     if not 0.0 < end_shortening < 0.5:
         raise ValueError(f"end shortening must be in (0, 0.5), got {end_shortening:g}")
     if not imperfection >= 0.0:
@@ -202,7 +235,7 @@ def run_strip(setup: StripSetup, end_shortening: float = 0.1, *, steps: int = 10
     area = m.lumped_area()
     loads[:n, 2] = imperfection * area / area.sum()
     r = solve_path(m.problem(fixed, pres, loads), steps=steps, rtol=STRIP_RTOL, first_step=FIRST_STEP,
-                   min_step=MIN_STEP, direction=loads if imperfection > 0 else None)
+                   min_step=MIN_STEP, direction=loads if imperfection > 0 else None, progress=progress)
     path = []
     for pt in r.points:
         path.append({"end_shortening": pt.lam * end_shortening, "reaction": float(-pt.reactions[setup.right, 0].sum()),
@@ -217,10 +250,16 @@ def run_strip(setup: StripSetup, end_shortening: float = 0.1, *, steps: int = 10
     X = np.vstack([m.X, m.problem(fixed, pres, loads).masters])
     moments = np.max([sleeve_moments(m, X + pt.displacement, pt.link_forces) for pt in r.points], axis=0) \
         if m.sleeves else np.zeros(0)
+    eps = surface_strains(m.X, m.F, m.material, m.X + fin.displacement[:n], expmap(fin.rotation[:n]))
+    peak = {p.label: float(eps[m.element_offsets[i]:m.element_offsets[i + 1]].max()) for i, p in enumerate(m.plates)}
+    worst = max(peak, key=lambda k: peak[k])
+    check_plausible(m, float(ee.sum()), fin.displacement, peak[worst],
+                    f"strip pushed together by {end_shortening:g} × its length")
     return StripRun(setup, end_shortening, imperfection, float(ee.sum()), pe,
                     {s.label: float(v) for s, v in zip(m.sleeves, moments, strict=True)},
                     path[-1]["reaction"], path[-1]["max_deflection"], peak_position(x, w, setup.length),
-                    first / second if second != 0 else math.inf, path, x, w, r)
+                    first / second if second != 0 else math.inf, path, x, w, r, eps, peak, peak[worst], worst,
+                    float(strain_limit), [k for k, v in peak.items() if v > strain_limit])
 
 
 def write_profiles_png(path: str | Path, runs: list[tuple[str, StripRun]], dpi: int = 150) -> Path:
@@ -230,13 +269,15 @@ def write_profiles_png(path: str | Path, runs: list[tuple[str, StripRun]], dpi: 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from fabpat.assembly.render import plain_text
+
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 3.4), dpi=dpi, gridspec_kw={"width_ratios": [2.2, 1]})
     for k, (name, r) in enumerate(runs):
         L = r.setup.length
-        ax.plot(r.x / L, r.w, color=f"C{k}", lw=2, label=f"{name}: peak {r.peak:.3f}")
+        ax.plot(r.x / L, r.w, color=f"C{k}", lw=2, label=f"{plain_text(name)}: peak {r.peak:.3f}")
         ax.plot([r.peak], [np.interp(r.peak * L, r.x, r.w)], "o", color=f"C{k}")
         bx.plot([0.0] + [p["end_shortening"] for p in r.path], [0.0] + [p["reaction"] for p in r.path], ".-",
-                color=f"C{k}", label=name)
+                color=f"C{k}", label=plain_text(name))
     ax.axvline(0.5, color="0.5", lw=0.8, ls=":")
     ax.set_xlabel("x / L from column 0's end")
     ax.set_ylabel("mean deflection uz, mm")

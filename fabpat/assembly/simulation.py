@@ -89,6 +89,36 @@ class AssemblySimulation:
         }
         return row
 
+    def __repr__(self) -> str:
+        """One line: kind, name, size, energy, peak strain and the shape's read-out (radius and
+        sphericity of a closed assembly, the arch's peak and height of a strip); no arrays."""
+        f = self.fields()
+        shape = (f"radius={f['radius']:.2f} mm, sphericity_rms={100 * f['sphericity_rms']:.3f} %" if self.closed else
+                 f"peak={'None' if f['peak'] is None else format(f['peak'], '.3f')}, "
+                 f"max_deflection={f['max_deflection']:.2f} mm")
+        return (f"AssemblySimulation(kind={self.kind!r}, name={self.name!r}, plates={f['plates']}, "
+                f"sleeves={f['sleeves']}, nodes={f['nodes']}, h={self.h:g} mm, energy={f['energy']:.4g} N·mm, "
+                f"peak_strain={f['peak_strain']:.4g} on {f['peak_strain_plate']}, {shape})")
+
+    def _repr_html_(self) -> str:
+        """A notebook's table of the scalar :meth:`fields` (lists and per-plate dicts left out)."""
+        from html import escape
+
+        rows = "".join(f"<tr><th style='text-align:left'>{escape(k)}</th><td>{escape(_cell(v))}</td></tr>"
+                       for k, v in self.fields().items() if not isinstance(v, dict | list))
+        return (f"<table><caption>{escape(self.kind)} {escape(self.name)}: simulate-assembly</caption>"
+                f"{rows}</table>")
+
+    def _repr_png_(self) -> bytes:
+        """A notebook's picture: :meth:`to_png` (a closed assembly's bent shape, a strip's profile)."""
+        import tempfile
+        from pathlib import Path
+
+        with tempfile.TemporaryDirectory() as d:
+            path = Path(d) / "simulation.png"
+            self.to_png(path)
+            return path.read_bytes()
+
     def deformed(self) -> Arr:
         """(n, 3) deformed positions of the plate nodes (mm)."""
         n = len(self.model.X)
@@ -134,22 +164,86 @@ class AssemblySimulation:
                            dict(r.seconds))
 
 
+#: peak memory of an assembly solve per plate element (bytes) and its fixed part: measured with
+#: ``/usr/bin/time -v`` on 1 × 3 and 1 × 12 strips of 0x0488 (0.8 mm plates) through simulate_assembly at
+#: h = 3 mm: 1 476 and 5 904 elements, 198 MB and 466 MB maximum resident set, i.e. 60.5 kB per element
+#: over 109 MB (the graded 2 × 15 strip, ≈ 19 000 elements, peaked near 1.2 GB, on the same line);
+#: rounded up. A scenario solve needs about 40 kB per element (fabpat.mesh.DEFAULT_MAX_ELEMENTS).
+ASSEMBLY_BYTES_PER_ELEMENT = 62_000
+ASSEMBLY_BASE_BYTES = 120_000_000
+
+
+def available_memory() -> int | None:
+    """Bytes of memory this process may still use: the kernel's MemAvailable (``/proc/meminfo``), or the
+    room left under a cgroup v2 memory limit if smaller (a container's); None where neither is known."""
+    from pathlib import Path
+
+    found: list[int] = []
+    try:
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemAvailable:"):
+                found.append(int(line.split()[1]) * 1024)
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        limit = Path("/sys/fs/cgroup/memory.max").read_text().strip()
+        if limit != "max":
+            found.append(int(limit) - int(Path("/sys/fs/cgroup/memory.current").read_text().strip()))
+    except (OSError, ValueError):
+        pass
+    return min(found) if found else None
+
+
+def check_assembly_memory(elements: float, what: str) -> float:
+    """Refuse (GeometryError, one line naming the estimate and the memory available) a solve of ``elements``
+    plate elements whose estimated peak memory, :data:`ASSEMBLY_BASE_BYTES` + :data:`ASSEMBLY_BYTES_PER_ELEMENT`
+    × elements, exceeds :func:`available_memory`; returns the estimate (bytes). ``what`` starts the message."""
+    from fabpat.errors import GeometryError
+
+    need = ASSEMBLY_BASE_BYTES + ASSEMBLY_BYTES_PER_ELEMENT * float(elements)
+    room = available_memory()
+    if room is not None and need > room:
+        raise GeometryError(f"{what}: the solve would need about {need / 1e9:.1f} GB of memory ({elements:.0f} "
+                            f"elements × {ASSEMBLY_BYTES_PER_ELEMENT / 1e3:g} kB), more than the {room / 1e9:.1f} GB "
+                            "this machine has available: use a coarser h or a smaller assembly")
+    return need
+
+
 #: what ``spec`` may be: an AssemblySpec or the path of its TOML file
 _SPEC_TYPES = (str, os.PathLike)
 
 
+def _cell(value: object) -> str:
+    return f"{value:.6g}" if isinstance(value, float) else str(value)
+
+
 def _check_path(path: object) -> None:
+    """ExportError unless ``path`` names a file that can be written: a non-empty path that is not a
+    folder, nor an existing file that is not regular (a device or FIFO)."""
+    import stat
+    from pathlib import Path
+
     from fabpat.errors import ExportError
 
-    if not isinstance(path, _SPEC_TYPES) or not str(path):
+    if isinstance(path, bytes) or not isinstance(path, _SPEC_TYPES) or not str(path):
         raise ExportError(f"an output path must be a non-empty file name, got {path!r}")
+    p = Path(path)
+    if p.is_dir():
+        raise ExportError(f"cannot write {p}: it is a folder; give a file name")
+    try:
+        mode = p.stat().st_mode
+    except OSError:
+        return  # not there yet (or unreadable: the writer names the cause)
+    if not stat.S_ISREG(mode):
+        raise ExportError(f"cannot write {p}: it exists and is not a regular file (a device or FIFO)")
 
 
 def check_assembly_size(spec: Any, patterns: list[str], h: float, max_elements: int,
                         option: str = "raise it with --max-elements", h_name: str = "h") -> float:
     """Refuse (GeometryError, naming --max-elements and an h that passes) an assembly whose plate meshes
-    at edge h (mm) would hold more than ``max_elements`` triangles in total, before any meshing; the
-    estimate is :func:`fabpat.mesh.estimate_elements` of each distinct filleted outline × its count.
+    at edge h (mm) would hold more than ``max_elements`` triangles in total, or whose solve would need
+    more memory than the machine has (:func:`check_assembly_memory`), before any meshing; the estimate is
+    :func:`fabpat.mesh.estimate_elements` of each distinct filleted outline × its count.
     ``option`` (how to raise the limit) and ``h_name`` (how the caller spells h) word the message."""
     import math
 
@@ -174,6 +268,7 @@ def check_assembly_size(spec: Any, patterns: list[str], h: float, max_elements: 
     suggest = (perimeter + math.sqrt(perimeter**2 + 4.0 * max_elements * area / c)) / (2.0 * max_elements)
     check_size(n, max_elements, f"{spec.source}: mesh elements of the whole assembly at {h_name} = {h:g} mm", option,
                f"use {h_name} ≥ {round_up(suggest):g} mm", error=GeometryError)
+    check_assembly_memory(n, f"{spec.source}: the whole assembly at {h_name} = {h:g} mm")
     return n
 
 
@@ -190,7 +285,8 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
     ``max_elements`` bounds the whole assembly's mesh (:func:`check_assembly_size`). A sphere with
     ``rule = "roundest"`` is closed with each candidate pair and the roundest is reported, as ``fabpat
     assemble`` builds it (:func:`fabpat.assembly.predict.choose_roundest`; the roundest of all if none
-    is under the limit). ``progress(λ)`` is told after every report step of a closure. Raises
+    is under the limit). ``progress(f)`` is told the fraction f done after every report step of the path
+(of the end shortening, of the sleeves' turn, or over all the candidate pairs of "roundest"). Raises
     SpecError (bad spec, argument or option for this kind), GeometryError (h too coarse for the
     interfaces, or a mesh too large), SolverError (path lost, naming the load or angle fraction reached).
     """
@@ -213,9 +309,9 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
             raise SpecError(f"{spec.source}: {name} applies to strips (end shortening and the buckle it "
                             f"selects); a closed assembly is bent by its sleeves: leave {name} out")
     if not closed:
-        if end_shortening is None and spec.end_shortening is not None:  # the spec's [load] default
-            end_shortening = spec.end_shortening
-        end_shortening = 0.1 if end_shortening is None else check("end_shortening", end_shortening,
+        from fabpat.assembly.simulate import kit_end_shortening
+
+        end_shortening = kit_end_shortening(spec) if end_shortening is None else check("end_shortening", end_shortening,
                                                                     "end_shortening", error=SpecError)
         if imperfection is not None:
             imperfection = check("imperfection_force", imperfection, "imperfection", error=SpecError)
@@ -244,7 +340,8 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
 
         setup = strip_setup(spec, patterns, h=h, E=E, nu=nu)
         run = run_strip(setup, float(end_shortening), steps=steps,  # type: ignore[arg-type]
-                        imperfection=IMPERFECTION if imperfection is None else imperfection)
+                        imperfection=IMPERFECTION if imperfection is None else imperfection, progress=progress,
+                        strain_limit=mat.strain_limit)
         model = setup.model
     else:
         from fabpat.assembly.closure import closure_setup, run_closure

@@ -46,14 +46,20 @@ docs/reliability.md.
 from __future__ import annotations
 
 import math
-import tomllib
+import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from fabpat.errors import PatternError, RangeError, SpecError
-from fabpat.validate import RANGES, check
+from fabpat.assembly.spec_tables import COLLECTED as _COLLECTED
+from fabpat.assembly.spec_tables import Settled as _Settled
+from fabpat.assembly.spec_tables import SpecProblems, read_spec_file
+from fabpat.assembly.spec_tables import Table as _Table
+from fabpat.assembly.spec_tables import key_text as _key_text
+from fabpat.assembly.spec_tables import problems_of as _problems_of
+from fabpat.assembly.spec_tables import show as _show
+from fabpat.errors import PatternError, SpecError
 
 TILINGS = ("honeycomb-strip", "truncated-icosahedron")
 PROCESSES = ("print", "laser")
@@ -68,6 +74,12 @@ _GOES_WITH = {"scenario": ("rule",), "count": ("rule",), "catalog": ("rule",), "
               "group_columns": ("groups", "rule")}
 #: [patterns] keys that only one rule reads: key → that rule
 _ONLY_RULE = {"candidates": "roundest"}
+#: largest ``patterns.candidates``: each candidate pair is one closure of the sphere (8 took 4 min 49 s at
+#: h = 3 on the shared 2-core machine, docs/fabrication-files.md), so 20 bound the choice to about
+#: 12 minutes; the similar-energy ranking puts the likely winners first anyway
+MAX_CANDIDATES = 20
+#: longest ``name`` (characters): it titles pictures, the STEP product and the net
+MAX_NAME_LENGTH = 80
 
 
 @dataclass(frozen=True)
@@ -153,7 +165,8 @@ class EstimateSpec:
 
 @dataclass(frozen=True)
 class AssemblySpec:
-    """A validated spec; ``source`` is the file it came from (for messages)."""
+    """A validated spec; ``source`` is the file it came from (for messages). ``sheet`` is None when the
+    spec has no ``[sheet]`` (a simulation needs none; ``fabpat assemble`` refuses it)."""
 
     name: str
     source: str
@@ -161,7 +174,7 @@ class AssemblySpec:
     patterns: PatternSpec
     plates: PlateSpec
     sleeve: SleeveSpec
-    sheet: SheetSpec
+    sheet: SheetSpec | None
     estimates: EstimateSpec
     formats: tuple[str, ...]
     mesh_tolerance: float = 0.005  # mm: STL chord of the parts (fabpat.cad.DEFAULT_CHORD)
@@ -176,76 +189,6 @@ class AssemblySpec:
 
 
 # -- small typed readers ----------------------------------------------------------------------------
-
-
-class _Table:
-    """One TOML table being read: remembers the keys used so unknown keys can be reported."""
-
-    def __init__(self, source: str, name: str, data: Any, allowed: tuple[str, ...]) -> None:
-        if not isinstance(data, Mapping):
-            raise SpecError(f"{source}: [{name}] must be a table")
-        self.source, self.name, self.data = source, name, dict(data)
-        for key in self.data:
-            if key not in allowed:
-                raise SpecError(f"{source}: unknown key {name}.{key} (allowed: {', '.join(allowed)})")
-
-    def fail(self, key: str, message: str) -> SpecError:
-        return SpecError(f"{self.source}: {self.name}.{key} {message}")
-
-    def has(self, key: str) -> bool:
-        return key in self.data
-
-    def only_for(self, key: str, process: str, needed: str) -> None:
-        """A key read only for one ``plates.process`` is an error elsewhere, like a key of another tiling."""
-        if key in self.data and process != needed:
-            raise self.fail(key, f"does not apply to plates.process = {process!r} (it goes with plates.process = "
-                            f"{needed!r})")
-
-    def number(self, key: str, default: float | None, range_name: str) -> float:
-        """A finite number in ``fabpat.validate.RANGES[range_name]`` (the same check as the CLI's)."""
-        if key not in self.data:
-            if default is None:
-                raise SpecError(f"{self.source}: missing key {self.name}.{key} (a number in "
-                                f"{RANGES[range_name].describe()})")
-            return default
-        try:
-            return check(range_name, self.data[key], f"{self.name}.{key}")
-        except RangeError as e:
-            raise SpecError(f"{self.source}: {e}") from e
-
-    def integer(self, key: str, default: int | None, minimum: int = 1) -> int:
-        """An integer from ``minimum`` to the ``strip_cells`` range's top (fabpat.validate)."""
-        top = int(RANGES["strip_cells"].high)
-        if key not in self.data:
-            if default is None:
-                raise SpecError(f"{self.source}: missing key {self.name}.{key} (an integer in [{minimum}, {top}])")
-            return default
-        v = self.data[key]
-        if isinstance(v, bool) or not isinstance(v, int) or not minimum <= v <= top:
-            raise self.fail(key, f"= {v!r} must be an integer in [{minimum}, {top}]")
-        return int(v)
-
-    def choice(self, key: str, allowed: tuple[str, ...], default: str | None) -> str:
-        if key not in self.data:
-            if default is None:
-                raise SpecError(f"{self.source}: missing key {self.name}.{key} (one of: {', '.join(allowed)})")
-            return default
-        v = self.data[key]
-        if v not in allowed:
-            raise self.fail(key, f"= {v!r} is not allowed: choose one of {', '.join(allowed)}")
-        return str(v)
-
-    def boolean(self, key: str, default: bool) -> bool:
-        v = self.data.get(key, default)
-        if not isinstance(v, bool):
-            raise self.fail(key, f"= {v!r} must be true or false")
-        return v
-
-    def string(self, key: str) -> str | None:
-        v = self.data.get(key)
-        if v is not None and not isinstance(v, str):
-            raise self.fail(key, f"= {v!r} must be a string")
-        return v
 
 
 def _pattern_id(source: str, key: str, pid: Any, sides: tuple[int, ...]) -> str:
@@ -272,8 +215,12 @@ def _pattern_id(source: str, key: str, pid: Any, sides: tuple[int, ...]) -> str:
 
 def _tiling(source: str, data: Any) -> TilingSpec:
     t = _Table(source, "tiling", data, ("kind", "edge", "rows", "columns"))
+    before = len(t.problems)
     kind = t.choice("kind", TILINGS, None)
+    unknown_kind = len(t.problems) > before
     edge = t.number("edge", None, "edge")
+    if unknown_kind:  # rows and columns depend on the kind
+        t.settle()
     if kind == "honeycomb-strip":
         return TilingSpec(kind, edge, t.integer("rows", None), t.integer("columns", None))
     for key in ("rows", "columns"):
@@ -301,13 +248,13 @@ def _patterns(source: str, data: Any, tiling: TilingSpec) -> PatternSpec:
     only_sphere = {"hexagon", "pentagon"}
     for key in t.data:
         if (strip and key in only_sphere) or (not strip and key in only_strip):
-            raise t.fail(key, f"does not apply to tiling.kind = {tiling.kind!r}")
+            t.note(t.fail(key, f"does not apply to tiling.kind = {tiling.kind!r}"), None)
     # a key that the chosen way does not read is an error, as a key of the other tiling is (never ignored)
     for key in t.data:
         if key in _GOES_WITH and way not in _GOES_WITH[key]:
             with_ = " or ".join(f"patterns.{w}" for w in _GOES_WITH[key])
             with_ += f" = {_ONLY_RULE[key]!r}" if key in _ONLY_RULE else ""
-            raise t.fail(key, f"does not apply to patterns.{way} (it goes with {with_})")
+            t.note(t.fail(key, f"does not apply to patterns.{way} (it goes with {with_})"), None)
     catalog = t.string("catalog")
     if catalog and not Path(catalog).is_absolute() and Path(source).parent != Path(""):
         catalog = str(Path(source).parent / catalog)  # a relative catalog path is relative to the spec file
@@ -321,7 +268,10 @@ def _patterns(source: str, data: Any, tiling: TilingSpec) -> PatternSpec:
                            pentagon=_pattern_id(source, "patterns.pentagon", t.data["pentagon"], (5,)))
     if way == "rule":
         rules = STRIP_RULES if strip else SPHERE_RULES
+        before = len(t.problems)
         rule = t.choice("rule", rules, None)
+        if len(t.problems) > before:  # what else is allowed depends on the rule
+            t.settle()
         scenario = t.choice("scenario", SCENARIOS, "cylinder" if strip else "dome")
         count = t.integer("count", 5, 2) if strip else 2
         if not strip and t.has("count"):
@@ -330,8 +280,9 @@ def _patterns(source: str, data: Any, tiling: TilingSpec) -> PatternSpec:
         if t.has("candidates") and rule != _ONLY_RULE["candidates"]:
             raise t.fail("candidates", f"does not apply to patterns.rule = {rule!r} (it goes with patterns.rule = "
                          f"{_ONLY_RULE['candidates']!r})")
-        candidates = t.integer("candidates", PatternSpec.candidates, 1)
+        candidates = t.integer("candidates", PatternSpec.candidates, 1, MAX_CANDIDATES)
         group_columns = t.integer("group_columns", max(1, tiling.columns // count)) if strip else 1
+        t.settle()  # the group count below reads count and group_columns
         if strip and math.ceil(tiling.columns / group_columns) != count:
             raise t.fail("group_columns", f"= {group_columns} makes {math.ceil(tiling.columns / group_columns)} "
                          f"groups of tiling.columns = {tiling.columns}, but patterns.count = {count}")
@@ -343,6 +294,7 @@ def _patterns(source: str, data: Any, tiling: TilingSpec) -> PatternSpec:
             raise t.fail("groups", "must be a non-empty list of pattern IDs (stiff → soft)")
         ids = tuple(_pattern_id(source, f"patterns.groups[{i}]", g, sides) for i, g in enumerate(groups))
         gc = t.integer("group_columns", None)
+        t.settle()
         need = math.ceil(tiling.columns / gc)
         if need != len(ids):
             raise t.fail("groups", f"has {len(ids)} IDs but tiling.columns = {tiling.columns} in groups of "
@@ -458,11 +410,13 @@ def sleeve_angle(spec: AssemblySpec, dihedral: float) -> float:
     return math.radians(float(a))
 
 
-def _sleeve(source: str, data: Any, kind: str) -> SleeveSpec:
+def _sleeve(source: str, data: Any, kind: str | None) -> SleeveSpec:
+    """``[sleeve]``; its angle is checked against the tiling ``kind`` (None: the tiling is wrong, the angle
+    is checked on the next run)."""
     t = _Table(source, "sleeve", data, ("clearance", "margin", "wall", "depth", "angle"))
     return SleeveSpec(t.number("clearance", 0.2, "clearance"), t.number("margin", 1.0, "gap"),
                       t.number("wall", 1.2, "sleeve_length"), t.number("depth", 3.0, "sleeve_length"),
-                      _sleeve_angle(t, kind))
+                      _sleeve_angle(t, kind) if kind is not None else "dihedral")
 
 
 def _material(source: str, data: Any) -> MaterialSpec:
@@ -473,7 +427,7 @@ def _material(source: str, data: Any) -> MaterialSpec:
                         t.number("strain_limit", d.strain_limit, "strain_limit"))
 
 
-def _sheet(source: str, data: Any, process: str) -> SheetSpec:
+def _sheet(source: str, data: Any, process: str | None) -> SheetSpec:
     from fabpat.exchange.dxf import ENTITY_MODES
 
     t = _Table(source, "sheet", data, ("width", "height", "margin", "spacing", "kerf", "border", "dxf_entities"))
@@ -484,7 +438,7 @@ def _sheet(source: str, data: Any, process: str) -> SheetSpec:
                      t.boolean("border", True), t.choice("dxf_entities", ENTITY_MODES, "polyline"))
 
 
-def _estimates(source: str, data: Any, process: str) -> EstimateSpec:
+def _estimates(source: str, data: Any, process: str | None) -> EstimateSpec:
     t = _Table(source, "estimates", data, ("cut_speed", "print_rate"))
     t.only_for("cut_speed", process, "laser")  # print_rate applies to both: sleeves are always printed
     return EstimateSpec(t.number("cut_speed", 15.0, "rate"), t.number("print_rate", 3.0, "rate"))
@@ -536,47 +490,99 @@ def check_sheet_fits(spec: AssemblySpec) -> None:
             )
 
 
-def parse_spec(data: Mapping[str, Any], source: str = "<spec>") -> AssemblySpec:
-    """Validate a decoded TOML document; raises :class:`SpecError` naming the key and allowed values."""
-    top = ("name", "tiling", "patterns", "plates", "sleeve", "material", "sheet", "estimates", "output", "load")
-    for key in data:
-        if key not in top:
-            raise SpecError(f"{source}: unknown key {key} (allowed: {', '.join(top)})")
-    for key in ("tiling", "patterns", "sheet"):
-        if key not in data:
-            raise SpecError(f"{source}: missing table [{key}]")
+def _name(source: str, data: Mapping[str, Any]) -> str:
+    """``name``: printable characters (letters, digits, punctuation and spaces of any script; no control
+    characters such as NUL, tab or newline), at most :data:`MAX_NAME_LENGTH` after stripping spaces. It
+    titles the pictures, the STEP product and the net, so it must be text every format can hold."""
     name = data.get("name", Path(source).stem)
     if not isinstance(name, str) or not name.strip():
-        raise SpecError(f"{source}: name = {name!r} must be a non-empty string")
-    tiling = _tiling(source, data["tiling"])
-    plates = _plates(source, data.get("plates", {}))
-    readers: dict[str, Callable[[], Any]] = {
-        "sleeve": lambda: _sleeve(source, data.get("sleeve", {}), tiling.kind),
-        "material": lambda: _material(source, data.get("material", {})),
-        "sheet": lambda: _sheet(source, data["sheet"], plates.process),
-        "estimates": lambda: _estimates(source, data.get("estimates", {}), plates.process),
-        "output": lambda: _output(source, data.get("output", {})),
-    }
-    values = {k: f() for k, f in readers.items()}
-    spec = AssemblySpec(name.strip(), source, tiling, _patterns(source, data["patterns"], tiling), plates,
-                        values["sleeve"], values["sheet"], values["estimates"], *values["output"],
-                        material=values["material"],
-                        end_shortening=_load(source, data.get("load", {}), tiling.kind))
-    check_sheet_fits(spec)
+        raise SpecError(f"{source}: name = {_show(name)} must be a non-empty string")
+    name = name.strip()
+    bad = next((c for c in name if not c.isprintable()), None)
+    if bad is not None:
+        raise SpecError(f"{source}: name = {_show(name)} holds the control character {bad!r}: use printable "
+                        "characters only (letters, digits, punctuation, spaces)")
+    if len(name) > MAX_NAME_LENGTH:
+        raise SpecError(f"{source}: name is {len(name)} characters long: use at most {MAX_NAME_LENGTH}")
+    return name
+
+
+def parse_spec(data: Mapping[str, Any], source: str = "<spec>", *, need_sheet: bool = False) -> AssemblySpec:
+    """Validate a decoded TOML document (a mapping of tables) and return the spec.
+
+    ``[sheet]`` may be left out (``sheet`` is then None) unless ``need_sheet`` (``fabpat assemble``
+    nests the plates on it). Every problem found is reported at once: a :class:`SpecProblems` (a
+    :class:`SpecError`) with one line per problem naming the key and the allowed values; ``[patterns]``
+    is checked once ``[tiling]`` is valid, since what it allows depends on the tiling.
+    """
+    if not isinstance(source, str):
+        source = str(source)
+    if not isinstance(data, Mapping):
+        raise SpecError(f"{source}: a spec must be a table of TOML tables ([tiling], [patterns], …), got "
+                        f"{type(data).__name__}")
+    problems: list[str] = []
+    token = _COLLECTED.set(problems)
+    try:
+        spec = _read_tables(data, source, need_sheet, problems)
+    except RecursionError as e:  # a value nested thousands deep: not a spec
+        raise SpecError(f"{source}: a value is nested too deep to be a spec") from e
+    finally:
+        _COLLECTED.reset(token)
+    if problems:
+        raise SpecProblems(problems, source)
+    assert spec is not None
+    if spec.sheet is not None:
+        check_sheet_fits(spec)
     return spec
 
 
-def load_spec(path: str | Path) -> AssemblySpec:
-    """Read and validate a spec file; :class:`SpecError` (one line) if it cannot be read or is invalid."""
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8-sig")  # Windows editors save UTF-8 with a byte-order mark
-    except OSError as e:
-        raise SpecError(f"cannot read spec {p}: {e.strerror or e}") from e
-    except UnicodeDecodeError as e:
-        raise SpecError(f"{p}: not a UTF-8 text file") from e
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        raise SpecError(f"{p}: invalid TOML: {e}") from e
-    return parse_spec(data, str(p))
+def _read_tables(data: Mapping[str, Any], source: str, need_sheet: bool, problems: list[str]) -> AssemblySpec | None:
+    """Every table of :func:`parse_spec`, each read on after another's problems (collected in ``problems``)."""
+    def read(f: Callable[[], Any]) -> Any:  # a table with a problem gives None: nothing reads its fallbacks
+        before = len(problems)
+        try:
+            value = f()
+        except _Settled:
+            return None
+        except SpecError as e:
+            problems.extend(_problems_of(e))
+            return None
+        return value if len(problems) == before else None
+
+    top = ("name", "tiling", "patterns", "plates", "sleeve", "material", "sheet", "estimates", "output", "load")
+    for key in data:
+        if key not in top:
+            problems.append(f"{source}: unknown key {_key_text(key)} (allowed: {', '.join(top)})")
+    for key in ("tiling", "patterns", "sheet") if need_sheet else ("tiling", "patterns"):
+        if key not in data:
+            problems.append(f"{source}: missing table [{key}]" + (
+                " (fabpat assemble nests the plates on this laser sheet or print bed: give its width and height)"
+                if key == "sheet" else ""))
+    name = read(lambda: _name(source, data))
+    tiling = read(lambda: _tiling(source, data["tiling"])) if "tiling" in data else None
+    plates = read(lambda: _plates(source, data.get("plates", {})))
+    process = plates.process if plates is not None else None
+    kind = tiling.kind if tiling is not None else None
+    sleeve = read(lambda: _sleeve(source, data.get("sleeve", {}), kind))
+    material = read(lambda: _material(source, data.get("material", {})))
+    sheet = read(lambda: _sheet(source, data["sheet"], process)) if "sheet" in data else None
+    estimates = read(lambda: _estimates(source, data.get("estimates", {}), process))
+    output = read(lambda: _output(source, data.get("output", {})))
+    patterns = read(lambda: _patterns(source, data["patterns"], tiling)) if tiling and "patterns" in data else None
+    load = read(lambda: (_load(source, data.get("load", {}), kind),)) if kind is not None else (None,)
+    if problems:
+        return None
+    return AssemblySpec(name, source, tiling, patterns, plates, sleeve, sheet, estimates, *output, material=material,
+                        end_shortening=load[0])
+
+
+def load_spec(path: str | os.PathLike[str], *, need_sheet: bool = False) -> AssemblySpec:
+    """Read and validate a spec file (:func:`parse_spec`; ``need_sheet`` as there).
+
+    Raises :class:`SpecError` (one line per problem) if ``path`` is not a path, not a regular file (a
+    folder, FIFO or device such as /dev/zero is refused before it is read), larger than
+    :data:`~fabpat.assembly.spec_tables.MAX_SPEC_BYTES`, not UTF-8 TOML, or not a valid spec
+    (:func:`fabpat.assembly.spec_tables.read_spec_file`).
+    """
+    p, data = read_spec_file(path)
+    return parse_spec(data, str(p), need_sheet=need_sheet)

@@ -2,8 +2,10 @@
 ``fabpat simulate-assembly SPEC``: the assembly as one shell model (see fabpat.assembly.simulate), and
 its deprecated alias ``simulate-strip``.
 
-The command only parses its options, shows a progress bar on stderr and prints the files written
-(one per line, on stdout, relative to the current folder). Errors are one line on stderr, exit 2.
+The command only parses its options, shows progress on stderr (:mod:`fabpat.progress`: a bar on a
+terminal, a line every few seconds otherwise) and prints the files written (one per line, on stdout,
+relative to the current folder). Errors are one line on stderr, exit 2; a spec with several problems
+gets one line for each, after a line counting them.
 """
 
 from __future__ import annotations
@@ -16,12 +18,29 @@ import click
 from fabpat.cli.options import h_option, max_elements_option, number_option
 from fabpat.mesh import ASSEMBLY_MAX_ELEMENTS
 
+PROGRESS_HELP = ("Progress on stderr: a bar on a terminal, else a line every few seconds "
+                 "(FABPAT_PROGRESS_INTERVAL seconds, default 5).")
+
+
+def _load(spec: str, need_sheet: bool = False):  # type: ignore[no-untyped-def]  # -> AssemblySpec
+    """The parsed spec; a spec with several problems is told one line each (``fabpat: error: …``), exit 2."""
+    from fabpat.assembly.spec import SpecProblems, load_spec
+
+    try:
+        return load_spec(spec, need_sheet=need_sheet)
+    except SpecProblems as e:
+        if len(e.problems) < 2:
+            raise
+        for line in str(e).splitlines():
+            click.echo(f"fabpat: error: {line}", err=True)
+        raise click.exceptions.Exit(2) from e
+
 
 @click.command("assemble")
 @click.argument("spec", type=click.Path(dir_okay=False))
 @click.option("--out", required=True, type=click.Path(file_okay=False),
               help="Output folder (created; an earlier `fabpat assemble` output there is replaced).")
-@click.option("--progress/--no-progress", default=True, show_default=True, help="Progress bar on stderr.")
+@click.option("--progress/--no-progress", default=True, show_default=True, help=PROGRESS_HELP)
 @click.option("--timestamp", default=None, metavar="ISO8601",
               help="Fixed STEP header time (ISO 8601, e.g. 2025-01-31T12:00:00Z), for byte-reproducible files.")
 @click.option("--force", is_flag=True,
@@ -46,45 +65,28 @@ def assemble_cmd(spec: str, out: str, progress: bool, timestamp: str | None, for
     Example: fabpat assemble assemblies/truncated-icosahedron.toml --out sphere-kit
     """
     from fabpat.assembly.build import assemble, steps
-    from fabpat.assembly.spec import load_spec
     from fabpat.exchange.step import check_timestamp
     from fabpat.io import check_distinct
+    from fabpat.progress import Progress
 
     timestamp = check_timestamp(timestamp)
     check_distinct([out], inputs={"SPEC": spec})  # the kit (its folder, any file) may not replace the spec …
-    parsed = load_spec(spec)
+    parsed = _load(spec, need_sheet=True)
     check_distinct([out], inputs={"patterns.catalog": parsed.patterns.catalog})  # … or the catalog it reads
     names = steps(parsed, predict)
-    bar = None
-    if progress:
-        from rich.console import Console
-        from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
-        console = Console(stderr=True)
-        # no bar when stderr is not a terminal: a piped stderr gets only the error or warning lines
-        bar = Progress(TextColumn("{task.description:<10}"), BarColumn(),
-                       TextColumn("{task.completed:g}/{task.total:g}"), TimeElapsedColumn(), console=console,
-                       transient=True, disable=not console.is_terminal)
-        bar.start()
-        task = bar.add_task("assemble", total=len(names))
     done = 0
+    what = _path_words(parsed)
+    with Progress("assemble", total=len(names), enabled=progress) as bar:
+        def tell(step: str) -> None:
+            nonlocal done
+            done += 1
+            bar.update(f"step {done} of {len(names)}: {step}", done - 1)
 
-    def tell(step: str) -> None:
-        nonlocal done
-        if bar is not None:
-            bar.update(task, description=step, completed=done)
-        done += 1
+        def solving(f: float) -> None:  # within the "prediction" step: the fraction of its path
+            bar.update(f"step {done} of {len(names)}: prediction, {100 * f:.0f} % of {what}", done - 1 + f)
 
-    def closing(lam: float) -> None:  # within the "prediction" step: λ of the closure path
-        if bar is not None:
-            bar.update(task, completed=done - 1 + lam)
-
-    try:
         result = assemble(parsed, out, tell, timestamp, force=force, predict=predict, predict_h=predict_h,
-                          predict_progress=closing)
-    finally:
-        if bar is not None:
-            bar.stop()
+                          predict_progress=solving)
     for line in (*result.report.lines(), *result.notes):
         click.echo(f"check: {line}", err=True)
     for line in result.warnings:
@@ -115,9 +117,11 @@ def assemble_cmd(spec: str, out: str, progress: bool, timestamp: str | None, for
               default=None, help="Closed assemblies: what colours the --png picture [default: energy].")
 @max_elements_option(ASSEMBLY_MAX_ELEMENTS, "mesh elements of the whole assembly")
 @click.option("--json", "as_json", is_flag=True, help="Print the results as one JSON object.")
+@click.option("--progress/--no-progress", default=True, show_default=True, help=PROGRESS_HELP)
 def simulate_assembly_cmd(spec: str, end_shortening: float | None, h: float, steps: int | None,
                           imperfection: float | None, E: float | None, nu: float | None, vtu: str | None,
-                          png: str | None, png_field: str | None, max_elements: int, as_json: bool) -> None:
+                          png: str | None, png_field: str | None, max_elements: int, as_json: bool,
+                          progress: bool) -> None:
     """Solve an assembly SPEC as one shell model: plates joined by rigid sleeves.
 
     A honeycomb-strip's end pins (as in the kit) are pushed towards each other by --end-shortening ×
@@ -135,18 +139,25 @@ def simulate_assembly_cmd(spec: str, end_shortening: float | None, h: float, ste
     Example: fabpat simulate-assembly assemblies/truncated-icosahedron.toml --png sphere.png --vtu sphere.vtu
     """
     _simulate_assembly(spec, end_shortening, h, steps, imperfection, E, nu, vtu, png, as_json, png_field,
-                       max_elements)
+                       max_elements, progress)
+
+
+def _path_words(spec) -> str:  # type: ignore[no-untyped-def]
+    """What the fraction of a spec's solver path is a fraction of, for the progress lines."""
+    if spec.tiling.kind == "honeycomb-strip":
+        return "the end shortening"
+    return "the candidate pairs" if spec.patterns.rule == "roundest" else "the sleeves' turn"
 
 
 def _simulate_assembly(spec: str, end_shortening: float | None, h: float, steps: int | None,
                        imperfection: float | None, E: float | None, nu: float | None, vtu: str | None,
                        png: str | None, as_json: bool, png_field: str | None = None,
-                       max_elements: int = ASSEMBLY_MAX_ELEMENTS) -> None:
+                       max_elements: int = ASSEMBLY_MAX_ELEMENTS, progress: bool = True) -> None:
     import json
 
     from fabpat.assembly.simulation import simulate_assembly
-    from fabpat.assembly.spec import load_spec
     from fabpat.io import atomic_outputs, check_distinct, check_suffix
+    from fabpat.progress import Progress
     from fabpat.scenarios import PNG_SUFFIXES, VTU_SUFFIXES
 
     outputs = [p for p in (vtu, png) if p is not None]
@@ -154,15 +165,19 @@ def _simulate_assembly(spec: str, end_shortening: float | None, h: float, steps:
     for option, path, valid in (("--vtu", vtu, VTU_SUFFIXES), ("--png", png, PNG_SUFFIXES)):
         if path is not None:
             check_suffix(path, valid, option)
-    parsed = load_spec(spec)
+    parsed = _load(spec)
     if png_field is not None and (png is None or parsed.tiling.kind == "honeycomb-strip"):
         from fabpat.errors import SpecError
 
         raise SpecError("--png-field colours the --png picture of a closed assembly (a strip's PNG is its "
                         "deflection profile): give --png with a closed assembly's spec, or leave --png-field out")
-    with atomic_outputs(*outputs) as temps:
+    what = _path_words(parsed)
+    with atomic_outputs(*outputs) as temps, Progress("simulate-assembly", total=1.0, enabled=progress) as bar:
+        bar.update("meshing and joining the plates", 0.0)
         sim = simulate_assembly(parsed, h=h, steps=steps, end_shortening=end_shortening, imperfection=imperfection,
-                                youngs_modulus=E, poisson=nu, max_elements=max_elements)
+                                youngs_modulus=E, poisson=nu, max_elements=max_elements,
+                                progress=lambda f: bar.update(f"{100 * f:.0f} % of {what}", f))
+        bar.update("writing the files")
         tmp = dict(zip(outputs, temps, strict=True))
         if vtu is not None:
             sim.to_vtu(tmp[vtu])

@@ -61,11 +61,14 @@ def _per_scenario(path: str | None, scenario: str, many: bool) -> str | None:
 @click.option("--inp-element", type=click.Choice(["S6", "S3", "STRI3"], case_sensitive=False), default="S6",
               show_default=True, help="Element of --export-inp: S6 (CalculiX), or S3/STRI3 for Abaqus.")
 @click.option("--json", "as_json", is_flag=True, help="Print the results as JSON.")
+@click.option("--progress/--no-progress", default=True, show_default=True,
+              help="Progress on stderr: a bar on a terminal, else a line every few seconds "
+                   "(FABPAT_PROGRESS_INTERVAL seconds, default 5) and one per scenario finished.")
 def simulate_cmd(
     pattern_id: str, sides: int, depth: int | None, edge: float, weight: float, scenario: str, linear: bool,
     h: float | None, extrapolate: bool | None,
     thickness: float, E: float, nu: float, vtu: str | None, png: str | None, inp: str | None, inp_element: str,
-    as_json: bool, max_elements: int,
+    as_json: bool, max_elements: int, progress: bool,
 ) -> None:
     """Simulate one pattern in the Cantilever, Cylinder and/or Dome scenario.
 
@@ -88,6 +91,7 @@ def simulate_cmd(
     from fabpat.exchange.vtu import write_vtu
     from fabpat.fillet import fillet_pattern
     from fabpat.library import get_pattern
+    from fabpat.progress import Progress
     from fabpat.scenarios import PNG_SUFFIXES, SCENARIOS, VTU_SUFFIXES, mesh_filleted
 
     if extrapolate is None:  # converged by default; a mesh size given means that mesh
@@ -109,17 +113,23 @@ def simulate_cmd(
             check_suffix(path, valid, option)
     pattern = get_pattern(pattern_id, sides, depth, edge)
     filleted = fillet_pattern(pattern, weight)  # its outline carries its polygon
-    # by default the converged run's coarse h (2.5 mm; 1.1 × min_width for necks under 2.27 mm)
-    meshes = mesh_converged(filleted, h, max_elements=max_elements) if extrapolate else \
-        [(float(h), mesh_filleted(filleted, float(h), max_elements=max_elements))]  # type: ignore[arg-type]
-    mesh = meshes[-1][1]  # fields, files and node counts come from the finest mesh
     rows = []
-    with atomic_outputs(*outputs.values()) as temps:
+    # a heartbeat line while each scenario's solves block (the solver has no progress callback)
+    with atomic_outputs(*outputs.values()) as temps, Progress("simulate", total=len(scenarios),
+                                                              enabled=progress) as bar:
+        bar.update("meshing", 0)
+        # by default the converged run's coarse h (2.5 mm; 1.1 × min_width for necks under 2.27 mm)
+        meshes = mesh_converged(filleted, h, max_elements=max_elements) if extrapolate else \
+            [(float(h), mesh_filleted(filleted, float(h), max_elements=max_elements))]  # type: ignore[arg-type]
+        mesh = meshes[-1][1]  # fields, files and node counts come from the finest mesh
+        sizes = " and ".join(f"{m.n_elements} elements" for _, m in meshes)
         tmp_of = dict(zip(outputs, temps, strict=True))
-        for sc in scenarios:
+        for k, sc in enumerate(scenarios):
+            bar.update(f"{sc} ({k + 1} of {len(scenarios)}) on {sizes}", k)
             c = run_converged(meshes, sc, sides=sides, edge=edge, thickness=thickness, E=E, nu=nu,
                               nonlinear=not linear)
             row = c.summary()
+            bar.item(f"{sc} finished ({k + 1} of {len(scenarios)}), energy {row['energy']:.6g} N·mm")
             if not row["converged"]:  # run_scenario raises on nonconvergence; this guards the contract
                 raise FabpatError(f"{sc}: the solver did not converge")
             rows.append({"id": pattern.id, "sides": sides, **row})

@@ -1,0 +1,239 @@
+"""What a hostile tester broke in assemblies: every spec problem at once, spec files that are not files,
+names that break pictures and XML, absurd results, unbounded work, raw exceptions and long reprs."""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+from xml.etree import ElementTree
+
+import pytest
+
+from fabpat.errors import ExportError, GeometryError, SolverError, SpecError
+from tests.conftest import run_cli
+
+ROOT = Path(__file__).resolve().parents[1]
+SMALL = ROOT / "assemblies" / "test-small.toml"
+STRIP = {"tiling": {"kind": "honeycomb-strip", "edge": 36.0, "rows": 1, "columns": 3},
+         "patterns": {"groups": ["0x0488", "0x0508", "0x0588"], "group_columns": 1}, "plates": {"thickness": 0.8}}
+SHEET = {"width": 170.0, "height": 90.0}
+
+
+def parse(data: dict, **kw: object):  # type: ignore[no-untyped-def, type-arg]
+    from fabpat.assembly.spec import parse_spec
+
+    return parse_spec(data, "s.toml", **kw)  # type: ignore[arg-type]
+
+
+# -- every problem of a spec at once ---------------------------------------------------------------------
+
+BAD = """name = "x"
+bogus = 1
+[tiling]
+kind = "honeycomb-strip"
+edge = -3
+rows = 1
+columns = 2
+foo = 2
+[patterns]
+pattern = "0x0488"
+[plates]
+thickness = "thick"
+[sheet]
+width = 100
+"""
+
+
+def test_every_problem_of_a_spec_is_one_line_in_one_run(tmp_path: Path) -> None:
+    spec = tmp_path / "bad.toml"
+    spec.write_text(BAD)
+    r = run_cli("assemble", str(spec), "--out", str(tmp_path / "kit"))
+    assert r.returncode == 2, r.stderr
+    lines = r.stderr.splitlines()
+    assert all(ln.startswith("fabpat: error: ") for ln in lines), lines
+    assert lines[0] == f"fabpat: error: {spec}: 5 problems in the spec:"
+    for words in ("unknown key bogus", "unknown key tiling.foo", "tiling.edge = -3", "plates.thickness",
+                  "missing key sheet.height"):
+        assert sum(words in ln for ln in lines[1:]) == 1, (words, lines)
+    assert len(lines) == 6 and sorted(os.listdir(tmp_path)) == ["bad.toml"]
+
+
+def test_the_library_lists_the_problems() -> None:
+    from fabpat.assembly.spec import SpecProblems
+
+    with pytest.raises(SpecProblems) as e:
+        parse({**STRIP, "tiling": {"kind": "honeycomb-strip", "edge": 0, "rows": 0, "columns": 2},
+               "plates": {"process": "weld"}, "sheet": {"width": 100, "height": 100, "kerf": 0.1}})
+    assert len(e.value.problems) == 3, e.value.problems  # edge, rows, process (kerf is not blamed on a bad process)
+    assert str(e.value).splitlines()[1:] == list(e.value.problems)
+
+
+def test_one_problem_stays_one_line() -> None:
+    with pytest.raises(SpecError) as e:
+        parse({**STRIP, "sheet": {**SHEET, "colour": "red"}})
+    assert str(e.value) == ("s.toml: unknown key sheet.colour (allowed: width, height, margin, spacing, kerf, border, "
+                            "dxf_entities)")
+
+
+# -- [sheet] is the kit's --------------------------------------------------------------------------------
+
+
+def test_a_simulation_needs_no_sheet(tmp_path: Path) -> None:
+    from fabpat.assembly.simulation import simulate_assembly
+
+    spec = parse(STRIP)
+    assert spec.sheet is None
+    sim = simulate_assembly(spec, h=6.0)
+    assert sim.fields()["plates"] == 3
+    with pytest.raises(SpecError, match=r"missing table \[sheet\]"):
+        parse(STRIP, need_sheet=True)
+    path = tmp_path / "nosheet.toml"
+    path.write_text(SMALL.read_text().split("[sheet]")[0])
+    r = run_cli("assemble", str(path), "--out", str(tmp_path / "kit"))
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "missing table [sheet]" in r.stderr, r.stderr
+    r = run_cli("simulate-assembly", str(path), "--h", "6", "--no-progress")
+    assert r.returncode == 0 and "plates=3" in r.stdout, r.stderr
+
+
+# -- spec files that are not specs -----------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("case", ["dev-zero", "fifo", "folder", "large", "deep"])
+def test_spec_files_that_are_not_specs_are_one_line(tmp_path: Path, case: str) -> None:
+    if case == "dev-zero":
+        path = Path("/dev/zero")
+    elif case == "fifo":
+        path = tmp_path / "f.toml"
+        os.mkfifo(path)
+    elif case == "folder":
+        path = tmp_path / "d.toml"
+        path.mkdir()
+    elif case == "large":
+        path = tmp_path / "big.toml"
+        path.write_text("# padding\n" * 120_000 + SMALL.read_text())
+    else:
+        path = tmp_path / "deep.toml"
+        path.write_text("a = " + "[" * 3000 + "]" * 3000 + "\n")
+    r = run_cli("simulate-assembly", str(path))  # run_cli's timeout guards against a hang
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and r.stderr.startswith("fabpat: error: "), r.stderr
+    assert "Traceback" not in r.stderr
+    words = {"dev-zero": "not a regular file", "fifo": "not a regular file", "folder": "is a directory",
+             "large": "larger than a spec can be", "deep": "nested too deep"}[case]
+    assert words in r.stderr, r.stderr
+
+
+def test_deep_values_in_a_decoded_spec_are_a_spec_error() -> None:
+    deep: list = []  # type: ignore[type-arg]
+    for _ in range(5000):
+        deep = [deep]
+    with pytest.raises(SpecError):
+        parse({**STRIP, "patterns": {"groups": deep, "group_columns": 1}})
+
+
+# -- names ------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("name", "words"), [("a\x00b", "control character"), ("tab\there", "control character"),
+                                              ("x" * 81, "at most 80"), ("   ", "non-empty")])
+def test_names_must_be_printable_and_short(name: str, words: str) -> None:
+    with pytest.raises(SpecError, match=words) as e:
+        parse({**STRIP, "name": name})
+    assert "\n" not in str(e.value) and "\x00" not in str(e.value)
+
+
+def test_a_mathtext_name_draws_and_a_unicode_name_is_valid_xml(tmp_path: Path) -> None:
+    from fabpat.assembly.build import assemble
+    from fabpat.assembly.render import picture_size
+
+    for k, name in enumerate(["$\\frac{ $", "Kuppel – Ø 90 mm <&> ✓"]):
+        spec = parse({**STRIP, "name": name, "sheet": SHEET, "output": {"formats": ["png", "svg"]}})
+        res = assemble(spec, tmp_path / f"kit{k}")
+        assert {"assembly.png", "predicted.png", "net.svg"} <= set(res.files)
+        for png in ("assembly.png", "predicted.png"):
+            assert min(picture_size(tmp_path / f"kit{k}" / png)) > 200
+        title = ElementTree.parse(tmp_path / f"kit{k}" / "net.svg").getroot().find("{http://www.w3.org/2000/svg}title")
+        assert title is not None and title.text is not None and title.text.startswith(name)
+
+
+# -- absurd results and unbounded work ---------------------------------------------------------------------
+
+
+def test_an_absurd_strain_is_not_converged() -> None:
+    from fabpat.assembly.simulation import simulate_assembly
+
+    with pytest.raises(SolverError, match="small-strain shell model") as e:
+        simulate_assembly(parse({**STRIP, "plates": {"thickness": 2.0}}), h=3.0, youngs_modulus=0.001)
+    assert "at most 20 %" in str(e.value)
+
+
+def test_candidates_are_bounded() -> None:
+    from fabpat.assembly.spec import MAX_CANDIDATES
+
+    sphere = {"tiling": {"kind": "truncated-icosahedron", "edge": 36.0}, "sleeve": {"angle": "flat"}}
+    assert parse({**sphere, "patterns": {"rule": "roundest", "candidates": MAX_CANDIDATES}}).patterns.candidates == 20
+    with pytest.raises(SpecError, match=r"patterns.candidates = 1000 must be an integer in \[1, 20\]"):
+        parse({**sphere, "patterns": {"rule": "roundest", "candidates": 1000}})
+
+
+def test_memory_is_estimated_before_meshing(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A 1 × 1000 strip at h = 6 is inside the 200 000-element limit but needs about 7 GB: on a machine
+    with 4 GB free it is refused with one line naming both, before anything is meshed."""
+    from fabpat.assembly import simulation
+
+    spec = parse({**STRIP, "tiling": {"kind": "honeycomb-strip", "edge": 36.0, "rows": 1, "columns": 1000},
+                  "patterns": {"pattern": "0x0488"}})
+    monkeypatch.setattr(simulation, "available_memory", lambda: 4_000_000_000)
+    monkeypatch.setattr("fabpat.assembly.simulate.strip_setup", lambda *a, **k: pytest.fail("meshed"))
+    with pytest.raises(GeometryError) as e:
+        simulation.simulate_assembly(spec, h=6.0)
+    line = str(e.value)
+    assert "\n" not in line and "more than the 4.0 GB" in line, line
+    need = float(line.split("about ")[1].split(" GB")[0])
+    assert 6.5 < need < 8.5  # ≈ 116 000 elements × 62 kB
+
+
+# -- library calls with the wrong types -----------------------------------------------------------------------
+
+
+def test_library_calls_raise_one_line_errors(tmp_path: Path) -> None:
+    from fabpat.assembly.build import assemble
+    from fabpat.assembly.simulation import simulate_assembly
+    from fabpat.assembly.spec import load_spec, parse_spec
+
+    with pytest.raises(SpecError, match="must be a table"):
+        parse_spec(None)  # type: ignore[arg-type]
+    with pytest.raises(SpecError, match="must be a table"):
+        parse_spec("tiling = 1")  # type: ignore[arg-type]
+    with pytest.raises(SpecError, match="path of a TOML file"):
+        load_spec(None)  # type: ignore[arg-type]
+    with pytest.raises(SpecError, match="progress must be a callable"):
+        assemble(SMALL, tmp_path / "kit", progress=5)  # type: ignore[arg-type]
+    assert not (tmp_path / "kit").exists()
+    sim = simulate_assembly(parse(STRIP), h=6.0)
+    folder = tmp_path / "a_folder"
+    folder.mkdir()
+    for write in (sim.to_png, sim.to_vtu):
+        with pytest.raises(ExportError, match="it is a folder"):
+            write(folder)
+    if sys.platform.startswith("linux"):
+        with pytest.raises(ExportError, match="not a regular file"):
+            sim.to_png("/dev/null")
+
+
+# -- reprs ----------------------------------------------------------------------------------------------------
+
+
+def test_a_simulation_reprs_in_one_short_line() -> None:
+    from fabpat.assembly.simulation import simulate_assembly
+
+    sim = simulate_assembly(parse(STRIP), h=6.0)
+    text = repr(sim)
+    assert "\n" not in text and len(text) < 300, text  # was 104 KB
+    f = sim.fields()
+    assert text.startswith("AssemblySimulation(kind='honeycomb-strip', name='s', plates=3, sleeves=2, ")
+    assert f"nodes={f['nodes']}" in text and f"peak={f['peak']:.3f}" in text
+    html = sim._repr_html_()
+    assert "<table>" in html and "peak_strain" in html and "plate_energies" not in html and len(html) < 5000
+    png = sim._repr_png_()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 10_000
