@@ -184,3 +184,18 @@ def test_unreachable_target_warns_once_and_writes_the_best(setup: dict, tmp_path
     rec = json.loads((out / "design.json").read_text())
     assert rec["reachable"] is False and rec["relative_rms"] > rec["tolerance"]
     assert (out / "design.toml").is_file()
+
+
+def test_out_keeps_a_users_file(tmp_path: Path) -> None:
+    """An earlier design folder with a file the user put there is refused, never replaced."""
+    from fabpat.design.outputs import GENERATOR, check_design_out
+    from fabpat.errors import ExportError
+
+    out = tmp_path / "d"
+    out.mkdir()
+    (out / "design.json").write_text(json.dumps({"generator": GENERATOR}))
+    assert check_design_out(out) == out  # an earlier output alone may be replaced
+    (out / "notes.txt").write_text("mine")
+    with pytest.raises(ExportError, match="notes.txt"):
+        check_design_out(out)
+    assert (out / "notes.txt").read_text() == "mine"

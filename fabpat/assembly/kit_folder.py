@@ -18,6 +18,7 @@ import json
 import os
 import shutil
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 
 from fabpat.errors import ExportError
@@ -131,12 +132,12 @@ def check_out(out: Path) -> None:
                           f"{why}; remove or move that, or choose a new folder")
 
 
-def swap_in(tmp: Path, out: Path) -> None:
-    """Rename the finished ``tmp`` folder to ``out``, replacing an earlier kit only now (checked again
-    with :func:`foreign_entries`, in case a file appeared while the kit was built). On any failure the
-    earlier folder is back at ``out``, the set-aside folder is removed and the error raised (the caller
-    removes ``tmp``)."""
-    why = foreign_entries(out)
+def swap_in(tmp: Path, out: Path, in_the_way: Callable[[Path], str | None] = foreign_entries) -> None:
+    """Rename the finished ``tmp`` folder to ``out``, replacing an earlier output only now (checked again
+    with ``in_the_way``, :func:`foreign_entries` for a kit, in case a file appeared while it was built).
+    On any failure the earlier folder is back at ``out``, the set-aside folder is removed and the error
+    raised (the caller removes ``tmp``)."""
+    why = in_the_way(out)
     if why is not None:
         raise ExportError(f"--out {out} changed while the kit was built and {why}: nothing was replaced")
     if not out.exists():

@@ -26,21 +26,46 @@ GENERATOR = "fabpat design"
 FILES = ("design.toml", "design.json", "design.png")
 
 
+def design_in_the_way(p: Path) -> str | None:
+    """Why folder ``p`` may not be replaced by a design output (one phrase), or None: it is missing, empty,
+    or holds only an earlier `fabpat design` output (its design.json says so, no other file beside
+    :data:`FILES`, and a ``kit/`` that :func:`fabpat.assembly.kit_folder.foreign_entries` accepts). A
+    user's file in the folder is never deleted."""
+    from fabpat.assembly.kit_folder import foreign_entries
+
+    if not p.exists() and not p.is_symlink():
+        return None
+    if p.is_symlink() or not p.is_dir():
+        return "it is not a folder"
+    names = sorted(e.name for e in p.iterdir())
+    if not names:
+        return None
+    earlier = False
+    with contextlib.suppress(OSError, ValueError, AttributeError, RecursionError):
+        earlier = json.loads((p / "design.json").read_text(encoding="utf-8")).get("generator") == GENERATOR
+    if not earlier:
+        return "it is not an earlier `fabpat design` output"
+    for name in names:
+        entry = p / name
+        if name == "kit" and entry.is_dir() and not entry.is_symlink():
+            why = foreign_entries(entry)
+            if why is not None:
+                return f"its kit/ {why}"
+        elif name not in FILES or entry.is_symlink() or not entry.is_file():
+            return f"it holds {name}, which fabpat design did not write"
+    return None
+
+
 def check_design_out(out: str | os.PathLike[str]) -> Path:
-    """The output folder, if it is missing, empty or an earlier design output; ExportError otherwise."""
+    """The output folder, if it is missing, empty or an earlier design output (:func:`design_in_the_way`);
+    ExportError otherwise."""
     p = Path(out)
     parent = p.parent if str(p.parent) else Path(".")
     if not parent.is_dir():
         raise ExportError(f"cannot write {p}: folder {parent} does not exist")
-    if p.exists():
-        if not p.is_dir():
-            raise ExportError(f"--out {p} exists and is not a folder")
-        if any(p.iterdir()):
-            earlier = False
-            with contextlib.suppress(OSError, ValueError, AttributeError):
-                earlier = json.loads((p / "design.json").read_text(encoding="utf-8")).get("generator") == GENERATOR
-            if not earlier:
-                raise ExportError(f"--out {p} exists and is not an earlier `fabpat design` output: choose a new folder")
+    why = design_in_the_way(p)
+    if why is not None:
+        raise ExportError(f"--out {p} exists and {why}: remove or move it, or choose a new folder")
     return p
 
 
@@ -119,7 +144,7 @@ def write_png(res: Any, path: Path) -> None:
 
 def write_design(res: Any, out: str | os.PathLike[str], kit: bool = False) -> list[str]:
     """Write the design's files into ``out`` atomically (module doc); returns their names in ``out``."""
-    from fabpat.assembly.build import _swap_in
+    from fabpat.assembly.kit_folder import swap_in
     from fabpat.io import remove_stale_temps, temp_prefix, write_error
 
     p = check_design_out(out)
@@ -140,7 +165,7 @@ def write_design(res: Any, out: str | os.PathLike[str], kit: bool = False) -> li
         mask = os.umask(0)
         os.umask(mask)
         os.chmod(tmp, 0o777 & ~mask)  # mkdtemp makes 0700 folders
-        _swap_in(tmp, p)
+        swap_in(tmp, p, design_in_the_way)
     except OSError as e:
         shutil.rmtree(tmp, ignore_errors=True)
         raise write_error(p, e) from e
