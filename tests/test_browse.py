@@ -218,3 +218,9 @@ def test_in_chromium_offline(page_file: Path, tmp_path: Path) -> None:
             print(f"screenshots: {tmp_path / 'hover.png'}, {tmp_path / 'selection.png'}")
         finally:
             browser.close()
+
+
+def test_browse_refuses_a_page_that_is_not_html(tmp_path: Path) -> None:
+    r = run_cli("browse", "--out", str(tmp_path / "x.png"))
+    assert r.returncode == 2 and "must end in .html" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "x.png").exists()

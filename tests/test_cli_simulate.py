@@ -119,3 +119,26 @@ def test_export_inp_element_choice(tmp_path: Path, element: str, per_element: in
     end = next(i for i in range(k + 1, len(lines)) if lines[i].startswith("*"))
     assert end - k - 1 == json.loads(r.stdout)["elements"]  # one line per element of the solver's mesh
     assert all(len(ln.split(",")) == 1 + per_element for ln in lines[k + 1:end])
+
+
+def test_simulate_png_is_captioned_with_the_energy_it_prints(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The picture names the pattern, the scenario and its load, and the energy the JSON reports."""
+    from click.testing import CliRunner
+
+    import fabpat.exchange.png_result as png_result
+    from fabpat.cli import cli
+
+    titles: list[str] = []
+    real = png_result.write_png
+
+    def spy(*args: object, title: str = "", **kw: object) -> object:
+        titles.append(title)
+        return real(*args, title=title, **kw)
+
+    monkeypatch.setattr(png_result, "write_png", spy)
+    r = CliRunner().invoke(cli, ["simulate", "0x7f88", "--scenario", "cantilever", "--h", "3", "--json",
+                                 "--png", str(tmp_path / "c.png"), "--no-progress"])
+    assert r.exit_code == 0, r.output
+    energy = json.loads(r.stdout)["energy"]
+    assert len(titles) == 1 and "0x7f88" in titles[0] and "F = 1.5 N" in titles[0]
+    assert f"U = {energy:.4g} N·mm" in titles[0]

@@ -228,8 +228,9 @@ def browse_cmd(db: str | None, out: str, open_: bool, sides: int) -> None:
     """
     from fabpat.browse import write_page
     from fabpat.catalog import open_catalog
-    from fabpat.io import check_distinct
+    from fabpat.io import check_distinct, check_suffix
 
+    check_suffix(out, (".html", ".htm"), "--out (the browsing page)")
     check_distinct([out], inputs={"--db": db})
     with open_catalog(db) as cat:
         n = write_page(cat, out, sides)

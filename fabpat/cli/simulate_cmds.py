@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -136,7 +137,8 @@ def simulate_cmd(
             if ("vtu", sc) in tmp_of:
                 write_vtu(tmp_of["vtu", sc], mesh.V, mesh.F, c.fine.result)
             if ("png", sc) in tmp_of:
-                write_png(tmp_of["png", sc], mesh.V, mesh.F, c.fine.result, title=f"{pattern.id} {sc}")
+                caption = dataclasses.replace(c.as_result(), pattern_id=pattern.id).caption()  # the API's energy
+                write_png(tmp_of["png", sc], mesh.V, mesh.F, c.fine.result, title=caption)
             if ("inp", sc) in tmp_of:
                 write_inp(tmp_of["inp", sc], mesh, sc, sides=sides, thickness=thickness, E=E, nu=nu,
                           nonlinear=not linear, element=inp_element.upper())
