@@ -195,7 +195,8 @@ def check_input(path: str | os.PathLike[str], name: str) -> None:
     root). A missing input is left to the command (a catalog not made yet is created)."""
     kind = special_kind(path)
     if kind is not None:
-        raise ExportError(f"{name} {os.fspath(path)} is {kind}, not a regular file: give the path of a file")
+        via = f" (a symbolic link to {os.path.realpath(path)})" if os.path.islink(path) else ""
+        raise ExportError(f"{name} {os.fspath(path)}{via} is {kind}, not a regular file: give the path of a file")
 
 
 #: bytes: the default bound of :func:`read_input` (a spec or a cache is kilobytes; 64 MiB is no file of ours)

@@ -245,9 +245,9 @@ def test_catalog_rows_and_dataframe() -> None:
     by_id = {r["id"]: r for r in rows}
     # the lattice area column is the closed form: 18 sub-triangles for 0x0488
     assert by_id["0x0488"]["area"] == pytest.approx(18 * SUB_AREA, rel=1e-9)
-    with pytest.raises(fabpat.CatalogError, match=r"no catalog energies for pentagons \(sides = 5\).*fabpat sweep "
-                       r"--sides 5 .* holds sides=6 depth=2 edge=36 .*430"):
-        fabpat.catalog(sides=5)  # not a silent []: the catalog is not empty, it has no pentagons
+    with pytest.raises(fabpat.CatalogError, match=r"no catalog energies for squares \(sides = 4\).*fabpat sweep "
+                       r"--sides 4 .* holds sides=5 depth=2 edge=36 .*430.*sides=6 depth=2 edge=36 .*430"):
+        fabpat.catalog(sides=4)  # not a silent []: the catalog is not empty, it has no squares
     pd = pytest.importorskip("pandas", reason="pandas (optional extra fabpat[pandas]) is not installed")
     df = rows.to_dataframe()
     assert isinstance(df, pd.DataFrame) and df.shape[0] == 430

@@ -37,6 +37,7 @@ BASE_ARGS: dict[str, list[str]] = {
     "assemble": [STRIP_SPEC, "--out", "kit"],
     "simulate-strip": [STRIP_SPEC, "--png", "out.png"],
     "simulate-assembly": [STRIP_SPEC, "--png", "out.png"],
+    "design": ["target.csv", "--spec", STRIP_SPEC, "--out", "design"],
 }
 
 

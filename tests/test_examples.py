@@ -142,7 +142,8 @@ def test_pick_by_stiffness(tmp_path: Path) -> None:
     with builtin_db() as db:
         rows = db.execute(
             "SELECT p.id, r.energy FROM patterns p JOIN results r USING (id, sides, depth, edge, thickness, weight) "
-            "WHERE r.scenario = 'dome' AND r.converged = 1 AND p.min_width >= 2.0 ORDER BY r.energy").fetchall()
+            "WHERE r.scenario = 'dome' AND r.converged = 1 AND p.min_width >= 2.0 AND sides = 6 "
+            "ORDER BY r.energy").fetchall()
     assert int(out[0]["printable"]) == len(rows)
     assert out[1]["stiffest"] == rows[0][0] and float(out[1]["energy_dome"]) == pytest.approx(rows[0][1], abs=1e-6)
     assert out[2]["softest"] == rows[-1][0] and float(out[2]["energy_dome"]) == pytest.approx(rows[-1][1], abs=1e-6)

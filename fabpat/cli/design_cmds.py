@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import click
 
+import fabpat.design.ranges  # noqa: F401 - registers --max-solves' and --tolerance's ranges
 from fabpat.cli.options import h_option, number_option
 
 
@@ -17,10 +18,10 @@ from fabpat.cli.options import h_option, number_option
 @click.option("--out", required=True, type=click.Path(file_okay=False),
               help="Output folder (created; an earlier `fabpat design` output there is replaced).")
 @h_option(3.0)
-@click.option("--max-solves", type=click.IntRange(1, 10_000), default=12, show_default=True,
-              help="Budget of full assembly solves for the search (the baselines' one or two come on top).")
-@click.option("--tolerance", type=click.FloatRange(0.0, 1.0, min_open=True, max_open=True), default=0.01,
-              show_default=True, help="Reachable when the rms error is at most this fraction of the span.")
+@number_option("--max-solves", range_name="max_solves", default=12, show_default=True,
+               help="Budget of full assembly solves for the search (the baselines' one or two come on top).")
+@number_option("--tolerance", range_name="design_tolerance", default=0.01, show_default=True,
+               help="Reachable when the rms error is at most this fraction of the span.")
 @click.option("--scale-target", is_flag=True,
               help="Scale a target whose arc length differs from the strip's by more than 2 % to its length.")
 @number_option("--workers", range_name="workers", default=None, help="Local worker processes [default: 1].")

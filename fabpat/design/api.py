@@ -110,11 +110,12 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
     from fabpat.errors import SolverError, SpecError
 
     t0 = time.perf_counter()
-    for name, v, lo in (("max_solves", max_solves, 1), ("workers", workers, 1)):
-        if isinstance(v, bool) or not isinstance(v, int) or v < lo:
-            raise SpecError(f"{name} must be an integer ≥ {lo}, got {v!r}")
-    if isinstance(tolerance, bool) or not isinstance(tolerance, int | float) or not 0 < tolerance < 1:
-        raise SpecError(f"tolerance must be a fraction of the span in (0, 1), got {tolerance!r}")
+    import fabpat.design.ranges  # noqa: F401 - registers max_solves' and design_tolerance's ranges
+    from fabpat.validate import check
+
+    max_solves = int(check("max_solves", max_solves, "max_solves", error=SpecError))
+    workers = int(check("workers", workers, "workers", error=SpecError))
+    tolerance = check("design_tolerance", tolerance, "tolerance", error=SpecError)
     if out is not None:
         from fabpat.design.outputs import check_design_out
 

@@ -1,0 +1,22 @@
+"""The valid ranges of the design loop's own parameters, added to :data:`fabpat.validate.RANGES` so that
+``fabpat design``'s options and :func:`fabpat.design.design` check them with the one range check
+(:func:`fabpat.validate.check`) and state them in ``--help`` alike.
+
+* ``max_solves``: the search's budget of full assembly solves, 1 … 1000 (one solve of a 2 × 15 strip
+  takes about a minute on 2 cores: 1000 is a long night, beyond that the budget is a typo).
+* ``design_tolerance``: reachable when the rms error is at most this fraction of the span, in (0, 0.5]
+  (above half the span any arch would count as reached).
+"""
+
+from __future__ import annotations
+
+from fabpat.validate import RANGES, Range
+
+DESIGN_RANGES = (
+    Range("max_solves", 1, 1000, integer=True, why="budget of full assembly solves of the design search: one 2 × 15 "
+          "strip solve is about a minute on 2 cores"),
+    Range("design_tolerance", 0.0, 0.5, low_open=True, why="rms error over the span that counts as reached: above "
+          "half the span any arch would"),
+)
+for _r in DESIGN_RANGES:
+    RANGES.setdefault(_r.name, _r)
