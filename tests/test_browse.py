@@ -81,13 +81,13 @@ def test_static_plots(tmp_path: Path) -> None:
 
 def _spec_fragment_assembles(fragment: str, ids: list[str], tmp_path: Path) -> None:
     """The page's "assembly spec" lines, pasted into a spec with the other tables, build a kit of exactly
-    the selected patterns (`fabpat assemble`, BOM only to stay fast)."""
+    the selected patterns (`fabpat assemble`, BOM only and no prediction, to stay fast)."""
     import csv
 
     spec = tmp_path / "pasted.toml"
     spec.write_text('name = "pasted"\n\n' + fragment + "\n\n[plates]\nprocess = \"laser\"\n\n[sheet]\n"
                     "width = 600.0\nheight = 400.0\n\n[output]\nformats = [\"bom\"]\n")
-    res = run_cli("assemble", str(spec), "--out", str(tmp_path / "kit"), "--no-progress")
+    res = run_cli("assemble", str(spec), "--out", str(tmp_path / "kit"), "--no-progress", "--no-predict")
     assert res.returncode == 0, res.stderr
     rows = list(csv.DictReader((tmp_path / "kit" / "bom.csv").open()))
     assert sorted(r["part"] for r in rows if r["kind"] == "plate") == sorted(f"hex {i}" for i in ids)

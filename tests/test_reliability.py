@@ -406,14 +406,18 @@ def test_ctrl_c_during_an_import_is_one_line_exit_130(tmp_path: Path, module: st
 def test_ctrl_c_from_outside_is_one_line_exit_130(tmp_path: Path, delay: float) -> None:
     # These delays land in the CLI's imports (scipy's exec'd imports: exit −2 before the fix), in the
     # lazy OCP import or in the work. Not earlier: a SIGINT inside `import site` is Python's, not fabpat's.
-    p = subprocess.Popen([*FABPAT, "export", "0x2d88", "--step", str(tmp_path / "a.step")],
+    # The work is a 12-gon in six formats (3.0 s on the idle 2-core machine): one STEP of a hexagon took
+    # 1.2 s there, so a 1.6 s signal came after the files were committed and the process had exited.
+    files = [tmp_path / f"a.{s}" for s in ("step", "stl", "3mf", "dxf", "svg", "3dm")]
+    options = [a for f in files for a in (f"--{f.suffix[1:]}", str(f))]
+    p = subprocess.Popen([*FABPAT, "export", "0x2d88", "--sides", "12", *options],
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path)
     time.sleep(delay)
     p.send_signal(signal.SIGINT)
     out, err = p.communicate(timeout=60)
     assert p.returncode == 130, (p.returncode, err)
     assert err == "fabpat: interrupted\n"
-    assert not (tmp_path / "a.step").exists()
+    assert not any(f.exists() for f in files)
 
 
 def test_ranges_refuse_numpy_scalars_like_python_numbers() -> None:
