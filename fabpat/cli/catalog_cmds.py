@@ -230,8 +230,8 @@ def browse_cmd(db: str | None, out: str, open_: bool, sides: int) -> None:
     from fabpat.catalog import open_catalog
     from fabpat.io import check_distinct, check_suffix
 
+    check_distinct([out], inputs={"--db": db})  # first: writing over the catalog is the graver mistake
     check_suffix(out, (".html", ".htm"), "--out (the browsing page)")
-    check_distinct([out], inputs={"--db": db})
     with open_catalog(db) as cat:
         n = write_page(cat, out, sides)
     size = os.path.getsize(out) / 1e6
