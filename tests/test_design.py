@@ -199,3 +199,16 @@ def test_out_keeps_a_users_file(tmp_path: Path) -> None:
     with pytest.raises(ExportError, match="notes.txt"):
         check_design_out(out)
     assert (out / "notes.txt").read_text() == "mine"
+
+
+@pytest.mark.parametrize("kw, word", [({"h": "3"}, "h must be a number"), ({"h": float("nan")}, "finite"),
+                                      ({"out": 5}, "file name"), ({"out": "a\0b"}, "NUL"),
+                                      ({"dask": 3}, "scheduler address"), ({"progress": 5}, "callable"),
+                                      ({"max_solves": 1.5}, "max_solves"), ({"tolerance": 2.0}, "tolerance")])
+def test_design_api_refuses_bad_arguments_with_fabpat_errors(kw: dict, word: str) -> None:
+    """Found by a hostile pass: these were raw TypeErrors (h, out) or silently accepted (dask, progress)."""
+    from fabpat.design import design
+    from fabpat.errors import FabpatError
+
+    with pytest.raises(FabpatError, match=word):
+        design([[0.0, 0.0], [1.0, 1.0], [2.0, 0.0]], ROOT / "assemblies" / "test-small.toml", **kw)

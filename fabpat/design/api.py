@@ -116,6 +116,19 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
     max_solves = int(check("max_solves", max_solves, "max_solves", error=SpecError))
     workers = int(check("workers", workers, "workers", error=SpecError))
     tolerance = check("design_tolerance", tolerance, "tolerance", error=SpecError)
+    h = check("h", h, "h", error=SpecError)
+    if dask is not None and not isinstance(dask, str):
+        raise SpecError(f"dask must be a scheduler address such as 'tcp://host:8786' or None, "
+                        f"got {type(dask).__name__}")
+    if progress is not None and not callable(progress):
+        raise SpecError(f"progress must be a callable or None, got {type(progress).__name__}")
+    if not isinstance(spec, str | os.PathLike):
+        raise SpecError(f"spec must be the path of a TOML spec file, got {type(spec).__name__}")
+    if out is not None:
+        from fabpat.errors import ExportError
+        from fabpat.validate import check_path
+
+        check_path(out, "out", error=ExportError)
     if out is not None:
         from fabpat.design.outputs import check_design_out
 
