@@ -204,7 +204,9 @@ def test_out_keeps_a_users_file(tmp_path: Path) -> None:
 @pytest.mark.parametrize("kw, word", [({"h": "3"}, "h must be a number"), ({"h": float("nan")}, "finite"),
                                       ({"out": 5}, "file name"), ({"out": "a\0b"}, "NUL"),
                                       ({"dask": 3}, "scheduler address"), ({"progress": 5}, "callable"),
-                                      ({"max_solves": 1.5}, "max_solves"), ({"tolerance": 2.0}, "tolerance")])
+                                      ({"max_solves": 1.5}, "max_solves"), ({"tolerance": 2.0}, "tolerance"),
+                                      ({"kit": "yes"}, "True or False"), ({"kit": True}, "give out"),
+                                      ({"scale_target": "no"}, "True or False")])
 def test_design_api_refuses_bad_arguments_with_fabpat_errors(kw: dict, word: str) -> None:
     """Found by a hostile pass: these were raw TypeErrors (h, out) or silently accepted (dask, progress)."""
     from fabpat.design import design

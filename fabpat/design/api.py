@@ -117,6 +117,11 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
     workers = int(check("workers", workers, "workers", error=SpecError))
     tolerance = check("design_tolerance", tolerance, "tolerance", error=SpecError)
     h = check("h", h, "h", error=SpecError)
+    for name, flag in (("scale_target", scale_target), ("kit", kit)):
+        if not isinstance(flag, bool):
+            raise SpecError(f"{name} must be True or False, got {flag!r}")
+    if kit and out is None:
+        raise SpecError("kit=True writes the kit into out/kit: give out as well")
     if dask is not None and not isinstance(dask, str):
         raise SpecError(f"dask must be a scheduler address such as 'tcp://host:8786' or None, "
                         f"got {type(dask).__name__}")
@@ -161,14 +166,17 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
         if rule is not None:
             runs["rule"] = rule
             baselines["rule"] = _summary(rule, strip.span, dict(zip(labels, rule_faces, strict=True)))
-    extra = runner.solves - 1  # the baselines' solves come on top of the budget
+    extra = runner.solves  # the baselines' solves come on top of the budget (as --max-solves' help says)
     if evs[0] is not None:
         space_mapping(search, Elastica(length, edges), evs[0], strip.span, max_solves + extra)
     search.refine(column_turning(strip.x, strip.z, columns), max_solves + extra, max(2, workers))
     best = search.best
     if best is None:
         raise SolverError(f"no candidate design converged in {runner.solves} solves (h = {h:g} mm)")
-    rec = _record(strip, tgt, base, best, labels, face_col, ids, runner.solves, time.perf_counter() - t0,
+    faces = [ids[best.key[face_col[f]]] for f in range(len(labels))]
+    if "rule" in runs and runs["rule"].rms < best.rms and rule_faces is not None:  # the best of every solve
+        best, faces = runs["rule"], list(rule_faces)
+    rec = _record(strip, tgt, base, best, labels, faces, runner.solves, time.perf_counter() - t0,
                   tolerance, scale, length, baselines)
     warning = None if rec["reachable"] else _unreachable(rec, needs, log_s, base, tolerance, max_solves)
     res = DesignResult(rec, base, strip, best, labels, face_col, warning, runs)
@@ -199,13 +207,13 @@ def _summary(ev: Evaluated, span: float, what: dict[str, str]) -> dict[str, Any]
             "rms_error": ev.rms, "max_error": ev.max, "relative_rms": ev.rms / span}
 
 
-def _record(strip: StripTarget, tgt: Any, base: DesignBase, best: Evaluated, labels: list[str], face_col: list[int],
-            ids: list[str], solves: int, seconds: float, tolerance: float, scale: float, length: float,
+def _record(strip: StripTarget, tgt: Any, base: DesignBase, best: Evaluated, labels: list[str], faces: list[str],
+            solves: int, seconds: float, tolerance: float, scale: float, length: float,
             baselines: dict[str, Any]) -> dict[str, Any]:
     rel = best.rms / strip.span
     return {
         "target": tgt.source, "kind": base.spec.tiling.kind,
-        "patterns": {lab: ids[best.key[face_col[f]]] for f, lab in enumerate(labels)},
+        "patterns": dict(zip(labels, faces, strict=True)),
         "rms_error": best.rms, "max_error": best.max, "relative_rms": rel,
         "end_shortening": best.data["end_shortening"], "scale": scale, "solves": solves, "seconds": seconds,
         "reachable": bool(rel <= tolerance), "tolerance": tolerance, "span": strip.span, "pin_length": length,
