@@ -142,6 +142,8 @@ def face_patterns(spec: AssemblySpec, energies: Callable[[int], dict[str, float]
     for f, loop in enumerate(tiling.faces):
         if p.pattern:
             out.append(p.pattern)
+        elif p.tiles and tiling.grid is None:  # a polyhedron's tiles: one pattern per face, in face order
+            out.append(p.tiles[0][f])
         elif p.hexagon or p.pentagon:
             out.append(p.hexagon if len(loop) == 6 else p.pentagon)  # type: ignore[arg-type]
         else:

@@ -287,25 +287,15 @@ def place(spec: AssemblySpec, face_patterns: list[str]) -> Assembly:
     pins = end_interfaces(skel)
     pin_set = set(pins)
 
-    counters: dict[str, int] = {}
-    labels = []
-    for loop in skel.faces:
-        prefix = {6: "H", 5: "P"}.get(len(loop), "F") if skel.grid is None else "T"
-        counters[prefix] = counters.get(prefix, 0) + 1
-        labels.append(prefix)
-    digits = {p: len(str(c)) for p, c in counters.items()}
-    seen: dict[str, int] = {}
     shift = np.eye(4)
     shift[2, 3] = -0.5 * t  # plate solids span z ∈ [0, t]: centre the mid-surface on the face plane
     frames = skel.frames()
     plates = []
     for f, loop in enumerate(skel.faces):
-        p = labels[f]
-        seen[p] = seen.get(p, 0) + 1
         edge_labels = tuple(
             joint.get(k, "PIN" if (f, i) in pin_set else "") for i, k in enumerate(skel.face_edges[f])
         )
-        plates.append(PlacedPlate(f"{p}{seen[p]:0{digits[p]}d}", f, PlateType(len(loop), face_patterns[f]),
+        plates.append(PlacedPlate(skel.labels[f], f, PlateType(len(loop), face_patterns[f]),
                                   frames[f] @ shift, edge_labels))
     sleeves = []
     for k in skel.interior_edges:

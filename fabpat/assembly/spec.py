@@ -6,8 +6,9 @@ A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented 
   ``rows`` and ``columns`` (strip only).
 * ``[patterns]`` one of: ``pattern`` (every tile); ``groups`` (one ID per group of ``group_columns``
   columns, stiff → soft) or ``tiles`` (rows × columns IDs, or a table {plate label = ID} naming every
-  plate as the kit labels it, e.g. ``{T1 = "0x0488", …}``) on a strip; ``hexagon`` + ``pentagon`` on the
-  truncated icosahedron; or ``rule`` = "graded" (strip: ``count`` patterns with well-separated energies
+  plate as the kit labels it, e.g. ``{T1 = "0x0488", …}``) on a strip; ``hexagon`` + ``pentagon``, or
+  ``tiles`` = {plate label = ID} for every face ("H01" … "H20", "P01" … "P12", each ID of its face's
+  polygon; ``fabpat design`` writes it), on the truncated icosahedron; or ``rule`` = "graded" (strip: ``count`` patterns with well-separated energies
   in ``scenario``) / "similar-energy" (sphere: two patterns with similar energy in ``scenario``) /
   "roundest" (sphere: the ``candidates`` best similar-energy pairs, default 8, of which the closure
   solver keeps the roundest under the strain limit), read from the catalog (``catalog`` = path,
@@ -238,13 +239,13 @@ def _patterns(source: str, data: Any, tiling: TilingSpec) -> PatternSpec:
     ways = [k for k in ("pattern", "groups", "tiles", "hexagon", "rule") if t.has(k)]
     if t.has("pentagon") and "hexagon" not in ways:
         ways.append("pentagon")
-    options = "pattern, groups, tiles or rule" if strip else "pattern, hexagon + pentagon, or rule"
+    options = "pattern, groups, tiles or rule" if strip else "pattern, hexagon + pentagon, tiles or rule"
     if not ways:
         raise SpecError(f"{source}: [patterns] needs one of: {options}")
     if len(ways) > 1:
         raise SpecError(f"{source}: [patterns] sets both {ways[0]} and {ways[1]}: use one of {options}")
     way = ways[0]
-    only_strip = {"groups", "tiles", "group_columns"}
+    only_strip = {"groups", "group_columns"}
     only_sphere = {"hexagon", "pentagon"}
     for key in t.data:
         if (strip and key in only_sphere) or (not strip and key in only_strip):
@@ -301,6 +302,10 @@ def _patterns(source: str, data: Any, tiling: TilingSpec) -> PatternSpec:
                          f"patterns.group_columns = {gc} makes {need} groups")
         return PatternSpec(groups=ids, group_columns=gc)
     tiles = t.data["tiles"]
+    if not strip:
+        if not isinstance(tiles, Mapping):
+            raise t.fail("tiles", "must be a table {plate label = pattern ID} naming every face (H01 = \"0x0488\", …)")
+        return PatternSpec(tiles=(_face_table(source, tiles, tiling),))
     if isinstance(tiles, Mapping):
         return PatternSpec(tiles=_tile_table(source, tiles, tiling, sides))
     if (not isinstance(tiles, list) or len(tiles) != tiling.rows
@@ -325,6 +330,25 @@ def strip_labels(rows: int, columns: int) -> list[str]:
     zero-padded to the width of the largest (as :func:`fabpat.assembly.placement.place` labels them)."""
     n = rows * columns
     return [f"T{f + 1:0{len(str(n))}d}" for f in range(n)]
+
+
+def _face_table(source: str, table: Mapping[str, Any], tiling: TilingSpec) -> tuple[str, ...]:
+    """``tiles = {LABEL = "0x....", …}`` on a polyhedron: every face's pattern in face order, each ID checked
+    for its face's polygon."""
+    from fabpat.assembly.tiling import truncated_icosahedron
+
+    skel = truncated_icosahedron(tiling.edge)
+    labels = skel.labels
+    unknown = [k for k in table if k not in labels]
+    if unknown:
+        raise SpecError(f"{source}: patterns.tiles.{unknown[0]} is not a face of the {tiling.kind} (labels "
+                        f"{labels[0]} … {labels[-1]} by polygon: H hexagons, P pentagons)")
+    missing = [k for k in labels if k not in table]
+    if missing:
+        raise SpecError(f"{source}: patterns.tiles has no pattern for face {missing[0]} (give every face one: "
+                        f"{len(labels)} faces)")
+    return tuple(_pattern_id(source, f"patterns.tiles.{lab}", table[lab], (int(n),))
+                 for lab, n in zip(labels, skel.sides, strict=True))
 
 
 def _tile_table(source: str, table: Mapping[str, Any], tiling: TilingSpec,

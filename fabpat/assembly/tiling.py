@@ -50,6 +50,20 @@ class Tiling:
         return np.array([len(f) for f in self.faces], dtype=np.int64)
 
     @cached_property
+    def labels(self) -> tuple[str, ...]:
+        """The kit's plate label of each face: "T" and the face number on a strip; on a polyhedron "H"
+        (hexagon), "P" (pentagon) or "F" (any other polygon) and the count within that prefix, zero-padded
+        to the width of the largest ("H01" … "H20", "P01" … "P12" on the truncated icosahedron)."""
+        prefixes = [{6: "H", 5: "P"}.get(len(loop), "F") if self.grid is None else "T" for loop in self.faces]
+        counts = {p: prefixes.count(p) for p in prefixes}
+        seen: dict[str, int] = {}
+        out = []
+        for p in prefixes:
+            seen[p] = seen.get(p, 0) + 1
+            out.append(f"{p}{seen[p]:0{len(str(counts[p]))}d}")
+        return tuple(out)
+
+    @cached_property
     def edges(self) -> NDArray[np.int64]:
         """(ne, 2) int vertex pairs (low, high), in order of first appearance along the faces."""
         seen: dict[tuple[int, int], int] = {}

@@ -23,13 +23,15 @@ from fabpat.design.beam import Elastica
 from fabpat.design.mapping import space_mapping
 from fabpat.design.search import Evaluated, Runner, Search
 from fabpat.design.strip import column_needs, column_turning, errors, pin_length
-from fabpat.design.target import StripTarget, TargetError, read_target, require_strip
+from fabpat.design.target import ClosedTarget, StripTarget, TargetError, read_target, require_match
 
 #: largest relative difference between the target's arc length and the strip's pin-to-pin length
 #: before the target is refused (the strip is inextensible: its mid-line keeps its length)
 ARC_TOLERANCE = 0.02
-#: default solve budget of the search (the baselines come on top)
+#: default solve budget of the search (the baselines come on top): a strip's, a closed tiling's
+#: (no reduced model guides it: docs/design.md)
 MAX_SOLVES = 12
+MAX_SOLVES_CLOSED = 40
 #: default reachability tolerance: relative_rms (rms error over the span) at most 1 %
 TOLERANCE = 0.01
 
@@ -42,10 +44,10 @@ class DesignResult:
 
     record: dict[str, Any]
     base: DesignBase
-    target: StripTarget
-    best: Evaluated
+    target: StripTarget | ClosedTarget
+    best: Any  # Evaluated (strip) or fabpat.design.closed.ClosedEvaluated
     labels: list[str]
-    face_col: list[int]
+    face_col: list[int]  # strip: each face's column; closed: each face's group
     warning: str | None
     baseline_runs: dict[str, Evaluated] = field(default_factory=dict)
 
@@ -92,16 +94,17 @@ def _check_arc(target: StripTarget, length: float, scale_target: bool) -> tuple[
 
 
 def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[str] | None = None,
-           h: float = 3.0, max_solves: int = MAX_SOLVES, tolerance: float = TOLERANCE, scale_target: bool = False,
+           h: float = 3.0, max_solves: int | None = None, tolerance: float = TOLERANCE, scale_target: bool = False,
            workers: int = 1, dask: str | None = None, kit: bool = False,
            progress: Callable[[int, float], None] | None = None) -> DesignResult:
-    """Design a honeycomb strip whose predicted mid-line matches ``target``.
+    """Design an assembly whose predicted shape matches ``target``: one pattern per tile.
 
-    ``target``: a CSV path (header x,z, mm), an (n, 2) array of (x, z) mm, or a closed-tiling target
-    ("sphere", "ellipsoid:A,B,C", a mesh file), which this version refuses; ``spec``: the base spec
-    (TOML path; :mod:`fabpat.design.base`). ``h`` mesh edge (mm) of every solve; ``max_solves`` the
-    search's budget of full assembly solves (the baselines come on top); ``tolerance``: reachable when
-    relative_rms ≤ it; ``scale_target`` scales a target whose arc length is off by > 2 % to the strip's
+    ``target``: for a honeycomb-strip spec a CSV path (header x,z, mm) or an (n, 2) array of (x, z) mm;
+    for a closed tiling "sphere", "ellipsoid:A,B,C" or a surface mesh file (OBJ, STL, PLY;
+    :mod:`fabpat.design.closed`); ``spec``: the base spec (TOML path; :mod:`fabpat.design.base`). ``h``
+    mesh edge (mm) of every solve; ``max_solves`` the search's budget of full assembly solves (the
+    baselines come on top; default :data:`MAX_SOLVES` for a strip, :data:`MAX_SOLVES_CLOSED` for a closed
+    tiling); ``tolerance``: reachable when relative_rms (rms over the span, or over the radius) ≤ it; ``scale_target`` scales a target whose arc length is off by > 2 % to the strip's
     length; ``workers`` local processes or ``dask`` a scheduler address for the parallel solves;
     ``out`` writes the outputs there (``kit``: also ``fabpat assemble`` into out/kit); ``progress(solves,
     seconds)`` after every solve. Raises TargetError, SpecError (bad input, one line), SolverError (no
@@ -113,7 +116,8 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
     import fabpat.design.ranges  # noqa: F401 - registers max_solves' and design_tolerance's ranges
     from fabpat.validate import check
 
-    max_solves = int(check("max_solves", max_solves, "max_solves", error=SpecError))
+    if max_solves is not None:
+        max_solves = int(check("max_solves", max_solves, "max_solves", error=SpecError))
     workers = int(check("workers", workers, "workers", error=SpecError))
     tolerance = check("design_tolerance", tolerance, "tolerance", error=SpecError)
     h = check("h", h, "h", error=SpecError)
@@ -140,7 +144,29 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
         check_design_out(out)
     tgt = read_target(target)
     base = load_base(spec)
-    strip = require_strip(tgt, base.spec.source, base.spec.tiling.kind)
+    require_match(tgt, base.spec.source, base.spec.tiling.kind)
+    if isinstance(tgt, ClosedTarget):
+        from fabpat.design.closed_api import design_closed
+
+        if scale_target:
+            raise SpecError("scale_target applies to strip targets (a closed target has no size: the plates fix it)")
+        res = design_closed(tgt, base, h, MAX_SOLVES_CLOSED if max_solves is None else max_solves, tolerance,
+                            workers, dask, progress, t0, DesignResult)
+    else:
+        res = _design_strip(tgt, base, h, MAX_SOLVES if max_solves is None else max_solves, tolerance,
+                            scale_target, workers, dask, progress, t0)
+    if out is not None:
+        res.write(out, kit)
+    return res
+
+
+def _design_strip(strip: StripTarget, base: DesignBase, h: float, max_solves: int, tolerance: float,
+                  scale_target: bool, workers: int, dask: str | None,
+                  progress: Callable[[int, float], None] | None, t0: float) -> DesignResult:
+    """The strip design (module doc)."""
+    from fabpat.errors import SolverError
+
+    tgt = strip
     ids = sorted(base.energies, key=lambda k: (-base.energies[k], k))  # ascending stiffness 1/U
     log_s = -np.log([base.energies[k] for k in ids])
     length, labels, face_col, edges = _geometry(base, ids[len(ids) // 2], h)
@@ -150,7 +176,7 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
         raise TargetError(f"target {strip.source}: its span {strip.span:.1f} mm is not shorter than the strip's "
                           f"pin-to-pin length {length:.1f} mm: the pins must move together to bend it")
     columns = max(face_col) + 1
-    runner = Runner(base.spec, h, travel, workers, dask, progress)
+    runner = Runner(base.spec, h, (travel,), workers, dask, progress)
     search = Search(strip.x, strip.z, ids, log_s, columns, face_col, base.max_distinct, runner)
     needs = column_needs(strip.x, strip.z, columns)
     single = (len(ids) // 2,) * columns  # a uniform elastica's shape does not depend on its stiffness
@@ -160,12 +186,14 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
     if evs[0] is not None:
         runs["single"] = evs[0]
         baselines["single"] = _summary(evs[0], strip.span, {"pattern": ids[single[0]]})
-    rule_faces = _rule_faces(base)
-    if rule_faces is not None:
+    way = base_faces(base)
+    rule_faces = None
+    if way is not None:
+        name, rule_faces = way
         rule = _solve_faces(runner, rule_faces, strip)
         if rule is not None:
             runs["rule"] = rule
-            baselines["rule"] = _summary(rule, strip.span, dict(zip(labels, rule_faces, strict=True)))
+            baselines[name] = _summary(rule, strip.span, dict(zip(labels, rule_faces, strict=True)))
     extra = runner.solves  # the baselines' solves come on top of the budget (as --max-solves' help says)
     if evs[0] is not None:
         space_mapping(search, Elastica(length, edges), evs[0], strip.span, max_solves + extra)
@@ -179,19 +207,17 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
     rec = _record(strip, tgt, base, best, labels, faces, runner.solves, time.perf_counter() - t0,
                   tolerance, scale, length, baselines)
     warning = None if rec["reachable"] else _unreachable(rec, needs, log_s, base, tolerance, max_solves)
-    res = DesignResult(rec, base, strip, best, labels, face_col, warning, runs)
-    if out is not None:
-        res.write(out, kit)
-    return res
+    return DesignResult(rec, base, strip, best, labels, face_col, warning, runs)
 
 
-def _rule_faces(base: DesignBase) -> list[str] | None:
-    """The face patterns of the base spec's rule (the second baseline), or None without one."""
-    if not base.has_rule:
+def base_faces(base: DesignBase) -> tuple[str, list[str]] | None:
+    """The base spec's own choice as a baseline: ("rule", its rule's face patterns) or ("spec", the
+    patterns it names), or None when the base leaves the choice open."""
+    if base.way is None:
         return None
     from fabpat.assembly.build import face_patterns
 
-    return face_patterns(base.spec)
+    return ("rule" if base.has_rule else "spec"), face_patterns(base.spec)
 
 
 def _solve_faces(runner: Runner, faces: list[str], strip: StripTarget) -> Evaluated | None:

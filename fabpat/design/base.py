@@ -7,9 +7,14 @@
 * ``min_width``: mm, drop candidates whose narrowest feature (the catalog's ``min_width``) is smaller;
 * ``max_distinct``: the largest number of distinct patterns in the design (each is one more part type).
 
-Candidates are the hexagon patterns with a converged Cylinder energy in the catalog (``catalog`` key
-or the built-in one), at the base's plate set-up when the catalog has it, else at the default one
-(energies only rank patterns, as for ``rule = "graded"``).
+Candidates of a strip are the hexagon patterns with a converged Cylinder energy in the catalog
+(``catalog`` key or the built-in one), at the base's plate set-up when the catalog has it, else at the
+default one (energies only rank patterns, as for ``rule = "graded"``). Candidates of a closed tiling
+are, per polygon of its faces, the catalog rows of that polygon with all three energies converged
+(:func:`closed_rows`), narrowed alike.
+
+A base that names its patterns (``pattern``, ``hexagon`` + ``pentagon``, ``groups``, ``tiles``) or a
+``rule`` gives the design a baseline, ``spec`` or ``rule`` in design.json, solved with the rest.
 """
 
 from __future__ import annotations
@@ -42,6 +47,8 @@ class DesignBase:
     energies: dict[str, float]
     max_distinct: int | None
     has_rule: bool
+    way: str | None = None
+    rows: dict[int, list[dict[str, Any]]] | None = None
 
 
 def _read_toml(path: str | Path) -> dict[str, Any]:
@@ -71,6 +78,7 @@ def load_base(path: str | Path) -> DesignBase:
     keys = {k: pats[k] for k in DESIGN_KEYS if k in pats}
     rest = {k: v for k, v in pats.items() if k not in DESIGN_KEYS}
     has_way = any(k in rest for k in _WAYS)
+    way = next((k for k in _WAYS if k in rest), None)
     catalog = rest.pop("catalog", None) if "rule" not in rest else rest.get("catalog")
     if not has_way:
         for k in rest:  # a rule's own keys without the rule: the spec reader would name them; so do we
@@ -85,13 +93,14 @@ def load_base(path: str | Path) -> DesignBase:
         raise SpecError(f"{source}: patterns.catalog = {catalog!r} must be a file name")
     if catalog and not Path(catalog).is_absolute():
         catalog = str(Path(source).parent / catalog)
-    if spec.tiling.kind != "honeycomb-strip":  # the candidates are the strip's; the caller refuses this spec
-        return DesignBase(spec, clean, {}, None, spec.patterns.rule is not None)
-    energies = candidates(spec, source, catalog, keys)
     k = keys.get("max_distinct")
     if k is not None and (isinstance(k, bool) or not isinstance(k, int) or k < 1):
         raise SpecError(f"{source}: patterns.max_distinct = {k!r} must be an integer ≥ 1 (distinct patterns allowed)")
-    return DesignBase(spec, clean, energies, k, spec.patterns.rule is not None)
+    if spec.tiling.kind != "honeycomb-strip":
+        rows = closed_rows(spec, source, catalog, keys)
+        return DesignBase(spec, clean, {}, k, spec.patterns.rule is not None, way, rows)
+    energies = candidates(spec, source, catalog, keys)
+    return DesignBase(spec, clean, energies, k, spec.patterns.rule is not None, way)
 
 
 def _catalog_energies(spec: AssemblySpec, catalog: str | None) -> dict[str, float]:
@@ -104,6 +113,44 @@ def _catalog_energies(spec: AssemblySpec, catalog: str | None) -> dict[str, floa
         return found or cat.energies(catalog, SCENARIO, sides=6)
     except FabpatError as e:
         raise SpecError(f"{spec.source}: the design needs the catalog's {SCENARIO} energies, but {e}") from e
+
+
+def closed_rows(spec: AssemblySpec, source: str, catalog: str | None, keys: dict[str, Any]) -> dict[int, list[dict[str, Any]]]:
+    """{polygon sides: catalog rows} of a closed tiling's candidates (module doc), at the base's plate
+    set-up when the catalog has it; SpecError (one line) if a polygon has none left."""
+    from fabpat import catalog as cat
+    from fabpat.assembly.placement import build_tiling
+    from fabpat.assembly.spec import _pattern_id
+
+    pl = spec.plates
+    allowed = None
+    if "allowed" in keys:
+        a = keys["allowed"]
+        if not isinstance(a, list) or not a:
+            raise SpecError(f"{source}: patterns.allowed must be a non-empty list of pattern IDs")
+        allowed = {_pattern_id(source, f"patterns.allowed[{i}]", x, (5, 6)) for i, x in enumerate(a)}
+    w = keys.get("min_width", 0.0)
+    if isinstance(w, bool) or not isinstance(w, int | float) or not math.isfinite(w) or w < 0:
+        raise SpecError(f"{source}: patterns.min_width = {w!r} must be a number of mm ≥ 0")
+    out: dict[int, list[dict[str, Any]]] = {}
+    for sides in sorted({len(f) for f in build_tiling(spec).faces}, reverse=True):
+        try:
+            try:
+                rows = cat.catalog(catalog, sides=sides, edge=spec.tiling.edge, thickness=pl.thickness,
+                                   weight=pl.weight)
+            except FabpatError:  # not at this set-up: the default one (the features only rank patterns)
+                rows = []
+            rows = rows or cat.catalog(catalog, sides=sides)
+        except FabpatError as e:
+            raise SpecError(f"{source}: the design needs the catalog of {sides}-sided plates, but {e}") from e
+        rows = [dict(r) for r in rows if all(r.get(f"converged_{s}") for s in ("dome", "cylinder", "cantilever"))]
+        n = len(rows)
+        rows = [r for r in rows if (allowed is None or r["id"] in allowed) and (r.get("min_width") or 0.0) >= w]
+        if not rows:
+            raise SpecError(f"{source}: no candidate pattern is left for the {sides}-sided faces after the catalog's "
+                            f"{n} converged patterns, patterns.allowed and patterns.min_width: widen the choice")
+        out[sides] = rows
+    return out
 
 
 def _min_widths(spec: AssemblySpec, catalog: str | None) -> dict[str, float]:

@@ -95,12 +95,43 @@ def spec_toml(data: dict[str, Any]) -> str:
 
 
 def design_spec_data(res: Any) -> dict[str, Any]:
-    """The base spec's tables with ``[patterns] tiles`` = every plate's pattern and ``[load]
+    """The base spec's tables with ``[patterns] tiles`` = every plate's pattern and, for a strip, ``[load]
     end_shortening`` = the design's."""
     data = {k: v for k, v in res.base.data.items() if k not in ("patterns", "load")}
     data["patterns"] = {"tiles": dict(res.record["patterns"])}
-    data["load"] = {"end_shortening": float(res.record["end_shortening"])}
+    if "end_shortening" in res.record:
+        data["load"] = {"end_shortening": float(res.record["end_shortening"])}
     return data
+
+
+def write_closed_png(res: Any, path: Path) -> None:
+    """The predicted closed shape's nodes coloured by their distance from the fitted target (mm), seen
+    from two sides, and each group's pattern."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rec, P, d = res.record, res.best.data["P"], res.best.fit.distance
+    fig = plt.figure(figsize=(10, 5.2), dpi=120)
+    c = P - P.mean(axis=0)
+    vmax = float(d.max()) or 1.0
+    for j, (elev, azim) in enumerate(((20, 30), (-20, 210))):
+        ax = fig.add_subplot(1, 2, j + 1, projection="3d")
+        sc = ax.scatter(c[:, 0], c[:, 1], c[:, 2], c=d, s=1.2, cmap="viridis", vmin=0.0, vmax=vmax)
+        ax.view_init(elev=elev, azim=azim)
+        ax.set_box_aspect((1, 1, 1))
+        lim = float(np.abs(c).max())
+        for set_lim in (ax.set_xlim, ax.set_ylim, ax.set_zlim):
+            set_lim(-lim, lim)
+        ax.set_axis_off()
+    fig.colorbar(sc, ax=fig.axes, shrink=0.6, label="distance from the target, mm")
+    groups = sorted(set(rec["patterns"].values()))
+    fig.suptitle(f"{rec['target']}: rms {rec['rms_error']:.3g} mm ({rec['relative_rms']:.3%} of the radius "
+                 f"{rec['radius']:.1f} mm), peak strain {rec['peak_strain']:.2%}\npatterns: {', '.join(groups)}",
+                 fontsize=9)
+    fig.savefig(path, format="png")
+    plt.close(fig)
 
 
 def write_png(res: Any, path: Path) -> None:
@@ -155,7 +186,7 @@ def write_design(res: Any, out: str | os.PathLike[str], kit: bool = False) -> li
         (tmp / "design.toml").write_text(spec_toml(design_spec_data(res)), encoding="utf-8")
         record = {**res.record, "generator": GENERATOR}
         (tmp / "design.json").write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
-        write_png(res, tmp / "design.png")
+        (write_png if "end_shortening" in res.record else write_closed_png)(res, tmp / "design.png")
         files = list(FILES)
         if kit:
             from fabpat.assembly.build import assemble

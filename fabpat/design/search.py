@@ -71,15 +71,17 @@ class Evaluated:
 
 @dataclass
 class Runner:
-    """Runs batches of candidate solves: ``workers`` local processes, or ``dask`` (a scheduler address);
-    counts every solve and tells ``progress(solves done, elapsed s)`` after each."""
+    """Runs batches of candidate solves ``solve(spec, patterns, h, *extra)`` (default the strip's
+    :func:`solve_candidate` with ``extra`` = (travel,)): ``workers`` local processes, or ``dask`` (a scheduler
+    address); counts every solve and tells ``progress(solves done, elapsed s)`` after each."""
 
     spec: Any
     h: float
-    travel: float
+    extra: tuple[Any, ...]
     workers: int = 1
     dask: str | None = None
     progress: Callable[[int, float], None] | None = None
+    solve: Callable[..., dict[str, Any]] = solve_candidate
     solves: int = 0
     t0: float = field(default_factory=time.perf_counter)
 
@@ -87,11 +89,11 @@ class Runner:
         """Solve every face-pattern tuple of ``batch``; a failed solve comes back as its exception."""
         from fabpat.sweep import _dask_client, _run_dask, _run_local
 
-        jobs = [((self.spec, pats, self.h, self.travel), str(i)) for i, pats in enumerate(batch)]
+        jobs = [((self.spec, pats, self.h, *self.extra), str(i)) for i, pats in enumerate(batch)]
         if self.dask:
-            stream = _run_dask(solve_candidate, jobs, _dask_client(self.dask, 10.0))
+            stream = _run_dask(self.solve, jobs, _dask_client(self.dask, 10.0))
         else:
-            stream = _run_local(solve_candidate, jobs, min(self.workers, len(jobs)))
+            stream = _run_local(self.solve, jobs, min(self.workers, len(jobs)))
         out: list[Any] = [None] * len(batch)
         for key, res in stream:
             out[int(key)] = res

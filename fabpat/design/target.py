@@ -3,8 +3,8 @@
 * **Strip target** (:class:`StripTarget`): a CSV of the arch's mid-line, header ``x,z``, in mm; x along
   the span from column 0's pin, z up, both pins at z = 0 (within :data:`END_TOLERANCE` of the span).
 * **Closed-tiling targets** (:class:`ClosedTarget`): ``sphere``, ``ellipsoid:A,B,C`` (axis ratios) or a
-  surface mesh file (``.obj``, ``.stl``, ``.ply``). They are recognised so that a refusal can say
-  precisely what was given; this version designs strip targets only (:func:`require_strip`).
+  surface mesh file (``.obj``, ``.stl``, ``.ply``, read by trimesh; at least 4 faces with a positive
+  area). They have no size: the plates fix it (:mod:`fabpat.design.surface`).
 
 Every problem is a :class:`TargetError` whose one line names the target and what is expected.
 """
@@ -64,15 +64,40 @@ class StripTarget:
         return StripTarget(self.source, (self.x - self.x[0]) * factor, self.z * factor)
 
 
-@dataclass(frozen=True)
+#: latitude bands of a closed design's face groups when the target is not a sphere (docs/design.md)
+BANDS = 3
+
+
+@dataclass(frozen=True, eq=False)
 class ClosedTarget:
     """A closed-tiling target: ``kind`` "sphere", "ellipsoid" (``axes`` the three ratios) or "mesh"
-    (``path`` the surface file)."""
+    (``path`` the surface file, ``mesh`` it read by trimesh)."""
 
     source: str
     kind: str
     axes: tuple[float, float, float] | None = None
     path: str | None = None
+    mesh: Any = None
+
+    @property
+    def bands(self) -> int:
+        """Latitude bands about the design axis that the face groups use: 1 for a round target (a sphere,
+        or an ellipsoid with three equal ratios), else :data:`BANDS`."""
+        if self.kind == "sphere" or (self.axes is not None and max(self.axes) - min(self.axes) <= 1e-12):
+            return 1
+        return BANDS
+
+    def fit(self, P: Arr, axis: Arr) -> Any:
+        """The :class:`fabpat.design.surface.SurfaceFit` of nodes P (n, 3) mm; ``axis`` (3,) the design
+        axis, where an ellipsoid's distinct axis starts."""
+        from fabpat.design import surface
+
+        if self.kind == "sphere":
+            return surface.fit_to_sphere(P)
+        if self.kind == "ellipsoid":
+            assert self.axes is not None
+            return surface.fit_to_ellipsoid(P, self.axes, axis)
+        return surface.fit_to_mesh(P, self.mesh)
 
 
 def read_target(target: Any) -> StripTarget | ClosedTarget:
@@ -112,8 +137,26 @@ def _closed(text: str) -> ClosedTarget | None:
     if Path(text).suffix.lower() in MESH_SUFFIXES:
         if not Path(text).is_file():
             raise TargetError(f"cannot read target {text}: no such file")
-        return ClosedTarget(text, "mesh", path=text)
+        return ClosedTarget(text, "mesh", path=text, mesh=_read_mesh(text))
     return None
+
+
+def _read_mesh(path: str) -> Any:
+    """The surface of a mesh file (trimesh), or TargetError: unreadable, no faces, or degenerate."""
+    import trimesh
+
+    what = "a surface mesh (OBJ, STL or PLY with at least 4 triangles or polygons of positive area)"
+    try:
+        m = trimesh.load(path, force="mesh", process=True)
+    except Exception as e:  # noqa: BLE001 - trimesh raises many kinds for a file that is no mesh
+        raise TargetError(f"target {path} is not {what}: {str(e).splitlines()[0][:80] if str(e) else type(e).__name__}"
+                          ) from None
+    faces = getattr(m, "faces", None)
+    if faces is None or len(faces) < 4 or not float(getattr(m, "area", 0.0)) > 0:
+        raise TargetError(f"target {path} is not {what}: it has {0 if faces is None else len(faces)} face(s)")
+    if not np.isfinite(np.asarray(m.vertices)).all():
+        raise TargetError(f"target {path}: a vertex is not finite")
+    return m
 
 
 def _read_csv(path: Path) -> StripTarget:
@@ -170,16 +213,18 @@ def check_strip(source: str, x: Arr, z: Arr) -> StripTarget:
     return StripTarget(source, x - x[0], z)
 
 
-def require_strip(target: StripTarget | ClosedTarget, spec_source: str, kind: str) -> StripTarget:
-    """The strip target, or :class:`TargetError` for a closed target or a closed-tiling spec (this
-    version designs strip targets: a CSV mid-line on a honeycomb-strip spec)."""
-    if kind != "honeycomb-strip":
-        raise TargetError(f"{spec_source}: tiling.kind = {kind!r} is a closed tiling; this version designs strip "
-                          "targets only (a CSV mid-line with a tiling.kind = \"honeycomb-strip\" spec)")
-    if isinstance(target, ClosedTarget):
-        raise TargetError(f"target {target.source!r} is a closed-tiling target ({target.kind}); this version designs "
-                          f"strip targets only: give {STRIP_FORMAT}")
-    return target
+def require_match(target: StripTarget | ClosedTarget, spec_source: str, kind: str) -> None:
+    """:class:`TargetError` unless the target fits the spec's tiling: a strip target (CSV mid-line) for a
+    honeycomb strip, a closed target (sphere, ellipsoid, mesh) for a closed tiling."""
+    strip = kind == "honeycomb-strip"
+    if strip and isinstance(target, ClosedTarget):
+        raise TargetError(f"target {target.source!r} is a closed-tiling target ({target.kind}), but {spec_source} is a "
+                          f"honeycomb strip: give {STRIP_FORMAT}, or a closed-tiling spec "
+                          "(tiling.kind = \"truncated-icosahedron\")")
+    if not strip and isinstance(target, StripTarget):
+        raise TargetError(f"target {target.source} is a strip mid-line, but {spec_source} is a closed tiling "
+                          f"(tiling.kind = {kind!r}): give sphere, ellipsoid:A,B,C or a surface mesh file "
+                          f"({', '.join(MESH_SUFFIXES)})")
 
 
 def write_target_csv(path: str | os.PathLike[str], x: Arr, z: Arr) -> None:

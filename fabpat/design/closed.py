@@ -1,0 +1,251 @@
+"""Designing a closed tiling (the truncated icosahedron): one pattern per face group, found by solves.
+
+**Design variables.** The faces fall into groups (:func:`face_groups`): by polygon (hexagons,
+pentagons) and, for a target that is not round, by latitude band about the design axis (the
+polyhedron's 5-fold axis through face P01's centre: :data:`fabpat.design.target.BANDS` bands of equal
+height in cos θ), so that an ellipsoid's poles and equator can differ. Every face of a group takes one
+pattern from its polygon's catalog; with ``max_distinct`` K the groups share at most K patterns.
+
+**No reduced model.** Unlike a strip (an elastica), the closed shape depends on how each pattern bends
+into double curvature, which its three catalog energies describe only loosely: measured on the sphere
+(docs/design.md), pairs with the same Dome energies close 0.17 % to 0.7 % out of round. So the search
+is Bayesian optimisation over the catalog's pattern features (:func:`pattern_features`): a Gaussian
+process of log(relative rms) over the groups' features, fitted to every solve so far (Rasmussen &
+Williams, *Gaussian Processes for Machine Learning*, 2006, eq. 2.25–2.26: squared-exponential kernel,
+length scale and noise fixed below), and each batch the candidates of lowest lower confidence bound
+μ − κσ (Srinivas et al., ICML 2010) among every one-group change of the best design, every symmetric
+design (one pattern per polygon) near it, and random designs. A design over the strain limit counts
+as unreachable (its error is multiplied by :data:`OVER_LIMIT_PENALTY`).
+
+**Start.** The base spec's own patterns (explicit, or its rule's pair), then space-filling symmetric
+designs (farthest-point in feature space) and one single pattern on every face.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+Arr = NDArray[np.float64]
+
+#: squared-exponential length scale in standardised feature units, per √(feature count)
+LENGTH_SCALE = 0.9
+#: GP noise variance over the signal variance (solver tolerance and mesh noise)
+NOISE = 1e-3
+#: κ of the lower confidence bound μ − κσ
+KAPPA = 1.5
+#: a design over the strain limit: its error counts this many times (it cannot be built)
+OVER_LIMIT_PENALTY = 10.0
+#: random designs scored per batch besides the one-group changes
+RANDOM_DESIGNS = 3000
+#: symmetric space-filling designs solved at the start
+START_DESIGNS = 4
+
+
+def pattern_features(rows: list[dict[str, Any]]) -> tuple[list[str], Arr]:
+    """IDs and (n, 5) standardised features of catalog rows: log Dome, Cylinder and Cantilever energies,
+    filleted area ratio, log min width (the rows' columns of :func:`fabpat.catalog.catalog`)."""
+    keep = [r for r in rows if all(r.get(f"converged_{s}") for s in ("dome", "cylinder", "cantilever"))
+            and r.get("min_width")]
+    ids = [str(r["id"]) for r in keep]
+    F = np.array([[math.log(r["energy_dome"]), math.log(r["energy_cylinder"]), math.log(r["energy_cantilever"]),
+                   float(r["filleted_ratio"]), math.log(r["min_width"])] for r in keep], dtype=np.float64)
+    sd = F.std(axis=0)
+    return ids, (F - F.mean(axis=0)) / np.where(sd > 0, sd, 1.0)
+
+
+def design_axis(V: Arr, faces: tuple[tuple[int, ...], ...]) -> Arr:
+    """Unit design axis: from the polyhedron's centre to the centre of its first pentagon (else face 0)."""
+    c = V.mean(axis=0)
+    f = next((k for k, loop in enumerate(faces) if len(loop) == 5), 0)
+    a = V[list(faces[f])].mean(axis=0) - c
+    return a / np.linalg.norm(a)
+
+
+def face_groups(V: Arr, faces: tuple[tuple[int, ...], ...], bands: int) -> tuple[list[int], list[int]]:
+    """(group of each face, polygon sides of each group): faces grouped by polygon and by ``bands``
+    latitude bands of |cos θ| about :func:`design_axis`."""
+    axis = design_axis(V, faces)
+    c = V.mean(axis=0)
+    keys = []
+    for loop in faces:
+        d = V[list(loop)].mean(axis=0) - c
+        cos = abs(float(d @ axis)) / float(np.linalg.norm(d))
+        keys.append((len(loop), min(int(cos * bands), bands - 1)))
+    order = sorted(set(keys), key=lambda k: (-k[0], k[1]))
+    return [order.index(k) for k in keys], [k[0] for k in order]
+
+
+def solve_closed(spec: Any, patterns: tuple[str, ...], h: float) -> dict[str, Any]:
+    """One full closure (the ``simulate-assembly`` path of a closed spec) with face patterns ``patterns``.
+    Returns plain data: ``faces`` the patterns, ``P`` (n, 3) the deformed plate nodes (mm), ``peak_strain``, ``seconds``,
+    ``radius`` and ``sphericity_rms`` of the least-squares sphere, ``factorizations``. Raises SolverError,
+    GeometryError."""
+    from fabpat.assembly.closure import closure_setup, run_closure
+
+    t0 = time.perf_counter()
+    setup = closure_setup(spec, list(patterns), h=h)
+    run = run_closure(setup, strain_limit=spec.material.strain_limit)
+    n = len(setup.model.X)
+    return {"P": run.x[:n], "peak_strain": run.peak_strain, "radius": run.radius,
+            "sphericity_rms": run.sphericity_rms, "seconds": time.perf_counter() - t0,
+            "plate_energies": run.plate_energies, "faces": list(patterns)}
+
+
+@dataclass(frozen=True, eq=False)
+class ClosedEvaluated:
+    """A solved closed design: ``key`` the candidate index per group, the fit, the solve's data."""
+
+    key: tuple[int, ...]
+    fit: Any
+    data: dict[str, Any]
+    over_limit: bool
+
+    @property
+    def rms(self) -> float:
+        """RMS distance from the target (mm)."""
+        return float(self.fit.rms)
+
+    @property
+    def max(self) -> float:
+        """Largest distance from the target (mm)."""
+        return float(self.fit.max)
+
+    @property
+    def score(self) -> float:
+        """What the search minimises: relative rms, penalised over the strain limit."""
+        return float(self.fit.relative_rms) * (OVER_LIMIT_PENALTY if self.over_limit else 1.0)
+
+
+@dataclass
+class ClosedSearch:
+    """State of one closed design search. ``pools[g]`` (IDs, features) of group g's polygon,
+    ``face_group`` the group of every face, ``target`` the ClosedTarget, ``axis`` the design axis."""
+
+    pools: list[tuple[list[str], Arr]]
+    face_group: list[int]
+    group_sides: list[int]
+    target: Any
+    axis: Arr
+    strain_limit: float
+    max_distinct: int | None
+    runner: Any
+    seed: int = 0
+    seen: dict[tuple[int, ...], ClosedEvaluated | None] = field(default_factory=dict)
+    best: ClosedEvaluated | None = None
+
+    def faces(self, key: tuple[int, ...]) -> tuple[str, ...]:
+        """Face patterns of a design."""
+        return tuple(self.pools[self.face_group[f]][0][key[self.face_group[f]]] for f in range(len(self.face_group)))
+
+    def key_of(self, faces: list[str]) -> tuple[int, ...] | None:
+        """The design whose face patterns are ``faces`` (one per group), or None if it is not one."""
+        key = []
+        for g in range(len(self.pools)):
+            ids = {faces[f] for f in range(len(faces)) if self.face_group[f] == g}
+            if len(ids) != 1 or next(iter(ids)) not in self.pools[g][0]:
+                return None
+            key.append(self.pools[g][0].index(next(iter(ids))))
+        return tuple(key)
+
+    def evaluate(self, keys: list[tuple[int, ...]]) -> list[ClosedEvaluated | None]:
+        """Solve the designs not seen yet (one batch); None for a failed solve."""
+        new = list(dict.fromkeys(k for k in keys if k not in self.seen))
+        for k, res in zip(new, self.runner.run([self.faces(k) for k in new]), strict=True):
+            self.seen[k] = None if isinstance(res, BaseException) else self.record(k, res)
+        return [self.seen[k] for k in keys]
+
+    def record(self, key: tuple[int, ...], res: dict[str, Any]) -> ClosedEvaluated:
+        """A solve's evaluation (the target fitted to its nodes); updates ``best``."""
+        ev = ClosedEvaluated(key, self.target.fit(res["P"], self.axis), res, res["peak_strain"] > self.strain_limit)
+        if self.best is None or ev.score < self.best.score:
+            self.best = ev
+        return ev
+
+    def distinct_ok(self, key: tuple[int, ...]) -> bool:
+        """Whether ``key`` uses at most max_distinct distinct patterns."""
+        if self.max_distinct is None:
+            return True
+        return len({self.pools[g][0][i] for g, i in enumerate(key)}) <= self.max_distinct
+
+    def _x(self, keys: list[tuple[int, ...]]) -> Arr:
+        return np.array([np.concatenate([self.pools[g][1][i] for g, i in enumerate(k)]) for k in keys])
+
+    def start(self) -> list[tuple[int, ...]]:
+        """Space-filling symmetric designs: farthest-point picks per polygon (the first the pool's median
+        by Dome energy), the same pick for every group of one polygon."""
+        picks: dict[int, list[int]] = {}
+        for sides in set(self.group_sides):
+            g = self.group_sides.index(sides)
+            F = self.pools[g][1]
+            chosen = [int(np.argsort(F[:, 0])[len(F) // 2])]
+            while len(chosen) < min(START_DESIGNS, len(F)):
+                d = np.min(np.linalg.norm(F[:, None, :] - F[chosen][None, :, :], axis=2), axis=1)
+                chosen.append(int(np.argmax(d)))
+            picks[sides] = chosen
+        keys = []
+        for j in range(START_DESIGNS):
+            key = tuple(picks[s][j % len(picks[s])] for s in self.group_sides)
+            if self.distinct_ok(key):
+                keys.append(key)
+        return keys
+
+    def _candidates(self, rng: np.random.Generator) -> list[tuple[int, ...]]:
+        assert self.best is not None
+        b = self.best.key
+        out = set()
+        for g in range(len(b)):
+            for i in range(len(self.pools[g][0])):
+                out.add(b[:g] + (i,) + b[g + 1:])
+        for sides in set(self.group_sides):  # every group of one polygon changed together
+            gs = [g for g, s in enumerate(self.group_sides) if s == sides]
+            for i in range(len(self.pools[gs[0]][0])):
+                out.add(tuple(i if g in gs else b[g] for g in range(len(b))))
+        for _ in range(RANDOM_DESIGNS):
+            out.add(tuple(int(rng.integers(len(self.pools[g][0]))) for g in range(len(b))))
+        return [k for k in out if k not in self.seen and self.distinct_ok(k)]
+
+    def propose(self, count: int, rng: np.random.Generator) -> list[tuple[int, ...]]:
+        """The ``count`` unseen designs of lowest μ − κσ (module doc)."""
+        done = [(k, ev) for k, ev in self.seen.items() if ev is not None]
+        cands = self._candidates(rng)
+        if not done or not cands:
+            return cands[:count]
+        X = self._x([k for k, _ in done])
+        y = np.log([ev.score for _, ev in done])
+        mu0, sd = float(y.mean()), float(y.std()) or 1.0
+        yn = (y - mu0) / sd
+        ell = LENGTH_SCALE * math.sqrt(X.shape[1])
+
+        def kern(A: Arr, B: Arr) -> Arr:
+            d2 = ((A[:, None, :] - B[None, :, :]) ** 2).sum(axis=2)
+            return np.exp(-0.5 * d2 / (ell * ell))
+
+        L = np.linalg.cholesky(kern(X, X) + NOISE * np.eye(len(X)))
+        alpha = np.linalg.solve(L.T, np.linalg.solve(L, yn))
+        Xc = self._x(cands)
+        Ks = kern(Xc, X)
+        mu = Ks @ alpha
+        v = np.linalg.solve(L, Ks.T)
+        sigma = np.sqrt(np.maximum(1.0 - (v * v).sum(axis=0), 0.0))
+        lcb = mu - KAPPA * sigma
+        picked: list[tuple[int, ...]] = []
+        for j in np.argsort(lcb, kind="stable"):
+            picked.append(cands[int(j)])
+            if len(picked) >= count:
+                break
+        return picked
+
+    def refine(self, budget: int, batch: int) -> None:
+        """Batches of proposals until ``budget`` solves are spent or nothing is left to try."""
+        rng = np.random.default_rng(self.seed)
+        while self.runner.solves < budget and self.best is not None:
+            props = self.propose(min(batch, budget - self.runner.solves), rng)
+            if not props:
+                return
+            self.evaluate(props)

@@ -1,0 +1,119 @@
+"""The closed-tiling design run behind :func:`fabpat.design.design` (method: :mod:`fabpat.design.closed`).
+
+Order of work: the face groups and candidate pools, then one batch of the baselines (the base spec's
+own patterns, ``spec`` or ``rule``; one single pattern on every face, ``single``), the space-filling
+start designs, the Bayesian-optimisation rounds, and the record. The baselines' solves come on top of
+the budget, as for a strip; every solve is counted in ``solves``.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from fabpat.design.base import DesignBase
+from fabpat.design.closed import ClosedEvaluated, ClosedSearch, design_axis, face_groups, pattern_features, solve_closed
+from fabpat.design.search import Runner
+from fabpat.design.target import ClosedTarget
+
+
+def _single_key(search: ClosedSearch) -> tuple[int, ...] | None:
+    """The single-pattern baseline: the ID in every group's pool nearest the pools' median features."""
+    common = set(search.pools[0][0])
+    for ids, _ in search.pools[1:]:
+        common &= set(ids)
+    if not common:
+        return None
+
+    def cost(pid: str) -> float:
+        return float(sum(np.linalg.norm(F[ids.index(pid)]) for ids, F in search.pools))
+
+    pid = min(sorted(common), key=cost)
+    return tuple(ids.index(pid) for ids, _ in search.pools)
+
+
+def design_closed(tgt: ClosedTarget, base: DesignBase, h: float, max_solves: int, tolerance: float, workers: int,
+                  dask: str | None, progress: Callable[[int, float], None] | None, t0: float,
+                  result: Callable[..., Any]) -> Any:
+    """Design a closed tiling for ``tgt`` (module doc); ``result`` builds the DesignResult."""
+    from fabpat.assembly.placement import build_tiling
+    from fabpat.design.api import base_faces
+    from fabpat.errors import SolverError
+
+    assert base.rows is not None
+    skel = build_tiling(base.spec)
+    groups, sides = face_groups(skel.V, skel.faces, tgt.bands)
+    pools = [pattern_features(base.rows[s]) for s in sides]
+    runner = Runner(base.spec, h, (), workers, dask, progress, solve=solve_closed)
+    search = ClosedSearch(pools, groups, sides, tgt, design_axis(skel.V, skel.faces),
+                          base.spec.material.strain_limit, base.max_distinct, runner)
+    labels = list(skel.labels)
+    named: dict[str, tuple[int, ...] | tuple[str, ...]] = {}
+    way = base_faces(base)
+    if way is not None:
+        key = search.key_of(way[1])
+        named[way[0]] = key if key is not None else tuple(way[1])
+    single = _single_key(search)
+    if single is not None:
+        named["single"] = single
+    keyed = [k for k in named.values() if k and isinstance(k[0], int)]
+    search.evaluate(keyed)  # type: ignore[arg-type]
+    runs: dict[str, ClosedEvaluated] = {}
+    for name, k in named.items():
+        if k and isinstance(k[0], str):  # a base choice outside the groups (e.g. per-face tiles): solved as given
+            res = runner.run([k])[0]  # type: ignore[list-item]
+            if not isinstance(res, BaseException):
+                runs[name] = ClosedEvaluated((), tgt.fit(res["P"], search.axis), res,
+                                             res["peak_strain"] > search.strain_limit)
+        elif search.seen.get(k) is not None:  # type: ignore[arg-type]
+            runs[name] = search.seen[k]  # type: ignore[index, assignment]
+    budget = max_solves + runner.solves
+    search.evaluate([k for k in search.start()][: max(0, budget - runner.solves)])
+    search.refine(budget, max(2, workers))
+    best = search.best
+    candidates = [ev for ev in (best, *runs.values()) if ev is not None]
+    if not candidates:
+        raise SolverError(f"no candidate design converged in {runner.solves} solves (h = {h:g} mm)")
+    best = min(candidates, key=lambda ev: ev.score)
+    faces = list(best.data["faces"])
+    rec = _record(tgt, base, best, labels, faces, runner.solves, time.perf_counter() - t0, tolerance, runs)
+    warning = None if rec["reachable"] else _unreachable(rec, tolerance, max_solves, best)
+    return result(rec, base, tgt, best, labels, groups, warning, runs)
+
+
+def _summary(ev: ClosedEvaluated, faces: list[str], labels: list[str]) -> dict[str, Any]:
+    ids = sorted(set(faces))
+    what: dict[str, Any] = {"pattern": ids[0]} if len(ids) == 1 else {"patterns": dict(zip(labels, faces, strict=True))}
+    return {**what, "rms_error": ev.rms, "max_error": ev.max, "relative_rms": float(ev.fit.relative_rms),
+            "peak_strain": float(ev.data["peak_strain"]), "sphericity_rms": float(ev.data["sphericity_rms"])}
+
+
+def _record(tgt: ClosedTarget, base: DesignBase, best: ClosedEvaluated, labels: list[str], faces: list[str],
+            solves: int, seconds: float, tolerance: float, runs: dict[str, ClosedEvaluated]) -> dict[str, Any]:
+    rel = float(best.fit.relative_rms)
+    baselines = {}
+    for name, ev in runs.items():
+        baselines[name] = _summary(ev, list(ev.data["faces"]), labels)
+    return {
+        "target": tgt.source, "kind": base.spec.tiling.kind,
+        "patterns": dict(zip(labels, faces, strict=True)),
+        "rms_error": best.rms, "max_error": best.max, "relative_rms": rel, "scale": float(best.fit.scale),
+        "radius": float(best.fit.radius), "sphericity_rms": float(best.data["sphericity_rms"]),
+        "peak_strain": float(best.data["peak_strain"]), "strain_limit": base.spec.material.strain_limit,
+        "solves": solves, "seconds": seconds, "reachable": bool(rel <= tolerance and not best.over_limit),
+        "tolerance": tolerance, "baselines": baselines,
+    }
+
+
+def _unreachable(rec: dict[str, Any], tolerance: float, max_solves: int, best: ClosedEvaluated) -> str:
+    head = (f"target not reached: rms error {rec['rms_error']:.3g} mm is {rec['relative_rms']:.2%} of the radius "
+            f"(tolerance {tolerance:.2%})")
+    if best.over_limit:
+        why = (f"the closest design found strains its plates to {rec['peak_strain']:.2%}, over the strain limit "
+               f"{rec['strain_limit']:.2%} (thinner plates, [plates] thickness, strain less)")
+    else:
+        why = f"the best of {rec['solves']} solves (--max-solves {max_solves}); more solves may get closer"
+    return f"{head}: {why}"
