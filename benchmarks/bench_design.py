@@ -1,8 +1,10 @@
-"""``fabpat design`` on strips: seeded random 1 × 9 strips (reachable by construction) and the shipped
-2 × 15 graded strip against a circular arc, a parabola and a skewed arch (highest at 0.62 of the span).
+"""``fabpat design``: seeded random 1 × 9 strips (reachable by construction), the shipped 2 × 15 graded
+strip against a circular arc, a parabola and a skewed arch (highest at 0.62 of the span), and the
+shipped truncated-icosahedron sphere against closed targets.
 
 Run: ``python benchmarks/bench_design.py [--count 10] [--h 3] [--max-solves 12] [--workers 2]
-[--shapes circle,parabola,skewed | none]`` — prints one Markdown table. A random strip's target is the
+[--shapes circle,parabola,skewed | none] [--closed "sphere;ellipsoid:1,1,1.15" | none]
+[--closed-solves 40]`` — prints one Markdown table per kind. A random strip's target is the
 mid-line the assembly solver predicts for random per-column patterns at 10 % end shortening; each design
 is re-simulated with ``simulate_assembly(design.toml)`` (its ``[load] end_shortening``) and that
 re-simulation's error against the target is the table's rms.
@@ -95,7 +97,40 @@ def main() -> None:
     ap.add_argument("--max-solves", type=int, default=12)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--shapes", default="circle,parabola,skewed")
+    ap.add_argument("--closed", default="sphere;ellipsoid:1,1,1.15")
+    ap.add_argument("--closed-solves", type=int, default=40)
     a = ap.parse_args()
+    strips(a)
+    if a.closed != "none":
+        closed(a)
+
+
+def closed(a: argparse.Namespace) -> None:
+    """The shipped sphere spec against each closed target: the design and its baselines (relative rms over
+    the radius), re-simulated with ``simulate_assembly(design.toml)``."""
+    from fabpat.assembly.simulation import simulate_assembly
+
+    spec = ROOT / "assemblies" / "truncated-icosahedron.toml"
+    print(f"\nh = {a.h:g} mm, --max-solves {a.closed_solves}, --workers {a.workers}\n")
+    print("| target | relative_rms | rms mm | scale | re-simulated sphericity_rms | peak strain | spec (hand-picked) "
+          "| single pattern | distinct patterns | solves | seconds |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    with tempfile.TemporaryDirectory() as tmp:
+        for n, target in enumerate(a.closed.split(";")):
+            out = Path(tmp) / f"closed-{n}"
+            r = design(target, spec, out=out, h=a.h, max_solves=a.closed_solves, workers=a.workers).record
+            sim = simulate_assembly(out / "design.toml", h=a.h)
+            b = r["baselines"]
+            print(f"| {target} | {r['relative_rms']:.3%} | {r['rms_error']:.3f} | {r['scale']:.2f} | "
+                  f"{sim.run.sphericity_rms:.3%} | {r['peak_strain']:.2%} | {b['spec']['relative_rms']:.3%} | "
+                  f"{b['single']['relative_rms']:.3%} | {len(set(r['patterns'].values()))} | {r['solves']} | "
+                  f"{r['seconds']:.0f} |", flush=True)
+
+
+def strips(a: argparse.Namespace) -> None:
+    """The strip table (module doc)."""
+    if a.count == 0 and a.shapes == "none":
+        return
     print(f"h = {a.h:g} mm, --max-solves {a.max_solves}, --workers {a.workers}\n")
     print("| strip | target | rms mm | relative_rms | re-simulated rms mm | single pattern | rule | solves | seconds |")
     print("|---|---|---|---|---|---|---|---|---|")

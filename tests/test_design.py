@@ -145,7 +145,7 @@ def test_bad_inputs_are_one_line_and_write_nothing(setup: dict, tmp_path: Path) 
         assert word in line, (word, line)
     line = _refused(["design", _csv(tmp_path, "ok.csv", good), "--spec",
                      str(ROOT / "assemblies" / "truncated-icosahedron.toml"), "--out", str(out)], out)
-    assert "closed tiling" in line and "strip targets" in line
+    assert "closed tiling" in line and "sphere, ellipsoid:A,B,C or a surface mesh" in line
     empty = _base(tmp_path, 'allowed = ["0x0488"]\nmin_width = 1000.0')
     line = _refused(["design", _csv(tmp_path, "ok2.csv", good), "--spec", str(empty), "--out", str(out)], out)
     assert "no candidate pattern" in line

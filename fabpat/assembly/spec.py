@@ -4,15 +4,15 @@ A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented 
 
 * ``[tiling]``  ``kind`` ("honeycomb-strip" | "truncated-icosahedron"), ``edge`` (plate polygon edge),
   ``rows`` and ``columns`` (strip only).
-* ``[patterns]`` one of: ``pattern`` (every tile); ``groups`` (one ID per group of ``group_columns``
-  columns, stiff → soft) or ``tiles`` (rows × columns IDs, or a table {plate label = ID} naming every
-  plate as the kit labels it, e.g. ``{T1 = "0x0488", …}``) on a strip; ``hexagon`` + ``pentagon``, or
-  ``tiles`` = {plate label = ID} for every face ("H01" … "H20", "P01" … "P12", each ID of its face's
-  polygon; ``fabpat design`` writes it), on the truncated icosahedron; or ``rule`` = "graded" (strip: ``count`` patterns with well-separated energies
-  in ``scenario``) / "similar-energy" (sphere: two patterns with similar energy in ``scenario``) /
-  "roundest" (sphere: the ``candidates`` best similar-energy pairs, default 8, of which the closure
-  solver keeps the roundest under the strain limit), read from the catalog (``catalog`` = path,
-  default the built-in one).
+* ``[patterns]`` one of: ``pattern`` (every tile); ``groups`` (one ID per group of ``group_columns`` columns,
+  stiff → soft) or ``tiles`` (rows × columns IDs, or a table {plate label = ID} naming every plate as the kit
+  labels it, e.g. ``{T1 = "0x0488", …}``) on a strip; ``hexagon`` + ``pentagon``, or ``tiles`` = {plate label
+  = ID} for every face ("H01" … "H20", "P01" … "P12", each ID of its face's polygon; ``fabpat design`` writes
+  it), on the truncated icosahedron; or ``rule`` = "graded" (strip: ``count`` patterns with well-separated
+  energies in ``scenario``) / "similar-energy" (sphere: two patterns with similar energy in ``scenario``) /
+  "roundest" (sphere: the ``candidates`` best similar-energy pairs, default 8, of which the closure solver
+  keeps the roundest under the strain limit), read from the catalog (``catalog`` = path, default the built-in
+  one).
 * ``[plates]``  ``thickness``, ``weight`` (interface fillet weight), ``process`` ("print" | "laser"),
   ``density`` (g/cm³, for masses).
 * ``[sleeve]``  ``clearance`` (slot width = thickness + clearance), ``margin`` (slot length =

@@ -18,10 +18,11 @@ from fabpat.cli.options import h_option, number_option
 @click.option("--out", required=True, type=click.Path(file_okay=False),
               help="Output folder (created; an earlier `fabpat design` output there is replaced).")
 @h_option(3.0)
-@number_option("--max-solves", range_name="max_solves", default=12, show_default=True,
-               help="Budget of full assembly solves for the search (the baselines' one or two come on top).")
+@number_option("--max-solves", range_name="max_solves", default=None,
+               help="Budget of full assembly solves for the search (the baselines' one or two come on top) "
+                    "[default: 12 for a strip, 40 for a closed tiling].")
 @number_option("--tolerance", range_name="design_tolerance", default=0.01, show_default=True,
-               help="Reachable when the rms error is at most this fraction of the span.")
+               help="Reachable when the rms error is at most this fraction of the span (closed: of the radius).")
 @click.option("--scale-target", is_flag=True,
               help="Scale a target whose arc length differs from the strip's by more than 2 % to its length.")
 @number_option("--workers", range_name="workers", default=None, help="Local worker processes [default: 1].")
@@ -29,15 +30,18 @@ from fabpat.cli.options import h_option, number_option
               help="Send the solves to this dask.distributed scheduler (e.g. tcp://host:8786) instead.")
 @click.option("--kit", is_flag=True, help="Also run `fabpat assemble` on design.toml into DIR/kit.")
 @click.option("--progress/--no-progress", default=True, show_default=True, help="Progress on stderr.")
-def design_cmd(target: str, spec: str, out: str, h: float, max_solves: int, tolerance: float, scale_target: bool,
+def design_cmd(target: str, spec: str, out: str, h: float, max_solves: int | None, tolerance: float, scale_target: bool,
                workers: int | None, dask_address: str | None, kit: bool, progress: bool) -> None:
-    """Choose one pattern per tile so that the assembled strip matches TARGET.
+    """Choose one pattern per tile so that the assembled strip or closed tiling matches TARGET.
 
-    TARGET is a CSV of the arch's mid-line (header x,z, mm; x from column 0's pin, z up, both pins at
-    z = 0). Writes DIR/design.toml (a spec for `fabpat assemble` and `fabpat simulate-assembly`, with
-    every tile's pattern and [load] end_shortening), DIR/design.json and DIR/design.png.
+    For a honeycomb-strip spec, TARGET is a CSV of the arch's mid-line (header x,z, mm; x from column 0's
+    pin, z up, both pins at z = 0). For a closed tiling (truncated-icosahedron) it is `sphere`,
+    `ellipsoid:A,B,C` (axis ratios) or a surface mesh file (.obj, .stl, .ply); the plates fix its size.
+    Writes DIR/design.toml (a spec for `fabpat assemble` and `fabpat simulate-assembly`, with every
+    tile's pattern and, for a strip, [load] end_shortening), DIR/design.json and DIR/design.png.
 
-    Example: fabpat design arch.csv --spec assemblies/graded-strip.toml --out arch-design
+    Examples: fabpat design arch.csv --spec assemblies/graded-strip.toml --out arch-design;
+    fabpat design sphere --spec assemblies/truncated-icosahedron.toml --out sphere-design
     """
     from fabpat.design import design
     from fabpat.io import check_distinct
@@ -64,7 +68,7 @@ def design_cmd(target: str, spec: str, out: str, h: float, max_solves: int, tole
 class _progress:  # noqa: N801 - used like a function
     """A rich bar on a terminal, else a plain line at most every few seconds: one tick per solve."""
 
-    def __init__(self, budget: int) -> None:
+    def __init__(self, budget: int | None) -> None:
         import sys
 
         self.budget, self.last = budget, 0.0
@@ -74,7 +78,7 @@ class _progress:  # noqa: N801 - used like a function
 
             self.bar = Progress(transient=True)
             self.bar.start()
-            self.task = self.bar.add_task("design solves", total=budget + 2)
+            self.task = self.bar.add_task("design solves", total=None if budget is None else budget + 2)
 
     def __call__(self, solves: int, seconds: float) -> None:
         if self.bar is not None:

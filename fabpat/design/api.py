@@ -99,18 +99,18 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
            progress: Callable[[int, float], None] | None = None) -> DesignResult:
     """Design an assembly whose predicted shape matches ``target``: one pattern per tile.
 
-    ``target``: for a honeycomb-strip spec a CSV path (header x,z, mm) or an (n, 2) array of (x, z) mm;
-    for a closed tiling "sphere", "ellipsoid:A,B,C" or a surface mesh file (OBJ, STL, PLY;
-    :mod:`fabpat.design.closed`); ``spec``: the base spec (TOML path; :mod:`fabpat.design.base`). ``h``
-    mesh edge (mm) of every solve; ``max_solves`` the search's budget of full assembly solves (the
-    baselines come on top; default :data:`MAX_SOLVES` for a strip, :data:`MAX_SOLVES_CLOSED` for a closed
-    tiling); ``tolerance``: reachable when relative_rms (rms over the span, or over the radius) ≤ it; ``scale_target`` scales a target whose arc length is off by > 2 % to the strip's
-    length; ``workers`` local processes or ``dask`` a scheduler address for the parallel solves;
-    ``out`` writes the outputs there (``kit``: also ``fabpat assemble`` into out/kit); ``progress(solves,
-    seconds)`` after every solve. Raises TargetError, SpecError (bad input, one line), SolverError (no
-    candidate converged), ExportError (outputs).
+    ``target``: for a honeycomb-strip spec a CSV path (header x,z, mm) or an (n, 2) array of (x, z) mm; for a
+    closed tiling "sphere", "ellipsoid:A,B,C" or a surface mesh file (OBJ, STL, PLY;
+    :mod:`fabpat.design.closed`); ``spec``: the base spec (TOML path; :mod:`fabpat.design.base`). ``h`` mesh
+    edge (mm) of every solve; ``max_solves`` the search's budget of full assembly solves (the baselines come
+    on top; default :data:`MAX_SOLVES` for a strip, :data:`MAX_SOLVES_CLOSED` for a closed tiling);
+    ``tolerance``: reachable when relative_rms (rms over the span, or over the radius) ≤ it; ``scale_target``
+    scales a strip target whose arc length is off by > 2 % to the strip's length; ``workers`` local processes
+    or ``dask`` a scheduler address for the parallel solves; ``out`` writes the outputs there (``kit``: also
+    ``fabpat assemble`` into out/kit); ``progress(solves, seconds)`` after every solve. Raises TargetError,
+    SpecError (bad input, one line), SolverError (no candidate converged), ExportError (outputs).
     """
-    from fabpat.errors import SolverError, SpecError
+    from fabpat.errors import SpecError
 
     t0 = time.perf_counter()
     import fabpat.design.ranges  # noqa: F401 - registers max_solves' and design_tolerance's ranges
@@ -242,7 +242,9 @@ def _record(strip: StripTarget, tgt: Any, base: DesignBase, best: Evaluated, lab
         "patterns": dict(zip(labels, faces, strict=True)),
         "rms_error": best.rms, "max_error": best.max, "relative_rms": rel,
         "end_shortening": best.data["end_shortening"], "scale": scale, "solves": solves, "seconds": seconds,
-        "reachable": bool(rel <= tolerance), "tolerance": tolerance, "span": strip.span, "pin_length": length,
+        "reachable": bool(rel <= tolerance and best.data["peak_strain"] <= base.spec.material.strain_limit),
+        "peak_strain": best.data["peak_strain"], "strain_limit": base.spec.material.strain_limit,
+        "tolerance": tolerance, "span": strip.span, "pin_length": length,
         "strip_length": best.data["length"], "baselines": baselines,
     }
 
@@ -252,6 +254,12 @@ def _unreachable(rec: dict[str, Any], needs: np.ndarray, log_s: np.ndarray, base
     """The one warning line: how far the design is and what limits it."""
     head = (f"target not reached: rms error {rec['rms_error']:.3g} mm is {rec['relative_rms']:.2%} of the span "
             f"(tolerance {tolerance:.2%})")
+    if rec["peak_strain"] > rec["strain_limit"]:
+        if rec["relative_rms"] <= tolerance:
+            head = (f"the shape is reached (rms error {rec['relative_rms']:.2%} of the span) but the kit cannot be "
+                    "built")
+        return (f"{head}: the design strains its plates to {rec['peak_strain']:.2%}, over the strain limit "
+                f"{rec['strain_limit']:.2%} ([material] strain_limit; thinner plates strain less)")
     bad = [str(c) for c in range(len(needs)) if needs[c] == math.inf]
     fin = needs[np.isfinite(needs)]
     have = math.exp(float(log_s[-1] - log_s[0]))

@@ -115,7 +115,8 @@ def _catalog_energies(spec: AssemblySpec, catalog: str | None) -> dict[str, floa
         raise SpecError(f"{spec.source}: the design needs the catalog's {SCENARIO} energies, but {e}") from e
 
 
-def closed_rows(spec: AssemblySpec, source: str, catalog: str | None, keys: dict[str, Any]) -> dict[int, list[dict[str, Any]]]:
+def closed_rows(spec: AssemblySpec, source: str, catalog: str | None,
+                keys: dict[str, Any]) -> dict[int, list[dict[str, Any]]]:
     """{polygon sides: catalog rows} of a closed tiling's candidates (module doc), at the base's plate
     set-up when the catalog has it; SpecError (one line) if a polygon has none left."""
     from fabpat import catalog as cat

@@ -83,9 +83,10 @@ def face_groups(V: Arr, faces: tuple[tuple[int, ...], ...], bands: int) -> tuple
 
 def solve_closed(spec: Any, patterns: tuple[str, ...], h: float) -> dict[str, Any]:
     """One full closure (the ``simulate-assembly`` path of a closed spec) with face patterns ``patterns``.
-    Returns plain data: ``faces`` the patterns, ``P`` (n, 3) the deformed plate nodes (mm), ``peak_strain``, ``seconds``,
-    ``radius`` and ``sphericity_rms`` of the least-squares sphere, ``factorizations``. Raises SolverError,
-    GeometryError."""
+    Returns plain data: ``faces`` the patterns, ``P`` (n, 3) the deformed plate nodes (mm),
+    ``peak_strain``, ``seconds``, ``radius`` and ``sphericity_rms`` of the least-squares sphere,
+    ``plate_energies`` (N·mm), ``offsets`` (plates + 1,) each face's first node in P (faces in the tiling's
+    order). Raises SolverError, GeometryError."""
     from fabpat.assembly.closure import closure_setup, run_closure
 
     t0 = time.perf_counter()
@@ -94,7 +95,31 @@ def solve_closed(spec: Any, patterns: tuple[str, ...], h: float) -> dict[str, An
     n = len(setup.model.X)
     return {"P": run.x[:n], "peak_strain": run.peak_strain, "radius": run.radius,
             "sphericity_rms": run.sphericity_rms, "seconds": time.perf_counter() - t0,
-            "plate_energies": run.plate_energies, "faces": list(patterns)}
+            "plate_energies": run.plate_energies, "faces": list(patterns),
+            "offsets": np.asarray(setup.model.offsets, dtype=np.int64)}
+
+
+class _GP:
+    """Gaussian-process regression with a squared-exponential kernel on standardised targets (Rasmussen &
+    Williams 2006, eq. 2.25–2.26); length scale :data:`LENGTH_SCALE`·√d, noise :data:`NOISE`."""
+
+    def __init__(self, X: Arr, y: Arr) -> None:
+        self.X = X
+        self.ell = LENGTH_SCALE * math.sqrt(X.shape[1])
+        self.mean, self.sd = float(y.mean()), float(y.std()) or 1.0
+        self.L = np.linalg.cholesky(self._k(X, X) + NOISE * np.eye(len(X)))
+        self.alpha = np.linalg.solve(self.L.T, np.linalg.solve(self.L, (y - self.mean) / self.sd))
+
+    def _k(self, A: Arr, B: Arr) -> Arr:
+        d2 = (A * A).sum(axis=1)[:, None] + (B * B).sum(axis=1)[None, :] - 2.0 * A @ B.T
+        return np.exp(-0.5 * np.maximum(d2, 0.0) / (self.ell * self.ell))
+
+    def predict(self, Xc: Arr) -> tuple[Arr, Arr]:
+        """Posterior mean and standard deviation at the rows of Xc (the targets' units)."""
+        Ks = self._k(Xc, self.X)
+        v = np.linalg.solve(self.L, Ks.T)
+        sigma = np.sqrt(np.maximum(1.0 - (v * v).sum(axis=0), 0.0))
+        return self.mean + self.sd * (Ks @ self.alpha), self.sd * sigma
 
 
 @dataclass(frozen=True, eq=False)
@@ -115,6 +140,21 @@ class ClosedEvaluated:
     def max(self) -> float:
         """Largest distance from the target (mm)."""
         return float(self.fit.max)
+
+    def parts(self, face_group: list[int], groups: int) -> tuple[Arr, Arr, Arr]:
+        """(within, offset, weight), each (groups,): per face group the RMS of the signed distances about
+        the group's mean, that mean (both over the radius) and the group's share of the nodes, so that
+        relative_rms² = Σ weight·(within² + offset²) exactly."""
+        off = self.data["offsets"]
+        d = self.fit.signed / self.fit.radius
+        node_group = np.repeat(np.asarray(face_group), np.diff(off))
+        within, offset, weight = np.zeros(groups), np.zeros(groups), np.zeros(groups)
+        for g in range(groups):
+            x = d[node_group == g]
+            offset[g] = x.mean()
+            within[g] = np.sqrt(np.mean((x - offset[g]) ** 2))
+            weight[g] = len(x) / len(d)
+        return within, offset, weight
 
     @property
     def score(self) -> float:
@@ -211,35 +251,41 @@ class ClosedSearch:
         return [k for k in out if k not in self.seen and self.distinct_ok(k)]
 
     def propose(self, count: int, rng: np.random.Generator) -> list[tuple[int, ...]]:
-        """The ``count`` unseen designs of lowest μ − κσ (module doc)."""
+        """The ``count`` unseen designs of lowest lower confidence bound of the predicted relative rms
+        (module doc: the within-group and offset surrogates); designs predicted over the strain limit
+        with confidence are left out."""
         done = [(k, ev) for k, ev in self.seen.items() if ev is not None]
         cands = self._candidates(rng)
         if not done or not cands:
             return cands[:count]
-        X = self._x([k for k, _ in done])
-        y = np.log([ev.score for _, ev in done])
-        mu0, sd = float(y.mean()), float(y.std()) or 1.0
-        yn = (y - mu0) / sd
-        ell = LENGTH_SCALE * math.sqrt(X.shape[1])
-
-        def kern(A: Arr, B: Arr) -> Arr:
-            d2 = ((A[:, None, :] - B[None, :, :]) ** 2).sum(axis=2)
-            return np.exp(-0.5 * d2 / (ell * ell))
-
-        L = np.linalg.cholesky(kern(X, X) + NOISE * np.eye(len(X)))
-        alpha = np.linalg.solve(L.T, np.linalg.solve(L, yn))
-        Xc = self._x(cands)
-        Ks = kern(Xc, X)
-        mu = Ks @ alpha
-        v = np.linalg.solve(L, Ks.T)
-        sigma = np.sqrt(np.maximum(1.0 - (v * v).sum(axis=0), 0.0))
-        lcb = mu - KAPPA * sigma
-        picked: list[tuple[int, ...]] = []
-        for j in np.argsort(lcb, kind="stable"):
-            picked.append(cands[int(j)])
-            if len(picked) >= count:
-                break
-        return picked
+        G = len(self.pools)
+        parts = [ev.parts(self.face_group, G) for _, ev in done]
+        weight = self.best.parts(self.face_group, G)[2] if self.best is not None else parts[-1][2]
+        Xd, Xc = self._x([k for k, _ in done]), self._x(cands)
+        tot2 = np.zeros(len(cands))
+        var = np.zeros(len(cands))
+        o_mu, o_sd = [], []
+        for g in range(G):  # within: a property of the group's own pattern, seen in every solve that used it
+            Fg = self.pools[g][1]
+            w_mu, w_sd = _GP(Fg[[k[g] for k, _ in done]], np.log([p[0][g] for p in parts])).predict(
+                Fg[[k[g] for k in cands]])
+            W = np.exp(w_mu)
+            mu, sd = _GP(Xd, np.array([p[1][g] for p in parts])).predict(Xc)  # offsets: of the whole design
+            o_mu.append(mu)
+            o_sd.append(sd)
+            tot2 += weight[g] * W * W
+            var += (weight[g] * W * W * w_sd) ** 2
+        off = np.array(o_mu)
+        off = off - (weight[:, None] * off).sum(axis=0)  # the fit centres the target on the nodes
+        tot2 += (weight[:, None] * off * off).sum(axis=0)
+        var += ((weight[:, None] * off * np.array(o_sd)) ** 2).sum(axis=0)
+        tot = np.sqrt(tot2)
+        lcb = tot - KAPPA * np.sqrt(var) / np.maximum(tot, 1e-300)
+        s_mu, s_sd = _GP(Xd, np.log([ev.data["peak_strain"] for _, ev in done])).predict(Xc)
+        feasible = s_mu - KAPPA * s_sd <= math.log(self.strain_limit)
+        order = [int(j) for j in np.argsort(lcb, kind="stable") if feasible[j]]
+        order += [int(j) for j in np.argsort(lcb, kind="stable") if not feasible[j]]
+        return [cands[j] for j in order[:count]]
 
     def refine(self, budget: int, batch: int) -> None:
         """Batches of proposals until ``budget`` solves are spent or nothing is left to try."""

@@ -80,13 +80,32 @@ def design_closed(tgt: ClosedTarget, base: DesignBase, h: float, max_solves: int
     best = min(candidates, key=lambda ev: ev.score)
     faces = list(best.data["faces"])
     rec = _record(tgt, base, best, labels, faces, runner.solves, time.perf_counter() - t0, tolerance, runs)
+    rec["history"] = [_brief(ev, labels) for ev in search.seen.values() if ev is not None]
     warning = None if rec["reachable"] else _unreachable(rec, tolerance, max_solves, best)
     return result(rec, base, tgt, best, labels, groups, warning, runs)
 
 
+def _group_ids(faces: list[str], labels: list[str]) -> dict[str, str]:
+    """{label prefix or label: ID}: one entry per polygon when all its faces agree, else per face."""
+    out: dict[str, str] = {}
+    for prefix, name in (("H", "hexagon"), ("P", "pentagon")):
+        ids = {f for f, lab in zip(faces, labels, strict=True) if lab.startswith(prefix)}
+        if len(ids) == 1:
+            out[name] = next(iter(ids))
+        else:
+            out.update({lab: f for f, lab in zip(faces, labels, strict=True) if lab.startswith(prefix)})
+    return out
+
+
+def _brief(ev: ClosedEvaluated, labels: list[str]) -> dict[str, Any]:
+    """One solve of the search for design.json's ``history``."""
+    return {"patterns": _group_ids(list(ev.data["faces"]), labels),
+            "relative_rms": float(ev.fit.relative_rms), "peak_strain": float(ev.data["peak_strain"])}
+
+
 def _summary(ev: ClosedEvaluated, faces: list[str], labels: list[str]) -> dict[str, Any]:
     ids = sorted(set(faces))
-    what: dict[str, Any] = {"pattern": ids[0]} if len(ids) == 1 else {"patterns": dict(zip(labels, faces, strict=True))}
+    what: dict[str, Any] = {"pattern": ids[0]} if len(ids) == 1 else {"patterns": _group_ids(faces, labels)}
     return {**what, "rms_error": ev.rms, "max_error": ev.max, "relative_rms": float(ev.fit.relative_rms),
             "peak_strain": float(ev.data["peak_strain"]), "sphericity_rms": float(ev.data["sphericity_rms"])}
 
@@ -111,6 +130,9 @@ def _record(tgt: ClosedTarget, base: DesignBase, best: ClosedEvaluated, labels: 
 def _unreachable(rec: dict[str, Any], tolerance: float, max_solves: int, best: ClosedEvaluated) -> str:
     head = (f"target not reached: rms error {rec['rms_error']:.3g} mm is {rec['relative_rms']:.2%} of the radius "
             f"(tolerance {tolerance:.2%})")
+    if best.over_limit and rec["relative_rms"] <= tolerance:
+        head = (f"the shape is reached (rms error {rec['relative_rms']:.2%} of the radius) but the kit cannot be "
+                "built")
     if best.over_limit:
         why = (f"the closest design found strains its plates to {rec['peak_strain']:.2%}, over the strain limit "
                f"{rec['strain_limit']:.2%} (thinner plates, [plates] thickness, strain less)")

@@ -43,7 +43,8 @@ def solve_candidate(spec: Any, patterns: tuple[str, ...], h: float, travel: floa
     """One full strip solve: the face patterns ``patterns``, mesh edge ``h`` mm, pins moved together by
     ``travel`` mm. Returns plain data (it crosses process boundaries): ``x``, ``z`` the mid-line (mm,
     :func:`fabpat.design.strip.midline`), ``end_shortening`` (travel over the strip length, as
-    ``simulate-assembly`` reads it), ``length`` (mm), ``seconds``. Raises SolverError, GeometryError."""
+    ``simulate-assembly`` reads it), ``length`` (mm), ``seconds``, ``peak_strain`` (the largest principal
+    surface strain). Raises SolverError, GeometryError."""
     from fabpat.assembly.simulate import IMPERFECTION, run_strip, strip_setup
     from fabpat.assembly.simulation import DEFAULT_STEPS
     from fabpat.design.strip import midline
@@ -54,7 +55,8 @@ def solve_candidate(spec: Any, patterns: tuple[str, ...], h: float, travel: floa
     es = travel / setup.length
     run = run_strip(setup, es, steps=DEFAULT_STEPS["honeycomb-strip"], imperfection=IMPERFECTION)
     x, z = midline(setup, run.result.final.displacement)
-    return {"x": x, "z": z, "end_shortening": es, "length": setup.length, "seconds": time.perf_counter() - t0}
+    return {"x": x, "z": z, "end_shortening": es, "length": setup.length, "seconds": time.perf_counter() - t0,
+            "peak_strain": float(run.peak_strain)}
 
 
 @dataclass(frozen=True, eq=False)

@@ -11,13 +11,14 @@ is moved, turned and scaled onto P (a similarity transform) and the distances ar
   (:func:`scipy.optimize.least_squares`) on the first-order (Sampson) distance g/|∇g| with
   g(q) = |q / (sA, sB, sC)| − 1 (Hartley & Zisserman, *Multiple View Geometry*, 2nd ed., §4.2.6): exact on
   the surface, within 1 % of the Euclidean distance for deviations below 1 % of the size. Started
-  with the axis that differs most from the other two along ``axis`` (the tiling's design axis).
+  twice, with the axis that differs most from the other two along ``axis`` (the tiling's design axis)
+  and along the points' most distinct principal axis; the better fit is kept.
   ``scale`` = s (mm per unit of the ratios).
-* a mesh file (OBJ, STL, PLY, read by trimesh): the mesh is scaled to P's RMS radius, started in
-  each of the four proper principal-axis alignments, refined by ICP with scale
-  (:func:`trimesh.registration.icp`), and the distance is that of each node to the nearest point of
-  the moved mesh (:func:`trimesh.proximity.closest_point`). ``scale`` is the similarity's scale (mm
-  per unit of the file).
+* a mesh file (OBJ, STL, PLY, read by trimesh): the nodes are moved onto the mesh, started in each
+  of the four proper principal-axis alignments at the mesh's RMS radius and refined by ICP with scale
+  (:func:`trimesh.registration.icp`, point to surface), and the distance is that of each node to the
+  nearest point of the mesh (:func:`trimesh.proximity.closest_point`), back in mm. ``scale`` is the
+  similarity's scale (mm per unit of the file).
 
 ``radius`` (mm), the size ``relative_rms`` divides by: the sphere's r; otherwise the RMS distance of
 P from its centroid (r again on a sphere).
@@ -33,15 +34,24 @@ from numpy.typing import NDArray
 
 Arr = NDArray[np.float64]
 
+#: nodes (a seeded random subset) that the ICP of a mesh target moves; the distances use every node
+ICP_POINTS = 1000
+
 
 @dataclass(frozen=True, eq=False)
 class SurfaceFit:
-    """Distances of the nodes from the fitted target: ``distance`` (n,) mm, ``rms``/``max`` mm,
+    """Distances of the nodes from the fitted target: ``signed`` (n,) mm (positive outside the target;
+    a mesh target that is not watertight has no inside: its distances are all ≥ 0), ``rms``/``max`` mm,
     ``scale`` (mm per target unit), ``radius`` (mm, the size that ``relative_rms`` divides by)."""
 
-    distance: Arr
+    signed: Arr
     scale: float
     radius: float
+
+    @property
+    def distance(self) -> Arr:
+        """(n,) unsigned distances (mm)."""
+        return np.abs(self.signed)
 
     @property
     def rms(self) -> float:
@@ -68,7 +78,7 @@ def fit_to_sphere(P: Arr) -> SurfaceFit:
     from fabpat.assembly.closure import fit_sphere
 
     c, r = fit_sphere(P)
-    return SurfaceFit(np.abs(np.linalg.norm(P - c, axis=1) - r), r, r)
+    return SurfaceFit(np.linalg.norm(P - c, axis=1) - r, r, r)
 
 
 def distinct_axis(axes: tuple[float, float, float]) -> int:
@@ -119,10 +129,13 @@ def fit_to_ellipsoid(P: Arr, axes: tuple[float, float, float], axis: Arr) -> Sur
         grad = np.linalg.norm(q / (semi * semi), axis=1) / np.maximum(n, 1e-300)
         return (n - 1.0) / np.maximum(grad, 1e-300)
 
-    x0 = np.concatenate([c0, w0, [s0]])
-    sol = least_squares(dist, x0, x_scale="jac", xtol=1e-12, ftol=1e-12)
+    val, vec = np.linalg.eigh(np.cov((P - c0).T))
+    pca = vec[:, int(np.argmax([abs(val[i] - 0.5 * (val.sum() - val[i])) for i in range(3)]))]
+    w1 = Rotation.from_matrix(_frame_with(pca, distinct_axis(axes))).as_rotvec()
+    sol = min((least_squares(dist, np.concatenate([c0, w, [s0]]), x_scale="jac", xtol=1e-12, ftol=1e-12)
+               for w in (w0, w1)), key=lambda r: float(r.cost))
     s = float(sol.x[6])
-    return SurfaceFit(np.abs(dist(sol.x)), s, _rms_radius(P))
+    return SurfaceFit(dist(sol.x), s, _rms_radius(P))
 
 
 def fit_to_mesh(P: Arr, mesh: object) -> SurfaceFit:
@@ -130,8 +143,7 @@ def fit_to_mesh(P: Arr, mesh: object) -> SurfaceFit:
     import trimesh
 
     m: trimesh.Trimesh = mesh  # type: ignore[assignment]
-    pts = m.sample(4000, seed=1) if hasattr(m, "sample") else np.asarray(m.vertices)
-    pts = np.asarray(pts, dtype=np.float64)
+    pts = np.asarray(m.sample(4000, seed=1), dtype=np.float64)  # for the start: centroid, axes, size
 
     def axes_of(X: Arr) -> tuple[Arr, Arr]:
         c = X.mean(axis=0)
@@ -141,20 +153,26 @@ def fit_to_mesh(P: Arr, mesh: object) -> SurfaceFit:
     cm, vm = axes_of(pts)
     cp, vp = axes_of(P)
     s0 = _rms_radius(P) / _rms_radius(pts)
+    sub = P[np.random.default_rng(0).permutation(len(P))[:ICP_POINTS]] if len(P) > ICP_POINTS else P
     best: tuple[float, Arr] | None = None
     for signs in ((1, 1, 1), (1, -1, -1), (-1, 1, -1), (-1, -1, 1)):
         R = vp @ np.diag(signs) @ vm.T
         if np.linalg.det(R) < 0:
             R = vp @ np.diag([-signs[0], signs[1], signs[2]]) @ vm.T
-        M = np.eye(4)
-        M[:3, :3] = s0 * R
-        M[:3, 3] = cp - s0 * R @ cm
-        T, _, cost = trimesh.registration.icp(pts, P, initial=M, max_iterations=60, reflection=False, scale=True)
+        M = np.eye(4)  # P's frame → the file's: the inverse of scaling by s0, turning by R, moving cm to cp
+        M[:3, :3] = R.T / s0
+        M[:3, 3] = cm - R.T @ cp / s0
+        # the nodes onto the surface (point-to-surface, trimesh's closest points), not samples onto nodes
+        T, _, cost = trimesh.registration.icp(sub, m, initial=M, max_iterations=20, reflection=False, scale=True)
         if best is None or cost < best[0]:
             best = (float(cost), T)
     assert best is not None
-    T = best[1]
-    moved = m.copy()
-    moved.apply_transform(T)
-    _, d, _ = trimesh.proximity.closest_point(moved, P)
-    return SurfaceFit(np.asarray(d, dtype=np.float64), float(np.cbrt(abs(np.linalg.det(T[:3, :3])))), _rms_radius(P))
+    T, _, _ = trimesh.registration.icp(sub, m, initial=best[1], max_iterations=200, threshold=1e-9,
+                                       reflection=False, scale=True)
+    scale = float(np.cbrt(abs(np.linalg.det(T[:3, :3]))))  # file units per mm
+    Q = P @ T[:3, :3].T + T[:3, 3]
+    _, d, _ = trimesh.proximity.closest_point(m, Q)
+    d = np.asarray(d, dtype=np.float64) / scale
+    if m.is_watertight:  # trimesh's sign is positive inside; ours outside, as the sphere's
+        d = d * np.where(m.contains(Q), -1.0, 1.0)
+    return SurfaceFit(d, 1.0 / scale, _rms_radius(P))
