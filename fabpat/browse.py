@@ -118,7 +118,10 @@ def render_page(data: dict[str, object]) -> str:
     template = (resources.files("fabpat") / "data" / "browse_template.html").read_text(encoding="utf-8")
     # "</" inside a <script> would end it early: escape it in the JSON (still valid JSON)
     blob = json.dumps(data, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
-    title = f"fabpat library: {len(data['ids'])} patterns"  # type: ignore[arg-type]
+    from fabpat.catalog_rows import polygon_name
+
+    sides = int(data["setup"]["sides"])  # type: ignore[index]
+    title = f"fabpat library: {len(data['ids'])} {polygon_name(sides)}"  # type: ignore[arg-type]
     return (template.replace("{{TITLE}}", title)
             .replace("{{DATA}}", blob)
             .replace("{{PLOTLYJS}}", get_plotlyjs()))

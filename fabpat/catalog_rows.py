@@ -137,6 +137,9 @@ class Condition:
         return v is not None and OPERATORS[self.op](float(v), self.value)  # type: ignore[arg-type]
 
 
+_NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?", re.ASCII)
+
+
 def parse_condition(text: str, fields: Sequence[str]) -> Condition:
     """``"energy_dome<300"`` → :class:`Condition`: ``FIELD OP NUMBER``, spaces allowed, with FIELD one of
     ``fields``, OP one of ``< <= > >= = !=`` and NUMBER a finite number in the column's unit.
@@ -150,12 +153,13 @@ def parse_condition(text: str, fields: Sequence[str]) -> Condition:
         raise _error(f"filter {text!r}: unknown field {field!r}; the numeric fields are {', '.join(fields)}")
     if op not in OPERATORS:
         raise _error(f"filter {text!r}: unknown operator {op!r}; use one of {ops}")
-    try:
-        value = float(number)
+    try:  # float() also takes "1_000" and non-ASCII digits; a filter is plain ASCII decimal notation
+        value = float(number) if _NUMBER.fullmatch(number.strip()) else math.nan
     except ValueError:
         value = math.nan
     if not math.isfinite(value):
-        raise _error(f"filter {text!r}: {number!r} is not a finite number")
+        raise _error(f"filter {text!r}: {number!r} is not a finite number in plain decimal notation (such as 300, "
+                     "2.5 or 1e3)")
     return Condition(field, op, value)
 
 

@@ -12,6 +12,7 @@ from pathlib import Path
 
 from fabpat.browse import choose_setup, metric_info
 from fabpat.catalog import Catalog
+from fabpat.catalog_rows import polygon_name
 from fabpat.errors import PatternError
 
 PALETTE = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#e377c2", "#17becf", "#8c564b", "#bcbd22",
@@ -79,7 +80,7 @@ def plot_catalog(cat: Catalog, out: str | Path, highlight: Sequence[str] = (), s
     for name, x, y, title in panels:
         fig, ax = plt.subplots(figsize=(5, 4), layout="constrained")
         _panel(ax, rows, x, y, marks)
-        ax.set_title(f"{title} ({len(rows)} patterns)", fontsize=10)
+        ax.set_title(f"{title} ({len(rows)} {polygon_name(int(setup['sides']))})", fontsize=10)
         figures.append((name, fig))
     fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels), 3.8), layout="constrained", squeeze=False)
     for ax, (_, x, y, title) in zip(axes[0], panels, strict=True):

@@ -128,6 +128,8 @@ def test_rows_without_a_value_sort_last_and_fail_every_filter() -> None:
     ("--where", "energy_dome<abc", ["'abc' is not a finite number"]),
     ("--where", "energy_dome<inf", ["'inf' is not a finite number"]),
     ("--where", "energy_dome<1; DROP TABLE results", ["is not a finite number"]),
+    ("--where", "energy_dome<1_000", ["'1_000' is not a finite number in plain decimal notation"]),
+    ("--where", "energy_dome<\uff13\uff10\uff10", ["is not a finite number in plain decimal notation"]),
     ("--sort", "colour", ["cannot sort by 'colour'", "energy_dome", "-FIELD descending"]),
     ("--sort", "-id", ["cannot sort by 'id'"]),
     ("--top", "0", ["--top", "[1, 1000000]"]),

@@ -157,12 +157,24 @@ class ClosureRun:
     result: PathResult
 
 
+def warm_start(previous: ClosureRun, setup: ClosureSetup) -> tuple[Arr, Arr]:
+    """The warm-start guess for ``setup`` from the closed state of ``previous``, a closure of the same
+    tiling (:func:`fabpat.assembly.model.warm_guess`)."""
+    from fabpat.assembly.model import warm_guess
+
+    fin, old, new = previous.result.final, previous.setup.model, setup.model
+    return warm_guess(old.X, old.offsets, fin.displacement, fin.rotation, new.X, new.offsets)
+
+
 def run_closure(setup: ClosureSetup, *, steps: int = CLOSURE_STEPS, strain_limit: float = 0.02,
-                progress: object = None) -> ClosureRun:
+                progress: object = None, start: tuple[Arr, Arr] | None = None) -> ClosureRun:
     """Turn every sleeve from its start angle by its ``angle`` in ``steps`` report increments.
 
-    ``progress``: optional callable(λ) told after every report step. Raises SolverError (naming the
-    angle fraction λ reached) if the path is lost.
+    ``progress``: optional callable(λ) told after every report step. ``start``: a warm start (the
+    displacement and rotation guess of :func:`fabpat.assembly.model.warm_guess`, e.g. from
+    :func:`warm_start`): tried at λ = 1 first, the path followed from the start if it fails (``path``
+    then has the one point λ = 1 when it converges). Raises SolverError (naming the angle fraction λ
+    reached) if the path is lost.
     """
     from fabpat.shell.rotations import expmap
     from fabpat.shell.strain import surface_strains
@@ -174,7 +186,8 @@ def run_closure(setup: ClosureSetup, *, steps: int = CLOSURE_STEPS, strain_limit
         fixed[n + setup.held, :] = True
     zero = np.zeros((N, 6))
     prob = m.problem(fixed, zero, zero)
-    r = solve_path(prob, steps=steps, rtol=CLOSURE_RTOL, link_reference=True, progress=progress)
+    r = solve_path(prob, steps=steps, rtol=CLOSURE_RTOL, link_reference=True, progress=progress,
+                   start=start)
     X = np.vstack([m.X, prob.masters])
     fin = r.final
     x = X + fin.displacement

@@ -30,6 +30,7 @@ from fabpat.errors import GeometryError
 from fabpat.mesh import ShellMesh
 from fabpat.shell.element import Material
 from fabpat.shell.linked import LinkedProblem
+from fabpat.shell.rotations import logmap
 
 Arr = NDArray[np.float64]
 
@@ -182,3 +183,65 @@ def check_plausible(model: AssemblyModel, energy: float, displacement: Arr, peak
         raise SolverError(f"{what}: a peak surface strain of {100 * peak_strain:.3g} % is outside the validity of the "
                           f"small-strain shell model (at most {100 * PLAUSIBLE_STRAIN:g} %): the material is far too "
                           "soft for the load (material.youngs_modulus, --youngs-modulus) or the plates far too thick")
+
+
+#: degree of the polynomial field over a plate's plane that carries a changed plate's state
+WARM_DEGREE = 3
+
+
+def _monomials(u: Arr, wrt: int | None = None) -> Arr:
+    """(n, k) the monomials u^i v^j, i + j ≤ :data:`WARM_DEGREE`, of plane coordinates u (n, 2), or their
+    derivatives with respect to u (``wrt`` = 0) or v (1)."""
+    def mono(i: int, j: int) -> Arr:
+        if wrt is None:
+            return u[:, 0] ** i * u[:, 1] ** j
+        if wrt == 0:
+            return i * u[:, 0] ** max(i - 1, 0) * u[:, 1] ** j
+        return j * u[:, 0] ** i * u[:, 1] ** max(j - 1, 0)
+
+    return np.column_stack([mono(i, j) for i in range(WARM_DEGREE + 1) for j in range(WARM_DEGREE + 1 - i)])
+
+
+def warm_guess(old_X: Arr, old_offsets: NDArray[np.int64], displacement: Arr, rotation: Arr, new_X: Arr,
+               new_offsets: NDArray[np.int64]) -> tuple[Arr, Arr]:
+    """A warm start for :func:`fabpat.shell.linked.solve_path` from the equilibrium of a similar assembly:
+    the same plates in the same places (the same tiling), some with another pattern (another mesh).
+
+    ``old_X`` (n, 3) and ``new_X`` (n', 3) the reference plate nodes (mm), ``*_offsets`` (plates + 1,)
+    each plate's first node; ``displacement`` and ``rotation`` (n + s, 3) the old state (mm, rotation
+    vectors rad), plate nodes then the s sleeve nodes. A plate whose nodes are unchanged keeps its state;
+    another gets the old plate's displacement as a least-squares polynomial field of degree
+    :data:`WARM_DEGREE` over the plate's plane and, at each node, the polar rotation of that field's
+    deformation gradient; the sleeve nodes keep theirs. Returns the guess (n' + s, 3) × 2.
+    Raises GeometryError if the two models do not have the same plates and sleeves."""
+    s = len(displacement) - int(old_offsets[-1])
+    if len(old_offsets) != len(new_offsets) or s < 0 or len(rotation) != len(displacement):
+        raise GeometryError("a warm start needs an assembly of the same tiling: the plates or sleeves differ")
+    n_new = int(new_offsets[-1])
+    U, W = np.zeros((n_new + s, 3)), np.zeros((n_new + s, 3))
+    U[n_new:], W[n_new:] = displacement[int(old_offsets[-1]):], rotation[int(old_offsets[-1]):]
+    for i in range(len(new_offsets) - 1):
+        a, b = int(old_offsets[i]), int(old_offsets[i + 1])
+        c, d = int(new_offsets[i]), int(new_offsets[i + 1])
+        if b - a == d - c and np.array_equal(old_X[a:b], new_X[c:d]):
+            U[c:d], W[c:d] = displacement[a:b], rotation[a:b]
+            continue
+        # a changed pattern: the old plate's displacement as a smooth field over the plate's plane
+        # (least-squares polynomial of degree WARM_DEGREE), and each node's rotation the polar rotation of
+        # that field's deformation gradient, so that the two agree (a node-by-node copy of either puts
+        # kinks into the new mesh's bars)
+        c0 = old_X[a:b].mean(axis=0)
+        axes = np.linalg.svd(old_X[a:b] - c0, full_matrices=False)[2][:2]
+        scale = max(float(np.abs((old_X[a:b] - c0) @ axes.T).max()), 1e-12)
+        coef = np.linalg.lstsq(_monomials((old_X[a:b] - c0) @ axes.T / scale), displacement[a:b], rcond=None)[0]
+        uv = (new_X[c:d] - c0) @ axes.T / scale
+        U[c:d] = _monomials(uv) @ coef
+        du, dv = (_monomials(uv, wrt) @ coef / scale for wrt in (0, 1))  # (k, 3) ∂u/∂ξ, ∂u/∂η (per mm)
+        t1, t2 = axes[0] + du, axes[1] + dv
+        nrm = np.cross(t1, t2)
+        nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
+        Fd = np.stack([t1, t2, nrm], axis=2)  # deformed triad (columns)
+        E = np.stack([axes[0], axes[1], np.cross(axes[0], axes[1])], axis=1)  # reference triad (columns)
+        Uu, _, Vt = np.linalg.svd(Fd @ E.T)
+        W[c:d] = logmap(Uu @ Vt)
+    return U, W

@@ -207,11 +207,12 @@ def peak_position(x: Arr, w: Arr, length: float) -> float:
 
 def run_strip(setup: StripSetup, end_shortening: float = END_SHORTENING, *, steps: int = 10,
               imperfection: float = IMPERFECTION, progress: Callable[[float], None] | None = None,
-              strain_limit: float = 0.02) -> StripRun:
+              strain_limit: float = 0.02, start: tuple[Arr, Arr] | None = None) -> StripRun:
     """Push the pins together by ``end_shortening`` × L in ``steps`` report increments; ``progress(λ)``
     (optional) is told the fraction of the end shortening reached after every report step. Plates
     whose peak surface strain (:func:`fabpat.shell.strain.surface_strains`) exceeds ``strain_limit``
-    are listed in ``over_limit``.
+    are listed in ``over_limit``. ``start``: a warm start (:func:`fabpat.assembly.model.warm_guess`),
+    tried at the full end shortening first (:func:`fabpat.shell.linked.solve_path`).
 
     Raises ValueError if end_shortening is not in (0, 0.5) or imperfection < 0, SolverError if the
     path is lost (naming the load fraction reached).
@@ -235,7 +236,8 @@ def run_strip(setup: StripSetup, end_shortening: float = END_SHORTENING, *, step
     area = m.lumped_area()
     loads[:n, 2] = imperfection * area / area.sum()
     r = solve_path(m.problem(fixed, pres, loads), steps=steps, rtol=STRIP_RTOL, first_step=FIRST_STEP,
-                   min_step=MIN_STEP, direction=loads if imperfection > 0 else None, progress=progress)
+                   min_step=MIN_STEP, direction=loads if imperfection > 0 else None, progress=progress,
+                   start=start)
     path = []
     for pt in r.points:
         path.append({"end_shortening": pt.lam * end_shortening, "reaction": float(-pt.reactions[setup.right, 0].sum()),

@@ -86,6 +86,7 @@ class AssemblySimulation:
             "sphericity_max": r.sphericity_max if self.closed else None,
             "peak_strain": peak[worst], "peak_strain_plate": worst, "strain_limit": self.strain_limit,
             "over_limit": self.over_limit(), "factorizations": res.factorizations, "h": self.h,
+            "warm_start": res.warm,
         }
         return row
 
@@ -275,7 +276,8 @@ def check_assembly_size(spec: Any, patterns: list[str], h: float, max_elements: 
 def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, end_shortening: float | None = None,
                       imperfection: float | None = None, youngs_modulus: float | None = None,
                       poisson: float | None = None, progress: Callable[[float], None] | None = None,
-                      max_elements: int = ASSEMBLY_MAX_ELEMENTS) -> AssemblySimulation:
+                      max_elements: int = ASSEMBLY_MAX_ELEMENTS,
+                      start: AssemblySimulation | None = None) -> AssemblySimulation:
     """Solve the assembly of ``spec`` (an AssemblySpec or a path to its TOML file).
 
     ``h`` target mesh edge (mm); ``steps`` report steps (default :data:`DEFAULT_STEPS` of the kind);
@@ -285,12 +287,16 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
     ``max_elements`` bounds the whole assembly's mesh (:func:`check_assembly_size`). A sphere with
     ``rule = "roundest"`` is closed with each candidate pair and the roundest is reported, as ``fabpat
     assemble`` builds it (:func:`fabpat.assembly.predict.choose_roundest`; the roundest of all if none
-    is under the limit). ``progress(f)`` is told the fraction f done after every report step of the path
-(of the end shortening, of the sleeves' turn, or over all the candidate pairs of "roundest"). Raises
+    is under the limit). ``start``: a converged simulation of the same tiling (e.g. with one pattern
+    changed) to warm-start from (:func:`fabpat.assembly.model.warm_guess`; the solver tries the final
+    state from there first and follows the path from the start if that fails: ``warm_start`` in
+    :meth:`AssemblySimulation.fields`). ``progress(f)`` is told the fraction f done after every report step
+    of the path (of the end shortening, of the sleeves' turn, or over all the candidate pairs of "roundest"). Raises
     SpecError (bad spec, argument or option for this kind), GeometryError (h too coarse for the
     interfaces, or a mesh too large), SolverError (path lost, naming the load or angle fraction reached).
     """
     from fabpat.assembly.build import face_patterns
+    from fabpat.assembly.placement import build_tiling
     from fabpat.assembly.spec import AssemblySpec, load_spec
     from fabpat.validate import check
 
@@ -322,6 +328,22 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
     if (E, nu) != (mat.youngs_modulus, mat.poisson):
         spec = dataclasses.replace(spec, material=dataclasses.replace(mat, youngs_modulus=E, poisson=nu))
     t0 = time.perf_counter()
+    plates = len(build_tiling(spec).faces)
+    if start is not None and (not isinstance(start, AssemblySimulation) or start.kind != kind
+                              or len(start.model.plates) != plates):
+        got = (f"a {start.kind} of {len(start.model.plates)} plates" if isinstance(start, AssemblySimulation)
+               else type(start).__name__)
+        raise SpecError(f"{spec.source}: start must be an AssemblySimulation of the same tiling ({kind}, "
+                        f"{plates} plates), got {got}")
+
+    def guess(model: AssemblyModel) -> tuple[Arr, Arr] | None:
+        if start is None:
+            return None
+        from fabpat.assembly.model import warm_guess
+
+        fin, old = start.run.result.final, start.model
+        return warm_guess(old.X, old.offsets, fin.displacement, fin.rotation, model.X, model.offsets)
+
     if closed and spec.patterns.rule == "roundest":
         # the pair the kit would build: each candidate closed, the roundest kept (under the strain limit if any is)
         from fabpat.assembly.build import candidate_pairs
@@ -341,13 +363,14 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
         setup = strip_setup(spec, patterns, h=h, E=E, nu=nu)
         run = run_strip(setup, float(end_shortening), steps=steps,  # type: ignore[arg-type]
                         imperfection=IMPERFECTION if imperfection is None else imperfection, progress=progress,
-                        strain_limit=mat.strain_limit)
+                        strain_limit=mat.strain_limit, start=guess(setup.model))
         model = setup.model
     else:
         from fabpat.assembly.closure import closure_setup, run_closure
 
         csetup = closure_setup(spec, patterns, h=h, E=E, nu=nu)
-        run = run_closure(csetup, steps=steps, strain_limit=mat.strain_limit, progress=progress)
+        run = run_closure(csetup, steps=steps, strain_limit=mat.strain_limit, progress=progress,
+                          start=guess(csetup.model))
         model = csetup.model
     return _read_outs(kind, spec.name, model, run, time.perf_counter() - t0, mat.strain_limit, h)
 

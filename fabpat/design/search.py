@@ -87,11 +87,14 @@ class Runner:
     solves: int = 0
     t0: float = field(default_factory=time.perf_counter)
 
-    def run(self, batch: list[tuple[str, ...]]) -> list[dict[str, Any] | BaseException]:
-        """Solve every face-pattern tuple of ``batch``; a failed solve comes back as its exception."""
+    def run(self, batch: list[tuple[str, ...]], extra: tuple[Any, ...] | None = None
+            ) -> list[dict[str, Any] | BaseException]:
+        """Solve every face-pattern tuple of ``batch`` (``extra`` replaces the runner's own extra arguments
+        for this batch); a failed solve comes back as its exception."""
         from fabpat.sweep import _dask_client, _run_dask, _run_local
 
-        jobs = [((self.spec, pats, self.h, *self.extra), str(i)) for i, pats in enumerate(batch)]
+        more = self.extra if extra is None else extra
+        jobs = [((self.spec, pats, self.h, *more), str(i)) for i, pats in enumerate(batch)]
         if self.dask:
             stream = _run_dask(self.solve, jobs, _dask_client(self.dask, 10.0))
         else:

@@ -116,7 +116,7 @@ def read_target(target: Any) -> StripTarget | ClosedTarget:
                           f"points in mm, got {type(target).__name__}") from e
     if pts.ndim != 2 or pts.shape[1] != 2:
         raise TargetError(f"a target array must have shape (n, 2) (columns x, z in mm), got {pts.shape}")
-    return check_strip("target array", pts[:, 0], pts[:, 1])
+    return check_strip("(x, z) array", pts[:, 0], pts[:, 1])
 
 
 def _closed(text: str) -> ClosedTarget | None:
