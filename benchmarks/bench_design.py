@@ -4,7 +4,7 @@ shipped truncated-icosahedron sphere against closed targets.
 
 Run: ``python benchmarks/bench_design.py [--count 10] [--h 3] [--max-solves 12] [--workers 2]
 [--shapes circle,parabola,skewed | none] [--closed "sphere;ellipsoid:1,1,1.15" | none]
-[--closed-solves 40]`` — prints one Markdown table per kind. A random strip's target is the
+[--closed-solves 40] [--pictures DIR]`` — prints one Markdown table per kind. A random strip's target is the
 mid-line the assembly solver predicts for random per-column patterns at 10 % end shortening; each design
 is re-simulated with ``simulate_assembly(design.toml)`` (its ``[load] end_shortening``) and that
 re-simulation's error against the target is the table's rms.
@@ -99,6 +99,7 @@ def main() -> None:
     ap.add_argument("--shapes", default="circle,parabola,skewed")
     ap.add_argument("--closed", default="sphere;ellipsoid:1,1,1.15")
     ap.add_argument("--closed-solves", type=int, default=40)
+    ap.add_argument("--pictures", default=None, help="copy each closed design's design.png into this folder")
     a = ap.parse_args()
     strips(a)
     if a.closed != "none":
@@ -120,6 +121,11 @@ def closed(a: argparse.Namespace) -> None:
             out = Path(tmp) / f"closed-{n}"
             r = design(target, spec, out=out, h=a.h, max_solves=a.closed_solves, workers=a.workers).record
             sim = simulate_assembly(out / "design.toml", h=a.h)
+            if a.pictures:
+                import shutil
+
+                name = target.split(":")[0] if ":" in target else Path(target).stem
+                shutil.copy(out / "design.png", Path(a.pictures) / f"design-{name}.png")
             b = r["baselines"]
             print(f"| {target} | {r['relative_rms']:.3%} | {r['rms_error']:.3f} | {r['scale']:.2f} | "
                   f"{sim.run.sphericity_rms:.3%} | {r['peak_strain']:.2%} | {b['spec']['relative_rms']:.3%} | "

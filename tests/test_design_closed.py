@@ -271,3 +271,26 @@ def test_warm_start_reaches_the_cold_equilibrium_with_a_third_of_the_factorizati
     with pytest.raises(SpecError, match="same tiling"):
         strip = ROOT / "assemblies" / "test-small.toml"
         simulate_assembly(strip, h=6.0, start=shipped)
+
+
+def test_closed_refusals_are_one_line_and_write_nothing(tmp_path: Path) -> None:
+    from click.testing import CliRunner
+
+    from fabpat.cli import cli
+
+    (tmp_path / "no.obj").write_text("this is no mesh\n", encoding="utf-8")
+    narrow = tmp_path / "narrow.toml"
+    narrow.write_text(SPHERE.read_text(encoding="utf-8").replace(
+        'hexagon = "0x0488"\npentagon = "0x0508"', 'min_width = 1000.0'), encoding="utf-8")
+    cases = {
+        "not a surface mesh": ["design", str(tmp_path / "no.obj"), "--spec", str(SPHERE)],
+        "ellipsoid:A,B,C": ["design", "ellipsoid:1,0,2", "--spec", str(SPHERE)],
+        "no candidate pattern": ["design", "sphere", "--spec", str(narrow)],
+        "applies to strip targets": ["design", "sphere", "--spec", str(SPHERE), "--scale-target"],
+    }
+    for word, args in cases.items():
+        out = tmp_path / "out"
+        r = CliRunner().invoke(cli, [*args, "--out", str(out)])
+        lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+        assert r.exit_code == 2 and len(lines) == 1 and lines[0].startswith("fabpat: error: "), (word, r.stderr)
+        assert not out.exists() and word in lines[0], (word, lines[0])

@@ -86,11 +86,18 @@ def _toml_value(v: Any) -> str:
 
 
 def spec_toml(data: dict[str, Any]) -> str:
-    """TOML text of a decoded spec (top-level keys, then one table per section; values as inline TOML)."""
+    """TOML text of a decoded spec (top-level keys, then one table per section; values as inline TOML,
+    except a table of a section, such as ``[patterns] tiles``, which gets its own ``[section.key]`` table
+    with one key per line)."""
     lines = [f"{k} = {_toml_value(v)}" for k, v in data.items() if not isinstance(v, dict)]
     for k, v in data.items():
         if isinstance(v, dict):
-            lines += ["", f"[{k}]"] + [f"{kk} = {_toml_value(vv)}" for kk, vv in v.items()]
+            plain = [f"{kk} = {_toml_value(vv)}" for kk, vv in v.items() if not isinstance(vv, dict)]
+            if plain or not v:
+                lines += ["", f"[{k}]", *plain]
+            for kk, vv in v.items():
+                if isinstance(vv, dict):
+                    lines += ["", f"[{k}.{kk}]"] + [f"{a} = {_toml_value(b)}" for a, b in vv.items()]
     return "\n".join(lines) + "\n"
 
 
@@ -113,19 +120,19 @@ def write_closed_png(res: Any, path: Path) -> None:
     import matplotlib.pyplot as plt
 
     rec, P, d = res.record, res.best.data["P"], res.best.fit.distance
-    fig = plt.figure(figsize=(10, 5.2), dpi=120)
+    fig = plt.figure(figsize=(10, 5.0), dpi=120)
     c = P - P.mean(axis=0)
     vmax = float(d.max()) or 1.0
     for j, (elev, azim) in enumerate(((20, 30), (-20, 210))):
-        ax = fig.add_subplot(1, 2, j + 1, projection="3d")
+        ax = fig.add_axes((0.01 + 0.44 * j, 0.02, 0.44, 0.84), projection="3d")
         sc = ax.scatter(c[:, 0], c[:, 1], c[:, 2], c=d, s=1.2, cmap="viridis", vmin=0.0, vmax=vmax)
         ax.view_init(elev=elev, azim=azim)
-        ax.set_box_aspect((1, 1, 1))
+        ax.set_box_aspect((1, 1, 1), zoom=1.35)
         lim = float(np.abs(c).max())
         for set_lim in (ax.set_xlim, ax.set_ylim, ax.set_zlim):
             set_lim(-lim, lim)
         ax.set_axis_off()
-    fig.colorbar(sc, ax=fig.axes, shrink=0.6, label="distance from the target, mm")
+    fig.colorbar(sc, cax=fig.add_axes((0.9, 0.2, 0.02, 0.55)), label="distance from the target, mm")
     groups = sorted(set(rec["patterns"].values()))
     fig.suptitle(f"{rec['target']}: rms {rec['rms_error']:.3g} mm ({rec['relative_rms']:.3%} of the radius "
                  f"{rec['radius']:.1f} mm), peak strain {rec['peak_strain']:.2%}\npatterns: {', '.join(groups)}",

@@ -10,7 +10,8 @@ is moved, turned and scaled onto P (a similarity transform) and the distances ar
 * ``ellipsoid:A,B,C``: semi-axes s·(A, B, C), centre c and rotation R fitted by nonlinear least squares
   (:func:`scipy.optimize.least_squares`) on the first-order (Sampson) distance g/|∇g| with
   g(q) = |q / (sA, sB, sC)| − 1 (Hartley & Zisserman, *Multiple View Geometry*, 2nd ed., §4.2.6): exact on
-  the surface, within 1 % of the Euclidean distance for deviations below 1 % of the size. Started
+  the surface, within 1 % of the Euclidean distance for deviations below 1 % of the size; fitted to a
+  seeded subset of :data:`FIT_POINTS` nodes, the distances then measured at every node. Started
   twice, with the axis that differs most from the other two along ``axis`` (the tiling's design axis)
   and along the points' most distinct principal axis; the better fit is kept.
   ``scale`` = s (mm per unit of the ratios).
@@ -34,8 +35,14 @@ from numpy.typing import NDArray
 
 Arr = NDArray[np.float64]
 
-#: nodes (a seeded random subset) that the ICP of a mesh target moves; the distances use every node
+#: nodes (a seeded random subset) that the ICP of a mesh target moves, and that fit an ellipsoid; the
+#: distances use every node
 ICP_POINTS = 1000
+FIT_POINTS = 2000
+#: largest number of residual evaluations of one ellipsoid fit (Levenberg–Marquardt, from each start): a
+#: near-round shape leaves the ellipsoid's turn about its axis of symmetry free, which costs evaluations
+#: and changes nothing
+FIT_EVALUATIONS = 300
 
 
 @dataclass(frozen=True, eq=False)
@@ -120,7 +127,9 @@ def fit_to_ellipsoid(P: Arr, axes: tuple[float, float, float], axis: Arr) -> Sur
     s0 = _rms_radius(P) / math.sqrt(float(np.mean(a * a)))
     w0 = Rotation.from_matrix(_frame_with(np.asarray(axis, dtype=np.float64), distinct_axis(axes))).as_rotvec()
 
-    def dist(x: Arr) -> Arr:
+    sub = P[np.random.default_rng(0).permutation(len(P))[:FIT_POINTS]] if len(P) > FIT_POINTS else P
+
+    def dist(x: Arr, P: Arr = sub) -> Arr:
         c, w, s = x[:3], x[3:6], x[6]
         q = (P - c) @ _rotation(w)  # coordinates in the ellipsoid's frame
         semi = s * a
@@ -132,10 +141,11 @@ def fit_to_ellipsoid(P: Arr, axes: tuple[float, float, float], axis: Arr) -> Sur
     val, vec = np.linalg.eigh(np.cov((P - c0).T))
     pca = vec[:, int(np.argmax([abs(val[i] - 0.5 * (val.sum() - val[i])) for i in range(3)]))]
     w1 = Rotation.from_matrix(_frame_with(pca, distinct_axis(axes))).as_rotvec()
-    sol = min((least_squares(dist, np.concatenate([c0, w, [s0]]), x_scale="jac", xtol=1e-12, ftol=1e-12)
+    sol = min((least_squares(dist, np.concatenate([c0, w, [s0]]), method="lm", xtol=1e-10, ftol=1e-10,
+                             max_nfev=FIT_EVALUATIONS)
                for w in (w0, w1)), key=lambda r: float(r.cost))
     s = float(sol.x[6])
-    return SurfaceFit(dist(sol.x), s, _rms_radius(P))
+    return SurfaceFit(dist(sol.x, P), s, _rms_radius(P))
 
 
 def fit_to_mesh(P: Arr, mesh: object) -> SurfaceFit:
