@@ -133,9 +133,13 @@ def _unreachable(rec: dict[str, Any], tolerance: float, max_solves: int, best: C
     if best.over_limit and rec["relative_rms"] <= tolerance:
         head = (f"the shape is reached (rms error {rec['relative_rms']:.2%} of the radius) but the kit cannot be "
                 "built")
+    errs = [h["relative_rms"] for h in rec["history"]] if rec.get("history") else [rec["relative_rms"]]
     if best.over_limit:
         why = (f"the closest design found strains its plates to {rec['peak_strain']:.2%}, over the strain limit "
                f"{rec['strain_limit']:.2%} (thinner plates, [plates] thickness, strain less)")
     else:
-        why = f"the best of {rec['solves']} solves (--max-solves {max_solves}); more solves may get closer"
+        why = (f"the best of {rec['solves']} solves (--max-solves {max_solves}), whose designs ranged from "
+               f"{min(errs):.2%} to {max(errs):.2%} of the radius: more solves may get closer, but the patterns "
+               "move a closed tiling's shape only that much; a shape far from its own closed shape needs another "
+               "tiling or other sleeve angles")
     return f"{head}: {why}"
