@@ -39,24 +39,34 @@ Arr = NDArray[np.float64]
 FIRST_STEP = 0.25
 
 
-def solve_candidate(spec: Any, patterns: tuple[str, ...], h: float, travel: float) -> dict[str, Any]:
+def solve_candidate(spec: Any, patterns: tuple[str, ...], h: float, travel: float,
+                    start: tuple[Any, ...] | None = None) -> dict[str, Any]:
     """One full strip solve: the face patterns ``patterns``, mesh edge ``h`` mm, pins moved together by
-    ``travel`` mm. Returns plain data (it crosses process boundaries): ``x``, ``z`` the mid-line (mm,
+    ``travel`` mm, warm-started from ``start`` (the ``state`` of an earlier solve of the same strip) if
+    given. Returns plain data (it crosses process boundaries): ``x``, ``z`` the mid-line (mm,
     :func:`fabpat.design.strip.midline`), ``end_shortening`` (travel over the strip length, as
     ``simulate-assembly`` reads it), ``length`` (mm), ``seconds``, ``peak_strain`` (the largest principal
-    surface strain). Raises SolverError, GeometryError."""
+    surface strain), ``state`` (reference nodes, offsets, displacement, rotation), ``factorizations``,
+    ``warm``. Raises SolverError, GeometryError."""
     from fabpat.assembly.simulate import IMPERFECTION, run_strip, strip_setup
     from fabpat.assembly.simulation import DEFAULT_STEPS
     from fabpat.design.strip import midline
 
     t0 = time.perf_counter()
     mat = spec.material
+    from fabpat.assembly.model import warm_guess
+
     setup = strip_setup(spec, list(patterns), h=h, E=mat.youngs_modulus, nu=mat.poisson)
     es = travel / setup.length
-    run = run_strip(setup, es, steps=DEFAULT_STEPS["honeycomb-strip"], imperfection=IMPERFECTION)
-    x, z = midline(setup, run.result.final.displacement)
+    m = setup.model
+    guess = None if start is None else warm_guess(*start, m.X, m.offsets)
+    run = run_strip(setup, es, steps=DEFAULT_STEPS["honeycomb-strip"], imperfection=IMPERFECTION, start=guess)
+    fin = run.result.final
+    x, z = midline(setup, fin.displacement)
     return {"x": x, "z": z, "end_shortening": es, "length": setup.length, "seconds": time.perf_counter() - t0,
-            "peak_strain": float(run.peak_strain)}
+            "peak_strain": float(run.peak_strain),
+            "state": (m.X, np.asarray(m.offsets), fin.displacement, fin.rotation),
+            "factorizations": run.result.factorizations, "warm": run.result.warm}
 
 
 @dataclass(frozen=True, eq=False)
@@ -129,9 +139,11 @@ class Search:
         return tuple(self.ids[key[c]] for c in self.face_col)
 
     def evaluate(self, keys: list[tuple[int, ...]]) -> list[Evaluated | None]:
-        """Solve the candidates not seen yet (one batch); None for a failed solve."""
+        """Solve the candidates not seen yet (one batch, warm-started from the best strip so far: measured on
+        the 1 × 3 test strip, 11 factorizations instead of 147); None for a failed solve."""
         new = list(dict.fromkeys(k for k in keys if k not in self.seen))
-        for k, res in zip(new, self.runner.run([self.faces(k) for k in new]), strict=True):
+        warm = None if self.best is None else (self.runner.extra + (self.best.data["state"],))
+        for k, res in zip(new, self.runner.run([self.faces(k) for k in new], warm), strict=True):
             if isinstance(res, BaseException):
                 self.seen[k] = None
                 continue
