@@ -40,7 +40,6 @@ def design_closed(tgt: ClosedTarget, base: DesignBase, h: float, max_solves: int
                   result: Callable[..., Any]) -> Any:
     """Design a closed tiling for ``tgt`` (module doc); ``result`` builds the DesignResult."""
     from fabpat.assembly.placement import build_tiling
-    from fabpat.design.api import base_faces
     from fabpat.errors import SolverError
 
     assert base.rows is not None
@@ -51,25 +50,7 @@ def design_closed(tgt: ClosedTarget, base: DesignBase, h: float, max_solves: int
     search = ClosedSearch(pools, groups, sides, tgt, design_axis(skel.V, skel.faces),
                           base.spec.material.strain_limit, base.max_distinct, runner)
     labels = list(skel.labels)
-    named: dict[str, tuple[int, ...] | tuple[str, ...]] = {}
-    way = base_faces(base)
-    if way is not None:
-        key = search.key_of(way[1])
-        named[way[0]] = key if key is not None else tuple(way[1])
-    single = _single_key(search)
-    if single is not None:
-        named["single"] = single
-    keyed = [k for k in named.values() if k and isinstance(k[0], int)]
-    search.evaluate(keyed)  # type: ignore[arg-type]
-    runs: dict[str, ClosedEvaluated] = {}
-    for name, k in named.items():
-        if k and isinstance(k[0], str):  # a base choice outside the groups (e.g. per-face tiles): solved as given
-            res = runner.run([k])[0]  # type: ignore[list-item]
-            if not isinstance(res, BaseException):
-                runs[name] = ClosedEvaluated((), tgt.fit(res["P"], search.axis), res,
-                                             res["peak_strain"] > search.strain_limit)
-        elif search.seen.get(k) is not None:  # type: ignore[arg-type]
-            runs[name] = search.seen[k]  # type: ignore[index, assignment]
+    runs = _baselines(search, base, runner, tgt)
     budget = max_solves + runner.solves
     search.evaluate([k for k in search.start()][: max(0, budget - runner.solves)])
     search.refine(budget, max(2, workers))
@@ -83,6 +64,34 @@ def design_closed(tgt: ClosedTarget, base: DesignBase, h: float, max_solves: int
     rec["history"] = [_brief(ev, labels) for ev in search.seen.values() if ev is not None]
     warning = None if rec["reachable"] else _unreachable(rec, tolerance, max_solves, best)
     return result(rec, base, tgt, best, labels, groups, warning, runs)
+
+
+def _baselines(search: ClosedSearch, base: DesignBase, runner: Runner, tgt: ClosedTarget
+               ) -> dict[str, ClosedEvaluated]:
+    """Solve the baselines in one batch: the base spec's own patterns (``spec`` or ``rule``) and the
+    ``single`` pattern; a base choice that is not one pattern per group (per-face tiles) is solved as given."""
+    from fabpat.design.api import base_faces
+
+    keyed: dict[str, tuple[int, ...]] = {}
+    given: dict[str, tuple[str, ...]] = {}
+    way = base_faces(base)
+    if way is not None:
+        key = search.key_of(way[1])
+        if key is None:
+            given[way[0]] = tuple(way[1])
+        else:
+            keyed[way[0]] = key
+    single = _single_key(search)
+    if single is not None:
+        keyed["single"] = single
+    search.evaluate(list(keyed.values()))
+    runs = {name: ev for name, k in keyed.items() if (ev := search.seen.get(k)) is not None}
+    for name, faces in given.items():
+        res = runner.run([faces])[0]
+        if not isinstance(res, BaseException):
+            runs[name] = ClosedEvaluated((), tgt.fit(res["P"], search.axis), res,
+                                         res["peak_strain"] > search.strain_limit)
+    return runs
 
 
 def _group_ids(faces: list[str], labels: list[str]) -> dict[str, str]:
