@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from fabpat.design.base import DesignBase, load_base
+from fabpat.design.base import DesignBase, base_faces, load_base
 from fabpat.design.beam import Elastica
 from fabpat.design.mapping import space_mapping
 from fabpat.design.search import Evaluated, Runner, Search
@@ -208,16 +208,6 @@ def _design_strip(strip: StripTarget, base: DesignBase, h: float, max_solves: in
                   tolerance, scale, length, baselines)
     warning = None if rec["reachable"] else _unreachable(rec, needs, log_s, base, tolerance, max_solves)
     return DesignResult(rec, base, strip, best, labels, face_col, warning, runs)
-
-
-def base_faces(base: DesignBase) -> tuple[str, list[str]] | None:
-    """The base spec's own choice as a baseline: ("rule", its rule's face patterns) or ("spec", the
-    patterns it names), or None when the base leaves the choice open."""
-    if base.way is None:
-        return None
-    from fabpat.assembly.build import face_patterns
-
-    return ("rule" if base.has_rule else "spec"), face_patterns(base.spec)
 
 
 def _solve_faces(runner: Runner, faces: list[str], strip: StripTarget) -> Evaluated | None:

@@ -188,3 +188,13 @@ def candidates(spec: AssemblySpec, source: str, catalog: str | None, keys: dict[
     if not energies:
         raise SpecError(f"{source}: no candidate pattern is left after {' and '.join(why)}: widen the choice")
     return energies
+
+
+def base_faces(base: DesignBase) -> tuple[str, list[str]] | None:
+    """The base spec's own choice as a baseline: ("rule", its rule's face patterns) or ("spec", the
+    patterns it names), or None when the base leaves the choice open."""
+    if base.way is None:
+        return None
+    from fabpat.assembly.build import face_patterns
+
+    return ("rule" if base.has_rule else "spec"), face_patterns(base.spec)

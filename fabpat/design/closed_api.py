@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from fabpat.design.base import DesignBase
+from fabpat.design.base import DesignBase, base_faces
 from fabpat.design.closed import ClosedEvaluated, ClosedSearch, design_axis, face_groups, pattern_features, solve_closed
 from fabpat.design.search import Runner
 from fabpat.design.target import ClosedTarget
@@ -70,8 +70,6 @@ def _baselines(search: ClosedSearch, base: DesignBase, runner: Runner, tgt: Clos
                ) -> dict[str, ClosedEvaluated]:
     """Solve the baselines in one batch: the base spec's own patterns (``spec`` or ``rule``) and the
     ``single`` pattern; a base choice that is not one pattern per group (per-face tiles) is solved as given."""
-    from fabpat.design.api import base_faces
-
     keyed: dict[str, tuple[int, ...]] = {}
     given: dict[str, tuple[str, ...]] = {}
     way = base_faces(base)

@@ -90,14 +90,14 @@ class ClosedTarget:
     def fit(self, P: Arr, axis: Arr) -> Any:
         """The :class:`fabpat.design.surface.SurfaceFit` of nodes P (n, 3) mm; ``axis`` (3,) the design
         axis, where an ellipsoid's distinct axis starts."""
-        from fabpat.design import surface
+        from fabpat.design.surface import fit_to_ellipsoid, fit_to_mesh, fit_to_sphere
 
         if self.kind == "sphere":
-            return surface.fit_to_sphere(P)
+            return fit_to_sphere(P)
         if self.kind == "ellipsoid":
             assert self.axes is not None
-            return surface.fit_to_ellipsoid(P, self.axes, axis)
-        return surface.fit_to_mesh(P, self.mesh)
+            return fit_to_ellipsoid(P, self.axes, axis)
+        return fit_to_mesh(P, self.mesh)
 
 
 def read_target(target: Any) -> StripTarget | ClosedTarget:
