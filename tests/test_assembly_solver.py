@@ -115,7 +115,7 @@ def test_cli_simulate_assembly_fields_files_and_bad_input(tmp_path) -> None:  # 
     assert list(row) == ["converged", "plates", "sleeves", "nodes", "dofs", "iterations", "seconds", "energy",
                          "plate_energies", "sleeve_moments", "reaction", "max_deflection", "peak", "half_ratio",
                          "path", "radius", "sphericity_rms", "sphericity_max", "peak_strain", "peak_strain_plate",
-                         "strain_limit", "over_limit", "factorizations", "h"]
+                         "strain_limit", "over_limit", "factorizations", "h", "warm_start"]
     assert row["radius"] is None and row["sphericity_rms"] is None  # a strip is not closed
     assert 0 < row["peak_strain"] < row["strain_limit"] and row["over_limit"] == []
     assert row["converged"] is True and row["plates"] == 3 and row["sleeves"] == 2
