@@ -332,21 +332,28 @@ def strip_labels(rows: int, columns: int) -> list[str]:
     return [f"T{f + 1:0{len(str(n))}d}" for f in range(n)]
 
 
+def _check_labels(source: str, table: Mapping[str, Any], labels: list[str], unknown_why: str, noun: str,
+                  missing_hint: str) -> None:
+    """SpecError (one line) for the first key of a ``tiles`` table that is not a label, then for the first
+    label it lacks."""
+    unknown = [k for k in table if k not in labels]
+    if unknown:
+        raise SpecError(f"{source}: patterns.tiles.{unknown[0]} {unknown_why}")
+    missing = [k for k in labels if k not in table]
+    if missing:
+        raise SpecError(f"{source}: patterns.tiles has no pattern for {noun} {missing[0]} ({missing_hint})")
+
+
 def _face_table(source: str, table: Mapping[str, Any], tiling: TilingSpec) -> tuple[str, ...]:
     """``tiles = {LABEL = "0x....", …}`` on a polyhedron: every face's pattern in face order, each ID checked
     for its face's polygon."""
     from fabpat.assembly.tiling import truncated_icosahedron
 
     skel = truncated_icosahedron(tiling.edge)
-    labels = skel.labels
-    unknown = [k for k in table if k not in labels]
-    if unknown:
-        raise SpecError(f"{source}: patterns.tiles.{unknown[0]} is not a face of the {tiling.kind} (labels "
-                        f"{labels[0]} … {labels[-1]} by polygon: H hexagons, P pentagons)")
-    missing = [k for k in labels if k not in table]
-    if missing:
-        raise SpecError(f"{source}: patterns.tiles has no pattern for face {missing[0]} (give every face one: "
-                        f"{len(labels)} faces)")
+    labels = list(skel.labels)
+    _check_labels(source, table, labels,
+                  f"is not a face of the {tiling.kind} (labels {labels[0]} … {labels[-1]} by polygon: H hexagons, "
+                  "P pentagons)", "face", f"give every face one: {len(labels)} faces")
     return tuple(_pattern_id(source, f"patterns.tiles.{lab}", table[lab], (int(n),))
                  for lab, n in zip(labels, skel.sides, strict=True))
 
@@ -356,14 +363,8 @@ def _tile_table(source: str, table: Mapping[str, Any], tiling: TilingSpec,
     """``tiles = {LABEL = "0x....", …}``: one pattern per plate label, every label of the strip once; the
     rows × columns IDs it stands for."""
     labels = strip_labels(tiling.rows, tiling.columns)
-    unknown = [k for k in table if k not in labels]
-    if unknown:
-        raise SpecError(f"{source}: patterns.tiles.{unknown[0]} is not a plate of this strip (labels "
-                        f"{labels[0]} … {labels[-1]})")
-    missing = [k for k in labels if k not in table]
-    if missing:
-        raise SpecError(f"{source}: patterns.tiles has no pattern for plate {missing[0]} (give every plate "
-                        f"{labels[0]} … {labels[-1]} one)")
+    _check_labels(source, table, labels, f"is not a plate of this strip (labels {labels[0]} … {labels[-1]})",
+                  "plate", f"give every plate {labels[0]} … {labels[-1]} one")
     grid = [[""] * tiling.columns for _ in range(tiling.rows)]
     for f, lab in enumerate(labels):  # faces run column by column (fabpat.assembly.tiling.honeycomb_strip)
         grid[f % tiling.rows][f // tiling.rows] = _pattern_id(source, f"patterns.tiles.{lab}", table[lab], sides)
