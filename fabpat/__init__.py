@@ -7,6 +7,7 @@ The Python front door (everything is imported on first use, so ``import fabpat``
     lib = fabpat.library(sides=6, depth=2, edge=36.0)   # 430 patterns: iterate, lib["0x0488"], len(lib)
     p = fabpat.pattern("0x0488")                          # depth from the ID's length
     fp = p.fillet(weight=0.2)                             # exact outline; knows sides, edge, weight
+    fabpat.variations()                                   # each pattern's family: p.fillet(bridge_weight=0.5)
     fp.export("p.step")                                   # .step .stl .3mf .dxf .svg, by suffix
     r = fabpat.simulate(fp, "dome")                       # r.energy (N·mm, mesh-converged), r.to_vtu(…)
     rows = fabpat.catalog()                               # the built-in catalog; rows.to_dataframe()
@@ -31,6 +32,8 @@ _LAZY = {
     "simulate": "fabpat.convergence:simulate",
     "simulate_assembly": "fabpat.assembly.simulation:simulate_assembly",
     "design": "fabpat.design:design",
+    "variations": "fabpat.variation:variations",
+    "Variation": "fabpat.variation:Variation",
     "Library": "fabpat.library:Library",
     "Pattern": "fabpat.pattern:Pattern",
     "FilletedPattern": "fabpat.fillet:FilletedPattern",

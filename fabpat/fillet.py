@@ -27,7 +27,9 @@ edge at a vertex is joined to the outgoing edge **across its void run** (never a
   Only material is added at void runs ≤ 180°, so the pattern stays connected and no vertex stays pinched.
 * each half-edge carries at most one arc (it belongs to exactly one vertex star), and two arcs ending
   at the same edge midpoint are both tangent to that edge: G1 by construction.
-* interior arcs have weights (1, 1, 1) (parabolic arcs, as in the paper).
+* interior arcs have weights (1, 1, 1) (parabolic arcs, as in the paper), except that a
+  :class:`~fabpat.variation.Variation` may give the bridging arcs at non-manifold vertices another
+  middle weight (``bridge_weight``: the pattern's continuous family; interfaces never change).
 
 Interface vertices (notes, "A consistent interface geometry"): the bow-tie that forms when a
 neighbour is attached is bridged with the arc (P0, M, P0') of weights (1, w, 1), where P0 is the
@@ -57,6 +59,7 @@ from fabpat.metrics import RegionMetrics
 from fabpat.outline import Line, Loop, Outline, OutlineReport, PolygonFrame, RationalQuad, Segment
 from fabpat.pattern import Pattern
 from fabpat.validate import check, check_path
+from fabpat.variation import PAPER_VARIATION, Variation
 
 DEFAULT_WEIGHT = 0.2  # interface weight of the paper (§3.3)
 _ANGLE_EPS = 1e-9  # rad: runs this close to 180° are straight
@@ -91,7 +94,8 @@ class FilletedPattern:
     never ask again. ``interface_segments`` (n, 2, 2): the straight piece of the outline on each
     polygon edge, from M − d to M + d (counter-clockwise). ``interface_arcs``: for each polygon edge
     the two full bow-tie arcs (P0, M, P0', w) whose halves the outline keeps — their middle weight is
-    the configured w; :attr:`support_arcs` is the same arcs as one flat tuple.
+    the configured w; :attr:`support_arcs` is the same arcs as one flat tuple. ``variation``: the
+    family member (:class:`~fabpat.variation.Variation`; the paper's fillets by default).
     """
 
     pattern: Pattern
@@ -99,6 +103,7 @@ class FilletedPattern:
     outline: Outline
     interface_segments: NDArray[np.float64]
     interface_arcs: tuple[tuple[RationalQuad, RationalQuad], ...]
+    variation: Variation = PAPER_VARIATION
 
     @property
     def id(self) -> str:
@@ -198,8 +203,9 @@ class FilletedPattern:
         return self.outline.plot(ax, **kwargs)
 
     def __repr__(self) -> str:
-        return (f"FilletedPattern('{self.id}', sides={self.sides}, edge={self.edge:g} mm, weight={self.weight:g}, "
-                f"area={self.metrics.area:.1f} mm²)")
+        family = f", {self.variation.label()}" if not self.variation.is_paper else ""
+        return (f"FilletedPattern('{self.id}', sides={self.sides}, edge={self.edge:g} mm, weight={self.weight:g}"
+                f"{family}, area={self.metrics.area:.1f} mm²)")
 
     def _repr_svg_(self) -> str:
         """Notebook picture: the exact filleted outline (true curves) in its polygon, true size (mm)."""
@@ -419,11 +425,13 @@ def fillet_solid(
     F: NDArray[np.int64],
     interfaces: dict[int, NDArray[np.float64]] | None = None,
     weight: float = DEFAULT_WEIGHT,
+    variation: Variation = PAPER_VARIATION,
 ) -> tuple[Outline, dict[int, tuple[RationalQuad, RationalQuad]]]:
     """Exact outline of the union of solid triangles ``F`` (k, 3, counter-clockwise) over ``V`` (n, 2).
 
     ``interfaces`` maps a vertex (a polygon-edge midpoint) to the unit tangent of its polygon edge
-    (counter-clockwise); those vertices get the interface treatment with weight ``weight``. Returns
+    (counter-clockwise); those vertices get the interface treatment with weight ``weight``; the arcs at
+    non-manifold vertices get ``variation.bridge_weight`` (1 in the paper). Returns
     the outline and, per interface vertex, the two full bow-tie arcs whose halves the outline keeps.
     Raises :class:`GeometryError` if the boundary cannot be traced into one outer loop plus holes.
     """
@@ -471,7 +479,8 @@ def fillet_solid(
             bowties[int(b)] = (into, out_of)
             segs += [first, Line(first.P2, second.P0), second]
         elif arc_at_end[h]:
-            segs.append(RationalQuad(mid[h], V[b], mid[g], 1.0))
+            # more than one boundary edge leaves b: b is non-manifold and the arc bridges a void run
+            segs.append(RationalQuad(mid[h], V[b], mid[g], variation.bridge_weight if count[h] > 1 else 1.0))
         segments_of.append(segs)
 
     loops: list[Loop] = []
@@ -496,23 +505,29 @@ def fillet_solid(
     return Outline(loops[outer[0]], holes), bowties
 
 
-def fillet_pattern(pattern: Pattern, weight: float = DEFAULT_WEIGHT) -> FilletedPattern:
+def fillet_pattern(pattern: Pattern, weight: float = DEFAULT_WEIGHT,
+                   variation: Variation | None = None) -> FilletedPattern:
     """The exact outline of a library pattern: lines and quadratic rational Bézier arcs.
 
     ``weight``: the middle weight w of the interface arcs (the paper's 0.2), in its range
-    (fabpat.validate: GeometryError otherwise).
+    (fabpat.validate: GeometryError otherwise). ``variation``: the family member
+    (:class:`~fabpat.variation.Variation`: interior fillet weights; None = the paper's).
     Raises :class:`GeometryError` if the pattern cannot be filleted (not expected for library patterns).
     """
     if not isinstance(pattern, Pattern):
         raise GeometryError(f"fillet_pattern needs a Pattern (fabpat.pattern('0x0488')), got {type(pattern).__name__}")
     weight = check("weight", weight, "interface weight", error=GeometryError)
+    if variation is None:
+        variation = PAPER_VARIATION
+    elif not isinstance(variation, Variation):
+        raise GeometryError(f"variation must be a fabpat.Variation, got {type(variation).__name__}")
     corners = polygon_vertices(pattern.sides, pattern.edge)
     tangents = np.roll(corners, -1, axis=0) - corners
     tangents /= np.linalg.norm(tangents, axis=1)[:, None]
     iface = _interface_vertices(pattern)
     try:
         outline, bowties = fillet_solid(
-            pattern.V, pattern.solid_faces, {v: tangents[i] for v, i in iface.items()}, weight
+            pattern.V, pattern.solid_faces, {v: tangents[i] for v, i in iface.items()}, weight, variation
         )
     except GeometryError as e:
         raise GeometryError(f"pattern {pattern.id} ({pattern.sides}-gon): {e}") from e
@@ -521,7 +536,7 @@ def fillet_pattern(pattern: Pattern, weight: float = DEFAULT_WEIGHT) -> Filleted
     arcs = tuple(bowties[v] for v, _ in sorted(iface.items(), key=lambda kv: kv[1]))
     seg = np.array([[_midpoint(a), _midpoint(b)] for a, b in arcs])
     outline = replace(outline, polygon=PolygonFrame(pattern.sides, pattern.edge, seg))
-    return FilletedPattern(pattern, float(weight), outline, seg, arcs)
+    return FilletedPattern(pattern, float(weight), outline, seg, arcs, variation)
 
 
 def vertex_stars(pattern: Pattern) -> tuple[VertexStar, ...]:

@@ -164,13 +164,16 @@ class Pattern:
         perimeter = float(np.linalg.norm(self.V[e[:, 0]] - self.V[e[:, 1]], axis=1).sum())
         return RegionMetrics.from_values(area, perimeter, J)
 
-    def fillet(self, weight: float = 0.2) -> FilletedPattern:
-        """The exact filleted outline (paper §3.3) with interface-arc middle weight ``weight`` (> 0;
-        the paper's 0.2). Raises :class:`~fabpat.errors.GeometryError` for a weight ≤ 0."""
+    def fillet(self, weight: float = 0.2, **variation: float) -> FilletedPattern:
+        """The exact filleted outline (paper §3.3) with interface-arc middle weight ``weight`` (the
+        paper's 0.2) and the family member ``variation`` (``bridge_weight=0.5``; see
+        :mod:`fabpat.variation` and ``fabpat variations``). Raises :class:`~fabpat.errors.GeometryError`
+        for a weight or variation outside its range, or an unknown variation name."""
         # A convenience over the next stage, imported when called: the pattern stage stays self-contained.
         from fabpat.fillet import fillet_pattern
+        from fabpat.variation import Variation
 
-        return fillet_pattern(self, weight)
+        return fillet_pattern(self, weight, Variation.from_values(variation))
 
     def __repr__(self) -> str:
         return (f"Pattern('{self.id}', sides={self.sides}, depth={self.depth}, edge={self.edge:g} mm, "

@@ -1,0 +1,130 @@
+"""Continuous variations: every library pattern as a family whose look and stiffness vary smoothly.
+
+The journal version of the method (Scandurra, Laccone, Malomo, Callieri, Cignoni, Giorgi, *Procedural
+generation of geometric patterns for thin shell fabrication*, Computers & Graphics, 2024) varies each
+pattern's geometry continuously. fabpat's family parameter is the middle weight of the fillet arcs at
+non-manifold vertices, which the paper fixes at 1 (§3.3: "we assign the same weight to all the control
+points, thus producing a quadratic Bézier curve"):
+
+* ``bridge_weight`` — the arcs at **non-manifold** vertices bridge the void runs between ligaments.
+  The arc (M₁, V, M₂; 1, w, 1) passes at B(½) = V + (M − V)/(1 + w), with M the chord midpoint, so
+  the bridge's material at the vertex scales with 1/(1 + w): a small weight gives wide, stiff necks,
+  a large one narrow, compliant hinges. A symmetric neck's width is 2/(1 + w) times the paper's
+  (every neck of the hexagon lattice is symmetric).
+
+Why this one (measured, docs/variations.md): it keeps everything the method guarantees —
+
+* **tileable**: the interface segments and their bow-tie arcs do not depend on them, so two patterns
+  at any two variations meet at identical interface geometry;
+* **exchangeable** and **symmetric**: they act on every vertex of a class alike, so the n-fold
+  rotational symmetry stays;
+* **connected**: an arc stays inside its control triangle for every positive weight, so a bridge
+  never opens;
+* **exact**: every arc stays a quadratic rational Bézier curve, in the model, STEP and .3dm alike.
+
+The other candidates were measured and left out: the weight of the arcs at sharp vertices changes
+the energies by under 1.5 % over [0.2, 5] (0x0488, 0x2d88; it adds no stiffness range, only another
+catalog dimension to sweep); a ligament offset would break exactness (the offset of a conic is not a
+conic) and a warp of the lattice's interior vertices moves the interface geometry.
+
+The valid ranges are in :data:`fabpat.validate.RANGES` (the one table of every number's range), with
+the measurement that bounds them.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, fields
+
+from fabpat.errors import GeometryError
+from fabpat.validate import RANGES, check
+
+
+@dataclass(frozen=True)
+class Variation:
+    """One member of a pattern's family.
+
+    ``bridge_weight`` (dimensionless; the paper's 1): middle weight of the arcs at non-manifold vertices.
+    Build it with :meth:`from_values` (checks names and ranges; raises :class:`GeometryError`).
+    """
+
+    bridge_weight: float = 1.0
+
+    @classmethod
+    def from_values(cls, values: Mapping[str, object] | None = None, **more: object) -> Variation:
+        """The variation with ``values`` (name → number) on top of the paper's defaults.
+
+        Raises :class:`GeometryError` naming the valid parameters for an unknown name, and the range
+        for a value outside it (:func:`fabpat.validate.check`).
+        """
+        given = {**(values or {}), **more}
+        names = [f.name for f in fields(cls)]
+        for key in given:
+            if key not in names:
+                raise GeometryError(f"unknown variation {key!r}; valid: {', '.join(names)}")
+        return cls(**{k: float(check(k, v, error=GeometryError)) for k, v in given.items()})
+
+    @property
+    def is_paper(self) -> bool:
+        """True for the paper's fillets (every parameter at its default)."""
+        return self == PAPER_VARIATION
+
+    def items(self) -> dict[str, float]:
+        """The parameters as an ordered name → value dict."""
+        return {f.name: float(getattr(self, f.name)) for f in fields(self)}
+
+    def changed(self) -> dict[str, float]:
+        """Only the parameters that differ from the paper's."""
+        paper = PAPER_VARIATION.items()
+        return {k: v for k, v in self.items().items() if v != paper[k]}
+
+    def label(self) -> str:
+        """``"bridge_weight=0.5"`` (only what differs from the paper), or ``""``."""
+        return " ".join(f"{k}={v:g}" for k, v in self.changed().items())
+
+
+PAPER_VARIATION = Variation()
+
+#: What each parameter means, in the words of ``fabpat variations``.
+MEANINGS: dict[str, str] = {
+    "bridge_weight": "middle weight of the fillet arcs at non-manifold vertices: neck width scales with "
+                     "2/(1 + w), small = wide stiff necks, large = narrow compliant hinges",
+}
+
+
+def variations() -> list[dict[str, object]]:
+    """The family parameters as ``fabpat variations --json`` lists them: one dict per parameter with
+    ``name``, ``min``, ``max``, ``default`` (the paper's value), ``unit`` (``""``: dimensionless) and
+    ``meaning``."""
+    out: list[dict[str, object]] = []
+    for f in fields(Variation):
+        r = RANGES[f.name]
+        out.append({"name": f.name, "min": r.low, "max": r.high, "default": float(getattr(PAPER_VARIATION, f.name)),
+                    "unit": r.unit, "meaning": MEANINGS[f.name]})
+    return out
+
+
+def parse_variation(texts: Iterable[str]) -> Variation:
+    """A :class:`Variation` from ``NAME=VALUE`` strings (the CLI's repeatable ``--variation``).
+
+    Raises :class:`GeometryError` for a string without ``=``, a value that is not a plain number, a
+    parameter given twice, an unknown name or a value outside its range.
+    """
+    values: dict[str, float] = {}
+    for text in texts:
+        name, sep, raw = str(text).partition("=")
+        name = name.strip()
+        if not sep:
+            raise GeometryError(f"--variation {text!r} is not NAME=VALUE; valid names: "
+                                f"{', '.join(f.name for f in fields(Variation))}")
+        if name in values:
+            raise GeometryError(f"variation {name!r} given twice")
+        try:
+            value = float(raw)
+        except ValueError:
+            raise GeometryError(f"variation {name}={raw!r} is not a number") from None
+        if not math.isfinite(value):
+            raise GeometryError(f"variation {name}={raw!r} is not a finite number")
+        values[name] = value
+    return Variation.from_values(values)
