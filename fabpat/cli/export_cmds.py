@@ -20,6 +20,7 @@ from fabpat.cli.options import (
     number_option,
     sides_option,
     thickness_option,
+    variation_option,
     weight_option,
 )
 from fabpat.errors import ExportError
@@ -37,6 +38,7 @@ from fabpat.exchange.registry import (
     width_warnings,
 )
 from fabpat.io import check_output_folder, output_folder
+from fabpat.variation import PAPER_VARIATION, Variation
 
 if TYPE_CHECKING:  # pragma: no cover
     from fabpat.pattern import Pattern
@@ -46,10 +48,10 @@ DEFAULT_ALL_FORMATS = "step,stl,dxf"
 OPTION_OF = {"step": "--step", "stl": "--stl", "3mf": "--3mf", "dxf": "--dxf", "svg": "--svg", "3dm": "--3dm"}
 
 
-def make_part(pattern: Pattern, thickness: float, weight: float) -> Part:
-    """The filleted pattern as an exportable part (:func:`fabpat.exchange.registry.filleted_part`, the
-    same one ``FilletedPattern.export`` writes)."""
-    return filleted_part(pattern.fillet(weight), thickness)
+def make_part(pattern: Pattern, thickness: float, weight: float, variation: Variation = PAPER_VARIATION) -> Part:
+    """The filleted pattern (the family member ``variation``) as an exportable part
+    (:func:`fabpat.exchange.registry.filleted_part`, the same one ``FilletedPattern.export`` writes)."""
+    return filleted_part(pattern.fillet(weight, **variation.items()), thickness)
 
 
 def _warn(message: str) -> None:
@@ -108,6 +110,7 @@ def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> lis
 @edge_option
 @thickness_option
 @weight_option
+@variation_option
 @click.option("--step", "step", type=click.Path(dir_okay=False), help="STEP AP214 file (exact solid).")
 @click.option("--stl", "stl", type=click.Path(dir_okay=False), help="Binary STL file (chord --mesh-tolerance).")
 @click.option("--3mf", "threemf", type=click.Path(dir_okay=False), help="3MF file (mesh for slicers).")
@@ -139,8 +142,8 @@ def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> lis
 @click.option("--formats", default=None, help=f"Formats for --all, comma-separated [default: {DEFAULT_ALL_FORMATS}].")
 @max_elements_option(DEFAULT_MAX_EXPORT_ELEMENTS, "STL/3MF triangles or DXF/SVG curve segments of one part")
 def export_cmd(pattern_id: str | None, sides: int, depth: int | None, edge: float, thickness: float, weight: float,
-               step: str | None, stl: str | None, threemf: str | None, dxf: str | None, svg: str | None,
-               rhino: str | None,
+               variation: Variation, step: str | None, stl: str | None, threemf: str | None, dxf: str | None,
+               svg: str | None, rhino: str | None,
                curves: str, mesh_tolerance: float, curve_tolerance: float, kerf: float, dxf_version: str,
                dxf_entities: str | None, svg_curves: str, origin: str,
                all_: bool, out: str | None, formats: str | None, max_elements: int) -> None:
@@ -153,6 +156,7 @@ def export_cmd(pattern_id: str | None, sides: int, depth: int | None, edge: floa
     Examples:
       fabpat export 0x0488 --step p.step --stl p.stl --dxf p.dxf --kerf 0.15
       fabpat export 0x0688 --3dm p.3dm
+      fabpat export 0x0488 --variation bridge_weight=0.5 --step wide-necks.step
       fabpat export --all --out parts --formats step,dxf
     """
     settings = ExportSettings(curves=curves, kerf=kerf, dxf_version=dxf_version, mesh_tolerance=mesh_tolerance,
@@ -170,7 +174,7 @@ def export_cmd(pattern_id: str | None, sides: int, depth: int | None, edge: floa
         if out is None:
             raise click.UsageError("--all needs --out DIR")
         names = parse_formats(DEFAULT_ALL_FORMATS if formats is None else formats)  # '' is an error, not the default
-        _export_library(sides, edge, thickness, weight, names, Path(out), settings)
+        _export_library(sides, edge, thickness, weight, names, Path(out), settings, variation)
         return
     if pattern_id is None:
         raise click.UsageError("missing pattern ID (or --all)")
@@ -184,13 +188,13 @@ def export_cmd(pattern_id: str | None, sides: int, depth: int | None, edge: floa
     from fabpat.library import get_pattern
 
     pattern = get_pattern(pattern_id, sides, depth, edge)  # depth None: from the ID's length
-    jobs = [(lambda: make_part(pattern, thickness, weight), targets)]
+    jobs = [(lambda: make_part(pattern, thickness, weight, variation), targets)]
     for path in _write_all(jobs, settings, progress=False):
         click.echo(f"wrote {path}")
 
 
 def _export_library(sides: int, edge: float, thickness: float, weight: float, names: list[str], out: Path,
-                    settings: ExportSettings) -> None:
+                    settings: ExportSettings, variation: Variation) -> None:
     from fabpat.library import enumerate_library
 
     check_output_folder(out)
@@ -198,7 +202,7 @@ def _export_library(sides: int, edge: float, thickness: float, weight: float, na
     ids = list(lib.ids)
 
     def job(pid: str) -> Job:
-        return (lambda: make_part(lib.pattern(pid, edge), thickness, weight),
+        return (lambda: make_part(lib.pattern(pid, edge), thickness, weight, variation),
                 {n: out / f"{pid}{FORMATS[n].suffix}" for n in names})
 
     with output_folder(out):  # a folder this command created is removed again on any error

@@ -18,12 +18,14 @@ from fabpat.cli.options import (
     sample_option,
     seed_option,
     sides_option,
+    variation_option,
     weight_option,
 )
 from fabpat.errors import PatternError
 from fabpat.io import atomic_outputs, check_suffix
 from fabpat.library import Library, enumerate_library, get_pattern, sample_library
 from fabpat.pattern import DEFAULT_EDGE, Pattern
+from fabpat.variation import Variation, variations
 
 
 def load_library(sides: int, depth: int, sample: int | None = None, seed: int = 0) -> Library:
@@ -172,13 +174,17 @@ def library_cmd(
               help="SVG file to write [default: the SVG on stdout].")
 @click.option("--filleted", is_flag=True, help="Draw the exact filleted outline (true curves) instead of the lattice.")
 @weight_option
+@variation_option
 def show_cmd(pattern_id: str, sides: int, depth: int | None, edge: float, svg: str | None, filleted: bool,
-             weight: float) -> None:
+             weight: float, variation: Variation) -> None:
     """Draw one pattern as an SVG at true size (mm), to --svg FILE or stdout.
+
+    A --variation changes the filleted outline only, so it implies --filleted.
 
     \b
     Examples:
       fabpat show 0x0488 --sides 6 --filleted --svg pattern.svg
+      fabpat show 0x0488 --variation bridge_weight=0.4 --svg wide-necks.svg
       fabpat show 0x0488 > pattern.svg
     """
     from fabpat.pictures import pattern_svg
@@ -186,7 +192,9 @@ def show_cmd(pattern_id: str, sides: int, depth: int | None, edge: float, svg: s
     if svg is not None:
         check_suffix(svg, (".svg",), "--svg")  # an SVG in a .png would open as a broken picture
     p = get_pattern(pattern_id, sides, depth, edge)  # depth None: from the ID's length
-    text = pattern_svg(p, outline_path=p.fillet(weight).outline.to_svg_path() if filleted else None)
+    filleted = filleted or not variation.is_paper
+    outline = p.fillet(weight, **variation.items()).outline if filleted else None
+    text = pattern_svg(p, outline_path=outline.to_svg_path() if outline is not None else None)
     if svg is None:
         click.echo(text, nl=False)
         return
@@ -221,4 +229,27 @@ def sheet_cmd(sides: int, depth: int, sample: int | None, seed: int, out: str) -
     click.echo(f"wrote {out} ({len(patterns)} patterns)")
 
 
-COMMANDS = [library_cmd, show_cmd, sheet_cmd]
+@click.command("variations")
+@click.option("--json", "as_json", is_flag=True, help="A JSON list of {name, min, max, default, unit, meaning}.")
+def variations_cmd(as_json: bool) -> None:
+    """List the continuous variations every pattern has (its family parameters).
+
+    Each one is given to show, export and simulate as --variation NAME=VALUE, to Python as
+    ``fabpat.pattern(ID).fillet(NAME=VALUE)``. The default is the paper's value.
+
+    \b
+    Examples:
+      fabpat variations
+      fabpat variations --json
+    """
+    rows = variations()
+    if as_json:
+        click.echo(json.dumps(rows, indent=1))
+        return
+    for r in rows:
+        unit = f" {r['unit']}" if r["unit"] else ""
+        click.echo(f"{r['name']}: {r['min']:g} … {r['max']:g}{unit}, default {r['default']:g} (the paper's) — "
+                   f"{r['meaning']}")
+
+
+COMMANDS = [library_cmd, show_cmd, sheet_cmd, variations_cmd]

@@ -6,13 +6,17 @@ is checked while parsing (before any work, before any file is opened) and ``--he
 
 from __future__ import annotations
 
+import math
+from collections.abc import Iterable
+from dataclasses import fields
 from typing import Any
 
 import click
 
-from fabpat.errors import RangeError
+from fabpat.errors import GeometryError, RangeError
 from fabpat.pattern import DEFAULT_EDGE
 from fabpat.validate import RANGES, check
+from fabpat.variation import Variation
 
 
 class NumberType(click.ParamType):
@@ -84,3 +88,43 @@ def h_option(default: float) -> Any:
     """``--h``: the target mesh edge in mm, with a command's own default."""
     return number_option("--h", "h", range_name="h", default=default, show_default=True,
                          help="Target mesh edge length in mm (at most twice the pattern's min_width).")
+
+
+def parse_variation(texts: Iterable[str]) -> Variation:
+    """A :class:`~fabpat.variation.Variation` from ``NAME=VALUE`` strings (the repeatable ``--variation``).
+
+    Raises :class:`~fabpat.errors.GeometryError` for a string without ``=``, a value that is not a
+    finite number, a parameter given twice, an unknown name or a value outside its range.
+    """
+    names = ", ".join(f.name for f in fields(Variation))
+    values: dict[str, float] = {}
+    for text in texts:
+        name, sep, raw = str(text).partition("=")
+        name = name.strip()
+        if not sep:
+            raise GeometryError(f"{text!r} is not NAME=VALUE; valid names: {names}")
+        if name in values:
+            raise GeometryError(f"{name} given twice")
+        try:
+            value = float(raw)
+        except ValueError:
+            raise GeometryError(f"{name}={raw!r} is not a number") from None
+        if not math.isfinite(value):
+            raise GeometryError(f"{name}={raw!r} is not a finite number")
+        values[name] = value
+    return Variation.from_values(values)
+
+
+def _variation(ctx: click.Context, param: click.Parameter, value: tuple[str, ...]) -> Variation:
+    try:
+        return parse_variation(value)
+    except GeometryError as e:
+        raise click.BadParameter(str(e), ctx, param) from None
+
+
+#: ``--variation NAME=VALUE`` (repeatable): the pattern's family member (``fabpat variations``), parsed
+#: into a :class:`fabpat.variation.Variation` (the paper's fillets when not given)
+variation_option = click.option(
+    "--variation", "variation", multiple=True, metavar="NAME=VALUE", callback=_variation,
+    help="A continuous variation of the pattern (repeatable; `fabpat variations` lists them), e.g. "
+         "--variation bridge_weight=0.5 [default: the paper's fillets].")

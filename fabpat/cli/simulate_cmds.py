@@ -17,11 +17,13 @@ from fabpat.cli.options import (
     poisson_option,
     sides_option,
     thickness_option,
+    variation_option,
     weight_option,
 )
 from fabpat.errors import FabpatError
 from fabpat.io import atomic_outputs, check_distinct, check_suffix
 from fabpat.mesh import DEFAULT_MAX_ELEMENTS
+from fabpat.variation import Variation
 
 SCENARIO_CHOICES = ("cantilever", "cylinder", "dome", "all")
 
@@ -40,6 +42,7 @@ def _per_scenario(path: str | None, scenario: str, many: bool) -> str | None:
 @id_depth_option
 @edge_option
 @weight_option
+@variation_option
 @click.option("--scenario", type=click.Choice(SCENARIO_CHOICES, case_sensitive=False), default="all", show_default=True,
               help="Load case of the paper (all = the three in turn).")
 @click.option("--linear", is_flag=True, help="Linear analysis instead of geometrically nonlinear.")
@@ -66,8 +69,8 @@ def _per_scenario(path: str | None, scenario: str, many: bool) -> str | None:
               help="Progress on stderr: a bar on a terminal, else a line every few seconds "
                    "(FABPAT_PROGRESS_INTERVAL seconds, default 5) and one per scenario finished.")
 def simulate_cmd(
-    pattern_id: str, sides: int, depth: int | None, edge: float, weight: float, scenario: str, linear: bool,
-    h: float | None, extrapolate: bool | None,
+    pattern_id: str, sides: int, depth: int | None, edge: float, weight: float, variation: Variation, scenario: str,
+    linear: bool, h: float | None, extrapolate: bool | None,
     thickness: float, E: float, nu: float, vtu: str | None, png: str | None, inp: str | None, inp_element: str,
     as_json: bool, max_elements: int, progress: bool,
 ) -> None:
@@ -83,6 +86,8 @@ def simulate_cmd(
     pattern is solved on one mesh of that size (add --extrapolate for h and its refinement h/2);
     --no-extrapolate solves one mesh of 1.5 mm.
     With --scenario all, file options get the scenario appended (out.vtu → out-dome.vtu).
+    --variation NAME=VALUE simulates that member of the pattern's family (`fabpat variations`); the
+    JSON rows carry every variation parameter, the text lines the ones given.
 
     Example: fabpat simulate 0x2d88 --scenario dome --vtu dome.vtu --png dome.png --json
     """
@@ -113,7 +118,7 @@ def simulate_cmd(
         if path is not None:
             check_suffix(path, valid, option)
     pattern = get_pattern(pattern_id, sides, depth, edge)
-    filleted = fillet_pattern(pattern, weight)  # its outline carries its polygon
+    filleted = fillet_pattern(pattern, weight, variation)  # its outline carries its polygon
     rows = []
     # a heartbeat line while each scenario's solves block (the solver has no progress callback)
     with atomic_outputs(*outputs.values()) as temps, Progress("simulate", total=len(scenarios),
@@ -133,7 +138,7 @@ def simulate_cmd(
             bar.item(f"{sc} finished ({k + 1} of {len(scenarios)}), energy {row['energy']:.6g} N·mm")
             if not row["converged"]:  # run_scenario raises on nonconvergence; this guards the contract
                 raise FabpatError(f"{sc}: the solver did not converge")
-            rows.append({"id": pattern.id, "sides": sides, **row})
+            rows.append({"id": pattern.id, "sides": sides, **variation.items(), **row})
             if ("vtu", sc) in tmp_of:
                 write_vtu(tmp_of["vtu", sc], mesh.V, mesh.F, c.fine.result)
             if ("png", sc) in tmp_of:
@@ -152,6 +157,7 @@ def simulate_cmd(
                 f"max_displacement={row['max_displacement']:.4g} converged={str(bool(row['converged'])).lower()} "
                 f"iterations={row['iterations']} seconds={row['seconds']:.2f} nodes={row['nodes']} "
                 f"elements={row['elements']} h={','.join(f'{x:g}' for x in row['h'])}"
+                + "".join(f" {k}={v:g}" for k, v in variation.changed().items())
             )
     for path in outputs.values():
         click.echo(f"wrote {path}", err=True)  # stdout is data (key=value lines or JSON)
