@@ -42,13 +42,17 @@ DEFAULT_ANGULAR = 0.5  # rad: BRepMesh angular deflection; the chord tolerance i
 DEFAULT_CHORD = 0.005
 
 
-def part_name(pattern_id: str, sides: int, edge: float, thickness: float, weight: float) -> str:
-    """The product name written to STEP/3MF: ID and every parameter that changes the geometry.
+def part_name(pattern_id: str, sides: int, edge: float, thickness: float, weight: float, variation: str = "") -> str:
+    """The product name written to STEP/3MF: ID and every parameter that changes the geometry,
+    ending with the family member's ``variation`` label (:meth:`fabpat.variation.Variation.label`) if any.
 
     >>> part_name("0x0488", 6, 36.0, 2.0, 0.2)
     'fabpat 0x0488 n6 e36mm t2mm w0.2'
+    >>> part_name("0x0488", 6, 36.0, 2.0, 0.2, "bridge_weight=0.5")
+    'fabpat 0x0488 n6 e36mm t2mm w0.2 bridge_weight=0.5'
     """
-    return f"fabpat {pattern_id} n{sides} e{edge:g}mm t{thickness:g}mm w{weight:g}"
+    name = f"fabpat {pattern_id} n{sides} e{edge:g}mm t{thickness:g}mm w{weight:g}"
+    return f"{name} {variation}" if variation else name
 
 
 # -- raw OCP construction ---------------------------------------------------------------------------

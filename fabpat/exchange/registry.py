@@ -321,12 +321,16 @@ def export_part(
 
 
 def filleted_part(filleted: Any, thickness: float = DEFAULT_THICKNESS) -> Part:
-    """The part of a :class:`~fabpat.fillet.FilletedPattern`: named by its ID and parameters, labelled
-    with its ID, its interface bow-tie arcs as ``support`` (so STEP carries their weights (1, w, 1))."""
+    """The part of a :class:`~fabpat.fillet.FilletedPattern`: named by its ID and parameters (and its
+    variation, :func:`fabpat.cad.part_name`), labelled with its ID (``"0x0488 b0.5"`` for a
+    ``bridge_weight`` of 0.5, so two members of one family are told apart on the sheet), its interface
+    bow-tie arcs as ``support`` (so STEP carries their weights (1, w, 1))."""
     from fabpat.cad import part_name
 
-    name = part_name(filleted.id, filleted.sides, filleted.edge, thickness, filleted.weight)
-    return Part(filleted.outline, thickness, name, label=filleted.id, support=filleted.support_arcs)
+    variation = filleted.variation
+    name = part_name(filleted.id, filleted.sides, filleted.edge, thickness, filleted.weight, variation.label())
+    label = filleted.id if variation.is_paper else f"{filleted.id} b{variation.bridge_weight:g}"
+    return Part(filleted.outline, thickness, name, label=label, support=filleted.support_arcs)
 
 
 _SETTINGS_FIELDS = tuple(ExportSettings.__dataclass_fields__)
