@@ -80,6 +80,13 @@ RESULT_COLUMNS: dict[str, str] = {
     "solver_version": "TEXT NOT NULL", "input_hash": "TEXT NOT NULL", "computed_at": "TEXT NOT NULL",
     "h_fine": "REAL",
 }
+#: ``family``: the results of a pattern's family members (:mod:`fabpat.variation`) other than the
+#: paper's (whose results are in ``results``), one row per member × scenario, with the member's
+#: ``min_width`` (mm) and ``filleted_area`` (mm²); key: ``results``' plus ``bridge_weight``. A table added
+#: after schema 1: a catalog without it is sound (it holds no family), opening it for writing adds it.
+FAMILY_COLUMNS: dict[str, str] = {**RESULT_COLUMNS, "bridge_weight": "REAL NOT NULL", "min_width": "REAL",
+                                  "filleted_area": "REAL"}
+FAMILY_KEY = (*KEY, "bridge_weight", "scenario")
 #: columns added after schema 1 was released: a catalog without them is still sound (its rows read as
 #: NULL there, i.e. the single-mesh default); opening it for writing adds them (``ALTER TABLE … ADD``)
 ADDED_COLUMNS: dict[str, tuple[str, ...]] = {"patterns": (), "results": ("h_fine",)}
@@ -106,6 +113,7 @@ def _create_sql() -> list[str]:
         "CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)",
         table("patterns", PATTERN_COLUMNS, KEY),
         table("results", RESULT_COLUMNS, (*KEY, "scenario")),
+        table("family", FAMILY_COLUMNS, FAMILY_KEY),
     ]
 
 
@@ -204,12 +212,37 @@ class Catalog:
         per = [f"{p}_{s}" for s in self.scenarios() for p in ("energy", "max_displacement", "specific_stiffness")]
         return [*KEY[1:], *METRICS, *per]
 
-    def stored_hashes(self, sides: int, depth: int, edge: float, thickness: float,
-                      weight: float) -> tuple[dict[str, str], dict[tuple[str, str], str]]:
+    def has_family(self) -> bool:
+        """Whether this catalog has a ``family`` table (one made before it existed has none until a sweep
+        writes to it)."""
+        return bool(self.query("SELECT name FROM sqlite_master WHERE type = 'table' AND name = 'family'"))
+
+    def family(self, scenario: str | None = None, **setup: object) -> list[dict[str, object]]:
+        """Rows of ``family`` (long form, as :meth:`results` plus ``bridge_weight``, ``min_width`` mm and
+        ``filleted_area`` mm²), optionally filtered by scenario and key columns; [] without the table.
+        :class:`CatalogError` for an unknown filter or a bad stored value."""
+        if not self.has_family():
+            return []
+        where, params = _where({**setup, **({"scenario": scenario} if scenario else {})}, extra=("bridge_weight",))
+        rows = self.query(f"SELECT * FROM family{where} ORDER BY sides, depth, edge, thickness, weight, id, "
+                          "scenario, bridge_weight", params)
+        for r in rows:
+            check_row(self.path, r, ("min_width", "filleted_area"))
+        return rows
+
+    def stored_hashes(self, sides: int, depth: int, edge: float, thickness: float, weight: float,
+                      bridge_weight: float = 1.0) -> tuple[dict[str, str], dict[tuple[str, str], str]]:
         """Input hashes of one set-up: {id: pattern hash}, {(id, scenario): result hash}. A row holding a
-        bad value (see the module notes) is left out, so a sweep recomputes it rather than trust it."""
+        bad value (see the module notes) is left out, so a sweep recomputes it rather than trust it.
+        A family member (``bridge_weight`` ≠ 1) has result hashes in ``family`` and no pattern hashes."""
         p = (sides, depth, edge, thickness, weight)
         cond = "sides = ? AND depth = ? AND edge = ? AND thickness = ? AND weight = ?"
+        if bridge_weight != 1.0:
+            if not self.has_family():
+                return {}, {}
+            rows = self.query(f"SELECT * FROM family WHERE {cond} AND bridge_weight = ?", (*p, bridge_weight))
+            return {}, {(str(r["id"]), str(r["scenario"])): str(r["input_hash"]) for r in rows
+                        if not result_problem(r)}
         pats = {str(r["id"]): str(r["input_hash"])
                 for r in self.query(f"SELECT {', '.join(KEY)}, {', '.join(METRICS)}, input_hash FROM patterns "
                                     f"WHERE {cond}", p) if not pattern_problem(r, METRICS)}
@@ -222,7 +255,8 @@ class Catalog:
     def write_rows(self, rows: Iterable[Mapping[str, object]]) -> int:
         """Insert or replace rows in ONE transaction (all or nothing); returns how many.
 
-        Each row names its table in ``row["table"]`` ("patterns" or "results"); other keys are columns.
+        Each row names its table in ``row["table"]`` ("patterns", "results" or "family"); other keys are
+        columns.
         A SIGKILL during the call leaves either all of these rows or none of them (SQLite atomic commit);
         so does a full disk, which raises :class:`CatalogError` saying so (earlier commits are kept).
         """
@@ -233,9 +267,10 @@ class Catalog:
             with self.conn:  # BEGIN … COMMIT, or ROLLBACK on error
                 for row in rows:
                     table = row["table"]
-                    cols = PATTERN_COLUMNS if table == "patterns" else RESULT_COLUMNS if table == "results" else None
+                    cols = {"patterns": PATTERN_COLUMNS, "results": RESULT_COLUMNS, "family": FAMILY_COLUMNS}.get(
+                        str(table))
                     if cols is None:
-                        raise CatalogError(f"unknown table {table!r}: rows go to 'patterns' or 'results'")
+                        raise CatalogError(f"unknown table {table!r}: rows go to 'patterns', 'results' or 'family'")
                     names = [c for c in cols if c in row]
                     self.conn.execute(f"INSERT OR REPLACE INTO {table} ({', '.join(names)}) "
                                       f"VALUES ({', '.join('?' * len(names))})", [row[c] for c in names])
@@ -310,8 +345,8 @@ def _in_wal_mode(p: Path) -> bool:
         return False
 
 
-def _where(filters: Mapping[str, object]) -> tuple[str, list[object]]:
-    allowed = set(KEY) | {"scenario"}
+def _where(filters: Mapping[str, object], extra: Sequence[str] = ()) -> tuple[str, list[object]]:
+    allowed = set(KEY) | {"scenario", *extra}
     bad = set(filters) - allowed
     if bad:
         raise CatalogError(f"cannot filter by {', '.join(sorted(bad))}; use {', '.join(sorted(allowed))}")
@@ -391,6 +426,8 @@ def open_catalog(path: str | Path | None = None, *, write: bool = False) -> Cata
                     with conn:
                         kind = (PATTERN_COLUMNS if table == "patterns" else RESULT_COLUMNS)[c]
                         conn.execute(f"ALTER TABLE {table} ADD COLUMN {c} {kind}")
+        with conn:  # a catalog made before the family table existed
+            conn.execute(_create_sql()[3])
     except sqlite3.Error as e:
         cat.close(failed=True)  # back to one file as it was, no -wal/-shm
         raise _cause(e, p, "write to") from e
@@ -433,9 +470,12 @@ def _check_schema(conn: sqlite3.Connection, p: Path) -> None:
         if str(version[0]) != SCHEMA_VERSION:
             raise CatalogError(f"{p} has catalog schema {version[0]}, expected {SCHEMA_VERSION} (another fabpat "
                                f"version): move it away or give another --db, and `fabpat sweep` makes a new one")
-        for table, columns in (("patterns", PATTERN_COLUMNS), ("results", RESULT_COLUMNS)):
+        checked = [("patterns", PATTERN_COLUMNS), ("results", RESULT_COLUMNS)]
+        if "family" in tables:  # optional: added after schema 1
+            checked.append(("family", FAMILY_COLUMNS))
+        for table, columns in checked:
             have = {str(r[1]) for r in conn.execute(f"PRAGMA table_info({table})")}
-            lost = [c for c in columns if c not in have and c not in ADDED_COLUMNS[table]]
+            lost = [c for c in columns if c not in have and c not in ADDED_COLUMNS.get(table, ())]
             if lost:
                 what = f"table {table} is missing" if not have else f"table {table} has no column {', '.join(lost)}"
                 raise CatalogError(f"catalog {p} is damaged: {what}; move it away and re-create it with "

@@ -29,6 +29,10 @@ from fabpat.errors import FabpatError
 PLA_E = 1000.0  # N/mm²
 PLA_NU = 0.35
 DEFAULT_H = 1.5  # mm: mesh size of a one-mesh sweep (--no-extrapolate; fabpat.mesh.mesh_outline's default)
+#: the family members ``fabpat sweep --family`` computes (bridge_weight, fabpat.variation), besides the
+#: paper's 1 whose results are the catalog's own: log-spaced over the range (ratio ≈ 1.6), the nodes of
+#: the interpolant in :mod:`fabpat.family` (its measured error is in docs/variations.md)
+FAMILY_SAMPLES = (0.25, 0.4, 0.63, 1.6, 2.5)
 
 
 @dataclass(frozen=True)
@@ -50,6 +54,9 @@ class SweepSetup:
     #: mesh-converged value, as the built-in catalog; False: one mesh of h, ≈ 3× faster and 3–5 % low in
     #: the median; docs/accuracy.md)
     extrapolate: bool = True
+    #: the family member (:mod:`fabpat.variation`): 1 = the paper's fillets, stored in ``results``; any
+    #: other value is stored in the catalog's ``family`` table
+    bridge_weight: float = 1.0
 
     def __post_init__(self) -> None:
         """Raises :class:`~fabpat.errors.RangeError` (one line) for a value outside
@@ -62,7 +69,7 @@ class SweepSetup:
             object.__setattr__(self, "h", CONVERGED_MESHES[0] if self.extrapolate is True else DEFAULT_H)
         for name, value in (("sides", self.sides), ("depth", self.depth), ("edge", self.edge),
                             ("thickness", self.thickness), ("weight", self.weight), ("youngs_modulus", self.E),
-                            ("poisson", self.nu), ("h", self.h)):
+                            ("poisson", self.nu), ("h", self.h), ("bridge_weight", self.bridge_weight)):
             check(name, value, f"SweepSetup {name}")
         if not isinstance(self.extrapolate, bool):
             from fabpat.errors import RangeError
@@ -96,25 +103,31 @@ def pattern_hash(pattern_id: str, sides: int, depth: int, edge: float, thickness
 
 
 def result_hash(pattern_id: str, sides: int, depth: int, edge: float, thickness: float, weight: float,
-                E: float, nu: float, h: float, scenario: str, version: str, h_fine: float | None = None) -> str:
+                E: float, nu: float, h: float, scenario: str, version: str, h_fine: float | None = None,
+                bridge_weight: float = 1.0) -> str:
     """Input hash of a ``results`` row: the key, material, mesh size(s), nonlinear flag, solver version.
     ``h_fine``: the second mesh of an extrapolated energy (None: one mesh; the hash is then the same as
-    before extrapolation existed)."""
+    before extrapolation existed); ``bridge_weight``: the family member (1, the paper's: the hash is the
+    same as before families existed)."""
     inputs: dict[str, object] = {"id": pattern_id, "sides": sides, "depth": depth, "edge": float(edge),
                                  "thickness": float(thickness), "weight": float(weight), "E": float(E),
                                  "nu": float(nu), "h": float(h), "nonlinear": True, "scenario": scenario,
                                  "solver": version}
     if h_fine is not None:
         inputs["h_fine"] = float(h_fine)
+    if bridge_weight != 1.0:
+        inputs["bridge_weight"] = float(bridge_weight)
     return input_hash(inputs)
 
 
 def simulate_pattern(pattern_id: str, sides: int, depth: int, edge: float, thickness: float, weight: float,
                      E: float, nu: float, h: float, scenarios: Sequence[str],
-                     extrapolate: bool = False) -> list[dict[str, object]]:
+                     extrapolate: bool = False, bridge_weight: float = 1.0) -> list[dict[str, object]]:
     """Fillet, mesh and run ``scenarios`` (nonlinear) on one pattern; the catalog rows to store.
 
-    Returns one ``patterns`` row (``"table": "patterns"``) and one ``results`` row per scenario.
+    Returns one ``patterns`` row (``"table": "patterns"``) and one ``results`` row per scenario; for a
+    family member (``bridge_weight`` ≠ 1, :mod:`fabpat.variation`) one ``family`` row per scenario,
+    carrying the member's ``bridge_weight``, ``min_width`` and ``filleted_area``, and no patterns row.
     ``extrapolate``: also refine the mesh once (:func:`fabpat.convergence.nested_meshes`, h/2) and
     store the Richardson-extrapolated energy (:func:`fabpat.convergence.run_converged`, as ``fabpat
     simulate --extrapolate``) with ``h_fine``;
@@ -130,8 +143,10 @@ def simulate_pattern(pattern_id: str, sides: int, depth: int, edge: float, thick
     from fabpat.fillet import fillet_pattern
     from fabpat.library import get_pattern
     from fabpat.mesh import ShellMesh, check_resolves, mesh_outline
+    from fabpat.variation import Variation
 
     version = solver_version()
+    member = bridge_weight != 1.0
     h_fine = fine_mesh(h) if extrapolate else None
     key = {"id": pattern_id, "sides": sides, "depth": depth, "edge": float(edge), "thickness": float(thickness),
            "weight": float(weight)}
@@ -145,7 +160,7 @@ def simulate_pattern(pattern_id: str, sides: int, depth: int, edge: float, thick
         pattern = get_pattern(pattern_id, sides, depth, edge)
         m = pattern.metrics
         prow.update(area=m.area, perimeter=m.perimeter, ratio=m.ratio, polar_moment=m.polar_moment)
-        filleted = fillet_pattern(pattern, weight)
+        filleted = fillet_pattern(pattern, weight, Variation(bridge_weight))
         prow.update(filleted.catalog_columns())  # as `fabpat library`; an invalid outline raises GeometryError
         prow["svg_path"] = filleted.outline.to_svg_path()
         if h_fine is None:
@@ -158,12 +173,15 @@ def simulate_pattern(pattern_id: str, sides: int, depth: int, edge: float, thick
         geometry_error = f"{type(e).__name__}: {e}"
         prow["error"] = geometry_error
     for scenario in scenarios:
-        row: dict[str, object] = {"table": "results", **key, "scenario": scenario, "E": float(E), "nu": float(nu),
-                                  "h": float(h), "h_fine": h_fine, "nonlinear": 1, "converged": 0,
-                                  "solver_version": version,
+        row: dict[str, object] = {"table": "family" if member else "results", **key, "scenario": scenario,
+                                  "E": float(E), "nu": float(nu), "h": float(h), "h_fine": h_fine, "nonlinear": 1,
+                                  "converged": 0, "solver_version": version,
                                   "input_hash": result_hash(pattern_id, sides, depth, edge, thickness, weight, E,
-                                                            nu, h, scenario, version, h_fine),
+                                                            nu, h, scenario, version, h_fine, bridge_weight),
                                   "error": geometry_error}
+        if member:
+            row.update(bridge_weight=float(bridge_weight), min_width=prow.get("min_width"),
+                       filleted_area=prow.get("filleted_area"))
         if meshes:
             t0 = time.perf_counter()
             fine = meshes[-1][1]
@@ -182,7 +200,7 @@ def simulate_pattern(pattern_id: str, sides: int, depth: int, edge: float, thick
                 row.update(error=f"{type(e).__name__}: {e}", seconds=time.perf_counter() - t0)
         row["computed_at"] = datetime.now(UTC).isoformat(timespec="seconds")
         rows.append(row)
-    return rows
+    return rows[1:] if member else rows
 
 
 Task = Callable[..., list[dict[str, object]]]
@@ -205,12 +223,17 @@ def plan(cat: Catalog, ids: Sequence[str], setup: SweepSetup, force: bool) -> li
     """(pattern ID, scenarios to compute) for every pattern that needs work."""
     version = solver_version()
     s = setup
-    pats, res = cat.stored_hashes(s.sides, s.depth, float(s.edge), float(s.thickness), float(s.weight))
+    member = s.bridge_weight != 1.0
+    pats, res = cat.stored_hashes(s.sides, s.depth, float(s.edge), float(s.thickness), float(s.weight),
+                                  float(s.bridge_weight))
     jobs = []
     for pid in ids:
         todo = tuple(sc for sc in s.scenarios if force or res.get((pid, sc)) != result_hash(
-            pid, s.sides, s.depth, s.edge, s.thickness, s.weight, s.E, s.nu, s.h, sc, version, s.h_fine))
-        pattern_stale = pats.get(pid) != pattern_hash(pid, s.sides, s.depth, s.edge, s.thickness, s.weight, version)
+            pid, s.sides, s.depth, s.edge, s.thickness, s.weight, s.E, s.nu, s.h, sc, version, s.h_fine,
+            s.bridge_weight))
+        # a family member's geometry is in its own rows
+        pattern_stale = not member and pats.get(pid) != pattern_hash(pid, s.sides, s.depth, s.edge, s.thickness,
+                                                                    s.weight, version)
         if todo or pattern_stale:
             jobs.append((pid, todo))
     return jobs
@@ -334,8 +357,9 @@ def run_sweep(db: str | Path, ids: Sequence[str], setup: SweepSetup = SweepSetup
         report = SweepReport(len(ids), len(ids) * len(s.scenarios), len(ids) * len(s.scenarios) - total, 0, 0)
         if progress is not None:
             progress(0, total)
-        work = [((pid, s.sides, s.depth, s.edge, s.thickness, s.weight, s.E, s.nu, s.h, sc, s.extrapolate), pid)
-                for pid, sc in jobs]
+        member = (s.bridge_weight,) if s.bridge_weight != 1.0 else ()  # the paper's: the task's arguments as before
+        work = [((pid, s.sides, s.depth, s.edge, s.thickness, s.weight, s.E, s.nu, s.h, sc, s.extrapolate, *member),
+                 pid) for pid, sc in jobs]
         if client is not None:
             stream = _run_dask(task, work, client)
         else:
@@ -349,7 +373,7 @@ def run_sweep(db: str | Path, ids: Sequence[str], setup: SweepSetup = SweepSetup
                 else:
                     rows = list(out)  # type: ignore[call-overload]
                     cat.write_rows(rows)  # one transaction per pattern: all its rows or none
-                    results = [r for r in rows if r.get("table") == "results"]
+                    results = [r for r in rows if r.get("table") in ("results", "family")]
                     report.computed += len(results)
                     report.failed_rows += sum(1 for r in results if not r.get("converged"))
                 done += len(wanted[pid])

@@ -18,8 +18,11 @@ from fabpat.cli.options import (
     seed_option,
     sides_option,
     thickness_option,
+    variation_option,
     weight_option,
 )
+from fabpat.sweep import FAMILY_SAMPLES
+from fabpat.variation import Variation
 
 if TYPE_CHECKING:
     from fabpat.sweep import SweepSetup
@@ -54,17 +57,27 @@ _db_help = "Catalog file (SQLite) [default: the built-in catalog of the default 
                    "extrapolated to the mesh-converged value (Richardson, as the built-in catalog and `fabpat "
                    "simulate`); --no-extrapolate: one mesh of h, ≈ 3× faster and 3–5 % low in the median "
                    "(docs/accuracy.md).")
+@variation_option
+@click.option("--family", is_flag=True,
+              help=f"Also sweep the family members {', '.join(f'{w:g}' for w in FAMILY_SAMPLES)} of bridge_weight "
+                   "(into the catalog's family table, after the paper's own results): what fabpat.family "
+                   "interpolates; ≈ 6× the work of the paper's sweep alone.")
 def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, workers: int | None,
               dask_address: str | None, force: bool, edge: float, thickness: float, weight: float, modulus: float,
-              poisson: float, h: float | None, extrapolate: bool) -> int:
+              poisson: float, h: float | None, extrapolate: bool, variation: Variation, family: bool) -> int:
     """Simulate every pattern (fillet → mesh → cantilever, cylinder, dome, nonlinear) into a catalog.
 
     Each pattern's results are committed as soon as they are computed; re-running resumes (rows whose
     input hash matches are skipped), so an interrupted sweep loses only the patterns in progress.
     Each energy is extrapolated from a mesh of h and its nested refinement h/2 (the rows' h_fine says
     so), or with --no-extrapolate taken from one mesh of h; switching between them recomputes the rows.
+    --variation bridge_weight=W sweeps that member of every pattern's family instead of the paper's
+    fillets; --family sweeps the paper's and every standard member in turn (`fabpat variations`).
 
-    Example: fabpat sweep --db catalog.sqlite --workers 2
+    \b
+    Examples:
+      fabpat sweep --db catalog.sqlite --workers 2
+      fabpat sweep --db catalog.sqlite --family
     """
     from rich.console import Console
     from rich.progress import (
@@ -82,7 +95,12 @@ def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, wo
     from fabpat.sweep import SweepSetup, run_sweep
 
     check_distinct([], inputs={"--db": db})  # the library cache, say, may never replace the catalog
-    setup = SweepSetup(sides, depth, edge, thickness, weight, modulus, poisson, h, extrapolate=extrapolate)
+    if family and not variation.is_paper:
+        raise click.UsageError("--family sweeps every standard member; --variation one member: give one of them")
+    members = (1.0, *FAMILY_SAMPLES) if family else (variation.bridge_weight,)
+    setups = [SweepSetup(sides, depth, edge, thickness, weight, modulus, poisson, h, extrapolate=extrapolate,
+                         bridge_weight=w) for w in members]
+    setup = setups[0]
     # a sweep has no --max-elements: the limit protects every worker's memory
     h = float(setup.h)  # type: ignore[arg-type]  # resolved by SweepSetup
     check_polygon_elements(sides, edge, h, DEFAULT_MAX_ELEMENTS, fine_ratio=(setup.h_fine or h) / h,
@@ -108,7 +126,12 @@ def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, wo
                            + (f", ETA {eta / 60:.1f} min" if eta else ""), err=True)
 
         try:
-            report = run_sweep(db, ids, setup, workers=workers, dask=dask_address, force=force, progress=progress)
+            reports = []
+            for k, member in enumerate(setups):
+                if len(setups) > 1:
+                    click.echo(f"bridge_weight = {member.bridge_weight:g} ({k + 1} of {len(setups)})", err=True)
+                reports.append(run_sweep(db, ids, member, workers=workers, dask=dask_address, force=force,
+                                         progress=progress))
         except KeyboardInterrupt:
             from fabpat.cli import _TERMINATED  # the CLI's SIGTERM handler records the signal there
 
@@ -116,8 +139,17 @@ def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, wo
             click.echo(f"fabpat: {how}; every finished pattern is stored in {db}: run the same command "
                        "again to resume", err=True)
             return code
+    report = reports[0]
+    for other in reports[1:]:
+        report.computed += other.computed
+        report.failed_rows += other.failed_rows
+        report.skipped += other.skipped
+        report.crashed += other.crashed
+        report.seconds += other.seconds
+    members_text = f", {len(setups)} family members" if len(setups) > 1 else (
+        f", bridge_weight = {setup.bridge_weight:g}" if setup.bridge_weight != 1.0 else "")
     click.echo(f"{db}: {report.computed} pattern-scenarios computed ({report.failed_rows} did not converge), "
-               f"{report.skipped} already up to date, {len(ids)} patterns, {report.seconds:.1f} s")
+               f"{report.skipped} already up to date, {len(ids)} patterns{members_text}, {report.seconds:.1f} s")
     _warn_mixed(db, setup)
     if report.crashed:
         click.echo(f"fabpat: warning: {len(report.crashed)} patterns raised and were not stored (re-run to retry): "
