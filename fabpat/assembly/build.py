@@ -172,7 +172,7 @@ def plan(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | None 
     tell("placement")
     assembly = place(spec, ids)
     filleted = {pt: fillet_pattern(get_pattern(pt.pattern_id, pt.sides, pt.depth, assembly.plate_edge),
-                                   spec.plates.weight) for pt in assembly.plate_types}
+                                   spec.plates.weight, pt.variation) for pt in assembly.plate_types}
     check_necks(assembly, filleted)
     return assembly, filleted
 

@@ -50,7 +50,8 @@ class PartLibrary:
         if pt is None:
             return self.assembly.sleeve_types[key].name
         spec = self.assembly.spec
-        return part_name(pt.pattern_id, pt.sides, self.assembly.plate_edge, spec.plates.thickness, spec.plates.weight)
+        return part_name(pt.pattern_id, pt.sides, self.assembly.plate_edge, spec.plates.thickness, spec.plates.weight,
+                         pt.variation.label())
 
     def support(self, pt: PlateType) -> tuple[Any, ...]:
         """The whole interface arcs whose halves the plate outline keeps (exact STEP weights)."""

@@ -37,6 +37,7 @@ from fabpat.assembly.sleeve import Sleeve, joint_direction, required_setback
 from fabpat.assembly.spec import AssemblySpec, sleeve_angle
 from fabpat.assembly.tiling import Tiling, honeycomb_strip, truncated_icosahedron
 from fabpat.errors import SpecError
+from fabpat.variation import Variation
 
 POLYGON_NAMES = {3: "triangle", 4: "square", 5: "pentagon", 6: "hexagon", 8: "octagon"}
 SHORT_NAMES = {5: "pent", 6: "hex"}
@@ -67,15 +68,24 @@ def skeleton_edge(tiling: Tiling, plate_edge: float, thickness: float, clearance
 
 @dataclass(frozen=True)
 class PlateType:
-    """One distinct plate: polygon ``sides`` and pattern ID; ``label`` like "hex 0x0488"."""
+    """One distinct plate: polygon ``sides``, pattern ID and family member (``bridge_weight``, the
+    paper's 1 by default; :mod:`fabpat.variation`); ``label`` like "hex 0x0488" or "hex 0x0488 b0.5"."""
 
     sides: int
     pattern_id: str
+    bridge_weight: float = 1.0
 
     @property
     def label(self) -> str:
-        """Part key shown everywhere: polygon short name and pattern ID, e.g. ``"hex 0x0488"``."""
-        return f"{SHORT_NAMES.get(self.sides, f'{self.sides}-gon')} {self.pattern_id}"
+        """Part key shown everywhere: polygon short name, pattern ID and, for a family member, its
+        bridge_weight, e.g. ``"hex 0x0488"``, ``"hex 0x0488 b0.5"``."""
+        member = f" b{self.bridge_weight:g}" if self.bridge_weight != 1.0 else ""
+        return f"{SHORT_NAMES.get(self.sides, f'{self.sides}-gon')} {self.pattern_id}{member}"
+
+    @property
+    def variation(self) -> Variation:
+        """The family member as a :class:`~fabpat.variation.Variation`."""
+        return Variation(self.bridge_weight)
 
     @property
     def depth(self) -> int:
@@ -262,6 +272,11 @@ def check_geometry(spec: AssemblySpec) -> None:
                         "neck, checked next)")
 
 
+def _bridge_weight(spec: AssemblySpec, face: int) -> float:
+    """The spec's family member of face ``face`` (1, the paper's, when it gives none or no patterns)."""
+    return spec.patterns.bridge_weight_of(face) if spec.patterns is not None else 1.0
+
+
 def place(spec: AssemblySpec, face_patterns: list[str]) -> Assembly:
     """Place one plate per face (pattern ``face_patterns[f]``) and one sleeve per shared edge."""
     unit = build_tiling(spec)
@@ -295,7 +310,8 @@ def place(spec: AssemblySpec, face_patterns: list[str]) -> Assembly:
         edge_labels = tuple(
             joint.get(k, "PIN" if (f, i) in pin_set else "") for i, k in enumerate(skel.face_edges[f])
         )
-        plates.append(PlacedPlate(skel.labels[f], f, PlateType(len(loop), face_patterns[f]),
+        plates.append(PlacedPlate(skel.labels[f], f, PlateType(len(loop), face_patterns[f],
+                                                               _bridge_weight(spec, f)),
                                   frames[f] @ shift, edge_labels))
     sleeves = []
     for k in skel.interior_edges:

@@ -27,7 +27,9 @@ class PatternRecord:
     """One distinct plate's pattern: ``part`` ("hex 0x0488"), ``pattern`` ID, polygon ``sides``,
     ``chosen_by`` (see the module docstring), ``energies`` {scenario: N·mm or None}, the ``catalog``
     read ("built-in" or its path) and the ``catalog_setup`` {edge, thickness, weight} of the energies
-    (None when the catalog gave none, ``note`` then says why)."""
+    (None when the catalog gave none, ``note`` then says why); ``bridge_weight`` the family member
+    (:mod:`fabpat.variation`; 1 = the paper's, whose energies are the catalog's own; another member's
+    are interpolated over the catalog's family, :mod:`fabpat.family`)."""
 
     part: str
     pattern: str
@@ -37,10 +39,12 @@ class PatternRecord:
     catalog: str
     catalog_setup: dict[str, float] | None
     note: str = ""
+    bridge_weight: float = 1.0
 
     def as_dict(self) -> dict[str, Any]:
         """The manifest's record (plain JSON types)."""
-        return {"part": self.part, "pattern": self.pattern, "sides": self.sides, "chosen_by": self.chosen_by,
+        return {"part": self.part, "pattern": self.pattern, "sides": self.sides, "bridge_weight": self.bridge_weight,
+                "chosen_by": self.chosen_by,
                 "energies_Nmm": self.energies, "catalog": self.catalog, "catalog_setup": self.catalog_setup,
                 **({"note": self.note} if self.note else {})}
 
@@ -75,6 +79,29 @@ def _lookup(spec: AssemblySpec, sides: int, depth: int) -> tuple[dict[str, dict[
     return {}, None, f"the catalog has no energies for {sides}-gons at depth {depth}"
 
 
+def _member_energies(spec: AssemblySpec, pt: Any, setup: dict[str, float]) -> tuple[dict[str, float | None], str]:
+    """A family member's energies interpolated from the catalog's family rows (:mod:`fabpat.family`),
+    None where its curve does not reach the member, with a note saying so."""
+    from fabpat.family import family_curves
+
+    out: dict[str, float | None] = {}
+    missing = []
+    for sc in SCENARIOS:
+        try:
+            curve = family_curves(sc, sides=pt.sides, depth=pt.depth, db=spec.patterns.catalog, **setup).get(
+                pt.pattern_id)
+        except (FabpatError, ValueError, OSError):
+            curve = None
+        lo, hi = curve.range if curve is not None else (1.0, 1.0)
+        out[sc] = curve.energy(pt.bridge_weight) if curve is not None and lo <= pt.bridge_weight <= hi else None
+        if out[sc] is None:
+            missing.append(f"{sc} {lo:g} … {hi:g}")
+    note = (f"bridge_weight {pt.bridge_weight:g}: energies interpolated over the catalog's family" if not missing
+            else f"bridge_weight {pt.bridge_weight:g} is outside the catalog's family ({', '.join(missing)}; "
+                 "`fabpat sweep --family` adds it)")
+    return out, note
+
+
 def pattern_records(spec: AssemblySpec, plate_types: list[Any]) -> list[PatternRecord]:
     """One :class:`PatternRecord` per distinct plate type (a :class:`~fabpat.assembly.placement.PlateType`,
     in the order given); never raises for a catalog that cannot be read (the note says so)."""
@@ -90,5 +117,8 @@ def pattern_records(spec: AssemblySpec, plate_types: list[Any]) -> list[PatternR
         energies = {sc: found.get(sc, {}).get(pt.pattern_id) for sc in SCENARIOS}
         if setup is not None and all(v is None for v in energies.values()):
             note = f"pattern {pt.pattern_id} is not in the catalog"
-        out.append(PatternRecord(pt.label, pt.pattern_id, pt.sides, how, energies, name, setup, note))
+        elif setup is not None and pt.bridge_weight != 1.0:
+            energies, note = _member_energies(spec, pt, setup)
+        out.append(PatternRecord(pt.label, pt.pattern_id, pt.sides, how, energies, name, setup, note,
+                                 pt.bridge_weight))
     return out

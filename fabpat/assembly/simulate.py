@@ -75,16 +75,19 @@ def kit_end_shortening(spec: object) -> float:
 
 
 @lru_cache(maxsize=32)
-def plate_mesh(pattern_id: str, sides: int, edge: float, weight: float, h: float):  # noqa: ANN201 - ShellMesh
-    """The filleted pattern's mesh (target edge h, mm) with its interfaces tagged, cached per type.
+def plate_mesh(pattern_id: str, sides: int, edge: float, weight: float, h: float,  # noqa: ANN201 - ShellMesh
+               bridge_weight: float = 1.0):
+    """The filleted pattern's mesh (target edge h, mm) with its interfaces tagged, cached per type and
+    family member (``bridge_weight``, :mod:`fabpat.variation`).
 
     Raises GeometryError when an interface gets fewer than 2 nodes (h too coarse).
     """
     from fabpat.fillet import fillet_pattern
     from fabpat.library import get_pattern
     from fabpat.mesh import mesh_outline
+    from fabpat.variation import Variation
 
-    outline = fillet_pattern(get_pattern(pattern_id, sides, 2, edge), weight).outline
+    outline = fillet_pattern(get_pattern(pattern_id, sides, 2, edge), weight, Variation(bridge_weight)).outline
     return mesh_outline(outline, h, sides, edge, weight=weight)
 
 
@@ -101,7 +104,8 @@ def model_plates(asm: object, h: float, thickness: float, weight: float) -> list
     its mid-surface placed at half the thickness (mm) of the solid the placement maps."""
     plates = []
     for pl in asm.plates:  # type: ignore[attr-defined]
-        mesh = plate_mesh(pl.type.pattern_id, pl.type.sides, asm.plate_edge, weight, h)  # type: ignore[attr-defined]
+        mesh = plate_mesh(pl.type.pattern_id, pl.type.sides, asm.plate_edge, weight, h,  # type: ignore[attr-defined]
+                          pl.type.bridge_weight)
         T = pl.transform.copy()
         T[:3, 3] += T[:3, 2] * (0.5 * thickness)  # the transform maps the solid z ∈ [0, t]: mid-surface at t/2
         plates.append(ModelPlate(pl.label, mesh, T))

@@ -256,12 +256,15 @@ def check_assembly_size(spec: Any, patterns: list[str], h: float, max_elements: 
     from fabpat.validate import check, check_size, round_up
 
     max_elements = int(check("max_elements", max_elements, "max_elements", error=GeometryError))
-    count: dict[tuple[str, int], int] = {}
-    for pid, face in zip(patterns, build_tiling(spec).faces, strict=True):
-        count[(pid, len(face))] = count.get((pid, len(face)), 0) + 1
+    from fabpat.variation import Variation
+
+    count: dict[tuple[str, int, float], int] = {}
+    for f, (pid, face) in enumerate(zip(patterns, build_tiling(spec).faces, strict=True)):
+        key = (pid, len(face), spec.patterns.bridge_weight_of(f) if spec.patterns else 1.0)
+        count[key] = count.get(key, 0) + 1
     area = perimeter = 0.0
-    for (pid, sides), k in count.items():
-        o = fillet_pattern(get_pattern(pid, sides, None, spec.tiling.edge), spec.plates.weight).outline
+    for (pid, sides, w), k in count.items():
+        o = fillet_pattern(get_pattern(pid, sides, None, spec.tiling.edge), spec.plates.weight, Variation(w)).outline
         area += k * o.area
         perimeter += k * o.perimeter
     n = estimate_elements(area, perimeter, h)

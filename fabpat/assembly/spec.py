@@ -46,6 +46,7 @@ docs/reliability.md.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from collections.abc import Callable, Mapping
@@ -61,6 +62,7 @@ from fabpat.assembly.spec_tables import key_text as _key_text
 from fabpat.assembly.spec_tables import problems_of as _problems_of
 from fabpat.assembly.spec_tables import show as _show
 from fabpat.errors import PatternError, SpecError
+from fabpat.validate import check
 
 TILINGS = ("honeycomb-strip", "truncated-icosahedron")
 PROCESSES = ("print", "laser")
@@ -107,6 +109,13 @@ class PatternSpec:
     count: int = 5
     catalog: str | None = None
     candidates: int = 8  # rule = "roundest": similar-energy pairs the closure solver tries
+    #: per face (in face order) the family member's bridge_weight (fabpat.variation); () = the paper's
+    #: fillets on every plate
+    bridge_weights: tuple[float, ...] = ()
+
+    def bridge_weight_of(self, face: int) -> float:
+        """The bridge_weight of face ``face``'s plate (1, the paper's, unless the spec gives one)."""
+        return self.bridge_weights[face] if self.bridge_weights else 1.0
 
 
 @dataclass(frozen=True)
@@ -232,8 +241,46 @@ def _tiling(source: str, data: Any) -> TilingSpec:
 
 def _patterns(source: str, data: Any, tiling: TilingSpec) -> PatternSpec:
     allowed = ("pattern", "groups", "group_columns", "tiles", "hexagon", "pentagon", "rule", "scenario",
-               "count", "catalog", "candidates")
+               "count", "catalog", "candidates", "bridge_weight")
     t = _Table(source, "patterns", data, allowed)
+    members = _bridge_weights(source, t.data.get("bridge_weight"), tiling) if t.has("bridge_weight") else ()
+    return dataclasses.replace(_pattern_way(source, t, tiling), bridge_weights=members)
+
+
+def _bridge_weights(source: str, value: Any, tiling: TilingSpec) -> tuple[float, ...]:
+    """``patterns.bridge_weight``: one number for every plate, or a table {plate label = number} (plates
+    it does not name keep the paper's 1); per face, in face order. Each value in its range
+    (:data:`fabpat.validate.RANGES`)."""
+    labels = _labels(tiling)
+
+    def weight(v: Any, label: str) -> float:
+        try:
+            return check("bridge_weight", v, label, error=SpecError)
+        except SpecError as e:
+            raise SpecError(f"{source}: {e}") from None
+
+    if isinstance(value, Mapping):
+        unknown = [k for k in value if k not in labels]
+        if unknown:
+            raise SpecError(f"{source}: patterns.bridge_weight.{unknown[0]} is not a plate of this "
+                            f"{tiling.kind} (labels {labels[0]} … {labels[-1]})")
+        return tuple(weight(value[lab], f"patterns.bridge_weight.{lab}") if lab in value else 1.0 for lab in labels)
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise SpecError(f"{source}: patterns.bridge_weight must be a number (every plate) or a table "
+                        f"{{plate label = number}}, e.g. {{{labels[0]} = 0.5}}; got {value!r}")
+    return (weight(value, "patterns.bridge_weight"),) * len(labels)
+
+
+def _labels(tiling: TilingSpec) -> list[str]:
+    """The kit's plate labels in face order."""
+    if tiling.kind == "honeycomb-strip":
+        return strip_labels(tiling.rows, tiling.columns)
+    from fabpat.assembly.tiling import truncated_icosahedron
+
+    return list(truncated_icosahedron(tiling.edge).labels)
+
+
+def _pattern_way(source: str, t: _Table, tiling: TilingSpec) -> PatternSpec:
     strip = tiling.kind == "honeycomb-strip"
     sides = (6,) if strip else (5, 6)
     ways = [k for k in ("pattern", "groups", "tiles", "hexagon", "rule") if t.has(k)]
