@@ -105,10 +105,43 @@ def page_data(cat: Catalog, sides: int | None = None) -> dict[str, object]:
         "SELECT DISTINCT solver_version FROM results WHERE sides = ? AND depth = ? AND edge = ?", (n, d, edge))})
     return {
         "setup": setup, "ids": [str(r_["id"]) for r_ in rows], "paths": paths, "values": values,
-        "metrics": [metric_info(k) for k in keys], "plots": plots,
+        "metrics": [metric_info(k) for k in keys], "plots": plots, "family": family_data(cat, setup, rows),
         "polygon": " ".join(f"{x:.3f},{-y:.3f}" for x, y in corners), "viewbox": [-r, -r, 2 * r, 2 * r],
         "source": {"catalog": cat.path.name, "fabpat": __version__, "solver": versions},
     }
+
+
+def family_data(cat: Catalog, setup: dict[str, object], rows: list[dict[str, object]]) -> dict[str, object] | None:
+    """The page's slider data: the swept members of ``bridge_weight`` (the paper's 1 among them) and, per
+    metric that changes with it (``energy_<s>``, ``specific_stiffness_<s>``, ``min_width``,
+    ``filleted_area``), one list per pattern of its value at each member (None: not swept or not
+    converged). None when the catalog holds no family rows for this set-up."""
+    from fabpat.catalog_rows import specific_stiffness
+
+    fam = cat.family(**setup)
+    if not fam:
+        return None
+    weights = sorted({1.0, *(float(r["bridge_weight"]) for r in fam)})  # type: ignore[arg-type]
+    col = {w: k for k, w in enumerate(weights)}
+    row_of = {str(r["id"]): i for i, r in enumerate(rows)}
+    scen = sorted({str(r["scenario"]) for r in fam})
+    keys = [*(f"energy_{s}" for s in scen), *(f"specific_stiffness_{s}" for s in scen), "min_width", "filleted_area"]
+    table: dict[str, list[list[float | None]]] = {k: [[None] * len(weights) for _ in rows] for k in keys}
+    for i, r in enumerate(rows):  # the paper's member: the catalog's own row
+        for k in keys:
+            v = r.get(k)
+            table[k][i][col[1.0]] = None if v is None else float(v)  # type: ignore[arg-type]
+    for f in fam:
+        i = row_of.get(str(f["id"]))
+        if i is None:
+            continue
+        j, s = col[float(f["bridge_weight"])], str(f["scenario"])  # type: ignore[arg-type]
+        e = float(f["energy"]) if f["converged"] and f["energy"] is not None else None  # type: ignore[arg-type]
+        table[f"energy_{s}"][i][j] = e
+        table[f"specific_stiffness_{s}"][i][j] = specific_stiffness(e, f["filleted_area"])  # type: ignore[arg-type]
+        table["min_width"][i][j] = None if f["min_width"] is None else float(f["min_width"])  # type: ignore[arg-type]
+        table["filleted_area"][i][j] = None if f["filleted_area"] is None else float(f["filleted_area"])  # type: ignore[arg-type]
+    return {"name": "bridge_weight", "weights": weights, "values": table}
 
 
 def render_page(data: dict[str, object]) -> str:
