@@ -28,6 +28,7 @@ says so.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -127,7 +128,7 @@ def face_patterns(spec: AssemblySpec, energies: Callable[[int], dict[str, float]
     tiling = build_tiling(spec)
     get = energies or (lambda n: _energies(spec, n))
     try:
-        if p.rule == "graded":
+        if p.rule == "graded" and not p.groups:  # groups set: chosen already (with_members)
             groups = rules.graded(get(6), p.count)
         elif p.rule in ("similar-energy", "roundest"):
             hid, pid = rules.similar_pair(*_pair_energies(get))
@@ -151,6 +152,69 @@ def face_patterns(spec: AssemblySpec, energies: Callable[[int], dict[str, float]
             r, c = (int(x) for x in tiling.grid[f])
             out.append(p.tiles[r][c] if p.tiles else groups[c // p.group_columns])
     return out
+
+
+def _family_curves(spec: AssemblySpec, sides: int) -> dict[str, Any]:
+    """Every pattern's family curve in the spec's scenario (:func:`fabpat.family.family_curves`) at the
+    spec's plate set-up, else the catalog's default one (a pattern without family rows: a one-member
+    curve, the paper's). Raises SpecError when the catalog holds neither set-up."""
+    from fabpat.assembly.provenance import CATALOG_SETUP
+    from fabpat.family import family_curves
+
+    pl, p = spec.plates, spec.patterns
+    problem: FabpatError | None = None
+    for setup in ({"edge": spec.tiling.edge, "thickness": pl.thickness, "weight": pl.weight}, CATALOG_SETUP):
+        try:
+            return family_curves(p.scenario, sides=sides, db=p.catalog, **setup)  # type: ignore[arg-type]
+        except FabpatError as e:
+            problem = e
+    raise SpecError(f"{spec.source}: patterns.bridge_weight = \"rule\" needs the catalog's {p.scenario} energies: "
+                    f"{problem}")
+
+
+def with_members(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | None = None,
+                 curves: Callable[[int], dict[str, Any]] | None = None) -> AssemblySpec:
+    """The spec with ``bridge_weight = "rule"`` resolved into every face's pattern and family member; any
+    other spec unchanged (:mod:`fabpat.assembly.rules`):
+
+    * ``graded``: for each target energy of :func:`~fabpat.assembly.rules.graded_targets` (stiff → soft),
+      the unused pattern whose family reaches the target exactly with the member closest to the
+      paper's (smallest |ln w|, :func:`~fabpat.assembly.rules.graded_members`), where the rule alone
+      takes the pattern of nearest catalog energy; the groups are written into the spec;
+    * ``similar-energy``: its pair of patterns, with the pentagon's member whose pentagon energy is the
+      hexagon's (or, when the catalog has no pentagon family, the hexagon's member whose energy is the
+      pentagon's).
+
+    ``curves(sides)`` supplies {ID: family curve} (default: the catalog's, :mod:`fabpat.family`).
+    Raises :class:`SpecError` as :func:`face_patterns`.
+    """
+    from fabpat.assembly import rules
+
+    p = spec.patterns
+    if p is None or not p.member_rule or p.bridge_weights:
+        return spec
+    get = energies or (lambda n: _energies(spec, n))
+    get_curves = curves or (lambda n: _family_curves(spec, n))
+    tiling = build_tiling(spec)
+    if p.rule == "graded":
+        try:
+            picks = rules.graded_members(get(6), get_curves(6), p.count)
+        except SpecError as e:
+            raise SpecError(f"{spec.source}: patterns.rule = {p.rule!r}, scenario {p.scenario!r}: {e}") from e
+        chosen = dataclasses.replace(p, rule=None, groups=tuple(pid for pid, _ in picks))
+        member = dict(picks)
+        ids = face_patterns(dataclasses.replace(spec, patterns=chosen))
+        return dataclasses.replace(spec, patterns=dataclasses.replace(
+            p, groups=chosen.groups, bridge_weights=tuple(member[pid] for pid in ids)))
+    ids = face_patterns(spec, get)
+    hid, pid = (next(i for i, f in zip(ids, tiling.faces, strict=True) if len(f) == n) for n in (6, 5))
+    pent = get_curves(5).get(pid)
+    if pent is not None and pent.range != (1.0, 1.0):
+        w = {6: 1.0, 5: rules.nearest_member(pent, get(6)[hid])}
+    else:
+        w = {6: rules.nearest_member(get_curves(6)[hid], get(5)[pid]), 5: 1.0}
+    return dataclasses.replace(spec, patterns=dataclasses.replace(
+        p, bridge_weights=tuple(w[len(f)] for f in tiling.faces)))
 
 
 def plan(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | None = None,
@@ -303,6 +367,7 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
     tell = progress or (lambda _step: None)
     f = spec.formats
 
+    spec = with_members(spec, energies)  # bridge_weight = "rule": every face's family member, once
     ids, chosen, tried = None, None, None
     if spec.patterns.rule == "roundest":
         ids, chosen, tried = _roundest(spec, energies, tell, predict, predict_h, force, predict_progress)

@@ -12,12 +12,17 @@ dictionaries.
   Fig. 15 right: two patterns, Dome scenario).
 * :func:`similar_pairs` — the ``count`` best such pairs, :func:`similar_pair`'s first, for
   ``rule = "roundest"`` (the closure solver keeps the roundest one under the strain limit).
+* :func:`graded_targets` and :func:`nearest_member` — with ``bridge_weight = "rule"`` the rules also
+  choose each pattern's family member (:mod:`fabpat.variation`) that hits its target energy, from the
+  pattern's family curve (anything with ``range``, ``energy(w)`` and ``members_for(E)``, such as
+  :class:`fabpat.family.FamilyCurve`), instead of settling for the nearest catalog energy.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
@@ -85,6 +90,58 @@ def graded(energies: Mapping[str, float], count: int, trim: float = TRIM,
         raise SpecError(f"the catalog's energies are too close for {count} well-separated patterns "
                         f"(best consecutive ratio {ratio:.2f} < {min_separation}); lower patterns.count")
     return [ids[i] for i in picks]
+
+
+def graded_targets(energies: Mapping[str, float], count: int, trim: float = TRIM) -> list[float]:
+    """The ``count`` target energies (N·mm) of :func:`graded`, stiff → soft: equally spaced in log between
+    the extremes of the catalog's energies after dropping the ``trim`` fraction at each end (when that
+    leaves at least ``count``). Raises :class:`SpecError` as :func:`graded`."""
+    ids, logs = _clean(energies)
+    if count < 2 or len(ids) < count:
+        graded(energies, count, trim)  # raises the same message
+    cut = int(trim * len(ids))
+    if len(ids) - 2 * cut >= count and cut > 0:
+        logs = logs[cut:-cut]
+    return [float(np.exp(t)) for t in np.linspace(logs[0], logs[-1], count)]
+
+
+def nearest_member(curve: Any, target: float) -> float:
+    """The family member (bridge_weight) of ``curve`` whose energy is nearest ``target`` (N·mm): among
+    those that hit it exactly, the one closest to the paper's 1 (smallest |ln w|); if the curve does not
+    reach it, the end of its range nearer in energy. ``curve``: see the module notes."""
+    exact = curve.members_for(target)
+    if exact:
+        return float(min(exact, key=lambda w: (abs(math.log(w)), w)))
+    lo, hi = curve.range
+    return float(min((lo, hi), key=lambda w: abs(math.log(curve.energy(w) / target))))
+
+
+def graded_members(energies: Mapping[str, float], curves: Mapping[str, Any], count: int,
+                   trim: float = TRIM) -> list[tuple[str, float]]:
+    """``count`` (pattern ID, bridge_weight) pairs, stiff → soft, whose family energies are the targets of
+    :func:`graded_targets` exactly where a family reaches them: for each target in turn, the unused
+    pattern whose curve (``curves[ID]``, see the module notes) hits it with the member closest to the
+    paper's (smallest |ln w|, then the smaller ID); where none reaches a target, the unused pattern and
+    member nearest it in energy. Raises :class:`SpecError` as :func:`graded`."""
+    targets = graded_targets(energies, count, trim)
+    ids, _ = _clean(energies)
+    used: set[str] = set()
+    out = []
+    for t in targets:
+        exact = [(abs(math.log(w)), pid, w) for pid in ids if pid not in used and pid in curves
+                 for w in curves[pid].members_for(t)]
+        if exact:
+            _, pid, w = min(exact)
+        else:
+            def miss(pid: str, t: float = t) -> tuple[float, str]:
+                w = nearest_member(curves[pid], t)
+                return abs(math.log(curves[pid].energy(w) / t)), pid
+
+            pid = min((p for p in ids if p not in used and p in curves), key=miss)
+            w = nearest_member(curves[pid], t)
+        used.add(pid)
+        out.append((pid, float(w)))
+    return out
 
 
 def separation(energies: Mapping[str, float], ids: list[str]) -> float:

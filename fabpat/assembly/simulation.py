@@ -358,6 +358,9 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
         check_assembly_size(spec, [pairs[0][0] if n == 6 else pairs[0][1] for n in faces], h, max_elements)
         _, run, _, _ = choose_roundest(spec, pairs, faces, h, True, lambda _ids: None, progress)
         return _read_outs(kind, spec.name, run.setup.model, run, time.perf_counter() - t0, mat.strain_limit, h)
+    from fabpat.assembly.build import with_members
+
+    spec = with_members(spec)  # bridge_weight = "rule": the members the kit would get
     patterns = face_patterns(spec)
     check_assembly_size(spec, patterns, h, max_elements)
     if not closed:

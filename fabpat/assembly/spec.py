@@ -112,6 +112,9 @@ class PatternSpec:
     #: per face (in face order) the family member's bridge_weight (fabpat.variation); () = the paper's
     #: fillets on every plate
     bridge_weights: tuple[float, ...] = ()
+    #: ``bridge_weight = "rule"``: the rule also picks every pattern's family member, to hit its target
+    #: energy (:func:`fabpat.assembly.build.with_members` fills ``bridge_weights``)
+    member_rule: bool = False
 
     def bridge_weight_of(self, face: int) -> float:
         """The bridge_weight of face ``face``'s plate (1, the paper's, unless the spec gives one)."""
@@ -243,8 +246,20 @@ def _patterns(source: str, data: Any, tiling: TilingSpec) -> PatternSpec:
     allowed = ("pattern", "groups", "group_columns", "tiles", "hexagon", "pentagon", "rule", "scenario",
                "count", "catalog", "candidates", "bridge_weight")
     t = _Table(source, "patterns", data, allowed)
-    members = _bridge_weights(source, t.data.get("bridge_weight"), tiling) if t.has("bridge_weight") else ()
+    value = t.data.get("bridge_weight")
+    if value == "rule":
+        chosen = _pattern_way(source, t, tiling)
+        if chosen.rule not in MEMBER_RULES:
+            raise SpecError(f"{source}: patterns.bridge_weight = \"rule\" goes with patterns.rule = "
+                            f"{' or '.join(repr(r) for r in MEMBER_RULES)} (the rule picks each pattern's member "
+                            "to hit its target energy): give numbers instead")
+        return dataclasses.replace(chosen, member_rule=True)
+    members = _bridge_weights(source, value, tiling) if t.has("bridge_weight") else ()
     return dataclasses.replace(_pattern_way(source, t, tiling), bridge_weights=members)
+
+
+#: the rules that can also choose each pattern's family member (``bridge_weight = "rule"``)
+MEMBER_RULES = ("graded", "similar-energy")
 
 
 def _bridge_weights(source: str, value: Any, tiling: TilingSpec) -> tuple[float, ...]:
@@ -266,8 +281,8 @@ def _bridge_weights(source: str, value: Any, tiling: TilingSpec) -> tuple[float,
                             f"{tiling.kind} (labels {labels[0]} … {labels[-1]})")
         return tuple(weight(value[lab], f"patterns.bridge_weight.{lab}") if lab in value else 1.0 for lab in labels)
     if isinstance(value, bool) or not isinstance(value, int | float):
-        raise SpecError(f"{source}: patterns.bridge_weight must be a number (every plate) or a table "
-                        f"{{plate label = number}}, e.g. {{{labels[0]} = 0.5}}; got {value!r}")
+        raise SpecError(f"{source}: patterns.bridge_weight must be a number (every plate), a table "
+                        f"{{plate label = number}}, e.g. {{{labels[0]} = 0.5}}, or \"rule\"; got {value!r}")
     return (weight(value, "patterns.bridge_weight"),) * len(labels)
 
 
