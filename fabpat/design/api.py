@@ -65,10 +65,11 @@ def _geometry(base: DesignBase, pattern: str, h: float) -> tuple[float, list[str
     placement."""
     from fabpat.assembly.placement import build_tiling
     from fabpat.assembly.simulate import strip_setup
+    from fabpat.design.search import with_candidates
 
-    spec = base.spec
-    n = len(build_tiling(spec).faces)
-    setup = strip_setup(spec, [pattern] * n, h=h)
+    n = len(build_tiling(base.spec).faces)
+    spec, ids = with_candidates(base.spec, [pattern] * n)
+    setup = strip_setup(spec, ids, h=h)
     grid = build_tiling(spec).grid
     assert grid is not None
     face_col = [int(g[1]) for g in grid]

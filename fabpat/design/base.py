@@ -6,12 +6,19 @@
 * ``allowed``: a list of pattern IDs, the only candidates;
 * ``min_width``: mm, drop candidates whose narrowest feature (the catalog's ``min_width``) is smaller;
 * ``max_distinct``: the largest number of distinct patterns in the design (each is one more part type).
+* ``variations``: ``true`` (default) or ``false``: whether a strip's candidates include the family
+  members (:mod:`fabpat.variation`) the catalog's ``family`` table holds (``fabpat sweep --family``).
 
 Candidates of a strip are the hexagon patterns with a converged Cylinder energy in the catalog
 (``catalog`` key or the built-in one), at the base's plate set-up when the catalog has it, else at the
 default one (energies only rank patterns, as for ``rule = "graded"``). Candidates of a closed tiling
 are, per polygon of its faces, the catalog rows of that polygon with all three energies converged
 (:func:`closed_rows`), narrowed alike.
+
+A strip candidate that is a family member is written ``"ID bW"`` (``"0x0488 b0.63"``: pattern 0x0488 at
+``bridge_weight`` 0.63, as the kit labels it; :func:`member_token`, :func:`split_member`): the swept
+members themselves, whose energies are solves, not interpolations. design.toml gives such a plate its
+pattern in ``tiles`` and its member in ``[patterns] bridge_weight``.
 
 A base that names its patterns (``pattern``, ``hexagon`` + ``pentagon``, ``groups``, ``tiles``) or a
 ``rule`` gives the design a baseline, ``spec`` or ``rule`` in design.json, solved with the rest.
@@ -29,7 +36,7 @@ from fabpat.assembly.spec import AssemblySpec, parse_spec
 from fabpat.errors import FabpatError, SpecError
 
 #: the [patterns] keys that only ``fabpat design`` reads
-DESIGN_KEYS = ("allowed", "min_width", "max_distinct")
+DESIGN_KEYS = ("allowed", "min_width", "max_distinct", "variations")
 #: the ways of choosing patterns an assembly spec has (fabpat.assembly.spec)
 _WAYS = ("pattern", "groups", "tiles", "hexagon", "pentagon", "rule")
 #: the scenario whose energy gives a pattern's bending stiffness (two end moments bend the plate)
@@ -166,7 +173,8 @@ def _min_widths(spec: AssemblySpec, catalog: str | None) -> dict[str, float]:
 
 
 def candidates(spec: AssemblySpec, source: str, catalog: str | None, keys: dict[str, Any]) -> dict[str, float]:
-    """{ID: Cylinder energy} of the candidates that ``allowed`` and ``min_width`` leave; SpecError if none."""
+    """{candidate: Cylinder energy} of the candidates that ``allowed`` and ``min_width`` leave, with their
+    family members unless ``variations = false`` (module doc); SpecError if none."""
     from fabpat.assembly.spec import _pattern_id
 
     energies = {k: v for k, v in _catalog_energies(spec, catalog).items() if math.isfinite(v) and v > 0}
@@ -187,7 +195,41 @@ def candidates(spec: AssemblySpec, source: str, catalog: str | None, keys: dict[
         why.append(f"patterns.min_width = {w:g} mm")
     if not energies:
         raise SpecError(f"{source}: no candidate pattern is left after {' and '.join(why)}: widen the choice")
+    use = keys.get("variations", True)
+    if not isinstance(use, bool):
+        raise SpecError(f"{source}: patterns.variations = {use!r} must be true or false (family members as candidates)")
+    if use:
+        energies = {**energies, **_member_candidates(spec, catalog, energies, float(keys.get("min_width", 0.0)))}
     return energies
+
+
+def member_token(pattern_id: str, bridge_weight: float) -> str:
+    """A candidate's name: the pattern ID, and `` bW`` for a family member other than the paper's."""
+    return pattern_id if bridge_weight == 1.0 else f"{pattern_id} b{bridge_weight:g}"
+
+
+def split_member(token: str) -> tuple[str, float]:
+    """(pattern ID, bridge_weight) of a candidate name (:func:`member_token`)."""
+    pid, _, w = token.partition(" b")
+    return pid, float(w) if w else 1.0
+
+
+def _member_candidates(spec: AssemblySpec, catalog: str | None, energies: dict[str, float],
+                       min_width: float) -> dict[str, float]:
+    """{member token: Cylinder energy} of the catalog's converged family rows of the candidate patterns
+    (at the base's set-up, else the default one), each member's own min_width at least ``min_width``."""
+    from fabpat.catalog import open_catalog
+
+    pl = spec.plates
+    own = {"sides": 6, "edge": spec.tiling.edge, "thickness": pl.thickness, "weight": pl.weight}
+    try:
+        with open_catalog(catalog) as cat:
+            rows = cat.family(SCENARIO, **own) or cat.family(SCENARIO, sides=6)
+    except FabpatError as e:
+        raise SpecError(f"{spec.source}: the design needs the catalog's {SCENARIO} energies, but {e}") from e
+    return {member_token(str(r["id"]), float(r["bridge_weight"])): float(r["energy"])  # type: ignore[arg-type]
+            for r in rows if r["converged"] and r["id"] in energies and r["energy"]
+            and (r["min_width"] or 0.0) >= min_width}  # type: ignore[operator]
 
 
 def base_faces(base: DesignBase) -> tuple[str, list[str]] | None:

@@ -102,10 +102,17 @@ def spec_toml(data: dict[str, Any]) -> str:
 
 
 def design_spec_data(res: Any) -> dict[str, Any]:
-    """The base spec's tables with ``[patterns] tiles`` = every plate's pattern and, for a strip, ``[load]
-    end_shortening`` = the design's."""
+    """The base spec's tables with ``[patterns] tiles`` = every plate's pattern (and ``bridge_weight`` =
+    the family member of every plate that is one) and, for a strip, ``[load] end_shortening`` = the
+    design's."""
+    from fabpat.design.base import split_member
+
     data = {k: v for k, v in res.base.data.items() if k not in ("patterns", "load")}
-    data["patterns"] = {"tiles": dict(res.record["patterns"])}
+    members = {lab: split_member(c) for lab, c in res.record["patterns"].items()}
+    data["patterns"] = {"tiles": {lab: pid for lab, (pid, _) in members.items()}}
+    varied = {lab: w for lab, (_, w) in members.items() if w != 1.0}
+    if varied:  # family members: each plate's bridge_weight (fabpat.variation); the others keep the paper's
+        data["patterns"]["bridge_weight"] = varied
     if "end_shortening" in res.record:
         data["load"] = {"end_shortening": float(res.record["end_shortening"])}
     return data

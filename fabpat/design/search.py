@@ -39,9 +39,26 @@ Arr = NDArray[np.float64]
 FIRST_STEP = 0.25
 
 
+def with_candidates(spec: Any, candidates: tuple[str, ...] | list[str]) -> tuple[Any, list[str]]:
+    """The spec whose plates are the family members the candidate names say (:func:`fabpat.design.base.
+    split_member`: ``"0x0488 b0.63"``) and the plain pattern IDs per face."""
+    import dataclasses
+
+    from fabpat.assembly.spec import PatternSpec
+    from fabpat.design.base import split_member
+
+    pairs = [split_member(c) for c in candidates]
+    ids, weights = [p for p, _ in pairs], tuple(w for _, w in pairs)
+    if all(w == 1.0 for w in weights):
+        return spec, ids
+    patterns = spec.patterns if spec.patterns is not None else PatternSpec(pattern=ids[0])
+    return dataclasses.replace(spec, patterns=dataclasses.replace(patterns, bridge_weights=weights)), ids
+
+
 def solve_candidate(spec: Any, patterns: tuple[str, ...], h: float, travel: float,
                     start: tuple[Any, ...] | None = None) -> dict[str, Any]:
-    """One full strip solve: the face patterns ``patterns``, mesh edge ``h`` mm, pins moved together by
+    """One full strip solve: the face patterns ``patterns`` (candidate names: a family member is
+    ``"ID bW"``, :func:`with_candidates`), mesh edge ``h`` mm, pins moved together by
     ``travel`` mm, warm-started from ``start`` (the ``state`` of an earlier solve of the same strip) if
     given. Returns plain data (it crosses process boundaries): ``x``, ``z`` the mid-line (mm,
     :func:`fabpat.design.strip.midline`), ``end_shortening`` (travel over the strip length, as
@@ -56,7 +73,8 @@ def solve_candidate(spec: Any, patterns: tuple[str, ...], h: float, travel: floa
     mat = spec.material
     from fabpat.assembly.model import warm_guess
 
-    setup = strip_setup(spec, list(patterns), h=h, E=mat.youngs_modulus, nu=mat.poisson)
+    spec, ids = with_candidates(spec, patterns)
+    setup = strip_setup(spec, ids, h=h, E=mat.youngs_modulus, nu=mat.poisson)
     es = travel / setup.length
     m = setup.model
     guess = None if start is None else warm_guess(*start, m.X, m.offsets)
