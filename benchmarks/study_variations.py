@@ -22,8 +22,12 @@ Tables:
    the direct solve of every member between the nodes: worst and median relative error.
 3. **Range**: per pattern, the ratio of the largest to the smallest Dome energy over the converged members.
 4. **Reachable energies**: the fraction of the log-energy axis between the library's stiffest and softest
-   pattern (built-in catalog) within 2 % of some pattern's energy, the discrete catalog alone; with the
-   family, for the sample's patterns (the whole library needs ``fabpat sweep --family``).
+   pattern (``--catalog``, default the built-in one) within 2 % of some pattern's energy, the discrete
+   catalog alone; with the family, for the sample's patterns.
+5. **The library's families** (when ``--catalog`` holds family rows, ``fabpat sweep --family``): per
+   scenario the ratio of the largest to the smallest energy over each pattern's converged members
+   (median, 10th and 90th percentile over the library) and the fraction of the energy axis within 2 %
+   of some pattern and member (the family interpolant, :mod:`fabpat.family`).
 """
 
 from __future__ import annotations
@@ -204,6 +208,7 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--db", type=Path, default=Path("study-variations.sqlite"))
     ap.add_argument("--pictures", type=Path, default=None, help="folder for variation-<id>.png")
+    ap.add_argument("--catalog", type=Path, default=None, help="catalog for tables 4–5 [default: the built-in one]")
     a = ap.parse_args()
     ids = pick(a.patterns, a.seed)
     weights = grid()
@@ -231,7 +236,7 @@ def main() -> None:
         ratios.append(math.exp(y.max() - y.min()))
         print(f"| {pid} | {ratios[-1]:.2f} | {len(y)} |")
     print(f"\nmedian {statistics.median(ratios):.2f}, range {min(ratios):.2f} … {max(ratios):.2f}\n")
-    with open_catalog(None) as cat:
+    with open_catalog(a.catalog) as cat:
         rows = cat.pattern_rows(sides=6)
     print("| scenario | library energy range (N·mm) | reachable within 2 %: catalog | sample: discrete | "
           "sample: with family |")
@@ -243,9 +248,68 @@ def main() -> None:
         fam = family_intervals(data, sc, ids)
         print(f"| {sc} | {lo:.4g} … {hi:.4g} | {100 * reachable(lib, lo, hi):.1f} % | "
               f"{100 * reachable(sample, lo, hi):.1f} % | {100 * reachable_with_family(sample, fam, lo, hi):.1f} % |")
+    library_families(a.catalog, rows)
+    rule_mismatch(a.catalog)
     if a.pictures is not None:
         picture(ids[0], data, a.pictures / f"variation-{ids[0]}.png")
 
 
+def library_families(catalog: Path | None, rows: list[dict]) -> None:
+    """Table 5, from the catalog's family rows (nothing without them)."""
+    from fabpat.family import family_curves
+
+    with open_catalog(catalog) as cat:
+        if not cat.family(sides=6):
+            print("\n(no family rows in the catalog: `fabpat sweep --family` for table 5)")
+            return
+    print("\n| scenario | energy max/min over a family: median | 10–90 % | patterns with ≥ 2 members | "
+          "reachable within 2 %: catalog | with the family |")
+    print("|---|---|---|---|---|---|")
+    for sc in SCENARIOS:
+        curves = family_curves(sc, sides=6, db=catalog)
+        ratios = [float(c.energies.max() / c.energies.min()) for c in curves.values() if len(c.weights) > 1]
+        lib = [float(r[f"energy_{sc}"]) for r in rows if r[f"energy_{sc}"]]  # type: ignore[arg-type]
+        lo, hi = min(lib), max(lib)
+        spans = [(float(c.energies.min()), float(c.energies.max())) for c in curves.values()]
+        p10, p90 = np.percentile(ratios, [10, 90])
+        print(f"| {sc} | {statistics.median(ratios):.2f} | {p10:.2f} … {p90:.2f} | {len(ratios)} of {len(curves)} | "
+              f"{100 * reachable(lib, lo, hi):.1f} % | {100 * reachable_with_family(lib, spans, lo, hi):.1f} % |")
+
+
 if __name__ == "__main__":
     main()
+
+
+def rule_mismatch(catalog: Path | None) -> None:
+    """Table 6: how far the rules' patterns are from their targets, discrete and with members."""
+    from fabpat.assembly import rules
+    from fabpat.catalog import polygon_energies
+    from fabpat.family import family_curves
+
+    with open_catalog(catalog) as cat:
+        if not cat.family(sides=6):
+            return
+    hexagon = polygon_energies(catalog, "cylinder", 6)
+    curves = family_curves("cylinder", sides=6, db=catalog)
+    targets = rules.graded_targets(hexagon, 5)
+    before = rules.graded(hexagon, 5)
+    after = rules.graded_members(hexagon, curves, 5)
+    print("\n| graded rule (Cylinder, 5 patterns) | target N·mm | pattern | energy | mismatch | with members | "
+          "energy | mismatch |")
+    print("|---|---|---|---|---|---|---|---|")
+    for k, (t, b, (pid, w)) in enumerate(zip(targets, before, after, strict=True)):
+        e_after = curves[pid].energy(w)
+        print(f"| {k + 1} | {t:.4g} | {b} | {hexagon[b]:.4g} | {100 * (hexagon[b] / t - 1):+.2f} % | "
+              f"{pid} at {w:.3g} | {e_after:.4g} | {100 * (e_after / t - 1):+.2f} % |")
+    hd, pd = polygon_energies(catalog, "dome", 6), polygon_energies(catalog, "dome", 5)
+    hid, pid = rules.similar_pair(hd, pd)
+    pent = family_curves("dome", sides=5, db=catalog).get(pid)
+    if pent is not None and len(pent.weights) > 1:
+        w = rules.nearest_member(pent, hd[hid])
+        ratio_after, who = hd[hid] / pent.energy(w), f"pentagon {pid} at {w:.3g}"
+    else:
+        hc = family_curves("dome", sides=6, db=catalog)[hid]
+        w = rules.nearest_member(hc, pd[pid])
+        ratio_after, who = hc.energy(w) / pd[pid], f"hexagon {hid} at {w:.3g}"
+    print(f"\nsimilar-energy rule (Dome): {hid} / {pid}, energy ratio {hd[hid] / pd[pid]:.4f}; with members "
+          f"({who}) {ratio_after:.4f}")

@@ -113,3 +113,22 @@ def test_cli_sweep_family_and_variation_are_exclusive(tmp_path: Path) -> None:
     r = CliRunner().invoke(cli, ["sweep", "--db", str(tmp_path / "x.sqlite"), "--family",
                                  "--variation", "bridge_weight=2"])
     assert r.exit_code == 2 and "--family" in r.output and not (tmp_path / "x.sqlite").exists()
+
+
+def test_refinements_bisect_where_the_curve_bends_or_buckles(tmp_path: Path) -> None:
+    from fabpat.sweep import refinements
+
+    db = tmp_path / "r.sqlite"
+    with open_catalog(db, write=True) as cat:
+        for pid in ("0xaaaa", "0xbbbb", "0xcccc"):
+            cat.write_rows(fake_rows(pid, 6, {"dome": 100.0}))
+        # a power law: smooth, nothing to refine
+        cat.write_rows(family_rows("0xaaaa", "dome", {w: power_law(w, 100.0, 0.3) for w in FAMILY_SAMPLES}))
+        # a kink at w = 1: slope 0.1 below, 1.2 above (0x1908's Dome curve, roughly)
+        cat.write_rows(family_rows("0xbbbb", "dome", {w: 100.0 * w ** (0.1 if w < 1 else 1.2) for w in FAMILY_SAMPLES}))
+        # buckles after 1.6: the last interval is refined even though it is straight
+        cat.write_rows(family_rows("0xcccc", "dome", {**{w: power_law(w, 100.0, 0.3) for w in FAMILY_SAMPLES[:-1]},
+                                                       2.5: None}))
+        cat.finish()
+    todo = refinements(db, ["0xaaaa", "0xbbbb", "0xcccc"], SweepSetup(E=1000.0, nu=0.35))
+    assert todo == {0.7937: ["0xbbbb"], 1.265: ["0xbbbb", "0xcccc"]}

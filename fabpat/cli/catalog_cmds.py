@@ -60,8 +60,9 @@ _db_help = "Catalog file (SQLite) [default: the built-in catalog of the default 
 @variation_option
 @click.option("--family", is_flag=True,
               help=f"Also sweep the family members {', '.join(f'{w:g}' for w in FAMILY_SAMPLES)} of bridge_weight "
-                   "(into the catalog's family table, after the paper's own results): what fabpat.family "
-                   "interpolates; ≈ 6× the work of the paper's sweep alone.")
+                   "(into the catalog's family table, after the paper's own results), then the midpoints of the "
+                   "intervals where a pattern's energy bends or buckles (up to two rounds): what fabpat.family "
+                   "interpolates.")
 def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, workers: int | None,
               dask_address: str | None, force: bool, edge: float, thickness: float, weight: float, modulus: float,
               poisson: float, h: float | None, extrapolate: bool, variation: Variation, family: bool) -> int:
@@ -132,6 +133,11 @@ def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, wo
                     click.echo(f"bridge_weight = {member.bridge_weight:g} ({k + 1} of {len(setups)})", err=True)
                 reports.append(run_sweep(db, ids, member, workers=workers, dask=dask_address, force=force,
                                          progress=progress))
+            if family:
+                from fabpat.sweep import refine_family
+
+                reports += refine_family(db, ids, setup, workers=workers, dask=dask_address, force=force,
+                                         progress=progress, tell=lambda line: click.echo(line, err=True))
         except KeyboardInterrupt:
             from fabpat.cli import _TERMINATED  # the CLI's SIGTERM handler records the signal there
 
@@ -146,7 +152,7 @@ def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, wo
         report.skipped += other.skipped
         report.crashed += other.crashed
         report.seconds += other.seconds
-    members_text = f", {len(setups)} family members" if len(setups) > 1 else (
+    members_text = f", {len(reports)} family members and refinements" if len(setups) > 1 else (
         f", bridge_weight = {setup.bridge_weight:g}" if setup.bridge_weight != 1.0 else "")
     click.echo(f"{db}: {report.computed} pattern-scenarios computed ({report.failed_rows} did not converge), "
                f"{report.skipped} already up to date, {len(ids)} patterns{members_text}, {report.seconds:.1f} s")
