@@ -108,6 +108,11 @@ def test_where_sort_top(db: Path) -> None:
         ("0x0488", "dome"), ("0x0688", "dome")]
     rows = fabpat.catalog(db, where=["energy_dome<350"], sort="-energy_dome", top=2)
     assert [r["id"] for r in rows] == ["0x0688", "0x0508"]
+    # an empty selection as CSV is still a CSV: the header line, no rows (a script reading it sees the columns)
+    none = invoke("catalog", *args, "--where", "energy_dome<1", "--format", "csv")
+    assert none.exit_code == 0
+    lines = none.stdout.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("id,sides,depth,") and "energy_dome" in lines[0]
 
 
 def test_rows_without_a_value_sort_last_and_fail_every_filter() -> None:

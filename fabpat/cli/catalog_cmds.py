@@ -230,6 +230,7 @@ def catalog_cmd(db: str | None, fmt: str, long_: bool, sides: int, where: tuple[
             for r in rows:
                 for k in [k for k in r if k.startswith("converged_")]:
                     del r[k]
+        header = list(rows[0]) if rows else []  # the CSV header of an empty selection
         rows = find_rows(rows, fields, where=where, sort=sort, top=top)
         asked = [parse_condition(w, fields).field for w in where] + ([parse_sort(sort, fields)[0]] if sort else [])
         title = f"{cat.path}: {len(rows)} rows"
@@ -248,7 +249,7 @@ def catalog_cmd(db: str | None, fmt: str, long_: bool, sides: int, where: tuple[
     if not rows and fmt == "table":
         click.echo(f"{title} (no rows)" if where else f"{title} (empty catalog)")
         return
-    _print_rows(rows, fmt, title)
+    _print_rows(rows, fmt, title, header)
 
 
 @click.command("browse")

@@ -107,13 +107,16 @@ def _map_with_progress(fn, jobs: list, what: str, workers: int | None = None) ->
             return out
 
 
-def _print_rows(rows: list[dict[str, object]], fmt: str, title: str) -> None:
+def _print_rows(rows: list[dict[str, object]], fmt: str, title: str, header: list[str] | None = None) -> None:
+    """Rows as JSON, CSV or a table; ``header``: the CSV columns when there are no rows (a reader of an
+    empty selection still gets the header line, as for any other)."""
     if fmt == "json":
         click.echo(json.dumps(rows, indent=1))
     elif fmt == "csv":
         buf = io.StringIO()
-        if rows:
-            w = csv.DictWriter(buf, fieldnames=list(rows[0]), lineterminator="\n")
+        fieldnames = list(rows[0]) if rows else list(header or [])
+        if fieldnames:
+            w = csv.DictWriter(buf, fieldnames=fieldnames, lineterminator="\n")
             w.writeheader()
             w.writerows(rows)
         click.echo(buf.getvalue(), nl=False)
