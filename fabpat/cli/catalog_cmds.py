@@ -116,11 +116,14 @@ def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, wo
         task = bar.add_task("sweep", total=None)
 
         last = [time.monotonic()]
+        from fabpat.progress import progress_interval
+
+        interval = progress_interval()  # FABPAT_PROGRESS_INTERVAL, as every command's plain progress lines
 
         def progress(done: int, total: int) -> None:
             bar.update(task, completed=done, total=total)
-            # no terminal (a background run, a log file): one plain line a minute instead of the bar
-            if not console.is_terminal and done and (time.monotonic() - last[0] > 60 or done == total):
+            # no terminal (a background run, a log file): a plain line every few seconds instead of the bar
+            if not console.is_terminal and done and (time.monotonic() - last[0] > interval or done == total):
                 last[0] = time.monotonic()
                 eta = bar.tasks[0].time_remaining
                 click.echo(f"simulated {done}/{total} pattern-scenarios"

@@ -64,32 +64,23 @@ def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> lis
 
     narrow: list[tuple[str | None, list[str]]] = []
     unlabelled: list[str] = []
-    bar = None
-    if progress:
-        from rich.console import Console
-        from rich.progress import Progress
+    from fabpat.progress import Progress
 
-        bar = Progress(console=Console(stderr=True), transient=True)
-        task = bar.add_task("exporting", total=len(jobs))
+    done = [0]
+    # a bar on a terminal, else a line every few seconds (a pipe, a log): --all takes minutes
+    with Progress("export", total=len(jobs), enabled=progress) as bar:
+        def on_part(part: Part, formats: list[str]) -> None:
+            messages = width_warnings(part.outline, formats, settings.kerf)
+            if messages:
+                narrow.append((part.label, messages))
+            missing = label_warning(part, formats)
+            if missing:
+                unlabelled.append(missing)
+            done[0] += 1
+            bar.update(f"{done[0]} of {len(jobs)} parts written", done[0])
 
-    def on_part(part: Part, formats: list[str]) -> None:
-        messages = width_warnings(part.outline, formats, settings.kerf)
-        if messages:
-            narrow.append((part.label, messages))
-        missing = label_warning(part, formats)
-        if missing:
-            unlabelled.append(missing)
-        if bar is not None:
-            bar.advance(task)
-
-    if bar is not None:
-        bar.start()
-    try:
         # a Ctrl-C or SIGTERM takes effect between parts, not inside an import or a finalizer
         paths = export_parts(jobs, settings, on_part, part_guard=deferred_interrupts)
-    finally:
-        if bar is not None:
-            bar.stop()
     if len(jobs) == 1:
         for message in narrow[0][1] if narrow else []:
             _warn(message)
