@@ -43,7 +43,8 @@ def setup(tmp_path_factory: pytest.TempPathFactory) -> dict[str, object]:
     e = catalog.energies(None, "cylinder", 6)
     ids = sorted(e, key=lambda k: (e[k], k))
     allowed = [ids[10], ids[len(ids) // 2], ids[-10]]
-    spec = _base(folder, "")  # every catalog pattern is a candidate
+    # every catalog pattern is a candidate, the paper member of each (family members: test_design_members.py)
+    spec = _base(folder, "variations = false")
     base = load_base(spec)
     length, labels, face_col, _ = _geometry(base, allowed[0], float(H))
     cols = list(np.random.default_rng(7).choice(ids, COLUMNS))
