@@ -426,8 +426,11 @@ def open_catalog(path: str | Path | None = None, *, write: bool = False) -> Cata
                     with conn:
                         kind = (PATTERN_COLUMNS if table == "patterns" else RESULT_COLUMNS)[c]
                         conn.execute(f"ALTER TABLE {table} ADD COLUMN {c} {kind}")
-        with conn:  # a catalog made before the family table existed
-            conn.execute(_create_sql()[3])
+        # a catalog made before the family table existed gains it; no write otherwise (two writers
+        # opening one new catalog at once must not queue on a needless write lock)
+        if not conn.execute("SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'family'").fetchone():
+            with conn:
+                conn.execute(_create_sql()[3])
     except sqlite3.Error as e:
         cat.close(failed=True)  # back to one file as it was, no -wal/-shm
         raise _cause(e, p, "write to") from e

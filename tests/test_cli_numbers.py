@@ -32,6 +32,7 @@ BASE_ARGS: dict[str, list[str]] = {
     "export": ["0x0488", "--step", "out.step"],
     "sweep": ["--db", "out.sqlite"],
     "catalog": [],
+    "variations": [],
     "browse": ["--out", "out.html"],
     "plot": ["--out", "figures"],
     "assemble": [STRIP_SPEC, "--out", "kit"],
