@@ -5,10 +5,19 @@ polyhedron (sleeves at the dihedral angles).
 Run: ``python benchmarks/bench_assembly.py`` — prints Markdown tables (seconds, one process, warm
 imports after the first spec) and re-reads the rigid sphere's STEP assembly to confirm its 122 solids.
 Output folders go to a temporary directory that is removed afterwards.
+
+``python benchmarks/bench_assembly.py --solve [--h 3 2] [--save F.json] [--before F.json]`` times the
+assembly solver alone (``simulate_assembly``) on the shipped graded strip (2 × 15, 10 % end shortening)
+and the shipped sphere closure: nodes, dofs, Newton iterations, factorizations, seconds in the tangent
+(element tangents, transformation, sparse assembly), in factorization and solves, in the rest of the path
+(residuals, read-outs between iterations) and set-up/read-outs outside the path, and the answers (peak,
+reaction, radius, sphericity). ``--save`` keeps the rows as JSON; ``--before`` adds the saved rows of an
+earlier version beside them and the relative change of every answer.
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import tempfile
 import time
@@ -39,7 +48,72 @@ def run(spec_path: Path, out: Path) -> tuple[dict[str, float], float, dict[str, 
     return times, total, json.loads((out / "manifest.json").read_text())
 
 
+SOLVE_SPECS = ("graded-strip", "truncated-icosahedron")
+ANSWERS = ("peak", "reaction", "radius", "sphericity_rms", "energy")
+
+
+def solve_row(name: str, h: float) -> dict[str, object]:
+    """One assembly solve at mesh edge h (mm): counts, seconds by phase and the answers."""
+    from fabpat.assembly.simulation import simulate_assembly
+
+    spec = load_spec(ROOT / "assemblies" / f"{name}.toml")
+    t = time.perf_counter()
+    sim = simulate_assembly(spec, h=h)
+    wall = time.perf_counter() - t
+    f = sim.fields()
+    sec = dict(sim.run.result.seconds)
+    return {"spec": name, "h": h, "nodes": f["nodes"], "dofs": f["dofs"], "iterations": f["iterations"],
+            "factorizations": f["factorizations"], "tangent_s": sec["tangent"], "factor_solve_s": sec["factor_solve"],
+            "rest_of_path_s": sec["total"] - sec["tangent"] - sec["factor_solve"],
+            "outside_path_s": wall - sec["total"],
+            "total_s": wall, "plate_energies": f["plate_energies"], **{k: f.get(k) for k in ANSWERS}}
+
+
+def solve_table(hs: list[float], save: Path | None, before: Path | None, rows_file: Path | None = None) -> None:
+    """Solve (or read ``rows_file``, rows of an earlier ``--save``) and print the tables."""
+    rows = json.loads(rows_file.read_text()) if rows_file else [solve_row(name, h) for h in hs for name in SOLVE_SPECS]
+    if save is not None:
+        save.write_text(json.dumps(rows, indent=1))
+    old = {(r["spec"], r["h"]): r for r in json.loads(before.read_text())} if before else {}
+    cols = ("nodes", "dofs", "iterations", "factorizations", "tangent_s", "factor_solve_s", "rest_of_path_s",
+            "outside_path_s", "total_s")
+    print("| assembly | h mm | " + " | ".join(cols) + " |")
+    print("|---|---:|" + "---:|" * len(cols))
+    for r in rows:
+        for label, src in (("before", old.get((r["spec"], r["h"]))), ("now", r)):
+            if src is None:
+                continue
+            cells = [f"{src[c]:.1f}" if c.endswith("_s") else str(src[c]) for c in cols]
+            print(f"| {r['spec']} ({label}) | {r['h']:g} | " + " | ".join(cells) + " |")
+    if old:
+        print()
+        print("| assembly | h mm | answer | before | now | relative change |")
+        print("|---|---:|---|---:|---:|---:|")
+        for r in rows:
+            o = old.get((r["spec"], r["h"]))
+            if o is None:
+                continue
+            for k in ANSWERS:
+                if r.get(k) is None or o.get(k) is None or k == "reaction" and r["spec"] != "graded-strip":
+                    continue
+                a, b = float(o[k]), float(r[k])  # type: ignore[arg-type]
+                print(f"| {r['spec']} | {r['h']:g} | {k} | {a:.6g} | {b:.6g} | {(b - a) / a:.1e} |")
+            pe_o, pe_n = o["plate_energies"], r["plate_energies"]
+            worst = max(abs(pe_n[p] / pe_o[p] - 1.0) for p in pe_o)  # type: ignore[index]
+            print(f"| {r['spec']} | {r['h']:g} | plate energies, worst | | | {worst:.1e} |")
+
+
 def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--solve", action="store_true", help="time the assembly solver alone (see the module doc)")
+    ap.add_argument("--h", type=float, nargs="+", default=[3.0], help="mesh edges, mm (with --solve)")
+    ap.add_argument("--save", type=Path, help="write the --solve rows to this JSON file")
+    ap.add_argument("--before", type=Path, help="JSON rows of an earlier --save to compare with")
+    ap.add_argument("--rows", type=Path, help="print the tables of saved --solve rows instead of solving")
+    args = ap.parse_args()
+    if args.solve or args.rows:
+        solve_table(args.h, args.save, args.before, args.rows)
+        return
     results = {}
     with tempfile.TemporaryDirectory(prefix="bench-assembly-") as tmp:
         for name in SPECS:

@@ -54,6 +54,10 @@ Arr = NDArray[np.float64]
 #: one: on the strip's post-buckling branch increments take 6 iterations, and 4 kept them at 1/12 of
 #: the path after the knee
 EASY_ITERATIONS = 6
+#: … or within this many factorizations: with the predictor on the last increment's factorization a
+#: post-buckling increment takes 6–8 iterations but 3 factorizations (three Newton corrections), and
+#: doubling after them took the graded strip from the knee to 10 % in 93 factorizations, not 105 (h = 6)
+EASY_FACTORIZATIONS = 3
 
 
 @dataclass(frozen=True, eq=False)
@@ -257,6 +261,122 @@ class _Reduced:
         return K
 
 
+@dataclass
+class _Newton:
+    """One increment's Newton iteration at a fixed target λ (see :func:`solve_path`), with the counters the
+    path keeps across increments."""
+
+    p: LinkedProblem
+    red: _Reduced
+    X: Arr
+    all_rot: NDArray[np.bool_]
+    dscale: float
+    floor: float
+    rtol: float
+    max_iter: int
+    max_rotation_step: float
+    reuse_ratio: float
+    link_reference: bool
+    fz: object = None
+    iterations: int = 0
+    factorizations: int = 0
+    t_tan: float = 0.0
+    t_lu: float = 0.0
+    residual: float = np.inf
+    state: tuple = ()  # (g, fe, U, d) of the last evaluated iterate
+
+    def targets(self, target: float, xs: Arr, Rs: Arr) -> Arr:
+        """(N, 6) increments still missing at the prescribed dofs (spins for rotations)."""
+        p, inc = self.p, np.zeros((self.red.N, 6))
+        inc[:, :3] = self.X + target * p.prescribed[:, :3] - xs
+        if self.all_rot.any():
+            Rt = expmap(target * p.prescribed[self.all_rot, 3:])
+            inc[self.all_rot, 3:] = logmap(Rt @ Rs[self.all_rot].transpose(0, 2, 1))
+        return np.where(p.fixed, inc, 0.0)
+
+    def pin(self, xt: Arr, Rt: Arr, target: float) -> tuple[Arr, Arr]:
+        """Prescribed dofs exactly on their targets (no drift from the scaled rows' round-off), slaves
+        placed from their masters."""
+        p = self.p
+        xt = np.where(p.fixed[:, :3], self.X + target * p.prescribed[:, :3], xt)
+        if self.all_rot.any():
+            Rt[self.all_rot] = expmap(target * p.prescribed[self.all_rot, 3:])
+        self.red.place_slaves(p, xt, Rt, target)
+        return xt, Rt
+
+    def run(self, xt: Arr, Rt: Arr, target: float, lu: object) -> tuple[bool, int, Arr, Arr, object]:
+        """Iterate from (xt, Rt) at λ = target; ``lu``: a factorization to take the first (predictor)
+        iteration with, or None. Returns (converged, iterations, x, R, last factorization)."""
+        p, red = self.p, self.red
+        fixed_flat = p.fixed.ravel()
+        N = red.N
+        ok, its, last, res0, growth, first = False, 0, np.inf, np.inf, 0, lu
+        for its in range(1, self.max_iter + 1):  # noqa: B007 (its used after the loop)
+            g, fe, U, d = red.forces(p, xt, Rt, target)
+            self.state = (g, fe, U, d)
+            gr = red.reduce(p, g, xt)
+            res = float(np.linalg.norm(gr.ravel()[red.test]))
+            inc = self.targets(target, xt, Rt)
+            ref = max(float(np.linalg.norm(target * p.loads.ravel()[red.test])),
+                      float(np.linalg.norm(gr.ravel()[fixed_flat])),
+                      float(np.linalg.norm(g[p.link_slave])) if self.link_reference else 0.0)
+            pending = float(np.abs(inc).max())
+            if pending <= 1e-12 * (1.0 + float(np.abs(self.X).max())):
+                pending = 0.0
+            if not np.isfinite(res):
+                break
+            if res <= max(self.rtol * ref, self.floor) and pending == 0.0:
+                ok = True
+                break
+            if its == 2:
+                res0 = res
+            growth = growth + 1 if res > last and pending == 0.0 else 0
+            if growth >= 3 or (its >= 10 and res > 100.0 * res0):
+                break
+            # keep the factorization while the residual falls fast; the predictor (first iteration)
+            # takes the one the previous increment converged with: the tangent of a state a Newton
+            # correction away from the converged one, one factorization per increment saved
+            reuse = lu is not None and ((pending == 0.0 and res < self.reuse_ratio * last)
+                                        or (its == 1 and lu is first))
+            last = self.residual = res
+            ta = time.perf_counter()
+            if not reuse:
+                K = red.matrix(p, xt, Rt, d, g, self.dscale)
+            tb = time.perf_counter()
+            rhs = -gr.ravel()
+            rhs[red.moving] = self.dscale * inc.ravel()[red.moving]
+            du = np.zeros(6 * N)
+            try:
+                if not reuse:
+                    lu = self.fz.factor(K)  # type: ignore[attr-defined]
+                    self.factorizations += 1
+                du[red.asm.free] = lu.solve(rhs[red.asm.free])  # type: ignore[attr-defined]
+            except SolverError:
+                break
+            self.t_tan += tb - ta
+            self.t_lu += time.perf_counter() - tb
+            if not np.all(np.isfinite(du)):
+                break
+            D = du.reshape(-1, 6)
+            if pending == 0.0:  # (the predictor must take the prescribed dofs to their targets in full)
+                rot = float(np.max(np.linalg.norm(D[:, 3:], axis=1)))
+                if rot > self.max_rotation_step:
+                    D = D * (self.max_rotation_step / rot)
+            xt = xt + D[:, :3]
+            Rt = np.einsum("nij,njk->nik", expmap(D[:, 3:]), Rt)
+            xt, Rt = self.pin(xt, Rt, target)
+        self.iterations += its
+        return ok, its, xt, Rt, lu
+
+
+def _on_branch(X: Arr, xt: Arr, Rt: Arr, direction: Arr | None) -> bool:
+    """Whether the state's displacement (translations and rotation vectors) projects non-negatively on
+    ``direction`` (no direction: always)."""
+    if direction is None:
+        return True
+    return float(np.sum(np.concatenate([xt - X, logmap(Rt)], axis=1) * direction)) >= 0.0
+
+
 def solve_path(
     p: LinkedProblem,
     *,
@@ -266,7 +386,6 @@ def solve_path(
     min_step: float = 1.0 / 4096,
     max_rotation_step: float = 0.5,
     reuse_ratio: float = 0.1,
-    predictor: bool = False,
     direction: Arr | None = None,
     first_step: float | None = None,
     link_reference: bool = False,
@@ -284,12 +403,13 @@ def solve_path(
     branch to follow past a symmetric bifurcation, e.g. the imperfection load. Past the bifurcation
     the imperfect structure's other equilibria (the unstable near-flat one and the opposite buckle)
     deflect against the imperfection, and Newton converges onto them just as well: from the flat
-    state the tangent has a negative eigenvalue there and points the wrong way.
+    state the tangent has a negative eigenvalue there and points the wrong way. (Retrying a rejected
+    increment from its state reflected in the strip's plane was tried and dropped: the reflection
+    converged at once, but the increments after it took 6–19 factorizations each, see the docs'
+    Solver speed.)
     ``link_reference``: also measure the residual against the forces the links carry (‖g‖ at the
     slaves): a problem driven only by joint angles has no loads and no reactions to compare with.
     ``progress``: called with λ after every report point.
-    ``predictor``: start each increment from the last converged increment, extrapolated (secant);
-    else from the last state with the prescribed increment applied through the tangent.
     ``start``: a warm start, (displacement (N, 3) mm, rotation vectors (N, 3) rad) guessed for λ = 1 (e.g.
     the equilibrium of a similar problem, :func:`fabpat.assembly.model.warm_guess`): Newton first tries
     λ = 1 from there in one increment; if that converges (``warm`` in the result) the only report point
@@ -297,45 +417,35 @@ def solve_path(
     counted). A warm start reaches the same equilibrium only where the problem has one near the guess.
 
     Convergence of an increment: ‖r‖ ≤ max(rtol · max(‖λ f‖, ‖reactions‖), floor) over the dofs that
-    are neither prescribed nor slaves, with the round-off floor of :mod:`fabpat.shell.solve`. The LU
-    is reused while the residual falls by ``reuse_ratio`` per iteration. Increments start at the last
-    successful size (at most one report interval), halve on failure and double after ≤ ``EASY_ITERATIONS``.
+    are neither prescribed nor slaves, with the round-off floor of :mod:`fabpat.shell.solve`. Each
+    increment starts from the last converged state with the prescribed increment applied through the
+    tangent the last increment converged with (no new factorization); the LU is then reused while the
+    residual falls by ``reuse_ratio`` per iteration. Increments start at the last successful size (at
+    most one report interval), halve on failure and double after ≤ ``EASY_ITERATIONS`` iterations or
+    ≤ ``EASY_FACTORIZATIONS`` factorizations. (A secant predictor, extrapolating the last increment,
+    was dropped: on the graded strip it took 593 factorizations against 93, as a straight-line
+    extrapolation of a rising arch stretches it.)
     Raises SolverError (naming the λ reached) when an increment falls below ``min_step``.
     """
     if steps < 1:
         raise ValueError(f"steps must be ≥ 1, got {steps}")
     t0 = time.perf_counter()
     red = _Reduced(p)
-    fz = factorizer()
     N, n = red.N, red.n
     X = np.vstack([p.X, p.masters])
     K0 = red.model.linear_element_matrices()
     diagK = np.bincount(red.model.edofs.ravel(), weights=np.einsum("mii->mi", K0).ravel(), minlength=6 * n)
     dscale = float(np.mean(diagK[diagK > 0])) if np.any(diagK > 0) else 1.0
     noise = np.finfo(np.float64).eps * float(np.abs(X).max()) * float(np.linalg.norm(diagK))
-    floor = ROUNDOFF_FACTOR * noise
+    nw = _Newton(p, red, X, p.fixed[:, 3:].all(axis=1), dscale, ROUNDOFF_FACTOR * noise, rtol, max_iter,
+                 max_rotation_step, reuse_ratio, link_reference, factorizer())
     x, R = X.copy(), np.broadcast_to(np.eye(3), (N, 3, 3)).copy()
-    all_rot = p.fixed[:, 3:].all(axis=1)
-    fixed_flat = p.fixed.ravel()
     lam, dlam = 0.0, min(first_step, 1.0 / steps) if first_step else 1.0 / steps
-    its_total = incs = cuts = n_fact = 0
-    t_tan = t_lu = 0.0
+    incs = cuts = 0
     points: list[PathPoint] = []
-    fe = U = d = g = None
-
-    def targets(target: float, xs: Arr, Rs: Arr) -> Arr:
-        """(N, 6) increments still missing at the prescribed dofs (spins for rotations)."""
-        inc = np.zeros((N, 6))
-        inc[:, :3] = X + target * p.prescribed[:, :3] - xs
-        if all_rot.any():
-            Rt = expmap(target * p.prescribed[all_rot, 3:])
-            inc[all_rot, 3:] = logmap(Rt @ Rs[all_rot].transpose(0, 2, 1))
-        return np.where(p.fixed, inc, 0.0)
-
     next_report = 1
     unstable = warm = False
-    prev: tuple[Arr, Arr, float] | None = None  # last converged increment (Δx, spins, Δλ)
-    guess = start
+    guess, kept = start, None
     while lam < 1.0 - 1e-12:
         if guess is not None:
             next_report = steps  # one increment to λ = 1
@@ -344,114 +454,45 @@ def solve_path(
         if goal - target < 1e-9:
             target = goal
         xt, Rt = x.copy(), R.copy()
-        if guess is not None:
-            xt = X + np.asarray(guess[0], dtype=np.float64)
-            Rt = expmap(np.asarray(guess[1], dtype=np.float64))
-            xt = np.where(p.fixed[:, :3], X + target * p.prescribed[:, :3], xt)
-            if all_rot.any():
-                Rt[all_rot] = expmap(target * p.prescribed[all_rot, 3:])
-        elif prev is not None and predictor:
-            # secant predictor: extrapolate the last converged increment (off by default: on the 1 × 4
-            # strip to 10 % it took 31 increments / 205 iterations against 19 / 129 without)
-            sc = (target - lam) / prev[2]
-            xt = xt + sc * prev[0]
-            Rt = np.einsum("nij,njk->nik", expmap(sc * prev[1]), Rt)
-            xt = np.where(p.fixed[:, :3], X + target * p.prescribed[:, :3], xt)
-            if all_rot.any():
-                Rt[all_rot] = expmap(target * p.prescribed[all_rot, 3:])
-        red.place_slaves(p, xt, Rt, target)
-        ok, its, last, res0, growth, lu = False, 0, np.inf, np.inf, 0, None
-        for its in range(1, max_iter + 1):  # noqa: B007 (its used after the loop)
-            g, fe, U, d = red.forces(p, xt, Rt, target)
-            gr = red.reduce(p, g, xt)
-            res = float(np.linalg.norm(gr.ravel()[red.test]))
-            inc = targets(target, xt, Rt)
-            ref = max(float(np.linalg.norm(target * p.loads.ravel()[red.test])),
-                      float(np.linalg.norm(gr.ravel()[fixed_flat])),
-                      float(np.linalg.norm(g[p.link_slave])) if link_reference else 0.0)
-            pending = float(np.abs(inc).max())
-            if pending <= 1e-12 * (1.0 + float(np.abs(X).max())):
-                pending = 0.0
-            if not np.isfinite(res):
-                break
-            if res <= max(rtol * ref, floor) and pending == 0.0:
-                ok = True
-                break
-            if its == 2:
-                res0 = res
-            growth = growth + 1 if res > last and pending == 0.0 else 0
-            if growth >= 3 or (its >= 10 and res > 100.0 * res0):
-                break
-            reuse = lu is not None and pending == 0.0 and res < reuse_ratio * last
-            last = res
-            ta = time.perf_counter()
-            if not reuse:
-                K = red.matrix(p, xt, Rt, d, g, dscale)
-            tb = time.perf_counter()
-            rhs = -gr.ravel()
-            rhs[red.moving] = dscale * inc.ravel()[red.moving]
-            du = np.zeros(6 * N)
-            try:
-                if not reuse:
-                    lu = fz.factor(K)
-                    n_fact += 1
-                du[red.asm.free] = lu.solve(rhs[red.asm.free])
-            except SolverError:
-                break
-            t_tan += tb - ta
-            t_lu += time.perf_counter() - tb
-            if not np.all(np.isfinite(du)):
-                break
-            D = du.reshape(-1, 6)
-            if pending == 0.0:  # (the predictor must take the prescribed dofs to their targets in full)
-                rot = float(np.max(np.linalg.norm(D[:, 3:], axis=1)))
-                if rot > max_rotation_step:
-                    D = D * (max_rotation_step / rot)
-            xt = xt + D[:, :3]
-            Rt = np.einsum("nij,njk->nik", expmap(D[:, 3:]), Rt)
-            # prescribed dofs land exactly on their targets (no drift from the scaled rows' round-off)
-            xt = np.where(p.fixed[:, :3], X + target * p.prescribed[:, :3], xt)
-            if all_rot.any():
-                Rt[all_rot] = expmap(target * p.prescribed[all_rot, 3:])
+        if guess is not None:  # the guess starts on the targets; else the predictor takes them there
+            xt, Rt = nw.pin(X + np.asarray(guess[0], dtype=np.float64),
+                            expmap(np.asarray(guess[1], dtype=np.float64)), target)
+        else:
             red.place_slaves(p, xt, Rt, target)
-        its_total += its
-        if ok and direction is not None:
-            u6 = np.concatenate([xt - X, logmap(Rt)], axis=1)
-            if float(np.sum(u6 * direction)) < 0.0:
-                ok, unstable = False, True  # the other branch (see ``direction``)
+        f0 = nw.factorizations
+        ok, its, xt, Rt, lu = nw.run(xt, Rt, target, kept if guess is None else None)
+        if ok and not _on_branch(X, xt, Rt, direction):
+            ok, unstable = False, True  # the other branch (see ``direction``)
         if guess is not None:
             guess = None
             if not ok:  # the guess was too far: follow the path from the start instead
                 next_report = 1
                 continue
             warm = True
+        kept = lu if ok else None
         if ok:
             unstable = False
-            prev = (xt - x, logmap(Rt @ R.transpose(0, 2, 1)), target - lam)
             x, R, lam = xt, Rt, target
             incs += 1
-            if its <= EASY_ITERATIONS:
+            if its <= EASY_ITERATIONS or nw.factorizations - f0 <= EASY_FACTORIZATIONS:
                 dlam = min(2.0 * dlam, 1.0 / steps)
             if abs(lam - goal) < 1e-12:
-                assert g is not None and U is not None
-                gr = red.reduce(p, g, x)
-                react = np.where(p.fixed, gr, 0.0)
+                g, _, U, _ = nw.state
+                react = np.where(p.fixed, red.reduce(p, g, x), 0.0)
                 points.append(PathPoint(goal, x - X, logmap(R), react, float(U.sum()), g[p.link_slave].copy()))
                 next_report += 1
                 if progress is not None:
                     progress(goal)
         else:
             cuts += 1
-            prev = None  # the extrapolation may be what failed
             dlam = 0.5 * (target - lam)
             if dlam < min_step:
                 raise SolverError(
                     f"path following did not converge: the increment fell below {min_step:g} at load fraction "
-                    f"λ = {lam:.4f} (aiming for {target:.4f}) after {its_total} iterations and {cuts} step cuts "
-                    f"(residual {last:.3e}"
+                    f"λ = {lam:.4f} (aiming for {target:.4f}) after {nw.iterations} iterations and {cuts} step "
+                    f"cuts (residual {nw.residual:.3e}"
                     + ("; it converges only onto a branch against ``direction``" if unstable else "")
                     + "); the path may snap back or the mesh may be too coarse")
-    assert d is not None
-    ee = red.model.energy_split(d)
-    seconds = {"tangent": t_tan, "factor_solve": t_lu, "total": time.perf_counter() - t0}
-    return PathResult(points, ee, its_total, incs, cuts, n_fact, red.asm.n_free, seconds, warm)
+    ee = red.model.energy_split(nw.state[3])
+    seconds = {"tangent": nw.t_tan, "factor_solve": nw.t_lu, "total": time.perf_counter() - t0}
+    return PathResult(points, ee, nw.iterations, incs, cuts, nw.factorizations, red.asm.n_free, seconds, warm)
