@@ -1,8 +1,19 @@
 """Assemblies (paper §5): plates of patterns joined by printed sleeves into strips and spheres.
 
-One module per concern: ``spec`` (TOML specs), ``tiling`` (skeleton surfaces), ``rules`` (stiffness-based
-pattern choice), ``placement`` (plates and sleeves in 3D), ``sleeve`` (the connector B-rep), ``parts``
-(distinct solids and meshes), ``checks`` (counts, midpoints, interference), ``nesting`` and ``sheets``
-(laser sheets), ``net`` (unfolding), ``export`` (STEP/STL/GLB), ``render`` (PNG), ``bom`` and ``build``
-(the ``fabpat assemble`` pipeline). Heavy libraries are imported inside the functions that need them.
+Every module of the package, by job (heavy libraries are imported inside the functions that need them):
+
+* **What to build** — ``spec`` (TOML specs, every value checked) and ``spec_tables`` (reading its file and
+  tables); ``tiling`` (skeleton surfaces); ``rules`` (stiffness-based pattern choice); ``provenance``
+  (where each chosen pattern and its catalog energies come from).
+* **Where the parts go** — ``placement`` (plates and sleeves in 3D); ``sleeve`` (the connector B-rep);
+  ``parts`` (distinct solids and meshes, built once); ``checks`` (counts, midpoints, interference);
+  ``nesting`` and ``sheets`` (laser sheets); ``net`` (unfolding).
+* **Solving the assembly** — ``model`` (placed plate meshes joined by sleeves, one shell model);
+  ``simulate`` (the strip pushed into its arch); ``closure`` (the sphere closed by its sleeves);
+  ``simulation`` (``simulate_assembly``, the front door for every kind); ``strip_sim`` (the older
+  load-controlled strip model, sub-buckling, kept as a library function); ``predict`` (the kit's
+  prediction) and ``preview`` (the predicted bent shape as GLB, PNG and mesh).
+* **The kit** — ``build`` (``assemble``: a spec in, a folder out); ``kit_files`` (every output written);
+  ``kit_folder`` (what may be replaced, and the swap); ``export`` (STEP/STL/GLB); ``render`` (PNG);
+  ``bom`` (bill of materials and joint table).
 """

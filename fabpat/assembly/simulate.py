@@ -296,14 +296,3 @@ def write_profiles_png(path: str | Path, runs: list[tuple[str, StripRun]], dpi: 
     fig.savefig(path, format="png")
     plt.close(fig)
     return Path(path)
-
-
-def final_shell_result(run: StripRun):  # noqa: ANN201 - a ShellResult
-    """The final state of the plates as a :class:`fabpat.shell.ShellResult` (for the VTU/PNG writers)."""
-    from fabpat.shell.results import ShellResult
-
-    n = len(run.setup.model.X)
-    fin = run.result.final
-    r = run.result
-    return ShellResult(fin.displacement[:n], fin.rotation[:n], run.energy, r.element_energy, fin.reactions[:n],
-                       float("nan"), r.iterations, r.increments, r.cuts, True, True, dict(r.seconds))

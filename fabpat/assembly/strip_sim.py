@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
@@ -202,28 +201,3 @@ def simulate_strip(model: StripModel, compression: float, imperfection: float = 
     return StripResult(compression, transverse, x, w, float(x[np.argmax(w)] / model.length),
                        float(first / second) if second != 0 else math.inf, A,
                        compression / (1.0 - 1.0 / A) if A > 1 else math.inf, r)
-
-
-def write_profile_png(path: str | Path, r: StripResult, title: str = "", dpi: int = 150) -> Path:
-    """Side view of the deflected strip: mean uz along x, the highest point marked, halves shaded."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    L = float(r.x[-1] + r.x[0])  # bins are centred: first centre + last centre = length
-    fig, ax = plt.subplots(figsize=(8, 3), dpi=dpi)
-    ax.axvspan(0, L / 2, color="0.93", lw=0)
-    ax.plot(r.x, r.w, color="C0", lw=2)
-    k = int(np.argmax(r.w))
-    ax.plot([r.x[k]], [r.w[k]], "o", color="C3")
-    ax.axvline(L / 2, color="0.5", lw=0.8, ls=":")
-    ax.set_xlabel("x from the first (stiff) end, mm")
-    ax.set_ylabel("mean deflection uz, mm")
-    ax.set_title(title or f"P = {r.compression:.3g} N: peak at {r.peak:.2f} L, first half / second half "
-                 f"= {r.half_ratio:.2f}", fontsize=9)
-    ax.set_xlim(0, L)
-    fig.tight_layout()
-    fig.savefig(path, format="png")
-    plt.close(fig)
-    return Path(path)

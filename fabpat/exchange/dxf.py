@@ -148,10 +148,6 @@ def spline_pieces(outline: Outline) -> list[list[Piece]]:
     return out
 
 
-def _piece_start(p: Piece) -> NDArray[np.float64]:
-    return p.start if isinstance(p, SplinePiece) else p[0]  # type: ignore[return-value]
-
-
 def _reverse_pieces(pieces: list[Piece]) -> list[Piece]:
     out: list[Piece] = []
     for p in reversed(pieces):
