@@ -127,7 +127,9 @@ def test_cli_variations_json_and_text() -> None:
     (["--variation", "bridge_weight=9"], "out of range: must be in [0.25, 2.5]"),
     (["--variation", "bridge=1"], "unknown variation 'bridge'; valid: bridge_weight"),
     (["--variation", "bridge_weight"], "is not NAME=VALUE"),
-    (["--variation", "bridge_weight=abc"], "is not a number"),
+    (["--variation", "bridge_weight=abc"], "is not a number; bridge_weight is a number in [0.25, 2.5]"),
+    (["--variation", "bridge_weight=1_0"], "is not a number"),  # float() would read 10
+    (["--variation", "bridge_weight=\u0660.\u0665"], "is not a number"),  # Arabic-Indic 0.5
     (["--variation", "bridge_weight=inf"], "is not a finite number"),
     (["--variation", "bridge_weight=1", "--variation", "bridge_weight=2"], "given twice"),
 ])
@@ -148,6 +150,22 @@ def test_cli_show_draws_the_varied_outline(tmp_path: Path) -> None:
     varied = CliRunner().invoke(cli, ["show", "0x0488", "--variation", "bridge_weight=0.4"]).output
     path = get_pattern("0x0488").fillet(bridge_weight=0.4).outline.to_svg_path()
     assert path in varied and path not in paper
+
+
+def test_cli_show_with_the_paper_value_given_still_draws_the_filleted_outline() -> None:
+    """--variation implies --filleted even when its value is the paper's (1): the user asked for a member."""
+    given = CliRunner().invoke(cli, ["show", "0x0488", "--variation", "bridge_weight=1"])
+    filleted = CliRunner().invoke(cli, ["show", "0x0488", "--filleted"])
+    lattice = CliRunner().invoke(cli, ["show", "0x0488"])
+    assert given.exit_code == 0 and given.output == filleted.output != lattice.output
+
+
+def test_cli_simulate_text_echoes_a_variation_given_at_the_paper_value() -> None:
+    args = ["simulate", "0x0488", "--scenario", "cylinder", "--h", "3", "--linear", "--no-progress"]
+    given = CliRunner().invoke(cli, [*args, "--variation", "bridge_weight=1"])
+    plain = CliRunner().invoke(cli, args)
+    assert given.exit_code == 0 and plain.exit_code == 0
+    assert given.stdout.strip().endswith(" bridge_weight=1") and "bridge_weight" not in plain.stdout
 
 
 def test_export_names_and_labels_the_member_and_keeps_its_weight_exact(tmp_path: Path) -> None:
@@ -175,3 +193,20 @@ def test_cli_simulate_json_carries_the_variation() -> None:
                                                 "--linear", "--json", "--no-progress"]).stdout)
     assert row["bridge_weight"] == 0.5 and paper["bridge_weight"] == 1.0
     assert row["energy"] < paper["energy"]  # wider necks: a stiffer plate stores less energy under the same load
+
+
+def test_cli_simulate_nonconvergence_names_the_scenario_and_the_member(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A scenario the solver cannot finish is one error line that says which scenario of which member."""
+    import fabpat.convergence as convergence
+    from fabpat.errors import SolverError
+
+    def lost(*args: object, **kwargs: object) -> None:
+        raise SolverError("Newton–Raphson did not converge at load fraction λ = 0.8604")
+
+    monkeypatch.setattr(convergence, "run_converged", lost)  # the command imports it when it runs
+    r = CliRunner().invoke(cli, ["simulate", "0x0488", "--scenario", "dome", "--h", "2.5", "--no-progress",
+                                 "--variation", "bridge_weight=1.6"])
+    assert r.exit_code == 2
+    lines = r.output.strip().splitlines()
+    assert lines == ["fabpat: error: dome scenario of 0x0488 bridge_weight=1.6: Newton–Raphson did not converge "
+                     "at load fraction λ = 0.8604"]

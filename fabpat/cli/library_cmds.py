@@ -18,6 +18,7 @@ from fabpat.cli.options import (
     sample_option,
     seed_option,
     sides_option,
+    variation_given,
     variation_option,
     weight_option,
 )
@@ -195,7 +196,7 @@ def show_cmd(pattern_id: str, sides: int, depth: int | None, edge: float, svg: s
     if svg is not None:
         check_suffix(svg, (".svg",), "--svg")  # an SVG in a .png would open as a broken picture
     p = get_pattern(pattern_id, sides, depth, edge)  # depth None: from the ID's length
-    filleted = filleted or not variation.is_paper
+    filleted = filleted or not variation.is_paper or bool(variation_given())
     outline = p.fillet(weight, **variation.items()).outline if filleted else None
     text = pattern_svg(p, outline_path=outline.to_svg_path() if outline is not None else None)
     if svg is None:

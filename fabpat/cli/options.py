@@ -7,6 +7,7 @@ is checked while parsing (before any work, before any file is opened) and ``--he
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Iterable
 from dataclasses import fields
 from typing import Any
@@ -105,21 +106,43 @@ def parse_variation(texts: Iterable[str]) -> Variation:
             raise GeometryError(f"{text!r} is not NAME=VALUE; valid names: {names}")
         if name in values:
             raise GeometryError(f"{name} given twice")
-        try:
-            value = float(raw)
-        except ValueError:
-            raise GeometryError(f"{name}={raw!r} is not a number") from None
+        if name not in {f.name for f in fields(Variation)}:
+            raise GeometryError(f"unknown variation {name!r}; valid: {names}")
+        valid = f"a number in {RANGES[name].describe()}"
+        # a plain decimal number: Python's float() would also take "1_0" (10) and non-ASCII digits
+        if not _DECIMAL.fullmatch(raw.strip()):
+            raise GeometryError(f"{name}={raw!r} is not a number; {name} is {valid}")
+        value = float(raw)
         if not math.isfinite(value):
-            raise GeometryError(f"{name}={raw!r} is not a finite number")
+            raise GeometryError(f"{name}={raw!r} is not a finite number; {name} is {valid}")
         values[name] = value
     return Variation.from_values(values)
 
 
+#: what ``--variation NAME=VALUE`` reads as a number: ASCII decimal notation, optional exponent (inf and nan
+#: too, to be refused as not finite)
+_DECIMAL = re.compile(r"[+-]?((\d+(\.\d*)?|\.\d+)(e[+-]?\d+)?|inf(inity)?|nan)", re.ASCII | re.IGNORECASE)
+
+
 def _variation(ctx: click.Context, param: click.Parameter, value: tuple[str, ...]) -> Variation:
     try:
-        return parse_variation(value)
+        v = parse_variation(value)
     except GeometryError as e:
         raise click.BadParameter(str(e), ctx, param) from None
+    ctx.meta[VARIATION_GIVEN] = tuple(str(t).partition("=")[0].strip() for t in value)
+    return v
+
+
+#: ``click.Context.meta`` key of the parameter names the command line gave with ``--variation`` (a
+#: value equal to the paper's default is still a choice the user made: ``show`` then draws the
+#: filleted outline and ``simulate`` echoes it)
+VARIATION_GIVEN = "fabpat.variation_given"
+
+
+def variation_given() -> tuple[str, ...]:
+    """The names the running command's ``--variation`` options gave (empty when none or outside click)."""
+    ctx = click.get_current_context(silent=True)
+    return tuple(ctx.meta.get(VARIATION_GIVEN, ())) if ctx is not None else ()
 
 
 #: ``--variation NAME=VALUE`` (repeatable): the pattern's family member (``fabpat variations``), parsed

@@ -17,10 +17,11 @@ from fabpat.cli.options import (
     poisson_option,
     sides_option,
     thickness_option,
+    variation_given,
     variation_option,
     weight_option,
 )
-from fabpat.errors import FabpatError
+from fabpat.errors import FabpatError, SolverError
 from fabpat.io import atomic_outputs, check_distinct, check_suffix
 from fabpat.mesh import DEFAULT_MAX_ELEMENTS
 from fabpat.variation import Variation
@@ -119,6 +120,8 @@ def simulate_cmd(
             check_suffix(path, valid, option)
     pattern = get_pattern(pattern_id, sides, depth, edge)
     filleted = fillet_pattern(pattern, weight, variation)  # its outline carries its polygon
+    given = variation_given()
+    member = "".join(f" {k}={v:g}" for k, v in variation.items().items() if k in given or v != 1.0)
     rows = []
     # a heartbeat line while each scenario's solves block (the solver has no progress callback)
     with atomic_outputs(*outputs.values()) as temps, Progress("simulate", total=len(scenarios),
@@ -132,8 +135,11 @@ def simulate_cmd(
         tmp_of = dict(zip(outputs, temps, strict=True))
         for k, sc in enumerate(scenarios):
             bar.update(f"{sc} ({k + 1} of {len(scenarios)}) on {sizes}", k)
-            c = run_converged(meshes, sc, sides=sides, edge=edge, thickness=thickness, E=E, nu=nu,
-                              nonlinear=not linear)
+            try:
+                c = run_converged(meshes, sc, sides=sides, edge=edge, thickness=thickness, E=E, nu=nu,
+                                  nonlinear=not linear)
+            except SolverError as e:  # say which of the scenarios and which family member
+                raise SolverError(f"{sc} scenario of {pattern.id}{member}: {e}") from None
             row = c.summary()
             bar.item(f"{sc} finished ({k + 1} of {len(scenarios)}), energy {row['energy']:.6g} N·mm")
             if not row["converged"]:  # run_scenario raises on nonconvergence; this guards the contract
@@ -157,7 +163,7 @@ def simulate_cmd(
                 f"max_displacement={row['max_displacement']:.4g} converged={str(bool(row['converged'])).lower()} "
                 f"iterations={row['iterations']} seconds={row['seconds']:.2f} nodes={row['nodes']} "
                 f"elements={row['elements']} h={','.join(f'{x:g}' for x in row['h'])}"
-                + "".join(f" {k}={v:g}" for k, v in variation.changed().items())
+                + member
             )
     for path in outputs.values():
         click.echo(f"wrote {path}", err=True)  # stdout is data (key=value lines or JSON)
