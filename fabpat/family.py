@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 
 from fabpat.catalog import CatalogError, open_catalog
 from fabpat.scenarios import scenario_name
+from fabpat.validate import check
 
 
 @dataclass(frozen=True)
@@ -55,8 +56,9 @@ class FamilyCurve:
 
     def energy(self, bridge_weight: float) -> float:
         """The interpolated energy (N·mm) of the member ``bridge_weight``; :class:`CatalogError` outside
-        :attr:`range` (the members swept and converged)."""
-        w = float(bridge_weight)
+        :attr:`range` (the members swept and converged), :class:`~fabpat.errors.RangeError` for a value
+        that is not a number in the parameter's range (``fabpat variations``)."""
+        w = check("bridge_weight", bridge_weight)
         lo, hi = self.range
         if not (lo <= w <= hi) or not math.isfinite(w):
             raise CatalogError(f"pattern {self.pattern_id} ({self.sides}-gon) {self.scenario}: the catalog's family "
@@ -147,7 +149,9 @@ def family_energy(pattern_id: str, scenario: str, bridge_weight: float, *, sides
                   db: str | Path | None = None) -> float:
     """The interpolated energy (N·mm) of one pattern's member ``bridge_weight`` in ``scenario`` (the
     default set-up of ``sides``; ``db`` None: the built-in catalog). Raises :class:`CatalogError` for a
-    pattern not in the catalog or a member outside its swept, converged range."""
+    pattern not in the catalog or a member outside its swept, converged range, :class:`RangeError` for a
+    ``bridge_weight`` that is not a number in its range (0.25 … 2.5)."""
+    check("bridge_weight", bridge_weight)  # before reading the catalog: a bad value is the caller's
     curves = family_curves(scenario, sides=sides, db=db)
     curve = curves.get(pattern_id)
     if curve is None:

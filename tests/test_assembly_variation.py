@@ -176,3 +176,14 @@ def base_sides(spec: object) -> list[int]:
 def test_bridge_weight_rule_needs_a_rule_that_can_use_it(tmp_path: Path) -> None:
     with pytest.raises(SpecError, match='bridge_weight = "rule" goes with patterns.rule'):
         load_spec(_spec(tmp_path, 'bridge_weight = "rule"'))
+
+
+def test_a_member_beyond_the_converged_family_says_so_and_not_sweep_again(tmp_path: Path) -> None:
+    """0x0488's Dome buckles beyond bridge_weight 1 in the built-in catalog's family: the note says the
+    family converged only up to there, and does not send the user to a sweep that would add nothing."""
+    spec = _spec(tmp_path, "bridge_weight = {T1 = 2.5}")
+    res = run_cli("assemble", str(spec), "--out", str(tmp_path / "kit"), "--no-predict")
+    assert res.returncode == 0, res.stderr
+    manifest = json.loads((tmp_path / "kit" / "manifest.json").read_text())
+    note = next(r for r in manifest["patterns"] if r["part"] == "hex 0x0488 b2.5")["note"]
+    assert "dome: converged only over 0.25 … 1" in note and "sweep" not in note

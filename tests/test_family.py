@@ -132,3 +132,14 @@ def test_refinements_bisect_where_the_curve_bends_or_buckles(tmp_path: Path) -> 
         cat.finish()
     todo = refinements(db, ["0xaaaa", "0xbbbb", "0xcccc"], SweepSetup(E=1000.0, nu=0.35))
     assert todo == {0.7937: ["0xbbbb"], 1.265: ["0xbbbb", "0xcccc"]}
+
+
+@pytest.mark.parametrize("bad", ["abc", float("nan"), -1.0, 3.0, None])
+def test_family_energy_refuses_a_bad_member_as_a_range_error(bad: object) -> None:
+    """A value that is no member at all is the caller's mistake (RangeError naming the range), not a gap
+    in the catalog (CatalogError) and never a raw ValueError."""
+    from fabpat.errors import RangeError
+    from fabpat.family import family_energy
+
+    with pytest.raises(RangeError, match=r"bridge_weight .*\[0\.25, 2\.5\]"):
+        family_energy("0x0488", "dome", bad)  # type: ignore[arg-type]

@@ -86,6 +86,7 @@ def _member_energies(spec: AssemblySpec, pt: Any, setup: dict[str, float]) -> tu
 
     out: dict[str, float | None] = {}
     missing = []
+    unswept = False  # a scenario without family rows (a sweep adds them), not one whose members buckle
     for sc in SCENARIOS:
         try:
             curve = family_curves(sc, sides=pt.sides, depth=pt.depth, db=spec.patterns.catalog, **setup).get(
@@ -95,10 +96,14 @@ def _member_energies(spec: AssemblySpec, pt: Any, setup: dict[str, float]) -> tu
         lo, hi = curve.range if curve is not None else (1.0, 1.0)
         out[sc] = curve.energy(pt.bridge_weight) if curve is not None and lo <= pt.bridge_weight <= hi else None
         if out[sc] is None:
-            missing.append(f"{sc} {lo:g} … {hi:g}")
+            if curve is None or len(curve.weights) == 1:
+                unswept = True
+                missing.append(f"{sc}: no family rows")
+            else:  # swept: the members beyond the converged run buckle (or lie past the swept ends)
+                missing.append(f"{sc}: converged only over {lo:g} … {hi:g}")
     note = (f"bridge_weight {pt.bridge_weight:g}: energies interpolated over the catalog's family" if not missing
-            else f"bridge_weight {pt.bridge_weight:g} is outside the catalog's family ({', '.join(missing)}; "
-                 "`fabpat sweep --family` adds it)")
+            else f"bridge_weight {pt.bridge_weight:g} is outside the catalog's family ({'; '.join(missing)}"
+                 + ("; `fabpat sweep --family` adds family rows)" if unswept else ")"))
     return out, note
 
 
