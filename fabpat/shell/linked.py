@@ -44,7 +44,7 @@ from fabpat.errors import SolverError
 from fabpat.shell.assembly import Assembler
 from fabpat.shell.corotational import CorotationalTriangles
 from fabpat.shell.element import Material
-from fabpat.shell.linalg import factorizer
+from fabpat.shell.linalg import Factor, Pardiso, SuperLUFactorizer, factorizer
 from fabpat.shell.rotations import expmap, logmap, skew
 from fabpat.shell.solve import ROUNDOFF_FACTOR
 
@@ -277,13 +277,13 @@ class _Newton:
     max_rotation_step: float
     reuse_ratio: float
     link_reference: bool
-    fz: object = None
+    fz: Pardiso | SuperLUFactorizer
     iterations: int = 0
     factorizations: int = 0
     t_tan: float = 0.0
     t_lu: float = 0.0
     residual: float = np.inf
-    state: tuple = ()  # (g, fe, U, d) of the last evaluated iterate
+    state: tuple[Arr, Arr, Arr, Arr] | None = None  # (g, fe, U, d) of the last evaluated iterate
 
     def targets(self, target: float, xs: Arr, Rs: Arr) -> Arr:
         """(N, 6) increments still missing at the prescribed dofs (spins for rotations)."""
@@ -304,7 +304,7 @@ class _Newton:
         self.red.place_slaves(p, xt, Rt, target)
         return xt, Rt
 
-    def run(self, xt: Arr, Rt: Arr, target: float, lu: object) -> tuple[bool, int, Arr, Arr, object]:
+    def run(self, xt: Arr, Rt: Arr, target: float, lu: Factor | None) -> tuple[bool, int, Arr, Arr, Factor | None]:
         """Iterate from (xt, Rt) at λ = target; ``lu``: a factorization to take the first (predictor)
         iteration with, or None. Returns (converged, iterations, x, R, last factorization)."""
         p, red = self.p, self.red
@@ -348,9 +348,9 @@ class _Newton:
             du = np.zeros(6 * N)
             try:
                 if not reuse:
-                    lu = self.fz.factor(K)  # type: ignore[attr-defined]
+                    lu = self.fz.factor(K)
                     self.factorizations += 1
-                du[red.asm.free] = lu.solve(rhs[red.asm.free])  # type: ignore[attr-defined]
+                du[red.asm.free] = lu.solve(rhs[red.asm.free])  # type: ignore[union-attr] (reuse implies lu)
             except SolverError:
                 break
             self.t_tan += tb - ta
@@ -477,6 +477,7 @@ def solve_path(
             if its <= EASY_ITERATIONS or nw.factorizations - f0 <= EASY_FACTORIZATIONS:
                 dlam = min(2.0 * dlam, 1.0 / steps)
             if abs(lam - goal) < 1e-12:
+                assert nw.state is not None
                 g, _, U, _ = nw.state
                 react = np.where(p.fixed, red.reduce(p, g, x), 0.0)
                 points.append(PathPoint(goal, x - X, logmap(R), react, float(U.sum()), g[p.link_slave].copy()))
@@ -493,6 +494,7 @@ def solve_path(
                     f"cuts (residual {nw.residual:.3e}"
                     + ("; it converges only onto a branch against ``direction``" if unstable else "")
                     + "); the path may snap back or the mesh may be too coarse")
+    assert nw.state is not None
     ee = red.model.energy_split(nw.state[3])
     seconds = {"tangent": nw.t_tan, "factor_solve": nw.t_lu, "total": time.perf_counter() - t0}
     return PathResult(points, ee, nw.iterations, incs, cuts, nw.factorizations, red.asm.n_free, seconds, warm)
