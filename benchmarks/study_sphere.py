@@ -47,12 +47,13 @@ def main() -> None:
     ap.add_argument("--pictures", type=Path, default=None, help="folder for one PNG per pair (finest h)")
     args = ap.parse_args()
     spec = load_spec(SPEC)
-    pairs = [tuple(p.split("/")) for p in args.pairs] or [(spec.patterns.hexagon, spec.patterns.pentagon)]
+    shipped = (spec.patterns.polygon_pattern(6), spec.patterns.polygon_pattern(5))
+    pairs = [tuple(p.split("/")) for p in args.pairs] or [shipped]
     hexagon, pentagon = dome_energies(6), dome_energies(5)
     print(f"{'pair':>13} {'dome ratio':>10} {'h mm':>5} {'nodes':>7} {'dofs':>7} {'fact.':>5} {'s':>6} "
           f"{'radius':>8} {'sph. rms':>9} {'sph. max':>9} {'peak strain':>11} {'plate':>5} {'energy':>8}")
     for hid, pid in pairs:
-        ps = dataclasses.replace(spec.patterns, hexagon=hid, pentagon=pid)
+        ps = dataclasses.replace(spec.patterns, polygons=((6, hid), (5, pid)))
         sp = dataclasses.replace(spec, patterns=ps)
         e = (hexagon[hid], pentagon[pid]) if hid in hexagon and pid in pentagon else (float("nan"),) * 2
         ratio = max(e) / min(e)

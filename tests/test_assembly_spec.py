@@ -36,8 +36,8 @@ def test_shipped_spec_contents() -> None:
     assert strip.patterns.rule == "graded" and strip.patterns.count == 5 and strip.patterns.group_columns == 3
     assert strip.patterns.scenario == "cylinder"
     sphere = load_spec(SPECS / "truncated-icosahedron.toml")
-    assert sphere.patterns.hexagon and sphere.patterns.pentagon
-    assert sphere.polygon_sides == (5, 6)
+    assert sphere.patterns.polygons == ((6, "0x0488"), (5, "0x0508"))
+    assert sphere.polygon_sides == (6, 5)
 
 
 def test_defaults() -> None:

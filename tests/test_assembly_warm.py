@@ -26,7 +26,7 @@ def test_warm_start_reaches_the_cold_equilibrium_with_a_third_of_the_factorizati
     reused the previous increment's factorization; the warm start is one increment and gains nothing from
     that, so the ratio went from 0.32 to 0.35)."""
     spec = load_spec(SPHERE)
-    other = dataclasses.replace(spec, patterns=PatternSpec(hexagon="0x0488", pentagon="0x1c08"))
+    other = dataclasses.replace(spec, patterns=PatternSpec(polygons=((6, "0x0488"), (5, "0x1c08"))))
     shipped = simulate_assembly(spec, h=6.0)
     cold = simulate_assembly(other, h=6.0)
     warm = simulate_assembly(other, h=6.0, start=shipped)

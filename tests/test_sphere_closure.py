@@ -28,7 +28,8 @@ INRADIUS, CIRCUMRADIUS = 2.2673, 2.4780  # × edge: hexagon face inradius, circu
 
 def with_pair(path: Path, hexagon: str, pentagon: str):  # noqa: ANN201 - an AssemblySpec
     spec = load_spec(path)
-    return dataclasses.replace(spec, patterns=dataclasses.replace(spec.patterns, hexagon=hexagon, pentagon=pentagon))
+    pair = ((6, hexagon), (5, pentagon))
+    return dataclasses.replace(spec, patterns=dataclasses.replace(spec.patterns, polygons=pair))
 
 
 @pytest.fixture(scope="module")
@@ -146,7 +147,7 @@ def test_the_similar_energy_pair_is_rounder() -> None:
 
     dome = {r["id"]: r["energy_dome"] for r in fabpat.catalog(sides=6)}
     spec = load_spec(FLAT)
-    similar = (spec.patterns.hexagon, spec.patterns.pentagon)
+    similar = (spec.patterns.polygon_pattern(6), spec.patterns.polygon_pattern(5))
     differing = ("0x0488", "0x2f88")
     ratio = [max(dome[a], dome[b]) / min(dome[a], dome[b]) for a, b in (similar, differing)]
     assert ratio[0] < 1.6 and ratio[1] >= 3.0

@@ -131,8 +131,8 @@ def face_patterns(spec: AssemblySpec, energies: Callable[[int], dict[str, float]
         if p.rule == "graded" and not p.groups:  # groups set: chosen already (with_members)
             groups = rules.graded(get(6), p.count)
         elif p.rule in ("similar-energy", "roundest"):
-            hid, pid = rules.similar_pair(*_pair_energies(get))
-            return [hid if len(f) == 6 else pid for f in tiling.faces]
+            chosen = rules.similar_set({n: get(n) for n in spec.polygon_sides})
+            return [chosen[len(f)] for f in tiling.faces]
         else:
             groups = list(p.groups)
     except SpecError as e:
@@ -145,8 +145,8 @@ def face_patterns(spec: AssemblySpec, energies: Callable[[int], dict[str, float]
             out.append(p.pattern)
         elif p.tiles and tiling.grid is None:  # a polyhedron's tiles: one pattern per face, in face order
             out.append(p.tiles[0][f])
-        elif p.hexagon or p.pentagon:
-            out.append(p.hexagon if len(loop) == 6 else p.pentagon)  # type: ignore[arg-type]
+        elif p.polygons:
+            out.append(p.polygon_pattern(len(loop)))
         else:
             assert tiling.grid is not None
             r, c = (int(x) for x in tiling.grid[f])

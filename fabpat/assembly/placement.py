@@ -35,13 +35,15 @@ from numpy.typing import NDArray
 
 from fabpat.assembly.sleeve import Sleeve, joint_direction, required_setback
 from fabpat.assembly.spec import AssemblySpec, sleeve_angle
-from fabpat.assembly.tiling import Tiling, honeycomb_strip, truncated_icosahedron
+from fabpat.assembly.tiling import FACE_LETTERS, Tiling
 from fabpat.errors import SpecError
 from fabpat.variation import Variation
 
-POLYGON_NAMES = {3: "triangle", 4: "square", 5: "pentagon", 6: "hexagon", 8: "octagon"}
-SHORT_NAMES = {5: "pent", 6: "hex"}
-SLEEVE_KINDS = {(6, 6): "HH", (5, 6): "HP", (5, 5): "PP"}
+SHORT_NAMES = {3: "tri", 4: "quad", 5: "pent", 6: "hex"}
+#: degrees: on a tiling whose joints of one polygon pair have several dihedral angles (a mesh), sleeves
+#: printed at the joints' angles are one part per angle rounded to this step; a joint then closes by
+#: the rest (at most half a step, 0.05°), which the closure solver models like any sleeve angle
+DIHEDRAL_STEP = 0.1
 NECK_CLEARANCE = 0.05  # mm: least gap required between the neck and a slot's end wall
 
 
@@ -156,29 +158,42 @@ class Assembly:
 
 def build_tiling(spec: AssemblySpec) -> Tiling:
     """The unit skeleton of the spec (edge 1; scaled once the sleeve geometry fixes ``E``)."""
-    t = spec.tiling
-    if t.kind == "truncated-icosahedron":
-        return truncated_icosahedron(1.0)
-    return honeycomb_strip(t.rows, t.columns, 1.0)
+    return spec.tiling.skeleton()
+
+
+def _pair_name(skel: Tiling, k: int) -> str:
+    """The polygon pair of joint k, largest first, by face letter ("HH", "HP"; a polygon without a letter
+    by its sides, "8Q")."""
+    ns = sorted((len(skel.faces[f]) for f, _ in skel.edge_faces[k]), reverse=True)
+    return "".join(FACE_LETTERS.get(n, str(n)) for n in ns)
 
 
 def sleeve_kinds(spec: AssemblySpec, skel: Tiling) -> dict[int, tuple[str, float, float]]:
     """Interior edge k → (sleeve part key, skeleton dihedral rad, printed angle rad).
 
     One key per printed angle: "S-flat" at 180°; at each joint's dihedral the polygon pair names it
-    ("S-HH", "S-HP"); one number of degrees in between gives one part, e.g. "S-160deg".
+    ("S-HH", "S-HP") when all its joints share one angle, else the angle rounded to
+    :data:`DIHEDRAL_STEP` joins it ("S-HH-141.3deg"); one number of degrees in between gives one part,
+    e.g. "S-160deg".
     """
+    pairs: dict[str, list[float]] = {}
+    for k in skel.interior_edges:
+        pairs.setdefault(_pair_name(skel, int(k)), []).append(float(skel.dihedral[k]))
+    single = {pair for pair, phis in pairs.items() if max(phis) - min(phis) < 1e-9}
     out = {}
     for k in skel.interior_edges:
         phi = float(skel.dihedral[k])
         angle = sleeve_angle(spec, phi)
-        ns = tuple(sorted(len(skel.faces[f]) for f, _ in skel.edge_faces[k]))
+        pair = _pair_name(skel, int(k))
         if abs(angle - math.pi) < 1e-9:
             key = "flat"
-        elif spec.sleeve.angle == "dihedral":
-            key = SLEEVE_KINDS.get(ns, f"{ns[0]}-{ns[1]}")  # type: ignore[call-overload]
-        else:
+        elif spec.sleeve.angle != "dihedral":
             key = f"{math.degrees(angle):g}deg"
+        elif pair in single:
+            key = pair
+        else:
+            step = min(DIHEDRAL_STEP * round(math.degrees(phi) / DIHEDRAL_STEP), 180.0)
+            key, angle = (f"{pair}-{step:.1f}deg", math.radians(step)) if step < 180.0 else ("flat", math.pi)
         out[int(k)] = (f"S-{key}", phi, angle)
     return out
 

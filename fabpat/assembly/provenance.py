@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from fabpat.assembly.spec import SCENARIOS, AssemblySpec
+from fabpat.assembly.spec import POLYGON_KEYS, SCENARIOS, AssemblySpec
 from fabpat.errors import FabpatError
 
 #: the catalog's default plate set-up (fabpat.catalog.energies' defaults): edge mm, thickness mm, weight
@@ -55,8 +55,9 @@ def chosen_by(spec: AssemblySpec) -> str:
     p = spec.patterns
     if p.rule:
         return f"rule = {p.rule!r} ({p.scenario} energies)"
+    by_polygon = ", ".join(f"patterns.{POLYGON_KEYS[n]}" for n, _ in p.polygons)
     way = next(k for k, v in (("patterns.pattern", p.pattern), ("patterns.groups", p.groups),
-                              ("patterns.tiles", p.tiles), ("patterns.hexagon, patterns.pentagon", p.hexagon)) if v)
+                              ("patterns.tiles", p.tiles), (by_polygon, p.polygons)) if v)
     return f"explicit ({way})"
 
 

@@ -10,6 +10,7 @@ dictionaries.
   strip of Fig. 15 left: five patterns, Cylinder scenario).
 * :func:`similar_pair` — a hexagon and a pentagon pattern with similar energies (the sphere of
   Fig. 15 right: two patterns, Dome scenario).
+* :func:`similar_set` — the same for a tiling of any polygons (a mesh), one pattern per polygon.
 * :func:`similar_pairs` — the ``count`` best such pairs, :func:`similar_pair`'s first, for
   ``rule = "roundest"`` (the closure solver keeps the roundest one under the strain limit).
 * :func:`graded_targets` and :func:`nearest_member` — with ``bridge_weight = "rule"`` the rules also
@@ -180,6 +181,34 @@ def similar_pair(hexagon: Mapping[str, float], pentagon: Mapping[str, float],
         raise SpecError("the catalog has no second pattern with a pentagon energy")
     p = min(range(len(pids)), key=lambda i: (abs(plogs[i] - math.log(e)), pids[i]))
     return hid, pids[p]
+
+
+def similar_set(energies: Mapping[int, Mapping[str, float]], quantile: float = 0.5) -> dict[int, str]:
+    """{sides: ID}: one pattern per polygon of a tiling, all of similar energy, each measured on its own
+    polygon — :func:`similar_pair` for any set of polygons.
+
+    ``energies``: {sides: {ID: energy (N·mm)}} of each polygon's plates (one scenario and set-up). The
+    largest polygon takes the pattern nearest the ``quantile`` of its log-energies; every other
+    polygon, largest first, the ID not taken yet whose energy on that polygon is nearest the first
+    one's. On {6: hexagons, 5: pentagons} it is :func:`similar_pair`. Ties go to the smaller ID.
+    Raises :class:`SpecError` naming the polygon whose energies are missing or too few.
+    """
+    sides = sorted(energies, reverse=True)
+    if sides == [6, 5]:
+        return dict(zip(sides, similar_pair(energies[6], energies[5], quantile), strict=True))
+    ids, logs = _clean(energies[sides[0]])
+    if len(ids) < 2 - (len(sides) == 1):
+        raise SpecError(f"the catalog has too few {sides[0]}-sided patterns with an energy to pick from")
+    target = float(np.quantile(logs, quantile))
+    first = min(range(len(ids)), key=lambda i: (abs(logs[i] - target), ids[i]))
+    out, e = {sides[0]: ids[first]}, float(logs[first])
+    for n in sides[1:]:
+        pids, plogs = _clean({k: v for k, v in energies[n].items() if k not in out.values()})
+        if not pids:
+            raise SpecError(f"the catalog has no other pattern with a {n}-sided energy (run `fabpat sweep "
+                            f"--sides {n}` for the catalog)")
+        out[n] = pids[min(range(len(pids)), key=lambda i: (abs(plogs[i] - e), pids[i]))]
+    return out
 
 
 def similar_pairs(hexagon: Mapping[str, float], pentagon: Mapping[str, float], count: int,

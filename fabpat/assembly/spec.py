@@ -2,17 +2,22 @@
 
 A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented examples):
 
-* ``[tiling]``  ``kind`` ("honeycomb-strip" | "truncated-icosahedron"), ``edge`` (plate polygon edge),
-  ``rows`` and ``columns`` (strip only).
+* ``[tiling]``  ``kind`` ("honeycomb-strip" | "truncated-icosahedron" | "mesh"), ``edge`` (plate polygon
+  edge), ``rows`` and ``columns`` (strip only); a mesh tiling reads ``file`` (an OBJ, PLY or OFF polygon
+  mesh, relative to the spec; its faces carry the plates, :mod:`fabpat.assembly.mesh_tiling`), takes
+  ``edge`` as optional (default: the mesh's mean edge; given, it scales the mesh) and ``tolerance`` (mm,
+  default 0.01: how far the faces may be from regular polygons of one edge).
 * ``[patterns]`` one of: ``pattern`` (every tile); ``groups`` (one ID per group of ``group_columns`` columns,
   stiff → soft) or ``tiles`` (rows × columns IDs, or a table {plate label = ID} naming every plate as the kit
   labels it, e.g. ``{T1 = "0x0488", …}``) on a strip; ``hexagon`` + ``pentagon``, or ``tiles`` = {plate label
   = ID} for every face ("H01" … "H20", "P01" … "P12", each ID of its face's polygon; ``fabpat design`` writes
-  it), on the truncated icosahedron; or ``rule`` = "graded" (strip: ``count`` patterns with well-separated
-  energies in ``scenario``) / "similar-energy" (sphere: two patterns with similar energy in ``scenario``) /
-  "roundest" (sphere: the ``candidates`` best similar-energy pairs, default 8, of which the closure solver
-  keeps the roundest under the strain limit), read from the catalog (``catalog`` = path, default the built-in
-  one).
+  it), on the truncated icosahedron; one key per polygon of a mesh tiling, named as the polygon
+  (:data:`POLYGON_KEYS`: ``triangle``, ``square``, ``pentagon``, ``hexagon``, …) or ``tiles`` by plate label
+  (the polygon's letter and number, :data:`fabpat.assembly.tiling.FACE_LETTERS`); or ``rule`` = "graded"
+  (strip: ``count`` patterns with well-separated energies in ``scenario``) / "similar-energy" (sphere or mesh:
+  one pattern per polygon, of similar energy in ``scenario``) / "roundest" (sphere: the ``candidates`` best
+  similar-energy pairs, default 8, of which the closure solver keeps the roundest under the strain limit),
+  read from the catalog (``catalog`` = path, default the built-in one).
 * ``[plates]``  ``thickness``, ``weight`` (interface fillet weight), ``process`` ("print" | "laser"),
   ``density`` (g/cm³, for masses).
 * ``[sleeve]``  ``clearance`` (slot width = thickness + clearance), ``margin`` (slot length =
@@ -54,6 +59,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from fabpat.assembly.spec_tables import COLLECTED as _COLLECTED
 from fabpat.assembly.spec_tables import Settled as _Settled
 from fabpat.assembly.spec_tables import SpecProblems, read_spec_file
@@ -61,10 +68,14 @@ from fabpat.assembly.spec_tables import Table as _Table
 from fabpat.assembly.spec_tables import key_text as _key_text
 from fabpat.assembly.spec_tables import problems_of as _problems_of
 from fabpat.assembly.spec_tables import show as _show
+from fabpat.assembly.tiling import Tiling, honeycomb_strip, truncated_icosahedron
 from fabpat.errors import PatternError, SpecError
 from fabpat.validate import check
 
-TILINGS = ("honeycomb-strip", "truncated-icosahedron")
+TILINGS = ("honeycomb-strip", "truncated-icosahedron", "mesh")
+#: ``[patterns]`` key of each polygon of a polyhedral tiling (a mesh's faces have 3 … 12 sides)
+POLYGON_KEYS = {3: "triangle", 4: "square", 5: "pentagon", 6: "hexagon", 7: "heptagon", 8: "octagon", 9: "nonagon",
+                10: "decagon", 11: "hendecagon", 12: "dodecagon"}
 PROCESSES = ("print", "laser")
 FORMATS = ("step", "stl", "glb", "3dm", "dxf", "svg", "bom", "png")
 STRIP_RULES = ("graded",)
@@ -87,11 +98,40 @@ MAX_NAME_LENGTH = 80
 
 @dataclass(frozen=True)
 class TilingSpec:
-    """``[tiling]``: the tiling ``kind``, plate polygon ``edge`` (mm) and, for strips, rows and columns."""
+    """``[tiling]``: the tiling ``kind``, plate polygon ``edge`` (mm) and, for strips, rows and columns.
+
+    A mesh tiling also keeps its ``file`` (the path as resolved from the spec), ``tolerance`` (mm) and
+    the checked mesh itself, scaled to ``edge``: ``vertices`` (mm) and ``faces`` (vertex loops, CCW seen
+    from outside; :func:`fabpat.assembly.mesh_tiling.mesh_tiling`), so that the spec is plain data.
+    """
     kind: str
     edge: float  # mm: plate polygon edge
     rows: int = 1
     columns: int = 1
+    file: str | None = None
+    tolerance: float = 0.01  # mm (fabpat.assembly.mesh_tiling.DEFAULT_TOLERANCE)
+    vertices: tuple[tuple[float, float, float], ...] = ()
+    faces: tuple[tuple[int, ...], ...] = ()
+
+    @property
+    def strip(self) -> bool:
+        """A honeycomb strip (pushed into an arch), not a polyhedral tiling (closed by its sleeves)."""
+        return self.kind == "honeycomb-strip"
+
+    def skeleton(self) -> Tiling:
+        """The tiling of unit edge (:mod:`fabpat.assembly.tiling`; scaled once the sleeves fix the skeleton edge)."""
+        if self.kind == "truncated-icosahedron":
+            return truncated_icosahedron(1.0)
+        if self.kind == "mesh":
+            return Tiling("mesh", np.array(self.vertices) / self.edge, self.faces)
+        return honeycomb_strip(self.rows, self.columns, 1.0)
+
+    @property
+    def sides(self) -> tuple[int, ...]:
+        """Polygons of the tiling's faces, largest first (6 for strips; 6 and 5 for the truncated icosahedron)."""
+        if self.kind == "mesh":
+            return tuple(sorted({len(f) for f in self.faces}, reverse=True))
+        return (6,) if self.strip else (6, 5)
 
 
 @dataclass(frozen=True)
@@ -102,8 +142,8 @@ class PatternSpec:
     groups: tuple[str, ...] = ()
     group_columns: int = 1
     tiles: tuple[tuple[str, ...], ...] = ()
-    hexagon: str | None = None
-    pentagon: str | None = None
+    #: (sides, ID) of every polygon of a polyhedral tiling (``hexagon = …``, ``pentagon = …``, …)
+    polygons: tuple[tuple[int, str], ...] = ()
     rule: str | None = None
     scenario: str = "cylinder"
     count: int = 5
@@ -115,6 +155,10 @@ class PatternSpec:
     #: ``bridge_weight = "rule"``: the rule also picks every pattern's family member, to hit its target
     #: energy (:func:`fabpat.assembly.build.with_members` fills ``bridge_weights``)
     member_rule: bool = False
+
+    def polygon_pattern(self, sides: int) -> str:
+        """The pattern the spec names for every face of ``sides`` sides (``polygons``)."""
+        return dict(self.polygons)[sides]
 
     def bridge_weight_of(self, face: int) -> float:
         """The bridge_weight of face ``face``'s plate (1, the paper's, unless the spec gives one)."""
@@ -197,8 +241,8 @@ class AssemblySpec:
 
     @property
     def polygon_sides(self) -> tuple[int, ...]:
-        """Polygons used by the tiling (6 for strips; 5 and 6 for the truncated icosahedron)."""
-        return (6,) if self.tiling.kind == "honeycomb-strip" else (5, 6)
+        """Polygons used by the tiling, largest first (:attr:`TilingSpec.sides`)."""
+        return self.tiling.sides
 
 
 # -- small typed readers ----------------------------------------------------------------------------
@@ -227,23 +271,52 @@ def _pattern_id(source: str, key: str, pid: Any, sides: tuple[int, ...]) -> str:
 
 
 def _tiling(source: str, data: Any) -> TilingSpec:
-    t = _Table(source, "tiling", data, ("kind", "edge", "rows", "columns"))
+    t = _Table(source, "tiling", data, ("kind", "edge", "rows", "columns", "file", "tolerance"))
     before = len(t.problems)
     kind = t.choice("kind", TILINGS, None)
     unknown_kind = len(t.problems) > before
-    edge = t.number("edge", None, "edge")
-    if unknown_kind:  # rows and columns depend on the kind
+    if unknown_kind:  # which keys apply depends on the kind
         t.settle()
+    for key, only in (("rows", "honeycomb-strip"), ("columns", "honeycomb-strip"), ("file", "mesh"),
+                      ("tolerance", "mesh")):
+        if t.has(key) and kind != only:
+            t.note(t.fail(key, f"is only for kind = \"{only}\""), None)
+    if kind == "mesh":
+        return _mesh_tiling(source, t)
+    edge = t.number("edge", None, "edge")
     if kind == "honeycomb-strip":
         return TilingSpec(kind, edge, t.integer("rows", None), t.integer("columns", None))
-    for key in ("rows", "columns"):
-        if t.has(key):
-            raise t.fail(key, "is only for kind = \"honeycomb-strip\"")
     return TilingSpec(kind, edge)
 
 
+def _mesh_tiling(source: str, t: _Table) -> TilingSpec:
+    """``kind = "mesh"``: read and check ``file`` (relative to the spec's folder) at ``edge`` and ``tolerance``."""
+    from fabpat.assembly.mesh_tiling import DEFAULT_TOLERANCE, mesh_tiling, read_polygon_mesh
+
+    name = t.string("file")
+    edge = t.number("edge", None, "edge") if t.has("edge") else None
+    tolerance = t.number("tolerance", DEFAULT_TOLERANCE, "curve_tolerance")
+    if name is None:
+        raise t.fail("file", "is missing: the polygon mesh (OBJ, PLY or OFF) whose faces carry the plates")
+    t.settle()
+    path = Path(name) if Path(name).is_absolute() else Path(source).parent / name
+    try:
+        V, faces = read_polygon_mesh(path)
+        skel = mesh_tiling(V, faces, tolerance=tolerance, edge=edge, source=str(path))
+    except SpecError as e:
+        raise SpecError(f"{source}: tiling.file: {e}") from None
+    if edge is None:  # the plates take the mesh's own (mean) edge
+        edge = float(np.linalg.norm(skel.V[skel.edges[:, 1]] - skel.V[skel.edges[:, 0]], axis=1).mean())
+        try:
+            check("edge", edge, "the mesh's mean edge (tiling.edge)", error=SpecError)
+        except SpecError as err:
+            raise SpecError(f"{source}: tiling.file: {err}; give tiling.edge to scale the mesh") from None
+    return TilingSpec("mesh", edge, file=str(path), tolerance=tolerance,
+                      vertices=tuple((float(x), float(y), float(z)) for x, y, z in skel.V), faces=skel.faces)
+
+
 def _patterns(source: str, data: Any, tiling: TilingSpec) -> PatternSpec:
-    allowed = ("pattern", "groups", "group_columns", "tiles", "hexagon", "pentagon", "rule", "scenario",
+    allowed = ("pattern", "groups", "group_columns", "tiles", *POLYGON_KEYS.values(), "rule", "scenario",
                "count", "catalog", "candidates", "bridge_weight")
     t = _Table(source, "patterns", data, allowed)
     value = t.data.get("bridge_weight")
@@ -253,6 +326,9 @@ def _patterns(source: str, data: Any, tiling: TilingSpec) -> PatternSpec:
             raise SpecError(f"{source}: patterns.bridge_weight = \"rule\" goes with patterns.rule = "
                             f"{' or '.join(repr(r) for r in MEMBER_RULES)} (the rule picks each pattern's member "
                             "to hit its target energy): give numbers instead")
+        if not tiling.strip and tiling.sides != (6, 5):
+            raise SpecError(f"{source}: patterns.bridge_weight = \"rule\" matches a pentagon's family member to its "
+                            "hexagon's energy; this tiling has other faces: give numbers instead")
         return dataclasses.replace(chosen, member_rule=True)
     members = _bridge_weights(source, value, tiling) if t.has("bridge_weight") else ()
     return dataclasses.replace(_pattern_way(source, t, tiling), bridge_weights=members)
@@ -288,30 +364,30 @@ def _bridge_weights(source: str, value: Any, tiling: TilingSpec) -> tuple[float,
 
 def _labels(tiling: TilingSpec) -> list[str]:
     """The kit's plate labels in face order."""
-    if tiling.kind == "honeycomb-strip":
+    if tiling.strip:
         return strip_labels(tiling.rows, tiling.columns)
-    from fabpat.assembly.tiling import truncated_icosahedron
-
-    return list(truncated_icosahedron(tiling.edge).labels)
+    return list(tiling.skeleton().labels)
 
 
 def _pattern_way(source: str, t: _Table, tiling: TilingSpec) -> PatternSpec:
-    strip = tiling.kind == "honeycomb-strip"
-    sides = (6,) if strip else (5, 6)
-    ways = [k for k in ("pattern", "groups", "tiles", "hexagon", "rule") if t.has(k)]
-    if t.has("pentagon") and "hexagon" not in ways:
-        ways.append("pentagon")
-    options = "pattern, groups, tiles or rule" if strip else "pattern, hexagon + pentagon, tiles or rule"
+    strip = tiling.strip
+    sides = tiling.sides
+    names = [POLYGON_KEYS[n] for n in sides]
+    by_polygon = " + ".join(names)
+    given = [k for k in dict.fromkeys([*names, *POLYGON_KEYS.values()]) if t.has(k)]  # the tiling's own first
+    ways = [k for k in ("pattern", "groups", "tiles", "rule") if t.has(k)] + given[:1]
+    options = "pattern, groups, tiles or rule" if strip else f"pattern, {by_polygon}, tiles or rule"
     if not ways:
         raise SpecError(f"{source}: [patterns] needs one of: {options}")
     if len(ways) > 1:
         raise SpecError(f"{source}: [patterns] sets both {ways[0]} and {ways[1]}: use one of {options}")
     way = ways[0]
     only_strip = {"groups", "group_columns"}
-    only_sphere = {"hexagon", "pentagon"}
     for key in t.data:
-        if (strip and key in only_sphere) or (not strip and key in only_strip):
+        if (strip and key in POLYGON_KEYS.values()) or (not strip and key in only_strip):
             t.note(t.fail(key, f"does not apply to tiling.kind = {tiling.kind!r}"), None)
+        elif not strip and key in POLYGON_KEYS.values() and key not in names:
+            t.note(t.fail(key, f"names no face of this {tiling.kind}: its faces are {', '.join(names)}"), None)
     # a key that the chosen way does not read is an error, as a key of the other tiling is (never ignored)
     for key in t.data:
         if key in _GOES_WITH and way not in _GOES_WITH[key]:
@@ -323,12 +399,14 @@ def _pattern_way(source: str, t: _Table, tiling: TilingSpec) -> PatternSpec:
         catalog = str(Path(source).parent / catalog)  # a relative catalog path is relative to the spec file
     if way == "pattern":
         return PatternSpec(pattern=_pattern_id(source, "patterns.pattern", t.data["pattern"], sides))
-    if way == "hexagon" or way == "pentagon":
-        for key in ("hexagon", "pentagon"):
+    if way in POLYGON_KEYS.values():
+        for key in names:
             if not t.has(key):
-                raise SpecError(f"{source}: missing key patterns.{key} (a pattern ID, e.g. \"0x0488\")")
-        return PatternSpec(hexagon=_pattern_id(source, "patterns.hexagon", t.data["hexagon"], (6,)),
-                           pentagon=_pattern_id(source, "patterns.pentagon", t.data["pentagon"], (5,)))
+                raise SpecError(f"{source}: missing key patterns.{key} (a pattern ID, e.g. \"0x0488\"): the tiling has "
+                                f"{by_polygon} faces, each needs its pattern")
+        t.settle()
+        return PatternSpec(polygons=tuple((n, _pattern_id(source, f"patterns.{key}", t.data[key], (n,)))
+                                          for n, key in zip(sides, names, strict=True)))
     if way == "rule":
         rules = STRIP_RULES if strip else SPHERE_RULES
         before = len(t.problems)
@@ -340,6 +418,9 @@ def _pattern_way(source: str, t: _Table, tiling: TilingSpec) -> PatternSpec:
         if not strip and t.has("count"):
             raise t.fail("count", f"does not apply to rule = {rule!r} (it picks two patterns; rule = \"roundest\" "
                          "tries patterns.candidates pairs)")
+        if not strip and sides != (6, 5) and rule == "roundest":
+            raise t.fail("rule", f"= \"roundest\" tries hexagon–pentagon pairs, but this tiling's faces are "
+                         f"{', '.join(names)}: use rule = \"similar-energy\" or name the patterns")
         if t.has("candidates") and rule != _ONLY_RULE["candidates"]:
             raise t.fail("candidates", f"does not apply to patterns.rule = {rule!r} (it goes with patterns.rule = "
                          f"{_ONLY_RULE['candidates']!r})")
@@ -409,13 +490,14 @@ def _check_labels(source: str, table: Mapping[str, Any], labels: list[str], unkn
 def _face_table(source: str, table: Mapping[str, Any], tiling: TilingSpec) -> tuple[str, ...]:
     """``tiles = {LABEL = "0x....", …}`` on a polyhedron: every face's pattern in face order, each ID checked
     for its face's polygon."""
-    from fabpat.assembly.tiling import truncated_icosahedron
+    from fabpat.assembly.tiling import FACE_LETTERS
 
-    skel = truncated_icosahedron(tiling.edge)
+    skel = tiling.skeleton()
     labels = list(skel.labels)
+    letters = ", ".join(f"{FACE_LETTERS.get(n, 'F')} {POLYGON_KEYS[n]}s" for n in tiling.sides)
     _check_labels(source, table, labels,
-                  f"is not a face of the {tiling.kind} (labels {labels[0]} … {labels[-1]} by polygon: H hexagons, "
-                  "P pentagons)", "face", f"give every face one: {len(labels)} faces")
+                  f"is not a face of the {tiling.kind} (labels {labels[0]} … {labels[-1]} by polygon: {letters})",
+                  "face", f"give every face one: {len(labels)} faces")
     return tuple(_pattern_id(source, f"patterns.tiles.{lab}", table[lab], (int(n),))
                  for lab, n in zip(labels, skel.sides, strict=True))
 
@@ -449,32 +531,38 @@ def _plates(source: str, data: Any) -> PlateSpec:
                      t.number("density", 1.24, "density"))
 
 
-def smallest_dihedral(kind: str) -> float:
-    """Smallest interior dihedral angle (rad) of the joints of tiling ``kind``: the lowest ``[sleeve] angle``.
+def smallest_dihedral(tiling: TilingSpec) -> float:
+    """Smallest interior dihedral angle (rad) of the joints of ``tiling``: the lowest ``[sleeve] angle``.
 
     Truncated icosahedron: the hexagon–hexagon angle arccos(−√5/3) ≈ 138.19°
-    (:data:`fabpat.assembly.tiling.HEX_HEX_DIHEDRAL`); a honeycomb strip is flat (π).
+    (:data:`fabpat.assembly.tiling.HEX_HEX_DIHEDRAL`); a mesh: its sharpest fold; a honeycomb strip is flat (π).
     """
     from fabpat.assembly.tiling import HEX_HEX_DIHEDRAL, HEX_PENT_DIHEDRAL
 
-    return min(HEX_HEX_DIHEDRAL, HEX_PENT_DIHEDRAL) if kind == "truncated-icosahedron" else math.pi
+    if tiling.kind == "truncated-icosahedron":
+        return min(HEX_HEX_DIHEDRAL, HEX_PENT_DIHEDRAL)
+    if tiling.kind == "mesh":
+        skel = tiling.skeleton()
+        return float(skel.dihedral[skel.interior_edges].min(initial=math.pi))
+    return math.pi
 
 
-def _sleeve_angle(t: _Table, kind: str) -> str | float:
+def _sleeve_angle(t: _Table, tiling: TilingSpec) -> str | float:
     """``[sleeve] angle``: "dihedral", "flat" or degrees in [smallest dihedral of the tiling, 180]."""
     v = t.data.get("angle", "dihedral")
+    kind = tiling.kind
     if isinstance(v, str):
         if v not in SLEEVE_ANGLES:
             raise t.fail("angle", f"= {v!r} is not allowed: choose \"dihedral\", \"flat\" or a number of degrees"
-                         + (f" in [{math.degrees(smallest_dihedral(kind)):.2f}, 180]" if kind != "honeycomb-strip"
+                         + (f" in [{math.degrees(smallest_dihedral(tiling)):.2f}, 180]" if not tiling.strip
                             else " (180: a strip has flat joints)"))
         return v
-    if kind == "honeycomb-strip":
+    if tiling.strip:
         if isinstance(v, bool) or not isinstance(v, int | float) or v != 180:
             raise t.fail("angle", f"= {v!r} is not allowed on a honeycomb strip: a strip has flat joints, so choose "
                          "\"dihedral\", \"flat\" or 180")
         return 180.0
-    low = math.degrees(smallest_dihedral(kind))
+    low = math.degrees(smallest_dihedral(tiling))
     ok = not isinstance(v, bool) and isinstance(v, int | float) and low <= v <= 180.0  # NaN fails the comparison
     if not ok:
         raise t.fail("angle", f"= {v!r} is not allowed: choose \"dihedral\", \"flat\" or a number of degrees in "
@@ -497,13 +585,13 @@ def sleeve_angle(spec: AssemblySpec, dihedral: float) -> float:
     return math.radians(float(a))
 
 
-def _sleeve(source: str, data: Any, kind: str | None) -> SleeveSpec:
-    """``[sleeve]``; its angle is checked against the tiling ``kind`` (None: the tiling is wrong, the angle
+def _sleeve(source: str, data: Any, tiling: TilingSpec | None) -> SleeveSpec:
+    """``[sleeve]``; its angle is checked against the ``tiling`` (None: the tiling is wrong, the angle
     is checked on the next run)."""
     t = _Table(source, "sleeve", data, ("clearance", "margin", "wall", "depth", "angle"))
     return SleeveSpec(t.number("clearance", 0.2, "clearance"), t.number("margin", 1.0, "gap"),
                       t.number("wall", 1.2, "sleeve_length"), t.number("depth", 3.0, "sleeve_length"),
-                      _sleeve_angle(t, kind) if kind is not None else "dihedral")
+                      _sleeve_angle(t, tiling) if tiling is not None else "dihedral")
 
 
 def _material(source: str, data: Any) -> MaterialSpec:
@@ -569,7 +657,7 @@ def check_sheet_fits(spec: AssemblySpec) -> None:
             Q = P @ [[math.cos(a), math.sin(a)], [-math.sin(a), math.cos(a)]]
             sizes.append(Q.max(axis=0) - Q.min(axis=0) + s.kerf)
         if not any(w <= room[0] + 1e-9 and h <= room[1] + 1e-9 for w, h in sizes):
-            name = {5: "pentagon", 6: "hexagon"}.get(n, f"{n}-gon")
+            name = POLYGON_KEYS[n]
             w, h = min(sizes, key=lambda v: max(v[0] - room[0], v[1] - room[1]))
             raise SpecError(
                 f"{spec.source}: sheet.width × sheet.height = {s.width:g} × {s.height:g} mm is smaller than a "
@@ -650,7 +738,7 @@ def _read_tables(data: Mapping[str, Any], source: str, need_sheet: bool, problem
     plates = read(lambda: _plates(source, data.get("plates", {})))
     process = plates.process if plates is not None else None
     kind = tiling.kind if tiling is not None else None
-    sleeve = read(lambda: _sleeve(source, data.get("sleeve", {}), kind))
+    sleeve = read(lambda: _sleeve(source, data.get("sleeve", {}), tiling))
     material = read(lambda: _material(source, data.get("material", {})))
     sheet = read(lambda: _sheet(source, data["sheet"], process)) if "sheet" in data else None
     estimates = read(lambda: _estimates(source, data.get("estimates", {}), process))

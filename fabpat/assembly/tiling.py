@@ -29,6 +29,8 @@ PHI = (1.0 + math.sqrt(5.0)) / 2.0
 HEX_HEX_DIHEDRAL = math.acos(-math.sqrt(5.0) / 3.0)  # rad, ≈ 138.19°
 HEX_PENT_DIHEDRAL = math.acos(-math.sqrt((5.0 + 2.0 * math.sqrt(5.0)) / 15.0))  # rad, ≈ 142.62°
 _WELD = 1e-6  # mm: skeleton vertices closer than this are one vertex
+#: a polyhedron's plate label prefix by polygon sides ("F" for any other polygon)
+FACE_LETTERS = {3: "T", 4: "Q", 5: "P", 6: "H"}
 
 
 @dataclass(frozen=True, eq=False)
@@ -51,10 +53,11 @@ class Tiling:
 
     @cached_property
     def labels(self) -> tuple[str, ...]:
-        """The kit's plate label of each face: "T" and the face number on a strip; on a polyhedron "H"
-        (hexagon), "P" (pentagon) or "F" (any other polygon) and the count within that prefix, zero-padded
-        to the width of the largest ("H01" … "H20", "P01" … "P12" on the truncated icosahedron)."""
-        prefixes = [{6: "H", 5: "P"}.get(len(loop), "F") if self.grid is None else "T" for loop in self.faces]
+        """The kit's plate label of each face: "T" and the face number on a strip; on a polyhedron the
+        polygon's letter (:data:`FACE_LETTERS`: "H" hexagon, "P" pentagon, "Q" square, "T" triangle, "F"
+        any other) and the count within that prefix, zero-padded to the width of the largest ("H01" …
+        "H20", "P01" … "P12" on the truncated icosahedron)."""
+        prefixes = [FACE_LETTERS.get(len(loop), "F") if self.grid is None else "T" for loop in self.faces]
         counts = {p: prefixes.count(p) for p in prefixes}
         seen: dict[str, int] = {}
         out = []

@@ -1,0 +1,289 @@
+"""Tilings read from a polygon-mesh file: ``[tiling] kind = "mesh"`` (paper §3, §6: "a target surface
+approximated as a polygon mesh with (almost) regular faces").
+
+Each face of the mesh carries one plate (a regular polygon of 3 … 12 sides), each edge shared by two
+faces one sleeve; an edge of one face is a free plate interface. :func:`read_polygon_mesh` reads the
+file, :func:`mesh_tiling` checks it and returns the :class:`~fabpat.assembly.tiling.Tiling` whose faces
+the plates are placed on (:mod:`fabpat.assembly.placement`), scaled so that its edge is the plate
+edge.
+
+**Formats.** OBJ and PLY (ASCII or binary) are read by meshio, which keeps polygon faces and their
+order (trimesh triangulates them). meshio reads only triangles from OFF, so OFF — a header line, the
+counts and one line per vertex and face — is read here.
+
+**Checks**, each a one-line :class:`~fabpat.errors.SpecError` naming the face or edge (numbered from 1
+in file order, as OBJ numbers its vertices), before any work:
+
+* every face has 3 … 12 distinct vertices, every vertex index exists;
+* no edge is shared by more than two faces (non-manifold), two faces sharing an edge run along it in
+  opposite directions (consistent orientation), and the faces form one piece (a piece without a
+  sleeve to the rest would float);
+* every edge is within ``tolerance`` mm of the mean edge length, every face within ``tolerance`` mm
+  of its best-fit plane and of the regular polygon of that edge (a plate is a regular polygon: a face
+  that is not one leaves gaps at its sleeves);
+* every fold is convex (the interior angle between two faces at most 180°: fabpat's sleeves join
+  convex folds, :class:`~fabpat.assembly.sleeve.Sleeve`).
+
+``tolerance`` defaults to :data:`DEFAULT_TOLERANCE` (0.01 mm, after scaling to the plate edge): below
+what a 0.4 mm nozzle or a laser resolves, and far above the 6 to 9 significant digits a mesh file
+carries. **Orientation**: a closed mesh is turned so that its faces' loops run counter-clockwise seen
+from outside (positive enclosed volume); an open one so that its folds are convex — the side a
+curved surface bulges to is its outside.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import stat
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fabpat.assembly.tiling import Tiling
+from fabpat.errors import SpecError
+
+MESH_SUFFIXES = (".obj", ".ply", ".off")
+#: largest mesh file read (bytes): a tiling of plates a few cm across has at most thousands of faces
+MAX_MESH_BYTES = 64 * 1024 * 1024
+MIN_SIDES, MAX_SIDES = 3, 12
+#: mm: default ``tiling.tolerance`` (module docstring)
+DEFAULT_TOLERANCE = 0.01
+#: rad: a fold flatter than this is flat (round-off of a planar mesh), neither convex nor concave
+FLAT_FOLD = 1e-6
+
+Faces = tuple[tuple[int, ...], ...]
+
+
+def read_polygon_mesh(path: str | os.PathLike[str]) -> tuple[NDArray[np.float64], Faces]:
+    """Vertices ``V`` (n, 3) float (the file's units, mm) and polygon faces (vertex loops, 0-based) of an
+    OBJ, PLY or OFF file, faces in file order.
+
+    Raises :class:`SpecError` (one line naming the file) if it is missing, not a regular file (a
+    folder, FIFO or device), larger than :data:`MAX_MESH_BYTES`, of another suffix or unreadable.
+    """
+    p = Path(path)
+    suffix = p.suffix.lower()
+    if suffix not in MESH_SUFFIXES:
+        raise SpecError(f"{p}: a tiling mesh must be an OBJ, PLY or OFF file ({', '.join(MESH_SUFFIXES)}), "
+                        f"not {suffix or 'a file without suffix'}")
+    try:
+        st = p.stat()
+    except OSError as e:
+        raise SpecError(f"{p}: cannot read the tiling mesh: {e.strerror or e}") from None
+    if not stat.S_ISREG(st.st_mode):
+        raise SpecError(f"{p}: the tiling mesh is not a regular file")
+    if st.st_size > MAX_MESH_BYTES:
+        raise SpecError(f"{p}: the tiling mesh is {st.st_size} bytes, more than {MAX_MESH_BYTES}: not a tiling")
+    try:
+        V, faces = _read_off(p) if suffix == ".off" else _read_meshio(p)
+    except SpecError:
+        raise
+    except Exception as e:  # meshio raises its own ReadError, ValueError, IndexError … on a broken file
+        raise SpecError(f"{p}: cannot read the tiling mesh as {suffix[1:].upper()}: {e}") from None
+    if not faces:
+        raise SpecError(f"{p}: the tiling mesh has no faces")
+    if V.ndim != 2 or V.shape[1] != 3 or not np.isfinite(V).all():
+        raise SpecError(f"{p}: the tiling mesh's vertices must be finite 3-D points")
+    return V, faces
+
+
+def _read_meshio(p: Path) -> tuple[NDArray[np.float64], Faces]:
+    import meshio
+
+    m = meshio.read(p)
+    faces: list[tuple[int, ...]] = []
+    for block in m.cells:  # blocks follow the file's order; a block is one run of faces of one size
+        if block.dim != 2:
+            continue
+        faces += [tuple(int(i) for i in row) for row in block.data]
+    return np.asarray(m.points, dtype=np.float64), tuple(faces)
+
+
+def _read_off(p: Path) -> tuple[NDArray[np.float64], Faces]:
+    """OFF (Geomview): "OFF", then "nv nf ne", nv lines "x y z", nf lines "k i1 … ik" (0-based; '#'
+    comments). Colour values after a face's indices are ignored."""
+    words = [ln.split("#", 1)[0].split() for ln in p.read_text(encoding="utf-8", errors="replace").splitlines()]
+    lines = [w for w in words if w]
+    if not lines or not lines[0][0].upper().endswith("OFF"):
+        raise SpecError(f"{p}: not an OFF file (its first line must be OFF)")
+    head = lines[0][1:] or lines[1]
+    body = lines[1:] if lines[0][1:] else lines[2:]
+    try:
+        nv, nf = int(head[0]), int(head[1])
+        V = np.array([[float(x) for x in body[i][:3]] for i in range(nv)])
+        faces = tuple(tuple(int(x) for x in body[nv + j][1:1 + int(body[nv + j][0])]) for j in range(nf))
+    except (ValueError, IndexError):
+        raise SpecError(f"{p}: broken OFF file (counts, vertex or face lines)") from None
+    return V.reshape(-1, 3), faces
+
+
+def mesh_tiling(V: NDArray[np.float64], faces: Faces, *, tolerance: float = DEFAULT_TOLERANCE,
+                edge: float | None = None, source: str = "<mesh>") -> Tiling:
+    """The checked tiling of mesh ``V`` (n, 3) mm, ``faces`` (vertex loops, 0-based), named "mesh".
+
+    ``edge`` (mm): scale the mesh so that its mean edge length is ``edge`` (default: the mesh's own).
+    Every check of the module docstring is made at that scale with ``tolerance`` mm; the first problem
+    raises :class:`SpecError` naming ``source``, the face or edge (from 1) and the value found. The
+    loops are turned to the module's orientation; faces and their first vertices keep the file's order.
+    """
+    V = np.asarray(V, dtype=np.float64)
+    loops = _check_faces(V, faces, source)
+    edges = _check_edges(loops, source)
+    ends = np.array(list(edges), dtype=np.int64)
+    lengths = np.linalg.norm(V[ends[:, 1]] - V[ends[:, 0]], axis=1)
+    mean = float(lengths.mean())
+    if not mean > 0.0:
+        raise SpecError(f"{source}: the tiling mesh's edges have zero length")
+    scale = edge / mean if edge is not None else 1.0
+    V, lengths = V * scale, lengths * scale
+    e = float(lengths.mean())
+    k = int(np.argmax(np.abs(lengths - e)))
+    if abs(lengths[k] - e) > tolerance:
+        a, b = ends[k]
+        raise SpecError(f"{source}: the edge between vertices {a + 1} and {b + 1} is {lengths[k]:.4f} mm long, "
+                        f"{abs(lengths[k] - e):.3g} mm from the mean edge {e:.4f} mm (tiling.tolerance = "
+                        f"{tolerance:g} mm): the plates are regular polygons of one edge")
+    for f, loop in enumerate(loops):
+        _check_regular(V[list(loop)], e, tolerance, f"{source}: face {f + 1}")
+    tiling = _oriented(Tiling("mesh", V, loops), source)
+    _check_convex(tiling, source)
+    return tiling
+
+
+def _check_faces(V: NDArray[np.float64], faces: Faces, source: str) -> Faces:
+    """The faces as int tuples, each of 3 … 12 distinct, existing vertices."""
+    out = []
+    for f, loop in enumerate(faces):
+        if not MIN_SIDES <= len(loop) <= MAX_SIDES:
+            raise SpecError(f"{source}: face {f + 1} has {len(loop)} vertices: a plate is a polygon of "
+                            f"{MIN_SIDES} to {MAX_SIDES} sides")
+        bad = [i for i in loop if not 0 <= int(i) < len(V)]
+        if bad:
+            raise SpecError(f"{source}: face {f + 1} names vertex {int(bad[0]) + 1}, but the mesh has {len(V)}")
+        if len(set(loop)) != len(loop):
+            raise SpecError(f"{source}: face {f + 1} visits a vertex twice")
+        out.append(tuple(int(i) for i in loop))
+    return tuple(out)
+
+
+def _check_edges(loops: Faces, source: str) -> dict[tuple[int, int], list[tuple[int, bool]]]:
+    """Edge (low, high) → [(face, runs low → high)]; refuses non-manifold edges, inconsistent
+    orientation and a mesh in several pieces."""
+    edges: dict[tuple[int, int], list[tuple[int, bool]]] = {}
+    for f, loop in enumerate(loops):
+        for i, a in enumerate(loop):
+            b = loop[(i + 1) % len(loop)]
+            edges.setdefault((min(a, b), max(a, b)), []).append((f, a < b))
+    for (a, b), users in edges.items():
+        if len(users) > 2:
+            raise SpecError(f"{source}: the edge between vertices {a + 1} and {b + 1} is shared by {len(users)} "
+                            f"faces ({', '.join(str(f + 1) for f, _ in users)}): a sleeve joins two plates "
+                            "(non-manifold mesh)")
+        if len(users) == 2 and users[0][1] == users[1][1]:
+            raise SpecError(f"{source}: faces {users[0][0] + 1} and {users[1][0] + 1} run the same way along the "
+                            f"edge between vertices {a + 1} and {b + 1}: orient every face the same way "
+                            "(inconsistent orientation)")
+    parent = list(range(len(loops)))
+
+    def root(f: int) -> int:
+        while parent[f] != f:
+            parent[f] = parent[parent[f]]
+            f = parent[f]
+        return f
+
+    for users in edges.values():
+        if len(users) == 2:
+            parent[root(users[0][0])] = root(users[1][0])
+    apart = [f for f in range(len(loops)) if root(f) != root(0)]
+    if apart:
+        raise SpecError(f"{source}: face {apart[0] + 1} shares no chain of edges with face 1: the mesh is in "
+                        "several pieces, each would float apart (give one piece per file)")
+    return edges
+
+
+def _check_regular(P: NDArray[np.float64], edge: float, tolerance: float, where: str) -> None:
+    """Refuse a face (its corners P (n, 3)) farther than ``tolerance`` mm from its best-fit plane or from
+    the regular polygon of ``edge`` best superposed on it in that plane."""
+    n = len(P)
+    c = P.mean(axis=0)
+    normal = np.cross(P - c, np.roll(P - c, -1, axis=0)).sum(axis=0)  # Newell: the loop's turning sense
+    size = float(np.linalg.norm(normal))
+    if size <= 0.0:
+        raise SpecError(f"{where} has no area")
+    normal /= size
+    off = np.abs((P - c) @ normal)
+    if off.max() > tolerance:
+        i = int(off.argmax())
+        raise SpecError(f"{where} is not planar: its corner {i + 1} is {off[i]:.3g} mm off the face's plane "
+                        f"(tiling.tolerance = {tolerance:g} mm)")
+    u = P[0] - c - ((P[0] - c) @ normal) * normal
+    u /= np.linalg.norm(u)
+    v = np.cross(normal, u)
+    z = (P - c) @ u + 1j * ((P - c) @ v)
+    turn = np.exp(2j * math.pi * np.arange(n) / n)
+    radius = edge / (2.0 * math.sin(math.pi / n))  # circumradius of the regular n-gon
+    phase = np.sum(z / turn)  # best rotation of the ideal polygon onto the corners (least squares)
+    ideal = radius * turn * (phase / abs(phase) if abs(phase) > 0 else 1.0)
+    dev = np.abs(z - ideal)
+    if dev.max() > tolerance:
+        i = int(dev.argmax())
+        raise SpecError(f"{where} is not a regular {n}-gon of edge {edge:.4f} mm: its corner {i + 1} is "
+                        f"{dev[i]:.3g} mm from the regular polygon's (tiling.tolerance = {tolerance:g} mm; corners "
+                        "in order around the face)")
+
+
+def _fold(t: Tiling, k: int) -> float:
+    """Signed fold angle (rad) of interior edge k: positive convex (outer normals turn away), negative concave."""
+    (fa, ia), (fb, _) = t.edge_faces[k]
+    loop = t.faces[fa]
+    a, b = t.V[loop[ia]], t.V[loop[(ia + 1) % len(loop)]]
+    na, nb = t.normals[fa], t.normals[fb]
+    s = float(np.cross(na, nb) @ (b - a) / np.linalg.norm(b - a))
+    return math.atan2(s, float(na @ nb))
+
+
+def _oriented(t: Tiling, source: str) -> Tiling:
+    """``t`` with every loop reversed (first vertex kept) when it is inside out (module docstring)."""
+    closed = t.boundary_edges.size == 0
+    if closed:
+        c = t.V[list(t.faces[0])].mean(axis=0)
+        volume = sum(float(np.linalg.det(np.stack([t.V[loop[0]] - c, t.V[loop[i]] - c, t.V[loop[i + 1]] - c])))
+                     for loop in t.faces for i in range(1, len(loop) - 1))
+        flip = volume < 0.0
+    else:
+        folds = [_fold(t, int(k)) for k in t.interior_edges]
+        flip = sum(f < -FLAT_FOLD for f in folds) > sum(f > FLAT_FOLD for f in folds)
+    if not flip:
+        return t
+    return Tiling(t.name, t.V, tuple((loop[0], *reversed(loop[1:])) for loop in t.faces), t.grid)
+
+
+def _check_convex(t: Tiling, source: str) -> None:
+    """Refuse a concave fold (interior angle over 180°)."""
+    for k in t.interior_edges:
+        fold = _fold(t, int(k))
+        if fold < -FLAT_FOLD:
+            a, b = t.edges[k]
+            raise SpecError(f"{source}: the fold at the edge between vertices {a + 1} and {b + 1} is concave (interior "
+                            f"angle {180.0 + math.degrees(-fold):.2f}°): sleeves join convex folds, up to 180°")
+
+
+def write_obj(tiling: Tiling) -> bytes:
+    """The tiling as OBJ bytes (polygon faces, vertices as Python writes floats: every digit), through meshio."""
+    import tempfile
+
+    import meshio
+
+    by_size: list[tuple[str, list[tuple[int, ...]]]] = []
+    for loop in tiling.faces:  # one cell block per run of faces of one size: meshio writes blocks in order
+        kind = {3: "triangle", 4: "quad"}.get(len(loop), "polygon")
+        if not by_size or len(by_size[-1][1][0]) != len(loop):
+            by_size.append((kind, []))
+        by_size[-1][1].append(loop)
+    mesh = meshio.Mesh(tiling.V, [(k, np.array(f)) for k, f in by_size])
+    with tempfile.TemporaryDirectory() as d:
+        path = Path(d) / "tiling.obj"
+        meshio.write(path, mesh)  # floats as repr: every digit kept
+        return path.read_bytes()
