@@ -341,14 +341,20 @@ def neck_half_width(outline: Any, edge_y: float, depth: float, reach: float) -> 
     """Largest |x| of the plate outline within ``depth`` mm of polygon edge 0 and |x| ≤ ``reach``.
 
     ``edge_y`` is the y of edge 0 (−apothem); edge 0 is centred on x = 0, so this is how far the
-    material spreads along the edge inside the slot region (flattened within 0.005 mm).
+    material spreads along the edge inside the slot region (flattened within 0.005 mm). A chord that
+    crosses the depth line counts with its crossing point: the outline widens fastest there (a 90°
+    cube joint's plate reached 0.04 mm past its slot between two flattened vertices).
     """
     best = 0.0
     for P in outline.flatten(0.005):
-        d = P[:, 1] - edge_y
-        m = (d <= depth) & (np.abs(P[:, 0]) <= reach)
-        if m.any():
-            best = max(best, float(np.abs(P[m, 0]).max()))
+        Q = np.roll(P, -1, axis=0)
+        dp, dq = P[:, 1] - edge_y, Q[:, 1] - edge_y
+        cross = (dp - depth) * (dq - depth) < 0.0
+        s = (depth - dp[cross]) / (dq[cross] - dp[cross])
+        X = np.concatenate([P[dp <= depth, 0], P[cross, 0] + s * (Q[cross, 0] - P[cross, 0])])
+        X = np.abs(X[np.abs(X) <= reach])
+        if X.size:
+            best = max(best, float(X.max()))
     return best
 
 
