@@ -46,7 +46,7 @@ from fabpat.assembly.placement import Assembly, PlateType, build_tiling, check_g
 from fabpat.assembly.predict import PREDICT_H, Prediction, bent, finish, predicted, strain_problems, use
 from fabpat.assembly.predict import predict as predict_kit
 from fabpat.assembly.provenance import pattern_records
-from fabpat.assembly.spec import AssemblySpec, load_spec
+from fabpat.assembly.spec import POLYGON_KEYS, AssemblySpec, load_spec
 from fabpat.errors import ExportError, FabpatError, SpecError
 from fabpat.io import remove_stale_temps, temp_prefix, write_error
 
@@ -84,12 +84,14 @@ def _energies(spec: AssemblySpec, sides: int) -> dict[str, float]:
             "hexagon + pentagon)"
         ) from e
     pl = spec.plates
+    named = "patterns.groups" if spec.tiling.strip else " + ".join(f"patterns.{POLYGON_KEYS[n]}"
+                                                                  for n in spec.polygon_sides)
     try:
         return cat.polygon_energies(spec.patterns.catalog, spec.patterns.scenario, sides, edge=spec.tiling.edge,
                                     thickness=pl.thickness, weight=pl.weight)
     except FabpatError as e:
         raise SpecError(f"{spec.source}: patterns.rule = {spec.patterns.rule!r} needs catalog energies, but {e} "
-                        "(or name the patterns instead: patterns.groups / patterns.hexagon + pentagon)") from e
+                        f"(or name the patterns instead: {named})") from e
 
 
 def _pair_energies(get: Callable[[int], dict[str, float]]) -> tuple[dict[str, float], dict[str, float]]:
