@@ -51,9 +51,11 @@ def ti_files(tmp_path_factory: pytest.TempPathFactory) -> Path:
     (d / "ti.obj").write_bytes(write_obj(t))
     meshio.write(d / "ti.ply", meshio.Mesh(t.V, [("polygon", np.array(t.faces[:20])),
                                                  ("polygon", np.array(t.faces[20:]))]), binary=True)
-    (d / "ti.off").write_text(f"OFF\n{len(t.V)} {len(t.faces)} 0\n" + "".join(f"{x:.17g} {y:.17g} {z:.17g}\n" for x, y, z in t.V)
-                              + "".join(f"{len(f)} " + " ".join(map(str, f)) + "\n" for f in t.faces), encoding="utf-8")
-    spec = SPHERE.read_text(encoding="utf-8").replace('kind = "truncated-icosahedron"', 'kind = "mesh"\nfile = "ti.obj"')
+    off = [f"OFF\n{len(t.V)} {len(t.faces)} 0"] + [f"{x:.17g} {y:.17g} {z:.17g}" for x, y, z in t.V]
+    off += [f"{len(f)} " + " ".join(map(str, f)) for f in t.faces]
+    (d / "ti.off").write_text("\n".join(off) + "\n", encoding="utf-8")
+    spec = SPHERE.read_text(encoding="utf-8")
+    spec = spec.replace('kind = "truncated-icosahedron"', 'kind = "mesh"\nfile = "ti.obj"')
     (d / "ti-mesh.toml").write_text(spec.replace("edge = 36.0", ""), encoding="utf-8")
     return d
 
