@@ -163,7 +163,9 @@ def intersections(lib: PartLibrary, tolerance: float = CHECK_TOLERANCE) -> tuple
             vol = (ma ^ mb).volume()
             worst = max(worst, vol)
             if vol > OVERLAP_VOLUME:
-                raise GeometryError(f"parts {la} and {lb} intersect ({vol:.3g} mm³)")
+                hint = (": the plate's neck reaches the sleeve's end wall at the slot's mouth — raise sleeve.margin or "
+                        "lower sleeve.depth" if pa != pb else "")
+                raise GeometryError(f"parts {la} and {lb} intersect ({vol:.3g} mm³){hint}")
             if pa != pb:
                 gap = min(gap, ma.min_gap(mb, GAP_SEARCH))
     return tested, worst, gap

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -104,6 +105,47 @@ def closure_model(plates: list[ModelPlate], sleeves: list[ModelSleeve], material
     return ClosureSetup(assembly_model(plates, sleeves, material))
 
 
+def slot_motions(asm: Any, s: Any, plates: list[ModelPlate]) -> tuple[tuple[Arr, Arr], tuple[Arr, Arr]]:
+    """For sleeve ``s`` (a :class:`~fabpat.assembly.placement.PlacedSleeve` of ``asm``), the rigid motion
+    (rotation vector rad, offset mm; world axes about the sleeve's centre) that takes each slot's
+    plate interface from where it was placed to where the sleeve as printed holds it.
+
+    The printed sleeve holds plate side k's interface segment centred on its axis, ``g`` (the plate's
+    own setback, :func:`fabpat.assembly.placement.setback`) out along the slot direction
+    :func:`~fabpat.assembly.sleeve.joint_direction` (``s.angle``, k), in the slot's mid-plane. On a
+    tiling of exactly regular faces the plates sit in their slots at the skeleton's dihedral, and
+    the motion is the turn by ∓(dihedral − angle)/2 about the edge (:mod:`fabpat.assembly.model`);
+    on a tiling only nearly regular (plates placed at their faces' best fit) it also moves the
+    interface along and across the slot, so the closure ramps the whole mismatch to zero.
+    """
+    from fabpat.assembly.placement import setback
+    from fabpat.assembly.sleeve import joint_direction
+    from fabpat.lattice import polygon_vertices
+    from fabpat.shell.rotations import logmap
+
+    origin, SR = s.transform[:3, 3], s.transform[:3, :3]
+    E = asm.skeleton.edge_length()
+    out = []
+    for k, (p, i) in enumerate(s.plates):
+        n = asm.plates[p].type.sides
+        T = plates[p].transform
+        P = polygon_vertices(n, asm.plate_edge)
+        a, b = P[i], P[(i + 1) % n]
+        mid = T[:3, :3] @ np.array([*(0.5 * (a + b)), 0.0]) + T[:3, 3]
+        along = T[:3, :3] @ np.array([*((b - a) / np.linalg.norm(b - a)), 0.0])
+        inward = T[:3, :3] @ np.array([*(-0.5 * (a + b) / np.linalg.norm(0.5 * (a + b))), 0.0])
+        jd = joint_direction(float(s.angle), k)
+        g = setback(n, E, asm.plate_edge)
+        target_mid = origin + SR @ np.array([0.0, g * jd[0], g * jd[1]])
+        target_in = SR @ np.array([0.0, jd[0], jd[1]])
+        target_along = SR[:, 0] * (1.0 if along @ SR[:, 0] >= 0 else -1.0)
+        placed = np.stack([along, inward, np.cross(along, inward)], axis=1)
+        wanted = np.stack([target_along, target_in, np.cross(target_along, target_in)], axis=1)
+        R = wanted @ placed.T
+        out.append((logmap(R[None])[0], target_mid - origin - R @ (mid - origin)))
+    return out[0], out[1]
+
+
 def closure_setup(spec: object, face_patterns: list[str], *, h: float = 3.0, E: float | None = None,
                   nu: float | None = None) -> ClosureSetup:
     """Mesh, place and join the plates of a closed spec (an AssemblySpec), sleeves turning from each
@@ -120,7 +162,8 @@ def closure_setup(spec: object, face_patterns: list[str], *, h: float = 3.0, E: 
     check_h(h, asm.plate_edge, w)
     mat = spec.material  # type: ignore[attr-defined]
     plates = model_plates(asm, h, t, w)
-    sleeves = [ModelSleeve(s.label, s.transform, s.plates, float(s.dihedral - s.angle)) for s in asm.sleeves]
+    sleeves = [ModelSleeve(s.label, s.transform, s.plates, float(s.dihedral - s.angle), slot_motions(asm, s, plates))
+               for s in asm.sleeves]
     material = Material(mat.youngs_modulus if E is None else E, mat.poisson if nu is None else nu, t)
     return closure_model(plates, sleeves, material)
 

@@ -50,6 +50,10 @@ MAX_MESH_BYTES = 64 * 1024 * 1024
 MIN_SIDES, MAX_SIDES = 3, 12
 #: mm: default ``tiling.tolerance`` (module docstring)
 DEFAULT_TOLERANCE = 0.01
+FITS = ("exact", "best")
+#: default tolerance of ``fit = "best"``, relative to the edge: a face's corners may be this far from the
+#: regular polygon's (the planar realization of GP(2, 0) needs 0.11: its edges span ±10.6 %)
+BEST_FIT_TOLERANCE = 0.2
 #: rad: a fold flatter than this is flat (round-off of a planar mesh), neither convex nor concave
 FLAT_FOLD = 1e-6
 
@@ -119,15 +123,20 @@ def _read_off(p: Path) -> tuple[NDArray[np.float64], Faces]:
     return V.reshape(-1, 3), faces
 
 
-def mesh_tiling(V: NDArray[np.float64], faces: Faces, *, tolerance: float = DEFAULT_TOLERANCE,
-                edge: float | None = None, source: str = "<mesh>") -> Tiling:
-    """The checked tiling of mesh ``V`` (n, 3) mm, ``faces`` (vertex loops, 0-based), named "mesh".
+def mesh_tiling(V: NDArray[np.float64], faces: Faces, *, tolerance: float | None = None,
+                edge: float | None = None, source: str = "<mesh>", fit: str = "exact", name: str = "mesh") -> Tiling:
+    """The checked tiling of mesh ``V`` (n, 3) mm, ``faces`` (vertex loops, 0-based), named ``name``.
 
     ``edge`` (mm): scale the mesh so that its mean edge length is ``edge`` (default: the mesh's own).
     Every check of the module docstring is made at that scale with ``tolerance`` mm; the first problem
     raises :class:`SpecError` naming ``source``, the face or edge (from 1) and the value found. The
     loops are turned to the module's orientation; faces and their first vertices keep the file's order.
+    ``fit``: "exact" (plates on the faces; ``tolerance`` default :data:`DEFAULT_TOLERANCE`) or "best"
+    (plates at their faces' best fit, the closure takes up the rest: ``tolerance`` default
+    :data:`BEST_FIT_TOLERANCE` × the edge; the tiling is ``best_fit``).
     """
+    if fit not in FITS:
+        raise SpecError(f"{source}: fit = {fit!r}: choose one of {', '.join(FITS)}")
     V = np.asarray(V, dtype=np.float64)
     loops = _check_faces(V, faces, source)
     edges = _check_edges(loops, source)
@@ -139,6 +148,8 @@ def mesh_tiling(V: NDArray[np.float64], faces: Faces, *, tolerance: float = DEFA
     scale = edge / mean if edge is not None else 1.0
     V, lengths = V * scale, lengths * scale
     e = float(lengths.mean())
+    if tolerance is None:
+        tolerance = DEFAULT_TOLERANCE if fit == "exact" else BEST_FIT_TOLERANCE * e
     k = int(np.argmax(np.abs(lengths - e)))
     if abs(lengths[k] - e) > tolerance:
         a, b = ends[k]
@@ -147,7 +158,7 @@ def mesh_tiling(V: NDArray[np.float64], faces: Faces, *, tolerance: float = DEFA
                         f"{tolerance:g} mm): the plates are regular polygons of one edge")
     for f, loop in enumerate(loops):
         _check_regular(V[list(loop)], e, tolerance, f"{source}: face {f + 1}")
-    tiling = _oriented(Tiling("mesh", V, loops), source)
+    tiling = _oriented(Tiling(name, V, loops, best_fit=fit == "best"), source)
     _check_convex(tiling, source)
     return tiling
 
@@ -257,7 +268,7 @@ def _oriented(t: Tiling, source: str) -> Tiling:
         flip = sum(f < -FLAT_FOLD for f in folds) > sum(f > FLAT_FOLD for f in folds)
     if not flip:
         return t
-    return Tiling(t.name, t.V, tuple((loop[0], *reversed(loop[1:])) for loop in t.faces), t.grid)
+    return Tiling(t.name, t.V, tuple((loop[0], *reversed(loop[1:])) for loop in t.faces), t.grid, t.best_fit)
 
 
 def _check_convex(t: Tiling, source: str) -> None:

@@ -55,6 +55,11 @@ class ModelSleeve:
     frame: Arr
     slots: tuple[tuple[int, int], tuple[int, int]]
     angle: float = 0.0
+    #: per slot (A, B), the rigid motion it makes relative to the sleeve body by λ = 1: a rotation
+    #: vector (3,) rad and an offset (3,) mm, world reference axes (:class:`fabpat.shell.linked.LinkedProblem`);
+    #: None: the turn of ∓``angle``/2 about the frame's X. A plate placed off its slot (a tiling only
+    #: nearly regular, :func:`slot_motions`) is brought into it this way
+    motions: tuple[tuple[Arr, Arr], tuple[Arr, Arr]] | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -88,24 +93,36 @@ class AssemblyModel:
 
     def links(self) -> tuple[NDArray[np.int64], NDArray[np.int64], Arr, NDArray[np.int64]]:
         """Slave nodes, their sleeve numbers, their relative spins at λ = 1 (k, 3) and their slot (0 A, 1 B)."""
-        sl, ma, sp, slot = [], [], [], []
+        sl, ma, sp, slot, _ = self._links()
+        return sl, ma, sp, slot
+
+    def _links(self) -> tuple[NDArray[np.int64], NDArray[np.int64], Arr, NDArray[np.int64], Arr]:
+        """:meth:`links` and the relative offsets at λ = 1 (k, 3) mm."""
+        sl, ma, sp, slot, off = [], [], [], [], []
         for j, s in enumerate(self.sleeves):
             axis = s.frame[:3, 0] / np.linalg.norm(s.frame[:3, 0])
             for k, (p, i) in enumerate(s.slots):
                 nd = self.nodes(p, i)
                 sl.append(nd)
                 ma.append(np.full(nd.size, j))
-                sp.append(np.tile((0.5 * s.angle if k else -0.5 * s.angle) * axis, (nd.size, 1)))
+                if s.motions is None:
+                    sp.append(np.tile((0.5 * s.angle if k else -0.5 * s.angle) * axis, (nd.size, 1)))
+                    off.append(np.zeros((nd.size, 3)))
+                else:
+                    spin, shift = s.motions[k]
+                    sp.append(np.tile(spin, (nd.size, 1)))
+                    off.append(np.tile(shift, (nd.size, 1)))
                 slot.append(np.full(nd.size, k))
         if not sl:
-            return (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0, np.int64))
-        return np.concatenate(sl), np.concatenate(ma), np.vstack(sp), np.concatenate(slot)
+            z = np.zeros(0, np.int64)
+            return z, z, np.zeros((0, 3)), z, np.zeros((0, 3))
+        return np.concatenate(sl), np.concatenate(ma), np.vstack(sp), np.concatenate(slot), np.vstack(off)
 
     def problem(self, fixed: NDArray[np.bool_], prescribed: Arr, loads: Arr) -> LinkedProblem:
         """The linked shell problem with (n + s, 6) supports, prescribed values and loads (λ = 1)."""
-        sl, ma, sp, _ = self.links()
+        sl, ma, sp, _, off = self._links()
         masters = np.array([s.frame[:3, 3] for s in self.sleeves]).reshape(-1, 3)
-        return LinkedProblem(self.X, self.F, self.material, masters, sl, ma, sp, fixed, prescribed, loads)
+        return LinkedProblem(self.X, self.F, self.material, masters, sl, ma, sp, fixed, prescribed, loads, off)
 
     def lumped_area(self) -> Arr:
         """(n,) nodal share of the plates' area (mm²), a third of each triangle's area."""

@@ -29,7 +29,8 @@ from fabpat.mesh import ASSEMBLY_MAX_ELEMENTS
 Arr = NDArray[np.float64]
 
 #: default report steps per kind (the closure is smooth and nearly linear; the strip buckles)
-DEFAULT_STEPS = {"honeycomb-strip": 10, "truncated-icosahedron": 4, "mesh": 4}
+DEFAULT_STEPS = {"honeycomb-strip": 10, "truncated-icosahedron": 4, "mesh": 4, "goldberg": 4, "hex-tube": 4,
+                 "hex-cap": 4}
 #: colour fields of :meth:`AssemblySimulation.to_png` on a closed assembly
 PNG_FIELDS = ("energy", "mean_curvature", "gaussian_curvature", "strain")
 

@@ -72,7 +72,13 @@ from fabpat.assembly.tiling import Tiling, honeycomb_strip, truncated_icosahedro
 from fabpat.errors import PatternError, SpecError
 from fabpat.validate import check
 
-TILINGS = ("honeycomb-strip", "truncated-icosahedron", "mesh")
+TILINGS = ("honeycomb-strip", "truncated-icosahedron", "mesh", "goldberg", "hex-tube", "hex-cap")
+#: the kinds whose faces are a polygon mesh kept in the spec (:attr:`TilingSpec.vertices`): a file's, or
+#: a built-in surface's (:mod:`fabpat.assembly.polyhedra`, only nearly regular: plates at best fit)
+MESH_KINDS = ("mesh", "goldberg", "hex-tube", "hex-cap")
+#: largest built-in surfaces: GP(6, 0) has 362 plates (a closure of 10 minutes at h = 3), a tube or
+#: cap beyond these sizes as many
+MAX_GOLDBERG_M, MAX_TUBE_ROWS, MAX_TUBE_COLUMNS, MAX_CAP_RINGS = 6, 30, 30, 8
 #: ``[patterns]`` key of each polygon of a polyhedral tiling (a mesh's faces have 3 … 12 sides)
 POLYGON_KEYS = {3: "triangle", 4: "square", 5: "pentagon", 6: "hexagon", 7: "heptagon", 8: "octagon", 9: "nonagon",
                 10: "decagon", 11: "hendecagon", 12: "dodecagon"}
@@ -112,6 +118,14 @@ class TilingSpec:
     tolerance: float = 0.01  # mm (fabpat.assembly.mesh_tiling.DEFAULT_TOLERANCE)
     vertices: tuple[tuple[float, float, float], ...] = ()
     faces: tuple[tuple[int, ...], ...] = ()
+    #: "exact" (plates on the faces) or "best" (at their faces' best fit: built-in surfaces, or a mesh's
+    #: ``fit = "best"``); the closure ramps the rest of the mismatch to zero
+    fit: str = "exact"
+    m: int = 1  # goldberg GP(m, n)
+    n: int = 0
+    realization: str = "dual"  # goldberg: fabpat.assembly.polyhedra.REALIZATIONS
+    rings: int = 1  # hex-cap
+    centre: int = 5  # hex-cap: sides of the central face
 
     @property
     def strip(self) -> bool:
@@ -122,14 +136,14 @@ class TilingSpec:
         """The tiling of unit edge (:mod:`fabpat.assembly.tiling`; scaled once the sleeves fix the skeleton edge)."""
         if self.kind == "truncated-icosahedron":
             return truncated_icosahedron(1.0)
-        if self.kind == "mesh":
-            return Tiling("mesh", np.array(self.vertices) / self.edge, self.faces)
+        if self.kind in MESH_KINDS:
+            return Tiling(self.kind, np.array(self.vertices) / self.edge, self.faces, best_fit=self.fit == "best")
         return honeycomb_strip(self.rows, self.columns, 1.0)
 
     @property
     def sides(self) -> tuple[int, ...]:
         """Polygons of the tiling's faces, largest first (6 for strips; 6 and 5 for the truncated icosahedron)."""
-        if self.kind == "mesh":
+        if self.kind in MESH_KINDS:
             return tuple(sorted({len(f) for f in self.faces}, reverse=True))
         return (6,) if self.strip else (6, 5)
 
@@ -270,39 +284,77 @@ def _pattern_id(source: str, key: str, pid: Any, sides: tuple[int, ...]) -> str:
 # -- the tables -------------------------------------------------------------------------------------
 
 
+#: [tiling] keys that only some kinds read: key → those kinds
+_KIND_KEYS = {"rows": ("honeycomb-strip", "hex-tube"), "columns": ("honeycomb-strip", "hex-tube"),
+              "file": ("mesh",), "tolerance": ("mesh",), "fit": ("mesh",), "m": ("goldberg",), "n": ("goldberg",),
+              "realization": ("goldberg",), "rings": ("hex-cap",), "centre": ("hex-cap",)}
+
+
 def _tiling(source: str, data: Any) -> TilingSpec:
-    t = _Table(source, "tiling", data, ("kind", "edge", "rows", "columns", "file", "tolerance"))
+    t = _Table(source, "tiling", data, ("kind", "edge", *_KIND_KEYS))
     before = len(t.problems)
     kind = t.choice("kind", TILINGS, None)
     unknown_kind = len(t.problems) > before
     if unknown_kind:  # which keys apply depends on the kind
         t.settle()
-    for key, only in (("rows", "honeycomb-strip"), ("columns", "honeycomb-strip"), ("file", "mesh"),
-                      ("tolerance", "mesh")):
-        if t.has(key) and kind != only:
-            t.note(t.fail(key, f"is only for kind = \"{only}\""), None)
+    for key, kinds in _KIND_KEYS.items():
+        if t.has(key) and kind not in kinds:
+            t.note(t.fail(key, f"is only for kind = {' or '.join(repr(k) for k in kinds)}".replace("'", '"')), None)
     if kind == "mesh":
         return _mesh_tiling(source, t)
     edge = t.number("edge", None, "edge")
     if kind == "honeycomb-strip":
         return TilingSpec(kind, edge, t.integer("rows", None), t.integer("columns", None))
+    if kind in MESH_KINDS:
+        return _builtin_tiling(source, t, kind, edge)
     return TilingSpec(kind, edge)
+
+
+def _builtin_tiling(source: str, t: _Table, kind: str, edge: float) -> TilingSpec:
+    """A built-in surface of nearly regular faces (:mod:`fabpat.assembly.polyhedra`) at plate edge ``edge``."""
+    from fabpat.assembly import polyhedra
+    from fabpat.assembly.mesh_tiling import mesh_tiling
+
+    if kind == "goldberg":
+        m = t.integer("m", None, 1, MAX_GOLDBERG_M)
+        n = t.integer("n", 0, 0, MAX_GOLDBERG_M)
+        realization = t.choice("realization", polyhedra.REALIZATIONS, "dual")
+        t.settle()
+        if n > m:
+            raise t.fail("n", f"= {n} must be at most tiling.m = {m} (GP(n, m) is the mirror image of GP(m, n))")
+        V, faces = polyhedra.goldberg(m, n, realization)
+        extra: dict[str, Any] = {"m": m, "n": n, "realization": realization}
+    elif kind == "hex-tube":
+        rows, columns = t.integer("rows", None, 3, MAX_TUBE_ROWS), t.integer("columns", None, 1, MAX_TUBE_COLUMNS)
+        t.settle()
+        V, faces = polyhedra.hex_tube(rows, columns)
+        extra = {"rows": rows, "columns": columns}
+    else:
+        rings = t.integer("rings", None, 1, MAX_CAP_RINGS)
+        centre = t.integer("centre", 5, 5, 6)
+        t.settle()
+        V, faces = polyhedra.hex_cap(rings, centre)
+        extra = {"rings": rings, "centre": centre}
+    skel = mesh_tiling(V, faces, edge=edge, fit="best", name=kind, source=f"{source}: tiling.kind = {kind!r}")
+    return TilingSpec(kind, edge, vertices=tuple((float(x), float(y), float(z)) for x, y, z in skel.V),
+                      faces=skel.faces, fit="best", **extra)
 
 
 def _mesh_tiling(source: str, t: _Table) -> TilingSpec:
     """``kind = "mesh"``: read and check ``file`` (relative to the spec's folder) at ``edge`` and ``tolerance``."""
-    from fabpat.assembly.mesh_tiling import DEFAULT_TOLERANCE, mesh_tiling, read_polygon_mesh
+    from fabpat.assembly.mesh_tiling import BEST_FIT_TOLERANCE, DEFAULT_TOLERANCE, FITS, mesh_tiling, read_polygon_mesh
 
     name = t.string("file")
     edge = t.number("edge", None, "edge") if t.has("edge") else None
-    tolerance = t.number("tolerance", DEFAULT_TOLERANCE, "curve_tolerance")
+    fit = t.choice("fit", FITS, "exact")
+    tolerance = t.number("tolerance", DEFAULT_TOLERANCE, "curve_tolerance") if t.has("tolerance") else None
     if name is None:
         raise t.fail("file", "is missing: the polygon mesh (OBJ, PLY or OFF) whose faces carry the plates")
     t.settle()
     path = Path(name) if Path(name).is_absolute() else Path(source).parent / name
     try:
         V, faces = read_polygon_mesh(path)
-        skel = mesh_tiling(V, faces, tolerance=tolerance, edge=edge, source=str(path))
+        skel = mesh_tiling(V, faces, tolerance=tolerance, edge=edge, source=str(path), fit=fit)
     except SpecError as e:
         raise SpecError(f"{source}: tiling.file: {e}") from None
     if edge is None:  # the plates take the mesh's own (mean) edge
@@ -311,7 +363,9 @@ def _mesh_tiling(source: str, t: _Table) -> TilingSpec:
             check("edge", edge, "the mesh's mean edge (tiling.edge)", error=SpecError)
         except SpecError as err:
             raise SpecError(f"{source}: tiling.file: {err}; give tiling.edge to scale the mesh") from None
-    return TilingSpec("mesh", edge, file=str(path), tolerance=tolerance,
+    if tolerance is None:
+        tolerance = DEFAULT_TOLERANCE if fit == "exact" else BEST_FIT_TOLERANCE * edge
+    return TilingSpec("mesh", edge, file=str(path), tolerance=tolerance, fit=fit,
                       vertices=tuple((float(x), float(y), float(z)) for x, y, z in skel.V), faces=skel.faces)
 
 
@@ -541,7 +595,7 @@ def smallest_dihedral(tiling: TilingSpec) -> float:
 
     if tiling.kind == "truncated-icosahedron":
         return min(HEX_HEX_DIHEDRAL, HEX_PENT_DIHEDRAL)
-    if tiling.kind == "mesh":
+    if tiling.kind in MESH_KINDS:
         skel = tiling.skeleton()
         return float(skel.dihedral[skel.interior_edges].min(initial=math.pi))
     return math.pi

@@ -38,13 +38,16 @@ class Tiling:
     """A surface of regular polygons: ``V`` (nv, 3) float mm, ``faces`` vertex loops (CCW from outside).
 
     ``name`` is the tiling kind; ``grid`` (nf, 2) int gives (row, column) of each tile of a strip
-    (−1 for polyhedra). Derived data (edges, normals, dihedral angles) are cached properties.
+    (−1 for polyhedra). ``best_fit``: the faces are only nearly regular (and planar), and each plate
+    sits at its face's best fit (:meth:`frames`). Derived data (edges, normals, dihedral angles) are
+    cached properties.
     """
 
     name: str
     V: NDArray[np.float64]
     faces: tuple[tuple[int, ...], ...]
     grid: NDArray[np.int64] | None = None
+    best_fit: bool = False
 
     @property
     def sides(self) -> NDArray[np.int64]:
@@ -148,19 +151,30 @@ class Tiling:
 
     def scaled(self, edge: float) -> Tiling:
         """The same tiling with edge length ``edge`` mm (scaled about the origin)."""
-        return Tiling(self.name, self.V * (edge / self.edge_length()), self.faces, self.grid)
+        return Tiling(self.name, self.V * (edge / self.edge_length()), self.faces, self.grid, self.best_fit)
 
     def frames(self) -> NDArray[np.float64]:
         """(nf, 4, 4) rigid transforms from a plate's polygon frame to the world.
 
         In the polygon frame the face is :func:`polygon_vertices` (centre at the origin, edge 0 along
         +x) with normal +z; the transform sends it onto the skeleton face, +z onto the outward normal.
+        On a ``best_fit`` tiling the turn about the normal is the one that puts the polygon's corners
+        nearest the face's projected corners (least squares: θ = arg Σ z_i / p_i over the corners as
+        complex numbers, Procrustes), the centre at the corners' mean.
         """
         out = np.zeros((len(self.faces), 4, 4))
         for f, loop in enumerate(self.faces):
             X = self.V[loop[1]] - self.V[loop[0]]
             X /= np.linalg.norm(X)
             Z = self.normals[f]
+            if self.best_fit:
+                X -= (X @ Z) * Z
+                X /= np.linalg.norm(X)
+                Y = np.cross(Z, X)
+                Q = self.V[list(loop)] - self.centroids[f]
+                p = polygon_vertices(len(loop), 1.0) @ np.array([1.0, 1j])
+                turn = np.angle(np.sum((Q @ X + 1j * (Q @ Y)) / p))
+                X = math.cos(turn) * X + math.sin(turn) * Y
             out[f, :3, :3] = np.stack([X, np.cross(Z, X), Z], axis=1)
             out[f, :3, 3] = self.centroids[f]
             out[f, 3, 3] = 1.0

@@ -3,10 +3,12 @@
 A :class:`LinkedProblem` is a triangle mesh (any number of disconnected plates, placed in 3D) plus
 extra 6-dof **master** nodes. A *rigid link* ties a mesh node i (the slave) to a master s:
 
-    x_i = x_s + R_s Q_i(λ) (X_i − X_s),    R_i = R_s Q_i(λ),    Q_i(λ) = exp(λ [φ_i]×)
+    x_i = x_s + R_s (Q_i(λ) (X_i − X_s) + λ t_i),    R_i = R_s Q_i(λ),    Q_i(λ) = exp(λ [φ_i]×)
 
-(X reference positions, R total rotations, φ_i a relative rotation vector in reference axes reached at
-λ = 1: a rampable joint angle; φ = 0 is a rigid weld to the master). Slaves are eliminated: the
+(X reference positions, R total rotations, φ_i a relative rotation vector and t_i a relative offset
+(mm), both in reference axes and reached at λ = 1: a rampable joint angle and a gap the joint closes;
+φ = t = 0 is a rigid weld to the master). The offset changes where a slave sits, not how it moves with
+its master, so the variations below hold with c_i the current lever arm. Slaves are eliminated: the
 unknowns are the other mesh nodes and the masters. Their variations are δx_i = δx_s + δω_s × c_i,
 δω_i = δω_s (c_i = x_i − x_s, spatial spins), i.e. a 6 × 6 block T_i = [[I, −[c_i]×], [0, I]] that
 is applied to the element matrices of the elements touching a slave; the slaves' forces are sent to
@@ -67,7 +69,8 @@ class LinkedProblem:
     X: (n, 3) mesh node coordinates (mm). F: (m, 3) triangles. material: shell material.
     masters: (s, 3) master node positions (mm); they are nodes n … n + s − 1 of every (N, 6) array.
     link_slave: (k,) mesh node indices; link_master: (k,) master numbers 0 … s − 1; link_spin: (k, 3)
-    relative rotation (rad, reference axes) of each slave about its master reached at λ = 1.
+    relative rotation (rad, reference axes) of each slave about its master reached at λ = 1; link_offset:
+    (k, 3) relative translation (mm, reference axes) reached at λ = 1 (default none).
     fixed: (N, 6) bool prescribed dofs (N = n + s); prescribed: (N, 6) their values at λ = 1 (mm, rad);
     loads: (N, 6) forces (N) and moments (N·mm) at λ = 1, global axes, fixed directions.
     Raises ValueError on inconsistent shapes, a slave linked twice or fixed, or a partly prescribed
@@ -84,6 +87,7 @@ class LinkedProblem:
     fixed: NDArray[np.bool_]
     prescribed: Arr
     loads: Arr
+    link_offset: Arr | None = None
 
     def __post_init__(self) -> None:
         X = np.asarray(self.X, dtype=np.float64)
@@ -109,7 +113,11 @@ class LinkedProblem:
         partial = fixed[:, 3:].any(axis=1) & ~fixed[:, 3:].all(axis=1) & (pres[:, 3:] != 0).any(axis=1)
         if partial.any():
             raise ValueError("a nonzero prescribed rotation needs all three rotations of the node prescribed")
-        for name, v in (("X", X), ("masters", M), ("link_spin", sp), ("prescribed", pres), ("loads", loads)):
+        off = np.zeros_like(sp) if self.link_offset is None else np.asarray(self.link_offset, np.float64).reshape(-1, 3)
+        if off.shape != sp.shape:
+            raise ValueError(f"link_offset has {len(off)} rows for {len(sp)} links")
+        for name, v in (("X", X), ("masters", M), ("link_spin", sp), ("prescribed", pres), ("loads", loads),
+                        ("link_offset", off)):
             object.__setattr__(self, name, v)
         object.__setattr__(self, "F", np.asarray(self.F, dtype=np.int64))
         object.__setattr__(self, "link_slave", sl)
@@ -210,7 +218,7 @@ class _Reduced:
         Rm = R[ms]
         RQ = Rm @ Q
         r0 = p.X[p.link_slave] - p.masters[p.link_master]
-        x[p.link_slave] = x[ms] + np.einsum("kij,kj->ki", RQ, r0)
+        x[p.link_slave] = x[ms] + np.einsum("kij,kj->ki", RQ, r0) + lam * np.einsum("kij,kj->ki", Rm, p.link_offset)
         R[p.link_slave] = RQ
 
     def forces(self, p: LinkedProblem, x: Arr, R: Arr, lam: float) -> tuple[Arr, Arr, Arr, Arr]:
