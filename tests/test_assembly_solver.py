@@ -114,9 +114,11 @@ def test_cli_simulate_assembly_fields_files_and_bad_input(tmp_path) -> None:  # 
     row = json.loads(r.stdout)
     assert list(row) == ["converged", "plates", "sleeves", "nodes", "dofs", "iterations", "seconds", "energy",
                          "plate_energies", "sleeve_moments", "reaction", "max_deflection", "peak", "half_ratio",
-                         "path", "radius", "sphericity_rms", "sphericity_max", "peak_strain", "peak_strain_plate",
-                         "strain_limit", "over_limit", "factorizations", "h", "warm_start"]
+                         "path", "radius", "sphericity_rms", "sphericity_max", "mesh_deviation_rms",
+                         "mesh_deviation_max", "cylinder_radius", "cylindricity_rms", "peak_strain",
+                         "peak_strain_plate", "strain_limit", "over_limit", "factorizations", "h", "warm_start"]
     assert row["radius"] is None and row["sphericity_rms"] is None  # a strip is not closed
+    assert row["mesh_deviation_rms"] is None and row["cylinder_radius"] is None
     assert 0 < row["peak_strain"] < row["strain_limit"] and row["over_limit"] == []
     assert row["converged"] is True and row["plates"] == 3 and row["sleeves"] == 2
     assert list(row["plate_energies"]) == ["T1", "T2", "T3"] and list(row["sleeve_moments"]) == ["E1", "E2"]

@@ -352,6 +352,13 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
     if spec.sheet is None:
         raise SpecError(f"{spec.source}: missing table [sheet] (fabpat assemble nests the plates on this laser sheet "
                         "or print bed: give its width and height)")
+    if spec.tiling.fit == "best":
+        # the kit's checks (slots on the interfaces, no interference) hold in the placement of an exact
+        # tiling; here the placement is only a start of the closure, so they would need the closed shape
+        raise SpecError(f"{spec.source}: tiling.kind = {spec.tiling.kind!r} places its plates only near its faces "
+                        "(best fit), so its kit cannot be checked in place: fabpat assemble builds tilings of exactly "
+                        "regular faces (truncated-icosahedron, honeycomb-strip, a mesh with fit = \"exact\"); "
+                        "`fabpat simulate-assembly` predicts this one")
     if not isinstance(out, str | os.PathLike) or not str(out):
         raise SpecError(f"out must be the path of the kit's folder, got {out!r}")
     out = Path(out)

@@ -79,6 +79,28 @@ def fit_sphere(P: Arr) -> tuple[Arr, float]:
     return c, float(r)
 
 
+def fit_cylinder(P: Arr, axis: Arr) -> tuple[Arr, Arr, float]:
+    """Point (3,), unit direction (3,) of the axis and radius (mm) of the least-squares cylinder through
+    points P (n, 3), started from the line through their mean along ``axis`` (3,).
+
+    Minimises Σ (dist(p, axis line) − r)² (geometric distance; Eberly, *Least Squares Fitting of Data
+    by Linear or Quadratic Structures*, §"Fitting a cylinder") with scipy's trust-region least squares.
+    """
+    from scipy.optimize import least_squares
+
+    P = np.asarray(P, dtype=np.float64)
+    c0, d0 = P.mean(axis=0), np.asarray(axis, dtype=np.float64) / np.linalg.norm(axis)
+
+    def residual(q: Arr) -> Arr:
+        d = q[3:6] / np.linalg.norm(q[3:6])
+        w = P - q[:3]
+        return np.linalg.norm(w - np.outer(w @ d, d), axis=1) - q[6]
+
+    r0 = float(np.linalg.norm((P - c0) - np.outer((P - c0) @ d0, d0), axis=1).mean())
+    q = least_squares(residual, np.concatenate([c0, d0, [r0]]), x_scale="jac").x
+    return q[:3], q[3:6] / np.linalg.norm(q[3:6]), float(q[6])
+
+
 def rigid_residual(X: Arr, Y: Arr) -> Arr:
     """(n,) distances |Y_i − (R X_i + t)| after the rotation R and translation t that best superpose X
     on Y (n, 3) in the least-squares sense (Kabsch, Acta Cryst. A32 (1976) 922)."""
@@ -175,7 +197,10 @@ class ClosureRun:
     ``x`` (N, 3): deformed positions of every node (plates, then one per sleeve); ``plate_peak_strain``
     {plate label: its peak strain}; ``over_limit`` the labels whose peak strain exceeds
     ``strain_limit``; ``path``: one dict {angle_fraction, energy, max_sleeve_moment} per report step;
-    ``element_strain`` (m,) each element's peak surface strain. The other fields as the
+    ``element_strain`` (m,) each element's peak surface strain; ``mesh_deviation_rms`` and
+    ``mesh_deviation_max`` the RMS and largest distance (mm) of the plate nodes from where they were
+    placed on the tiling, once the best rigid motion is removed (Kabsch: the closed shape against
+    the input surface; ``max_deflection`` is the same largest distance). The other fields as the
     ``simulate-assembly`` output (see :mod:`fabpat.assembly.closure`).
     """
 
@@ -198,6 +223,8 @@ class ClosureRun:
     x: Arr
     element_strain: Arr
     result: PathResult
+    mesh_deviation_rms: float = 0.0
+    mesh_deviation_max: float = 0.0
 
 
 def warm_start(previous: ClosureRun, setup: ClosureSetup) -> tuple[Arr, Arr]:
@@ -251,7 +278,9 @@ def run_closure(setup: ClosureSetup, *, steps: int = CLOSURE_STEPS, strain_limit
     plate_peak = {lab: float(eps[m.element_offsets[i]:m.element_offsets[i + 1]].max()) for i, lab in enumerate(labels)}
     worst = max(plate_peak, key=lambda k: plate_peak[k])
     check_plausible(m, float(ee.sum()), fin.displacement, plate_peak[worst], "closure by the sleeves")
+    moved = rigid_residual(m.X, P)
     return ClosureRun(setup, float(ee.sum()), pe, {s.label: float(v) for s, v in zip(m.sleeves, moments, strict=True)},
-                      float(np.linalg.norm(fin.reactions)), float(rigid_residual(m.X, P).max()), radius, centre,
+                      float(np.linalg.norm(fin.reactions)), float(moved.max()), radius, centre,
                       float(np.sqrt(np.mean(dev * dev))), float(dev.max()), plate_peak[worst], worst, plate_peak,
-                      float(strain_limit), [k for k, v in plate_peak.items() if v > strain_limit], path, x, eps, r)
+                      float(strain_limit), [k for k, v in plate_peak.items() if v > strain_limit], path, x, eps, r,
+                      float(np.sqrt(np.mean(moved * moved))), float(moved.max()))

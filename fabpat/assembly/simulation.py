@@ -85,11 +85,28 @@ class AssemblySimulation:
             "radius": r.radius if self.closed else None,
             "sphericity_rms": r.sphericity_rms if self.closed else None,
             "sphericity_max": r.sphericity_max if self.closed else None,
+            "mesh_deviation_rms": r.mesh_deviation_rms if self.closed else None,
+            "mesh_deviation_max": r.mesh_deviation_max if self.closed else None,
+            **self._cylinder(),
             "peak_strain": peak[worst], "peak_strain_plate": worst, "strain_limit": self.strain_limit,
             "over_limit": self.over_limit(), "factorizations": res.factorizations, "h": self.h,
             "warm_start": res.warm,
         }
         return row
+
+    def _cylinder(self) -> dict[str, float | None]:
+        """A tube's least-squares cylinder (:func:`fabpat.assembly.closure.fit_cylinder`, started on the
+        tube's axis x): ``cylinder_radius`` (mm) and ``cylindricity_rms`` (RMS radial deviation over the
+        radius); None for other kinds."""
+        if self.kind != "hex-tube":
+            return {"cylinder_radius": None, "cylindricity_rms": None}
+        from fabpat.assembly.closure import fit_cylinder
+
+        P = self.deformed()
+        c, d, radius = fit_cylinder(P, np.array([1.0, 0.0, 0.0]))
+        w = P - c
+        dev = (np.linalg.norm(w - np.outer(w @ d, d), axis=1) - radius) / radius
+        return {"cylinder_radius": radius, "cylindricity_rms": float(np.sqrt(np.mean(dev * dev)))}
 
     def __repr__(self) -> str:
         """One line: kind, name, size, energy, peak strain and the shape's read-out (radius and

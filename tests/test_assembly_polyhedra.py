@@ -1,0 +1,112 @@
+"""Built-in surfaces of nearly regular faces (Goldberg polyhedra, hexagon tubes and caps) and their
+closure from an approximate placement.
+
+References outside the code under test: the face counts of GP(m, n) (10 T + 2 faces, 12 pentagons,
+T = m² + mn + n²; Hart, *Goldberg polyhedra*), the truncated icosahedron built exactly (GP(1, 1) placed
+at its best fit must close to the same sphere), and the closed shapes' own geometry (a cylinder's
+least-squares fit, a dome's rise above its rim).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fabpat.assembly.polyhedra import goldberg, hex_cap, hex_tube
+from fabpat.assembly.simulation import simulate_assembly
+from fabpat.assembly.spec import load_spec, parse_spec
+from fabpat.errors import SpecError
+from tests.conftest import run_cli
+
+ROOT = Path(__file__).resolve().parents[1]
+H = 7.5  # mm: the coarsest mesh the 36 mm plates' interfaces allow
+
+
+def edges(faces: tuple) -> set:
+    return {tuple(sorted((f[i], f[(i + 1) % len(f)]))) for f in faces for i in range(len(f))}
+
+
+@pytest.mark.parametrize("m, n", [(1, 0), (1, 1), (2, 0), (2, 1), (3, 0)])
+@pytest.mark.parametrize("realization", ["dual", "planar"])
+def test_goldberg_counts(m: int, n: int, realization: str) -> None:
+    V, F = goldberg(m, n, realization)
+    T = m * m + m * n + n * n
+    sides = Counter(len(f) for f in F)
+    assert len(F) == 10 * T + 2 and sides[5] == 12 and sides[6] == 10 * (T - 1)
+    assert len(V) == 20 * T and len(edges(F)) == 30 * T  # Euler: V − E + F = 2
+    if realization == "planar":  # every face in one plane
+        for f in F:
+            P = V[list(f)] - V[list(f)].mean(axis=0)
+            assert np.linalg.svd(P, compute_uv=False)[-1] < 1e-9
+
+
+def test_tube_and_cap_counts() -> None:
+    V, F = hex_tube(6, 4)  # 6 edges a hexagon, each shared by two but the 2 per end hexagon at each open end
+    assert len(F) == 24 and len(edges(F)) == (6 * 24 + 2 * 2 * 6) // 2 and len(V) == 2 * 24 + 2 * 6
+    V, F = hex_cap(2, 5)
+    assert [len(f) for f in F].count(5) == 1 and len(F) == 1 + 5 + 10
+    V, F = hex_cap(2, 6)
+    assert set(len(f) for f in F) == {6} and len(F) == 1 + 6 + 12 and np.ptp(V[:, 2]) < 1e-12  # flat
+
+
+def spec(kind: str, **keys: object) -> dict:
+    return {"name": kind, "tiling": {"kind": kind, "edge": 36.0, **keys},
+            "patterns": {"hexagon": "0x0488", "pentagon": "0x0508"}, "plates": {"thickness": 1.0},
+            "sleeve": {"angle": "flat"}}
+
+
+def test_goldberg_one_one_placed_at_best_fit_closes_like_the_exact_sphere() -> None:
+    exact = load_spec(ROOT / "assemblies" / "truncated-icosahedron.toml")
+    a = simulate_assembly(exact, h=H).fields()
+    b = simulate_assembly(parse_spec(spec("goldberg", m=1, n=1), "gp11.toml"), h=H).fields()
+    assert b["plates"] == 32 and b["sleeves"] == 90
+    assert abs(a["radius"] - b["radius"]) < 0.01
+    assert abs(b["energy"] / a["energy"] - 1.0) < 1e-3
+    assert abs(b["sphericity_rms"] - a["sphericity_rms"]) < 0.02 * a["sphericity_rms"]
+
+
+def test_pentagon_cap_closes_into_a_dome() -> None:
+    sim = simulate_assembly(parse_spec(spec("hex-cap", rings=1), "cap.toml"), h=H)
+    f, m = sim.fields(), sim.model
+    x = sim.deformed()
+    centre = x[m.offsets[0]:m.offsets[1]].mean(axis=0)  # the pentagon (face 0)
+    rim = np.vstack([x[m.offsets[i]:m.offsets[i + 1]] for i in range(1, len(m.plates))])
+    normal = np.linalg.svd(rim - rim.mean(axis=0))[2][-1]
+    rise = abs(float((centre - rim.mean(axis=0)) @ normal))
+    assert f["plates"] == 6 and f["sleeves"] == 10  # 5 spokes + 5 between the hexagons; free boundary
+    assert 1.0 < rise < 36.0 and 0.0 < f["peak_strain"] < f["strain_limit"]
+    assert f["reaction"] < 1e-6  # self-equilibrated: the held sleeve carries round-off
+
+
+def test_tube_closes_into_a_cylinder() -> None:
+    data = spec("hex-tube", rows=6, columns=1)
+    data["patterns"] = {"hexagon": "0x0488"}
+    f = simulate_assembly(parse_spec(data, "tube.toml"), h=H).fields()
+    circumference = 6 * math.sqrt(3.0) * 36.0
+    assert f["plates"] == 6 and 0.8 < f["cylinder_radius"] / (circumference / (2 * math.pi)) < 1.3
+    assert f["cylindricity_rms"] < 0.01
+
+
+@pytest.mark.parametrize("keys, message", [
+    ({"m": 2, "n": 3}, r"tiling.n = 3 must be at most tiling.m = 2"),
+    ({"m": 7}, r"tiling.m = 7 must be an integer in \[1, 6\]"),
+    ({"m": 2, "realization": "flat"}, r"tiling.realization = 'flat'"),
+    ({"m": 2, "rings": 2}, r"tiling.rings is only for kind = \"hex-cap\""),
+    ({"m": 2, "file": "x.obj"}, r"tiling.file is only for kind = \"mesh\""),
+])
+def test_goldberg_keys(keys: dict, message: str) -> None:
+    with pytest.raises(SpecError, match=message):
+        parse_spec(spec("goldberg", **keys), "g.toml")
+
+
+def test_assemble_refuses_a_best_fit_tiling_writing_nothing(tmp_path: Path) -> None:
+    path = tmp_path / "g.toml"
+    path.write_text('[tiling]\nkind = "goldberg"\nm = 2\nedge = 36.0\n[patterns]\nhexagon = "0x0488"\n'
+                    'pentagon = "0x0508"\n[sheet]\nwidth = 600.0\nheight = 400.0\n', encoding="utf-8")
+    r = run_cli("assemble", str(path), "--out", str(tmp_path / "kit"), "--no-progress")
+    assert r.returncode == 2 and not (tmp_path / "kit").exists()
+    assert r.stderr.count("\n") == 1 and "best fit" in r.stderr and "simulate-assembly" in r.stderr, r.stderr
