@@ -2,11 +2,14 @@
 
 A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented examples):
 
-* ``[tiling]``  ``kind`` ("honeycomb-strip" | "truncated-icosahedron" | "mesh"), ``edge`` (plate polygon
-  edge), ``rows`` and ``columns`` (strip only); a mesh tiling reads ``file`` (an OBJ, PLY or OFF polygon
-  mesh, relative to the spec; its faces carry the plates, :mod:`fabpat.assembly.mesh_tiling`), takes
-  ``edge`` as optional (default: the mesh's mean edge; given, it scales the mesh) and ``tolerance`` (mm,
-  default 0.01: how far the faces may be from regular polygons of one edge).
+* ``[tiling]``  ``kind`` ("honeycomb-strip" | "truncated-icosahedron" | "mesh" | "goldberg" | "hex-tube" |
+  "hex-cap"), ``edge`` (plate polygon edge), ``rows`` and ``columns`` (strip and tube); a mesh tiling
+  reads ``file`` (an OBJ, PLY or OFF polygon mesh, relative to the spec; its faces carry the plates,
+  :mod:`fabpat.assembly.mesh_tiling`), takes ``edge`` as optional (default: the mesh's mean edge; given,
+  it scales the mesh), ``tolerance`` (mm, default 0.01: how far the faces may be from regular polygons
+  of one edge) and ``fit`` ("exact" | "best": plates at their faces' best fit, the closure takes up
+  the rest); ``goldberg`` reads ``m``, ``n``, ``realization`` ("dual" | "planar"), ``hex-cap`` ``rings``
+  and ``centre`` (5 | 6) (:mod:`fabpat.assembly.polyhedra`; plates at best fit).
 * ``[patterns]`` one of: ``pattern`` (every tile); ``groups`` (one ID per group of ``group_columns`` columns,
   stiff → soft) or ``tiles`` (rows × columns IDs, or a table {plate label = ID} naming every plate as the kit
   labels it, e.g. ``{T1 = "0x0488", …}``) on a strip; ``hexagon`` + ``pentagon``, or ``tiles`` = {plate label
