@@ -5,8 +5,8 @@ Every module of the package, by job (heavy libraries are imported inside the fun
 
 * **What to build** — ``spec`` (TOML specs, every value checked) and ``spec_tables`` (reading its file and
   tables); ``tiling`` (skeleton surfaces); ``mesh_tiling`` (a polygon-mesh file read and checked as a
-  tiling); ``polyhedra`` (Goldberg polyhedra, hexagon tubes and caps); ``rules`` (stiffness-based pattern choice); ``provenance``
-  (where each chosen pattern and its catalog energies come from).
+  tiling); ``polyhedra`` (Goldberg polyhedra, hexagon tubes and caps); ``rules`` (stiffness-based
+  pattern choice); ``provenance`` (where each chosen pattern and its catalog energies come from).
 * **Where the parts go** — ``placement`` (plates and sleeves in 3D); ``sleeve`` (the connector B-rep);
   ``parts`` (distinct solids and meshes, built once); ``checks`` (counts, midpoints, interference);
   ``nesting`` and ``sheets`` (laser sheets); ``net`` (unfolding).
