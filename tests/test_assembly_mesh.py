@@ -227,3 +227,53 @@ def test_cli_bad_mesh_and_missing_catalog_exit_2_writing_nothing(tmp_path: Path)
     assert r.returncode == 2 and not (tmp_path / "kit").exists()
     assert r.stderr.count("\n") == 1 and "inconsistent orientation" in r.stderr, r.stderr
     assert data  # the spec above is the helper's mesh with a rule instead of named patterns
+
+
+BLENDER_CUBE = """\ufeff# Blender 4.2
+o Cube
+v 0 0 0
+v 0 0 36
+v 0 36 0
+v 0 36 36
+v 36 0 0
+v 36 0 36
+v 36 36 0
+v 36.004 36 36
+vt 0 0
+vt 1 0
+vt 1 1
+vn -1 0 0
+usemtl plastic
+s 0
+f 1/1/1 2/2/1 4/3/1 3/1/1
+f -4/1/1 -2/2/1 -1/3/1 -3/1/1
+f 1//1 5//1 6//1 2//1
+f 3 4 8 7
+f 1 3 7 5
+f 2 6 8 4
+"""
+
+
+def test_a_modelling_programs_obj_builds_within_the_tolerance(tmp_path: Path) -> None:
+    """Texture and normal indices in other numbers than the vertices, negative (relative) indices, a
+    byte-order mark, and one corner 0.004 mm off (within the 0.01 mm tolerance): placed and checked."""
+    (tmp_path / "m.obj").write_text(BLENDER_CUBE, encoding="utf-8")
+    spec = parse(tmp_path, {"tiling": {"kind": "mesh", "file": "m.obj"}, "patterns": {"square": "0x0488"},
+                            "sleeve": {"margin": 2.8}})
+    assert len(spec.tiling.faces) == 6 and spec.tiling.faces[1] == (4, 6, 7, 5)
+    asm = place(spec, ["0x0488"] * 6)
+    assert len(asm.sleeves) == 12 and {s.kind for s in asm.sleeves} == {"S-QQ"}
+
+
+def test_split_vertices_are_welded(tmp_path: Path) -> None:
+    """Every face with its own four coincident vertices (as exporters write normals or UV seams)."""
+    V = [CUBE_V[i] for f in CUBE_F for i in f]
+    F = [tuple(range(4 * k, 4 * k + 4)) for k in range(6)]
+    spec = parse(tmp_path, mesh_spec(tmp_path, V, F))
+    assert len(spec.tiling.vertices) == 8 and len(place(spec, ["0x0488"] * 6).sleeves) == 12
+
+
+def test_a_ply_meshio_exits_on_is_one_line(tmp_path: Path) -> None:
+    (tmp_path / "m.ply").write_bytes(b"")
+    with pytest.raises(SpecError, match=r"m.ply: cannot read the tiling mesh as PLY: not a valid file"):
+        parse(tmp_path, {"tiling": {"kind": "mesh", "file": "m.ply"}, "patterns": {"pattern": "0x0488"}})

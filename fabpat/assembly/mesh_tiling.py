@@ -7,9 +7,14 @@ file, :func:`mesh_tiling` checks it and returns the :class:`~fabpat.assembly.til
 the plates are placed on (:mod:`fabpat.assembly.placement`), scaled so that its edge is the plate
 edge.
 
-**Formats.** OBJ and PLY (ASCII or binary) are read by meshio, which keeps polygon faces and their
-order (trimesh triangulates them). meshio reads only triangles from OFF, so OFF — a header line, the
-counts and one line per vertex and face — is read here.
+**Formats.** PLY (ASCII or binary) is read by meshio, which keeps polygon faces and their order
+(trimesh triangulates them). OBJ and OFF are read here: meshio reads only triangles from OFF, and
+refuses the OBJ files modelling programs write (texture coordinates and normals in other numbers than
+the vertices, as Blender writes them); both formats are a few line kinds, and only ``v`` and ``f``
+lines (OBJ; negative indices count back from the last vertex, "1/2/3" groups give their vertex) or
+the counts, vertex and face lines (OFF) carry the polygon mesh. Coincident vertices (closer than
+:data:`WELD` × the mesh's size) are merged first: exporters that split vertices per face (for normals
+or texture seams) write the same surface.
 
 **Checks**, each a one-line :class:`~fabpat.errors.SpecError` naming the face or edge (numbered from 1
 in file order, as OBJ numbers its vertices), before any work:
@@ -80,23 +85,71 @@ def read_polygon_mesh(path: str | os.PathLike[str]) -> tuple[NDArray[np.float64]
         raise SpecError(f"{p}: the tiling mesh is not a regular file")
     if st.st_size > MAX_MESH_BYTES:
         raise SpecError(f"{p}: the tiling mesh is {st.st_size} bytes, more than {MAX_MESH_BYTES}: not a tiling")
+    readers = {".off": _read_off, ".obj": _read_obj, ".ply": _read_meshio}
     try:
-        V, faces = _read_off(p) if suffix == ".off" else _read_meshio(p)
+        V, faces = readers[suffix](p)
     except SpecError:
         raise
-    except Exception as e:  # meshio raises its own ReadError, ValueError, IndexError … on a broken file
-        raise SpecError(f"{p}: cannot read the tiling mesh as {suffix[1:].upper()}: {e}") from None
+    except (Exception, SystemExit) as e:  # meshio raises ReadError, ValueError, … and on some PLY sys.exit(1)
+        why = "not a valid file" if isinstance(e, SystemExit) or not str(e) else str(e)
+        raise SpecError(f"{p}: cannot read the tiling mesh as {suffix[1:].upper()}: {why}") from None
     if not faces:
         raise SpecError(f"{p}: the tiling mesh has no faces")
     if V.ndim != 2 or V.shape[1] != 3 or not np.isfinite(V).all():
         raise SpecError(f"{p}: the tiling mesh's vertices must be finite 3-D points")
-    return V, faces
+    return _welded(V, faces)
+
+
+#: coincident vertices: closer than this fraction of the mesh's bounding-box diagonal
+WELD = 1e-9
+
+
+def _welded(V: NDArray[np.float64], faces: Faces) -> tuple[NDArray[np.float64], Faces]:
+    """Merge coincident vertices (the first of each group kept, order of first appearance); faces renumbered."""
+    used = sorted({i for f in faces for i in f if 0 <= i < len(V)})
+    if not used:
+        return V, faces
+    size = float(np.linalg.norm(np.ptp(V[used], axis=0))) or 1.0
+    key = np.round(V / (WELD * size)).astype(np.int64)
+    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    if len(first) == len(V):
+        return V, faces
+    order = np.argsort(first)
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    new = rank[inverse.ravel()]
+    return V[first[order]], tuple(tuple(int(new[i]) if 0 <= i < len(V) else i for i in f) for f in faces)
+
+
+def _read_obj(p: Path) -> tuple[NDArray[np.float64], Faces]:
+    """Wavefront OBJ: ``v x y z [w | r g b]`` and ``f a b c …`` lines (``a/t/n`` groups give their vertex;
+    negative indices count back from the last vertex so far); every other line kind is ignored."""
+    verts: list[tuple[float, float, float]] = []
+    faces: list[tuple[int, ...]] = []
+    text = p.read_text(encoding="utf-8-sig", errors="replace")
+    for number, line in enumerate(text.splitlines(), 1):
+        words = line.split("#", 1)[0].split()
+        if not words:
+            continue
+        try:
+            if words[0] == "v":
+                verts.append((float(words[1]), float(words[2]), float(words[3])))
+            elif words[0] == "f":
+                ids = [int(w.split("/")[0]) for w in words[1:]]
+                faces.append(tuple(i - 1 if i > 0 else len(verts) + i if i < 0 else -1 for i in ids))
+        except (ValueError, IndexError):
+            raise SpecError(f"{p}: line {number} is not an OBJ vertex or face line: {line.strip()[:60]!r}") from None
+    return np.array(verts, dtype=np.float64).reshape(-1, 3), tuple(faces)
 
 
 def _read_meshio(p: Path) -> tuple[NDArray[np.float64], Faces]:
+    import contextlib
+    import io
+
     import meshio
 
-    m = meshio.read(p)
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        m = meshio.read(p)  # meshio prints its complaints before it raises (or exits)
     faces: list[tuple[int, ...]] = []
     for block in m.cells:  # blocks follow the file's order; a block is one run of faces of one size
         if block.dim != 2:
@@ -108,7 +161,7 @@ def _read_meshio(p: Path) -> tuple[NDArray[np.float64], Faces]:
 def _read_off(p: Path) -> tuple[NDArray[np.float64], Faces]:
     """OFF (Geomview): "OFF", then "nv nf ne", nv lines "x y z", nf lines "k i1 … ik" (0-based; '#'
     comments). Colour values after a face's indices are ignored."""
-    words = [ln.split("#", 1)[0].split() for ln in p.read_text(encoding="utf-8", errors="replace").splitlines()]
+    words = [ln.split("#", 1)[0].split() for ln in p.read_text(encoding="utf-8-sig", errors="replace").splitlines()]
     lines = [w for w in words if w]
     if not lines or not lines[0][0].upper().endswith("OFF"):
         raise SpecError(f"{p}: not an OFF file (its first line must be OFF)")
@@ -118,6 +171,8 @@ def _read_off(p: Path) -> tuple[NDArray[np.float64], Faces]:
         nv, nf = int(head[0]), int(head[1])
         V = np.array([[float(x) for x in body[i][:3]] for i in range(nv)])
         faces = tuple(tuple(int(x) for x in body[nv + j][1:1 + int(body[nv + j][0])]) for j in range(nf))
+        if any(len(f) != int(body[nv + j][0]) for j, f in enumerate(faces)):
+            raise IndexError
     except (ValueError, IndexError):
         raise SpecError(f"{p}: broken OFF file (counts, vertex or face lines)") from None
     return V.reshape(-1, 3), faces

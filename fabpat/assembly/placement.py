@@ -172,14 +172,16 @@ def sleeve_kinds(spec: AssemblySpec, skel: Tiling) -> dict[int, tuple[str, float
     """Interior edge k → (sleeve part key, skeleton dihedral rad, printed angle rad).
 
     One key per printed angle: "S-flat" at 180°; at each joint's dihedral the polygon pair names it
-    ("S-HH", "S-HP") when all its joints share one angle, else the angle rounded to
-    :data:`DIHEDRAL_STEP` joins it ("S-HH-141.3deg"); one number of degrees in between gives one part,
+    ("S-HH", "S-HP") when all its joints share one angle (printed at it) or one angle rounded to
+    :data:`DIHEDRAL_STEP` (printed at that), else the rounded angle joins it ("S-HH-141.3deg"); one number of degrees in between gives one part,
     e.g. "S-160deg".
     """
     pairs: dict[str, list[float]] = {}
     for k in skel.interior_edges:
         pairs.setdefault(_pair_name(skel, int(k)), []).append(float(skel.dihedral[k]))
     single = {pair for pair, phis in pairs.items() if max(phis) - min(phis) < 1e-9}
+    one_bin = {pair for pair, phis in pairs.items()
+               if len({round(math.degrees(p) / DIHEDRAL_STEP) for p in phis}) == 1}
     out = {}
     for k in skel.interior_edges:
         phi = float(skel.dihedral[k])
@@ -193,7 +195,8 @@ def sleeve_kinds(spec: AssemblySpec, skel: Tiling) -> dict[int, tuple[str, float
             key = pair
         else:
             step = min(DIHEDRAL_STEP * round(math.degrees(phi) / DIHEDRAL_STEP), 180.0)
-            key, angle = (f"{pair}-{step:.1f}deg", math.radians(step)) if step < 180.0 else ("flat", math.pi)
+            name = pair if pair in one_bin else f"{pair}-{step:.1f}deg"
+            key, angle = (name, math.radians(step)) if step < 180.0 else ("flat", math.pi)
         out[int(k)] = (f"S-{key}", phi, angle)
     return out
 

@@ -96,7 +96,7 @@ def check_h(h: float, plate_edge: float, weight: float) -> None:
     seg = 2.0 * plate_edge / 16.0 / (1.0 + weight)  # interface segment length 2d (fabpat.mesh.interface_segments)
     if not 0 < h <= MAX_H_PER_INTERFACE * seg:
         raise GeometryError(f"mesh too coarse for the interface: h = {h:g} mm, the interface segment is {seg:.3g} mm "
-                            f"long; use h ≤ {MAX_H_PER_INTERFACE * seg:.3g} mm")
+                            f"long; use h ≤ {math.floor(MAX_H_PER_INTERFACE * seg * 1000) / 1000:g} mm")
 
 
 def model_plates(asm: object, h: float, thickness: float, weight: float) -> list[ModelPlate]:

@@ -82,6 +82,8 @@ MESH_KINDS = ("mesh", "goldberg", "hex-tube", "hex-cap")
 #: largest built-in surfaces: GP(6, 0) has 362 plates (a closure of 10 minutes at h = 3), a tube or
 #: cap beyond these sizes as many
 MAX_GOLDBERG_M, MAX_TUBE_ROWS, MAX_TUBE_COLUMNS, MAX_CAP_RINGS = 6, 30, 30, 8
+#: how far a built-in surface's faces may be from regular (× the edge) before its closure is refused
+BUILTIN_TOLERANCE = 0.5
 #: ``[patterns]`` key of each polygon of a polyhedral tiling (a mesh's faces have 3 … 12 sides)
 POLYGON_KEYS = {3: "triangle", 4: "square", 5: "pentagon", 6: "hexagon", 7: "heptagon", 8: "octagon", 9: "nonagon",
                 10: "decagon", 11: "hendecagon", 12: "dodecagon"}
@@ -140,7 +142,9 @@ class TilingSpec:
         if self.kind == "truncated-icosahedron":
             return truncated_icosahedron(1.0)
         if self.kind in MESH_KINDS:
-            return Tiling(self.kind, np.array(self.vertices) / self.edge, self.faces, best_fit=self.fit == "best")
+            # every mesh's plates sit at their faces' best fit: a file's faces are regular only within
+            # tiling.tolerance, and the sleeve frames must not demand more of them
+            return Tiling(self.kind, np.array(self.vertices) / self.edge, self.faces, best_fit=True)
         return honeycomb_strip(self.rows, self.columns, 1.0)
 
     @property
@@ -325,6 +329,10 @@ def _builtin_tiling(source: str, t: _Table, kind: str, edge: float) -> TilingSpe
         t.settle()
         if n > m:
             raise t.fail("n", f"= {n} must be at most tiling.m = {m} (GP(n, m) is the mirror image of GP(m, n))")
+        if m * m + m * n + n * n > MAX_GOLDBERG_M ** 2:
+            plates = 10 * (m * m + m * n + n * n) + 2
+            raise t.fail("n", f"= {n} with tiling.m = {m} makes GP({m}, {n}) of {plates} plates: at most m² + mn + "
+                         f"n² = {MAX_GOLDBERG_M ** 2} (GP({MAX_GOLDBERG_M}, 0), {10 * MAX_GOLDBERG_M ** 2 + 2} plates)")
         V, faces = polyhedra.goldberg(m, n, realization)
         extra: dict[str, Any] = {"m": m, "n": n, "realization": realization}
     elif kind == "hex-tube":
@@ -338,7 +346,10 @@ def _builtin_tiling(source: str, t: _Table, kind: str, edge: float) -> TilingSpe
         t.settle()
         V, faces = polyhedra.hex_cap(rings, centre)
         extra = {"rings": rings, "centre": centre}
-    skel = mesh_tiling(V, faces, edge=edge, fit="best", name=kind, source=f"{source}: tiling.kind = {kind!r}")
+    # our own surfaces are near-regular by construction: the bound only guards the closure's start (the
+    # roughest, hex-cap rings = 8 and GP(6, 0) planar, need 0.3 and 0.4 of the edge)
+    skel = mesh_tiling(V, faces, edge=edge, fit="best", name=kind, tolerance=BUILTIN_TOLERANCE * edge,
+                       source=f"{source}: tiling.kind = {kind!r}")
     return TilingSpec(kind, edge, vertices=tuple((float(x), float(y), float(z)) for x, y, z in skel.V),
                       faces=skel.faces, fit="best", **extra)
 
