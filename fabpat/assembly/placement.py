@@ -173,8 +173,8 @@ def sleeve_kinds(spec: AssemblySpec, skel: Tiling) -> dict[int, tuple[str, float
 
     One key per printed angle: "S-flat" at 180°; at each joint's dihedral the polygon pair names it
     ("S-HH", "S-HP") when all its joints share one angle (printed at it) or one angle rounded to
-    :data:`DIHEDRAL_STEP` (printed at that), else the rounded angle joins it ("S-HH-141.3deg"); one number of degrees in between gives one part,
-    e.g. "S-160deg".
+    :data:`DIHEDRAL_STEP` (printed at that), else the rounded angle joins it ("S-HH-141.3deg"); one number
+    of degrees in between gives one part, e.g. "S-160deg".
     """
     pairs: dict[str, list[float]] = {}
     for k in skel.interior_edges:
