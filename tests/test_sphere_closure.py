@@ -171,18 +171,6 @@ def test_the_similar_energy_pair_is_rounder() -> None:
     assert rms[0] < 0.5 * rms[1], rms
 
 
-def test_mesh_study_of_the_shipped_sphere(shipped) -> None:  # noqa: ANN001
-    """h = 3 (the fixture), 2 and 1.5 mm: the radius moves < 0.5 % and sphericity_rms < 10 % between the
-    two finest meshes (and the peak strain stays under the limit on all three)."""
-    spec = load_spec(FLAT)
-    rows = [shipped.fields()] + [simulate_assembly(spec, h=h).fields() for h in (2.0, 1.5)]
-    assert [r["h"] for r in rows] == [3.0, 2.0, 1.5]
-    assert rows[2]["nodes"] > rows[1]["nodes"] > rows[0]["nodes"]
-    assert abs(rows[2]["radius"] / rows[1]["radius"] - 1) < 0.005
-    assert abs(rows[2]["sphericity_rms"] / rows[1]["sphericity_rms"] - 1) < 0.10
-    assert all(r["over_limit"] == [] for r in rows)
-
-
 def test_a_roundest_spec_simulates_the_pair_the_kit_builds(tmp_path: Path) -> None:
     """rule = "roundest" in simulate-assembly: the reported sphere is the rounder of the candidate pairs,
     each of which is also closed here on its own, by name."""

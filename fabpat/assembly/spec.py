@@ -362,8 +362,9 @@ def _mesh_tiling(source: str, t: _Table) -> TilingSpec:
     edge = t.number("edge", None, "edge") if t.has("edge") else None
     fit = t.choice("fit", FITS, "exact")
     tolerance = t.number("tolerance", DEFAULT_TOLERANCE, "curve_tolerance") if t.has("tolerance") else None
-    if name is None:
-        raise t.fail("file", "is missing: the polygon mesh (OBJ, PLY or OFF) whose faces carry the plates")
+    if name is None or not name.strip():
+        raise t.fail("file", f"is {'missing' if name is None else 'empty'}: the polygon mesh (OBJ, PLY or OFF) "
+                     "whose faces carry the plates")
     t.settle()
     path = Path(name) if Path(name).is_absolute() else Path(source).parent / name
     try:
