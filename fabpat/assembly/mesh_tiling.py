@@ -46,7 +46,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.assembly.tiling import Tiling
+from fabpat.assembly.tiling import Tiling, weld
 from fabpat.errors import SpecError
 
 MESH_SUFFIXES = (".obj", ".ply", ".off")
@@ -110,15 +110,10 @@ def _welded(V: NDArray[np.float64], faces: Faces) -> tuple[NDArray[np.float64], 
     if not used:
         return V, faces
     size = float(np.linalg.norm(np.ptp(V[used], axis=0))) or 1.0
-    key = np.round(V / (WELD * size)).astype(np.int64)
-    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
-    if len(first) == len(V):
+    U, new = weld(V, WELD * size)
+    if len(U) == len(V):
         return V, faces
-    order = np.argsort(first)
-    rank = np.empty_like(order)
-    rank[order] = np.arange(len(order))
-    new = rank[inverse.ravel()]
-    return V[first[order]], tuple(tuple(int(new[i]) if 0 <= i < len(V) else i for i in f) for f in faces)
+    return U, tuple(tuple(int(new[i]) if 0 <= i < len(V) else i for i in f) for f in faces)
 
 
 def _read_obj(p: Path) -> tuple[NDArray[np.float64], Faces]:

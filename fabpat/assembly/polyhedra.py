@@ -33,22 +33,12 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.assembly.tiling import icosahedron
+from fabpat.assembly.tiling import icosahedron, weld
 from fabpat.errors import SpecError
 
 Arr = NDArray[np.float64]
 Faces = tuple[tuple[int, ...], ...]
 REALIZATIONS = ("dual", "planar")
-
-
-def _unique_rows(P: Arr, tol: float = 1e-9) -> tuple[Arr, NDArray[np.int64]]:
-    """Points merged within ``tol``: the unique points (order of first appearance) and each input's index."""
-    key = np.round(P / tol).astype(np.int64)
-    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
-    order = np.argsort(first)
-    rank = np.empty_like(order)
-    rank[order] = np.arange(len(order))
-    return P[first[order]], rank[inverse.ravel()]
 
 
 def geodesic(m: int, n: int) -> tuple[Arr, NDArray[np.int64]]:
@@ -72,7 +62,7 @@ def geodesic(m: int, n: int) -> tuple[Arr, NDArray[np.int64]]:
     W = np.array(pts)
     P = np.vstack([W @ V[f] for f in F])
     P /= np.linalg.norm(P, axis=1, keepdims=True)
-    P, _ = _unique_rows(P)
+    P = weld(P, 1e-9)[0]
     T = m * m + m * n + n * n
     if len(P) != 10 * T + 2:
         raise AssertionError(f"GP({m}, {n}): {len(P)} geodesic vertices, expected {10 * T + 2}")
@@ -128,7 +118,7 @@ def hex_tube(rows: int, columns: int) -> tuple[Arr, Faces]:
     y = flat.V[:, 1] - flat.V[:, 1].min() + 0.5 * math.sqrt(3.0)  # row 0's bottom edge at y = 0 (even columns)
     theta = -2.0 * math.pi * y / period  # clockwise: the strip's counter-clockwise loops face outwards
     P = np.column_stack([flat.V[:, 0], radius * np.cos(theta), radius * np.sin(theta)])
-    P, idx = _unique_rows(P, 1e-6)
+    P, idx = weld(P, 1e-6)
     faces = tuple(tuple(int(idx[i]) for i in loop) for loop in flat.faces)
     return _unit(P, faces)
 

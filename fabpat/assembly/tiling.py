@@ -181,9 +181,11 @@ class Tiling:
         return out
 
 
-def _weld(points: list[NDArray[np.float64]]) -> tuple[NDArray[np.float64], list[int]]:
-    """Merge coincident points: returns unique points and the index of each input point."""
-    key = np.round(np.array(points) / _WELD).astype(np.int64)
+def weld(points: list[NDArray[np.float64]] | NDArray[np.float64], tol: float = _WELD
+         ) -> tuple[NDArray[np.float64], list[int]]:
+    """Merge points closer than about ``tol`` (mm; rounded to a grid of that step): the unique points (n, 3)
+    in order of first appearance, and the index of each input point among them."""
+    key = np.round(np.array(points) / tol).astype(np.int64)
     _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
     order = np.argsort(first)  # keep the order of first appearance: vertex numbering is reproducible
     rank = np.empty_like(order)
@@ -238,7 +240,7 @@ def truncated_icosahedron(edge: float = 36.0) -> Tiling:
             if a != b and math.isclose(float(np.linalg.norm(Vi[a] - Vi[b])), 2.0):
                 third[a, b] = len(pts)
                 pts.append(Vi[a] + (Vi[b] - Vi[a]) / 3.0)
-    V, idx = _weld(pts)
+    V, idx = weld(pts)
     faces: list[tuple[int, ...]] = []
     for a, b, c in Fi:
         ring = [third[a, b], third[b, a], third[b, c], third[c, b], third[c, a], third[a, c]]
@@ -268,6 +270,6 @@ def honeycomb_strip(rows: int, columns: int, edge: float = 36.0) -> Tiling:
             centre = np.array([1.5 * edge * c, math.sqrt(3.0) * edge * (r + 0.5 * (c % 2))])
             pts += [np.array([*(centre + p), 0.0]) for p in corners]
             grid.append((r, c))
-    V, idx = _weld(pts)
+    V, idx = weld(pts)
     faces = tuple(tuple(idx[6 * f + i] for i in range(6)) for f in range(len(grid)))
     return Tiling("honeycomb-strip", V, faces, np.array(grid, dtype=np.int64))
