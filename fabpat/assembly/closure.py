@@ -7,7 +7,10 @@ angle (``[sleeve] angle``; "flat" = 180°, the paper's straight sleeves), so a s
 the interfaces of both its plates by half the joint's angular defect (20.9° at a hexagon–hexagon
 joint, 18.7° at a hexagon–pentagon one; ``../shared`` notes) and the plates bend into the sphere. The
 model is :mod:`fabpat.assembly.model` (rigid sleeves, plates meshed as in the scenarios); the path is
-:func:`fabpat.shell.linked.solve_path` with the joint angles ramped by λ (no loads).
+:func:`fabpat.shell.linked.solve_path` with the joint angles ramped by λ (no loads). On a tiling whose
+faces are only nearly regular (Goldberg polyhedra, tubes, caps, a mesh at its best fit) each slot's
+ramp also carries its plate's offset from the slot (:func:`slot_motions`); on the truncated icosahedron
+that offset is round-off and the ramp is the joint angle's.
 
 Decisions (each measured on the shipped sphere, 0x0488/0x0508, h = 3):
 
@@ -30,7 +33,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -45,6 +48,9 @@ from fabpat.assembly.model import (
 )
 from fabpat.shell.element import Material
 from fabpat.shell.linked import PathResult, solve_path
+
+if TYPE_CHECKING:
+    from fabpat.assembly.placement import Assembly, PlacedSleeve
 
 Arr = NDArray[np.float64]
 
@@ -127,7 +133,7 @@ def closure_model(plates: list[ModelPlate], sleeves: list[ModelSleeve], material
     return ClosureSetup(assembly_model(plates, sleeves, material))
 
 
-def slot_motions(asm: Any, s: Any, plates: list[ModelPlate]) -> tuple[tuple[Arr, Arr], tuple[Arr, Arr]]:
+def slot_motions(asm: Assembly, s: PlacedSleeve, plates: list[ModelPlate]) -> tuple[tuple[Arr, Arr], tuple[Arr, Arr]]:
     """For sleeve ``s`` (a :class:`~fabpat.assembly.placement.PlacedSleeve` of ``asm``), the rigid motion
     (rotation vector rad, offset mm; world axes about the sleeve's centre) that takes each slot's
     plate interface from where it was placed to where the sleeve as printed holds it.
