@@ -37,6 +37,7 @@ def test_one_number_sets_every_plate_and_a_table_names_plates(tmp_path: Path) ->
     ("bridge_weight = 3.0", "patterns.bridge_weight = 3 is out of range: must be in [0.25, 2.5]"),
     ("bridge_weight = {T2 = 0.1}", "patterns.bridge_weight.T2 = 0.1 is out of range"),
     ("bridge_weight = \"wide\"", "patterns.bridge_weight must be a number (every plate), a table"),
+    ("bridge_weight = \"graded\"", "write patterns.rule = 'graded' and patterns.bridge_weight = \"rule\""),
 ])
 def test_bad_bridge_weights_are_one_line(tmp_path: Path, line: str, words: str) -> None:
     with pytest.raises(SpecError, match=None) as e:

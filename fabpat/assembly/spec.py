@@ -425,6 +425,10 @@ def _bridge_weights(source: str, value: Any, tiling: TilingSpec) -> tuple[float,
             raise SpecError(f"{source}: patterns.bridge_weight.{unknown[0]} is not a plate of this "
                             f"{tiling.kind} (labels {labels[0]} … {labels[-1]})")
         return tuple(weight(value[lab], f"patterns.bridge_weight.{lab}") if lab in value else 1.0 for lab in labels)
+    if value in MEMBER_RULES:  # the rule's name where "rule" belongs: say how the two keys go together
+        raise SpecError(f"{source}: patterns.bridge_weight = {value!r}: a rule is named by patterns.rule; "
+                        f"write patterns.rule = {value!r} and patterns.bridge_weight = \"rule\" for the rule "
+                        "to pick each pattern's member")
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise SpecError(f"{source}: patterns.bridge_weight must be a number (every plate), a table "
                         f"{{plate label = number}}, e.g. {{{labels[0]} = 0.5}}, or \"rule\"; got {value!r}")
