@@ -1,14 +1,19 @@
 """What a stored result depends on: the solver version (the package version and a digest of the
-source of every module the pipeline runs) and the input hash of a catalog row (:mod:`fabpat.catalog`).
+code of every module the pipeline runs) and the input hash of a catalog row (:mod:`fabpat.catalog`).
 
 A sweep skips a row whose stored hash equals the one it would compute now, so changing any input or
-the solver code recomputes exactly the affected rows.
+the solver code recomputes exactly the affected rows. The digest reads the code without its comments
+and docstrings (:func:`code_text`): rewording an explanation does not make 11 000 stored solves stale,
+while any change to a statement, a constant or a default does.
 """
 
 from __future__ import annotations
 
+import ast
 import hashlib
+import io
 import json
+import tokenize
 from collections.abc import Mapping, Sequence
 from functools import cache
 from importlib import resources
@@ -64,17 +69,46 @@ def pipeline_modules(roots: Sequence[str] = _PIPELINE_ROOTS) -> list[Path]:
     return sorted(set(seen.values()))
 
 
+def code_text(source: str) -> str:
+    """``source`` (Python code) without its comments, docstrings and blank lines, each line's trailing
+    space stripped: what the digest of :func:`solver_version` reads.
+
+    Comments are found by :mod:`tokenize` and docstrings (every string statement: a module's, class's or
+    function's docstring and an attribute's, none of which runs) by :mod:`ast`; both report the same
+    positions on every Python version, so the text does not depend on the interpreter. Raises
+    :class:`SyntaxError` for code that does not parse.
+    """
+    lines = source.splitlines()
+
+    def column(line: int, utf8_offset: int) -> int:  # ast counts columns in UTF-8 bytes, tokenize in characters
+        return len(lines[line - 1].encode()[:utf8_offset].decode())
+
+    cut: list[tuple[int, int, int, int]] = []  # (first line, column, last line, end column); lines from 1
+    for tok in tokenize.generate_tokens(io.StringIO(source).readline):
+        if tok.type == tokenize.COMMENT:
+            cut.append((*tok.start, *tok.end))
+    for doc in ast.walk(ast.parse(source)):
+        # a string statement does nothing when run: a docstring, or the documentation of an attribute
+        if isinstance(doc, ast.Expr) and isinstance(doc.value, ast.Constant) and isinstance(doc.value.value, str):
+            end_line, end_col = doc.end_lineno or doc.lineno, doc.end_col_offset or 0
+            cut.append((doc.lineno, column(doc.lineno, doc.col_offset), end_line, column(end_line, end_col)))
+    for l0, c0, l1, c1 in sorted(cut, reverse=True):  # from the end: earlier positions stay valid
+        lines[l0 - 1:l1] = [lines[l0 - 1][:c0] + lines[l1 - 1][c1:]]
+    return "\n".join(line.rstrip() for line in lines if line.strip())
+
+
 @cache
 def solver_version() -> str:
-    """``fabpat <version>+<digest>``: the package version and a digest of the pipeline's source files
-    (:func:`pipeline_modules`) and of the mesher's version (another Delaunay mesh, another energy)."""
+    """``fabpat <version>+<digest>``: the package version and a digest of the pipeline's code
+    (:func:`pipeline_modules`, read by :func:`code_text`: comments and docstrings left out) and of the
+    mesher's version (another Delaunay mesh, another energy)."""
     from fabpat import __version__
 
     base = Path(str(resources.files("fabpat")))
     h = hashlib.sha256()
     for f in pipeline_modules():
         h.update(f.relative_to(base).as_posix().encode())
-        h.update(f.read_bytes())
+        h.update(code_text(f.read_text(encoding="utf-8")).encode())
     try:
         from importlib.metadata import version
 

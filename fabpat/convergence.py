@@ -266,4 +266,4 @@ def simulate(
     meshes = mesh_converged(filleted, h, max_elements=max_elements, option="raise max_elements")
     c = run_converged(meshes, scenario, sides=filleted.sides, edge=filleted.edge, thickness=thickness, E=E, nu=nu,
                       nonlinear=not linear)
-    return dataclasses.replace(c.as_result(), pattern_id=filleted.pattern.id)
+    return dataclasses.replace(c.as_result(), pattern_id=filleted.pattern.id, member=filleted.variation.tag())

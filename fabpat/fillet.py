@@ -95,7 +95,9 @@ class FilletedPattern:
     polygon edge, from M − d to M + d (counter-clockwise). ``interface_arcs``: for each polygon edge
     the two full bow-tie arcs (P0, M, P0', w) whose halves the outline keeps — their middle weight is
     the configured w; :attr:`support_arcs` is the same arcs as one flat tuple. ``variation``: the
-    family member (:class:`~fabpat.variation.Variation`; the paper's fillets by default).
+    family member (:class:`~fabpat.variation.Variation`; the paper's fillets by default) that the outline
+    *is*: a pattern without non-manifold vertices has no bridging arc, so every member of its family is
+    the paper's outline and is recorded as the paper's (:func:`fillet_pattern`).
     """
 
     pattern: Pattern
@@ -109,6 +111,13 @@ class FilletedPattern:
     def id(self) -> str:
         """The pattern's hex ID (e.g. ``"0x0488"``)."""
         return self.pattern.id
+
+    @property
+    def label(self) -> str:
+        """The ID and, for a family member, its tag: ``"0x0488"``, ``"0x0488 b0.5"``
+        (:meth:`~fabpat.variation.Variation.tag`) — what parts, sheets and pictures call it."""
+        tag = self.variation.tag()
+        return f"{self.id} {tag}" if tag else self.id
 
     @property
     def sides(self) -> int:
@@ -212,7 +221,7 @@ class FilletedPattern:
         from fabpat.pictures import outline_svg
 
         p = self.pattern
-        return outline_svg(self.outline, title=f"{p.id} ({p.sides}-gon, edge {p.edge:g} mm)")
+        return outline_svg(self.outline, title=f"{self.label} ({p.sides}-gon, edge {p.edge:g} mm)")
 
 
 def interface_half_length(edge: float, depth: int = 2, weight: float = DEFAULT_WEIGHT) -> float:
@@ -511,7 +520,9 @@ def fillet_pattern(pattern: Pattern, weight: float = DEFAULT_WEIGHT,
 
     ``weight``: the middle weight w of the interface arcs (the paper's 0.2), in its range
     (fabpat.validate: GeometryError otherwise). ``variation``: the family member
-    (:class:`~fabpat.variation.Variation`: interior fillet weights; None = the paper's).
+    (:class:`~fabpat.variation.Variation`: interior fillet weights; None = the paper's). A pattern
+    without non-manifold vertices (0x0f88) has no arc the variation acts on: its outline, and the
+    ``variation`` it records, are the paper's.
     Raises :class:`GeometryError` if the pattern cannot be filleted (not expected for library patterns).
     """
     if not isinstance(pattern, Pattern):
@@ -536,6 +547,8 @@ def fillet_pattern(pattern: Pattern, weight: float = DEFAULT_WEIGHT,
     arcs = tuple(bowties[v] for v, _ in sorted(iface.items(), key=lambda kv: kv[1]))
     seg = np.array([[_midpoint(a), _midpoint(b)] for a, b in arcs])
     outline = replace(outline, polygon=PolygonFrame(pattern.sides, pattern.edge, seg))
+    if not variation.is_paper and not any(star.kind == "non-manifold" for star in vertex_stars(pattern)):
+        variation = PAPER_VARIATION  # no bridging arc: the member's outline is the paper's, and says so
     return FilletedPattern(pattern, float(weight), outline, seg, arcs, variation)
 
 

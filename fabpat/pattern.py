@@ -19,13 +19,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat._callable import make_callable
-from fabpat.errors import PatternError
+from fabpat.errors import GeometryError, PatternError
 from fabpat.lattice import Slice, check_depth, check_sides, polygon_vertices, slice_lattice
 from fabpat.metrics import RegionMetrics, triangle_metrics
 from fabpat.validate import check
 
 if TYPE_CHECKING:  # pragma: no cover
     from fabpat.fillet import FilletedPattern
+    from fabpat.variation import Variation
 
 DEFAULT_EDGE = 36.0  # mm: the paper's hexagon edge (§4.1)
 
@@ -164,16 +165,23 @@ class Pattern:
         perimeter = float(np.linalg.norm(self.V[e[:, 0]] - self.V[e[:, 1]], axis=1).sum())
         return RegionMetrics.from_values(area, perimeter, J)
 
-    def fillet(self, weight: float = 0.2, **variation: float) -> FilletedPattern:
+    def fillet(self, weight: float = 0.2, variation: Variation | None = None, **values: float) -> FilletedPattern:
         """The exact filleted outline (paper §3.3) with interface-arc middle weight ``weight`` (the
-        paper's 0.2) and the family member ``variation`` (``bridge_weight=0.5``; see
-        :mod:`fabpat.variation` and ``fabpat variations``). Raises :class:`~fabpat.errors.GeometryError`
-        for a weight or variation outside its range, or an unknown variation name."""
+        paper's 0.2) and a family member (:mod:`fabpat.variation`, ``fabpat variations``): either a
+        :class:`~fabpat.variation.Variation` or its values by name (``bridge_weight=0.5``), not both.
+        Raises :class:`~fabpat.errors.GeometryError` for a weight or variation outside its range, an
+        unknown variation name, a ``variation`` that is not a Variation, or both spellings at once."""
         # A convenience over the next stage, imported when called: the pattern stage stays self-contained.
         from fabpat.fillet import fillet_pattern
         from fabpat.variation import Variation
 
-        return fillet_pattern(self, weight, Variation.from_values(variation))
+        if variation is not None and values:
+            raise GeometryError(f"give the variation once: fillet(variation=Variation(...)) or fillet("
+                                f"{', '.join(f'{k}=…' for k in values)}), not both")
+        if variation is not None and not isinstance(variation, Variation):
+            raise GeometryError(f"variation must be a fabpat.Variation such as Variation(bridge_weight=0.5), got "
+                                f"{type(variation).__name__} {variation!r:.40}")
+        return fillet_pattern(self, weight, variation if variation is not None else Variation.from_values(values))
 
     def __repr__(self) -> str:
         return (f"Pattern('{self.id}', sides={self.sides}, depth={self.depth}, edge={self.edge:g} mm, "

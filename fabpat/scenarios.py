@@ -88,7 +88,9 @@ class ScenarioResult:
     sizes (mm) the energy comes from and ``mesh_energies`` (N·mm) their energies: one mesh, or two when
     the energy is extrapolated to the mesh-converged value (:func:`fabpat.convergence.simulate`; every
     other field is then the finer mesh's); empty when the caller did not say (:func:`run_scenario`).
-    ``pattern_id``: the pattern's ID when :func:`simulate` made the result ("" from :func:`run_scenario`).
+    ``pattern_id``: the pattern's ID when :func:`simulate` made the result ("" from :func:`run_scenario`);
+    ``member``: its family member's tag (``"b0.5"``, :meth:`fabpat.variation.Variation.tag`; "" for the
+    paper's). :attr:`label` is the two together, as the repr and the caption show them.
     In a notebook it shows as the picture :meth:`to_png` draws (``_repr_png_``).
     """
 
@@ -107,10 +109,16 @@ class ScenarioResult:
     h: tuple[float, ...] = ()
     mesh_energies: tuple[float, ...] = ()
     pattern_id: str = ""  # the simulated pattern's ID, when the caller knew it (:func:`simulate`)
+    member: str = ""  # the family member's tag ("b0.5"), "" for the paper's
+
+    @property
+    def label(self) -> str:
+        """``"0x0488 b0.5"``: the pattern ID and the member's tag, as far as they are known."""
+        return " ".join(x for x in (self.pattern_id, self.member) if x)
 
     def __repr__(self) -> str:
         kind = "nonlinear" if self.nonlinear else "linear"
-        who = f"{self.pattern_id!r}, " if self.pattern_id else ""
+        who = f"{self.label!r}, " if self.label else ""
         return (f"ScenarioResult({who}{self.scenario!r}, energy={self.energy:.6g} N·mm, "
                 f"max_displacement={self.max_displacement:.4g} mm, {kind}, {self.nodes} nodes, "
                 f"converged={self.converged})")
@@ -119,7 +127,7 @@ class ScenarioResult:
         """The picture's caption: pattern, scenario and load, then this result's ``energy`` (the number the
         API returns, to 4 significant digits) and largest displacement, e.g. ``"0x0488 · Dome, M = 100 N·mm\n
         U = 430.5 N·mm, max |u| = 3.2 mm"``."""
-        head = " · ".join(x for x in (self.pattern_id, load_label(self.scenario)) if x)
+        head = " · ".join(x for x in (self.label, load_label(self.scenario)) if x)
         return f"{head}\nU = {self.energy:.4g} N·mm, max |u| = {self.max_displacement:.3g} mm"
 
     def _repr_png_(self) -> bytes:
@@ -295,7 +303,8 @@ def simulate(
     mesh = mesh_filleted(filleted, h, max_elements=max_elements)
     r = run_scenario(mesh, scenario, sides=filleted.sides, edge=filleted.edge, thickness=thickness, E=E,
                      nu=nu, nonlinear=not linear)
-    return dataclasses.replace(r, h=(float(h),), mesh_energies=(r.energy,), pattern_id=filleted.pattern.id)
+    return dataclasses.replace(r, h=(float(h),), mesh_energies=(r.energy,), pattern_id=filleted.pattern.id,
+                               member=filleted.variation.tag())
 
 
 def simulate_inputs(filleted: Any, scenario: str, h: float, thickness: float, youngs_modulus: float,

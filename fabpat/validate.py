@@ -20,6 +20,7 @@ import math
 import numbers
 import os
 from dataclasses import dataclass
+from decimal import Decimal
 from pathlib import Path
 
 from fabpat.errors import FabpatError, RangeError
@@ -134,7 +135,9 @@ def check(name: str, value: object, label: str | None = None, error: type[Fabpat
     r = RANGES[name]
     what = _label(name, label)
     kind = "an integer" if r.integer else "a number"
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+    # Decimal is not a numbers.Real (PEP 3141 keeps it apart from float) but is what a spreadsheet or a
+    # JSON parser with parse_float=Decimal hands over: a number all the same.
+    if isinstance(value, bool) or not isinstance(value, numbers.Real | Decimal):
         raise error(f"{what} must be {kind} {_range_text(r).removeprefix('an integer ')}, got {value!r}")
     if r.integer and not isinstance(value, numbers.Integral):
         raise error(f"{what} must be {r.describe()}, got {value!r}")

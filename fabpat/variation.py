@@ -62,6 +62,10 @@ class Variation:
         Raises :class:`GeometryError` naming the valid parameters for an unknown name, and the range
         for a value outside it (:func:`fabpat.validate.check`).
         """
+        if values is not None and not isinstance(values, Mapping):
+            raise GeometryError(f"variation values must be a mapping name → number such as {{'bridge_weight': 0.5}}, "
+                                f"got {type(values).__name__} {values!r:.40}"
+                                + (" (that is the command line's spelling)" if isinstance(values, str) else ""))
         given = {**(values or {}), **more}
         names = [f.name for f in fields(cls)]
         for key in given:
@@ -85,7 +89,23 @@ class Variation:
 
     def label(self) -> str:
         """``"bridge_weight=0.5"`` (only what differs from the paper), or ``""``."""
-        return " ".join(f"{k}={v:g}" for k, v in self.changed().items())
+        return " ".join(f"{k}={_shortest(v)}" for k, v in self.changed().items())
+
+    def tag(self) -> str:
+        """The short name of the member that parts, plates and candidates carry after the pattern ID:
+        ``"b0.5"`` (``bridge_weight`` 0.5), or ``""`` for the paper's."""
+        return " ".join(f"{_TAGS[k]}{_shortest(v)}" for k, v in self.changed().items())
+
+
+def _shortest(v: float) -> str:
+    """``f"{v:g}"`` unless that names another number (1.0000001 → "1"): then ``repr``, which round-trips,
+    so two different members never share a label."""
+    short = f"{v:g}"
+    return short if float(short) == v else repr(float(v))
+
+
+#: The one-letter prefix of each parameter in :meth:`Variation.tag`.
+_TAGS: dict[str, str] = {"bridge_weight": "b"}
 
 
 PAPER_VARIATION = Variation()

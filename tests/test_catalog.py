@@ -109,6 +109,30 @@ def test_solver_version_covers_exactly_the_pipeline_code() -> None:
     assert solver_version() == solver_version() and solver_version().startswith("fabpat ")
 
 
+CODE = '''"""Module docstring."""
+import math  # why: a comment
+X = "é"; """the attribute's documentation, after a non-ASCII string on its line"""
+
+
+def f(a: int = 1) -> float:
+    """A docstring
+    over two lines."""
+    s = "# not a comment"  # a comment
+    return math.sqrt(a)   
+'''
+
+
+def test_code_text_leaves_out_comments_and_docstrings_only() -> None:
+    from fabpat.catalog_version import code_text
+
+    assert code_text(CODE) == ('import math\nX = "é";\ndef f(a: int = 1) -> float:\n'
+                               '    s = "# not a comment"\n    return math.sqrt(a)')
+    reworded = CODE.replace("A docstring", "Another explanation").replace("a comment\n", "why, again\n")
+    assert code_text(reworded) == code_text(CODE)
+    for change in (("a: int = 1", "a: int = 2"), ("math.sqrt", "math.exp"), ('"# not a comment"', '"#"')):
+        assert code_text(CODE.replace(*change)) != code_text(CODE), change
+
+
 def fake_rows(pattern_id: str, sides: int, energies: dict[str, object], *, area: float = 1000.0,
               thickness: float = 2.0, **result: object) -> list[dict[str, object]]:
     """A pattern's catalog rows written by hand (no solve): one ``patterns`` row with plausible metrics and

@@ -62,6 +62,21 @@ def test_a_pattern_without_non_manifold_vertices_has_a_one_member_family() -> No
     plain = next(i for i in lib.ids if not any(v.kind == "non-manifold" for v in vertex_stars(lib.pattern(i))))
     p = lib.pattern(plain)
     assert p.fillet(bridge_weight=LOW).outline.to_svg_path() == p.fillet(bridge_weight=HIGH).outline.to_svg_path()
+    # the member is the paper's outline, so it is recorded, labelled and named as the paper's
+    member = p.fillet(bridge_weight=LOW)
+    assert member.variation.is_paper and member.label == plain
+    bridged = next(i for i in lib.ids if any(v.kind == "non-manifold" for v in vertex_stars(lib.pattern(i))))
+    assert lib.pattern(bridged).fillet(bridge_weight=LOW).variation == Variation(LOW)
+
+
+def test_cli_warns_when_a_variation_does_not_change_the_pattern(tmp_path: Path) -> None:
+    out = tmp_path / "plain.svg"
+    r = CliRunner().invoke(cli, ["show", "0x0f88", "--variation", "bridge_weight=0.5", "--svg", str(out)])
+    assert r.exit_code == 0, r.output
+    assert "0x0f88 has no non-manifold vertex, so bridge_weight=0.5 does not change it" in r.stderr
+    assert "<title>0x0f88 (6-gon" in out.read_text()
+    r = CliRunner().invoke(cli, ["show", "0x0488", "--variation", "bridge_weight=0.5"])
+    assert r.exit_code == 0 and "warning" not in r.stderr and "<title>0x0488 b0.5 (6-gon" in r.stdout
 
 
 def test_wider_necks_for_smaller_weights() -> None:
@@ -105,6 +120,53 @@ def test_bad_variations_raise_a_fabpat_error(bad: dict[str, object]) -> None:
         Variation.from_values(bad)
     with pytest.raises(GeometryError):
         fillet_pattern(get_pattern("0x0488"), 0.2, bad)  # type: ignore[arg-type]  # not a Variation
+
+
+@pytest.mark.parametrize("values", ["bridge_weight=0.5", [("bridge_weight", 0.5)], 0.5])
+def test_from_values_refuses_what_is_not_a_mapping(values: object) -> None:
+    with pytest.raises(GeometryError, match="must be a mapping name → number") as e:
+        Variation.from_values(values)  # type: ignore[arg-type]
+    assert ("command line's spelling" in str(e.value)) == isinstance(values, str)
+
+
+def test_a_decimal_is_a_number() -> None:
+    from decimal import Decimal
+
+    assert Variation.from_values({"bridge_weight": Decimal("0.5")}) == Variation(0.5)
+    with pytest.raises(GeometryError, match="out of range"):
+        Variation(Decimal("3"))  # type: ignore[arg-type]
+
+
+def test_fillet_takes_a_variation_object_or_its_values_not_both() -> None:
+    p = get_pattern("0x0488")
+    by_object = p.fillet(0.2, Variation(0.5))
+    assert by_object.variation == p.fillet(0.2, bridge_weight=0.5).variation == Variation(0.5)
+    assert by_object.outline.to_svg_path() == p.fillet(bridge_weight=0.5).outline.to_svg_path()
+    with pytest.raises(GeometryError, match="give the variation once"):
+        p.fillet(0.2, Variation(0.5), bridge_weight=0.5)
+    with pytest.raises(GeometryError, match="must be a fabpat.Variation"):
+        p.fillet(0.2, {"bridge_weight": 0.5})  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(("w", "tag"), [(1.0, ""), (0.5, "b0.5"), (2.5, "b2.5"), (1.0000001, "b1.0000001"),
+                                        (0.7937005259840998, "b0.7937005259840998")])
+def test_tags_never_name_another_member(w: float, tag: str) -> None:
+    v = Variation(w)
+    assert v.tag() == tag
+    assert (v.label() == "") == (tag == "")
+    if tag:  # the tag reads back as the very member
+        assert float(tag.removeprefix("b")) == w and float(v.label().partition("=")[2]) == w
+    from fabpat.assembly.placement import PlateType
+    from fabpat.design.base import member_token, split_member
+
+    assert split_member(member_token("0x0488", w)) == ("0x0488", w)
+    assert PlateType(6, "0x0488", w).label == ("hex 0x0488" + (f" {tag}" if tag else ""))
+
+
+def test_the_result_names_the_member() -> None:
+    r = fabpat.simulate(get_pattern("0x0488").fillet(bridge_weight=0.5), "dome", h=4.0, linear=True)
+    assert r.label == "0x0488 b0.5" and r.member == "b0.5"
+    assert repr(r).startswith("ScenarioResult('0x0488 b0.5', 'dome'") and r.caption().startswith("0x0488 b0.5 · Dome")
 
 
 def test_variations_lists_every_parameter_with_its_range() -> None:

@@ -81,8 +81,8 @@ class PlateType:
     def label(self) -> str:
         """Part key shown everywhere: polygon short name, pattern ID and, for a family member, its
         bridge_weight, e.g. ``"hex 0x0488"``, ``"hex 0x0488 b0.5"``."""
-        member = f" b{self.bridge_weight:g}" if self.bridge_weight != 1.0 else ""
-        return f"{SHORT_NAMES.get(self.sides, f'{self.sides}-gon')} {self.pattern_id}{member}"
+        tag = self.variation.tag()
+        return f"{SHORT_NAMES.get(self.sides, f'{self.sides}-gon')} {self.pattern_id}" + (f" {tag}" if tag else "")
 
     @property
     def variation(self) -> Variation:

@@ -21,6 +21,7 @@ from fabpat.cli.options import (
     sides_option,
     thickness_option,
     variation_option,
+    warn_inert_variation,
     weight_option,
 )
 from fabpat.errors import ExportError
@@ -51,7 +52,7 @@ OPTION_OF = {"step": "--step", "stl": "--stl", "3mf": "--3mf", "dxf": "--dxf", "
 def make_part(pattern: Pattern, thickness: float, weight: float, variation: Variation = PAPER_VARIATION) -> Part:
     """The filleted pattern (the family member ``variation``) as an exportable part
     (:func:`fabpat.exchange.registry.filleted_part`, the same one ``FilletedPattern.export`` writes)."""
-    return filleted_part(pattern.fillet(weight, **variation.items()), thickness)
+    return filleted_part(pattern.fillet(weight, variation), thickness)
 
 
 def _warn(message: str) -> None:
@@ -83,7 +84,7 @@ def _write_all(jobs: list[Job], settings: ExportSettings, progress: bool) -> lis
         paths = export_parts(jobs, settings, on_part, part_guard=deferred_interrupts)
     if len(jobs) == 1:
         for message in narrow[0][1] if narrow else []:
-            _warn(message)
+            _warn(f"{narrow[0][0]}: {message}" if narrow[0][0] else message)
     elif narrow:
         label, messages = narrow[0]
         _warn(f"{len(narrow)} patterns have features too narrow for their process, e.g. {label}: {messages[0]}")
@@ -176,9 +177,11 @@ def export_cmd(pattern_id: str | None, sides: int, depth: int | None, edge: floa
         raise ExportError("no output requested: give at least one of --step, --stl, --3mf, --dxf, --svg, --3dm")
     for name, p in targets.items():  # before the pattern is built: --dxf out.dwg is refused as the API does
         check_target(name, p, OPTION_OF[name])
+    from fabpat.fillet import fillet_pattern
     from fabpat.library import get_pattern
 
     pattern = get_pattern(pattern_id, sides, depth, edge)  # depth None: from the ID's length
+    warn_inert_variation(variation, fillet_pattern(pattern, weight, variation).variation, pattern.id)
     jobs = [(lambda: make_part(pattern, thickness, weight, variation), targets)]
     for path in _write_all(jobs, settings, progress=False):
         click.echo(f"wrote {path}")

@@ -20,6 +20,7 @@ from fabpat.cli.options import (
     sides_option,
     variation_given,
     variation_option,
+    warn_inert_variation,
     weight_option,
 )
 from fabpat.errors import PatternError
@@ -197,8 +198,11 @@ def show_cmd(pattern_id: str, sides: int, depth: int | None, edge: float, svg: s
         check_suffix(svg, (".svg",), "--svg")  # an SVG in a .png would open as a broken picture
     p = get_pattern(pattern_id, sides, depth, edge)  # depth None: from the ID's length
     filleted = filleted or not variation.is_paper or bool(variation_given())
-    outline = p.fillet(weight, **variation.items()).outline if filleted else None
-    text = pattern_svg(p, outline_path=outline.to_svg_path() if outline is not None else None)
+    member = p.fillet(weight, variation) if filleted else None
+    if member is not None:
+        warn_inert_variation(variation, member.variation, p.id)
+    title = f"{member.label if member is not None else p.id} ({p.sides}-gon, edge {p.edge:g} mm)"
+    text = pattern_svg(p, outline_path=member.outline.to_svg_path() if member is not None else None, title=title)
     if svg is None:
         click.echo(text, nl=False)
         return

@@ -139,6 +139,15 @@ def _variation(ctx: click.Context, param: click.Parameter, value: tuple[str, ...
 VARIATION_GIVEN = "fabpat.variation_given"
 
 
+def warn_inert_variation(asked: Variation, made: Variation, pattern_id: str) -> None:
+    """One warning line on stderr when ``--variation`` asked for a member (``asked``) and the filleted
+    pattern came out the paper's (``made``): a pattern without non-manifold vertices has no bridging
+    arc for ``bridge_weight`` to act on (:func:`fabpat.fillet.fillet_pattern`)."""
+    if not asked.is_paper and made.is_paper:
+        click.echo(f"fabpat: warning: pattern {pattern_id} has no non-manifold vertex, so {asked.label()} does not "
+                   "change it: its outline is the paper's", err=True)
+
+
 def variation_given() -> tuple[str, ...]:
     """The names the running command's ``--variation`` options gave (empty when none or outside click)."""
     ctx = click.get_current_context(silent=True)

@@ -19,6 +19,7 @@ from fabpat.cli.options import (
     thickness_option,
     variation_given,
     variation_option,
+    warn_inert_variation,
     weight_option,
 )
 from fabpat.errors import FabpatError, SolverError
@@ -120,6 +121,7 @@ def simulate_cmd(
             check_suffix(path, valid, option)
     pattern = get_pattern(pattern_id, sides, depth, edge)
     filleted = fillet_pattern(pattern, weight, variation)  # its outline carries its polygon
+    warn_inert_variation(variation, filleted.variation, pattern.id)
     given = variation_given()
     member = "".join(f" {k}={v:g}" for k, v in variation.items().items() if k in given or v != 1.0)
     rows = []
@@ -148,7 +150,8 @@ def simulate_cmd(
             if ("vtu", sc) in tmp_of:
                 write_vtu(tmp_of["vtu", sc], mesh.V, mesh.F, c.fine.result)
             if ("png", sc) in tmp_of:
-                caption = dataclasses.replace(c.as_result(), pattern_id=pattern.id).caption()  # the API's energy
+                caption = dataclasses.replace(c.as_result(), pattern_id=pattern.id,
+                                              member=filleted.variation.tag()).caption()  # the API's energy
                 write_png(tmp_of["png", sc], mesh.V, mesh.F, c.fine.result, title=caption)
             if ("inp", sc) in tmp_of:
                 write_inp(tmp_of["inp", sc], mesh, sc, sides=sides, thickness=thickness, E=E, nu=nu,

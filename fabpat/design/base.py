@@ -34,6 +34,7 @@ from typing import Any
 
 from fabpat.assembly.spec import AssemblySpec, parse_spec
 from fabpat.errors import FabpatError, SpecError
+from fabpat.variation import Variation
 
 #: the [patterns] keys that only ``fabpat design`` reads
 DESIGN_KEYS = ("allowed", "min_width", "max_distinct", "variations")
@@ -205,7 +206,8 @@ def candidates(spec: AssemblySpec, source: str, catalog: str | None, keys: dict[
 
 def member_token(pattern_id: str, bridge_weight: float) -> str:
     """A candidate's name: the pattern ID, and `` bW`` for a family member other than the paper's."""
-    return pattern_id if bridge_weight == 1.0 else f"{pattern_id} b{bridge_weight:g}"
+    tag = Variation(bridge_weight).tag()
+    return f"{pattern_id} {tag}" if tag else pattern_id
 
 
 def split_member(token: str) -> tuple[str, float]:

@@ -329,8 +329,7 @@ def filleted_part(filleted: Any, thickness: float = DEFAULT_THICKNESS) -> Part:
 
     variation = filleted.variation
     name = part_name(filleted.id, filleted.sides, filleted.edge, thickness, filleted.weight, variation.label())
-    label = filleted.id if variation.is_paper else f"{filleted.id} b{variation.bridge_weight:g}"
-    return Part(filleted.outline, thickness, name, label=label, support=filleted.support_arcs)
+    return Part(filleted.outline, thickness, name, label=filleted.label, support=filleted.support_arcs)
 
 
 _SETTINGS_FIELDS = tuple(ExportSettings.__dataclass_fields__)
