@@ -42,7 +42,15 @@ from typing import Any
 from fabpat.assembly.checks import CheckReport, check_assembly
 from fabpat.assembly.kit_files import PREDICTION, write_all
 from fabpat.assembly.kit_folder import GENERATOR, MANIFEST, check_out, digests, swap_in
-from fabpat.assembly.placement import Assembly, PlateType, build_tiling, check_geometry, check_necks, place
+from fabpat.assembly.placement import (
+    Assembly,
+    PlateType,
+    build_tiling,
+    check_geometry,
+    check_necks,
+    place,
+    radius_line,
+)
 from fabpat.assembly.predict import PREDICT_H, Prediction, bent, finish, predicted, strain_problems, use
 from fabpat.assembly.predict import predict as predict_kit
 from fabpat.assembly.provenance import pattern_records
@@ -395,6 +403,8 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
     tell("checks")
     report = check_assembly(lib)
     check_lines = report.lines()
+    if spec.tiling.radius is not None:
+        check_lines.append(radius_line(assembly))
     if nesting is not None:
         gap = f"{sheet_gap:.2f} mm" if math.isfinite(sheet_gap) else "one plate per sheet"
         check_lines.append(f"{nesting.n_sheets} sheet(s), no overlaps: smallest gap between plates {gap}")
@@ -429,7 +439,8 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
         manifest = {"generator": GENERATOR, "spec": spec.name, "source": spec.source, "files": files,
                     "counts": assembly.counts(), "patterns": [r.as_dict() for r in records],
                     "sheets": nesting.n_sheets if nesting else 0,
-                    "skeleton_edge_mm": round(assembly.skeleton.edge_length(), 6), "checks": check_lines,
+                    "skeleton_edge_mm": round(assembly.skeleton.edge_length(), 6),
+                    "plate_edge_mm": round(assembly.plate_edge, 6), "checks": check_lines,
                     "warnings": problems, "prediction": status, "sha256": digests(tmp, files)}
         if tried is not None:
             manifest["candidates"] = tried
@@ -511,3 +522,4 @@ def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
     return mask
+

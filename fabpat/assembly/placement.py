@@ -25,7 +25,6 @@ each :class:`PlacedSleeve` carries both the joint's skeleton ``dihedral`` and it
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
@@ -33,9 +32,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.assembly.sleeve import Sleeve, joint_direction, required_setback
-from fabpat.assembly.spec import AssemblySpec, sleeve_angle
-from fabpat.assembly.tiling import FACE_LETTERS, Tiling
+from fabpat.assembly.sleeve import Sleeve, joint_direction, setback, skeleton_edge
+from fabpat.assembly.spec import RADIUS_KINDS, AssemblySpec, sleeve_angle
+from fabpat.assembly.tiling import FACE_LETTERS, Tiling, mean_distance
 from fabpat.errors import SpecError
 from fabpat.variation import Variation
 
@@ -45,27 +44,6 @@ SHORT_NAMES = {3: "tri", 4: "quad", 5: "pent", 6: "hex"}
 #: the rest (at most half a step, 0.05°), which the closure solver models like any sleeve angle
 DIHEDRAL_STEP = 0.1
 NECK_CLEARANCE = 0.05  # mm: least gap required between the neck and a slot's end wall
-
-
-def setback(sides: int, skeleton: float, plate: float) -> float:
-    """Distance (mm) between a plate's polygon edge and the skeleton edge: the apothem difference."""
-    return (skeleton - plate) / (2.0 * math.tan(math.pi / sides))
-
-
-def skeleton_edge(tiling: Tiling, plate_edge: float, thickness: float, clearance: float, wall: float,
-                  printed: Callable[[float], float] | None = None) -> float:
-    """Smallest skeleton edge (mm) for which every joint's slots are separated by ``wall`` mm.
-
-    ``printed`` maps a joint's dihedral angle (rad) to the angle its sleeve is printed at (default: the
-    same); the web must hold at both angles, the printed part's and the start state's.
-    """
-    need = 0.0
-    for k in tiling.interior_edges:
-        phi = float(tiling.dihedral[k])
-        g = max(required_setback(a, thickness, clearance, wall) for a in (phi, printed(phi) if printed else phi))
-        for f, _ in tiling.edge_faces[k]:
-            need = max(need, 2.0 * g * math.tan(math.pi / len(tiling.faces[f])))
-    return plate_edge + need
 
 
 @dataclass(frozen=True)
@@ -154,6 +132,19 @@ class Assembly:
         for s in self.sleeves:
             out[s.kind] = out.get(s.kind, 0) + 1
         return out
+
+    def placed_radius(self, axis: NDArray[np.float64] | None = None) -> float:
+        """Mean distance (mm) of the plates' mid-surfaces, as placed, from the skeleton's centre (or its
+        ``axis``): :func:`fabpat.assembly.tiling.mean_distance` of the plates' polygons (what
+        ``tiling.radius`` asks for)."""
+        from fabpat.lattice import polygon_vertices
+
+        loops = []
+        for p in self.plates:
+            C = polygon_vertices(p.type.sides, self.plate_edge)
+            Q = np.column_stack([C, np.full(len(C), 0.5 * self.spec.plates.thickness), np.ones(len(C))])
+            loops.append((p.transform @ Q.T).T[:, :3])
+        return mean_distance(loops, self.skeleton.V.mean(axis=0), axis)
 
 
 def build_tiling(spec: AssemblySpec) -> Tiling:
@@ -377,3 +368,18 @@ def check_necks(assembly: Assembly, filleted: dict[PlateType, Any]) -> None:
                     f"≥ {2 * (half + NECK_CLEARANCE) - sleeve.slot_length + assembly.spec.sleeve.margin:.2f} "
                     "or lower sleeve.depth"
                 )
+
+
+def radius_line(assembly: Assembly) -> str:
+    """The check line of a kit sized by ``tiling.radius``: the plate edge it chose and where the plates
+    lie as placed (:meth:`Assembly.placed_radius`; straight sleeves move them as they close)."""
+    spec = assembly.spec
+    axis = RADIUS_KINDS[spec.tiling.kind]
+    got = assembly.placed_radius(None if axis is None else np.array(axis))
+    where = "the centre" if axis is None else "the axis"
+    line = (f"tiling.radius = {spec.tiling.radius:g} mm: plate edge {assembly.plate_edge:.4f} mm puts the plates' "
+            f"mid-surfaces {got:.4f} mm from {where} as placed")
+    if spec.sleeve.angle != "dihedral":
+        line += "; the sleeves bend them as they close (the prediction's radius says where they end)"
+    return line
+

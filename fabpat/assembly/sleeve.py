@@ -17,14 +17,18 @@ the slots vertical (the only bridge is the slot roof, ``thickness + clearance`` 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import GeometryError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from fabpat.assembly.tiling import Tiling
 
 SLOT_OVERSHOOT = 1.0  # mm: the slot cutter runs past the arm's end so the mouth is cleanly open
 
@@ -37,6 +41,29 @@ def required_setback(dihedral: float, thickness: float, clearance: float, wall: 
     """
     h = 0.5 * dihedral
     return 0.5 * clearance + (0.5 * wall + 0.5 * (thickness + clearance) * math.cos(h)) / math.sin(h)
+
+
+def setback(sides: int, skeleton: float, plate: float) -> float:
+    """Distance (mm) between a plate's polygon edge and the skeleton edge: the apothem difference."""
+    return (skeleton - plate) / (2.0 * math.tan(math.pi / sides))
+
+
+def skeleton_edge(tiling: Tiling, plate_edge: float, thickness: float, clearance: float, wall: float,
+                  printed: Callable[[float], float] | None = None) -> float:
+    """Smallest skeleton edge (mm) for which every joint's slots are separated by ``wall`` mm: the plate
+    edge plus a sleeve allowance that depends on the joints' angles, the thickness, the clearance and the
+    wall only (so a plate edge for a wanted skeleton size is a subtraction).
+
+    ``printed`` maps a joint's dihedral angle (rad) to the angle its sleeve is printed at (default: the
+    same); the web must hold at both angles, the printed part's and the start state's.
+    """
+    need = 0.0
+    for k in tiling.interior_edges:
+        phi = float(tiling.dihedral[k])
+        g = max(required_setback(a, thickness, clearance, wall) for a in (phi, printed(phi) if printed else phi))
+        for f, _ in tiling.edge_faces[k]:
+            need = max(need, 2.0 * g * math.tan(math.pi / len(tiling.faces[f])))
+    return plate_edge + need
 
 
 def _hull(points: NDArray[np.float64]) -> NDArray[np.float64]:

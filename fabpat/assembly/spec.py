@@ -9,7 +9,9 @@ A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented 
   it scales the mesh), ``tolerance`` (mm, default 0.01: how far the faces may be from regular polygons
   of one edge) and ``fit`` ("exact" | "best": plates at their faces' best fit, the closure takes up
   the rest); ``goldberg`` reads ``m``, ``n``, ``realization`` ("dual" | "planar"), ``hex-cap`` ``rings``
-  and ``centre`` (5 | 6) (:mod:`fabpat.assembly.polyhedra`; plates at best fit).
+  and ``centre`` (5 | 6) (:mod:`fabpat.assembly.polyhedra`; plates at best fit). The closed kinds
+  (:data:`RADIUS_KINDS`) take ``radius`` (mm) instead of ``edge``: the plate edge is then chosen so that
+  the placed plates lie that far from the centre (a tube: its axis), :func:`_sized_by_radius`.
 * ``[patterns]`` one of: ``pattern`` (every tile); ``groups`` (one ID per group of ``group_columns`` columns,
   stiff → soft) or ``tiles`` (rows × columns IDs, or a table {plate label = ID} naming every plate as the kit
   labels it, e.g. ``{T1 = "0x0488", …}``) on a strip; ``hexagon`` + ``pentagon``, or ``tiles`` = {plate label
@@ -58,7 +60,7 @@ import dataclasses
 import math
 import os
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -73,12 +75,16 @@ from fabpat.assembly.spec_tables import problems_of as _problems_of
 from fabpat.assembly.spec_tables import show as _show
 from fabpat.assembly.tiling import Tiling, honeycomb_strip, truncated_icosahedron
 from fabpat.errors import PatternError, SpecError
-from fabpat.validate import check
+from fabpat.validate import RANGES, check
 
 TILINGS = ("honeycomb-strip", "truncated-icosahedron", "mesh", "goldberg", "hex-tube", "hex-cap")
 #: the kinds whose faces are a polygon mesh kept in the spec (:attr:`TilingSpec.vertices`): a file's, or
 #: a built-in surface's (:mod:`fabpat.assembly.polyhedra`, only nearly regular: plates at best fit)
 MESH_KINDS = ("mesh", "goldberg", "hex-tube", "hex-cap")
+#: the closed built-in kinds that take ``radius`` instead of ``edge``, and the axis their radius is
+#: measured from (None: from the centre, a sphere; the tube's axis is x, fabpat.assembly.polyhedra)
+RADIUS_KINDS: dict[str, tuple[float, float, float] | None] = {
+    "truncated-icosahedron": None, "goldberg": None, "hex-tube": (1.0, 0.0, 0.0)}
 #: largest built-in surfaces: GP(6, 0) has 362 plates (a closure of 10 minutes at h = 3), a tube or
 #: cap beyond these sizes as many
 MAX_GOLDBERG_M, MAX_TUBE_ROWS, MAX_TUBE_COLUMNS, MAX_CAP_RINGS = 6, 30, 30, 8
@@ -131,6 +137,9 @@ class TilingSpec:
     realization: str = "dual"  # goldberg: fabpat.assembly.polyhedra.REALIZATIONS
     rings: int = 1  # hex-cap
     centre: int = 5  # hex-cap: sides of the central face
+    #: mm: the size asked for instead of ``edge`` (closed kinds, :data:`RADIUS_KINDS`); ``edge`` is then
+    #: the plate edge that puts the placed plates at this mean distance from the centre (the axis)
+    radius: float | None = None
 
     @property
     def strip(self) -> bool:
@@ -294,7 +303,8 @@ def _pattern_id(source: str, key: str, pid: Any, sides: tuple[int, ...]) -> str:
 #: [tiling] keys that only some kinds read: key → those kinds
 _KIND_KEYS = {"rows": ("honeycomb-strip", "hex-tube"), "columns": ("honeycomb-strip", "hex-tube"),
               "file": ("mesh",), "tolerance": ("mesh",), "fit": ("mesh",), "m": ("goldberg",), "n": ("goldberg",),
-              "realization": ("goldberg",), "rings": ("hex-cap",), "centre": ("hex-cap",)}
+              "realization": ("goldberg",), "rings": ("hex-cap",), "centre": ("hex-cap",),
+              "radius": tuple(RADIUS_KINDS)}
 
 
 def _tiling(source: str, data: Any) -> TilingSpec:
@@ -309,12 +319,42 @@ def _tiling(source: str, data: Any) -> TilingSpec:
             t.note(t.fail(key, f"is only for kind = {' or '.join(repr(k) for k in kinds)}".replace("'", '"')), None)
     if kind == "mesh":
         return _mesh_tiling(source, t)
-    edge = t.number("edge", None, "edge")
+    radius = None
+    if t.has("radius") and kind in RADIUS_KINDS:
+        if t.has("edge"):
+            raise t.fail("radius", "and tiling.edge both size the tiling: give one of them")
+        # sized once [plates] and [sleeve] are read (:func:`_sized_by_radius`); unit edge until then
+        radius, edge = t.number("radius", None, "edge"), 1.0  # the edge's range, [1, 1000] mm
+    else:
+        edge = t.number("edge", None, "edge")
     if kind == "honeycomb-strip":
         return TilingSpec(kind, edge, t.integer("rows", None), t.integer("columns", None))
     if kind in MESH_KINDS:
-        return _builtin_tiling(source, t, kind, edge)
-    return TilingSpec(kind, edge)
+        return replace(_builtin_tiling(source, t, kind, edge), radius=radius)
+    return TilingSpec(kind, edge, radius=radius)
+
+
+def _sized_by_radius(source: str, tiling: TilingSpec, plates: PlateSpec, sleeve: SleeveSpec) -> TilingSpec:
+    """``tiling`` at the plate edge whose placed plates lie ``tiling.radius`` from the centre (a tube: its
+    axis): :func:`fabpat.assembly.tiling.edge_for_radius` with the sleeves' allowance
+    (:func:`fabpat.assembly.sleeve.skeleton_edge`). That is the kit as placed: with ``sleeve.angle =
+    "dihedral"`` the closed shape; straight sleeves bend the plates as they close, and the prediction's
+    ``radius`` says where they end (docs/tilings.md gives measured ratios)."""
+    from fabpat.assembly.sleeve import skeleton_edge
+    from fabpat.assembly.tiling import edge_for_radius
+
+    assert tiling.radius is not None
+    unit = replace(tiling, radius=None).skeleton()
+    allowance = skeleton_edge(unit, 0.0, plates.thickness, sleeve.clearance, sleeve.wall,
+                              lambda phi: printed_angle(sleeve.angle, phi))
+    axis = RADIUS_KINDS[tiling.kind]
+    lo, hi = RANGES["edge"].low, RANGES["edge"].high
+    try:
+        edge = edge_for_radius(unit, tiling.radius, allowance, lo, hi, None if axis is None else np.array(axis))
+    except ValueError as e:
+        raise SpecError(f"{source}: tiling.radius = {tiling.radius:g} mm is out of reach: {e}") from None
+    scale = edge / tiling.edge
+    return replace(tiling, edge=edge, vertices=tuple((x * scale, y * scale, z * scale) for x, y, z in tiling.vertices))
 
 
 def _builtin_tiling(source: str, t: _Table, kind: str, edge: float) -> TilingSpec:
@@ -650,12 +690,16 @@ def sleeve_angle(spec: AssemblySpec, dihedral: float) -> float:
     (straight sleeves: the plates bend when the sleeves close the sphere, paper §5); a number of
     degrees → that angle in radians. The joint's change of angle on closing is ``dihedral − angle``.
     """
-    a = spec.sleeve.angle
-    if a == "dihedral":
+    return printed_angle(spec.sleeve.angle, dihedral)
+
+
+def printed_angle(angle: str | float, dihedral: float) -> float:
+    """:func:`sleeve_angle` for the ``[sleeve] angle`` value ``angle`` itself."""
+    if angle == "dihedral":
         return float(dihedral)
-    if a == "flat":
+    if angle == "flat":
         return math.pi
-    return math.radians(float(a))
+    return math.radians(float(angle))
 
 
 def _sleeve(source: str, data: Any, tiling: TilingSpec | None) -> SleeveSpec:
@@ -812,6 +856,8 @@ def _read_tables(data: Mapping[str, Any], source: str, need_sheet: bool, problem
     process = plates.process if plates is not None else None
     kind = tiling.kind if tiling is not None else None
     sleeve = read(lambda: _sleeve(source, data.get("sleeve", {}), tiling))
+    if tiling is not None and tiling.radius is not None and plates is not None and sleeve is not None:
+        tiling = read(lambda: _sized_by_radius(source, tiling, plates, sleeve))
     material = read(lambda: _material(source, data.get("material", {})))
     sheet = read(lambda: _sheet(source, data["sheet"], process)) if "sheet" in data else None
     estimates = read(lambda: _estimates(source, data.get("estimates", {}), process))

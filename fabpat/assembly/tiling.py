@@ -149,6 +149,19 @@ class Tiling:
         a, b = self.edges[0]
         return float(np.linalg.norm(self.V[b] - self.V[a]))
 
+    def plate_radius(self, plate_edge: float, axis: NDArray[np.float64] | None = None) -> float:
+        """Mean distance (mm) of the plates' mid-surfaces from the centre of this tiling (the mean of its
+        vertices) or, with ``axis`` (3,), from the line through it along ``axis`` (:func:`mean_distance`):
+        each plate the face's polygon shrunk about its centroid to edge ``plate_edge`` (mm), as
+        :mod:`fabpat.assembly.placement` sets it on the face plane (up to the slots' shared setback)."""
+        shrink = plate_edge / self.edge_length()
+        loops = []
+        for loop in self.faces:
+            P = self.V[list(loop)]
+            c = P.mean(axis=0)
+            loops.append(c + (P - c) * shrink)
+        return mean_distance(loops, self.V.mean(axis=0), axis)
+
     def scaled(self, edge: float) -> Tiling:
         """The same tiling with edge length ``edge`` mm (scaled about the origin)."""
         return Tiling(self.name, self.V * (edge / self.edge_length()), self.faces, self.grid, self.best_fit)
@@ -179,6 +192,49 @@ class Tiling:
             out[f, :3, 3] = self.centroids[f]
             out[f, 3, 3] = 1.0
         return out
+
+
+_K = 16  # a fan triangle cut into _K² equal triangles (upward and downward ones): their centroids
+_SUB_CENTROIDS = np.array([((i + 1 / 3) / _K, (j + 1 / 3) / _K) for i in range(_K) for j in range(_K - i)]
+                          + [((i + 2 / 3) / _K, (j + 2 / 3) / _K) for i in range(_K - 1) for j in range(_K - 1 - i)])
+
+
+def edge_for_radius(unit: Tiling, radius: float, allowance: float, lo: float, hi: float,
+                    axis: NDArray[np.float64] | None = None) -> float:
+    """The plate edge e (mm, in [lo, hi]) at which the plates of ``unit`` (a unit-edge skeleton), on its
+    faces scaled to the skeleton edge e + ``allowance`` (mm), lie ``radius`` mm from its centre (or its
+    ``axis``) on average (:meth:`Tiling.plate_radius`). The distance grows with e: its root by Brent's
+    method (:func:`scipy.optimize.brentq`). Raises ValueError naming the radii [lo, hi] reach."""
+    from scipy.optimize import brentq
+
+    def off(e: float) -> float:
+        return unit.scaled(e + allowance).plate_radius(e, axis) - radius
+
+    if off(lo) > 0 or off(hi) < 0:
+        raise ValueError(f"plate edges of {lo:g} … {hi:g} mm make this tiling {off(lo) + radius:.4g} … "
+                         f"{off(hi) + radius:.4g} mm in radius with these sleeves")
+    return float(brentq(off, lo, hi, xtol=1e-9, rtol=1e-12))
+
+
+def mean_distance(polygons: list[NDArray[np.float64]], centre: NDArray[np.float64],
+                  axis: NDArray[np.float64] | None = None) -> float:
+    """Mean distance (mm) from ``centre`` (3,), or with ``axis`` (3,) from the line through it, of the
+    planar polygons ``polygons`` ((n, 3) loops, mm), averaged over their area: each fan triangle from a
+    polygon's centroid cut into 256 equal triangles, whose centroids weigh its area alike (the centroid
+    rule's error is 6e-5 of the distance for a 60 mm square 100 mm away, against a million random points)."""
+    bary = _SUB_CENTROIDS
+    u = None if axis is None else np.asarray(axis, dtype=float) / float(np.linalg.norm(axis))
+    total = weight = 0.0
+    for P in polygons:
+        c = P.mean(axis=0)
+        for a, b in zip(P, np.roll(P, -1, axis=0), strict=True):
+            q = c + np.outer(bary[:, 0], a - c) + np.outer(bary[:, 1], b - c) - centre
+            if u is not None:
+                q = q - np.outer(q @ u, u)
+            area = 0.5 * float(np.linalg.norm(np.cross(a - c, b - c)))
+            total += area * float(np.linalg.norm(q, axis=1).mean())
+            weight += area
+    return total / weight
 
 
 def weld(points: list[NDArray[np.float64]] | NDArray[np.float64], tol: float = _WELD

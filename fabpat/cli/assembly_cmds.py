@@ -18,6 +18,8 @@ import click
 from fabpat.cli.options import h_option, max_elements_option, number_option
 from fabpat.mesh import ASSEMBLY_MAX_ELEMENTS
 
+#: more plates over the strain limit than this get one warning line between them, not one each
+MAX_STRAIN_LINES = 3
 PROGRESS_HELP = ("Progress on stderr: a bar on a terminal, else a line every few seconds "
                  "(FABPAT_PROGRESS_INTERVAL seconds, default 5).")
 
@@ -201,7 +203,13 @@ def _simulate_assembly(spec: str, end_shortening: float | None, h: float, steps:
         for k, v in row.items():
             click.echo(f"{k}={text(v)}")
     peaks = sim.plate_peak_strain()
-    for label in row["over_limit"]:
+    over = row["over_limit"]
+    if len(over) > MAX_STRAIN_LINES:  # a line per plate would bury the rest: the count and the worst
+        worst = max(over, key=lambda label: peaks[label])
+        click.echo(f"fabpat: warning: {len(over)} plates exceed the strain limit {sim.strain_limit:g} "
+                   f"(material.strain_limit), the most {worst} at peak strain {peaks[worst]:.4g}; over_limit lists "
+                   "them all", err=True)
+    for label in over if len(over) <= MAX_STRAIN_LINES else ():
         click.echo(f"fabpat: warning: plate {label}: peak strain {peaks[label]:.4g} exceeds the strain limit "
                    f"{sim.strain_limit:g} (material.strain_limit)", err=True)
     for path in outputs:
