@@ -121,6 +121,15 @@ def test_export_inp_element_choice(tmp_path: Path, element: str, per_element: in
     assert all(len(ln.split(",")) == 1 + per_element for ln in lines[k + 1:end])
 
 
+def test_export_inp_heading_names_the_pattern_and_its_member(tmp_path: Path) -> None:
+    inp = tmp_path / "m.inp"
+    r = run_cli("simulate", "0x0488", "--scenario", "dome", "--linear", "--h", "5", "--variation", "bridge_weight=0.5",
+                "--export-inp", str(inp), "--json")
+    assert r.returncode == 0, r.stderr
+    lines = inp.read_text().splitlines()
+    assert lines[0] == "*HEADING" and lines[1].startswith("fabpat dome scenario, pattern 0x0488 b0.5 (6-gon), S6, ")
+
+
 def test_simulate_png_is_captioned_with_the_energy_it_prints(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """The picture names the pattern, the scenario and its load, and the energy the JSON reports."""
     from click.testing import CliRunner

@@ -155,7 +155,7 @@ def simulate_cmd(
                 write_png(tmp_of["png", sc], mesh.V, mesh.F, c.fine.result, title=caption)
             if ("inp", sc) in tmp_of:
                 write_inp(tmp_of["inp", sc], mesh, sc, sides=sides, thickness=thickness, E=E, nu=nu,
-                          nonlinear=not linear, element=inp_element.upper())
+                          nonlinear=not linear, element=inp_element.upper(), pattern=filleted.label)
     if as_json:
         click.echo(json.dumps(rows if many else rows[0], indent=1))
     else:

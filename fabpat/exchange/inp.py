@@ -82,8 +82,12 @@ def _in_plane_supports(V: np.ndarray, busy: set[int], a: np.ndarray, b: np.ndarr
 
 
 def deck_text(mesh: ShellMesh, scenario: str, *, sides: int, thickness: float = 2.0, E: float = 1000.0,
-              nu: float = 0.35, nonlinear: bool = True, element: str = "S6", increment: float = 0.1) -> str:
+              nu: float = 0.35, nonlinear: bool = True, element: str = "S6", increment: float = 0.1,
+              pattern: str = "") -> str:
     """The input deck as a string (see module docstring). Node/element ids are 1-based.
+
+    pattern: what the heading names the plate by (``"0x0488 b0.5"``, :attr:`FilletedPattern.label
+    <fabpat.fillet.FilletedPattern.label>`); "" names only its polygon.
 
     increment: initial and largest NLGEOM time increment (fraction of the load). Raises ValueError
     for an unknown scenario or element, :class:`ExportError` if an interface is not meshed along
@@ -157,7 +161,8 @@ def deck_text(mesh: ShellMesh, scenario: str, *, sides: int, thickness: float = 
         bc += _in_plane_supports(V, busy, mid[0], mid[1])
 
     mode = "NLGEOM" if nonlinear else "linear"
-    out = ["*HEADING", f"fabpat {scenario} scenario, {sides}-gon pattern, {element}, {mode}; mm, N, N/mm2"]
+    what = f"pattern {pattern} ({sides}-gon)" if pattern else f"{sides}-gon pattern"
+    out = ["*HEADING", f"fabpat {scenario} scenario, {what}, {element}, {mode}; mm, N, N/mm2"]
     if scenario != "cantilever":
         out += ["** In-plane supports sit on nodes that carry no moment (CalculiX NLGEOM stalls on nodes with",
                 "** both): ux, uy at one node and one more component at a second hold the plate in plane and",
