@@ -8,10 +8,10 @@ into a temporary folder that becomes ``--out`` only at the end (:mod:`fabpat.ass
 
 * ``panel.step`` (exact solid, AP214), ``panel.stl``, ``panel.3mf`` (meshes at ``output.mesh_tolerance``),
   ``panel.3dm`` (exact NURBS outline and extrusion), ``panel.dxf`` and ``panel.svg`` (the part at true size,
-  as ``fabpat export`` writes a plate, without kerf: these are the part as designed), ``panel.glb`` (a mesh to look at), ``panel.png`` (the tiles
-  coloured by pattern), ``sheets/sheet-01.dxf`` (the part nested on the sheet: CUT loops, the tiles'
-  labels on ENGRAVE, the bed on the non-plotting layer SHEET), ``bom.csv``/``bom.md`` and
-  ``manifest.json``, each as ``output.formats`` asks (``dxf`` gives both DXF files).
+  as ``fabpat export`` writes a plate, without kerf: the part as designed), ``panel.glb`` (a mesh to look
+  at), ``panel.png`` (the tiles coloured by pattern), ``sheets/sheet-01.dxf`` (the part nested on the
+  sheet: CUT loops moved out by kerf/2, the tiles' labels on ENGRAVE, the bed on the non-plotting layer
+  SHEET), ``bom.csv``/``bom.md`` and ``manifest.json``, each as ``output.formats`` asks (``dxf`` gives both DXF files).
 
 A panel has no sleeves, no net and no prediction: ``fabpat simulate-assembly`` pushes it together as a
 strip (:func:`fabpat.assembly.panel.panel_setup`).
@@ -102,8 +102,8 @@ def check_panel_fits(spec: Any) -> None:
         w, h = sizes[0]
         raise SpecError(f"{spec.source}: sheet.width × sheet.height = {s.width:g} × {s.height:g} mm is smaller than "
                         f"the {spec.tiling.rows} × {spec.tiling.columns} panel ({w:.1f} × {h:.1f} mm, either way "
-                        f"round, plus sheet.margin = {s.margin:g} mm on each side): use a larger sheet or fewer rows or "
-                        "columns")
+                        f"round, plus sheet.margin = {s.margin:g} mm on each side): use a larger sheet or fewer "
+                        "rows or columns")
 
 
 def nest_panel(spec: Any) -> tuple[Any, bool]:
