@@ -215,13 +215,14 @@ class Panel:
 
     @cached_property
     def part(self) -> Any:
-        """The panel as a :class:`~fabpat.exchange.registry.Part` (z from 0 to the plate thickness), labelled
-        with the spec's name, its free interfaces' whole bow-tie arcs as ``support``; built once, so every
-        writer shares its solid."""
+        """The panel as a :class:`~fabpat.exchange.registry.Part` (z from 0 to the plate thickness) named
+        :attr:`name`, its free interfaces' whole bow-tie arcs as ``support``; built once, so every writer
+        shares its solid. No engraved label: finding a box for one on the whole panel's material
+        (:func:`fabpat.exchange.labels.place_label`) took 7 s per DXF or SVG of a 3 × 4 panel; the kit's
+        sheet engraves every tile's label instead (:func:`fabpat.assembly.panel_kit.sheet_document`)."""
         from fabpat.exchange.registry import Part
 
-        return Part(self.outline, self.spec.plates.thickness, self.name, label=self.spec.name,
-                    support=self.fused.support)
+        return Part(self.outline, self.spec.plates.thickness, self.name, support=self.fused.support)
 
     @property
     def solid(self) -> Any:

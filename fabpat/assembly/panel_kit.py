@@ -179,11 +179,10 @@ def plate_volume(panel: Panel) -> float:
 
 
 def check_panel_part(panel: Panel) -> tuple[float, float]:
-    """(solid volume, plates' summed volume) in mm³; ExportError unless the solid is valid and they agree within
-    :data:`VOLUME_RTOL`."""
-    from fabpat.cad import check_valid, volume
+    """(solid volume, plates' summed volume) in mm³; ExportError unless they agree within :data:`VOLUME_RTOL`.
+    The solid is BRepCheck valid or not built (:func:`fabpat.cad.make_solid` checks it: GeometryError)."""
+    from fabpat.cad import volume
 
-    check_valid(panel.solid, "the fused panel")
     v, plates = volume(panel.solid), plate_volume(panel)
     if abs(v - plates) > VOLUME_RTOL * plates:
         raise ExportError(f"{panel.spec.source}: the fused panel's volume {v:.6f} mm³ differs from its plates' "
