@@ -3,7 +3,10 @@
 A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented examples):
 
 * ``[tiling]``  ``kind`` ("honeycomb-strip" | "truncated-icosahedron" | "mesh" | "goldberg" | "hex-tube" |
-  "hex-cap"), ``edge`` (plate polygon edge), ``rows`` and ``columns`` (strip and tube); a mesh tiling
+  "hex-cap" | "panel"), ``edge`` (plate polygon edge), ``rows`` and ``columns`` (strip, tube and panel); a
+  ``panel`` is the strip's rows × columns hexagons (each 1 … :data:`MAX_PANEL_ROWS`) fused at their
+  interfaces into ONE part, without sleeves (:mod:`fabpat.assembly.panel`; patterns as on a strip, no
+  ``[sleeve]`` table, ``output.formats`` may add "3mf"); a mesh tiling
   reads ``file`` (an OBJ, PLY or OFF polygon mesh, relative to the spec; its faces carry the plates,
   :mod:`fabpat.assembly.mesh_tiling`), takes ``edge`` as optional (default: the mesh's mean edge; given,
   it scales the mesh), ``tolerance`` (mm, default 0.01: how far the faces may be from regular polygons
@@ -12,7 +15,7 @@ A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented 
   and ``centre`` (5 | 6) (:mod:`fabpat.assembly.polyhedra`; plates at best fit).
 * ``[patterns]`` one of: ``pattern`` (every tile); ``groups`` (one ID per group of ``group_columns`` columns,
   stiff → soft) or ``tiles`` (rows × columns IDs, or a table {plate label = ID} naming every plate as the kit
-  labels it, e.g. ``{T1 = "0x0488", …}``) on a strip; ``hexagon`` + ``pentagon``, or ``tiles`` = {plate label
+  labels it, e.g. ``{T1 = "0x0488", …}``) on a strip or a panel; ``hexagon`` + ``pentagon``, or ``tiles`` = {plate label
   = ID} for every face ("H01" … "H20", "P01" … "P12", each ID of its face's polygon; ``fabpat design`` writes
   it), on the truncated icosahedron; one key per polygon of a mesh tiling, named as the polygon
   (:data:`POLYGON_KEYS`: ``triangle``, ``square``, ``pentagon``, ``hexagon``, …) or ``tiles`` by plate label
@@ -37,11 +40,11 @@ A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented 
   ``dxf_entities`` ("polyline" | "segments", default "polyline": closed LWPOLYLINEs with bulges for
   laser fills, or one LINE / ARC per piece for OpenSCAD; as ``fabpat export --dxf-entities``).
 * ``[estimates]`` ``cut_speed`` (mm/s), ``print_rate`` (mm³/s).
-* ``[load]``  ``end_shortening`` (strips): the end-pin travel over the strip length that
+* ``[load]``  ``end_shortening`` (strips and panels): the end-pin travel over the strip length that
   ``simulate-assembly`` uses when ``--end-shortening`` is not given (default 0.1).
-* ``[output]``  ``formats``: any of step, stl, glb, 3dm, dxf, svg, bom, png; ``mesh_tolerance`` (STL chord of
-  the parts and of the sleeves in the .3dm, default 0.005), ``curve_tolerance`` (largest deviation of
-  the sheets' DXF arcs from the exact outlines, default 0.01).
+* ``[output]``  ``formats``: any of step, stl, glb, 3dm, dxf, svg, bom, png (a panel also
+  3mf); ``mesh_tolerance`` (STL chord of the parts and of the sleeves in the .3dm, default 0.005),
+  ``curve_tolerance`` (largest deviation of the sheets' DXF arcs from the exact outlines, default 0.01).
 
 Every error is a :class:`~fabpat.errors.SpecError` whose one line names the file, the key and what
 is allowed. A key the chosen way of picking patterns does not read (``count`` beside ``hexagon``,
