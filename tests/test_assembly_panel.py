@@ -311,3 +311,19 @@ def toml_text(data: dict) -> str:
         if isinstance(table, dict):
             lines += [f"[{k}]", *(f"{kk} = {value(vv)}" for kk, vv in table.items())]
     return "\n".join(lines) + "\n"
+
+
+def test_rules_and_tile_tables_choose_each_tiles_pattern() -> None:
+    from fabpat.assembly.build import face_patterns
+    from fabpat.assembly.panel import build_panel
+
+    graded = parse({"tiling": {"kind": "panel", "edge": 36.0, "rows": 2, "columns": 4},
+                    "patterns": {"rule": "graded", "count": 2}})
+    ids = face_patterns(graded)
+    assert len(set(ids)) == 2 and ids[:4] == [ids[0]] * 4 and ids[4:] == [ids[4]] * 4  # two groups of 2 columns
+    table = parse({"tiling": {"kind": "panel", "edge": 36.0, "rows": 1, "columns": 3},
+                   "patterns": {"tiles": {"T1": A, "T2": B, "T3": A}, "bridge_weight": {"T2": 0.5}}})
+    panel = build_panel(table)
+    assert [pt.label for pt in panel.types] == [f"hex {A}", f"hex {B} b0.5", f"hex {A}"]
+    assert panel.fused.fused == 2 and len(panel.outline.holes) == sum(
+        len(panel.filleted[pt].outline.holes) for pt in panel.types)  # a single row: no gap is closed
