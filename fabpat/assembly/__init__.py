@@ -18,4 +18,6 @@ Every module of the package, by job (heavy libraries are imported inside the fun
 * **The kit** — ``build`` (``assemble``: a spec in, a folder out); ``kit_files`` (every output written);
   ``kit_folder`` (what may be replaced, and the swap); ``export`` (STEP/STL/GLB); ``render`` (PNG);
   ``bom`` (bill of materials and joint table).
+* **One-piece panels** — ``panel`` (a panel's plates fused into one exact outline and solid, and its
+  end-shortening model); ``panel_kit`` (its kit: the part in every format, nested); ``panel_bom`` (its BOM).
 """

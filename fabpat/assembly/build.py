@@ -42,6 +42,7 @@ from typing import Any
 from fabpat.assembly.checks import CheckReport, check_assembly
 from fabpat.assembly.kit_files import PREDICTION, write_all
 from fabpat.assembly.kit_folder import GENERATOR, MANIFEST, check_out, digests, swap_in
+from fabpat.assembly.panel_kit import PanelReport
 from fabpat.assembly.placement import (
     Assembly,
     PlateType,
@@ -70,7 +71,7 @@ class AssembleResult:
 
     out: Path
     files: tuple[str, ...]
-    report: CheckReport
+    report: CheckReport | PanelReport  # a panel's (fabpat.assembly.panel_kit): the same lines()
     sheets: int
     warnings: tuple[str, ...] = ()
     prediction: dict[str, Any] | None = None
@@ -297,6 +298,10 @@ def steps(spec: AssemblySpec, predict: bool = True) -> list[str]:
     With ``rule = "roundest"`` the prediction (every candidate's closure) comes right after "patterns":
     it chooses them."""
     f = spec.formats
+    if spec.tiling.panel:
+        from fabpat.assembly.panel_kit import panel_steps
+
+        return panel_steps(spec)
     names = ["patterns", "placement", "nesting", "net", "checks"]
     show = True
     if predicts(spec) and predict:
@@ -360,6 +365,15 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
     if spec.sheet is None:
         raise SpecError(f"{spec.source}: missing table [sheet] (fabpat assemble nests the plates on this laser sheet "
                         "or print bed: give its width and height)")
+    if spec.tiling.panel:  # one part, no sleeves: fabpat.assembly.panel_kit
+        if predict_h is not None:
+            raise SpecError(f"{spec.source}: predict_h (--predict-h) is the mesh of a kit's prediction, and a panel's "
+                            "kit has none: `fabpat simulate-assembly` pushes a panel together")
+        from fabpat.assembly.panel_kit import assemble_panel
+
+        if not isinstance(out, str | os.PathLike) or not str(out):
+            raise SpecError(f"out must be the path of the kit's folder, got {out!r}")
+        return assemble_panel(spec, Path(out), progress or (lambda _step: None), timestamp, energies, force)
     if spec.tiling.fit == "best":
         # the kit's checks (slots on the interfaces, no interference) hold in the placement of an exact
         # tiling; here the placement is only a start of the closure, so they would need the closed shape

@@ -2,6 +2,8 @@
 of ``fabpat simulate-assembly``).
 
 * ``honeycomb-strip``: the end pins are pushed together (:mod:`fabpat.assembly.simulate`).
+* ``panel``: the same experiment on the fused panel, one shell with no sleeves
+  (:func:`fabpat.assembly.panel.panel_setup`).
 * ``truncated-icosahedron``: the sleeves turn from the polyhedron's dihedral angles to the spec's
   sleeve angle and bend the plates into a sphere (:mod:`fabpat.assembly.closure`).
 
@@ -30,7 +32,7 @@ Arr = NDArray[np.float64]
 
 #: default report steps per kind (the closure is smooth and nearly linear; the strip buckles)
 DEFAULT_STEPS = {"honeycomb-strip": 10, "truncated-icosahedron": 4, "mesh": 4, "goldberg": 4, "hex-tube": 4,
-                 "hex-cap": 4}
+                 "hex-cap": 4, "panel": 10}
 #: colour fields of :meth:`AssemblySimulation.to_png` on a closed assembly
 PNG_FIELDS = ("energy", "mean_curvature", "gaussian_curvature", "strain")
 
@@ -55,8 +57,10 @@ class AssemblySimulation:
 
     @property
     def closed(self) -> bool:
-        """True for an assembly closed by its sleeves (the sphere), False for a strip."""
-        return self.kind != "honeycomb-strip"
+        """True for an assembly closed by its sleeves (the sphere), False for a strip or a panel."""
+        from fabpat.assembly.spec import STRIP_KINDS
+
+        return self.kind not in STRIP_KINDS
 
     def plate_peak_strain(self) -> dict[str, float]:
         """{plate label: largest principal surface strain of its elements}."""
@@ -329,7 +333,7 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
     if progress is not None and not callable(progress):
         raise SpecError(f"progress must be a callable or None, got {type(progress).__name__}")
     kind = spec.tiling.kind
-    closed = kind != "honeycomb-strip"
+    closed = not spec.tiling.strip  # a strip or a panel is pushed together; the rest is closed by its sleeves
     steps = DEFAULT_STEPS[kind] if steps is None else check("steps", steps, "steps", error=SpecError)
     for name, value in (("end_shortening", end_shortening), ("imperfection", imperfection)):
         if value is not None and closed:
@@ -384,7 +388,12 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
     if not closed:
         from fabpat.assembly.simulate import IMPERFECTION, run_strip, strip_setup
 
-        setup = strip_setup(spec, patterns, h=h, E=E, nu=nu)
+        if spec.tiling.panel:  # the plates fused into one shell, no sleeves (fabpat.assembly.panel)
+            from fabpat.assembly.panel import panel_setup
+
+            setup = panel_setup(spec, patterns, h=h, E=E, nu=nu)
+        else:
+            setup = strip_setup(spec, patterns, h=h, E=E, nu=nu)
         run = run_strip(setup, float(end_shortening), steps=steps,  # type: ignore[arg-type]
                         imperfection=IMPERFECTION if imperfection is None else imperfection, progress=progress,
                         strain_limit=mat.strain_limit, start=guess(setup.model))

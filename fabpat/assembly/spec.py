@@ -3,7 +3,10 @@
 A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented examples):
 
 * ``[tiling]``  ``kind`` ("honeycomb-strip" | "truncated-icosahedron" | "mesh" | "goldberg" | "hex-tube" |
-  "hex-cap"), ``edge`` (plate polygon edge), ``rows`` and ``columns`` (strip and tube); a mesh tiling
+  "hex-cap" | "panel"), ``edge`` (plate polygon edge), ``rows`` and ``columns`` (strip, tube and panel); a
+  ``panel`` is the strip's rows × columns hexagons (each 1 … :data:`MAX_PANEL_ROWS`) fused at their
+  interfaces into ONE part, without sleeves (:mod:`fabpat.assembly.panel`; patterns as on a strip, no
+  ``[sleeve]`` table, ``output.formats`` may add "3mf"); a mesh tiling
   reads ``file`` (an OBJ, PLY or OFF polygon mesh, relative to the spec; its faces carry the plates,
   :mod:`fabpat.assembly.mesh_tiling`), takes ``edge`` as optional (default: the mesh's mean edge; given,
   it scales the mesh), ``tolerance`` (mm, default 0.01: how far the faces may be from regular polygons
@@ -14,7 +17,7 @@ A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented 
   the placed plates lie that far from the centre (a tube: its axis), :func:`_sized_by_radius`.
 * ``[patterns]`` one of: ``pattern`` (every tile); ``groups`` (one ID per group of ``group_columns`` columns,
   stiff → soft) or ``tiles`` (rows × columns IDs, or a table {plate label = ID} naming every plate as the kit
-  labels it, e.g. ``{T1 = "0x0488", …}``) on a strip; ``hexagon`` + ``pentagon``, or ``tiles`` = {plate label
+  labels it, e.g. ``{T1 = "0x0488", …}``) on a strip or a panel; ``hexagon`` + ``pentagon``, or ``tiles`` = {plate label
   = ID} for every face ("H01" … "H20", "P01" … "P12", each ID of its face's polygon; ``fabpat design`` writes
   it), on the truncated icosahedron; one key per polygon of a mesh tiling, named as the polygon
   (:data:`POLYGON_KEYS`: ``triangle``, ``square``, ``pentagon``, ``hexagon``, …) or ``tiles`` by plate label
@@ -39,11 +42,11 @@ A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented 
   ``dxf_entities`` ("polyline" | "segments", default "polyline": closed LWPOLYLINEs with bulges for
   laser fills, or one LINE / ARC per piece for OpenSCAD; as ``fabpat export --dxf-entities``).
 * ``[estimates]`` ``cut_speed`` (mm/s), ``print_rate`` (mm³/s).
-* ``[load]``  ``end_shortening`` (strips): the end-pin travel over the strip length that
+* ``[load]``  ``end_shortening`` (strips and panels): the end-pin travel over the strip length that
   ``simulate-assembly`` uses when ``--end-shortening`` is not given (default 0.1).
-* ``[output]``  ``formats``: any of step, stl, glb, 3dm, dxf, svg, bom, png; ``mesh_tolerance`` (STL chord of
-  the parts and of the sleeves in the .3dm, default 0.005), ``curve_tolerance`` (largest deviation of
-  the sheets' DXF arcs from the exact outlines, default 0.01).
+* ``[output]``  ``formats``: any of step, stl, glb, 3dm, dxf, svg, bom, png (a panel also
+  3mf); ``mesh_tolerance`` (STL chord of the parts and of the sleeves in the .3dm, default 0.005),
+  ``curve_tolerance`` (largest deviation of the sheets' DXF arcs from the exact outlines, default 0.01).
 
 Every error is a :class:`~fabpat.errors.SpecError` whose one line names the file, the key and what
 is allowed. A key the chosen way of picking patterns does not read (``count`` beside ``hexagon``,
@@ -77,7 +80,13 @@ from fabpat.assembly.tiling import Tiling, honeycomb_strip, truncated_icosahedro
 from fabpat.errors import PatternError, SpecError
 from fabpat.validate import RANGES, check
 
-TILINGS = ("honeycomb-strip", "truncated-icosahedron", "mesh", "goldberg", "hex-tube", "hex-cap")
+TILINGS = ("honeycomb-strip", "truncated-icosahedron", "mesh", "goldberg", "hex-tube", "hex-cap", "panel")
+#: the flat kinds of rows × columns hexagons, pushed into an arch by ``simulate-assembly``; their patterns are
+#: chosen as a strip's (pattern, groups, tiles, rule = "graded")
+STRIP_KINDS = ("honeycomb-strip", "panel")
+#: largest panel (rows, columns): building and checking the one fused solid grows faster than its tiles
+#: (BRepCheck compares the outline's loops pairwise: docs/tilings.md)
+MAX_PANEL_ROWS, MAX_PANEL_COLUMNS = 12, 12
 #: the kinds whose faces are a polygon mesh kept in the spec (:attr:`TilingSpec.vertices`): a file's, or
 #: a built-in surface's (:mod:`fabpat.assembly.polyhedra`, only nearly regular: plates at best fit)
 MESH_KINDS = ("mesh", "goldberg", "hex-tube", "hex-cap")
@@ -95,6 +104,8 @@ POLYGON_KEYS = {3: "triangle", 4: "square", 5: "pentagon", 6: "hexagon", 7: "hep
                 10: "decagon", 11: "hendecagon", 12: "dodecagon"}
 PROCESSES = ("print", "laser")
 FORMATS = ("step", "stl", "glb", "3dm", "dxf", "svg", "bom", "png")
+#: a panel's formats: a kit's and the 3MF of its one part (a kit's many parts are STL files)
+PANEL_FORMATS = (*FORMATS, "3mf")
 STRIP_RULES = ("graded",)
 SPHERE_RULES = ("similar-energy", "roundest")
 SCENARIOS = ("cantilever", "cylinder", "dome")
@@ -143,8 +154,14 @@ class TilingSpec:
 
     @property
     def strip(self) -> bool:
-        """A honeycomb strip (pushed into an arch), not a polyhedral tiling (closed by its sleeves)."""
-        return self.kind == "honeycomb-strip"
+        """A honeycomb strip or a panel (rows × columns of hexagons, pushed into an arch), not a polyhedral
+        tiling (closed by its sleeves)."""
+        return self.kind in STRIP_KINDS
+
+    @property
+    def panel(self) -> bool:
+        """A one-piece panel: the strip's hexagons fused into one part, no sleeves (:mod:`fabpat.assembly.panel`)."""
+        return self.kind == "panel"
 
     def skeleton(self) -> Tiling:
         """The tiling of unit edge (:mod:`fabpat.assembly.tiling`; scaled once the sleeves fix the skeleton edge)."""
@@ -301,7 +318,7 @@ def _pattern_id(source: str, key: str, pid: Any, sides: tuple[int, ...]) -> str:
 
 
 #: [tiling] keys that only some kinds read: key → those kinds
-_KIND_KEYS = {"rows": ("honeycomb-strip", "hex-tube"), "columns": ("honeycomb-strip", "hex-tube"),
+_KIND_KEYS = {"rows": ("honeycomb-strip", "hex-tube", "panel"), "columns": ("honeycomb-strip", "hex-tube", "panel"),
               "file": ("mesh",), "tolerance": ("mesh",), "fit": ("mesh",), "m": ("goldberg",), "n": ("goldberg",),
               "realization": ("goldberg",), "rings": ("hex-cap",), "centre": ("hex-cap",),
               "radius": tuple(RADIUS_KINDS)}
@@ -329,6 +346,9 @@ def _tiling(source: str, data: Any) -> TilingSpec:
         edge = t.number("edge", None, "edge")
     if kind == "honeycomb-strip":
         return TilingSpec(kind, edge, t.integer("rows", None), t.integer("columns", None))
+    if kind == "panel":
+        return TilingSpec(kind, edge, t.integer("rows", None, 1, MAX_PANEL_ROWS),
+                          t.integer("columns", None, 1, MAX_PANEL_COLUMNS))
     if kind in MESH_KINDS:
         return replace(_builtin_tiling(source, t, kind, edge), radius=radius)
     return TilingSpec(kind, edge, radius=radius)
@@ -631,7 +651,7 @@ def _tile_table(source: str, table: Mapping[str, Any], tiling: TilingSpec,
 def _load(source: str, data: Any, kind: str) -> float | None:
     """``[load] end_shortening``: the strip's default end-pin travel over its length (simulate-assembly)."""
     t = _Table(source, "load", data, ("end_shortening",))
-    if kind != "honeycomb-strip" and t.has("end_shortening"):
+    if kind not in STRIP_KINDS and t.has("end_shortening"):
         raise t.fail("end_shortening", "applies to strips (a closed assembly is bent by its sleeves): leave "
                      "[load] out")
     return t.number("end_shortening", None, "end_shortening") if t.has("end_shortening") else None
@@ -736,21 +756,24 @@ def _estimates(source: str, data: Any, process: str | None) -> EstimateSpec:
     return EstimateSpec(t.number("cut_speed", 15.0, "rate"), t.number("print_rate", 3.0, "rate"))
 
 
-def _output(source: str, data: Any) -> tuple[tuple[str, ...], float, float]:
-    """Formats, STL chord (mm) and DXF arc tolerance (mm) of ``[output]``."""
+def _output(source: str, data: Any, kind: str | None = None) -> tuple[tuple[str, ...], float, float]:
+    """Formats (a panel's: :data:`PANEL_FORMATS`), STL chord (mm) and DXF arc tolerance (mm) of ``[output]``."""
     t = _Table(source, "output", data, ("formats", "mesh_tolerance", "curve_tolerance"))
     tolerances = (t.number("mesh_tolerance", AssemblySpec.mesh_tolerance, "mesh_tolerance"),
                   t.number("curve_tolerance", AssemblySpec.curve_tolerance, "curve_tolerance"))
-    return (_formats(t), *tolerances)
+    return (_formats(t, PANEL_FORMATS if kind == "panel" else FORMATS), *tolerances)
 
 
-def _formats(t: _Table) -> tuple[str, ...]:
-    formats = t.data.get("formats", list(FORMATS))
+def _formats(t: _Table, allowed: tuple[str, ...] = FORMATS) -> tuple[str, ...]:
+    formats = t.data.get("formats", list(allowed))
     if not isinstance(formats, list) or not formats:
-        raise t.fail("formats", f"must be a non-empty list of: {', '.join(FORMATS)}")
+        raise t.fail("formats", f"must be a non-empty list of: {', '.join(allowed)}")
     for f in formats:
-        if f not in FORMATS:
-            raise t.fail("formats", f"contains {f!r}: allowed values are {', '.join(FORMATS)}")
+        if f == "3mf" and f not in allowed:  # a kit of many parts writes them as STL files
+            raise t.fail("formats", "contains '3mf', which is for tiling.kind = \"panel\" (one part): a kit's parts "
+                         f"are written as STL; allowed values are {', '.join(allowed)}")
+        if f not in allowed:
+            raise t.fail("formats", f"contains {f!r}: allowed values are {', '.join(allowed)}")
     twice = [f for i, f in enumerate(formats) if f in formats[:i]]
     if twice:  # a typo or a merge slip: say so rather than pick one silently
         raise t.fail("formats", f"lists {twice[0]!r} twice: give each format once")
@@ -765,6 +788,10 @@ def check_sheet_fits(spec: AssemblySpec) -> None:
     from fabpat.assembly.nesting import DEFAULT_RESOLUTION
     from fabpat.lattice import polygon_vertices
 
+    if spec.tiling.panel:
+        from fabpat.assembly.panel_kit import check_panel_fits
+
+        return check_panel_fits(spec)
     s = spec.sheet
     room = (s.width - 2 * s.margin - DEFAULT_RESOLUTION, s.height - 2 * s.margin - DEFAULT_RESOLUTION)
     for n in spec.polygon_sides:
@@ -855,13 +882,16 @@ def _read_tables(data: Mapping[str, Any], source: str, need_sheet: bool, problem
     plates = read(lambda: _plates(source, data.get("plates", {})))
     process = plates.process if plates is not None else None
     kind = tiling.kind if tiling is not None else None
+    if kind == "panel" and "sleeve" in data:
+        problems.append(f"{source}: [sleeve] applies to assemblies joined by sleeves; tiling.kind = \"panel\" is one "
+                        "part with its plates fused: leave [sleeve] out")
     sleeve = read(lambda: _sleeve(source, data.get("sleeve", {}), tiling))
     if tiling is not None and tiling.radius is not None and plates is not None and sleeve is not None:
         tiling = read(lambda: _sized_by_radius(source, tiling, plates, sleeve))
     material = read(lambda: _material(source, data.get("material", {})))
     sheet = read(lambda: _sheet(source, data["sheet"], process)) if "sheet" in data else None
     estimates = read(lambda: _estimates(source, data.get("estimates", {}), process))
-    output = read(lambda: _output(source, data.get("output", {})))
+    output = read(lambda: _output(source, data.get("output", {}), kind))
     patterns = read(lambda: _patterns(source, data["patterns"], tiling)) if tiling and "patterns" in data else None
     load = read(lambda: (_load(source, data.get("load", {}), kind),)) if kind is not None else (None,)
     if problems:

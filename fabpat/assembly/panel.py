@@ -1,0 +1,318 @@
+"""One-piece panels: a flat patch of a planar tiling cut or printed as ONE part (issue 26, item 4).
+
+A panel is the honeycomb strip's ``rows`` × ``columns`` hexagons (:func:`fabpat.assembly.tiling.
+honeycomb_strip`) with no sleeves: the plates sit edge to edge at the plate edge ``e`` itself (no
+skeleton setback) and are fused at their interfaces into one exact outline (lines and quadratic rational
+arcs, nothing approximated), which every writer of :mod:`fabpat.exchange.registry` takes as a part.
+
+**How the outlines fuse** (:func:`fuse`). Two neighbouring plates share a polygon edge, and the edge
+rule of the library (:func:`fabpat.library.is_tileable`) leaves only the middle sub-triangle of each
+edge row solid, its apex at the edge midpoint M: a plate touches its polygon only along its interface
+segment [M − d, M + d] (:mod:`fabpat.fillet`), identical for every pattern, family member and polygon
+of one edge. Each plate's outer loop runs ``… a₁, L, a₂ …`` there: a₁ the first half of the bow-tie
+arc that crosses the edge at M − d at right angles, L the segment, a₂ the second half of the other
+bow-tie arc. The neighbour runs the same segment the other way. So the union of the two plates is
+their loops with both copies of L cancelled and re-linked at the segment's ends: at M − d plate A's a₁
+continues with plate B's b₂, which is the other half of the very same bow-tie arc (B's sub-triangle
+is A's mirror image across the edge), so the fused boundary passes M − d *smoothly* (G1, and the
+same conic on both sides): there is no cusp for OCCT or the mesher to handle. The two halves are
+joined back into the whole arc (P₀, M, P₀′) of weights (1, w, 1) (checked to 1e-9 mm before it is
+trusted, else :class:`~fabpat.errors.GeometryError`), so the fused outline has no joint at all where two
+plates meet, and the B-rep carries the interface weight w exactly. What is left of the loops is one
+counter-clockwise outer loop (the panel's rim) and clockwise holes: every plate's own holes and the
+gaps between plates (one around each interior tiling vertex). A free interface (on the panel's rim)
+keeps its segment and its arc halves, exported on their whole arcs as a single plate is
+(:attr:`Panel.support`).
+
+Units: mm. Sources: paper §3.3 (fillets, interfaces) and §5 (the strip's end-shortening experiment, run
+on a panel by :func:`panel_setup`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from functools import cached_property
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fabpat.errors import GeometryError
+from fabpat.outline import Line, Loop, Outline, RationalQuad, Segment
+
+Arr = NDArray[np.float64]
+#: mm: two world points of neighbouring plates closer than this are the same point (the plates' shared
+#: interface ends agree to ~1e-14 mm; a mismatch above this is a placement error, never rounded away)
+MATCH_TOL = 1e-9
+
+
+def _moved(seg: Segment, R: Arr, t: Arr) -> Segment:
+    """``seg`` under the rigid 2D motion x → R x + t (a rational arc keeps its weight)."""
+    if isinstance(seg, Line):
+        return Line(R @ seg.p0 + t, R @ seg.p1 + t)
+    return RationalQuad(R @ seg.P0 + t, R @ seg.P1 + t, R @ seg.P2 + t, seg.w)
+
+
+def _same_arc(a: RationalQuad, b: RationalQuad) -> bool:
+    return abs(a.w - b.w) <= 1e-12 and float(np.abs(a.control_points - b.control_points).max()) <= MATCH_TOL
+
+
+@dataclass(frozen=True, eq=False)
+class PlacedOutline:
+    """One plate of a panel: its ``filleted`` pattern (:class:`~fabpat.fillet.FilletedPattern`) and the rigid
+    2D motion ``R`` (2, 2), ``t`` (2,) mm from its polygon frame to the panel's plane."""
+
+    filleted: Any
+    R: Arr
+    t: Arr
+
+    @cached_property
+    def loops(self) -> list[list[Segment]]:
+        """The outline's loops in the panel's plane, outer first."""
+        return [[_moved(s, self.R, self.t) for s in lp.segments] for lp in self.filleted.outline.loops]
+
+    def interface(self, i: int) -> tuple[Arr, Arr]:
+        """Interface segment i in the panel's plane: (start, end) (2,) mm, counter-clockwise about the plate."""
+        a, b = self.filleted.interface_segments[i]
+        return self.R @ a + self.t, self.R @ b + self.t
+
+    def arcs(self, i: int) -> tuple[RationalQuad, RationalQuad]:
+        """Interface i's two whole bow-tie arcs (into, out of the segment) in the panel's plane."""
+        into, out = self.filleted.interface_arcs[i]
+        return _moved(into, self.R, self.t), _moved(out, self.R, self.t)  # type: ignore[return-value]
+
+    def line_index(self, i: int) -> int:
+        """Index in the outer loop of interface i's straight segment; GeometryError if it is not there."""
+        a, b = self.interface(i)
+        for k, s in enumerate(self.loops[0]):
+            if isinstance(s, Line) and np.abs(s.p0 - a).max() <= MATCH_TOL and np.abs(s.p1 - b).max() <= MATCH_TOL:
+                return k
+        raise GeometryError(f"pattern {self.filleted.label}: interface {i} is not a straight piece of its outer loop")
+
+
+@dataclass(frozen=True)
+class Fused:
+    """The fused outline (:class:`~fabpat.outline.Outline`, no polygon frame), the whole bow-tie arcs whose
+    halves its free interfaces keep (``support``, for :func:`fabpat.cad.make_face`), how many interfaces were
+    fused and how many bow-tie arcs were made whole again there (two per fused interface)."""
+
+    outline: Outline
+    support: tuple[RationalQuad, ...]
+    fused: int
+    joined_arcs: int
+
+
+def fuse(plates: Sequence[PlacedOutline], joints: Sequence[tuple[tuple[int, int], tuple[int, int]]]) -> Fused:
+    """The union of ``plates`` that meet at ``joints`` ((plate, interface) of one side, of the other), as one
+    exact outline: see the module docstring. Each joint's two segments must coincide, run in opposite
+    directions, and be flanked by the two halves of one bow-tie arc at each end (within
+    :data:`MATCH_TOL` mm); GeometryError otherwise, or if the union is not one piece (one outer loop).
+    """
+    lines = [{} for _ in plates]  # plate → {interface: index of its straight segment in the outer loop}
+    nxt: dict[tuple[int, int], tuple[int, int]] = {}
+    for p, pl in enumerate(plates):
+        n = len(pl.loops[0])
+        nxt.update({(p, k): (p, (k + 1) % n) for k in range(n)})
+    whole: dict[tuple[int, int], RationalQuad] = {}  # first half (plate, index) → the whole arc it starts
+    cancelled: set[tuple[int, int]] = set()
+    for (pa, ia), (pb, ib) in joints:
+        A, B = plates[pa], plates[pb]
+        ka, kb = (lines[pa].setdefault(ia, A.line_index(ia)), lines[pb].setdefault(ib, B.line_index(ib)))
+        (a0, a1), (b0, b1) = A.interface(ia), B.interface(ib)
+        if np.abs(a0 - b1).max() > MATCH_TOL or np.abs(a1 - b0).max() > MATCH_TOL:
+            raise GeometryError(f"plates {pa} and {pb} do not meet at their interfaces {ia} and {ib}")
+        (a_in, a_out), (b_in, b_out) = A.arcs(ia), B.arcs(ib)
+        # at the segment's start (A's view) A's arc into it goes on as B's arc out of it, and vice versa
+        if not (_same_arc(a_in, b_out) and _same_arc(b_in, a_out)):
+            raise GeometryError(f"plates {pa} and {pb}: the bow-tie arcs of interfaces {ia} and {ib} do not "
+                                "continue each other (patterns of different edge or interface weight?)")
+        na, nb = len(A.loops[0]), len(B.loops[0])
+        before_a, after_a = (pa, (ka - 1) % na), (pa, (ka + 1) % na)
+        before_b, after_b = (pb, (kb - 1) % nb), (pb, (kb + 1) % nb)
+        nxt[before_a], nxt[before_b] = after_b, after_a
+        whole[before_a], whole[before_b] = a_in, b_in
+        cancelled |= {(pa, ka), (pb, kb)}
+    seconds = {nxt[k] for k in whole}
+    seen: set[tuple[int, int]] = set()
+    loops: list[Loop] = []
+    for start in nxt:
+        if start in seen or start in cancelled or start in seconds:
+            continue
+        segs: list[Segment] = []
+        k = start
+        while k not in seen:
+            seen.add(k)
+            if k in whole:
+                segs.append(whole[k])
+                seen.add(nxt[k])
+                k = nxt[nxt[k]]
+            else:
+                segs.append(plates[k[0]].loops[0][k[1]])
+                k = nxt[k]
+        if k != start:
+            raise GeometryError("the fused boundary walk did not close")
+        loops.append(Loop(tuple(segs)))
+    outer = [lp for lp in loops if lp.signed_area > 0]
+    if len(outer) != 1:
+        raise GeometryError(f"the fused panel has {len(outer)} outer loops, expected 1 (its plates are not one piece)")
+    holes = [lp for lp in loops if lp.signed_area <= 0]
+    holes += [Loop(tuple(h)) for pl in plates for h in pl.loops[1:]]
+    free = [arc for p, pl in enumerate(plates) for i in range(len(pl.filleted.interface_arcs))
+            if i not in lines[p] for arc in pl.arcs(i)]
+    return Fused(Outline(outer[0], tuple(holes)), tuple(free), len(joints), len(whole))
+
+
+def relink_angles(plates: Sequence[PlacedOutline], joints: Sequence[tuple[tuple[int, int], tuple[int, int]]]
+                  ) -> Arr:
+    """(2 × joints,) angle (rad) between the tangents where the fused boundary is re-linked: at each end of
+    each fused interface segment, the end tangent of the arc half arriving on one plate and the start
+    tangent of the half leaving on the other (0: tangent, no cusp). A separate check of :func:`fuse`'s
+    premise, read from the plates' own half arcs."""
+    out = []
+    for (pa, ia), (pb, ib) in joints:
+        A, B = plates[pa], plates[pb]
+        ka, kb = A.line_index(ia), B.line_index(ib)
+        for P, k, Q, m in ((A, ka, B, kb), (B, kb, A, ka)):
+            arrive = P.loops[0][(k - 1) % len(P.loops[0])]
+            leave = Q.loops[0][(m + 1) % len(Q.loops[0])]
+            u, v = arrive.tangent(1.0), leave.tangent(0.0)
+            out.append(math.atan2(abs(u[0] * v[1] - u[1] * v[0]), float(u @ v)))
+    return np.array(out)
+
+
+@dataclass(frozen=True, eq=False)
+class Panel:
+    """A panel spec made: the ``tiling`` at the plate edge (mm), the distinct plates' ``filleted`` patterns
+    (by :class:`~fabpat.assembly.placement.PlateType`), each face's ``types`` and ``plates`` (placed
+    outlines) and the ``fused`` outline. Lengths in mm."""
+
+    spec: Any
+    tiling: Any
+    types: tuple[Any, ...]
+    filleted: dict[Any, Any]
+    plates: tuple[PlacedOutline, ...]
+    fused: Fused
+
+    @property
+    def outline(self) -> Outline:
+        """The fused outline (panel plane, mm): one outer loop and its holes."""
+        return self.fused.outline
+
+    @property
+    def labels(self) -> tuple[str, ...]:
+        """The tiles' labels in face order (as a strip's plates: "T01" …)."""
+        return tuple(self.tiling.labels)
+
+    @property
+    def name(self) -> str:
+        """Product name: the panel's size, polygon edge, thickness, interface weight and patterns."""
+        s = self.spec
+        ids = ", ".join(dict.fromkeys(t.label.split(" ", 1)[1] for t in self.types))
+        return (f"panel {s.tiling.rows}x{s.tiling.columns} hex e{s.tiling.edge:g} t{s.plates.thickness:g} "
+                f"w{s.plates.weight:g} ({ids})")
+
+    @cached_property
+    def part(self) -> Any:
+        """The panel as a :class:`~fabpat.exchange.registry.Part` (z from 0 to the plate thickness) named
+        :attr:`name`, its free interfaces' whole bow-tie arcs as ``support``; built once, so every writer
+        shares its solid. No engraved label: finding a box for one on the whole panel's material
+        (:func:`fabpat.exchange.labels.place_label`) took 7 s per DXF or SVG of a 3 × 4 panel; the kit's
+        sheet engraves every tile's label instead (:func:`fabpat.assembly.panel_kit.sheet_document`)."""
+        from fabpat.exchange.registry import Part
+
+        return Part(self.outline, self.spec.plates.thickness, self.name, support=self.fused.support)
+
+    @property
+    def solid(self) -> Any:
+        """The exact ``TopoDS_Solid`` (BRepCheck valid; :func:`fabpat.cad.make_solid`), built on first use."""
+        return self.part.solid
+
+    def pins(self) -> list[tuple[int, int, Arr, Arr]]:
+        """(face, polygon edge, start, end) of the free interfaces at both ends of the panel (first and last
+        column, :func:`fabpat.assembly.placement.end_interfaces`), in the panel's plane (mm)."""
+        from fabpat.assembly.placement import end_interfaces
+
+        return [(f, i, *self.plates[f].interface(i)) for f, i in end_interfaces(self.tiling)]
+
+
+def joints(tiling: Any) -> list[tuple[tuple[int, int], tuple[int, int]]]:
+    """((face, polygon edge), (face, polygon edge)) of every edge two faces of ``tiling`` share."""
+    return [tuple(tuple(int(x) for x in pair) for pair in tiling.edge_faces[k])  # type: ignore[misc]
+            for k in tiling.interior_edges]
+
+
+def build_panel(spec: Any, face_patterns: Sequence[str] | None = None) -> Panel:
+    """Fillet, place and fuse the plates of a ``kind = "panel"`` spec (an AssemblySpec); ``face_patterns`` the
+    face pattern IDs (face order; default :func:`fabpat.assembly.build.face_patterns`). Raises SpecError
+    (patterns, geometry limits: :func:`check_panel`) or GeometryError (plates that do not fuse)."""
+    from fabpat.assembly.build import face_patterns as choose
+    from fabpat.assembly.placement import PlateType
+    from fabpat.assembly.tiling import honeycomb_strip
+    from fabpat.fillet import fillet_pattern
+    from fabpat.library import get_pattern
+
+    check_panel(spec)
+    ids = list(choose(spec) if face_patterns is None else face_patterns)
+    e = spec.tiling.edge
+    tiling = honeycomb_strip(spec.tiling.rows, spec.tiling.columns, e)
+    if len(ids) != len(tiling.faces):
+        raise ValueError(f"need {len(tiling.faces)} pattern IDs, got {len(ids)}")
+    types = tuple(PlateType(len(loop), pid, spec.patterns.bridge_weight_of(f) if spec.patterns else 1.0)
+                  for f, (loop, pid) in enumerate(zip(tiling.faces, ids, strict=True)))
+    filleted = {pt: fillet_pattern(get_pattern(pt.pattern_id, pt.sides, pt.depth, e), spec.plates.weight,
+                                   pt.variation) for pt in dict.fromkeys(types)}
+    frames = tiling.frames()
+    plates = tuple(PlacedOutline(filleted[pt], frames[f][:2, :2].copy(), frames[f][:2, 3].copy())
+                   for f, pt in enumerate(types))
+    return Panel(spec, tiling, types, filleted, plates, fuse(plates, joints(tiling)))
+
+
+def check_panel(spec: Any) -> None:
+    """Refuse (SpecError naming the key and its range) a panel whose interface segment 2 · edge / 16 / (1 + w)
+    is shorter than :data:`fabpat.assembly.placement.MIN_INTERFACE_CHORDS` STL chords (``output.mesh_tolerance``),
+    as for a kit's plates: the part's mesh would not resolve it."""
+    from fabpat.assembly.placement import MIN_INTERFACE_CHORDS
+    from fabpat.errors import SpecError
+
+    e, w = spec.tiling.edge, spec.plates.weight
+    seg_min = MIN_INTERFACE_CHORDS * spec.mesh_tolerance
+    w_max = 2.0 * e / 16.0 / seg_min - 1.0
+    if w > w_max:
+        raise SpecError(f"{spec.source}: plates.weight = {w:g} must be in (0, {w_max:.4g}]: a larger weight makes the "
+                        f"interface segment ({2.0 * e / 16.0 / (1.0 + w):.3g} mm) shorter than "
+                        f"{MIN_INTERFACE_CHORDS:g} × output.mesh_tolerance = {seg_min:g} mm")
+
+
+def panel_setup(spec: Any, face_patterns: Sequence[str], *, h: float = 3.0, E: float = 1000.0,
+                nu: float = 0.35) -> Any:
+    """The fused panel as the strip's end-shortening experiment (:class:`fabpat.assembly.simulate.StripSetup`):
+    ONE shell plate, the fused outline meshed at target edge ``h`` (mm) by Triangle (curves flattened at
+    :data:`fabpat.mesh.FLATTEN_TOL_PER_H` × h, chords moved towards their arcs, :func:`fabpat.mesh.flatten_outline`),
+    its mid-surface on z = 0, no sleeves; pinned at the free interfaces of its first and last columns as a strip is
+    (:func:`fabpat.assembly.placement.end_interfaces`). ``E`` (N/mm²), ``nu``: the material. Raises GeometryError
+    if h is too coarse for the interfaces (:func:`fabpat.assembly.simulate.check_h`) or a pin gets fewer than 2 nodes.
+    """
+    from fabpat.assembly.model import ModelPlate, assembly_model
+    from fabpat.assembly.simulate import StripSetup, check_h
+    from fabpat.mesh import ASSEMBLY_MAX_ELEMENTS, FLATTEN_TOL_PER_H, flatten_outline, mesh_polygons
+    from fabpat.shell.element import Material
+
+    check_h(h, spec.tiling.edge, spec.plates.weight)
+    panel = build_panel(spec, face_patterns)
+    pins = panel.pins()
+    loops = flatten_outline(panel.outline, FLATTEN_TOL_PER_H * h)
+    mesh = mesh_polygons(loops, h, interfaces=[(a, b) for _, _, a, b in pins], max_elements=ASSEMBLY_MAX_ELEMENTS)
+    for (f, i, _, _), nodes in zip(pins, mesh.interfaces, strict=True):
+        if nodes.size < 2:
+            raise GeometryError(f"pinned interface {i} of tile {panel.labels[f]} has {nodes.size} mesh nodes "
+                                "(need ≥ 2): lower h")
+    model = assembly_model([ModelPlate("panel", mesh, np.eye(4))], [], Material(E, nu, spec.plates.thickness))
+    col = panel.tiling.grid[:, 1]
+    last = int(col.max())
+    left = [mesh.interfaces[k] for k, (f, *_) in enumerate(pins) if col[f] == 0]
+    right = [mesh.interfaces[k] for k, (f, *_) in enumerate(pins) if col[f] == last]
+    xs = model.X[:, 0]
+    return StripSetup(model, np.unique(np.concatenate(left)), np.unique(np.concatenate(right)), float(np.ptp(xs)),
+                      float(xs.min()))

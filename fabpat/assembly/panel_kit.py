@@ -1,0 +1,340 @@
+"""The kit of a one-piece panel (``tiling.kind = "panel"``): the fused part in every format, nested on the sheet.
+
+:func:`assemble_panel` is what :func:`fabpat.assembly.build.assemble` does for a panel: the patterns are chosen
+as a strip's, the plates filleted and fused (:mod:`fabpat.assembly.panel`), the one part checked (a valid
+B-rep whose volume is the plates' volumes summed from their own solids, one outer loop), nested on the
+spec's sheet, and then written, by the same writers as ``fabpat export`` (:mod:`fabpat.exchange.registry`),
+into a temporary folder that becomes ``--out`` only at the end (:mod:`fabpat.assembly.kit_folder`):
+
+* ``panel.step`` (exact solid, AP214), ``panel.stl``, ``panel.3mf`` (meshes at ``output.mesh_tolerance``),
+  ``panel.3dm`` (exact NURBS outline and extrusion), ``panel.dxf`` and ``panel.svg`` (the part at true size,
+  as ``fabpat export`` writes a plate, without kerf: the part as designed), ``panel.glb`` (a mesh to look
+  at), ``panel.png`` (the tiles coloured by pattern), ``sheets/sheet-01.dxf`` (the part nested on the
+  sheet: CUT loops moved out by kerf/2, the tiles' labels on ENGRAVE, the bed on the non-plotting layer
+  SHEET), ``bom.csv``/``bom.md`` and ``manifest.json``, each as ``output.formats`` asks (``dxf`` gives both DXF files).
+
+A panel has no sleeves, no net and no prediction: ``fabpat simulate-assembly`` pushes it together as a
+strip (:func:`fabpat.assembly.panel.panel_setup`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fabpat.assembly.panel import Panel, build_panel
+from fabpat.errors import ExportError, SpecError
+
+#: relative difference allowed between the fused solid's volume and the plates' volumes summed: both are
+#: exact (adaptive Gauss–Kronrod at 1e-10, :func:`fabpat.cad.volume`); measured 4e-16 on a 3 × 4 panel
+VOLUME_RTOL = 1e-6
+#: the kit files of each ``output.formats`` entry
+PANEL_FILES = {"step": ("panel.step",), "stl": ("panel.stl",), "3mf": ("panel.3mf",), "3dm": ("panel.3dm",),
+               "dxf": ("panel.dxf",), "svg": ("panel.svg",)}
+
+
+@dataclass(frozen=True)
+class PanelReport:
+    """What the panel kit's checks measured: ``tiles``, ``fused`` interfaces, ``holes`` of the outline, the solid's
+    ``volume`` and the plates' summed ``plate_volume`` (mm³), ``sheets`` used and their smallest margin gap."""
+
+    tiles: int
+    fused: int
+    holes: int
+    volume: float
+    plate_volume: float
+    sheets: int
+
+    def lines(self) -> list[str]:
+        """The report as ``fabpat assemble`` prints it and the manifest stores it."""
+        rel = abs(self.volume - self.plate_volume) / self.plate_volume
+        return [f"{self.tiles} tiles fused at {self.fused} interfaces into one part: 1 outer loop, {self.holes} holes",
+                f"one solid, BRepCheck valid: volume {self.volume:.3f} mm³ = the plates' {self.plate_volume:.3f} mm³ "
+                f"(relative difference {rel:.1e})",
+                *([f"{self.sheets} sheet(s): the panel's hull within the sheet's margins"] if self.sheets else [])]
+
+
+def hull(panel_or_spec: Any) -> NDArray[np.float64]:
+    """(k, 2) convex hull (counter-clockwise, mm, panel plane) of the panel's polygons: the part lies inside it
+    (a plate never leaves its polygon), so nesting it keeps the part ``sheet.spacing`` from anything else."""
+    from scipy.spatial import ConvexHull
+
+    from fabpat.assembly.tiling import honeycomb_strip
+
+    t = getattr(panel_or_spec, "spec", panel_or_spec).tiling
+    V = honeycomb_strip(t.rows, t.columns, t.edge).V[:, :2]
+    return V[ConvexHull(V).vertices]
+
+
+def _turn(P: NDArray[np.float64], quarter: bool) -> NDArray[np.float64]:
+    return np.stack([-P[:, 1], P[:, 0]], axis=1) if quarter else P
+
+
+def _grown(spec: Any) -> NDArray[np.float64]:
+    """The hull grown by kerf/2 about its centre (the cut path lies that far outside the part)."""
+    H = hull(spec)
+    c = H.mean(axis=0)
+    d = H - c
+    r = np.linalg.norm(d, axis=1)
+    return c + d * (1.0 + 0.5 * spec.sheet.kerf / r.min())[..., None] if spec.sheet.kerf > 0 else H
+
+
+def check_panel_fits(spec: Any) -> None:
+    """SpecError unless the panel's hull (plus kerf, margins and one nesting step) lies on the sheet, as it is or
+    turned by 90°."""
+    from fabpat.assembly.nesting import DEFAULT_RESOLUTION
+
+    s = spec.sheet
+    room = np.array([s.width, s.height]) - 2 * s.margin - DEFAULT_RESOLUTION
+    P = _grown(spec)
+    sizes = [np.ptp(_turn(P, q), axis=0) for q in (False, True)]
+    if not any((size <= room + 1e-9).all() for size in sizes):
+        w, h = sizes[0]
+        raise SpecError(f"{spec.source}: sheet.width × sheet.height = {s.width:g} × {s.height:g} mm is smaller than "
+                        f"the {spec.tiling.rows} × {spec.tiling.columns} panel ({w:.1f} × {h:.1f} mm, either way "
+                        f"round, plus sheet.margin = {s.margin:g} mm on each side): use a larger sheet or fewer "
+                        "rows or columns")
+
+
+def nest_panel(spec: Any) -> tuple[Any, bool]:
+    """The panel's hull nested on the spec's sheet (:func:`fabpat.assembly.nesting.nest`, one item, no turn) and
+    whether it was turned by 90° first (when only that way fits)."""
+    from fabpat.assembly.nesting import DEFAULT_RESOLUTION, nest
+
+    s = spec.sheet
+    room = np.array([s.width, s.height]) - 2 * s.margin - DEFAULT_RESOLUTION
+    P = _grown(spec)
+    quarter = not (np.ptp(P, axis=0) <= room + 1e-9).all()
+    return nest([_turn(P, quarter)], s.width, s.height, s.margin, s.spacing, turns=1), quarter
+
+
+def sheet_document(panel: Panel, nesting: Any, quarter: bool) -> Any:
+    """The ezdxf drawing of the panel's sheet (mm): the fused outline's loops on CUT (bulge arcs within
+    ``output.curve_tolerance``, moved out by kerf/2), each tile's label on ENGRAVE in the solid sub-triangle at
+    its polygon edge 0 (:func:`fabpat.assembly.sheets.edge_label_spots`), the bed on SHEET (unless
+    ``sheet.border = false``)."""
+    import ezdxf
+
+    from fabpat.assembly.sheets import SHEET_COLOR, SHEET_LAYER, edge_label_spots
+    from fabpat.cad import bulge_loops, offset_bulge_loops
+    from fabpat.exchange.dxf import CUT_COLOR, CUT_LAYER, ENGRAVE_COLOR, ENGRAVE_LAYER, add_bulge_segments, set_extents
+    from fabpat.exchange.labels import label_at
+
+    spec = panel.spec
+    s = spec.sheet
+    doc = ezdxf.new("R2010", units=ezdxf.units.MM)
+    doc.layers.add(CUT_LAYER, color=CUT_COLOR)
+    doc.layers.add(ENGRAVE_LAYER, color=ENGRAVE_COLOR)
+    msp = doc.modelspace()
+    if s.border:
+        layer = doc.layers.add(SHEET_LAYER, color=SHEET_COLOR)
+        layer.dxf.plot = 0
+        msp.add_lwpolyline([(0, 0), (s.width, 0), (s.width, s.height), (0, s.height)], close=True,
+                           dxfattribs={"layer": SHEET_LAYER})
+    place = nesting.placements[0]
+
+    def where(P: NDArray[np.float64]) -> NDArray[np.float64]:
+        return place.apply(_turn(np.atleast_2d(P), quarter))
+
+    loops = bulge_loops(panel.outline, spec.curve_tolerance)
+    for lp in offset_bulge_loops(loops, 0.5 * s.kerf) if s.kerf > 0 else loops:
+        V = where(lp.V)
+        if s.dxf_entities == "segments":
+            add_bulge_segments(msp, V, lp.bulges, {"layer": CUT_LAYER})
+        else:
+            msp.add_lwpolyline([(float(x), float(y), float(b)) for (x, y), b in zip(V, lp.bulges, strict=True)],
+                               format="xyb", close=True, dxfattribs={"layer": CUT_LAYER})
+    turn = 90.0 * quarter + math.degrees(place.angle)
+    chars = max(len(lab) for lab in panel.labels)
+    for label, pt, pl in zip(panel.labels, panel.types, panel.plates, strict=True):
+        spots = edge_label_spots(pt, spec.tiling.edge, chars)
+        if not spots:
+            continue
+        centre, _, ang, h = spots[0]
+        q = where(pl.R @ centre + pl.t)[0]
+        placed = label_at(label, q, turn + math.degrees(math.atan2(pl.R[1, 0], pl.R[0, 0]) + ang), h)
+        msp.add_text(label, height=h, rotation=placed.angle,
+                     dxfattribs={"layer": ENGRAVE_LAYER, "insert": placed.start})
+    set_extents(doc)
+    return doc
+
+
+def plate_volume(panel: Panel) -> float:
+    """The plates' volumes summed (mm³), each distinct plate's own exact solid built apart (not the fused one)."""
+    from fabpat.cad import make_solid, volume
+
+    one = {pt: volume(make_solid(fp.outline, panel.spec.plates.thickness, fp.support_arcs))
+           for pt, fp in panel.filleted.items()}
+    return math.fsum(one[pt] for pt in panel.types)
+
+
+def check_panel_part(panel: Panel) -> tuple[float, float]:
+    """(solid volume, plates' summed volume) in mm³; ExportError unless they agree within :data:`VOLUME_RTOL`.
+    The solid is BRepCheck valid or not built (:func:`fabpat.cad.make_solid` checks it: GeometryError)."""
+    from fabpat.cad import volume
+
+    v, plates = volume(panel.solid), plate_volume(panel)
+    if abs(v - plates) > VOLUME_RTOL * plates:
+        raise ExportError(f"{panel.spec.source}: the fused panel's volume {v:.6f} mm³ differs from its plates' "
+                          f"{plates:.6f} mm³: the plates overlap or leave gaps (a fusion error)")
+    return v, plates
+
+
+def assemble_panel(spec: Any, out: Path, tell: Callable[[str], None], timestamp: str | None,
+                   energies: Callable[[int], dict[str, float]] | None = None, force: bool = False) -> Any:
+    """:func:`fabpat.assembly.build.assemble` for ``tiling.kind = "panel"`` (arguments checked there): see the module
+    docstring. Raises SpecError, ExportError (plates too narrow for the process without ``force``; a fused part
+    that fails its checks), GeometryError; on any error ``out`` is untouched."""
+    from fabpat.assembly.build import AssembleResult, fabrication_problems, face_patterns, with_members
+    from fabpat.assembly.kit_folder import GENERATOR, MANIFEST, check_out, digests, swap_in
+    from fabpat.assembly.nesting import check_nesting
+    from fabpat.io import remove_stale_temps, temp_prefix, write_error
+
+    check_out(out)
+    spec = with_members(spec, energies)
+    tell("patterns")
+    ids = face_patterns(spec, energies)
+    tell("fusing")
+    panel = build_panel(spec, ids)
+    problems = fabrication_problems(spec, panel.filleted)
+    if problems and not force:
+        more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+        raise ExportError(f"{spec.source}: {problems[0]}{more}: choose a larger tiling.edge or other patterns, "
+                          "or give --force to build the panel anyway")
+    tell("nesting")
+    nesting, quarter = nest_panel(spec)
+    check_nesting(nesting)
+    tell("checks")
+    v, plates = check_panel_part(panel)
+    report = PanelReport(len(panel.types), panel.fused.fused, len(panel.outline.holes), v, plates, nesting.n_sheets)
+    parent = out.parent if str(out.parent) else Path(".")
+    remove_stale_temps(parent)
+    try:
+        tmp = Path(tempfile.mkdtemp(prefix=temp_prefix(out.name), suffix=".part", dir=parent))
+    except OSError as e:
+        raise write_error(out, e) from e
+    try:
+        files = write_panel_files(panel, nesting, quarter, report, tmp, tell, timestamp)
+        manifest = {"generator": GENERATOR, "spec": spec.name, "source": spec.source, "files": files,
+                    "counts": {panel.name: 1}, "tiles": dict(zip(panel.labels, [t.label for t in panel.types],
+                                                                 strict=True)),
+                    "sheets": nesting.n_sheets, "checks": report.lines(), "warnings": problems,
+                    "prediction": "not made for a panel: `fabpat simulate-assembly` pushes it together as a strip",
+                    "sha256": digests(tmp, files)}
+        (tmp / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
+        mask = os.umask(0)
+        os.umask(mask)
+        os.chmod(tmp, 0o777 & ~mask)
+        swap_in(tmp, out)
+    except OSError as e:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise write_error(out, e) from e
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return AssembleResult(out, (*files, MANIFEST), report, nesting.n_sheets, tuple(problems))
+
+
+#: progress steps of a panel kit before its files (:func:`fabpat.assembly.build.steps`)
+PANEL_STEPS = ("patterns", "fusing", "nesting", "checks")
+
+
+def panel_steps(spec: Any) -> list[str]:
+    """The progress steps of :func:`assemble_panel` for ``spec``'s formats, in order."""
+    f = spec.formats
+    return [*PANEL_STEPS, *(name.upper() for name in PANEL_FILES if name in f and name != "dxf"),
+            *(["sheets"] if "dxf" in f else []), *(["GLB"] if "glb" in f else []), *(["PNG"] if "png" in f else []),
+            *(["BOM"] if "bom" in f else [])]
+
+
+def write_panel_files(panel: Panel, nesting: Any, quarter: bool, report: PanelReport, tmp: Path,
+                      tell: Callable[[str], None], timestamp: str | None) -> list[str]:
+    """Write the panel kit's files into ``tmp`` (see the module docstring); returns them relative to it."""
+    from fabpat.exchange.registry import ExportSettings, export_parts
+
+    spec = panel.spec
+    f = spec.formats
+    part = panel.part
+    # the part files hold the part as designed (no kerf): the sheet's loops are the cut path, out by kerf/2
+    settings = ExportSettings(mesh_tolerance=spec.mesh_tolerance, curve_tolerance=spec.curve_tolerance,
+                              timestamp=timestamp, dxf_entities=spec.sheet.dxf_entities)
+    files: list[str] = []
+    for name, (file,) in PANEL_FILES.items():
+        if name in f and name != "dxf":
+            tell(name.upper())
+            export_parts([(part, {name: tmp / file})], settings)
+            files.append(file)
+    if "dxf" in f:
+        tell("sheets")
+        export_parts([(part, {"dxf": tmp / "panel.dxf"})], settings)
+        (tmp / "sheets").mkdir()
+        sheet_document(panel, nesting, quarter).saveas(tmp / "sheets" / "sheet-01.dxf")
+        files += ["panel.dxf", "sheets/sheet-01.dxf"]
+    if "glb" in f:
+        tell("GLB")
+        write_glb(panel, tmp / "panel.glb")
+        files.append("panel.glb")
+    if "png" in f:
+        tell("PNG")
+        render_png(panel, tmp / "panel.png")
+        files.append("panel.png")
+    if "bom" in f:
+        tell("BOM")
+        from fabpat.assembly.panel_bom import bom_files
+
+        files += bom_files(panel, nesting, report, tmp, files)
+    return files
+
+
+def write_glb(panel: Panel, path: Path) -> None:
+    """The part as binary glTF 2.0 in metres (its mesh at the kit's check tolerance, one colour)."""
+    import trimesh
+
+    from fabpat.assembly.export import GLB_UNIT
+    from fabpat.assembly.parts import CHECK_TOLERANCE
+    from fabpat.exchange.threemf import triangulate
+
+    V, F = triangulate(panel.solid, CHECK_TOLERANCE)
+    path.write_bytes(trimesh.Trimesh(V * GLB_UNIT, F, process=False).export(file_type="glb", include_normals=False))
+
+
+def render_png(panel: Panel, path: Path) -> None:
+    """The panel from above: each tile's plate filled in its pattern's colour (:data:`fabpat.assembly.export.PALETTE`),
+    labelled, the fused rim drawn, mm axes."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from fabpat.assembly.export import PALETTE
+    from fabpat.assembly.render import plain_text
+    from fabpat.outline import Loop, Outline
+
+    colour = {pt: PALETTE[i % len(PALETTE)] for i, pt in enumerate(dict.fromkeys(panel.types))}
+    fig, ax = plt.subplots(figsize=(8, 7), dpi=120)
+    for pl, pt, label in zip(panel.plates, panel.types, panel.labels, strict=True):
+        o = Outline(Loop(tuple(pl.loops[0])), tuple(Loop(tuple(h)) for h in pl.loops[1:]))
+        o.plot(ax, color=colour[pt])
+        ax.text(*pl.t, label, ha="center", va="center", fontsize=7)
+    for P in panel.outline.flatten(0.05)[:1]:
+        ax.plot(*np.vstack([P, P[:1]]).T, color="black", lw=0.6)
+    lo, hi = panel.outline.bbox
+    ax.set_xlim(lo[0] - 2, hi[0] + 2)
+    ax.set_ylim(lo[1] - 2, hi[1] + 2)
+    handles = [plt.Rectangle((0, 0), 1, 1, color=c) for c in colour.values()]
+    ax.legend(handles, [pt.label for pt in colour], fontsize=8, loc="upper right")
+    ax.set_title(plain_text(f"{panel.spec.name}: one part, {len(panel.types)} tiles"))
+    fig.tight_layout()
+    fig.savefig(path, format="png")
+    plt.close(fig)
+
