@@ -170,8 +170,8 @@ def similar_pair(hexagon: Mapping[str, float], pentagon: Mapping[str, float],
     hexagon pattern is the one nearest the ``quantile`` of the hexagon log-energies (the median: a
     typical stiffness, away from outliers); the pentagon pattern is the other pattern's entry whose
     *pentagon* energy is nearest its hexagon energy (never a member of the hexagon's own pattern). Ties
-    go to the smaller ID, so the choice is reproducible. Raises :class:`SpecError` without two hexagon energies or without pentagon
-    energies (never falls back to comparing hexagon energies).
+    go to the smaller ID, so the choice is reproducible. Raises :class:`SpecError` without two hexagon
+    energies or without pentagon energies (never falls back to comparing hexagon energies).
     """
     ids, logs = _clean(hexagon)
     if len(ids) < 2:
@@ -223,10 +223,10 @@ def similar_pairs(hexagon: Mapping[str, float], pentagon: Mapping[str, float], c
     from the ``2 · count`` hexagon patterns whose log-energies are nearest the ``quantile`` of the
     hexagon log-energies (ties to the smaller ID) — typical stiffnesses, as for :func:`similar_pair` —
     each paired with the entry of another pattern (an ID, or a member's name) whose pentagon energy is
-    nearest its own hexagon energy, ties to the smaller name. They are ranked by |log E_hex − log E_pent| (the energy ratio), then by hexagon ID,
-    then pentagon ID; a pair is listed once. Fewer than ``count`` pairs come back only when the
-    catalog has fewer candidates. Raises :class:`SpecError` if ``count`` < 1 or :func:`similar_pair`
-    finds no pair.
+    nearest its own hexagon energy, ties to the smaller name. They are ranked by |log E_hex − log E_pent|
+    (the energy ratio), then by hexagon ID, then pentagon ID; a pair is listed once. Fewer than
+    ``count`` pairs come back only when the catalog has fewer candidates. Raises :class:`SpecError` if
+    ``count`` < 1 or :func:`similar_pair` finds no pair.
     """
     if count < 1:
         raise SpecError(f"patterns.candidates must be at least 1, got {count}")

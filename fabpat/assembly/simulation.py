@@ -370,7 +370,6 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
         from fabpat.assembly.build import candidate_pairs
         from fabpat.assembly.placement import build_tiling
         from fabpat.assembly.predict import choose_roundest
-
         from fabpat.members import with_candidates
 
         pairs = candidate_pairs(spec)  # with bridge_weight = "rule" also the family members (names "ID bW")

@@ -90,7 +90,8 @@ def face_groups(V: Arr, faces: tuple[tuple[int, ...], ...], bands: int) -> tuple
 def solve_closed(spec: Any, patterns: tuple[str, ...], h: float,
                  start: tuple[Arr, Arr, Arr, Arr] | None = None) -> dict[str, Any]:
     """One full closure (the ``simulate-assembly`` path of a closed spec) with face patterns ``patterns``
-    (candidate names: a family member is ``"ID bW"``, :func:`fabpat.members.with_candidates`), warm-started from ``start`` = the ``state`` of an earlier solve of the same tiling if given.
+    (candidate names: a family member is ``"ID bW"``, :func:`fabpat.members.with_candidates`), warm-started
+    from ``start`` = the ``state`` of an earlier solve of the same tiling if given.
     Returns plain data: ``faces`` the patterns, ``P`` (n, 3) the deformed plate nodes (mm),
     ``peak_strain``, ``seconds``, ``radius`` and ``sphericity_rms`` of the least-squares sphere,
     ``plate_energies`` (N·mm), ``offsets`` (plates + 1,) each face's first node in P (faces in the tiling's

@@ -62,7 +62,8 @@ def design_closed(tgt: ClosedTarget, base: DesignBase, h: float, max_solves: int
     faces = list(best.data["faces"])
     rec = _record(tgt, base, best, labels, faces, runner.solves, time.perf_counter() - t0, tolerance, runs)
     rec["history"] = [_brief(ev, labels) for ev in search.seen.values() if ev is not None]
-    rec["candidates"] = {POLYGONS.get(n, f"{n}-gon"): _pool_counts(base.rows[n]) for n in sorted(base.rows, reverse=True)}
+    rec["candidates"] = {POLYGONS.get(n, f"{n}-gon"): _pool_counts(base.rows[n])
+                         for n in sorted(base.rows, reverse=True)}
     if base.notes:
         rec["notes"] = list(base.notes)
     warning = None if rec["reachable"] else _unreachable(rec, tolerance, max_solves, best)
