@@ -15,6 +15,7 @@ linking in one place).
 from __future__ import annotations
 
 import json
+import math
 import re
 from importlib import resources
 
@@ -114,8 +115,11 @@ def page_data(cat: Catalog, sides: int | None = None) -> dict[str, object]:
 def family_data(cat: Catalog, setup: dict[str, object], rows: list[dict[str, object]]) -> dict[str, object] | None:
     """The page's slider data: the swept members of ``bridge_weight`` (the paper's 1 among them) and, per
     metric that changes with it (``energy_<s>``, ``specific_stiffness_<s>``, ``min_width``,
-    ``filleted_area``), one list per pattern of its value at each member (None: not swept or not
-    converged). None when the catalog holds no family rows for this set-up."""
+    ``filleted_area``), one list per pattern of its value at each member (None: not converged, or outside
+    the pattern's own swept members). A member that some patterns were swept at and others not (the
+    sweep's adaptive midpoints, :func:`fabpat.sweep.run_sweep`) is filled in for the others linearly in
+    log–log between their own neighbouring swept members (:func:`_fill`), as the page interpolates, so a
+    dot does not vanish there. None when the catalog holds no family rows for this set-up."""
     from fabpat.catalog_rows import specific_stiffness
 
     fam = cat.family(**setup)
@@ -127,21 +131,43 @@ def family_data(cat: Catalog, setup: dict[str, object], rows: list[dict[str, obj
     scen = sorted({str(r["scenario"]) for r in fam})
     keys = [*(f"energy_{s}" for s in scen), *(f"specific_stiffness_{s}" for s in scen), "min_width", "filleted_area"]
     table: dict[str, list[list[float | None]]] = {k: [[None] * len(weights) for _ in rows] for k in keys}
+    swept: dict[str, set[tuple[int, int]]] = {k: set() for k in keys}
     for i, r in enumerate(rows):  # the paper's member: the catalog's own row
         for k in keys:
             v = r.get(k)
             table[k][i][col[1.0]] = None if v is None else float(v)  # type: ignore[arg-type]
+            swept[k].add((i, col[1.0]))
     for f in fam:
         i = row_of.get(str(f["id"]))
         if i is None:
             continue
         j, s = col[float(f["bridge_weight"])], str(f["scenario"])  # type: ignore[arg-type]
+        for k in (f"energy_{s}", f"specific_stiffness_{s}", "min_width", "filleted_area"):
+            swept[k].add((i, j))
         e = float(f["energy"]) if f["converged"] and f["energy"] is not None else None  # type: ignore[arg-type]
         table[f"energy_{s}"][i][j] = e
         table[f"specific_stiffness_{s}"][i][j] = specific_stiffness(e, f["filleted_area"])  # type: ignore[arg-type]
         table["min_width"][i][j] = None if f["min_width"] is None else float(f["min_width"])  # type: ignore[arg-type]
         table["filleted_area"][i][j] = None if f["filleted_area"] is None else float(f["filleted_area"])  # type: ignore[arg-type]
+    logw = [math.log(w) for w in weights]
+    for k in keys:
+        for i, values in enumerate(table[k]):
+            _fill(values, [(i, j) in swept[k] for j in range(len(weights))], logw)
     return {"name": "bridge_weight", "weights": weights, "values": table}
+
+
+def _fill(values: list[float | None], swept: list[bool], logw: list[float]) -> None:
+    """Fill, in place, each value not swept (``swept`` False) that lies between two swept, positive values
+    of the same pattern: linear in (ln w, ln value) between them; a gap next to a member that did not
+    converge, or beyond the pattern's swept members, stays None."""
+    known = [j for j, s in enumerate(swept) if s]
+    for a, b in zip(known[:-1], known[1:], strict=True):
+        va, vb = values[a], values[b]
+        if b - a < 2 or va is None or vb is None or va <= 0 or vb <= 0:
+            continue
+        for j in range(a + 1, b):
+            t = (logw[j] - logw[a]) / (logw[b] - logw[a])
+            values[j] = math.exp(math.log(va) + t * (math.log(vb) - math.log(va)))
 
 
 def render_page(data: dict[str, object]) -> str:

@@ -86,3 +86,27 @@ def test_the_slider_moves_the_dots_and_the_export_lines_in_chromium(family_db: P
             assert errors == []
         finally:
             browser.close()
+
+
+def test_a_member_only_some_patterns_were_swept_at_keeps_every_dot(tmp_path: Path) -> None:
+    """The sweep's adaptive midpoints exist for some patterns only: the others get the value the page's
+    log–log interpolation between their own members gives (here the geometric mean at the midpoint of
+    0.5 and 2 in ln w, w = 1 being the paper's), and a member past one that did not converge stays empty."""
+    path = tmp_path / "mid.sqlite"
+    with open_catalog(path, write=True) as cat:
+        for pid, e1 in (("0x0488", 20.0), ("0x2d88", 30.0)):
+            cat.write_rows(fake_rows(pid, 6, {"cylinder": e1}))
+        cat.write_rows(family_rows("0x0488", "cylinder", {0.5: 16.0, 0.7071: 18.0, 2.0: 30.0, 2.5: 33.0}))
+        cat.write_rows(family_rows("0x2d88", "cylinder", {0.5: 24.0, 2.0: None}))  # 2.0 buckled
+        cat.finish()
+    with open_catalog(path) as cat:
+        d = page_data(cat)
+    fam = d["family"]
+    assert fam["weights"] == [0.5, 0.7071, 1.0, 2.0, 2.5]
+    e = fam["values"]["energy_cylinder"][d["ids"].index("0x2d88")]
+    t = (math.log(0.7071) - math.log(0.5)) / (0.0 - math.log(0.5))  # 0.7071 between 0.5 and 1 in ln w
+    assert e[0] == 24.0 and e[2] == 30.0 and e[1] == pytest.approx(24.0 * (30.0 / 24.0) ** t, rel=1e-12)
+    assert e[3] is None and e[4] is None  # not converged at 2.0, not swept at 2.5: the curve ends
+    w = fam["values"]["min_width"][d["ids"].index("0x2d88")]
+    assert w[1] == pytest.approx(math.exp(math.log(2 / 1.5) + t * (math.log(2.0) - math.log(2 / 1.5))), rel=1e-12)
+    assert fam["values"]["energy_cylinder"][d["ids"].index("0x0488")] == [16.0, 18.0, 20.0, 30.0, 33.0]

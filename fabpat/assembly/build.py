@@ -109,20 +109,45 @@ def _pair_energies(get: Callable[[int], dict[str, float]]) -> tuple[dict[str, fl
     return get(6), get(5)
 
 
-def candidate_pairs(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | None = None
-                    ) -> list[tuple[str, str]]:
-    """``rule = "roundest"``: the ``patterns.candidates`` (hexagon ID, pentagon ID) pairs of similar energy
-    to try, best first (:func:`fabpat.assembly.rules.similar_pairs`). Raises :class:`SpecError`."""
+def candidate_pairs(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | None = None,
+                    notes: list[str] | None = None) -> list[tuple[str, str]]:
+    """``rule = "roundest"``: the ``patterns.candidates`` (hexagon, pentagon) pairs of similar energy to try,
+    best first (:func:`fabpat.assembly.rules.similar_pairs`). With ``bridge_weight = "rule"`` each polygon's
+    pool also holds the catalog's swept family members of its patterns (:func:`_with_members`), and a pair's
+    entries are candidate names (``"0x0488 b0.63"``, :func:`fabpat.members.with_candidates`); a polygon the
+    catalog has no family rows for keeps its paper's members and appends a line to ``notes``. Raises
+    :class:`SpecError`."""
     from fabpat.assembly import rules
 
     p = spec.patterns
     get = energies or (lambda n: _energies(spec, n))
     try:
-        return rules.similar_pairs(*_pair_energies(get), p.candidates)
+        pools = _pair_energies(get)
+        if p.member_rule:
+            pools = (_with_members(spec, 6, pools[0], notes), _with_members(spec, 5, pools[1], notes))
+        return rules.similar_pairs(*pools, p.candidates)
     except SpecError as e:
         if str(e).startswith(spec.source):
             raise
         raise SpecError(f"{spec.source}: patterns.rule = {p.rule!r}, scenario {p.scenario!r}: {e}") from e
+
+
+def _with_members(spec: AssemblySpec, sides: int, pool: dict[str, float], notes: list[str] | None
+                  ) -> dict[str, float]:
+    """``pool`` ({ID: energy N·mm} of the spec's scenario on ``sides``-gons) and the converged swept family
+    members of its patterns (:func:`fabpat.members.member_rows` at the spec's plate set-up, else the default
+    one, as the energies; the same candidates as ``fabpat design``'s)."""
+    from fabpat.members import member_energies, member_rows
+
+    pl, p = spec.plates, spec.patterns
+    try:
+        rows, note = member_rows(p.catalog, sides, pool, edge=spec.tiling.edge, thickness=pl.thickness,
+                                 weight=pl.weight)
+    except FabpatError as e:
+        raise SpecError(f"{spec.source}: patterns.bridge_weight = \"rule\" needs the catalog's family rows: {e}") from e
+    if note is not None and notes is not None:
+        notes.append(f"patterns.rule = 'roundest', bridge_weight = \"rule\": {note}")
+    return {**pool, **member_energies(rows, p.scenario)}
 
 
 def face_patterns(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | None = None) -> list[str]:
@@ -202,7 +227,7 @@ def with_members(spec: AssemblySpec, energies: Callable[[int], dict[str, float]]
     from fabpat.assembly import rules
 
     p = spec.patterns
-    if p is None or not p.member_rule or p.bridge_weights:
+    if p is None or not p.member_rule or p.bridge_weights or p.rule == "roundest":  # roundest: in the solver
         return spec
     get = energies or (lambda n: _energies(spec, n))
     get_curves = curves or (lambda n: _family_curves(spec, n))
@@ -399,9 +424,9 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
     f = spec.formats
 
     spec = with_members(spec, energies)  # bridge_weight = "rule": every face's family member, once
-    ids, chosen, tried = None, None, None
-    if spec.patterns.rule == "roundest":
-        ids, chosen, tried = _roundest(spec, energies, tell, predict, predict_h, force, predict_progress)
+    ids, chosen, tried, chose = None, None, None, []
+    if spec.patterns.rule == "roundest":  # its pair, and with bridge_weight = "rule" their members, in the spec
+        spec, ids, chosen, tried, chose = _roundest(spec, energies, tell, predict, predict_h, force, predict_progress)
     assembly, filleted = plan(spec, energies, tell, ids)
     problems = fabrication_problems(spec, filleted)
     if problems and not force:
@@ -434,7 +459,7 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
             prediction = finish(chosen[0], assembly, predict_h, chosen[1])
         problems += strain_problems(spec, prediction.run, force)
         notes += prediction_notes(prediction)
-        check_lines += notes
+        check_lines += notes + chose
     elif predicted(assembly):  # the plates bend but nothing checked how far: say so where the user looks
         problems.append(f"material.strain_limit = {spec.material.strain_limit:g} not checked: the prediction was "
                         f"skipped (--no-predict), and the plates bend when {use(spec)}")
@@ -505,10 +530,13 @@ def prediction_notes(prediction: Prediction) -> list[str]:
 
 def _roundest(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | None, tell: Callable[[str], None],
               predict: bool, h: float, force: bool, progress: Callable[[float], None] | None
-              ) -> tuple[list[str], tuple[Any, float], list[dict[str, Any]]]:
+              ) -> tuple[AssemblySpec, list[str], tuple[Any, float], list[dict[str, Any]], list[str]]:
     """``rule = "roundest"``: the candidates' closures (:func:`fabpat.assembly.predict.choose_roundest`);
-    returns the chosen face IDs, (its ClosureRun, seconds) and the pairs tried."""
+    returns the spec with the chosen pair's members (:func:`fabpat.members.with_candidates`), the chosen
+    face IDs, (its ClosureRun, seconds), the pairs tried, and the check lines: the pair kept and what the
+    candidates lacked (a polygon without family rows)."""
     from fabpat.assembly.predict import choose_roundest
+    from fabpat.members import with_candidates
 
     src = spec.source
     if not bends(spec):
@@ -519,17 +547,22 @@ def _roundest(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | 
         raise SpecError(f"{src}: patterns.rule = 'roundest' chooses the patterns by predicting the closed sphere: "
                         "drop --no-predict or use rule = 'similar-energy'")
     tell("patterns")
-    pairs = candidate_pairs(spec, energies)
+    lines: list[str] = []
+    pairs = candidate_pairs(spec, energies, lines)
     tell("prediction")
     faces = [len(f) for f in build_tiling(spec).faces]
 
-    def fits(ids: list[str]) -> None:  # a pair the kit would refuse is not a candidate
-        problems = fabrication_problems(spec, plan(spec, ids=ids)[1])
+    def fits(candidate: AssemblySpec, ids: list[str]) -> None:  # a pair the kit would refuse is not a candidate
+        problems = fabrication_problems(candidate, plan(candidate, ids=ids)[1])
         if problems and not force:
             raise ExportError(problems[0])
 
-    ids, run, seconds, tried = choose_roundest(spec, pairs, faces, h, force, fits, progress)
-    return ids, (run, seconds), tried
+    names, run, seconds, tried = choose_roundest(spec, pairs, faces, h, force, fits, progress)
+    kept = next(t for t in tried if t["chosen"])
+    lines.insert(0, f"patterns.rule = 'roundest': kept hexagon {kept['hexagon']} / pentagon {kept['pentagon']}, the "
+                    f"roundest of {len(tried)} pairs (sphericity rms {100 * kept['sphericity_rms']:.3f} %)")
+    spec, ids = with_candidates(spec, names)
+    return spec, ids, (run, seconds), tried, lines
 
 
 def _umask() -> int:

@@ -131,37 +131,42 @@ def strain_problems(spec: AssemblySpec, run: Any, force: bool) -> list[str]:
 
 
 def choose_roundest(spec: AssemblySpec, pairs: list[tuple[str, str]], faces: list[int], h: float, force: bool,
-                    fits: Callable[[list[str]], None],
+                    fits: Callable[[AssemblySpec, list[str]], None],
                     progress: Callable[[float], None] | None = None) -> tuple[list[str], Any, float, list[dict]]:
-    """``rule = "roundest"``: close the object with every (hexagon ID, pentagon ID) of ``pairs`` and keep the
+    """``rule = "roundest"``: close the object with every (hexagon, pentagon) of ``pairs`` and keep the
     roundest (smallest ``sphericity_rms``) whose plates all stay under ``material.strain_limit``.
 
-    ``faces`` are the tiling's polygon sizes (face order); ``fits(ids)`` raises a FabpatError when a pair
-    cannot be built (e.g. a neck wider than its slot): that pair is reported and skipped, as is a pair
-    whose closure fails. ``progress(f)``, f from 0 to 1 over all pairs. Returns (the chosen face IDs, its
-    ClosureRun, its seconds, one record per pair tried: ``hexagon``, ``pentagon`` and either ``radius``
+    A pair's entries are pattern IDs or family members' names (``"0x0488 b0.63"``: the plate is that member,
+    :func:`fabpat.members.with_candidates`). ``faces`` are the tiling's polygon sizes (face order);
+    ``fits(spec, ids)`` (the spec with the pair's members, the face pattern IDs) raises a FabpatError when a
+    pair cannot be built (e.g. a neck wider than its slot): that pair is reported and skipped, as is a pair
+    whose closure fails. ``progress(f)``, f from 0 to 1 over all pairs. Returns (the chosen face names, its
+    ClosureRun, its seconds, one record per pair tried: ``hexagon``, ``pentagon`` (names) and either ``radius``
     (mm), ``sphericity_rms``, ``sphericity_max``, ``peak_strain``, ``plates_over_limit``, ``seconds`` or
     ``error``; ``chosen`` true for the kept one). With no pair under the limit it raises ExportError, or
     with ``force`` keeps the roundest of all; with no pair that closes it raises ExportError naming the
     first failure.
     """
+    from fabpat.members import with_candidates
+
     tried: list[dict] = []
     runs: list[tuple[list[str], Any, float, dict]] = []
     for i, (hid, pid) in enumerate(pairs):
-        ids = [hid if n == 6 else pid for n in faces]
+        names = [hid if n == 6 else pid for n in faces]
+        member_spec, ids = with_candidates(spec, names)
         rec: dict[str, Any] = {"hexagon": hid, "pentagon": pid}
         tell = None if progress is None else (lambda lam, i=i: progress((i + lam) / len(pairs)))
         t0 = time.perf_counter()
         try:
-            fits(ids)
-            run = close(spec, ids, h, tell)
+            fits(member_spec, ids)
+            run = close(member_spec, ids, h, tell)
         except FabpatError as e:
             rec["error"] = str(e)
         else:
             seconds = time.perf_counter() - t0
             rec.update(radius=run.radius, sphericity_rms=run.sphericity_rms, sphericity_max=run.sphericity_max,
                        peak_strain=run.peak_strain, plates_over_limit=len(run.over_limit), seconds=round(seconds, 3))
-            runs.append((ids, run, seconds, rec))
+            runs.append((names, run, seconds, rec))
         rec["chosen"] = False
         tried.append(rec)
     if not runs:

@@ -12,7 +12,9 @@ dictionaries.
   Fig. 15 right: two patterns, Dome scenario).
 * :func:`similar_set` — the same for a tiling of any polygons (a mesh), one pattern per polygon.
 * :func:`similar_pairs` — the ``count`` best such pairs, :func:`similar_pair`'s first, for
-  ``rule = "roundest"`` (the closure solver keeps the roundest one under the strain limit).
+  ``rule = "roundest"`` (the closure solver keeps the roundest one under the strain limit). With
+  ``bridge_weight = "rule"`` its pools also hold the catalog's swept family members, named ``"ID bW"``
+  (:mod:`fabpat.members`); a pair is always two different patterns, whatever their members.
 * :func:`graded_targets` and :func:`nearest_member` — with ``bridge_weight = "rule"`` the rules also
   choose each pattern's family member (:mod:`fabpat.variation`) that hits its target energy, from the
   pattern's family curve (anything with ``range``, ``energy(w)`` and ``members_for(E)``, such as
@@ -28,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from fabpat.errors import SpecError
+from fabpat.members import pattern_of
 
 TRIM = 0.05  # fraction of the catalog ignored at each end: extreme energies are near-mechanisms or outliers
 MIN_SEPARATION = 1.25  # smallest energy ratio between consecutive graded patterns called "well separated"
@@ -163,11 +166,12 @@ def similar_pair(hexagon: Mapping[str, float], pentagon: Mapping[str, float],
     """(hexagon ID, pentagon ID): two different patterns with similar energy, each on its own polygon.
 
     ``hexagon``: {ID: energy (N·mm)} of the hexagon plates, ``pentagon``: of the pentagon plates (the
-    same scenario and set-up). The hexagon pattern is the one nearest the ``quantile`` of the hexagon
-    log-energies (the median: a typical stiffness, away from outliers); the pentagon pattern is the
-    other ID whose *pentagon* energy is nearest its hexagon energy. Ties go to the smaller ID, so the
-    choice is reproducible. Raises :class:`SpecError` without two hexagon energies or without pentagon
-    energies (never falls back to comparing hexagon energies).
+    same scenario and set-up; a key may be a family member's name ``"ID bW"``, :mod:`fabpat.members`). The
+    hexagon pattern is the one nearest the ``quantile`` of the hexagon log-energies (the median: a
+    typical stiffness, away from outliers); the pentagon pattern is the other pattern's entry whose
+    *pentagon* energy is nearest its hexagon energy (never a member of the hexagon's own pattern). Ties
+    go to the smaller ID, so the choice is reproducible. Raises :class:`SpecError` without two hexagon
+    energies or without pentagon energies (never falls back to comparing hexagon energies).
     """
     ids, logs = _clean(hexagon)
     if len(ids) < 2:
@@ -176,7 +180,7 @@ def similar_pair(hexagon: Mapping[str, float], pentagon: Mapping[str, float],
     target = float(np.quantile(logs, quantile))
     h = min(range(len(ids)), key=lambda i: (abs(logs[i] - target), ids[i]))
     hid, e = ids[h], math.exp(logs[h])
-    pids, plogs = _clean({k: v for k, v in pool.items() if k != hid})
+    pids, plogs = _clean({k: v for k, v in pool.items() if pattern_of(k) != pattern_of(hid)})
     if not pids:
         raise SpecError("the catalog has no second pattern with a pentagon energy")
     p = min(range(len(pids)), key=lambda i: (abs(plogs[i] - math.log(e)), pids[i]))
@@ -218,11 +222,11 @@ def similar_pairs(hexagon: Mapping[str, float], pentagon: Mapping[str, float], c
     Pair 0 is exactly :func:`similar_pair` (``hexagon``, ``pentagon``, ``quantile``). The others come
     from the ``2 · count`` hexagon patterns whose log-energies are nearest the ``quantile`` of the
     hexagon log-energies (ties to the smaller ID) — typical stiffnesses, as for :func:`similar_pair` —
-    each paired with the other ID whose pentagon energy is nearest its own hexagon energy, ties to the
-    smaller ID. They are ranked by |log E_hex − log E_pent| (the energy ratio), then by hexagon ID,
-    then pentagon ID; a pair is listed once. Fewer than ``count`` pairs come back only when the
-    catalog has fewer candidates. Raises :class:`SpecError` if ``count`` < 1 or :func:`similar_pair`
-    finds no pair.
+    each paired with the entry of another pattern (an ID, or a member's name) whose pentagon energy is
+    nearest its own hexagon energy, ties to the smaller name. They are ranked by |log E_hex − log E_pent|
+    (the energy ratio), then by hexagon ID, then pentagon ID; a pair is listed once. Fewer than
+    ``count`` pairs come back only when the catalog has fewer candidates. Raises :class:`SpecError` if
+    ``count`` < 1 or :func:`similar_pair` finds no pair.
     """
     if count < 1:
         raise SpecError(f"patterns.candidates must be at least 1, got {count}")
@@ -233,7 +237,7 @@ def similar_pairs(hexagon: Mapping[str, float], pentagon: Mapping[str, float], c
     pids, plogs = _clean(_pentagon_pool(pentagon))
     ranked = []
     for h in near:
-        others = [j for j in range(len(pids)) if pids[j] != ids[h]]
+        others = [j for j in range(len(pids)) if pattern_of(pids[j]) != pattern_of(ids[h])]
         if not others:
             continue
         p = min(others, key=lambda j: (abs(plogs[j] - logs[h]), pids[j]))

@@ -374,11 +374,13 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
         from fabpat.assembly.build import candidate_pairs
         from fabpat.assembly.placement import build_tiling
         from fabpat.assembly.predict import choose_roundest
+        from fabpat.members import with_candidates
 
-        pairs = candidate_pairs(spec)
+        pairs = candidate_pairs(spec)  # with bridge_weight = "rule" also the family members (names "ID bW")
         faces = [len(f) for f in build_tiling(spec).faces]
-        check_assembly_size(spec, [pairs[0][0] if n == 6 else pairs[0][1] for n in faces], h, max_elements)
-        _, run, _, _ = choose_roundest(spec, pairs, faces, h, True, lambda _ids: None, progress)
+        check_assembly_size(*with_candidates(spec, [pairs[0][0] if n == 6 else pairs[0][1] for n in faces]), h,
+                            max_elements)
+        _, run, _, _ = choose_roundest(spec, pairs, faces, h, True, lambda _spec, _ids: None, progress)
         return _read_outs(kind, spec.name, run.setup.model, run, time.perf_counter() - t0, mat.strain_limit, h)
     from fabpat.assembly.build import with_members
 

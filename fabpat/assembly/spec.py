@@ -200,7 +200,8 @@ class PatternSpec:
     #: fillets on every plate
     bridge_weights: tuple[float, ...] = ()
     #: ``bridge_weight = "rule"``: the rule also picks every pattern's family member, to hit its target
-    #: energy (:func:`fabpat.assembly.build.with_members` fills ``bridge_weights``)
+    #: energy (:func:`fabpat.assembly.build.with_members` fills ``bridge_weights``; ``rule = "roundest"``: its
+    #: candidate pairs include the catalog's swept members, :func:`fabpat.assembly.build.candidate_pairs`)
     member_rule: bool = False
 
     def polygon_pattern(self, sides: int) -> str:
@@ -464,7 +465,7 @@ def _patterns(source: str, data: Any, tiling: TilingSpec) -> PatternSpec:
 
 
 #: the rules that can also choose each pattern's family member (``bridge_weight = "rule"``)
-MEMBER_RULES = ("graded", "similar-energy")
+MEMBER_RULES = ("graded", "similar-energy", "roundest")
 
 
 def _bridge_weights(source: str, value: Any, tiling: TilingSpec) -> tuple[float, ...]:

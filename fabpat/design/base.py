@@ -6,8 +6,9 @@
 * ``allowed``: a list of pattern IDs, the only candidates;
 * ``min_width``: mm, drop candidates whose narrowest feature (the catalog's ``min_width``) is smaller;
 * ``max_distinct``: the largest number of distinct patterns in the design (each is one more part type).
-* ``variations``: ``true`` (default) or ``false``: whether a strip's candidates include the family
-  members (:mod:`fabpat.variation`) the catalog's ``family`` table holds (``fabpat sweep --family``).
+* ``variations``: ``true`` (default) or ``false``: whether the candidates include the family members
+  (:mod:`fabpat.variation`) the catalog's ``family`` table holds (``fabpat sweep --family``), a strip's
+  and a closed tiling's alike (:mod:`fabpat.members`).
 
 Candidates of a strip are the hexagon patterns with a converged Cylinder energy in the catalog
 (``catalog`` key or the built-in one), at the base's plate set-up when the catalog has it, else at the
@@ -15,10 +16,13 @@ default one (energies only rank patterns, as for ``rule = "graded"``). Candidate
 are, per polygon of its faces, the catalog rows of that polygon with all three energies converged
 (:func:`closed_rows`), narrowed alike.
 
-A strip candidate that is a family member is written ``"ID bW"`` (``"0x0488 b0.63"``: pattern 0x0488 at
-``bridge_weight`` 0.63, as the kit labels it; :func:`member_token`, :func:`split_member`): the swept
-members themselves, whose energies are solves, not interpolations. design.toml gives such a plate its
-pattern in ``tiles`` and its member in ``[patterns] bridge_weight``.
+A candidate that is a family member is written ``"ID bW"`` (``"0x0488 b0.63"``: pattern 0x0488 at
+``bridge_weight`` 0.63, as the kit labels it; :func:`fabpat.members.member_token`, :func:`~fabpat.members.
+split_member`): the swept members themselves, whose energies are solves, not interpolations. A closed
+tiling's member is a row like its pattern's (:func:`fabpat.members.member_rows`); a polygon the catalog
+has no family rows for keeps the paper's members, and :attr:`DesignBase.notes` says so (design.json
+``notes``). design.toml gives such a plate its pattern in ``tiles`` and its member in ``[patterns]
+bridge_weight``.
 
 A base that names its patterns (``pattern``, ``hexagon`` + ``pentagon``, ``groups``, ``tiles``) or a
 ``rule`` gives the design a baseline, ``spec`` or ``rule`` in design.json, solved with the rest.
@@ -34,7 +38,9 @@ from typing import Any
 
 from fabpat.assembly.spec import AssemblySpec, parse_spec
 from fabpat.errors import FabpatError, SpecError
-from fabpat.variation import Variation
+from fabpat.members import member_energies, member_rows, member_token, split_member
+
+__all__ = ["DesignBase", "load_base", "closed_rows", "candidates", "base_faces", "member_token", "split_member"]
 
 #: the [patterns] keys that only ``fabpat design`` reads
 DESIGN_KEYS = ("allowed", "min_width", "max_distinct", "variations")
@@ -57,6 +63,8 @@ class DesignBase:
     has_rule: bool
     way: str | None = None
     rows: dict[int, list[dict[str, Any]]] | None = None
+    #: what the candidates lack, one line each (a polygon without family rows in the catalog)
+    notes: tuple[str, ...] = ()
 
 
 def _read_toml(path: str | Path) -> dict[str, Any]:
@@ -105,8 +113,9 @@ def load_base(path: str | Path) -> DesignBase:
     if k is not None and (isinstance(k, bool) or not isinstance(k, int) or k < 1):
         raise SpecError(f"{source}: patterns.max_distinct = {k!r} must be an integer ≥ 1 (distinct patterns allowed)")
     if spec.tiling.kind != "honeycomb-strip":
-        rows = closed_rows(spec, source, catalog, keys)
-        return DesignBase(spec, clean, {}, k, spec.patterns.rule is not None, way, rows)
+        notes: list[str] = []
+        rows = closed_rows(spec, source, catalog, keys, notes)
+        return DesignBase(spec, clean, {}, k, spec.patterns.rule is not None, way, rows, tuple(notes))
     energies = candidates(spec, source, catalog, keys)
     return DesignBase(spec, clean, energies, k, spec.patterns.rule is not None, way)
 
@@ -123,10 +132,12 @@ def _catalog_energies(spec: AssemblySpec, catalog: str | None) -> dict[str, floa
         raise SpecError(f"{spec.source}: the design needs the catalog's {SCENARIO} energies, but {e}") from e
 
 
-def closed_rows(spec: AssemblySpec, source: str, catalog: str | None,
-                keys: dict[str, Any]) -> dict[int, list[dict[str, Any]]]:
+def closed_rows(spec: AssemblySpec, source: str, catalog: str | None, keys: dict[str, Any],
+                notes: list[str] | None = None) -> dict[int, list[dict[str, Any]]]:
     """{polygon sides: catalog rows} of a closed tiling's candidates (module doc), at the base's plate
-    set-up when the catalog has it; SpecError (one line) if a polygon has none left."""
+    set-up when the catalog has it, with the family members of its patterns unless ``variations = false``
+    (:func:`fabpat.members.member_rows`, all three energies converged); SpecError (one line) if a polygon
+    has none left. A polygon without family rows in the catalog appends a line to ``notes``."""
     from fabpat import catalog as cat
     from fabpat.assembly.placement import build_tiling
     from fabpat.assembly.spec import _pattern_id
@@ -158,8 +169,22 @@ def closed_rows(spec: AssemblySpec, source: str, catalog: str | None,
         if not rows:
             raise SpecError(f"{source}: no candidate pattern is left for the {sides}-sided faces after the catalog's "
                             f"{n} converged patterns, patterns.allowed and patterns.min_width: widen the choice")
+        if use_variations(source, keys):
+            members, note = _members(spec, catalog, sides, {r["id"] for r in rows}, w)
+            rows += [m for m in members if m.get("filleted_ratio") is not None
+                     and all(m.get(f"converged_{s}") for s in ("dome", "cylinder", "cantilever"))]
+            if note is not None and notes is not None:
+                notes.append(note)
         out[sides] = rows
     return out
+
+
+def use_variations(source: str, keys: dict[str, Any]) -> bool:
+    """The ``variations`` key: whether family members are candidates (default true); SpecError otherwise."""
+    use = keys.get("variations", True)
+    if not isinstance(use, bool):
+        raise SpecError(f"{source}: patterns.variations = {use!r} must be true or false (family members as candidates)")
+    return use
 
 
 def _min_widths(spec: AssemblySpec, catalog: str | None) -> dict[str, float]:
@@ -196,42 +221,30 @@ def candidates(spec: AssemblySpec, source: str, catalog: str | None, keys: dict[
         why.append(f"patterns.min_width = {w:g} mm")
     if not energies:
         raise SpecError(f"{source}: no candidate pattern is left after {' and '.join(why)}: widen the choice")
-    use = keys.get("variations", True)
-    if not isinstance(use, bool):
-        raise SpecError(f"{source}: patterns.variations = {use!r} must be true or false (family members as candidates)")
-    if use:
+    if use_variations(source, keys):
         energies = {**energies, **_member_candidates(spec, catalog, energies, float(keys.get("min_width", 0.0)))}
     return energies
 
 
-def member_token(pattern_id: str, bridge_weight: float) -> str:
-    """A candidate's name: the pattern ID, and `` bW`` for a family member other than the paper's."""
-    tag = Variation(bridge_weight).tag()
-    return f"{pattern_id} {tag}" if tag else pattern_id
-
-
-def split_member(token: str) -> tuple[str, float]:
-    """(pattern ID, bridge_weight) of a candidate name (:func:`member_token`)."""
-    pid, _, w = token.partition(" b")
-    return pid, float(w) if w else 1.0
-
-
 def _member_candidates(spec: AssemblySpec, catalog: str | None, energies: dict[str, float],
                        min_width: float) -> dict[str, float]:
-    """{member token: Cylinder energy} of the catalog's converged family rows of the candidate patterns
-    (at the base's set-up, else the default one), each member's own min_width at least ``min_width``."""
-    from fabpat.catalog import open_catalog
+    """{member name: Cylinder energy} of the catalog's converged family rows of the candidate patterns
+    (:func:`fabpat.members.member_rows`: at the base's set-up, else the default one), each member's own
+    min_width at least ``min_width``."""
+    rows, _ = _members(spec, catalog, 6, energies, min_width)
+    return member_energies(rows, SCENARIO)
 
+
+def _members(spec: AssemblySpec, catalog: str | None, sides: int, ids: Any,
+             min_width: float) -> tuple[list[dict[str, Any]], str | None]:
+    """:func:`fabpat.members.member_rows` of the candidate patterns ``ids`` at the base's plate set-up;
+    SpecError (one line) for a catalog that cannot be read."""
     pl = spec.plates
-    own = {"sides": 6, "edge": spec.tiling.edge, "thickness": pl.thickness, "weight": pl.weight}
     try:
-        with open_catalog(catalog) as cat:
-            rows = cat.family(SCENARIO, **own) or cat.family(SCENARIO, sides=6)
+        return member_rows(catalog, sides, ids, min_width=min_width, edge=spec.tiling.edge, thickness=pl.thickness,
+                           weight=pl.weight)
     except FabpatError as e:
-        raise SpecError(f"{spec.source}: the design needs the catalog's {SCENARIO} energies, but {e}") from e
-    return {member_token(str(r["id"]), float(r["bridge_weight"])): float(r["energy"])  # type: ignore[arg-type]
-            for r in rows if r["converged"] and r["id"] in energies and r["energy"]
-            and (r["min_width"] or 0.0) >= min_width}  # type: ignore[operator]
+        raise SpecError(f"{spec.source}: the design needs the catalog's family members, but {e}") from e
 
 
 def base_faces(base: DesignBase) -> tuple[str, list[str]] | None:

@@ -62,8 +62,23 @@ def design_closed(tgt: ClosedTarget, base: DesignBase, h: float, max_solves: int
     faces = list(best.data["faces"])
     rec = _record(tgt, base, best, labels, faces, runner.solves, time.perf_counter() - t0, tolerance, runs)
     rec["history"] = [_brief(ev, labels) for ev in search.seen.values() if ev is not None]
+    rec["candidates"] = {POLYGONS.get(n, f"{n}-gon"): _pool_counts(base.rows[n])
+                         for n in sorted(base.rows, reverse=True)}
+    if base.notes:
+        rec["notes"] = list(base.notes)
     warning = None if rec["reachable"] else _unreachable(rec, tolerance, max_solves, best)
     return result(rec, base, tgt, best, labels, groups, warning, runs)
+
+
+#: polygon names of design.json's ``candidates``
+POLYGONS = {6: "hexagon", 5: "pentagon"}
+
+
+def _pool_counts(rows: list[dict[str, Any]]) -> dict[str, int]:
+    """How many candidates a polygon had: ``patterns`` (the paper's members) and ``members`` (family
+    members, :mod:`fabpat.members`)."""
+    members = sum(1 for r in rows if "bridge_weight" in r)
+    return {"patterns": len(rows) - members, "members": members}
 
 
 def _baselines(search: ClosedSearch, base: DesignBase, runner: Runner, tgt: ClosedTarget

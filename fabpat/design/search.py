@@ -32,6 +32,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.design.strip import assign, column_errors, column_turning, curvature_update, errors
+from fabpat.members import with_candidates
+
+__all__ = ["Evaluated", "Runner", "Search", "solve_candidate", "with_candidates"]
 
 Arr = NDArray[np.float64]
 
@@ -39,26 +42,10 @@ Arr = NDArray[np.float64]
 FIRST_STEP = 0.25
 
 
-def with_candidates(spec: Any, candidates: tuple[str, ...] | list[str]) -> tuple[Any, list[str]]:
-    """The spec whose plates are the family members the candidate names say (:func:`fabpat.design.base.
-    split_member`: ``"0x0488 b0.63"``) and the plain pattern IDs per face."""
-    import dataclasses
-
-    from fabpat.assembly.spec import PatternSpec
-    from fabpat.design.base import split_member
-
-    pairs = [split_member(c) for c in candidates]
-    ids, weights = [p for p, _ in pairs], tuple(w for _, w in pairs)
-    if all(w == 1.0 for w in weights):
-        return spec, ids
-    patterns = spec.patterns if spec.patterns is not None else PatternSpec(pattern=ids[0])
-    return dataclasses.replace(spec, patterns=dataclasses.replace(patterns, bridge_weights=weights)), ids
-
-
 def solve_candidate(spec: Any, patterns: tuple[str, ...], h: float, travel: float,
                     start: tuple[Any, ...] | None = None) -> dict[str, Any]:
     """One full strip solve: the face patterns ``patterns`` (candidate names: a family member is
-    ``"ID bW"``, :func:`with_candidates`), mesh edge ``h`` mm, pins moved together by
+    ``"ID bW"``, :func:`fabpat.members.with_candidates`), mesh edge ``h`` mm, pins moved together by
     ``travel`` mm, warm-started from ``start`` (the ``state`` of an earlier solve of the same strip) if
     given. Returns plain data (it crosses process boundaries): ``x``, ``z`` the mid-line (mm,
     :func:`fabpat.design.strip.midline`), ``end_shortening`` (travel over the strip length, as
