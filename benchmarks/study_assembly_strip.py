@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from fabpat.assembly.build import face_patterns
+from fabpat.assembly.choice import face_patterns
 from fabpat.assembly.simulate import run_strip, strip_setup, write_profiles_png
 from fabpat.assembly.spec import load_spec
 

@@ -15,7 +15,7 @@ import argparse
 import time
 from pathlib import Path
 
-from fabpat.assembly.build import face_patterns
+from fabpat.assembly.choice import face_patterns
 from fabpat.assembly.spec import load_spec
 from fabpat.assembly.strip_sim import critical_load, simulate_strip, strip_model
 from fabpat.assembly.tiling import honeycomb_strip

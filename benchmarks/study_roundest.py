@@ -18,7 +18,7 @@ import time
 import tomllib
 from pathlib import Path
 
-from fabpat.assembly.build import candidate_pairs
+from fabpat.assembly.choice import candidate_pairs
 from fabpat.assembly.placement import build_tiling
 from fabpat.assembly.predict import choose_roundest
 from fabpat.assembly.spec import parse_spec

@@ -314,7 +314,7 @@ def toml_text(data: dict) -> str:
 
 
 def test_rules_and_tile_tables_choose_each_tiles_pattern() -> None:
-    from fabpat.assembly.build import face_patterns
+    from fabpat.assembly.choice import face_patterns
     from fabpat.assembly.panel import build_panel
 
     graded = parse({"tiling": {"kind": "panel", "edge": 36.0, "rows": 2, "columns": 4},

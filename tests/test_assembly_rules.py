@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from fabpat.assembly import rules
-from fabpat.assembly.build import candidate_pairs, face_patterns
+from fabpat.assembly.choice import candidate_pairs, face_patterns
 from fabpat.assembly.spec import parse_spec
 from fabpat.errors import SpecError
 from fabpat.library import enumerate_library

@@ -126,7 +126,7 @@ def _rule_spec(tmp_path: Path, extra: str) -> Path:
 
 
 def test_graded_rule_with_members_hits_every_target(tmp_path: Path) -> None:
-    from fabpat.assembly.build import face_patterns, with_members
+    from fabpat.assembly.choice import face_patterns, with_members
     from fabpat.assembly.rules import graded_targets
 
     spec = load_spec(_rule_spec(tmp_path, 'bridge_weight = "rule"'))
@@ -147,7 +147,7 @@ def test_graded_rule_with_members_hits_every_target(tmp_path: Path) -> None:
 def test_similar_energy_tunes_the_pentagon_to_the_hexagon() -> None:
     import dataclasses
 
-    from fabpat.assembly.build import face_patterns, with_members
+    from fabpat.assembly.choice import face_patterns, with_members
 
     base = load_spec(Path(__file__).parent.parent / "assemblies" / "truncated-icosahedron.toml")
     spec = dataclasses.replace(base, patterns=dataclasses.replace(base.patterns, rule="similar-energy",

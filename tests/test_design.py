@@ -67,7 +67,7 @@ def _refused(args: list[str], out: Path) -> str:
 
 def test_round_trip_matches_the_target(setup: dict) -> None:
     """A target made by the solver is designed back within 0.5 % of the span, verified by simulate-assembly."""
-    from fabpat.assembly.build import face_patterns
+    from fabpat.assembly.choice import face_patterns
     from fabpat.assembly.simulation import simulate_assembly
     from fabpat.assembly.spec import load_spec
     from fabpat.design.strip import errors, midline

@@ -182,7 +182,7 @@ def _sphere_data() -> dict[str, Any]:
 
 
 def test_sphere_tiles_name_every_face() -> None:
-    from fabpat.assembly.build import face_patterns
+    from fabpat.assembly.choice import face_patterns
     from fabpat.assembly.spec import parse_spec
     from fabpat.assembly.tiling import truncated_icosahedron
 

@@ -11,7 +11,7 @@ from typing import Any
 
 import pytest
 
-from fabpat.assembly.build import candidate_pairs, with_members
+from fabpat.assembly.choice import candidate_pairs, with_members
 from fabpat.assembly.spec import parse_spec
 from fabpat.catalog import open_catalog
 from fabpat.errors import SpecError

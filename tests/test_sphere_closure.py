@@ -177,7 +177,7 @@ def test_the_similar_energy_pair_is_rounder() -> None:
 def test_a_roundest_spec_simulates_the_pair_the_kit_builds(tmp_path: Path) -> None:
     """rule = "roundest" in simulate-assembly: the reported sphere is the rounder of the candidate pairs,
     each of which is also closed here on its own, by name."""
-    from fabpat.assembly.build import candidate_pairs
+    from fabpat.assembly.choice import candidate_pairs
 
     text = FLAT.read_text(encoding="utf-8").replace('hexagon = "0x0488"\npentagon = "0x0508"',
                                                     'rule = "roundest"\ncandidates = 2\nscenario = "dome"')

@@ -247,7 +247,7 @@ def build_panel(spec: Any, face_patterns: Sequence[str] | None = None) -> Panel:
     """Fillet, place and fuse the plates of a ``kind = "panel"`` spec (an AssemblySpec); ``face_patterns`` the
     face pattern IDs (face order; default :func:`fabpat.assembly.build.face_patterns`). Raises SpecError
     (patterns, geometry limits: :func:`check_panel`) or GeometryError (plates that do not fuse)."""
-    from fabpat.assembly.build import face_patterns as choose
+    from fabpat.assembly.choice import face_patterns as choose
     from fabpat.assembly.placement import PlateType
     from fabpat.assembly.tiling import honeycomb_strip
     from fabpat.fillet import fillet_pattern

@@ -33,7 +33,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.assembly.panel import Panel, build_panel
-from fabpat.errors import ExportError, SpecError
+from fabpat.assembly.panel_sheet import nest_panel, quarter_turn
+from fabpat.errors import ExportError
 
 #: relative difference allowed between the fused solid's volume and the plates' volumes summed: both are
 #: exact (adaptive Gauss–Kronrod at 1e-10, :func:`fabpat.cad.volume`); measured 4e-16 on a 3 × 4 panel
@@ -64,60 +65,6 @@ class PanelReport:
                 *([f"{self.sheets} sheet(s): the panel's hull within the sheet's margins"] if self.sheets else [])]
 
 
-def hull(panel_or_spec: Any) -> NDArray[np.float64]:
-    """(k, 2) convex hull (counter-clockwise, mm, panel plane) of the panel's polygons: the part lies inside it
-    (a plate never leaves its polygon), so nesting it keeps the part ``sheet.spacing`` from anything else."""
-    from scipy.spatial import ConvexHull
-
-    from fabpat.assembly.tiling import honeycomb_strip
-
-    t = getattr(panel_or_spec, "spec", panel_or_spec).tiling
-    V = honeycomb_strip(t.rows, t.columns, t.edge).V[:, :2]
-    return V[ConvexHull(V).vertices]
-
-
-def _turn(P: NDArray[np.float64], quarter: bool) -> NDArray[np.float64]:
-    return np.stack([-P[:, 1], P[:, 0]], axis=1) if quarter else P
-
-
-def _grown(spec: Any) -> NDArray[np.float64]:
-    """The hull grown by kerf/2 about its centre (the cut path lies that far outside the part)."""
-    H = hull(spec)
-    c = H.mean(axis=0)
-    d = H - c
-    r = np.linalg.norm(d, axis=1)
-    return c + d * (1.0 + 0.5 * spec.sheet.kerf / r.min())[..., None] if spec.sheet.kerf > 0 else H
-
-
-def check_panel_fits(spec: Any) -> None:
-    """SpecError unless the panel's hull (plus kerf, margins and one nesting step) lies on the sheet, as it is or
-    turned by 90°."""
-    from fabpat.assembly.nesting import DEFAULT_RESOLUTION
-
-    s = spec.sheet
-    room = np.array([s.width, s.height]) - 2 * s.margin - DEFAULT_RESOLUTION
-    P = _grown(spec)
-    sizes = [np.ptp(_turn(P, q), axis=0) for q in (False, True)]
-    if not any((size <= room + 1e-9).all() for size in sizes):
-        w, h = sizes[0]
-        raise SpecError(f"{spec.source}: sheet.width × sheet.height = {s.width:g} × {s.height:g} mm is smaller than "
-                        f"the {spec.tiling.rows} × {spec.tiling.columns} panel ({w:.1f} × {h:.1f} mm, either way "
-                        f"round, plus sheet.margin = {s.margin:g} mm on each side): use a larger sheet or fewer "
-                        "rows or columns")
-
-
-def nest_panel(spec: Any) -> tuple[Any, bool]:
-    """The panel's hull nested on the spec's sheet (:func:`fabpat.assembly.nesting.nest`, one item, no turn) and
-    whether it was turned by 90° first (when only that way fits)."""
-    from fabpat.assembly.nesting import DEFAULT_RESOLUTION, nest
-
-    s = spec.sheet
-    room = np.array([s.width, s.height]) - 2 * s.margin - DEFAULT_RESOLUTION
-    P = _grown(spec)
-    quarter = not (np.ptp(P, axis=0) <= room + 1e-9).all()
-    return nest([_turn(P, quarter)], s.width, s.height, s.margin, s.spacing, turns=1), quarter
-
-
 def sheet_document(panel: Panel, nesting: Any, quarter: bool) -> Any:
     """The ezdxf drawing of the panel's sheet (mm): the fused outline's loops on CUT (bulge arcs within
     ``output.curve_tolerance``, moved out by kerf/2), each tile's label on ENGRAVE in the solid sub-triangle at
@@ -144,7 +91,7 @@ def sheet_document(panel: Panel, nesting: Any, quarter: bool) -> Any:
     place = nesting.placements[0]
 
     def where(P: NDArray[np.float64]) -> NDArray[np.float64]:
-        return place.apply(_turn(np.atleast_2d(P), quarter))
+        return place.apply(quarter_turn(np.atleast_2d(P), quarter))
 
     loops = bulge_loops(panel.outline, spec.curve_tolerance)
     for lp in offset_bulge_loops(loops, 0.5 * s.kerf) if s.kerf > 0 else loops:
@@ -195,8 +142,9 @@ def assemble_panel(spec: Any, out: Path, tell: Callable[[str], None], timestamp:
     """:func:`fabpat.assembly.build.assemble` for ``tiling.kind = "panel"`` (arguments checked there): see the module
     docstring. Raises SpecError, ExportError (plates too narrow for the process without ``force``; a fused part
     that fails its checks), GeometryError; on any error ``out`` is untouched."""
-    from fabpat.assembly.build import AssembleResult, fabrication_problems, face_patterns, with_members
+    from fabpat.assembly.choice import face_patterns, with_members
     from fabpat.assembly.kit_folder import GENERATOR, MANIFEST, check_out, digests, swap_in
+    from fabpat.assembly.kit_result import AssembleResult, fabrication_problems
     from fabpat.assembly.nesting import check_nesting
     from fabpat.io import remove_stale_temps, temp_prefix, write_error
 

@@ -320,7 +320,7 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
     SpecError (bad spec, argument or option for this kind), GeometryError (h too coarse for the
     interfaces, or a mesh too large), SolverError (path lost, naming the load or angle fraction reached).
     """
-    from fabpat.assembly.build import face_patterns
+    from fabpat.assembly.choice import face_patterns
     from fabpat.assembly.placement import build_tiling
     from fabpat.assembly.spec import AssemblySpec, load_spec
     from fabpat.validate import check
@@ -371,7 +371,7 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
 
     if closed and spec.patterns.rule == "roundest":
         # the pair the kit would build: each candidate closed, the roundest kept (under the strain limit if any is)
-        from fabpat.assembly.build import candidate_pairs
+        from fabpat.assembly.choice import candidate_pairs
         from fabpat.assembly.placement import build_tiling
         from fabpat.assembly.predict import choose_roundest
         from fabpat.members import with_candidates
@@ -382,7 +382,7 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
                             max_elements)
         _, run, _, _ = choose_roundest(spec, pairs, faces, h, True, lambda _spec, _ids: None, progress)
         return _read_outs(kind, spec.name, run.setup.model, run, time.perf_counter() - t0, mat.strain_limit, h)
-    from fabpat.assembly.build import with_members
+    from fabpat.assembly.choice import with_members
 
     spec = with_members(spec)  # bridge_weight = "rule": the members the kit would get
     patterns = face_patterns(spec)

@@ -790,7 +790,7 @@ def check_sheet_fits(spec: AssemblySpec) -> None:
     from fabpat.lattice import polygon_vertices
 
     if spec.tiling.panel:
-        from fabpat.assembly.panel_kit import check_panel_fits
+        from fabpat.assembly.panel_sheet import check_panel_fits
 
         return check_panel_fits(spec)
     s = spec.sheet

@@ -252,6 +252,6 @@ def base_faces(base: DesignBase) -> tuple[str, list[str]] | None:
     patterns it names), or None when the base leaves the choice open."""
     if base.way is None:
         return None
-    from fabpat.assembly.build import face_patterns
+    from fabpat.assembly.choice import face_patterns
 
     return ("rule" if base.has_rule else "spec"), face_patterns(base.spec)
