@@ -402,6 +402,7 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
     net = unfold(assembly.skeleton) if "svg" in f else None
     tell("checks")
     report = check_assembly(lib)
+    problems += report.shallow  # plates that enter their slots much less than sleeve.depth: a warning each
     check_lines = report.lines()
     if spec.tiling.radius is not None:
         check_lines.append(radius_line(assembly))

@@ -264,21 +264,19 @@ def _check_edges(loops: Faces, source: str) -> dict[tuple[int, int], list[tuple[
     return edges
 
 
-def _check_regular(P: NDArray[np.float64], edge: float, tolerance: float, where: str) -> None:
-    """Refuse a face (its corners P (n, 3)) farther than ``tolerance`` mm from its best-fit plane or from
-    the regular polygon of ``edge`` best superposed on it in that plane."""
+def regular_deviation(P: NDArray[np.float64], edge: float) -> tuple[float, int, float, int]:
+    """How far a face (its corners P (n, 3), mm, in order around it) is from a regular polygon of
+    ``edge`` mm: (largest distance of a corner from the face's best-fit plane, that corner (from 0),
+    largest distance of a corner from the regular polygon best superposed on it in that plane, that
+    corner), mm. Raises :class:`SpecError` ("has no area") for a face of zero area."""
     n = len(P)
     c = P.mean(axis=0)
     normal = np.cross(P - c, np.roll(P - c, -1, axis=0)).sum(axis=0)  # Newell: the loop's turning sense
     size = float(np.linalg.norm(normal))
     if size <= 0.0:
-        raise SpecError(f"{where} has no area")
+        raise SpecError("has no area")
     normal /= size
     off = np.abs((P - c) @ normal)
-    if off.max() > tolerance:
-        i = int(off.argmax())
-        raise SpecError(f"{where} is not planar: its corner {i + 1} is {off[i]:.3g} mm off the face's plane "
-                        f"(tiling.tolerance = {tolerance:g} mm)")
     u = P[0] - c - ((P[0] - c) @ normal) * normal
     u /= np.linalg.norm(u)
     v = np.cross(normal, u)
@@ -288,10 +286,23 @@ def _check_regular(P: NDArray[np.float64], edge: float, tolerance: float, where:
     phase = np.sum(z / turn)  # best rotation of the ideal polygon onto the corners (least squares)
     ideal = radius * turn * (phase / abs(phase) if abs(phase) > 0 else 1.0)
     dev = np.abs(z - ideal)
-    if dev.max() > tolerance:
-        i = int(dev.argmax())
-        raise SpecError(f"{where} is not a regular {n}-gon of edge {edge:.4f} mm: its corner {i + 1} is "
-                        f"{dev[i]:.3g} mm from the regular polygon's (tiling.tolerance = {tolerance:g} mm; corners "
+    return float(off.max()), int(off.argmax()), float(dev.max()), int(dev.argmax())
+
+
+def _check_regular(P: NDArray[np.float64], edge: float, tolerance: float, where: str) -> None:
+    """Refuse a face (its corners P (n, 3)) farther than ``tolerance`` mm from its best-fit plane or from
+    the regular polygon of ``edge`` best superposed on it in that plane (:func:`regular_deviation`)."""
+    n = len(P)
+    try:
+        off, i, dev, j = regular_deviation(P, edge)
+    except SpecError as e:
+        raise SpecError(f"{where} {e}") from None
+    if off > tolerance:
+        raise SpecError(f"{where} is not planar: its corner {i + 1} is {off:.3g} mm off the face's plane "
+                        f"(tiling.tolerance = {tolerance:g} mm)")
+    if dev > tolerance:
+        raise SpecError(f"{where} is not a regular {n}-gon of edge {edge:.4f} mm: its corner {j + 1} is "
+                        f"{dev:.3g} mm from the regular polygon's (tiling.tolerance = {tolerance:g} mm; corners "
                         "in order around the face)")
 
 
