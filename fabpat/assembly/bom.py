@@ -203,8 +203,10 @@ def bom_markdown(lib: PartLibrary, rows: list[BomRow], nesting: Nesting | None, 
             if "error" in c:
                 out.append(f"| {c['hexagon']} | {c['pentagon']} | not built: {c['error']} | | | | |")
             else:
-                out.append(f"| {c['hexagon']} | {c['pentagon']} | {c['radius']:.2f} | "
-                           f"{100 * c['sphericity_rms']:.3f} | {c['peak_strain']:.4f} | {c['plates_over_limit']} | "
+                round_ = ((f"{c['radius']:.2f}", f"{100 * c['sphericity_rms']:.3f}") if c["radius"] is not None
+                          else ("no sphere", ""))
+                out.append(f"| {c['hexagon']} | {c['pentagon']} | {round_[0]} | "
+                           f"{round_[1]} | {c['peak_strain']:.4f} | {c['plates_over_limit']} | "
                            f"{'yes' if c['chosen'] else ''} |")
     out += ["", "## Checks", ""] + [f"- {line}" for line in checks] + [""]
     return "\n".join(out)

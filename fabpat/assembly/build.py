@@ -236,6 +236,7 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
     net = unfold(assembly.skeleton) if "svg" in f else None
     tell("checks")
     report = check_assembly(lib)
+    problems += report.shallow  # plates that enter their slots much less than sleeve.depth: a warning each
     check_lines = report.lines()
     if spec.tiling.radius is not None:
         check_lines.append(radius_line(assembly))
@@ -310,9 +311,10 @@ def prediction_notes(prediction: Prediction) -> list[str]:
     """The check lines of a kit's prediction: its shape (a closure's radius and sphericity, a strip's arch),
     peak strain and largest sleeve moment, then how well the printed sleeves grip the deformed plates."""
     run, h, fit = prediction.run, prediction.h, prediction.fit
-    if getattr(run, "radius", None) is not None:
-        shape = (f"radius {run.radius:.2f} mm, sphericity rms {100 * run.sphericity_rms:.2f} % (max "
-                 f"{100 * run.sphericity_max:.2f} %)")
+    if hasattr(run, "sphere_note"):  # a ClosureRun
+        from fabpat.assembly.closure import sphere_text
+
+        shape = sphere_text(run)
     else:
         shape = (f"pushed together by {100 * run.end_shortening:g} % of its length: arch {run.max_deflection:.1f} mm "
                  f"high, peak at {run.peak:.3f} of the length, reaction {run.reaction:.3g} N")

@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.assembly.parts import CHECK_TOLERANCE, PartLibrary, apply
-from fabpat.assembly.placement import Assembly, PlacedSleeve, setback
+from fabpat.assembly.placement import Assembly, PlacedSleeve, neck_advice, setback
 from fabpat.assembly.sleeve import joint_direction, joint_normal
 from fabpat.errors import GeometryError
 
@@ -44,16 +44,21 @@ class CheckReport:
     min_plate_sleeve_gap: float
     midpoint_error: float
     min_insertion: float
+    #: :func:`shallow_warnings`: plates that enter their slots much less than ``sleeve.depth``
+    shallow: tuple[str, ...] = ()
 
     def lines(self) -> list[str]:
-        """The report as the lines `fabpat assemble` prints and the manifest stores."""
-        return [
-            f"{self.plates} plates, {self.sleeves} sleeves, {self.vertices} skeleton vertices, {self.edges} edges",
-            f"{self.pairs_tested} part pairs intersected: largest overlap {self.max_overlap:.2e} mm³",
-            f"smallest plate–sleeve gap {self.min_plate_sleeve_gap:.3f} mm",
-            f"sleeves on interface midpoints within {self.midpoint_error:.1e} mm; "
-            f"plates enter their slots ≥ {self.min_insertion:.2f} mm",
-        ]
+        """The report as the lines `fabpat assemble` prints and the manifest stores. A kit without
+        sleeves (a single face) has no gap, slot or insertion to measure: its lines say so instead of
+        an infinite gap."""
+        head = [f"{self.plates} plates, {self.sleeves} sleeves, {self.vertices} skeleton vertices, {self.edges} edges",
+                f"{self.pairs_tested} part pairs intersected: largest overlap {self.max_overlap:.2e} mm³"]
+        if self.sleeves == 0:
+            return [*head, "no sleeves (one plate, no shared edge): no plate–sleeve gap, slot or insertion depth "
+                           "to check"]
+        return [*head, f"smallest plate–sleeve gap {self.min_plate_sleeve_gap:.3f} mm",
+                f"sleeves on interface midpoints within {self.midpoint_error:.1e} mm; "
+                f"plates enter their slots ≥ {self.min_insertion:.2f} mm"]
 
 
 def expected_counts(assembly: Assembly) -> tuple[int, int]:
@@ -75,18 +80,101 @@ def check_counts(assembly: Assembly) -> None:
             raise GeometryError(f"truncated icosahedron has (V, E, hexagons, pentagons) = {got}, not (60, 90, 20, 12)")
 
 
+#: a plate entering its slot less than this fraction of ``sleeve.depth`` is named in a warning
+#: (:func:`shallow_warnings`); the shipped sphere's hexagons enter 2.76 of 3 mm (92 %), a hexagonal
+#: prism's hexagons 1.50 of 3 mm (50 %: a hexagon's setback is 1.73 times a square's on the same part)
+SHALLOW_FRACTION = 0.75
+
+
+def _slot_tolerance(asm: Assembly) -> float:
+    """mm: how far a plate's interface midpoint may be off its slot's centre line. An exact tiling's
+    plates sit on it (:data:`MIDPOINT_TOL`, round-off); a mesh file's faces are regular only within
+    ``tiling.tolerance``, which moves a plate's interface by up to about twice that, but never more
+    than the slot's play across the plate (``sleeve.clearance`` / 2) lets it fit."""
+    if asm.spec.tiling.kind != "mesh":
+        return MIDPOINT_TOL
+    return max(MIDPOINT_TOL, min(2.0 * asm.spec.tiling.tolerance, 0.5 * asm.spec.sleeve.clearance))
+
+
+def _off_slot(asm: Assembly, s: PlacedSleeve, plate_index: int, off: float, along: float) -> GeometryError:
+    """The error of a plate whose interface is ``off`` mm from sleeve ``s``'s slot (``along`` mm from the
+    edge): on a mesh file it names the face, the edge and the regularity check that would refuse it."""
+    plate = asm.plates[plate_index]
+    spec = asm.spec
+    if spec.tiling.kind != "mesh":
+        return GeometryError(f"sleeve {s.label} is not on the interface midpoint of plate {plate.label} "
+                             f"(off by {off:.3g} mm, {along:.3f} mm from the edge)")
+    from fabpat.assembly.mesh_tiling import regular_deviation
+
+    unit = spec.tiling.skeleton()
+    loop = unit.faces[plate.face]
+    plane, _, corner, _ = regular_deviation(unit.V[list(loop)] * spec.tiling.edge, spec.tiling.edge)
+    worst = max(plane, corner)
+    a, b = (int(v) + 1 for v in unit.edges[s.edge])
+    tol = _slot_tolerance(asm)
+    takes = (f"sleeve.clearance / 2 = {tol:.3g} mm" if tol >= 0.5 * spec.sleeve.clearance else
+             f"{tol:.3g} mm, 2 × tiling.tolerance")
+    return GeometryError(
+        f"{spec.tiling.file}: face {plate.face + 1} (plate {plate.label}) sits {off:.3g} mm off the slot of sleeve "
+        f"{s.label} at the edge between vertices {a} and {b}, more than the slot takes ({takes}): its corners are "
+        f"{worst:.3g} mm from a regular {len(loop)}-gon of edge {spec.tiling.edge:.4g} mm, which tiling.tolerance = "
+        f"{spec.tiling.tolerance:g} mm let through; the mesh check refuses the face at tiling.tolerance < {worst:.3g} "
+        "mm (or give fit = \"best\" and let `fabpat simulate-assembly` close the mismatch)")
+
+
+def insertion_depths(lib: PartLibrary) -> list[tuple[float, str, str, str]]:
+    """How deep (mm) each plate enters each of its slots: (depth, plate label, sleeve label, sleeve part),
+    one per plate and sleeve, in the sleeves' order."""
+    asm = lib.assembly
+    out = []
+    for s in asm.sleeves:
+        sleeve = asm.sleeve_types[s.kind]
+        inv = np.linalg.inv(s.transform)
+        for side, (p, i) in enumerate(s.plates):
+            plate = asm.plates[p]
+            seg = lib.filleted[plate.type].interface_segments[i]
+            mid = np.array([*seg.mean(axis=0), 0.5 * asm.spec.plates.thickness])
+            local = apply(inv, apply(plate.transform, mid[None]))[0]
+            out.append((sleeve.arm_end - float(local[1:] @ joint_direction(s.dihedral, side)), plate.label,
+                        s.label, s.kind))
+    return out
+
+
+def shallow_warnings(lib: PartLibrary) -> list[str]:
+    """One line per sleeve part on which a plate enters its slot less than :data:`SHALLOW_FRACTION` ×
+    ``sleeve.depth``: the shallowest plate and sleeve, the depth reached, how many slots are that
+    shallow, and the ``sleeve.depth`` that would seat that plate as deep as asked (neck check
+    permitting). A sleeve part is symmetric and set back by its joints' smallest setback
+    (:mod:`fabpat.assembly.placement`): a polygon with a larger setback (a hexagon beside a square)
+    enters less deep."""
+    depth = lib.assembly.spec.sleeve.depth
+    by_part: dict[str, list[tuple[float, str, str, str]]] = {}
+    for rec in insertion_depths(lib):
+        if rec[0] < SHALLOW_FRACTION * depth - 1e-9:
+            by_part.setdefault(rec[3], []).append(rec)
+    out = []
+    for part, recs in by_part.items():
+        d, plate, sleeve, _ = min(recs)
+        out.append(f"plate {plate} enters its slot in sleeve {sleeve} ({part}) only {d:.2f} mm of sleeve.depth = "
+                   f"{depth:g} mm ({len(recs)} slot(s) of {part} less than {100 * SHALLOW_FRACTION:g} %): its "
+                   f"setback is larger than that part's; sleeve.depth = {2 * depth - d:.2f} would seat it "
+                   f"{depth:g} mm (if the necks allow)")
+    return out
+
+
 def interface_midpoints(lib: PartLibrary) -> tuple[float, float]:
     """(largest offset of an interface midpoint from its slot's centre line, smallest insertion depth), mm.
 
     In the sleeve's frame, a plate's interface midpoint must lie on the slot's centre line (X = 0 and on
     the slot's mid-plane) between the slot bottom and its mouth; its distance to the mouth is how deep
-    the plate enters. Raises :class:`GeometryError` if a midpoint is off the line or outside the slot.
-    The slot lines are taken at the joint's skeleton dihedral (where the plates are placed): a sleeve
-    printed at another angle turns about the edge line onto each plate, which keeps those distances.
+    the plate enters. Raises :class:`GeometryError` if a midpoint is off the line (by more than
+    :func:`_slot_tolerance`; on a mesh file naming the face, the edge and the tolerance that would
+    refuse the face) or outside the slot. The slot lines are taken at the joint's skeleton dihedral
+    (where the plates are placed): a sleeve printed at another angle turns about the edge line onto
+    each plate, which keeps those distances.
     """
     asm = lib.assembly
-    # a mesh file's faces are regular within tiling.tolerance, so its plates meet their slots within it
-    tol = MIDPOINT_TOL if asm.spec.tiling.kind != "mesh" else max(MIDPOINT_TOL, 2.0 * asm.spec.tiling.tolerance)
+    tol = _slot_tolerance(asm)
     worst, shallow = 0.0, math.inf
     for s in asm.sleeves:
         sleeve = asm.sleeve_types[s.kind]
@@ -102,7 +190,9 @@ def interface_midpoints(lib: PartLibrary) -> tuple[float, float]:
             expect = setback(plate.type.sides, asm.skeleton.edge_length(), asm.plate_edge)
             off = max(off, abs(along - expect))
             worst = max(worst, off)
-            if off > tol or not (sleeve.setback - tol <= along < sleeve.arm_end):
+            if off > tol:
+                raise _off_slot(asm, s, p, off, along)
+            if not (sleeve.setback - tol <= along < sleeve.arm_end):
                 raise GeometryError(f"sleeve {s.label} is not on the interface midpoint of plate {plate.label} "
                                     f"(off by {off:.3g} mm, {along:.3f} mm from the edge)")
             shallow = min(shallow, sleeve.arm_end - along)
@@ -165,8 +255,8 @@ def intersections(lib: PartLibrary, tolerance: float = CHECK_TOLERANCE) -> tuple
             vol = (ma ^ mb).volume()
             worst = max(worst, vol)
             if vol > OVERLAP_VOLUME:
-                hint = (": the plate's neck reaches the sleeve's end wall at the slot's mouth — raise sleeve.margin or "
-                        "lower sleeve.depth" if pa != pb else "")
+                hint = (": the plate's neck reaches the sleeve's end wall at the slot's mouth — "
+                        f"{neck_advice(asm, lib.filleted)}" if pa != pb else "")
                 raise GeometryError(f"parts {la} and {lb} intersect ({vol:.3g} mm³){hint}")
             if pa != pb:
                 gap = min(gap, ma.min_gap(mb, GAP_SEARCH))
@@ -180,4 +270,5 @@ def check_assembly(lib: PartLibrary) -> CheckReport:
     err, depth = interface_midpoints(lib) if asm.sleeves else (0.0, math.inf)
     tested, worst, gap = intersections(lib)
     t = asm.skeleton
-    return CheckReport(len(asm.plates), len(asm.sleeves), len(t.V), len(t.edges), tested, worst, gap, err, depth)
+    return CheckReport(len(asm.plates), len(asm.sleeves), len(t.V), len(t.edges), tested, worst, gap, err, depth,
+                       tuple(shallow_warnings(lib)))

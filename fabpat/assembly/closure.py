@@ -23,7 +23,9 @@ Decisions (each measured on the shipped sphere, 0x0488/0x0508, h = 3):
   shut and the sphere's radial deviation grows from 1.1 % to 2.6 % instead of falling to 0.4 %).
 * **Read-outs**: ``radius`` and ``centre`` of the least-squares sphere through all plate nodes
   (the mid-surface), geometric fit ``min Σ (|p − c| − r)²`` started from the algebraic one;
-  ``sphericity_rms``/``sphericity_max`` the radial deviations from it over r; ``peak_strain`` the
+  ``sphericity_rms``/``sphericity_max`` the radial deviations from it over r; all three None (JSON
+  null) when no sphere describes the shape (:func:`shape_sphere`: a flat field, a plane as good, or
+  over :data:`SPHERE_RMS_LIMIT`), ``sphere_note`` saying why; ``peak_strain`` the
   largest principal strain on either plate surface (:func:`fabpat.shell.strain.surface_strains`);
   ``max_deflection`` the largest node displacement once the rigid motion that best superposes the
   flat start on the result is removed (Kabsch), so that it does not depend on the held sleeve.
@@ -83,6 +85,66 @@ def fit_sphere(P: Arr) -> tuple[Arr, float]:
         if float(np.abs(step).max()) <= 1e-12 * max(r, 1.0):
             break
     return c, float(r)
+
+
+#: a least-squares sphere describes the closed or bent shape only if its RMS radial deviation is at most
+#: this fraction of its radius: the closed spheres are under 1 %, the pentagon dome 2.4 %, a cube 15 %,
+#: a rolled tube of 8 × 3 hexagons 14.5 % (its cylinder is reported instead)
+SPHERE_RMS_LIMIT = 0.1
+#: … and only if it fits the points at least this much better than their best plane (RMS distances,
+#: mm): a flat field or a long thin tube has a plane (or an endless sphere) as good as any sphere
+SPHERE_OVER_PLANE = 0.5
+#: points within this fraction of their extent of one plane are flat
+FLAT = 1e-9
+
+
+@dataclass(frozen=True)
+class ShapeSphere:
+    """The least-squares sphere of a shape, if it describes it: ``radius`` (mm), ``sphericity_rms`` and
+    ``sphericity_max`` (fractions of the radius), all None when it does not, and then ``note`` says why
+    (empty when reported). ``centre`` (3,) mm is always set: the reference point the curvature's sign is
+    taken from (the sphere's centre, or far behind a flat shape's plane)."""
+
+    centre: Arr
+    radius: float | None
+    sphericity_rms: float | None
+    sphericity_max: float | None
+    note: str = ""
+
+
+def shape_sphere(P: Arr) -> ShapeSphere:
+    """The least-squares sphere (:func:`fit_sphere`) of points P (n, 3) mm if it describes them: not when
+    they are flat (within :data:`FLAT` × their extent of a plane), when a plane fits them nearly as well
+    (the sphere's RMS distance over :data:`SPHERE_OVER_PLANE` × the plane's) or when it leaves more than
+    :data:`SPHERE_RMS_LIMIT` RMS radial deviation (a cube, a long tube). Then radius and sphericity are
+    None and ``note`` names the reason."""
+    P = np.asarray(P, dtype=np.float64)
+    mean = P.mean(axis=0)
+    _, sv, Vt = np.linalg.svd(P - mean, full_matrices=False)
+    plane = float(sv[-1]) / math.sqrt(len(P))  # RMS distance from the best plane
+    size = float(np.linalg.norm(np.ptp(P, axis=0))) or 1.0
+    if plane <= FLAT * size:
+        return ShapeSphere(mean - 1e6 * size * Vt[-1], None, None, None, "flat: no sphere")
+    centre, radius = fit_sphere(P)
+    d = np.linalg.norm(P - centre, axis=1) - radius
+    rms = float(np.sqrt(np.mean(d * d)))
+    rel = rms / radius if radius > 0.0 else math.inf
+    if rms > SPHERE_OVER_PLANE * plane:
+        return ShapeSphere(centre, None, None, None, f"no sphere: a plane fits it as well ({rms:.3g} mm RMS against "
+                                                     f"the plane's {plane:.3g} mm)")
+    if rel > SPHERE_RMS_LIMIT:
+        return ShapeSphere(centre, None, None, None, f"no sphere: the least-squares sphere leaves {100 * rel:.1f} % "
+                                                     f"RMS radial deviation, over {100 * SPHERE_RMS_LIMIT:g} %")
+    return ShapeSphere(centre, radius, rel, float(np.abs(d).max()) / radius)
+
+
+def sphere_text(run: object) -> str:
+    """The shape read-out of a closure (a :class:`ClosureRun`): "radius R mm, sphericity rms S % (max M %)",
+    or its ``sphere_note`` when no sphere describes the shape."""
+    if getattr(run, "radius", None) is None:
+        return str(getattr(run, "sphere_note", "") or "no sphere")
+    return (f"radius {run.radius:.2f} mm, sphericity rms {100 * run.sphericity_rms:.2f} % "  # type: ignore[attr-defined]
+            f"(max {100 * run.sphericity_max:.2f} %)")  # type: ignore[attr-defined]
 
 
 def fit_cylinder(P: Arr, axis: Arr) -> tuple[Arr, Arr, float]:
@@ -206,7 +268,9 @@ class ClosureRun:
     ``element_strain`` (m,) each element's peak surface strain; ``mesh_deviation_rms`` and
     ``mesh_deviation_max`` the RMS and largest distance (mm) of the plate nodes from where they were
     placed on the tiling, once the best rigid motion is removed (Kabsch: the closed shape against
-    the input surface; ``max_deflection`` is the same largest distance). The other fields as the
+    the input surface; ``max_deflection`` is the same largest distance); ``radius``, ``sphericity_rms`` and
+    ``sphericity_max`` None when no sphere describes the shape, ``sphere_note`` then says why
+    (:func:`shape_sphere`). The other fields as the
     ``simulate-assembly`` output (see :mod:`fabpat.assembly.closure`).
     """
 
@@ -216,10 +280,10 @@ class ClosureRun:
     sleeve_moments: dict[str, float]
     reaction: float
     max_deflection: float
-    radius: float
+    radius: float | None
     centre: Arr
-    sphericity_rms: float
-    sphericity_max: float
+    sphericity_rms: float | None
+    sphericity_max: float | None
     peak_strain: float
     peak_strain_plate: str
     plate_peak_strain: dict[str, float]
@@ -231,6 +295,7 @@ class ClosureRun:
     result: PathResult
     mesh_deviation_rms: float = 0.0
     mesh_deviation_max: float = 0.0
+    sphere_note: str = ""
 
 
 def warm_start(previous: ClosureRun, setup: ClosureSetup) -> tuple[Arr, Arr]:
@@ -278,15 +343,14 @@ def run_closure(setup: ClosureSetup, *, steps: int = CLOSURE_STEPS, strain_limit
         path.append({"angle_fraction": pt.lam, "energy": pt.energy,
                      "max_sleeve_moment": float(mom.max()) if mom.size else 0.0})
     P = x[:n]
-    centre, radius = fit_sphere(P)
-    dev = np.abs(np.linalg.norm(P - centre, axis=1) - radius) / radius
+    sphere = shape_sphere(P)
     eps = surface_strains(m.X, m.F, m.material, P, expmap(fin.rotation[:n]))
     plate_peak = {lab: float(eps[m.element_offsets[i]:m.element_offsets[i + 1]].max()) for i, lab in enumerate(labels)}
     worst = max(plate_peak, key=lambda k: plate_peak[k])
     check_plausible(m, float(ee.sum()), fin.displacement, plate_peak[worst], "closure by the sleeves")
     moved = rigid_residual(m.X, P)
     return ClosureRun(setup, float(ee.sum()), pe, {s.label: float(v) for s, v in zip(m.sleeves, moments, strict=True)},
-                      float(np.linalg.norm(fin.reactions)), float(moved.max()), radius, centre,
-                      float(np.sqrt(np.mean(dev * dev))), float(dev.max()), plate_peak[worst], worst, plate_peak,
+                      float(np.linalg.norm(fin.reactions)), float(moved.max()), sphere.radius, sphere.centre,
+                      sphere.sphericity_rms, sphere.sphericity_max, plate_peak[worst], worst, plate_peak,
                       float(strain_limit), [k for k, v in plate_peak.items() if v > strain_limit], path, x, eps, r,
-                      float(np.sqrt(np.mean(moved * moved))), float(moved.max()))
+                      float(np.sqrt(np.mean(moved * moved))), float(moved.max()), sphere.note)

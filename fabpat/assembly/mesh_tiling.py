@@ -7,12 +7,14 @@ file, :func:`mesh_tiling` checks it and returns the :class:`~fabpat.assembly.til
 the plates are placed on (:mod:`fabpat.assembly.placement`), scaled so that its edge is the plate
 edge.
 
-**Formats.** PLY (ASCII or binary) is read by meshio, which keeps polygon faces and their order
-(trimesh triangulates them). OBJ and OFF are read here: meshio reads only triangles from OFF, and
-refuses the OBJ files modelling programs write (texture coordinates and normals in other numbers than
-the vertices, as Blender writes them); both formats are a few line kinds, and only ``v`` and ``f``
-lines (OBJ; negative indices count back from the last vertex, "1/2/3" groups give their vertex) or
-the counts, vertex and face lines (OFF) carry the polygon mesh. Coincident vertices (closer than
+**Formats**, all read here, keeping polygon faces and their order (trimesh triangulates them): PLY
+(ASCII or binary, :mod:`fabpat.assembly.ply`: ``x``, ``y``, ``z`` and ``vertex_indices`` or
+``vertex_index`` by name, anything else skipped; meshio refused several dialects with cryptic
+messages), OBJ and OFF (meshio reads only triangles from OFF, and refuses the OBJ files modelling
+programs write, texture coordinates and normals in other numbers than the vertices, as Blender writes
+them); both are a few line kinds, and only ``v`` and ``f`` lines (OBJ; negative indices count back from
+the last vertex, "1/2/3" groups give their vertex) or the counts, vertex and face lines (OFF) carry the
+polygon mesh. Coincident vertices (closer than
 :data:`WELD` × the mesh's size) are merged first: exporters that split vertices per face (for normals
 or texture seams) write the same surface.
 
@@ -59,6 +61,11 @@ FITS = ("exact", "best")
 #: default tolerance of ``fit = "best"``, relative to the edge: a face's corners may be this far from the
 #: regular polygon's (the planar realization of GP(2, 0) needs 0.11: its edges span ±10.6 %)
 BEST_FIT_TOLERANCE = 0.2
+#: the range of ``tiling.tolerance``: from MIN_TOLERANCE mm to MAX_TOLERANCE × the edge. Relative, as the
+#: best fit's default is: at any edge the default lies inside it (a fixed 10 mm bound was below the
+#: default 0.2 × edge for edges over 50 mm), and a corner half an edge from its regular polygon's makes
+#: a face of another shape (the built-in kinds are checked at this bound too)
+MIN_TOLERANCE, MAX_TOLERANCE = 1e-6, 0.5
 #: rad: a fold flatter than this is flat (round-off of a planar mesh), neither convex nor concave
 FLAT_FOLD = 1e-6
 
@@ -85,13 +92,15 @@ def read_polygon_mesh(path: str | os.PathLike[str]) -> tuple[NDArray[np.float64]
         raise SpecError(f"{p}: the tiling mesh is not a regular file")
     if st.st_size > MAX_MESH_BYTES:
         raise SpecError(f"{p}: the tiling mesh is {st.st_size} bytes, more than {MAX_MESH_BYTES}: not a tiling")
-    readers = {".off": _read_off, ".obj": _read_obj, ".ply": _read_meshio}
+    from fabpat.assembly.ply import read_ply
+
+    readers = {".off": _read_off, ".obj": _read_obj, ".ply": read_ply}
     try:
         V, faces = readers[suffix](p)
     except SpecError:
         raise
-    except (Exception, SystemExit) as e:  # meshio raises ReadError, ValueError, … and on some PLY sys.exit(1)
-        why = "not a valid file" if isinstance(e, SystemExit) or not str(e) else str(e)
+    except (OSError, UnicodeError, ValueError, MemoryError) as e:  # the readers' own problems are SpecErrors
+        why = "not a valid file" if not str(e) else str(e)
         raise SpecError(f"{p}: cannot read the tiling mesh as {suffix[1:].upper()}: {why}") from None
     if not faces:
         raise SpecError(f"{p}: the tiling mesh has no faces")
@@ -137,22 +146,6 @@ def _read_obj(p: Path) -> tuple[NDArray[np.float64], Faces]:
     return np.array(verts, dtype=np.float64).reshape(-1, 3), tuple(faces)
 
 
-def _read_meshio(p: Path) -> tuple[NDArray[np.float64], Faces]:
-    import contextlib
-    import io
-
-    import meshio
-
-    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
-        m = meshio.read(p)  # meshio prints its complaints before it raises (or exits)
-    faces: list[tuple[int, ...]] = []
-    for block in m.cells:  # blocks follow the file's order; a block is one run of faces of one size
-        if block.dim != 2:
-            continue
-        faces += [tuple(int(i) for i in row) for row in block.data]
-    return np.asarray(m.points, dtype=np.float64), tuple(faces)
-
-
 def _read_off(p: Path) -> tuple[NDArray[np.float64], Faces]:
     """OFF (Geomview): "OFF", then "nv nf ne", nv lines "x y z", nf lines "k i1 … ik" (0-based; '#'
     comments). Colour values after a face's indices are ignored."""
@@ -183,7 +176,8 @@ def mesh_tiling(V: NDArray[np.float64], faces: Faces, *, tolerance: float | None
     loops are turned to the module's orientation; faces and their first vertices keep the file's order.
     ``fit``: "exact" (plates on the faces; ``tolerance`` default :data:`DEFAULT_TOLERANCE`) or "best"
     (plates at their faces' best fit, the closure takes up the rest: ``tolerance`` default
-    :data:`BEST_FIT_TOLERANCE` × the edge; the tiling is ``best_fit``).
+    :data:`BEST_FIT_TOLERANCE` × the edge; the tiling is ``best_fit``). ``tolerance`` must lie in
+    [:data:`MIN_TOLERANCE` mm, :data:`MAX_TOLERANCE` × the edge] (SpecError otherwise).
     """
     if fit not in FITS:
         raise SpecError(f"{source}: fit = {fit!r}: choose one of {', '.join(FITS)}")
@@ -200,6 +194,11 @@ def mesh_tiling(V: NDArray[np.float64], faces: Faces, *, tolerance: float | None
     e = float(lengths.mean())
     if tolerance is None:
         tolerance = DEFAULT_TOLERANCE if fit == "exact" else BEST_FIT_TOLERANCE * e
+    if not MIN_TOLERANCE <= tolerance <= MAX_TOLERANCE * e * (1.0 + 1e-12):
+        raise SpecError(f"{source}: tiling.tolerance = {tolerance:g} mm must be in [{MIN_TOLERANCE:g}, "
+                        f"{MAX_TOLERANCE:g} × the edge = {MAX_TOLERANCE * e:.4g}] mm (edge {e:.4g} mm; the default is "
+                        f"{DEFAULT_TOLERANCE:g} mm for fit = \"exact\", {BEST_FIT_TOLERANCE:g} × the edge for "
+                        "fit = \"best\")")
     k = int(np.argmax(np.abs(lengths - e)))
     if abs(lengths[k] - e) > tolerance:
         a, b = ends[k]
@@ -264,21 +263,19 @@ def _check_edges(loops: Faces, source: str) -> dict[tuple[int, int], list[tuple[
     return edges
 
 
-def _check_regular(P: NDArray[np.float64], edge: float, tolerance: float, where: str) -> None:
-    """Refuse a face (its corners P (n, 3)) farther than ``tolerance`` mm from its best-fit plane or from
-    the regular polygon of ``edge`` best superposed on it in that plane."""
+def regular_deviation(P: NDArray[np.float64], edge: float) -> tuple[float, int, float, int]:
+    """How far a face (its corners P (n, 3), mm, in order around it) is from a regular polygon of
+    ``edge`` mm: (largest distance of a corner from the face's best-fit plane, that corner (from 0),
+    largest distance of a corner from the regular polygon best superposed on it in that plane, that
+    corner), mm. Raises :class:`SpecError` ("has no area") for a face of zero area."""
     n = len(P)
     c = P.mean(axis=0)
     normal = np.cross(P - c, np.roll(P - c, -1, axis=0)).sum(axis=0)  # Newell: the loop's turning sense
     size = float(np.linalg.norm(normal))
     if size <= 0.0:
-        raise SpecError(f"{where} has no area")
+        raise SpecError("has no area")
     normal /= size
     off = np.abs((P - c) @ normal)
-    if off.max() > tolerance:
-        i = int(off.argmax())
-        raise SpecError(f"{where} is not planar: its corner {i + 1} is {off[i]:.3g} mm off the face's plane "
-                        f"(tiling.tolerance = {tolerance:g} mm)")
     u = P[0] - c - ((P[0] - c) @ normal) * normal
     u /= np.linalg.norm(u)
     v = np.cross(normal, u)
@@ -288,10 +285,23 @@ def _check_regular(P: NDArray[np.float64], edge: float, tolerance: float, where:
     phase = np.sum(z / turn)  # best rotation of the ideal polygon onto the corners (least squares)
     ideal = radius * turn * (phase / abs(phase) if abs(phase) > 0 else 1.0)
     dev = np.abs(z - ideal)
-    if dev.max() > tolerance:
-        i = int(dev.argmax())
-        raise SpecError(f"{where} is not a regular {n}-gon of edge {edge:.4f} mm: its corner {i + 1} is "
-                        f"{dev[i]:.3g} mm from the regular polygon's (tiling.tolerance = {tolerance:g} mm; corners "
+    return float(off.max()), int(off.argmax()), float(dev.max()), int(dev.argmax())
+
+
+def _check_regular(P: NDArray[np.float64], edge: float, tolerance: float, where: str) -> None:
+    """Refuse a face (its corners P (n, 3)) farther than ``tolerance`` mm from its best-fit plane or from
+    the regular polygon of ``edge`` best superposed on it in that plane (:func:`regular_deviation`)."""
+    n = len(P)
+    try:
+        off, i, dev, j = regular_deviation(P, edge)
+    except SpecError as e:
+        raise SpecError(f"{where} {e}") from None
+    if off > tolerance:
+        raise SpecError(f"{where} is not planar: its corner {i + 1} is {off:.3g} mm off the face's plane "
+                        f"(tiling.tolerance = {tolerance:g} mm)")
+    if dev > tolerance:
+        raise SpecError(f"{where} is not a regular {n}-gon of edge {edge:.4f} mm: its corner {j + 1} is "
+                        f"{dev:.3g} mm from the regular polygon's (tiling.tolerance = {tolerance:g} mm; corners "
                         "in order around the face)")
 
 

@@ -25,6 +25,7 @@ each :class:`PlacedSleeve` carries both the joint's skeleton ``dihedral`` and it
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
@@ -35,7 +36,7 @@ from numpy.typing import NDArray
 from fabpat.assembly.sleeve import Sleeve, joint_direction, setback, skeleton_edge
 from fabpat.assembly.spec import RADIUS_KINDS, AssemblySpec, sleeve_angle
 from fabpat.assembly.tiling import FACE_LETTERS, Tiling, mean_distance
-from fabpat.errors import SpecError
+from fabpat.errors import GeometryError, SpecError
 from fabpat.variation import Variation
 
 SHORT_NAMES = {3: "tri", 4: "quad", 5: "pent", 6: "hex"}
@@ -192,6 +193,16 @@ def sleeve_kinds(spec: AssemblySpec, skel: Tiling) -> dict[int, tuple[str, float
     return out
 
 
+def printed_angles(spec: AssemblySpec, skel: Tiling) -> Callable[[float], float]:
+    """A joint's skeleton dihedral (rad) → the angle (rad) its sleeve part is printed at, as
+    :func:`sleeve_kinds` prints it: on a mesh whose joints of one polygon pair differ, the dihedral
+    rounded to :data:`DIHEDRAL_STEP`. The skeleton edge must leave the web at that angle, not only at
+    the exact one: an angle rounded down needs a larger setback (a cube sheared by 5 % has joints of
+    87.1376°, printed at 87.1°, whose web the exact angle's edge leaves 0.001 mm too thin)."""
+    angle_of = {phi: angle for _, phi, angle in sleeve_kinds(spec, skel).values()}
+    return lambda phi: angle_of.get(float(phi), sleeve_angle(spec, phi))
+
+
 def _setbacks(skel: Tiling, k: int, edge: float, plate: float) -> list[float]:
     """The setbacks (mm) of the two plates at edge k of a skeleton of edge ``edge``."""
     return [setback(len(skel.faces[f]), edge, plate) for f, _ in skel.edge_faces[k]]
@@ -267,7 +278,7 @@ def check_geometry(spec: AssemblySpec) -> None:
                         f"interface segment ({2.0 * e / 16.0 / (1.0 + w):.3g} mm) shorter than "
                         f"{MIN_INTERFACE_CHORDS:g} × output.mesh_tolerance = {seg_min:g} mm")
     unit = build_tiling(spec)
-    E = skeleton_edge(unit, e, spec.plates.thickness, s.clearance, s.wall, lambda phi: sleeve_angle(spec, phi))
+    E = skeleton_edge(unit, e, spec.plates.thickness, s.clearance, s.wall, printed_angles(spec, unit))
     lo: dict[str, float] = {}
     hi: dict[str, float] = {}
     for k, (key, _, _) in sleeve_kinds(spec, unit).items():
@@ -294,7 +305,7 @@ def place(spec: AssemblySpec, face_patterns: list[str]) -> Assembly:
         raise ValueError(f"need {len(unit.faces)} pattern IDs, got {len(face_patterns)}")
     t, s = spec.plates.thickness, spec.sleeve
     e = spec.tiling.edge
-    E = skeleton_edge(unit, e, t, s.clearance, s.wall, lambda phi: sleeve_angle(spec, phi))
+    E = skeleton_edge(unit, e, t, s.clearance, s.wall, printed_angles(spec, unit))
     skel = unit.scaled(E)
     slot_length = 2.0 * e / 16.0 / (1.0 + spec.plates.weight) + s.margin  # interface segment 2d + margin
 
@@ -303,9 +314,15 @@ def place(spec: AssemblySpec, face_patterns: list[str]) -> Assembly:
     for k, (key, _, _) in kind_of.items():
         g_of[key] = min(g_of.get(key, math.inf), *_setbacks(skel, k, E, e))
     kinds: dict[str, Sleeve] = {}
-    for key, _, angle in kind_of.values():
+    for k, (key, phi, angle) in kind_of.items():
         if key not in kinds:
-            kinds[key] = Sleeve(angle, g_of[key], t, s.clearance, slot_length, s.wall, s.depth)
+            try:
+                kinds[key] = Sleeve(angle, g_of[key], t, s.clearance, slot_length, s.wall, s.depth)
+            except GeometryError as err:  # the skeleton edge leaves every web: a bug if it is reached
+                a, b = (int(v) + 1 for v in skel.edges[k])
+                raise GeometryError(f"{spec.source}: sleeve part {key} (first at the edge between vertices {a} and "
+                                    f"{b}, dihedral {math.degrees(phi):.4f}°, printed at "
+                                    f"{math.degrees(angle):.4f}°): {err}") from None
 
     width = len(str(len(skel.interior_edges)))
     joint = {int(k): f"E{n + 1:0{width}d}" for n, k in enumerate(skel.interior_edges)}
@@ -351,8 +368,100 @@ def neck_half_width(outline: Any, edge_y: float, depth: float, reach: float) -> 
     return best
 
 
+def neck_extent(outline: Any, edge_y: float, depth: float, reach: float) -> float:
+    """Largest |x| (mm) of the plate material's boundary within ``depth`` mm of polygon edge 0 and
+    |x| ≤ ``reach``, the outline flattened within 0.005 mm: as :func:`neck_half_width`, but each chord
+    clipped to that region, so that where a chord crosses the depth line counts too (an upper bound
+    of what the slot's end walls meet; the advice of :func:`neck_advice` is measured with it)."""
+    best = 0.0
+    for P in outline.flatten(0.005):
+        a = P
+        b = np.roll(P, -1, axis=0)  # every chord, the closing one included
+        if np.allclose(P[0], P[-1]):
+            a, b = P[:-1], P[1:]
+        t0, t1 = np.zeros(len(a)), np.ones(len(a))
+        # Liang–Barsky: each side of the region is c0 + t c1 ≤ 0 along the chord a + t (b − a), t ∈ [0, 1]
+        dy, dx = b[:, 1] - a[:, 1], b[:, 0] - a[:, 0]
+        for c0, c1 in ((a[:, 1] - edge_y - depth, dy), (a[:, 0] - reach, dx), (-a[:, 0] - reach, -dx)):
+            flat = c1 == 0.0
+            t1 = np.where(flat & (c0 > 0.0), -1.0, t1)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t = np.where(flat, 0.0, -c0 / np.where(flat, 1.0, c1))
+            t1 = np.where(~flat & (c1 > 0.0), np.minimum(t1, t), t1)
+            t0 = np.where(~flat & (c1 < 0.0), np.maximum(t0, t), t0)
+        keep = t0 <= t1
+        if keep.any():
+            x = np.concatenate([a[keep, 0] + t0[keep] * dx[keep], a[keep, 0] + t1[keep] * dx[keep]])
+            best = max(best, float(np.abs(x).max()))
+    return best
+
+
+def neck_advice(assembly: Assembly, filleted: dict[PlateType, Any]) -> str:
+    """What to change so that every plate's neck fits its slots (:func:`check_necks`), measured with
+    :func:`neck_extent`: "raise sleeve.margin to ≥ M or lower sleeve.depth to ≤ D", either alone when the
+    other cannot help, or "no sleeve.margin or sleeve.depth fits" (mm, M rounded up and D down to 0.01).
+
+    M is the smallest margin whose slots hold every neck at the spec's depth: a longer slot is a longer
+    sleeve, whose end walls reach farther along the edge, where some plates (a triangle's) widen as
+    fast, so M is found as the fixed point of "the margin the necks within this sleeve's reach need",
+    and given only if such a sleeve still fits on the plate edge (:func:`check_geometry`) and clears
+    the sleeve of the plate's next edge at their corner. D is the largest depth at the spec's margin
+    whose slots hold every neck, given only if every plate still enters by ``sleeve.wall``. Measured
+    on an octahedron of 36 mm triangles (0x0488, depth 3): the old advice "margin ≥ 4.83" asked for
+    8.40 next and never settled; M = 20.18 settles but its sleeves meet at the corners, so only
+    D = 1.33 is given, and that kit builds (``tests/test_assembly_mesh_fixes.py``).
+    """
+    spec, skel, e = assembly.spec, assembly.skeleton, assembly.plate_edge
+    s, E = spec.sleeve, skel.edge_length()
+    interface = 2.0 * e / 16.0 / (1.0 + spec.plates.weight)
+    pairs = [(sl, pt, filleted[pt].outline, setback(pt.sides, E, e), e / (2.0 * math.tan(math.pi / pt.sides)))
+             for sl in assembly.sleeve_types.values() for pt in assembly.plate_types]
+
+    def margin_needed(margin: float) -> float:
+        reach = 0.5 * (interface + margin) + s.wall + 1.0
+        return max(2.0 * (neck_extent(o, -ap, sl.arm_end - g, reach) + NECK_CLEARANCE) - interface
+                   for sl, _, o, g, ap in pairs)
+
+    margin = s.margin
+    for _ in range(200):
+        need = margin_needed(margin)
+        if need <= margin + 1e-9:
+            break
+        margin = need
+    # the sleeve must fit on the plate edge, and two sleeves of one plate must not meet at its corner: in
+    # the plate's plane a sleeve covers its slot arm (out to arm_end from the edge line) over its length,
+    # and two arms at a corner of interior angle α meet unless each ends ≥ arm_end / tan(α/2) from it
+    corner = max(sl.arm_end / math.tan(0.5 * math.pi * (pt.sides - 2) / pt.sides) for sl, pt, *_ in pairs)
+    margin_max = min(e * (1.0 - 2.0 / 16.0 / (1.0 + spec.plates.weight)),
+                     E - 2.0 * (corner + NECK_CLEARANCE) - interface) - 2.0 * s.wall
+    raise_to = math.ceil(margin * 100.0 - 1e-6) / 100.0 if margin_max >= margin else None
+
+    def fits(depth: float) -> bool:
+        return all(neck_extent(o, -ap, sl.setback + depth - g, 0.5 * sl.length + 1.0)
+                   <= 0.5 * sl.slot_length - NECK_CLEARANCE for sl, _, o, g, ap in pairs)
+
+    spread = max((sl.setback + 0.0 - g for sl, _, _, g, _ in pairs), default=0.0)  # ≤ 0: g ≥ the part's setback
+    d_min = s.wall - min(spread, 0.0)
+    lo, hi = d_min, s.depth
+    lower_to = None
+    if lo <= hi and fits(lo):
+        for _ in range(40):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if fits(mid) else (lo, mid)
+        lower_to = math.floor(lo * 100.0 + 1e-6) / 100.0
+        lower_to = lower_to if lower_to >= d_min - 1e-9 and fits(lower_to) else None
+    advice = []
+    if raise_to is not None:
+        advice.append(f"raise sleeve.margin to ≥ {raise_to:.2f}")
+    if lower_to is not None:
+        advice.append(f"lower sleeve.depth to ≤ {lower_to:.2f}")
+    return " or ".join(advice) or ("no sleeve.margin or sleeve.depth fits (the neck is wider than any slot that "
+                                   "fits on the edge): choose another pattern or a larger tiling.edge")
+
+
 def check_necks(assembly: Assembly, filleted: dict[PlateType, Any]) -> None:
-    """SpecError if a plate's neck is wider than its slot anywhere within the slot's depth."""
+    """SpecError if a plate's neck is wider than its slot anywhere within the slot's depth; the message
+    ends with :func:`neck_advice`."""
     skel, e = assembly.skeleton, assembly.plate_edge
     for key, sleeve in assembly.sleeve_types.items():
         for pt in assembly.plate_types:
@@ -364,9 +473,8 @@ def check_necks(assembly: Assembly, filleted: dict[PlateType, Any]) -> None:
             if half > room:
                 raise SpecError(
                     f"{assembly.spec.source}: the {pt.label} neck is {2 * half:.2f} mm wide {inside:.2f} mm into "
-                    f"the {key} slot, longer than the slot ({sleeve.slot_length:.2f} mm): raise sleeve.margin to "
-                    f"≥ {2 * (half + NECK_CLEARANCE) - sleeve.slot_length + assembly.spec.sleeve.margin:.2f} "
-                    "or lower sleeve.depth"
+                    f"the {key} slot, longer than the slot ({sleeve.slot_length:.2f} mm): "
+                    f"{neck_advice(assembly, filleted)}"
                 )
 
 

@@ -14,6 +14,7 @@ whose plates all stay under the strain limit.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -180,6 +181,8 @@ def choose_roundest(spec: AssemblySpec, pairs: list[tuple[str, str]], faces: lis
                           f"strain {best[1].peak_strain:.4g}, hexagon {best[3]['hexagon']} / pentagon "
                           f"{best[3]['pentagon']}): raise patterns.candidates or the limit, or give --force to build "
                           "the roundest anyway")
-    ids, run, seconds, rec = min(ok or runs, key=lambda r: r[1].sphericity_rms)
+    # a candidate no sphere describes (radius None: fabpat.assembly.closure.shape_sphere) is the least round
+    ids, run, seconds, rec = min(ok or runs, key=lambda r: math.inf if r[1].sphericity_rms is None
+                                 else r[1].sphericity_rms)
     rec["chosen"] = True
     return ids, run, seconds, tried

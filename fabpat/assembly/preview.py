@@ -60,7 +60,7 @@ class PredictedShape:
     """The assembled object as predicted: ``plates``; ``sleeves`` one (label, part key, pose (4, 4))
     per sleeve; ``thickness`` (mm); ``density_range`` (lo, hi) of the colour map (N·mm/mm²); and a
     closure's ``radius`` (mm), ``sphericity_rms``/``sphericity_max`` (fractions of the radius; None for
-    a strip, which is not closed)."""
+    a strip, which is not closed, and for a closure no sphere describes: ``closed`` tells them apart)."""
 
     plates: tuple[PredictedPlate, ...]
     sleeves: tuple[tuple[str, str, Arr], ...]
@@ -69,6 +69,8 @@ class PredictedShape:
     radius: float | None
     sphericity_rms: float | None
     sphericity_max: float | None
+    #: a closure (False: a strip); its radius and sphericity are None when no sphere describes it
+    closed: bool = False
 
 
 def _areas(P: Arr, F: NDArray[np.int64]) -> Arr:
@@ -133,7 +135,7 @@ def predicted_shape(run: Any, assembly: Any) -> PredictedShape:
                                                               strict=True))
     closed = [getattr(run, k, None) for k in ("radius", "sphericity_rms", "sphericity_max")]
     return PredictedShape(tuple(plates), sleeves, float(m.material.t), (0.0, hi),
-                          *(None if v is None else float(v) for v in closed))
+                          *(None if v is None else float(v) for v in closed), hasattr(run, "sphere_note"))
 
 
 def joint_fit(run: Any, sleeve_types: dict[str, Any], kinds: list[str]) -> tuple[float, float]:
@@ -340,7 +342,7 @@ def render_predicted_png(shape: PredictedShape, lib: Any, path: str | os.PathLik
     for _, key, T in shape.sleeves:
         V, F = lib.mesh(key, PICTURE_TOLERANCE)
         sleeves.append((apply(T, V), F))
-    view = VIEW_CLOSED if shape.radius is not None else VIEW_STRIP
+    view = VIEW_CLOSED if shape.closed else VIEW_STRIP
     _paint_png(plates, sleeves, path, title, f"strain-energy density ({DENSITY_UNIT})", COLOUR_MAP, lo, hi, dpi,
                view)
 
@@ -382,11 +384,11 @@ def render_prediction_png(sim: Any, path: str | os.PathLike[str], field: str = "
         a, b = int(m.offsets[p]), int(m.offsets[p + 1])
         ea, eb = int(m.element_offsets[p]), int(m.element_offsets[p + 1])
         plates.append((x[a:b], m.F[ea:eb] - a, cell[ea:eb]))
+    from fabpat.assembly.closure import sphere_text
     from fabpat.assembly.render import plain_text
 
     title = (f"{plain_text(sim.name)}: closed by its sleeves (shell solver, h = {sim.h:g} mm), coloured by {field}\n"
-             f"radius {run.radius:.2f} mm, sphericity rms {100 * run.sphericity_rms:.2f} % "
-             f"(max {100 * run.sphericity_max:.2f} %)")
+             f"{sphere_text(run)}")
     _paint_png(plates, [], path, title, FIELD_LABELS[field], cmap, lo, hi, dpi)
 
 
@@ -396,15 +398,16 @@ def prediction_title(name: str, run: Any, h: float) -> str:
     from fabpat.assembly.render import plain_text
 
     name = plain_text(name)
-    if getattr(run, "radius", None) is None:  # a StripRun
+    if not hasattr(run, "sphere_note"):  # a StripRun
         return (f"{name}: predicted shape once its end pins push it together by {100 * run.end_shortening:g} % of "
                 f"its length (shell solver, h = {h:g} mm)\npeak of the arch at {run.peak:.3f} of the length, "
                 f"{run.max_deflection:.1f} mm high; peak strain {100 * run.peak_strain:.2f} % on "
                 f"{run.peak_strain_plate} (limit {100 * run.strain_limit:.2f} %"
                 + (f"; {len(run.over_limit)} plates over it)" if run.over_limit else ")"))
+    from fabpat.assembly.closure import sphere_text
+
     return (f"{name}: predicted shape once the sleeves close it (shell solver, h = {h:g} mm)\n"
-            f"radius {run.radius:.2f} mm, sphericity rms {100 * run.sphericity_rms:.2f} % "
-            f"(max {100 * run.sphericity_max:.2f} %), peak strain {100 * run.peak_strain:.2f} % on "
+            f"{sphere_text(run)}, peak strain {100 * run.peak_strain:.2f} % on "
             f"{run.peak_strain_plate} (limit {100 * run.strain_limit:.2f} %"
             + (f"; {len(run.over_limit)} plates over it)" if run.over_limit else ")"))
 

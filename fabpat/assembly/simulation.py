@@ -8,7 +8,8 @@ of ``fabpat simulate-assembly``).
   sleeve angle and bend the plates into a sphere (:mod:`fabpat.assembly.closure`).
 
 Both report the fields of :meth:`AssemblySimulation.fields`; the read-outs a kind does not have are
-``None`` (``peak``, ``half_ratio`` of a closed assembly; ``radius``, ``sphericity_*`` of a strip).
+``None`` (``peak``, ``half_ratio`` of a closed assembly; ``radius``, ``sphericity_*`` of a strip, and of
+a closed or bent shape no sphere describes: a flat field, a cube, a tube, :func:`fabpat.assembly.closure.shape_sphere`).
 Surface strain and mid-surface curvature are computed for both.
 """
 
@@ -116,7 +117,8 @@ class AssemblySimulation:
         """One line: kind, name, size, energy, peak strain and the shape's read-out (radius and
         sphericity of a closed assembly, the arch's peak and height of a strip); no arrays."""
         f = self.fields()
-        shape = (f"radius={f['radius']:.2f} mm, sphericity_rms={100 * f['sphericity_rms']:.3f} %" if self.closed else
+        shape = ((f"radius={f['radius']:.2f} mm, sphericity_rms={100 * f['sphericity_rms']:.3f} %"
+                  if f["radius"] is not None else f"radius=None ({self.run.sphere_note})") if self.closed else
                  f"peak={'None' if f['peak'] is None else format(f['peak'], '.3f')}, "
                  f"max_deflection={f['max_deflection']:.2f} mm")
         return (f"AssemblySimulation(kind={self.kind!r}, name={self.name!r}, plates={f['plates']}, "

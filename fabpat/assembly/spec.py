@@ -9,10 +9,11 @@ A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented 
   ``[sleeve]`` table, ``output.formats`` may add "3mf"); a mesh tiling
   reads ``file`` (an OBJ, PLY or OFF polygon mesh, relative to the spec; its faces carry the plates,
   :mod:`fabpat.assembly.mesh_tiling`), takes ``edge`` as optional (default: the mesh's mean edge; given,
-  it scales the mesh), ``tolerance`` (mm, default 0.01: how far the faces may be from regular polygons
-  of one edge) and ``fit`` ("exact" | "best": plates at their faces' best fit, the closure takes up
-  the rest); ``goldberg`` reads ``m``, ``n``, ``realization`` ("dual" | "planar"), ``hex-cap`` ``rings``
-  and ``centre`` (5 | 6) (:mod:`fabpat.assembly.polyhedra`; plates at best fit). The closed kinds
+  it scales the mesh), ``tolerance`` (mm, default 0.01, with ``fit = "best"`` 0.2 × edge; at most 0.5 ×
+  edge: how far the faces may be from regular polygons of one edge) and ``fit`` ("exact" | "best":
+  plates at their faces' best fit, the closure takes up the rest); ``goldberg`` reads ``m``, ``n``,
+  ``realization`` ("dual" | "planar"), ``hex-cap`` ``rings`` and ``centre`` (5 | 6)
+  (:mod:`fabpat.assembly.polyhedra`; plates at best fit). The closed kinds
   (:data:`RADIUS_KINDS`) take ``radius`` (mm) instead of ``edge``: the plate edge is then chosen so that
   the placed plates lie that far from the centre (a tube: its axis), :func:`_sized_by_radius`.
 * ``[patterns]`` one of: ``pattern`` (every tile); ``groups`` (one ID per group of ``group_columns`` columns,
@@ -422,7 +423,8 @@ def _mesh_tiling(source: str, t: _Table) -> TilingSpec:
     name = t.string("file")
     edge = t.number("edge", None, "edge") if t.has("edge") else None
     fit = t.choice("fit", FITS, "exact")
-    tolerance = t.number("tolerance", DEFAULT_TOLERANCE, "curve_tolerance") if t.has("tolerance") else None
+    # any positive length here; mesh_tiling bounds it by the edge (MAX_TOLERANCE × edge, as its default)
+    tolerance = t.number("tolerance", DEFAULT_TOLERANCE, "sleeve_length") if t.has("tolerance") else None
     if name is None or not name.strip():
         raise t.fail("file", f"is {'missing' if name is None else 'empty'}: the polygon mesh (OBJ, PLY or OFF) "
                      "whose faces carry the plates")
