@@ -5,8 +5,9 @@ Every module of the package, by job (heavy libraries are imported inside the fun
 
 * **What to build** — ``spec`` (TOML specs, every value checked) and ``spec_tables`` (reading its file and
   tables); ``tiling`` (skeleton surfaces); ``mesh_tiling`` (a polygon-mesh file read and checked as a
-  tiling); ``polyhedra`` (Goldberg polyhedra, hexagon tubes and caps); ``rules`` (stiffness-based
-  pattern choice); ``provenance`` (where each chosen pattern and its catalog energies come from).
+  tiling) and ``ply`` (its PLY reader); ``polyhedra`` (Goldberg polyhedra, hexagon tubes and caps);
+  ``choice`` (one pattern per face, by the spec's ``[patterns]``); ``rules`` (stiffness-based pattern
+  choice); ``provenance`` (where each chosen pattern and its catalog energies come from).
 * **Where the parts go** — ``placement`` (plates and sleeves in 3D); ``sleeve`` (the connector B-rep);
   ``parts`` (distinct solids and meshes, built once); ``checks`` (counts, midpoints, interference);
   ``nesting`` and ``sheets`` (laser sheets); ``net`` (unfolding).
@@ -15,9 +16,11 @@ Every module of the package, by job (heavy libraries are imported inside the fun
   ``simulation`` (``simulate_assembly``, the front door for every kind); ``strip_sim`` (the older
   load-controlled strip model, sub-buckling, kept as a library function); ``predict`` (the kit's
   prediction) and ``preview`` (the predicted bent shape as GLB, PNG and mesh).
-* **The kit** — ``build`` (``assemble``: a spec in, a folder out); ``kit_files`` (every output written);
+* **The kit** — ``build`` (``assemble``: a spec in, a folder out) and ``kit_result`` (what it returns, the
+  plates' fabrication checks); ``kit_files`` (every output written);
   ``kit_folder`` (what may be replaced, and the swap); ``export`` (STEP/STL/GLB); ``render`` (PNG);
   ``bom`` (bill of materials and joint table).
 * **One-piece panels** — ``panel`` (a panel's plates fused into one exact outline and solid, and its
-  end-shortening model); ``panel_kit`` (its kit: the part in every format, nested); ``panel_bom`` (its BOM).
+  end-shortening model); ``panel_sheet`` (its hull on the sheet); ``panel_kit`` (its kit: the part in every
+  format, nested); ``panel_bom`` (its BOM).
 """
