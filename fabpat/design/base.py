@@ -140,7 +140,7 @@ def closed_rows(spec: AssemblySpec, source: str, catalog: str | None, keys: dict
     has none left. A polygon without family rows in the catalog appends a line to ``notes``."""
     from fabpat import catalog as cat
     from fabpat.assembly.placement import build_tiling
-    from fabpat.assembly.spec import _pattern_id
+    from fabpat.assembly.spec_patterns import pattern_id_of
 
     pl = spec.plates
     allowed = None
@@ -148,7 +148,7 @@ def closed_rows(spec: AssemblySpec, source: str, catalog: str | None, keys: dict
         a = keys["allowed"]
         if not isinstance(a, list) or not a:
             raise SpecError(f"{source}: patterns.allowed must be a non-empty list of pattern IDs")
-        allowed = {_pattern_id(source, f"patterns.allowed[{i}]", x, (5, 6)) for i, x in enumerate(a)}
+        allowed = {pattern_id_of(source, f"patterns.allowed[{i}]", x, (5, 6)) for i, x in enumerate(a)}
     w = keys.get("min_width", 0.0)
     if isinstance(w, bool) or not isinstance(w, int | float) or not math.isfinite(w) or w < 0:
         raise SpecError(f"{source}: patterns.min_width = {w!r} must be a number of mm ≥ 0")
@@ -201,7 +201,7 @@ def _min_widths(spec: AssemblySpec, catalog: str | None) -> dict[str, float]:
 def candidates(spec: AssemblySpec, source: str, catalog: str | None, keys: dict[str, Any]) -> dict[str, float]:
     """{candidate: Cylinder energy} of the candidates that ``allowed`` and ``min_width`` leave, with their
     family members unless ``variations = false`` (module doc); SpecError if none."""
-    from fabpat.assembly.spec import _pattern_id
+    from fabpat.assembly.spec_patterns import pattern_id_of
 
     energies = {k: v for k, v in _catalog_energies(spec, catalog).items() if math.isfinite(v) and v > 0}
     why = [f"the catalog's {len(energies)} hexagon patterns with a {SCENARIO} energy"]
@@ -209,7 +209,7 @@ def candidates(spec: AssemblySpec, source: str, catalog: str | None, keys: dict[
         allowed = keys["allowed"]
         if not isinstance(allowed, list) or not allowed:
             raise SpecError(f"{source}: patterns.allowed must be a non-empty list of pattern IDs")
-        ids = {_pattern_id(source, f"patterns.allowed[{i}]", a, (6,)) for i, a in enumerate(allowed)}
+        ids = {pattern_id_of(source, f"patterns.allowed[{i}]", a, (6,)) for i, a in enumerate(allowed)}
         energies = {k: v for k, v in energies.items() if k in ids}
         why.append(f"patterns.allowed ({len(ids)} IDs)")
     if "min_width" in keys:
