@@ -277,6 +277,18 @@ def test_bad_panel_specs_are_one_line(tmp_path: Path, change, words: str) -> Non
     assert len([line for line in r.stderr.splitlines() if line.startswith("fabpat: error")]) == 1
 
 
+@pytest.mark.parametrize("kind", ["panel", "honeycomb-strip"])
+def test_a_single_column_is_not_pushed(kind: str) -> None:
+    """Its first and last columns are one: an 'end shortening' of nothing once reported converged."""
+    from fabpat.assembly.simulation import simulate_assembly
+    from fabpat.assembly.spec import parse_spec
+    from fabpat.errors import SpecError
+
+    data = {"tiling": {"kind": kind, "edge": 36.0, "rows": 3, "columns": 1}, "patterns": {"pattern": "0x0488"}}
+    with pytest.raises(SpecError, match="tiling.columns = 1 has only one"):
+        simulate_assembly(parse_spec(data, "one.toml"))
+
+
 def test_3mf_is_a_panel_format_only() -> None:
     from fabpat.errors import SpecError
 

@@ -91,7 +91,13 @@ def test_twice_the_radius_is_twice_the_placed_size_not_twice_the_edge() -> None:
 
 @pytest.mark.parametrize(("tiling", "message"), [
     ({"kind": "goldberg", "m": 2, "radius": 90.0, "edge": 30.0}, "tiling.radius and tiling.edge both size the tiling"),
-    ({"kind": "goldberg", "m": 2, "radius": 3.0}, "tiling.radius = 3 mm is out of reach: plate edges of 1 … 1000 mm"),
+    # the window starts at the smallest plate edge a sleeve fits on (placement.check_geometry: 3.795 mm
+    # with the default sleeve and w = 0.2), not at the edge range's 1 mm
+    ({"kind": "goldberg", "m": 2, "radius": 3.0}, "tiling.radius = 3 mm is out of reach: plate edges of 3.795 … "
+     "1000 mm make this tiling 14.32 … 2738 mm in radius with these sleeves: give a radius in that range"),
+    ({"kind": "truncated-icosahedron", "radius": 20000.0}, "tiling.radius = 20000 is out of range"),
+    ({"kind": "truncated-icosahedron"}, "tiling.edge is missing: give tiling.edge (the plate edge, mm) or "
+     "tiling.radius"),
     ({"kind": "hex-cap", "rings": 2, "radius": 100.0}, 'tiling.radius is only for kind = "truncated-icosahedron"'),
     ({"kind": "honeycomb-strip", "rows": 1, "columns": 3, "radius": 100.0}, "tiling.radius is only for kind"),
     ({"kind": "truncated-icosahedron", "radius": "big"}, "tiling.radius must be a number"),
@@ -101,3 +107,10 @@ def test_bad_radius_is_one_line(tiling: dict[str, object], message: str) -> None
     with pytest.raises(SpecError, match=None) as e:
         parse_spec(spec_of(tiling), "radius.toml")
     assert message in str(e.value), str(e.value)
+    assert len(str(e.value).splitlines()) == 1  # not also "missing key tiling.edge"
+
+
+def test_a_radius_beyond_the_old_edge_range_is_reached() -> None:
+    """1500 mm is above the edge's 1000 mm but inside what plate edges reach (the window's message)."""
+    spec, asm = placed(spec_of({"kind": "truncated-icosahedron", "radius": 1500.0}))
+    assert asm.placed_radius() == pytest.approx(1500.0, rel=1e-9) and spec.tiling.edge < 1000.0

@@ -238,6 +238,7 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
     report = check_assembly(lib)
     problems += report.shallow  # plates that enter their slots much less than sleeve.depth: a warning each
     check_lines = report.lines()
+    first_note = len(check_lines)  # what follows the parts' checks is told on the terminal too
     if spec.tiling.radius is not None:
         check_lines.append(radius_line(assembly))
     if nesting is not None:
@@ -304,7 +305,7 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
 
         record = prediction_record(prediction.run, prediction.seconds, prediction.h, spec.name, spec.tiling.kind)
     return AssembleResult(out, (*files, MANIFEST), report, nesting.n_sheets if nesting else 0, tuple(problems),
-                          record, tuple(notes))
+                          record, tuple(check_lines[first_note:]))
 
 
 def prediction_notes(prediction: Prediction) -> list[str]:

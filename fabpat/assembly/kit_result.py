@@ -24,8 +24,10 @@ class KitReport(Protocol):
 @dataclass(frozen=True)
 class AssembleResult:
     """What :func:`assemble` wrote: ``out`` folder, ``files`` relative to it, the checks' report;
-    ``prediction`` the ``prediction.json`` record (None without a prediction) and ``notes`` its summary
-    lines (radius, sphericity, peak strain, how the sleeves fit the bent joints)."""
+    ``prediction`` the ``prediction.json`` record (None without a prediction) and ``notes`` the check
+    lines after the parts' report, as the manifest's ``checks`` holds them: the size ``tiling.radius``
+    chose, the sheets, the net and the prediction's summary (radius, sphericity, peak strain, how the
+    sleeves fit the bent joints)."""
 
     out: Path
     files: tuple[str, ...]

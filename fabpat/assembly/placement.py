@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.assembly.sleeve import Sleeve, joint_direction, setback, skeleton_edge
+from fabpat.assembly.sleeve import Sleeve, joint_direction, min_plate_edge, setback, skeleton_edge
 from fabpat.assembly.spec import RADIUS_KINDS, AssemblySpec, sleeve_angle
 from fabpat.assembly.tiling import FACE_LETTERS, Tiling, mean_distance
 from fabpat.errors import GeometryError, SpecError
@@ -267,9 +267,11 @@ def check_geometry(spec: AssemblySpec) -> None:
       least a wall's thickness.
     """
     s, e, w, src = spec.sleeve, spec.tiling.edge, spec.plates.weight, spec.source
-    e_min = (s.margin + 2.0 * s.wall) / (1.0 - 2.0 / 16.0 / (1.0 + w))
+    e_min = min_plate_edge(s.margin, s.wall, w)
     if e < e_min:
-        raise SpecError(f"{src}: tiling.edge = {e:g} mm must be ≥ {e_min:.3g} mm: a sleeve (interface segment + "
+        given = (f"tiling.radius = {spec.tiling.radius:g} mm makes the plate edge {e:.4g} mm, which"
+                 if spec.tiling.radius is not None else f"tiling.edge = {e:g} mm")
+        raise SpecError(f"{src}: {given} must be ≥ {e_min:.3g} mm: a sleeve (interface segment + "
                         f"sleeve.margin = {s.margin:g} + 2 × sleeve.wall = {s.wall:g}) must fit on the plate's edge")
     seg_min = MIN_INTERFACE_CHORDS * spec.mesh_tolerance
     w_max = 2.0 * e / 16.0 / seg_min - 1.0

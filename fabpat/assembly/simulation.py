@@ -341,6 +341,9 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
         if value is not None and closed:
             raise SpecError(f"{spec.source}: {name} applies to strips (end shortening and the buckle it "
                             f"selects); a closed assembly is bent by its sleeves: leave {name} out")
+    if not closed and spec.tiling.columns < 2:  # the pinned first and last column are one: nothing to push
+        raise SpecError(f"{spec.source}: simulate-assembly pushes a {kind}'s first and last columns together: "
+                        f"tiling.columns = {spec.tiling.columns} has only one (give at least 2)")
     if not closed:
         from fabpat.assembly.simulate import kit_end_shortening
 

@@ -48,6 +48,12 @@ def setback(sides: int, skeleton: float, plate: float) -> float:
     return (skeleton - plate) / (2.0 * math.tan(math.pi / sides))
 
 
+def min_plate_edge(margin: float, wall: float, weight: float) -> float:
+    """Smallest plate edge (mm) a sleeve fits on: its slot (the interface segment, 2e/16/(1 + w) of the
+    edge e for interface weight w, plus ``margin``) and two walls of ``wall`` within the edge."""
+    return (margin + 2.0 * wall) / (1.0 - 2.0 / 16.0 / (1.0 + weight))
+
+
 def skeleton_edge(tiling: Tiling, plate_edge: float, thickness: float, clearance: float, wall: float,
                   printed: Callable[[float], float] | None = None) -> float:
     """Smallest skeleton edge (mm) for which every joint's slots are separated by ``wall`` mm: the plate

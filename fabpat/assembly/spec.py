@@ -130,14 +130,20 @@ def _tiling(source: str, data: Any) -> TilingSpec:
     for key, kinds in _KIND_KEYS.items():
         if t.has(key) and kind not in kinds:
             t.note(t.fail(key, f"is only for kind = {' or '.join(repr(k) for k in kinds)}".replace("'", '"')), None)
+    if t.has("radius") and kind not in RADIUS_KINDS:
+        t.settle()  # that one line: not also "missing key tiling.edge" for a spec that sized it otherwise
     if kind == "mesh":
         return _mesh_tiling(source, t)
     radius = None
     if t.has("radius") and kind in RADIUS_KINDS:
         if t.has("edge"):
             raise t.fail("radius", "and tiling.edge both size the tiling: give one of them")
-        # sized once [plates] and [sleeve] are read (:func:`_sized_by_radius`); unit edge until then
-        radius, edge = t.number("radius", None, "edge"), 1.0  # the edge's range, [1, 1000] mm
+        # sized once [plates] and [sleeve] are read (:func:`_sized_by_radius`); unit edge until then. A
+        # positive length up to a sheet's 10 m here; which radii the plate edges reach is checked there
+        radius, edge = t.number("radius", None, "sheet_size"), 1.0
+    elif kind in RADIUS_KINDS and not t.has("edge"):
+        raise t.fail("edge", "is missing: give tiling.edge (the plate edge, mm) or tiling.radius (the size the "
+                     "plates lie at, mm)")
     else:
         edge = t.number("edge", None, "edge")
     if kind == "honeycomb-strip":
@@ -156,7 +162,7 @@ def _sized_by_radius(source: str, tiling: TilingSpec, plates: PlateSpec, sleeve:
     (:func:`fabpat.assembly.sleeve.skeleton_edge`). That is the kit as placed: with ``sleeve.angle =
     "dihedral"`` the closed shape; straight sleeves bend the plates as they close, and the prediction's
     ``radius`` says where they end (docs/tilings.md gives measured ratios)."""
-    from fabpat.assembly.sleeve import skeleton_edge
+    from fabpat.assembly.sleeve import min_plate_edge, skeleton_edge
     from fabpat.assembly.tiling import edge_for_radius
 
     assert tiling.radius is not None
@@ -164,7 +170,9 @@ def _sized_by_radius(source: str, tiling: TilingSpec, plates: PlateSpec, sleeve:
     allowance = skeleton_edge(unit, 0.0, plates.thickness, sleeve.clearance, sleeve.wall,
                               lambda phi: printed_angle(sleeve.angle, phi))
     axis = RADIUS_KINDS[tiling.kind]
-    lo, hi = RANGES["edge"].low, RANGES["edge"].high
+    # the smallest edge a sleeve fits on (placement.check_geometry), the largest the edge's range
+    lo = max(RANGES["edge"].low, min_plate_edge(sleeve.margin, sleeve.wall, plates.weight))
+    hi = RANGES["edge"].high
     try:
         edge = edge_for_radius(unit, tiling.radius, allowance, lo, hi, None if axis is None else np.array(axis))
     except ValueError as e:

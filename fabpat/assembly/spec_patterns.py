@@ -56,6 +56,9 @@ def pattern_id_of(source: str, key: str, pid: Any, sides: tuple[int, ...]) -> st
 #: [tiling] keys that only some kinds read: key → those kinds
 
 def read_patterns(source: str, data: Any, tiling: TilingSpec) -> PatternSpec:
+    """The ``[patterns]`` table ``data`` of the spec ``source`` for ``tiling``: exactly one way of choosing
+    (:class:`PatternSpec`), every ID a library pattern of its polygon. Raises :class:`SpecError`, one line
+    per problem."""
     allowed = ("pattern", "groups", "group_columns", "tiles", *POLYGON_KEYS.values(), "rule", "scenario",
                "count", "catalog", "candidates", "bridge_weight")
     t = _Table(source, "patterns", data, allowed)

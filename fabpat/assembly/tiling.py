@@ -211,8 +211,8 @@ def edge_for_radius(unit: Tiling, radius: float, allowance: float, lo: float, hi
         return unit.scaled(e + allowance).plate_radius(e, axis) - radius
 
     if off(lo) > 0 or off(hi) < 0:
-        raise ValueError(f"plate edges of {lo:g} … {hi:g} mm make this tiling {off(lo) + radius:.4g} … "
-                         f"{off(hi) + radius:.4g} mm in radius with these sleeves")
+        raise ValueError(f"plate edges of {lo:.4g} … {hi:.4g} mm make this tiling {off(lo) + radius:.4g} … "
+                         f"{off(hi) + radius:.4g} mm in radius with these sleeves: give a radius in that range")
     return float(brentq(off, lo, hi, xtol=1e-9, rtol=1e-12))
 
 
