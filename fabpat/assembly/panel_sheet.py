@@ -51,8 +51,8 @@ def check_panel_fits(spec: Any) -> None:
         w, h = sizes[0]
         raise SpecError(f"{spec.source}: sheet.width × sheet.height = {s.width:g} × {s.height:g} mm is smaller than "
                         f"the {spec.tiling.rows} × {spec.tiling.columns} panel ({w:.1f} × {h:.1f} mm, either way "
-                        f"round, plus sheet.margin = {s.margin:g} mm on each side): use a larger sheet or fewer "
-                        "rows or columns")
+                        f"round, plus sheet.margin = {s.margin:g} mm on each side and the nesting grid's "
+                        f"{DEFAULT_RESOLUTION:g} mm step): use a larger sheet or fewer rows or columns")
 
 
 def nest_panel(spec: Any) -> tuple[Any, bool]:

@@ -254,7 +254,8 @@ def _tile_table(source: str, table: Mapping[str, Any], tiling: TilingSpec,
     """``tiles = {LABEL = "0x....", …}``: one pattern per plate label, every label of the strip once; the
     rows × columns IDs it stands for."""
     labels = strip_labels(tiling.rows, tiling.columns)
-    _check_labels(source, table, labels, f"is not a plate of this strip (labels {labels[0]} … {labels[-1]})",
+    noun = "panel" if tiling.kind == "panel" else "strip"
+    _check_labels(source, table, labels, f"is not a plate of this {noun} (labels {labels[0]} … {labels[-1]})",
                   "plate", f"give every plate {labels[0]} … {labels[-1]} one")
     grid = [[""] * tiling.columns for _ in range(tiling.rows)]
     for f, lab in enumerate(labels):  # faces run column by column (fabpat.assembly.tiling.honeycomb_strip)

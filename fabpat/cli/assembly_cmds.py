@@ -174,6 +174,9 @@ def _simulate_assembly(spec: str, end_shortening: float | None, h: float, steps:
         raise SpecError("--png-field colours the --png picture of a closed assembly (a strip's PNG is its "
                         "deflection profile): give --png with a closed assembly's spec, or leave --png-field out")
     what = _path_words(parsed)
+    if parsed.tiling.radius is not None:  # the edge it chose is a fact of the run, not of the output fields
+        click.echo(f"fabpat: tiling.radius = {parsed.tiling.radius:g} mm: plate edge {parsed.tiling.edge:.4f} mm",
+                   err=True)
     with atomic_outputs(*outputs) as temps, Progress("simulate-assembly", total=1.0, enabled=progress) as bar:
         bar.update("meshing and joining the plates", 0.0)
         sim = simulate_assembly(parsed, h=h, steps=steps, end_shortening=end_shortening, imperfection=imperfection,
