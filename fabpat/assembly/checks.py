@@ -16,6 +16,7 @@ closure solver predicts the shape after that.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -122,22 +123,25 @@ def _off_slot(asm: Assembly, s: PlacedSleeve, plate_index: int, off: float, alon
         "mm (or give fit = \"best\" and let `fabpat simulate-assembly` close the mismatch)")
 
 
-def insertion_depths(lib: PartLibrary) -> list[tuple[float, str, str, str]]:
-    """How deep (mm) each plate enters each of its slots: (depth, plate label, sleeve label, sleeve part),
-    one per plate and sleeve, in the sleeves' order."""
+def _slot_midpoints(lib: PartLibrary) -> Iterator[tuple[PlacedSleeve, int, int, NDArray[np.float64]]]:
+    """Every (sleeve, side, plate index, the plate's interface midpoint in the sleeve's frame (3,) mm), in
+    the sleeves' order: what the slot checks measure."""
     asm = lib.assembly
-    out = []
     for s in asm.sleeves:
-        sleeve = asm.sleeve_types[s.kind]
         inv = np.linalg.inv(s.transform)
         for side, (p, i) in enumerate(s.plates):
             plate = asm.plates[p]
             seg = lib.filleted[plate.type].interface_segments[i]
             mid = np.array([*seg.mean(axis=0), 0.5 * asm.spec.plates.thickness])
-            local = apply(inv, apply(plate.transform, mid[None]))[0]
-            out.append((sleeve.arm_end - float(local[1:] @ joint_direction(s.dihedral, side)), plate.label,
-                        s.label, s.kind))
-    return out
+            yield s, side, p, apply(inv, apply(plate.transform, mid[None]))[0]
+
+
+def insertion_depths(lib: PartLibrary) -> list[tuple[float, str, str, str]]:
+    """How deep (mm) each plate enters each of its slots: (depth, plate label, sleeve label, sleeve part),
+    one per plate and sleeve, in the sleeves' order."""
+    asm = lib.assembly
+    return [(asm.sleeve_types[s.kind].arm_end - float(local[1:] @ joint_direction(s.dihedral, side)),
+             asm.plates[p].label, s.label, s.kind) for s, side, p, local in _slot_midpoints(lib)]
 
 
 def shallow_warnings(lib: PartLibrary) -> list[str]:
@@ -176,26 +180,20 @@ def interface_midpoints(lib: PartLibrary) -> tuple[float, float]:
     asm = lib.assembly
     tol = _slot_tolerance(asm)
     worst, shallow = 0.0, math.inf
-    for s in asm.sleeves:
-        sleeve = asm.sleeve_types[s.kind]
-        inv = np.linalg.inv(s.transform)
-        for side, (p, i) in enumerate(s.plates):
-            plate = asm.plates[p]
-            seg = lib.filleted[plate.type].interface_segments[i]
-            mid = np.array([*seg.mean(axis=0), 0.5 * asm.spec.plates.thickness])
-            local = apply(inv, apply(plate.transform, mid[None]))[0]
-            d, n = joint_direction(s.dihedral, side), joint_normal(s.dihedral, side)
-            along = float(local[1:] @ d)
-            off = max(abs(local[0]), abs(float(local[1:] @ n)))
-            expect = setback(plate.type.sides, asm.skeleton.edge_length(), asm.plate_edge)
-            off = max(off, abs(along - expect))
-            worst = max(worst, off)
-            if off > tol:
-                raise _off_slot(asm, s, p, off, along)
-            if not (sleeve.setback - tol <= along < sleeve.arm_end):
-                raise GeometryError(f"sleeve {s.label} is not on the interface midpoint of plate {plate.label} "
-                                    f"(off by {off:.3g} mm, {along:.3f} mm from the edge)")
-            shallow = min(shallow, sleeve.arm_end - along)
+    for s, side, p, local in _slot_midpoints(lib):
+        sleeve, plate = asm.sleeve_types[s.kind], asm.plates[p]
+        d, n = joint_direction(s.dihedral, side), joint_normal(s.dihedral, side)
+        along = float(local[1:] @ d)
+        off = max(abs(local[0]), abs(float(local[1:] @ n)))
+        expect = setback(plate.type.sides, asm.skeleton.edge_length(), asm.plate_edge)
+        off = max(off, abs(along - expect))
+        worst = max(worst, off)
+        if off > tol:
+            raise _off_slot(asm, s, p, off, along)
+        if not (sleeve.setback - tol <= along < sleeve.arm_end):
+            raise GeometryError(f"sleeve {s.label} is not on the interface midpoint of plate {plate.label} "
+                                f"(off by {off:.3g} mm, {along:.3f} mm from the edge)")
+        shallow = min(shallow, sleeve.arm_end - along)
     return worst, shallow
 
 
