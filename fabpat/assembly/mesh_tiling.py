@@ -167,7 +167,8 @@ def _read_off(p: Path) -> tuple[NDArray[np.float64], Faces]:
 
 
 def mesh_tiling(V: NDArray[np.float64], faces: Faces, *, tolerance: float | None = None,
-                edge: float | None = None, source: str = "<mesh>", fit: str = "exact", name: str = "mesh") -> Tiling:
+                edge: float | None = None, source: str = "<mesh>", fit: str = "exact", name: str = "mesh",
+                flat: bool = False) -> Tiling:
     """The checked tiling of mesh ``V`` (n, 3) mm, ``faces`` (vertex loops, 0-based), named ``name``.
 
     ``edge`` (mm): scale the mesh so that its mean edge length is ``edge`` (default: the mesh's own).
@@ -177,7 +178,9 @@ def mesh_tiling(V: NDArray[np.float64], faces: Faces, *, tolerance: float | None
     ``fit``: "exact" (plates on the faces; ``tolerance`` default :data:`DEFAULT_TOLERANCE`) or "best"
     (plates at their faces' best fit, the closure takes up the rest: ``tolerance`` default
     :data:`BEST_FIT_TOLERANCE` × the edge; the tiling is ``best_fit``). ``tolerance`` must lie in
-    [:data:`MIN_TOLERANCE` mm, :data:`MAX_TOLERANCE` × the edge] (SpecError otherwise).
+    [:data:`MIN_TOLERANCE` mm, :data:`MAX_TOLERANCE` × the edge] (SpecError otherwise). ``flat`` (a one-piece
+    panel, :mod:`fabpat.assembly.panel_mesh`): after the faces' checks, every vertex must also lie within
+    ``tolerance`` of the best-fit plane of all of them (:func:`check_flat`), instead of the folds being convex.
     """
     if fit not in FITS:
         raise SpecError(f"{source}: fit = {fit!r}: choose one of {', '.join(FITS)}")
@@ -207,9 +210,34 @@ def mesh_tiling(V: NDArray[np.float64], faces: Faces, *, tolerance: float | None
                         f"{tolerance:g} mm): the plates are regular polygons of one edge")
     for f, loop in enumerate(loops):
         _check_regular(V[list(loop)], e, tolerance, f"{source}: face {f + 1}")
+    if flat:  # before the folds: a curved mesh is told it is not flat, not that one of its folds is concave
+        check_flat(V, loops, tolerance, source)
+        return Tiling(name, V, loops)
     tiling = _oriented(Tiling(name, V, loops, best_fit=fit == "best"), source)
     _check_convex(tiling, source)
     return tiling
+
+
+def check_flat(V: NDArray[np.float64], loops: Faces, tolerance: float, source: str) -> None:
+    """Refuse (SpecError, one line) a mesh whose used vertices do not all lie within ``tolerance`` mm of their
+    best-fit plane (least squares: the plane through their mean normal to the smallest principal axis), or
+    one without a boundary (a flat mesh that closes up lies on itself)."""
+    used = sorted({i for loop in loops for i in loop})
+    P = V[used] - V[used].mean(axis=0)
+    normal = np.linalg.svd(P, full_matrices=False)[2][-1]
+    off = np.abs(P @ normal)
+    k = int(off.argmax())
+    if off[k] > tolerance:
+        raise SpecError(f"{source}: a panel must be flat: vertex {used[k] + 1} is {off[k]:.3g} mm off the plane of the "
+                        f"mesh's vertices (tiling.tolerance = {tolerance:g} mm); a curved surface is tiling.kind = "
+                        "\"mesh\" (plates joined by sleeves)")
+    edges: dict[tuple[int, int], int] = {}
+    for loop in loops:
+        for a, b in zip(loop, loop[1:] + loop[:1], strict=True):
+            edges[min(a, b), max(a, b)] = edges.get((min(a, b), max(a, b)), 0) + 1
+    if all(c == 2 for c in edges.values()):
+        raise SpecError(f"{source}: a panel's mesh must have a boundary (every edge of this one is shared by two "
+                        "faces: a flat mesh that closes up lies on itself)")
 
 
 def _check_faces(V: NDArray[np.float64], faces: Faces, source: str) -> Faces:

@@ -34,6 +34,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -46,6 +47,9 @@ Arr = NDArray[np.float64]
 #: mm: two world points of neighbouring plates closer than this are the same point (the plates' shared
 #: interface ends agree to ~1e-14 mm; a mismatch above this is a placement error, never rounded away)
 MATCH_TOL = 1e-9
+#: rad: two bow-tie halves of different polygons meet G1 when their tangents are closer than this (measured
+#: 0 to round-off, ~1e-16 rad: module docstring); above it the panel is refused (a cusp)
+G1_TOL = 1e-9
 
 
 def _moved(seg: Segment, R: Arr, t: Arr) -> Segment:
@@ -95,13 +99,18 @@ class PlacedOutline:
 @dataclass(frozen=True)
 class Fused:
     """The fused outline (:class:`~fabpat.outline.Outline`, no polygon frame), the whole bow-tie arcs whose
-    halves its free interfaces keep (``support``, for :func:`fabpat.cad.make_face`), how many interfaces were
-    fused and how many bow-tie arcs were made whole again there (two per fused interface)."""
+    halves its free interfaces and its interfaces between two polygons keep (``support``, for
+    :func:`fabpat.cad.make_face`), how many interfaces were fused and how many bow-tie arcs were made whole
+    again there (two per fused interface of one polygon)."""
 
     outline: Outline
     support: tuple[RationalQuad, ...]
     fused: int
     joined_arcs: int
+    #: interfaces between two different polygons, whose bow-tie halves stay two arcs meeting G1
+    mixed: int = 0
+    #: their largest (position mm, tangent rad) gap where the halves meet (module docstring)
+    mixed_gap: tuple[float, float] = (0.0, 0.0)
 
 
 def fuse(plates: Sequence[PlacedOutline], joints: Sequence[tuple[tuple[int, int], tuple[int, int]]]) -> Fused:
@@ -117,6 +126,8 @@ def fuse(plates: Sequence[PlacedOutline], joints: Sequence[tuple[tuple[int, int]
         nxt.update({(p, k): (p, (k + 1) % n) for k in range(n)})
     whole: dict[tuple[int, int], RationalQuad] = {}  # first half (plate, index) → the whole arc it starts
     cancelled: set[tuple[int, int]] = set()
+    mixed: list[tuple[float, float]] = []  # (position mm, tangent rad) gap of each interface of two polygons
+    mixed_support: list[RationalQuad] = []
     for (pa, ia), (pb, ib) in joints:
         A, B = plates[pa], plates[pb]
         ka, kb = (lines[pa].setdefault(ia, A.line_index(ia)), lines[pb].setdefault(ib, B.line_index(ib)))
@@ -124,16 +135,24 @@ def fuse(plates: Sequence[PlacedOutline], joints: Sequence[tuple[tuple[int, int]
         if np.abs(a0 - b1).max() > MATCH_TOL or np.abs(a1 - b0).max() > MATCH_TOL:
             raise GeometryError(f"plates {pa} and {pb} do not meet at their interfaces {ia} and {ib}")
         (a_in, a_out), (b_in, b_out) = A.arcs(ia), B.arcs(ib)
-        # at the segment's start (A's view) A's arc into it goes on as B's arc out of it, and vice versa
-        if not (_same_arc(a_in, b_out) and _same_arc(b_in, a_out)):
-            raise GeometryError(f"plates {pa} and {pb}: the bow-tie arcs of interfaces {ia} and {ib} do not "
-                                "continue each other (patterns of different edge or interface weight?)")
         na, nb = len(A.loops[0]), len(B.loops[0])
         before_a, after_a = (pa, (ka - 1) % na), (pa, (ka + 1) % na)
         before_b, after_b = (pb, (kb - 1) % nb), (pb, (kb + 1) % nb)
         nxt[before_a], nxt[before_b] = after_b, after_a
-        whole[before_a], whole[before_b] = a_in, b_in
         cancelled |= {(pa, ka), (pb, kb)}
+        # at the segment's start (A's view) A's arc into it goes on as B's arc out of it, and vice versa
+        if _same_arc(a_in, b_out) and _same_arc(b_in, a_out):
+            whole[before_a], whole[before_b] = a_in, b_in
+            continue
+        ends = (_relink_gap(A.loops[0][before_a[1]], B.loops[0][after_b[1]]),
+                _relink_gap(B.loops[0][before_b[1]], A.loops[0][after_a[1]]))
+        gap = (max(ends[0][0], ends[1][0]), max(ends[0][1], ends[1][1]))
+        if gap[0] > MATCH_TOL or gap[1] > G1_TOL:
+            raise GeometryError(f"a {_polygon(A)} and a {_polygon(B)} (plates {pa} and {pb}) do not meet smoothly at "
+                                f"their interface: the bow-tie halves are {gap[0]:.3g} mm and {gap[1]:.3g} rad apart "
+                                "(patterns of different edge or interface weight?)")
+        mixed.append(gap)  # two conics meeting G1: both halves kept, each on its whole arc in the B-rep
+        mixed_support += [a_in, a_out, b_in, b_out]
     seconds = {nxt[k] for k in whole}
     seen: set[tuple[int, int]] = set()
     loops: list[Loop] = []
@@ -161,7 +180,24 @@ def fuse(plates: Sequence[PlacedOutline], joints: Sequence[tuple[tuple[int, int]
     holes += [Loop(tuple(h)) for pl in plates for h in pl.loops[1:]]
     free = [arc for p, pl in enumerate(plates) for i in range(len(pl.filleted.interface_arcs))
             if i not in lines[p] for arc in pl.arcs(i)]
-    return Fused(Outline(outer[0], tuple(holes)), tuple(free), len(joints), len(whole))
+    gaps = np.array(mixed).reshape(-1, 2)
+    return Fused(Outline(outer[0], tuple(holes)), (*free, *mixed_support), len(joints), len(whole), len(mixed),
+                 (float(gaps[:, 0].max(initial=0.0)), float(gaps[:, 1].max(initial=0.0))))
+
+
+def _polygon(plate: PlacedOutline) -> str:
+    from fabpat.assembly.spec_types import POLYGON_KEYS
+
+    n = plate.filleted.pattern.sides
+    return POLYGON_KEYS.get(n, f"{n}-gon")
+
+
+def _relink_gap(arrive: Segment, leave: Segment) -> tuple[float, float]:
+    """(distance mm, angle rad) between the end of ``arrive`` and the start of ``leave``, and between their
+    tangents there: (0, 0) where the boundary goes on smoothly (G1)."""
+    u, v = arrive.tangent(1.0), leave.tangent(0.0)
+    angle = math.atan2(abs(u[0] * v[1] - u[1] * v[0]), float(u @ v))
+    return float(np.abs(arrive.point(1.0) - leave.point(0.0)).max()), angle
 
 
 def relink_angles(plates: Sequence[PlacedOutline], joints: Sequence[tuple[tuple[int, int], tuple[int, int]]]
@@ -207,11 +243,13 @@ class Panel:
 
     @property
     def name(self) -> str:
-        """Product name: the panel's size, polygon edge, thickness, interface weight and patterns."""
+        """Product name: the panel's size (rows × columns, or a mesh file's stem and tile count), polygon edge,
+        thickness, interface weight and patterns."""
         s = self.spec
         ids = ", ".join(dict.fromkeys(t.label.split(" ", 1)[1] for t in self.types))
-        return (f"panel {s.tiling.rows}x{s.tiling.columns} hex e{s.tiling.edge:g} t{s.plates.thickness:g} "
-                f"w{s.plates.weight:g} ({ids})")
+        size = (f"{s.tiling.rows}x{s.tiling.columns} hex" if s.tiling.file is None
+                else f"{Path(s.tiling.file).stem} {len(self.types)} tiles")
+        return f"panel {size} e{s.tiling.edge:g} t{s.plates.thickness:g} w{s.plates.weight:g} ({ids})"
 
     @cached_property
     def part(self) -> Any:
@@ -229,12 +267,24 @@ class Panel:
         """The exact ``TopoDS_Solid`` (BRepCheck valid; :func:`fabpat.cad.make_solid`), built on first use."""
         return self.part.solid
 
-    def pins(self) -> list[tuple[int, int, Arr, Arr]]:
-        """(face, polygon edge, start, end) of the free interfaces at both ends of the panel (first and last
-        column, :func:`fabpat.assembly.placement.end_interfaces`), in the panel's plane (mm)."""
+    def ends(self) -> tuple[list[tuple[int, int]], list[tuple[int, int]]]:
+        """(face, polygon edge) of the free interfaces at the panel's fixed and at its moving end: the first and
+        last column (:func:`fabpat.assembly.placement.end_interfaces`), or a mesh's ends along the longer side
+        of its bounding box (:func:`fabpat.assembly.panel_mesh.end_interfaces`; SpecError if it has none)."""
+        if self.tiling.grid is None:
+            from fabpat.assembly.panel_mesh import end_interfaces as mesh_ends
+
+            return mesh_ends(self.tiling)
         from fabpat.assembly.placement import end_interfaces
 
-        return [(f, i, *self.plates[f].interface(i)) for f, i in end_interfaces(self.tiling)]
+        col = self.tiling.grid[:, 1]
+        pins = end_interfaces(self.tiling)
+        return [p for p in pins if col[p[0]] == 0], [p for p in pins if col[p[0]] != 0]
+
+    def pins(self) -> list[tuple[int, int, Arr, Arr]]:
+        """(face, polygon edge, start, end) of the free interfaces at both ends of the panel (:meth:`ends`, the
+        fixed end's first), in the panel's plane (mm)."""
+        return [(f, i, *self.plates[f].interface(i)) for end in self.ends() for f, i in end]
 
 
 def joints(tiling: Any) -> list[tuple[tuple[int, int], tuple[int, int]]]:
@@ -243,20 +293,31 @@ def joints(tiling: Any) -> list[tuple[tuple[int, int], tuple[int, int]]]:
             for k in tiling.interior_edges]
 
 
+def panel_tiling(t: Any) -> Any:
+    """The panel's :class:`~fabpat.assembly.tiling.Tiling` at its plate edge (mm, z = 0) from its ``[tiling]``
+    (a :class:`~fabpat.assembly.spec_types.TilingSpec`): rows × columns hexagons
+    (:func:`fabpat.assembly.tiling.honeycomb_strip`), or the exact flat tiling of a mesh file kept in the spec
+    (:func:`fabpat.assembly.panel_mesh.regular_tiling`)."""
+    from fabpat.assembly.tiling import Tiling, honeycomb_strip
+
+    if t.file is None:
+        return honeycomb_strip(t.rows, t.columns, t.edge)
+    return Tiling("panel", np.array(t.vertices, dtype=np.float64).reshape(-1, 3), t.faces)
+
+
 def build_panel(spec: Any, face_patterns: Sequence[str] | None = None) -> Panel:
     """Fillet, place and fuse the plates of a ``kind = "panel"`` spec (an AssemblySpec); ``face_patterns`` the
     face pattern IDs (face order; default :func:`fabpat.assembly.build.face_patterns`). Raises SpecError
     (patterns, geometry limits: :func:`check_panel`) or GeometryError (plates that do not fuse)."""
     from fabpat.assembly.choice import face_patterns as choose
     from fabpat.assembly.placement import PlateType
-    from fabpat.assembly.tiling import honeycomb_strip
     from fabpat.fillet import fillet_pattern
     from fabpat.library import get_pattern
 
     check_panel(spec)
     ids = list(choose(spec) if face_patterns is None else face_patterns)
     e = spec.tiling.edge
-    tiling = honeycomb_strip(spec.tiling.rows, spec.tiling.columns, e)
+    tiling = panel_tiling(spec.tiling)
     if len(ids) != len(tiling.faces):
         raise ValueError(f"need {len(tiling.faces)} pattern IDs, got {len(ids)}")
     types = tuple(PlateType(len(loop), pid, spec.patterns.bridge_weight_of(f) if spec.patterns else 1.0)
@@ -295,6 +356,7 @@ def panel_setup(spec: Any, face_patterns: Sequence[str], *, h: float = 3.0, E: f
     if h is too coarse for the interfaces (:func:`fabpat.assembly.simulate.check_h`) or a pin gets fewer than 2 nodes.
     """
     from fabpat.assembly.model import ModelPlate, assembly_model
+    from fabpat.assembly.panel_mesh import push_axis
     from fabpat.assembly.simulate import StripSetup, check_h
     from fabpat.mesh import ASSEMBLY_MAX_ELEMENTS, FLATTEN_TOL_PER_H, flatten_outline, mesh_polygons
     from fabpat.shell.element import Material
@@ -308,11 +370,14 @@ def panel_setup(spec: Any, face_patterns: Sequence[str], *, h: float = 3.0, E: f
         if nodes.size < 2:
             raise GeometryError(f"pinned interface {i} of tile {panel.labels[f]} has {nodes.size} mesh nodes "
                                 "(need ≥ 2): lower h")
-    model = assembly_model([ModelPlate("panel", mesh, np.eye(4))], [], Material(E, nu, spec.plates.thickness))
-    col = panel.tiling.grid[:, 1]
-    last = int(col.max())
-    left = [mesh.interfaces[k] for k, (f, *_) in enumerate(pins) if col[f] == 0]
-    right = [mesh.interfaces[k] for k, (f, *_) in enumerate(pins) if col[f] == last]
+    # the experiment pushes along x (fabpat.assembly.simulate): a mesh panel longer in y is turned by 90° onto it
+    axis = 0 if panel.tiling.grid is not None else push_axis(panel.tiling)
+    turn = np.eye(4)
+    if axis == 1:
+        turn[:2, :2] = [[0.0, 1.0], [-1.0, 0.0]]  # y → x, and the fixed (low y) end to low x
+    model = assembly_model([ModelPlate("panel", mesh, turn)], [], Material(E, nu, spec.plates.thickness))
+    fixed = len(panel.ends()[0])
+    left, right = mesh.interfaces[:fixed], mesh.interfaces[fixed:]
     xs = model.X[:, 0]
     return StripSetup(model, np.unique(np.concatenate(left)), np.unique(np.concatenate(right)), float(np.ptp(xs)),
                       float(xs.min()))

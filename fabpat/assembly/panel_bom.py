@@ -42,11 +42,15 @@ def bom_markdown(panel: Panel, rows: list[BomRow], checks: list[str]) -> str:
     """The BOM as Markdown: the part and sheet, the estimates' assumptions, every tile's pattern (with the
     catalog energies of :mod:`fabpat.assembly.provenance`, N·mm), the checks."""
     from fabpat.assembly.provenance import pattern_records
+    from fabpat.assembly.spec_types import POLYGON_KEYS
 
     spec = panel.spec
     t = spec.tiling
+    counts = {n: sum(len(f) == n for f in panel.tiling.faces) for n in sorted({len(f) for f in panel.tiling.faces})}
+    tiles = (f"{t.rows} × {t.columns} hexagons" if t.file is None else
+             " and ".join(f"{k} {POLYGON_KEYS[n]}s" for n, k in counts.items()) + f" of {Path(t.file).name}")
     out = [f"# Bill of materials — {spec.name}", "",
-           f"One part: {t.rows} × {t.columns} hexagons of edge {t.edge:g} mm fused at their interfaces, "
+           f"One part: {tiles} of edge {t.edge:g} mm fused at their interfaces, "
            f"thickness {spec.plates.thickness:g} mm, by {spec.plates.process}.", "",
            "| part | kind | process | count | file | area (mm²) | volume (mm³) | mass (g) | cut length (mm) "
            "| time (min) | utilisation (%) |", "|---|---|---|---:|---|---:|---:|---:|---:|---:|---:|"]
@@ -61,13 +65,17 @@ def bom_markdown(panel: Panel, rows: list[BomRow], checks: list[str]) -> str:
     out += ["", f"Estimates: cutting = cut length / {spec.estimates.cut_speed:g} mm/s; printing = volume / "
             f"{spec.estimates.print_rate:g} mm³/s; masses at {spec.plates.density:g} g/cm³.", "",
             "## Tiles", "", "Each tile's label is engraved on the sheet at its polygon edge 0.", "",
-            "| tile | row | column | pattern | chosen by | Cantilever (N·mm) | Cylinder (N·mm) | Dome (N·mm) |",
-            "|---|---:|---:|---|---|---:|---:|---:|"]
+            f"| tile | {'row | column' if t.file is None else 'face'} | pattern | chosen by | Cantilever (N·mm) | "
+            "Cylinder (N·mm) | Dome (N·mm) |",
+            f"|---|{'---:|---:' if t.file is None else '---:'}|---|---|---:|---:|---:|"]
     records = {r.part: r for r in pattern_records(spec, list(dict.fromkeys(panel.types)))}
-    for label, pt, (row, col) in zip(panel.labels, panel.types, panel.tiling.grid, strict=True):
+    # a strip's tile sits at its row and column; a mesh's at its face (from 1, in the file's order)
+    where = ([f"{int(r)} | {int(c)}" for r, c in panel.tiling.grid] if panel.tiling.grid is not None
+             else [str(f + 1) for f in range(len(panel.types))])
+    for label, pt, at in zip(panel.labels, panel.types, where, strict=True):
         rec = records[pt.label]
         e = [num(rec.energies.get(s), 2) or "–" for s in ("cantilever", "cylinder", "dome")]
-        out.append(f"| {label} | {int(row)} | {int(col)} | {pt.label} | {rec.chosen_by} | " + " | ".join(e) + " |")
+        out.append(f"| {label} | {at} | {pt.label} | {rec.chosen_by} | " + " | ".join(e) + " |")
     out += ["", "## Checks", "", *(f"- {line}" for line in checks), ""]
     return "\n".join(out)
 

@@ -1,7 +1,8 @@
 """The kit of a one-piece panel (``tiling.kind = "panel"``): the fused part in every format, nested on the sheet.
 
 :func:`assemble_panel` is what :func:`fabpat.assembly.build.assemble` does for a panel: the patterns are chosen
-as a strip's, the plates filleted and fused (:mod:`fabpat.assembly.panel`), the one part checked (a valid
+as a strip's (rows × columns) or, for a panel from a mesh file, as a mesh tiling's (by polygon or face
+label), the plates filleted and fused (:mod:`fabpat.assembly.panel`), the one part checked (a valid
 B-rep whose volume is the plates' volumes summed from their own solids, one outer loop), nested on the
 spec's sheet, and then written, by the same writers as ``fabpat export`` (:mod:`fabpat.exchange.registry`),
 into a temporary folder that becomes ``--out`` only at the end (:mod:`fabpat.assembly.kit_folder`):
@@ -55,11 +56,18 @@ class PanelReport:
     volume: float
     plate_volume: float
     sheets: int
+    #: interfaces between two different polygons and their largest (position mm, tangent rad) relink gap
+    mixed: int = 0
+    mixed_gap: tuple[float, float] = (0.0, 0.0)
 
     def lines(self) -> list[str]:
         """The report as ``fabpat assemble`` prints it and the manifest stores it."""
         rel = abs(self.volume - self.plate_volume) / self.plate_volume
+        mixed = ([f"{self.mixed} interfaces join two different polygons: their bow-tie halves meet G1 (position gap "
+                  f"{self.mixed_gap[0]:.1e} mm, tangent gap {self.mixed_gap[1]:.1e} rad), kept as two arcs"]
+                 if self.mixed else [])
         return [f"{self.tiles} tiles fused at {self.fused} interfaces into one part: 1 outer loop, {self.holes} holes",
+                *mixed,
                 f"one solid, BRepCheck valid: volume {self.volume:.3f} mm³ = the plates' {self.plate_volume:.3f} mm³ "
                 f"(relative difference {rel:.1e})",
                 *([f"{self.sheets} sheet(s): the panel's hull within the sheet's margins"] if self.sheets else [])]
@@ -164,7 +172,8 @@ def assemble_panel(spec: Any, out: Path, tell: Callable[[str], None], timestamp:
     check_nesting(nesting)
     tell("checks")
     v, plates = check_panel_part(panel)
-    report = PanelReport(len(panel.types), panel.fused.fused, len(panel.outline.holes), v, plates, nesting.n_sheets)
+    report = PanelReport(len(panel.types), panel.fused.fused, len(panel.outline.holes), v, plates, nesting.n_sheets,
+                         panel.fused.mixed, panel.fused.mixed_gap)
     parent = out.parent if str(out.parent) else Path(".")
     remove_stale_temps(parent)
     try:

@@ -17,11 +17,17 @@ def hull(panel_or_spec: Any) -> NDArray[np.float64]:
     (a plate never leaves its polygon), so nesting it keeps the part ``sheet.spacing`` from anything else."""
     from scipy.spatial import ConvexHull
 
-    from fabpat.assembly.tiling import honeycomb_strip
+    from fabpat.assembly.panel import panel_tiling
 
-    t = getattr(panel_or_spec, "spec", panel_or_spec).tiling
-    V = honeycomb_strip(t.rows, t.columns, t.edge).V[:, :2]
+    V = panel_tiling(getattr(panel_or_spec, "spec", panel_or_spec).tiling).V[:, :2]
     return V[ConvexHull(V).vertices]
+
+
+def size_words(t: Any) -> str:
+    """The panel's size in words: "3 × 4 panel", or "panel of flat.obj (12 tiles)" for a mesh's."""
+    from pathlib import Path
+
+    return f"{t.rows} × {t.columns} panel" if t.file is None else f"panel of {Path(t.file).name} ({len(t.faces)} tiles)"
 
 
 def quarter_turn(P: NDArray[np.float64], quarter: bool) -> NDArray[np.float64]:
@@ -43,16 +49,17 @@ def check_panel_fits(spec: Any) -> None:
     turned by 90°."""
     from fabpat.assembly.nesting import DEFAULT_RESOLUTION
 
-    s = spec.sheet
+    s, t = spec.sheet, spec.tiling
     room = np.array([s.width, s.height]) - 2 * s.margin - DEFAULT_RESOLUTION
     P = _grown(spec)
     sizes = [np.ptp(quarter_turn(P, q), axis=0) for q in (False, True)]
     if not any((size <= room + 1e-9).all() for size in sizes):
         w, h = sizes[0]
         raise SpecError(f"{spec.source}: sheet.width × sheet.height = {s.width:g} × {s.height:g} mm is smaller than "
-                        f"the {spec.tiling.rows} × {spec.tiling.columns} panel ({w:.1f} × {h:.1f} mm, either way "
+                        f"the {size_words(spec.tiling)} ({w:.1f} × {h:.1f} mm, either way "
                         f"round, plus sheet.margin = {s.margin:g} mm on each side and the nesting grid's "
-                        f"{DEFAULT_RESOLUTION:g} mm step): use a larger sheet or fewer rows or columns")
+                        f"{DEFAULT_RESOLUTION:g} mm step): use a larger sheet or "
+                        + ("fewer rows or columns" if t.file is None else "a smaller mesh"))
 
 
 def nest_panel(spec: Any) -> tuple[Any, bool]:

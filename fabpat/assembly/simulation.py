@@ -335,13 +335,13 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
     if progress is not None and not callable(progress):
         raise SpecError(f"progress must be a callable or None, got {type(progress).__name__}")
     kind = spec.tiling.kind
-    closed = not spec.tiling.strip  # a strip or a panel is pushed together; the rest is closed by its sleeves
+    closed = not spec.tiling.pushed  # a strip or a panel is pushed together; the rest is closed by its sleeves
     steps = DEFAULT_STEPS[kind] if steps is None else check("steps", steps, "steps", error=SpecError)
     for name, value in (("end_shortening", end_shortening), ("imperfection", imperfection)):
         if value is not None and closed:
             raise SpecError(f"{spec.source}: {name} applies to strips (end shortening and the buckle it "
                             f"selects); a closed assembly is bent by its sleeves: leave {name} out")
-    if not closed and spec.tiling.columns < 2:  # the pinned first and last column are one: nothing to push
+    if not closed and spec.tiling.strip and spec.tiling.columns < 2:  # the pinned first and last column are one
         raise SpecError(f"{spec.source}: simulate-assembly pushes a {kind}'s first and last columns together: "
                         f"tiling.columns = {spec.tiling.columns} has only one (give at least 2)")
     if not closed:

@@ -53,7 +53,9 @@ class TilingSpec:
 
     A mesh tiling also keeps its ``file`` (the path as resolved from the spec), ``tolerance`` (mm) and
     the checked mesh itself, scaled to ``edge``: ``vertices`` (mm) and ``faces`` (vertex loops, CCW seen
-    from outside; :func:`fabpat.assembly.mesh_tiling.mesh_tiling`), so that the spec is plain data.
+    from outside; :func:`fabpat.assembly.mesh_tiling.mesh_tiling`), so that the spec is plain data. A panel
+    from a mesh file (``kind = "panel"`` with ``file``) keeps the exact flat tiling its faces make, in the
+    panel's plane z = 0 (:func:`fabpat.assembly.panel_mesh.regular_tiling`; CCW seen from +z).
     """
     kind: str
     edge: float  # mm: plate polygon edge
@@ -77,14 +79,19 @@ class TilingSpec:
 
     @property
     def strip(self) -> bool:
-        """A honeycomb strip or a panel (rows × columns of hexagons, pushed into an arch), not a polyhedral
-        tiling (closed by its sleeves)."""
-        return self.kind in STRIP_KINDS
+        """A honeycomb strip or a panel of rows × columns hexagons (patterns chosen by rows and columns), not a
+        polyhedral tiling nor a panel from a mesh file (patterns chosen by polygon or face label)."""
+        return self.kind in STRIP_KINDS and self.file is None
 
     @property
     def panel(self) -> bool:
-        """A one-piece panel: the strip's hexagons fused into one part, no sleeves (:mod:`fabpat.assembly.panel`)."""
+        """A one-piece panel: the plates fused into one part, no sleeves (:mod:`fabpat.assembly.panel`)."""
         return self.kind == "panel"
+
+    @property
+    def pushed(self) -> bool:
+        """Flat and pushed into an arch by ``simulate-assembly`` (a strip or any panel), not closed by sleeves."""
+        return self.kind in STRIP_KINDS
 
     def skeleton(self) -> Tiling:
         """The tiling of unit edge (:mod:`fabpat.assembly.tiling`; scaled once the sleeves fix the skeleton edge)."""
@@ -94,12 +101,14 @@ class TilingSpec:
             # every mesh's plates sit at their faces' best fit: a file's faces are regular only within
             # tiling.tolerance, and the sleeve frames must not demand more of them
             return Tiling(self.kind, np.array(self.vertices) / self.edge, self.faces, best_fit=True)
+        if self.file is not None:  # a mesh panel's vertices are an exact tiling already (fabpat.assembly.panel_mesh)
+            return Tiling(self.kind, np.array(self.vertices) / self.edge, self.faces)
         return honeycomb_strip(self.rows, self.columns, 1.0)
 
     @property
     def sides(self) -> tuple[int, ...]:
         """Polygons of the tiling's faces, largest first (6 for strips; 6 and 5 for the truncated icosahedron)."""
-        if self.kind in MESH_KINDS:
+        if self.faces:
             return tuple(sorted({len(f) for f in self.faces}, reverse=True))
         return (6,) if self.strip else (6, 5)
 

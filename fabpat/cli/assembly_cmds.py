@@ -146,7 +146,7 @@ def simulate_assembly_cmd(spec: str, end_shortening: float | None, h: float, ste
 
 def _path_words(spec) -> str:  # type: ignore[no-untyped-def]
     """What the fraction of a spec's solver path is a fraction of, for the progress lines."""
-    if spec.tiling.strip:  # a strip or a panel
+    if spec.tiling.pushed:  # a strip or a panel
         return "the end shortening"
     return "the candidate pairs" if spec.patterns.rule == "roundest" else "the sleeves' turn"
 
@@ -168,7 +168,7 @@ def _simulate_assembly(spec: str, end_shortening: float | None, h: float, steps:
         if path is not None:
             check_suffix(path, valid, option)
     parsed = _load(spec)
-    if png_field is not None and (png is None or parsed.tiling.strip):
+    if png_field is not None and (png is None or parsed.tiling.pushed):
         from fabpat.errors import SpecError
 
         raise SpecError("--png-field colours the --png picture of a closed assembly (a strip's PNG is its "
