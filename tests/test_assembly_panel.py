@@ -262,7 +262,7 @@ def test_simulate_assembly_pushes_a_panel_into_an_arch() -> None:
     (lambda d: d.update(sleeve={"margin": 1.0}), "[sleeve] applies to assemblies joined by sleeves"),
     (lambda d: d["tiling"].update(rows=13), "tiling.rows"),
     (lambda d: d.update(sheet={"width": 150.0, "height": 150.0}), "smaller than the 3 × 4 panel"),
-    (lambda d: d["tiling"].update(file="x.obj"), "tiling.file is only for kind"),
+    (lambda d: d["tiling"].update(file="x.obj"), "tiling.file and tiling.rows both give"),
 ])
 def test_bad_panel_specs_are_one_line(tmp_path: Path, change, words: str) -> None:  # noqa: ANN001
     import copy
