@@ -274,6 +274,15 @@ def test_the_ends_of_a_mesh_panel_along_its_longer_side(square_panel, tmp_path: 
     assert f["max_deflection"] == pytest.approx(rise, rel=0.3)
 
 
+def test_a_mesh_panel_without_two_ends_is_not_pushed(tmp_path: Path) -> None:
+    from fabpat.assembly.simulation import simulate_assembly
+    from fabpat.errors import SpecError
+
+    write_obj(tmp_path / "one.obj", *squares(1, 1))  # one square is at both ends: nothing to push
+    with pytest.raises(SpecError, match="spec.toml: simulate-assembly pushes a panel.s two ends.*share face 1"):
+        simulate_assembly(spec_of(tmp_path, "one.obj", {"square": A}), h=6.0, steps=1)
+
+
 def curved(tmp: Path) -> None:
     V, faces = squares(2, 3)
     R = 100.0  # mm: the grid wrapped round a cylinder along y, every square kept planar and of edge E

@@ -22,6 +22,7 @@ Every module of the package, by job (heavy libraries are imported inside the fun
   ``kit_folder`` (what may be replaced, and the swap); ``export`` (STEP/STL/GLB); ``render`` (PNG);
   ``bom`` (bill of materials and joint table).
 * **One-piece panels** — ``panel`` (a panel's plates fused into one exact outline and solid, and its
-  end-shortening model); ``panel_sheet`` (its hull on the sheet); ``panel_kit`` (its kit: the part in every
+  end-shortening model); ``panel_mesh`` (a panel from a flat mesh file: its checks, its exact tiling, its
+  ends); ``panel_sheet`` (its hull on the sheet); ``panel_kit`` (its kit: the part in every
   format, nested); ``panel_bom`` (its BOM).
 """

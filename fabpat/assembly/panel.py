@@ -1,9 +1,11 @@
 """One-piece panels: a flat patch of a planar tiling cut or printed as ONE part (issue 26, item 4).
 
 A panel is the honeycomb strip's ``rows`` × ``columns`` hexagons (:func:`fabpat.assembly.tiling.
-honeycomb_strip`) with no sleeves: the plates sit edge to edge at the plate edge ``e`` itself (no
-skeleton setback) and are fused at their interfaces into one exact outline (lines and quadratic rational
-arcs, nothing approximated), which every writer of :mod:`fabpat.exchange.registry` takes as a part.
+honeycomb_strip`) or the faces of a flat polygon mesh file (``tiling.file``: :mod:`fabpat.assembly.panel_mesh`
+reads and checks it and lays it on the exact tiling of regular polygons its faces make), with no sleeves:
+the plates sit edge to edge at the plate edge ``e`` itself (no skeleton setback) and are fused at their
+interfaces into one exact outline (lines and quadratic rational arcs, nothing approximated), which every
+writer of :mod:`fabpat.exchange.registry` takes as a part.
 
 **How the outlines fuse** (:func:`fuse`). Two neighbouring plates share a polygon edge, and the edge
 rule of the library (:func:`fabpat.library.is_tileable`) leaves only the middle sub-triangle of each
@@ -22,10 +24,26 @@ plates meet, and the B-rep carries the interface weight w exactly. What is left 
 counter-clockwise outer loop (the panel's rim) and clockwise holes: every plate's own holes and the
 gaps between plates (one around each interior tiling vertex). A free interface (on the panel's rim)
 keeps its segment and its arc halves, exported on their whole arcs as a single plate is
-(:attr:`Panel.support`).
+(:attr:`Fused.support`).
+
+**Two different polygons** (a square beside a triangle, the 4.8.8 tiling's octagons and squares). The
+interface half-length d = e / 16 / (1 + w) does not depend on the polygon, but the bow-tie arc's control
+polygon does: P₀ − M has the component e/16 along the edge for every n and (e/16) cot(π/n) across it
+(the sub-triangle at M is similar to the polygon's fan triangle). The (1, w, 1) arc's parameter midpoint
+is M − d whatever that second component is, and there the arc is at right angles to the edge by
+symmetry; so the two halves of different polygons meet at the same point with the same tangent (G1),
+and only their curvature differs (radius (e/16) cot²(π/n) / w there: 11.25 mm for a square, 3.75 mm for
+a triangle, 33.75 mm for a hexagon at e = 36, w = 0.2). Measured on a row of 3 squares under 5
+triangles and on 2 × 2 octagons round a square (``tests/test_assembly_panel_mesh.py``): position gaps
+≤ 2.8e-14 mm, tangent gaps ≤ 3.3e-15 rad. **Decision**: such an interface is fused with its two halves
+kept as two arcs (no cusp, a G1 joint OCCT and Triangle take as any other), each built on its own whole
+arc in the B-rep (both in :attr:`Fused.support`); the gaps are measured at every such interface
+(:attr:`Fused.mixed_gap`, reported by the kit), and a gap over :data:`MATCH_TOL` mm or :data:`G1_TOL`
+rad is refused with one line naming the two polygons and the gap (GeometryError) rather than rounded
+away. Only the same polygon's halves are one arc and are joined back into it.
 
 Units: mm. Sources: paper §3.3 (fillets, interfaces) and §5 (the strip's end-shortening experiment, run
-on a panel by :func:`panel_setup`).
+on a panel by :func:`panel_setup`; a mesh panel's ends: :func:`fabpat.assembly.panel_mesh.end_interfaces`).
 """
 
 from __future__ import annotations
@@ -352,18 +370,25 @@ def panel_setup(spec: Any, face_patterns: Sequence[str], *, h: float = 3.0, E: f
     ONE shell plate, the fused outline meshed at target edge ``h`` (mm) by Triangle (curves flattened at
     :data:`fabpat.mesh.FLATTEN_TOL_PER_H` × h, chords moved towards their arcs, :func:`fabpat.mesh.flatten_outline`),
     its mid-surface on z = 0, no sleeves; pinned at the free interfaces of its first and last columns as a strip is
-    (:func:`fabpat.assembly.placement.end_interfaces`). ``E`` (N/mm²), ``nu``: the material. Raises GeometryError
-    if h is too coarse for the interfaces (:func:`fabpat.assembly.simulate.check_h`) or a pin gets fewer than 2 nodes.
+    (:func:`fabpat.assembly.placement.end_interfaces`), a mesh panel at those of its ends along the longer side
+    of its bounding box (:meth:`Panel.ends`; turned by 90° onto x when that is y: the experiment pushes along x).
+    ``E`` (N/mm²), ``nu``: the material. Raises GeometryError if h is too coarse for the interfaces
+    (:func:`fabpat.assembly.simulate.check_h`) or a pin gets fewer than 2 nodes, SpecError if a mesh panel has no
+    two ends to push.
     """
     from fabpat.assembly.model import ModelPlate, assembly_model
     from fabpat.assembly.panel_mesh import push_axis
     from fabpat.assembly.simulate import StripSetup, check_h
+    from fabpat.errors import SpecError
     from fabpat.mesh import ASSEMBLY_MAX_ELEMENTS, FLATTEN_TOL_PER_H, flatten_outline, mesh_polygons
     from fabpat.shell.element import Material
 
     check_h(h, spec.tiling.edge, spec.plates.weight)
     panel = build_panel(spec, face_patterns)
-    pins = panel.pins()
+    try:
+        pins = panel.pins()
+    except SpecError as e:  # a mesh panel without two ends
+        raise SpecError(f"{spec.source}: {e}") from None
     loops = flatten_outline(panel.outline, FLATTEN_TOL_PER_H * h)
     mesh = mesh_polygons(loops, h, interfaces=[(a, b) for _, _, a, b in pins], max_elements=ASSEMBLY_MAX_ELEMENTS)
     for (f, i, _, _), nodes in zip(pins, mesh.interfaces, strict=True):

@@ -36,12 +36,17 @@ from __future__ import annotations
 import math
 import os
 from collections import deque
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.assembly.tiling import Tiling
 from fabpat.errors import SpecError
+
+if TYPE_CHECKING:
+    from fabpat.assembly.spec_types import TilingSpec
 
 Arr = NDArray[np.float64]
 #: mm: two placements of one corner must agree this closely for the plates' interfaces to fuse
@@ -61,6 +66,44 @@ def read_panel_mesh(path: str | os.PathLike[str], *, edge: float | None, toleran
     V, faces = read_polygon_mesh(path)
     t = mesh_tiling(V, faces, tolerance=tolerance, edge=edge, source=source, name="panel", flat=True)
     return regular_tiling(t, tolerance, source)
+
+
+def panel_tiling_spec(source: str, t: Any) -> TilingSpec:
+    """The ``TilingSpec`` of ``kind = "panel"`` with ``file``: the flat mesh (relative to the spec's folder)
+    read, checked and laid on its exact tiling of regular polygons at ``edge`` and ``tolerance`` (module
+    docstring). ``file`` and ``rows``/``columns`` are two ways to give the panel: exactly one of them. ``t`` is the
+    ``[tiling]`` table's reader (:class:`fabpat.assembly.spec_tables.Table`); SpecError, one line."""
+    from fabpat.assembly.mesh_tiling import DEFAULT_TOLERANCE
+    from fabpat.assembly.spec_types import MAX_PANEL_COLUMNS, MAX_PANEL_ROWS, TilingSpec
+    from fabpat.validate import check
+
+    grid = [k for k in ("rows", "columns") if t.has(k)]
+    if grid or not t.has("file"):
+        what = f"tiling.file and tiling.{grid[0]} both give" if grid else "neither tiling.file nor tiling.rows gives"
+        raise SpecError(f"{source}: {what} the panel's tiles: give tiling.rows and tiling.columns (hexagons) or "
+                        "tiling.file (a flat OBJ, PLY or OFF mesh), not both")
+    name = t.string("file")
+    edge = t.number("edge", None, "edge") if t.has("edge") else None
+    tolerance = t.number("tolerance", DEFAULT_TOLERANCE, "sleeve_length")
+    if name is None or not name.strip():
+        raise t.fail("file", "is empty: the flat polygon mesh (OBJ, PLY or OFF) whose faces are the panel's tiles")
+    t.settle()
+    path = Path(name) if Path(name).is_absolute() else Path(source).parent / name
+    try:
+        skel = read_panel_mesh(path, edge=edge, tolerance=tolerance, source=str(path))
+    except SpecError as e:
+        raise SpecError(f"{source}: tiling.file: {e}") from None
+    e = skel.edge_length()
+    try:
+        check("edge", e, "the mesh's mean edge (tiling.edge)" if edge is None else "tiling.edge", error=SpecError)
+    except SpecError as err:
+        raise SpecError(f"{source}: tiling.file: {err}; give tiling.edge to scale the mesh") from None
+    if len(skel.faces) > MAX_PANEL_ROWS * MAX_PANEL_COLUMNS:
+        raise SpecError(f"{source}: tiling.file has {len(skel.faces)} faces: a panel has at most "
+                        f"{MAX_PANEL_ROWS * MAX_PANEL_COLUMNS} tiles (checking its fused solid grows faster than its "
+                        "tiles)")
+    return TilingSpec("panel", e if edge is None else edge, file=str(path), tolerance=tolerance,
+                      vertices=tuple((float(x), float(y), float(z)) for x, y, z in skel.V), faces=skel.faces)
 
 
 def plane_axes(t: Tiling) -> tuple[Arr, Arr, Arr]:

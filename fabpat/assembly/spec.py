@@ -6,7 +6,10 @@ A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented 
   "hex-cap" | "panel"), ``edge`` (plate polygon edge), ``rows`` and ``columns`` (strip, tube and panel); a
   ``panel`` is the strip's rows × columns hexagons (each 1 … :data:`MAX_PANEL_ROWS`) fused at their
   interfaces into ONE part, without sleeves (:mod:`fabpat.assembly.panel`; patterns as on a strip, no
-  ``[sleeve]`` table, ``output.formats`` may add "3mf"); a mesh tiling
+  ``[sleeve]`` table, ``output.formats`` may add "3mf"), or instead of ``rows`` and ``columns`` the faces of
+  ``file``, a flat polygon mesh (OBJ, PLY or OFF, relative to the spec; at most 144 faces), checked as a mesh
+  tiling's and, within ``tolerance`` (mm, default 0.01), flat as a whole (:mod:`fabpat.assembly.panel_mesh`;
+  ``edge`` optional, scaling it; patterns as on a mesh tiling, by polygon or face label); a mesh tiling
   reads ``file`` (an OBJ, PLY or OFF polygon mesh, relative to the spec; its faces carry the plates,
   :mod:`fabpat.assembly.mesh_tiling`), takes ``edge`` as optional (default: the mesh's mean edge; given,
   it scales the mesh), ``tolerance`` (mm, default 0.01, with ``fit = "best"`` 0.2 × edge; at most 0.5 ×
@@ -135,7 +138,9 @@ def _tiling(source: str, data: Any) -> TilingSpec:
     if kind == "mesh":
         return _mesh_tiling(source, t)
     if kind == "panel" and (t.has("file") or not (t.has("rows") or t.has("columns"))):
-        return _panel_mesh_tiling(source, t)
+        from fabpat.assembly.panel_mesh import panel_tiling_spec
+
+        return panel_tiling_spec(source, t)
     radius = None
     if t.has("radius") and kind in RADIUS_KINDS:
         if t.has("edge"):
@@ -248,42 +253,6 @@ def _mesh_tiling(source: str, t: _Table) -> TilingSpec:
     if tolerance is None:
         tolerance = DEFAULT_TOLERANCE if fit == "exact" else BEST_FIT_TOLERANCE * edge
     return TilingSpec("mesh", edge, file=str(path), tolerance=tolerance, fit=fit,
-                      vertices=tuple((float(x), float(y), float(z)) for x, y, z in skel.V), faces=skel.faces)
-
-
-def _panel_mesh_tiling(source: str, t: _Table) -> TilingSpec:
-    """``kind = "panel"`` with ``file``: the flat mesh (relative to the spec's folder) read, checked and laid on
-    its exact tiling of regular polygons at ``edge`` and ``tolerance`` (:mod:`fabpat.assembly.panel_mesh`).
-    ``file`` and ``rows``/``columns`` are two ways to give the panel: exactly one of them."""
-    from fabpat.assembly.mesh_tiling import DEFAULT_TOLERANCE
-    from fabpat.assembly.panel_mesh import read_panel_mesh
-
-    grid = [k for k in ("rows", "columns") if t.has(k)]
-    if grid or not t.has("file"):
-        what = f"tiling.file and tiling.{grid[0]} both give" if grid else "neither tiling.file nor tiling.rows gives"
-        raise SpecError(f"{source}: {what} the panel's tiles: give tiling.rows and tiling.columns (hexagons) or "
-                        "tiling.file (a flat OBJ, PLY or OFF mesh), not both")
-    name = t.string("file")
-    edge = t.number("edge", None, "edge") if t.has("edge") else None
-    tolerance = t.number("tolerance", DEFAULT_TOLERANCE, "sleeve_length")
-    if name is None or not name.strip():
-        raise t.fail("file", "is empty: the flat polygon mesh (OBJ, PLY or OFF) whose faces are the panel's tiles")
-    t.settle()
-    path = Path(name) if Path(name).is_absolute() else Path(source).parent / name
-    try:
-        skel = read_panel_mesh(path, edge=edge, tolerance=tolerance, source=str(path))
-    except SpecError as e:
-        raise SpecError(f"{source}: tiling.file: {e}") from None
-    e = skel.edge_length()
-    try:
-        check("edge", e, "the mesh's mean edge (tiling.edge)" if edge is None else "tiling.edge", error=SpecError)
-    except SpecError as err:
-        raise SpecError(f"{source}: tiling.file: {err}; give tiling.edge to scale the mesh") from None
-    if len(skel.faces) > MAX_PANEL_ROWS * MAX_PANEL_COLUMNS:
-        raise SpecError(f"{source}: tiling.file has {len(skel.faces)} faces: a panel has at most "
-                        f"{MAX_PANEL_ROWS * MAX_PANEL_COLUMNS} tiles (checking its fused solid grows faster than its "
-                        "tiles)")
-    return TilingSpec("panel", e if edge is None else edge, file=str(path), tolerance=tolerance,
                       vertices=tuple((float(x), float(y), float(z)) for x, y, z in skel.V), faces=skel.faces)
 
 
