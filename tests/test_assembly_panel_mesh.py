@@ -342,6 +342,9 @@ def test_the_patterns_of_a_mesh_panel_are_chosen_by_polygon(tmp_path: Path) -> N
         spec_of(tmp_path, "sq.obj", {"hexagon": A})
     with pytest.raises(SpecError, match="neither tiling.file nor tiling.rows"):
         parse_spec({"tiling": {"kind": "panel", "edge": E}, "patterns": {"pattern": A}}, "none.toml")
+    with pytest.raises(SpecError, match="tiling.tolerance applies to a panel from tiling.file"):
+        parse_spec({"tiling": {"kind": "panel", "edge": E, "rows": 1, "columns": 2, "tolerance": 0.1},
+                    "patterns": {"pattern": A}}, "grid.toml")
     spec = spec_of(tmp_path, "sq.obj", {"square": A})
     assert not spec.tiling.strip and spec.tiling.panel and spec.tiling.pushed and spec.polygon_sides == (4,)
 

@@ -156,6 +156,9 @@ def _tiling(source: str, data: Any) -> TilingSpec:
     if kind == "honeycomb-strip":
         return TilingSpec(kind, edge, t.integer("rows", None), t.integer("columns", None))
     if kind == "panel":
+        if t.has("tolerance"):  # read only from a mesh file: never ignored
+            raise t.fail("tolerance", "applies to a panel from tiling.file (how far its mesh may be from flat regular "
+                         "polygons); rows × columns hexagons are exact")
         return TilingSpec(kind, edge, t.integer("rows", None, 1, MAX_PANEL_ROWS),
                           t.integer("columns", None, 1, MAX_PANEL_COLUMNS))
     if kind in MESH_KINDS:
