@@ -179,11 +179,11 @@ def test_candidates_are_bounded() -> None:
 def test_memory_is_estimated_before_meshing(monkeypatch: pytest.MonkeyPatch) -> None:
     """A 1 × 1000 strip at h = 6 is inside the 200 000-element limit but needs about 7 GB: on a machine
     with 4 GB free it is refused with one line naming both, before anything is meshed."""
-    from fabpat.assembly import simulation
+    from fabpat.assembly import simulation, sizing
 
     spec = parse({**STRIP, "tiling": {"kind": "honeycomb-strip", "edge": 36.0, "rows": 1, "columns": 1000},
                   "patterns": {"pattern": "0x0488"}})
-    monkeypatch.setattr(simulation, "available_memory", lambda: 4_000_000_000)
+    monkeypatch.setattr(sizing, "available_memory", lambda: 4_000_000_000)
     monkeypatch.setattr("fabpat.assembly.simulate.strip_setup", lambda *a, **k: pytest.fail("meshed"))
     with pytest.raises(GeometryError) as e:
         simulation.simulate_assembly(spec, h=6.0)

@@ -14,7 +14,9 @@ Every module of the package, by job (heavy libraries are imported inside the fun
   ``nesting`` and ``sheets`` (laser sheets); ``net`` (unfolding).
 * **Solving the assembly** — ``model`` (placed plate meshes joined by sleeves, one shell model);
   ``simulate`` (the strip pushed into its arch); ``closure`` (the sphere closed by its sleeves);
-  ``simulation`` (``simulate_assembly``, the front door for every kind); ``strip_sim`` (the older
+  ``simulation`` (``simulate_assembly``, the front door for every kind); ``result`` (what it returns,
+  ``AssemblySimulation``, and the one record of its fields that the CLI and a kit's prediction print);
+  ``sizing`` (the mesh and memory an assembly's solve would take, checked before meshing); ``strip_sim`` (the older
   load-controlled strip model, sub-buckling, kept as a library function); ``predict`` (the kit's
   prediction) and ``preview`` (the predicted bent shape as GLB, PNG and mesh).
 * **The kit** — ``build`` (``assemble``: a spec in, a folder out) and ``kit_result`` (what it returns, the

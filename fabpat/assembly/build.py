@@ -301,9 +301,7 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
         raise
     record = None
     if prediction is not None:
-        from fabpat.assembly.preview import prediction_record
-
-        record = prediction_record(prediction.run, prediction.seconds, prediction.h, spec.name, spec.tiling.kind)
+        record = prediction.record
     return AssembleResult(out, (*files, MANIFEST), report, nesting.n_sheets if nesting else 0, tuple(problems),
                           record, tuple(check_lines[first_note:]))
 

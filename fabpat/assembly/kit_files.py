@@ -43,10 +43,9 @@ def write_all(spec: AssemblySpec, lib: Any, nesting: Any, net: Any, check_lines:
     sheet_files: list[str] = []
     layout = export.flat_layout(lib) if bent_sleeves else None
     if prediction is not None:
-        from fabpat.assembly.preview import prediction_record, write_predicted_stl
+        from fabpat.assembly.preview import write_predicted_stl
 
-        record = prediction_record(prediction.run, prediction.seconds, prediction.h, spec.name, spec.tiling.kind)
-        (tmp / PREDICTION).write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
+        (tmp / PREDICTION).write_text(json.dumps(prediction.record, indent=1) + "\n", encoding="utf-8")
         write_predicted_stl(prediction.shape, lib, tmp / "predicted.stl", spec.mesh_tolerance)
         files += [PREDICTION, "predicted.stl"]
     if "step" in f:

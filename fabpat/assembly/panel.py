@@ -311,23 +311,12 @@ def joints(tiling: Any) -> list[tuple[tuple[int, int], tuple[int, int]]]:
             for k in tiling.interior_edges]
 
 
-def panel_tiling(t: Any) -> Any:
-    """The panel's :class:`~fabpat.assembly.tiling.Tiling` at its plate edge (mm, z = 0) from its ``[tiling]``
-    (a :class:`~fabpat.assembly.spec_types.TilingSpec`): rows × columns hexagons
-    (:func:`fabpat.assembly.tiling.honeycomb_strip`), or the exact flat tiling of a mesh file kept in the spec
-    (:func:`fabpat.assembly.panel_mesh.regular_tiling`)."""
-    from fabpat.assembly.tiling import Tiling, honeycomb_strip
-
-    if t.file is None:
-        return honeycomb_strip(t.rows, t.columns, t.edge)
-    return Tiling("panel", np.array(t.vertices, dtype=np.float64).reshape(-1, 3), t.faces)
-
-
 def build_panel(spec: Any, face_patterns: Sequence[str] | None = None) -> Panel:
     """Fillet, place and fuse the plates of a ``kind = "panel"`` spec (an AssemblySpec); ``face_patterns`` the
     face pattern IDs (face order; default :func:`fabpat.assembly.build.face_patterns`). Raises SpecError
     (patterns, geometry limits: :func:`check_panel`) or GeometryError (plates that do not fuse)."""
     from fabpat.assembly.choice import face_patterns as choose
+    from fabpat.assembly.panel_mesh import panel_tiling
     from fabpat.assembly.placement import PlateType
     from fabpat.fillet import fillet_pattern
     from fabpat.library import get_pattern

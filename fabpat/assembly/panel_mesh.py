@@ -227,3 +227,15 @@ def end_interfaces(t: Tiling) -> tuple[list[tuple[int, int]], list[tuple[int, in
                                                                      "have no free edge facing out")
                         + ": nothing to push")
     return low, high
+
+
+def panel_tiling(t: Any) -> Any:
+    """The panel's :class:`~fabpat.assembly.tiling.Tiling` at its plate edge (mm, z = 0) from its ``[tiling]``
+    (a :class:`~fabpat.assembly.spec_types.TilingSpec`): rows × columns hexagons
+    (:func:`fabpat.assembly.tiling.honeycomb_strip`), or the exact flat tiling of a mesh file kept in the spec
+    (:func:`fabpat.assembly.panel_mesh.regular_tiling`)."""
+    from fabpat.assembly.tiling import honeycomb_strip
+
+    if t.file is None:
+        return honeycomb_strip(t.rows, t.columns, t.edge)
+    return Tiling("panel", np.array(t.vertices, dtype=np.float64).reshape(-1, 3), t.faces)

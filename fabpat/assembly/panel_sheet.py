@@ -17,7 +17,7 @@ def hull(panel_or_spec: Any) -> NDArray[np.float64]:
     (a plate never leaves its polygon), so nesting it keeps the part ``sheet.spacing`` from anything else."""
     from scipy.spatial import ConvexHull
 
-    from fabpat.assembly.panel import panel_tiling
+    from fabpat.assembly.panel_mesh import panel_tiling
 
     V = panel_tiling(getattr(panel_or_spec, "spec", panel_or_spec).tiling).V[:, :2]
     return V[ConvexHull(V).vertices]

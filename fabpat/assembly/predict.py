@@ -56,21 +56,24 @@ def use(spec: AssemblySpec) -> str:
 
 @dataclass(frozen=True, eq=False)
 class Prediction:
-    """The kit's closure: ``run`` (a ClosureRun), ``shape`` (a PredictedShape), ``fit`` (the
-    :func:`~fabpat.assembly.preview.joint_fit` of the printed sleeves, mm), ``h`` (mm), ``seconds``."""
+    """The kit's closure (or a strip's push): ``run`` (a ClosureRun or StripRun), ``shape`` (a
+    PredictedShape), ``fit`` (the :func:`~fabpat.assembly.preview.joint_fit` of the printed sleeves, mm),
+    ``h`` (mm), ``seconds``, and ``record``: its ``prediction.json`` fields
+    (:func:`fabpat.assembly.result.prediction_record`), computed once here for the file and the caller."""
 
     run: Any
     shape: Any
     fit: tuple[float, float]
     h: float
     seconds: float
+    record: dict[str, Any]
 
 
 def close(spec: AssemblySpec, ids: list[str], h: float, progress: Callable[[float], None] | None = None) -> Any:
     """The ClosureRun of the spec with face pattern IDs ``ids`` at mesh edge h (mm), checked against
     ``[material] strain_limit``. Raises GeometryError (h too coarse) or SolverError (path lost)."""
     from fabpat.assembly.closure import closure_setup, run_closure
-    from fabpat.assembly.simulation import check_assembly_size
+    from fabpat.assembly.sizing import check_assembly_size
 
     check_assembly_size(spec, ids, h, ASSEMBLY_MAX_ELEMENTS, option="the limit of a kit's prediction, ≈ 8 GB",
                         h_name="--predict-h")
@@ -81,9 +84,11 @@ def close(spec: AssemblySpec, ids: list[str], h: float, progress: Callable[[floa
 def finish(run: Any, assembly: Assembly, h: float, seconds: float) -> Prediction:
     """The :class:`Prediction` of a ClosureRun of ``assembly`` (its sleeve types the printed ones)."""
     from fabpat.assembly.preview import joint_fit, predicted_shape
+    from fabpat.assembly.result import prediction_record
 
     fit = joint_fit(run, assembly.sleeve_types, [s.kind for s in assembly.sleeves])
-    return Prediction(run, predicted_shape(run, assembly), fit, h, seconds)
+    record = prediction_record(run, seconds, h, assembly.spec.tiling.kind)
+    return Prediction(run, predicted_shape(run, assembly), fit, h, seconds, record)
 
 
 def push(spec: AssemblySpec, ids: list[str], h: float, progress: Callable[[float], None] | None = None) -> Any:
@@ -92,7 +97,7 @@ def push(spec: AssemblySpec, ids: list[str], h: float, progress: Callable[[float
     does with its defaults, checked against ``[material] strain_limit``. Raises GeometryError (h too coarse,
     mesh too large) or SolverError (path lost, implausible result)."""
     from fabpat.assembly.simulate import kit_end_shortening, run_strip, strip_setup
-    from fabpat.assembly.simulation import check_assembly_size
+    from fabpat.assembly.sizing import check_assembly_size
 
     check_assembly_size(spec, ids, h, ASSEMBLY_MAX_ELEMENTS, option="the limit of a kit's prediction, ≈ 8 GB",
                         h_name="--predict-h")

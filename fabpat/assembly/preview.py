@@ -410,18 +410,3 @@ def prediction_title(name: str, run: Any, h: float) -> str:
             f"{sphere_text(run)}, peak strain {100 * run.peak_strain:.2f} % on "
             f"{run.peak_strain_plate} (limit {100 * run.strain_limit:.2f} %"
             + (f"; {len(run.over_limit)} plates over it)" if run.over_limit else ")"))
-
-
-def prediction_record(run: Any, seconds: float, h: float, name: str = "",
-                      kind: str = "truncated-icosahedron") -> dict[str, Any]:
-    """The ``prediction.json`` fields: exactly those of ``fabpat simulate-assembly --json`` on a closed
-    spec (:meth:`fabpat.assembly.simulation.AssemblySimulation.fields`: counts, solver effort, energies
-    N·mm, sleeve moments N·mm, reaction N, lengths mm, strains; ``peak``/``half_ratio`` are a strip's and
-    None here), for a ClosureRun solved in ``seconds`` at mesh edge ``h`` (mm)."""
-    from fabpat.assembly.simulation import AssemblySimulation
-
-    m = run.setup.model
-    sim = AssemblySimulation(kind, name, m, run, round(seconds, 3), run.element_strain, {},
-                             run.strain_limit, h)
-    return sim.fields()
-
