@@ -65,8 +65,11 @@ def _refused(args: list[str], out: Path) -> str:
     return lines[0]
 
 
+@pytest.mark.slow
 def test_round_trip_matches_the_target(setup: dict) -> None:
-    """A target made by the solver is designed back within 0.5 % of the span, verified by simulate-assembly."""
+    """A target made by the solver is designed back within 0.5 % of the span, verified by simulate-assembly.
+    A budget of 2 solves: the design is found by the first search solve (0.34 % of the span, the same design
+    with budgets 1, 2, 3 and 6, measured), so 6 only spent time."""
     from fabpat.assembly.choice import face_patterns
     from fabpat.assembly.simulation import simulate_assembly
     from fabpat.assembly.spec import load_spec
@@ -74,7 +77,7 @@ def test_round_trip_matches_the_target(setup: dict) -> None:
 
     out = setup["folder"] / "round"
     r = run_cli("design", str(setup["target"]), "--spec", str(setup["spec"]), "--out", str(out), "--h", H,
-                "--max-solves", "6", "--no-progress")
+                "--max-solves", "2", "--no-progress")
     assert r.returncode == 0, r.stderr
     rec = json.loads((out / "design.json").read_text())
     assert set(rec["patterns"]) == set(setup["labels"])
@@ -163,6 +166,7 @@ def test_arc_length_message_names_both_lengths(setup: dict, tmp_path: Path) -> N
     assert f"{arc:.1f} mm" in str(e.value) and f"{setup['length']:.1f} mm" in str(e.value)
 
 
+@pytest.mark.slow
 def test_unreachable_target_warns_once_and_writes_the_best(setup: dict, tmp_path: Path) -> None:
     """Two humps cannot be made by a pinned strip: reachable false, one warning line, files written."""
     from fabpat.design.target import write_target_csv
