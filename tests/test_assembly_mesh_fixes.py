@@ -11,6 +11,7 @@ import json
 import math
 import re
 import struct
+import subprocess
 from pathlib import Path
 
 import numpy as np
@@ -23,7 +24,6 @@ from fabpat.assembly.simulation import simulate_assembly
 from fabpat.assembly.sleeve import required_setback
 from fabpat.assembly.spec import load_spec, parse_spec
 from fabpat.errors import SpecError
-from tests.conftest import run_cli
 
 SHEET = '[sheet]\nwidth = 600.0\nheight = 400.0\n[output]\nformats = ["bom"]\n'
 
@@ -48,8 +48,21 @@ def mesh_spec(tmp_path: Path, V: list, F: list, patterns: str, sleeve: str = "",
     return spec
 
 
-def assemble(spec: Path, out: Path):  # noqa: ANN201 - a CompletedProcess
-    return run_cli("assemble", str(spec), "--out", str(out), "--no-predict", "--no-progress")
+def invoke(*args: str) -> subprocess.CompletedProcess[str]:
+    """The command in-process (click's runner), as a CompletedProcess: these tests are about what the
+    command says and writes, not about the process (run_cli keeps those)."""
+    from click.testing import CliRunner
+
+    from fabpat.cli import cli
+
+    r = CliRunner().invoke(cli, list(args))
+    if r.exception is not None and not isinstance(r.exception, SystemExit):
+        raise r.exception
+    return subprocess.CompletedProcess(list(args), r.exit_code, r.stdout, r.stderr)
+
+
+def assemble(spec: Path, out: Path) -> subprocess.CompletedProcess[str]:
+    return invoke("assemble", str(spec), "--out", str(out), "--no-predict", "--no-progress")
 
 
 # -- 1. no sphere for a shape that is not one -------------------------------------------------------
@@ -82,11 +95,11 @@ def test_flat_cap_reports_null_in_json_and_text(tmp_path: Path) -> None:
     spec = tmp_path / "cap.toml"
     spec.write_text('name = "cap"\n[tiling]\nkind = "hex-cap"\nrings = 1\ncentre = 6\nedge = 36.0\n'
                     '[patterns]\nhexagon = "0x0488"\n', encoding="utf-8")
-    r = run_cli("simulate-assembly", str(spec), "--h", "7.5", "--json", "--no-progress")
+    r = invoke("simulate-assembly", str(spec), "--h", "7.5", "--json", "--no-progress")
     assert r.returncode == 0, r.stderr
     f = json.loads(r.stdout)
     assert f["plates"] == 7 and f["radius"] is None and f["sphericity_rms"] is None
-    r = run_cli("simulate-assembly", str(spec), "--h", "7.5", "--no-progress")
+    r = invoke("simulate-assembly", str(spec), "--h", "7.5", "--no-progress")
     assert "radius=null\n" in r.stdout and "sphericity_rms=null\n" in r.stdout
 
 
