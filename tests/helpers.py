@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import subprocess
 from pathlib import Path
 from typing import Any
 
@@ -22,3 +23,19 @@ def flat_sphere() -> Any:
     from fabpat.assembly.spec import load_spec
 
     return simulate_assembly(load_spec(FLAT_SPHERE), h=SPHERE_H)
+
+
+def invoke(*args: str) -> subprocess.CompletedProcess[str]:
+    """``fabpat ARGS`` in this process (click's runner), as a CompletedProcess like
+    :func:`tests.conftest.run_cli`'s: for tests about what a command says and writes. A new interpreter
+    costs seconds of imports (the CAD libraries), so run_cli stays for what only the real process shows
+    (exit codes of the entry point, signals, stderr as written). An exception other than the command's
+    own exit is raised, not turned into an exit code."""
+    from click.testing import CliRunner
+
+    from fabpat.cli import cli
+
+    r = CliRunner().invoke(cli, list(args), env={"COLUMNS": "160", "FABPAT_CACHE": "off"})
+    if r.exception is not None and not isinstance(r.exception, SystemExit):
+        raise r.exception
+    return subprocess.CompletedProcess(["fabpat", *args], r.exit_code, r.stdout, r.stderr)

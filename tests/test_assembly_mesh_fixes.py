@@ -24,6 +24,7 @@ from fabpat.assembly.simulation import simulate_assembly
 from fabpat.assembly.sleeve import required_setback
 from fabpat.assembly.spec import load_spec, parse_spec
 from fabpat.errors import SpecError
+from tests.helpers import invoke
 
 SHEET = '[sheet]\nwidth = 600.0\nheight = 400.0\n[output]\nformats = ["bom"]\n'
 
@@ -46,19 +47,6 @@ def mesh_spec(tmp_path: Path, V: list, F: list, patterns: str, sleeve: str = "",
     spec.write_text(f'name = "t"\n[tiling]\nkind = "mesh"\nfile = "m.obj"\n{tiling}\n[patterns]\n{patterns}\n'
                     f"[sleeve]\n{sleeve}\n{SHEET}", encoding="utf-8")
     return spec
-
-
-def invoke(*args: str) -> subprocess.CompletedProcess[str]:
-    """The command in-process (click's runner), as a CompletedProcess: these tests are about what the
-    command says and writes, not about the process (run_cli keeps those)."""
-    from click.testing import CliRunner
-
-    from fabpat.cli import cli
-
-    r = CliRunner().invoke(cli, list(args))
-    if r.exception is not None and not isinstance(r.exception, SystemExit):
-        raise r.exception
-    return subprocess.CompletedProcess(list(args), r.exit_code, r.stdout, r.stderr)
 
 
 def assemble(spec: Path, out: Path) -> subprocess.CompletedProcess[str]:
