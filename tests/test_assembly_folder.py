@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 
 from tests.conftest import run_cli
+from tests.helpers import invoke
 
 ROOT = Path(__file__).resolve().parents[1]
 SMALL = ROOT / "assemblies" / "test-small.toml"
@@ -144,7 +145,7 @@ def _chattr(flag: str, path: Path) -> bool:
     return tool is not None and subprocess.run([tool, flag, str(path)], capture_output=True).returncode == 0
 
 
-@pytest.mark.parametrize("where", ["parent", pytest.param("kit", marks=pytest.mark.slow)])
+@pytest.mark.parametrize("where", ["parent", "kit"])
 def test_an_immutable_folder_leaves_no_part_folder(tmp_path: Path, where: str) -> None:
     parent = tmp_path / "imm"
     parent.mkdir()
@@ -155,7 +156,7 @@ def test_an_immutable_folder_leaves_no_part_folder(tmp_path: Path, where: str) -
         pytest.skip("chattr +i needs root on a file system with attributes")
     try:
         # --no-predict: the swap into the immutable folder is the point, not the strip's prediction
-        r = run_cli("assemble", str(SMALL), "--out", str(out), "--no-progress", "--no-predict")
+        r = invoke("assemble", str(SMALL), "--out", str(out), "--no-progress", "--no-predict")
         names = sorted(os.listdir(parent))
     finally:
         _chattr("-i", target)

@@ -12,6 +12,7 @@ import pytest
 
 from fabpat.errors import ExportError, GeometryError, SolverError, SpecError
 from tests.conftest import run_cli
+from tests.helpers import invoke
 
 ROOT = Path(__file__).resolve().parents[1]
 SMALL = ROOT / "assemblies" / "test-small.toml"
@@ -94,10 +95,10 @@ def test_a_simulation_needs_no_sheet(strip_sim, tmp_path: Path) -> None:  # type
         parse(STRIP, need_sheet=True)
     path = tmp_path / "nosheet.toml"
     path.write_text(SMALL.read_text().split("[sheet]")[0])
-    r = run_cli("assemble", str(path), "--out", str(tmp_path / "kit"))
+    r = invoke("assemble", str(path), "--out", str(tmp_path / "kit"))
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "missing table [sheet]" in r.stderr, r.stderr
     # a short, one-step push: the point is that the command reads a spec without [sheet], not the arch
-    r = run_cli("simulate-assembly", str(path), "--h", "6", "--end-shortening", "0.005", "--steps", "1",
+    r = invoke("simulate-assembly", str(path), "--h", "6", "--end-shortening", "0.005", "--steps", "1",
                 "--no-progress")
     assert r.returncode == 0 and "plates=3" in r.stdout, r.stderr
 

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from tests.conftest import run_cli
-from tests.helpers import SPHERE_H, flat_sphere
+from tests.helpers import SPHERE_H, flat_sphere, invoke
 
 ROOT = Path(__file__).resolve().parents[1]
 SPHERE = ROOT / "assemblies" / "truncated-icosahedron.toml"
@@ -59,7 +59,7 @@ def kit(tmp_path_factory: pytest.TempPathFactory) -> Path:
     tmp = tmp_path_factory.mktemp("sphere")
     out = tmp / "kit"
     spec = variant(tmp, "sphere.toml", strain_limit=LOOSE)
-    r = run_cli("assemble", str(spec), "--out", str(out), "--no-progress", "--predict-h", PREDICT_H)
+    r = invoke("assemble", str(spec), "--out", str(out), "--no-progress", "--predict-h", PREDICT_H)
     assert r.returncode == 0, r.stderr
     return out
 
@@ -381,7 +381,7 @@ def test_simulation_png_fields(closed, tmp_path: Path) -> None:  # type: ignore[
 
 def test_too_coarse_predict_h_is_refused_up_front(tmp_path: Path) -> None:
     out = tmp_path / "kit"
-    r = run_cli("assemble", str(SPHERE), "--out", str(out), "--no-progress", "--predict-h", "8")
+    r = invoke("assemble", str(SPHERE), "--out", str(out), "--no-progress", "--predict-h", "8")
     assert r.returncode == 2
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "--predict-h" in lines[0] and "h ≤ 7.5 mm" in lines[0], r.stderr

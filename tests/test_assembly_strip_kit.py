@@ -11,16 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import run_cli
-
-
-def invoke(*args: str):  # type: ignore[no-untyped-def] - a click Result
-    """The command in-process (its logic; the real process's exit codes are the run_cli calls')."""
-    from click.testing import CliRunner
-
-    from fabpat.cli import cli
-
-    return CliRunner().invoke(cli, list(args))
+from tests.helpers import invoke
 
 ROOT = Path(__file__).resolve().parents[1]
 SMALL = ROOT / "assemblies" / "test-small.toml"
@@ -31,7 +22,7 @@ FIELDS = {"converged", "plates", "sleeves", "nodes", "energy", "peak", "half_rat
 @pytest.fixture(scope="module")
 def kit(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("strip") / "kit"
-    r = run_cli("assemble", str(SMALL), "--out", str(out), "--no-progress")
+    r = invoke("assemble", str(SMALL), "--out", str(out), "--no-progress")
     assert r.returncode == 0, r.stderr
     return out
 
@@ -50,7 +41,7 @@ def test_the_strip_kit_holds_its_prediction(kit: Path) -> None:
 def test_the_prediction_is_what_simulate_assembly_reports(kit: Path) -> None:
     rec = json.loads((kit / "prediction.json").read_text())
     r = invoke("simulate-assembly", str(SMALL), "--json", "--no-progress")
-    assert r.exit_code == 0, r.stderr
+    assert r.returncode == 0, r.stderr
     sim = json.loads(r.stdout)
     assert rec["peak_strain_plate"] == sim["peak_strain_plate"] and rec["nodes"] == sim["nodes"]
     for key in ("energy", "peak", "half_ratio", "max_deflection", "peak_strain", "reaction"):
@@ -77,18 +68,18 @@ def test_a_strip_over_the_strain_limit_is_refused(tmp_path: Path) -> None:
     spec.write_text(SMALL.read_text().replace("thickness = 0.8", "thickness = 2.0").replace(
         "[sheet]", '[output]\nformats = ["bom"]\n\n[sheet]'))
     out = tmp_path / "kit"
-    r = run_cli("assemble", str(spec), "--out", str(out), "--no-progress")
+    r = invoke("assemble", str(spec), "--out", str(out), "--no-progress")
     assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
     assert re.search(r"plate T\d would reach a peak strain of 0\.03\d+ when its end pins push the strip together by "
                      r"10 % of its length, over material.strain_limit = 0.02", r.stderr), r.stderr
     assert "--force" in r.stderr and not out.exists()
     res = invoke("assemble", str(spec), "--out", str(out), "--no-progress", "--force")
-    assert res.exit_code == 0, res.stderr
+    assert res.returncode == 0, res.stderr
     warnings = [ln for ln in res.stderr.splitlines() if ln.startswith("fabpat: warning: plate T")]
     manifest = json.loads((out / "manifest.json").read_text())
     assert len(warnings) == len(manifest["warnings"]) == 3
     res = invoke("assemble", str(spec), "--out", str(tmp_path / "skipped"), "--no-progress", "--no-predict")
-    assert res.exit_code == 0 and "not checked" in res.stderr and "push the strip together" in res.stderr, res.stderr
+    assert res.returncode == 0 and "not checked" in res.stderr and "push the strip together" in res.stderr, res.stderr
 
 
 def test_bom_and_manifest_record_the_patterns(kit: Path) -> None:

@@ -13,6 +13,7 @@ from click.testing import CliRunner
 from fabpat.cli import cli
 from fabpat.errors import SpecError
 from tests.conftest import run_cli
+from tests.helpers import invoke
 
 ROOT = Path(__file__).resolve().parents[1]
 H = "6"
@@ -181,7 +182,7 @@ def test_unreachable_target_warns_once_and_writes_the_best(setup: dict, tmp_path
     target = tmp_path / "humps.csv"
     write_target_csv(target, x, lo * shape)
     out = tmp_path / "out"
-    r = run_cli("design", str(target), "--spec", str(setup["spec"]), "--out", str(out), "--h", H,
+    r = invoke("design", str(target), "--spec", str(setup["spec"]), "--out", str(out), "--h", H,
                 "--max-solves", "1", "--no-progress")
     assert r.returncode == 0, r.stderr
     warnings = [ln for ln in r.stderr.splitlines() if ln.startswith("fabpat: warning:")]

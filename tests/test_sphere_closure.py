@@ -25,7 +25,7 @@ import pytest
 
 from fabpat.assembly.simulation import simulate_assembly
 from fabpat.assembly.spec import load_spec
-from tests.helpers import SPHERE_H, flat_sphere
+from tests.helpers import SPHERE_H, flat_sphere, invoke
 
 ROOT = Path(__file__).resolve().parents[1]
 FLAT = ROOT / "assemblies" / "truncated-icosahedron.toml"
@@ -152,8 +152,8 @@ def test_cli_fields_and_strain_warnings(tmp_path: Path) -> None:
     spec.write_text(text.replace("strain_limit = 0.02", "strain_limit = 0.001"), encoding="utf-8")
     assert "strain_limit = 0.001" in spec.read_text(encoding="utf-8")
     vtu = tmp_path / "s.vtu"
-    r = subprocess.run([sys.executable, "-m", "fabpat", "simulate-assembly", str(spec), "--h", "6", "--json",
-                        "--vtu", str(vtu)], capture_output=True, text=True, timeout=600)
+    # in-process: the command's output is the point (the real process is test_the_whole_assembly_mesh_is_bounded's)
+    r = invoke("simulate-assembly", str(spec), "--h", "6", "--json", "--vtu", str(vtu))
     assert r.returncode == 0, r.stderr
     row = json.loads(r.stdout)
     for key in ("radius", "sphericity_rms", "sphericity_max", "peak_strain", "peak_strain_plate", "strain_limit",
