@@ -193,19 +193,23 @@ def test_the_similar_energy_pair_is_rounder() -> None:
 
 @pytest.mark.slow
 def test_a_roundest_spec_simulates_the_pair_the_kit_builds(tmp_path: Path) -> None:
-    """rule = "roundest" in simulate-assembly: the reported sphere is the rounder of the candidate pairs,
-    each of which is also closed here on its own, by name."""
+    """rule = "roundest" in simulate-assembly: the reported shape is the rounder of the candidate pairs,
+    each of which is also closed here on its own, by name. On the shipped spec's plates and sleeves as a
+    pentagon cap (hex-cap, 1 ring: 6 plates closed into a dome) rather than the 32-plate sphere: the rule's
+    path is the same for every closed tiling, and the cap's four closures take a fifth of the sphere's."""
     from fabpat.assembly.choice import candidate_pairs
 
-    text = FLAT.read_text(encoding="utf-8").replace('hexagon = "0x0488"\npentagon = "0x0508"',
-                                                    'rule = "roundest"\ncandidates = 2\nscenario = "dome"')
+    cap = FLAT.read_text(encoding="utf-8").replace('kind = "truncated-icosahedron"', 'kind = "hex-cap"\nrings = 1')
+    (tmp_path / "cap.toml").write_text(cap, encoding="utf-8")
     path = tmp_path / "roundest.toml"
-    path.write_text(text, encoding="utf-8")
+    path.write_text(cap.replace('hexagon = "0x0488"\npentagon = "0x0508"',
+                                'rule = "roundest"\ncandidates = 2\nscenario = "dome"'), encoding="utf-8")
     spec = load_spec(path)
+    assert spec.tiling.kind == "hex-cap" and spec.polygon_sides == (6, 5)
     pairs = candidate_pairs(spec)
     assert len(pairs) == 2
     # h = 7.5 mm, the coarsest the interfaces allow: the claim is that the two runs agree, at any mesh
-    alone = [simulate_assembly(with_pair(FLAT, *p), h=7.5).fields()["sphericity_rms"] for p in pairs]
+    alone = [simulate_assembly(with_pair(tmp_path / "cap.toml", *p), h=7.5).fields()["sphericity_rms"] for p in pairs]
     chosen = simulate_assembly(spec, h=7.5).fields()
     assert chosen["sphericity_rms"] == pytest.approx(min(alone), rel=1e-9)
 
