@@ -67,7 +67,8 @@ def kit(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture(scope="module")
 def closed():  # type: ignore[no-untyped-def]
     """The shipped sphere's plan and its closure at PREDICT_H, in-process: the ClosureRun of the shared
-    simulate_assembly closure (closure_setup and run_closure of the plan's face patterns, the default steps)."""
+    simulate_assembly closure (closure_setup and run_closure of the plan's face patterns, in one report step: the
+    read-outs here are of the final state)."""
     from fabpat.assembly.build import plan
     from fabpat.assembly.spec import load_spec
 
