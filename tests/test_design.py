@@ -12,7 +12,6 @@ from click.testing import CliRunner
 
 from fabpat.cli import cli
 from fabpat.errors import SpecError
-from tests.conftest import run_cli
 from tests.helpers import invoke
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -77,7 +76,8 @@ def test_round_trip_matches_the_target(setup: dict) -> None:
     from fabpat.design.strip import errors, midline
 
     out = setup["folder"] / "round"
-    r = run_cli("design", str(setup["target"]), "--spec", str(setup["spec"]), "--out", str(out), "--h", H,
+    # in-process: the design's files are the point (test_design_closed runs `fabpat design` as a real process)
+    r = invoke("design", str(setup["target"]), "--spec", str(setup["spec"]), "--out", str(out), "--h", H,
                 "--max-solves", "2", "--no-progress")
     assert r.returncode == 0, r.stderr
     rec = json.loads((out / "design.json").read_text())
