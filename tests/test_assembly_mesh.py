@@ -21,7 +21,7 @@ from fabpat.assembly.placement import place
 from fabpat.assembly.spec import load_spec, parse_spec
 from fabpat.assembly.tiling import truncated_icosahedron
 from fabpat.errors import SpecError
-from tests.conftest import run_cli
+from tests.helpers import invoke
 
 ROOT = Path(__file__).resolve().parents[1]
 SPHERE = ROOT / "assemblies" / "truncated-icosahedron.toml"
@@ -93,17 +93,18 @@ def test_mesh_spec_places_the_plates_as_the_built_in_sphere(ti_files: Path) -> N
     assert max(np.abs(p.transform - q.transform).max() for p, q in zip(a.sleeves, b.sleeves, strict=True)) < 1e-9
 
 
+@pytest.mark.slow
 def test_mesh_kit_is_the_built_in_sphere_kit(ti_files: Path, tmp_path: Path) -> None:
     """The same kit file for file (no prediction: the closure is compared in test_sphere_closure)."""
+    from fabpat.assembly.build import assemble
+
     outs = []
     for name, spec in (("built", SPHERE), ("mesh", ti_files / "ti-mesh.toml")):
         text = spec.read_text(encoding="utf-8").replace('"step", "stl", "glb", "3dm", "dxf", "svg", "bom", "png"',
                                                          '"dxf", "svg", "bom"')
         text = text.replace('file = "ti.obj"', f'file = "{ti_files / "ti.obj"}"')
         (tmp_path / f"{name}.toml").write_text(text, encoding="utf-8")
-        r = run_cli("assemble", str(tmp_path / f"{name}.toml"), "--out", str(tmp_path / name), "--no-predict",
-                    "--no-progress")
-        assert r.returncode == 0, r.stderr
+        assemble(tmp_path / f"{name}.toml", tmp_path / name, predict=False)  # in-process: the kit's logic
         outs.append(tmp_path / name)
     files = sorted(p.relative_to(outs[0]) for p in outs[0].rglob("*") if p.is_file())
     assert files == sorted(p.relative_to(outs[1]) for p in outs[1].rglob("*") if p.is_file())
@@ -216,14 +217,14 @@ def test_cli_bad_mesh_and_missing_catalog_exit_2_writing_nothing(tmp_path: Path)
     sheet = '[sheet]\nwidth = 300.0\nheight = 200.0\n[sleeve]\nmargin = 2.8\n'
     spec.write_text(f'[tiling]\nkind = "mesh"\nfile = "m.obj"\n[patterns]\nrule = "similar-energy"\n{sheet}',
                     encoding="utf-8")
-    r = run_cli("assemble", str(spec), "--out", str(tmp_path / "kit"), "--no-progress")
+    r = invoke("assemble", str(spec), "--out", str(tmp_path / "kit"), "--no-progress")
     assert r.returncode == 2 and not (tmp_path / "kit").exists()
     line = r.stderr.strip()
     assert "\n" not in line and "no catalog energies for squares (sides = 4)" in line, line
     assert "run `fabpat sweep --sides 4 --db catalog.sqlite`" in line, line
     (tmp_path / "m.obj").write_text(obj_text(CUBE_V, [CUBE_F[0], tuple(reversed(CUBE_F[1])), *CUBE_F[2:]]),
                                     encoding="utf-8")
-    r = run_cli("assemble", str(spec), "--out", str(tmp_path / "kit"), "--no-progress")
+    r = invoke("assemble", str(spec), "--out", str(tmp_path / "kit"), "--no-progress")
     assert r.returncode == 2 and not (tmp_path / "kit").exists()
     assert r.stderr.count("\n") == 1 and "inconsistent orientation" in r.stderr, r.stderr
     assert data  # the spec above is the helper's mesh with a rule instead of named patterns

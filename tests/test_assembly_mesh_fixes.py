@@ -11,6 +11,7 @@ import json
 import math
 import re
 import struct
+import subprocess
 from pathlib import Path
 
 import numpy as np
@@ -23,7 +24,7 @@ from fabpat.assembly.simulation import simulate_assembly
 from fabpat.assembly.sleeve import required_setback
 from fabpat.assembly.spec import load_spec, parse_spec
 from fabpat.errors import SpecError
-from tests.conftest import run_cli
+from tests.helpers import invoke
 
 SHEET = '[sheet]\nwidth = 600.0\nheight = 400.0\n[output]\nformats = ["bom"]\n'
 
@@ -48,8 +49,8 @@ def mesh_spec(tmp_path: Path, V: list, F: list, patterns: str, sleeve: str = "",
     return spec
 
 
-def assemble(spec: Path, out: Path):  # noqa: ANN201 - a CompletedProcess
-    return run_cli("assemble", str(spec), "--out", str(out), "--no-predict", "--no-progress")
+def assemble(spec: Path, out: Path) -> subprocess.CompletedProcess[str]:
+    return invoke("assemble", str(spec), "--out", str(out), "--no-predict", "--no-progress")
 
 
 # -- 1. no sphere for a shape that is not one -------------------------------------------------------
@@ -82,11 +83,11 @@ def test_flat_cap_reports_null_in_json_and_text(tmp_path: Path) -> None:
     spec = tmp_path / "cap.toml"
     spec.write_text('name = "cap"\n[tiling]\nkind = "hex-cap"\nrings = 1\ncentre = 6\nedge = 36.0\n'
                     '[patterns]\nhexagon = "0x0488"\n', encoding="utf-8")
-    r = run_cli("simulate-assembly", str(spec), "--h", "7.5", "--json", "--no-progress")
+    r = invoke("simulate-assembly", str(spec), "--h", "7.5", "--json", "--no-progress")
     assert r.returncode == 0, r.stderr
     f = json.loads(r.stdout)
     assert f["plates"] == 7 and f["radius"] is None and f["sphericity_rms"] is None
-    r = run_cli("simulate-assembly", str(spec), "--h", "7.5", "--no-progress")
+    r = invoke("simulate-assembly", str(spec), "--h", "7.5", "--no-progress")
     assert "radius=null\n" in r.stdout and "sphericity_rms=null\n" in r.stdout
 
 

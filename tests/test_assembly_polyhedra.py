@@ -20,7 +20,7 @@ from fabpat.assembly.polyhedra import goldberg, hex_cap, hex_tube
 from fabpat.assembly.simulation import simulate_assembly
 from fabpat.assembly.spec import load_spec, parse_spec
 from fabpat.errors import SpecError
-from tests.conftest import run_cli
+from tests.helpers import invoke
 
 ROOT = Path(__file__).resolve().parents[1]
 H = 7.5  # mm: the coarsest mesh the 36 mm plates' interfaces allow
@@ -59,9 +59,12 @@ def spec(kind: str, **keys: object) -> dict:
             "sleeve": {"angle": "flat"}}
 
 
+@pytest.mark.slow
 def test_goldberg_one_one_placed_at_best_fit_closes_like_the_exact_sphere() -> None:
+    # at h = 7.5, not the shared sphere closure's 6 mm (tests.helpers): GP(1, 1) from its best-fit placement
+    # takes 55 factorizations at 6 mm against 44 at 7.5 (16 s against 9 s): more than sharing would save
     exact = load_spec(ROOT / "assemblies" / "truncated-icosahedron.toml")
-    a = simulate_assembly(exact, h=H).fields()
+    a = simulate_assembly(exact, h=H, steps=1).fields()  # its equilibrium in one step (tests.helpers.SPHERE_STEPS)
     b = simulate_assembly(parse_spec(spec("goldberg", m=1, n=1), "gp11.toml"), h=H).fields()
     assert b["plates"] == 32 and b["sleeves"] == 90
     assert abs(a["radius"] - b["radius"]) < 0.01
@@ -107,6 +110,6 @@ def test_assemble_refuses_a_best_fit_tiling_writing_nothing(tmp_path: Path) -> N
     path = tmp_path / "g.toml"
     path.write_text('[tiling]\nkind = "goldberg"\nm = 2\nedge = 36.0\n[patterns]\nhexagon = "0x0488"\n'
                     'pentagon = "0x0508"\n[sheet]\nwidth = 600.0\nheight = 400.0\n', encoding="utf-8")
-    r = run_cli("assemble", str(path), "--out", str(tmp_path / "kit"), "--no-progress")
+    r = invoke("assemble", str(path), "--out", str(tmp_path / "kit"), "--no-progress")
     assert r.returncode == 2 and not (tmp_path / "kit").exists()
     assert r.stderr.count("\n") == 1 and "best fit" in r.stderr and "simulate-assembly" in r.stderr, r.stderr

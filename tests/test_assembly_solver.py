@@ -99,6 +99,7 @@ def test_displacement_control_reproduces_the_load_controlled_cantilever() -> Non
     assert np.abs(out.final.displacement - r.displacement).max() < 2e-7 * np.abs(r.displacement).max()
 
 
+@pytest.mark.slow
 def test_cli_simulate_assembly_fields_files_and_bad_input(tmp_path) -> None:  # noqa: ANN001
     import json
 
@@ -133,14 +134,20 @@ def test_cli_simulate_assembly_fields_files_and_bad_input(tmp_path) -> None:  # 
     assert set(mesh.cell_data) >= {"strain_energy", "membrane_energy", "bending_energy", "shear_energy"}
     assert png.read_bytes()[:4] == b"\x89PNG"
 
+    # the refusals in-process (the same command's logic; the real process's exit code 2 and one stderr line
+    # are test_sphere_closure's and test_assembly_hostile's)
+    from click.testing import CliRunner
+
+    from fabpat.cli import cli
+
     out = tmp_path / "x.png"
     for args, word in ((("--end-shortening", "0"), "--end-shortening"),
                        (("--end-shortening", "0.5"), "--end-shortening"), (("--h", "8"), "too coarse")):
-        bad = run_cli("simulate-assembly", spec, *args, "--png", str(out))
-        assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and word in bad.stderr, bad.stderr
-    bad = run_cli("simulate-assembly", spec.replace("test-small", "truncated-icosahedron"), "--imperfection", "0.1",
-                  "--png", str(out))
-    assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and "applies to strips" in bad.stderr, bad.stderr
+        res = CliRunner().invoke(cli, ["simulate-assembly", spec, *args, "--png", str(out)])
+        assert res.exit_code == 2 and res.stderr.count("\n") == 1 and word in res.stderr, res.stderr
+    res = CliRunner().invoke(cli, ["simulate-assembly", spec.replace("test-small", "truncated-icosahedron"),
+                                   "--imperfection", "0.1", "--png", str(out)])
+    assert res.exit_code == 2 and res.stderr.count("\n") == 1 and "applies to strips" in res.stderr, res.stderr
     assert not out.exists() and not list(tmp_path.glob("*.tmp*"))
 
 
@@ -185,6 +192,7 @@ def test_straight_strip_stays_flat_then_buckles_into_a_symmetric_arch(uniform_st
     assert r.half_ratio == pytest.approx(1.0, abs=0.02)
 
 
+@pytest.mark.slow
 def test_graded_strip_peaks_towards_its_soft_end_and_mirrors(uniform_strip) -> None:  # noqa: ANN001
     from fabpat.assembly.simulate import run_strip
 

@@ -5,8 +5,6 @@ from __future__ import annotations
 
 import json
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -314,11 +312,15 @@ def test_the_flat_kit_passes_the_checks_only_with_the_sleeves_turned(monkeypatch
 
 
 def test_assemble_writes_the_flat_sphere_kit(tmp_path: Path) -> None:
+    import dataclasses
+
+    from fabpat.assembly.build import assemble
+
     out = tmp_path / "kit"
-    # --no-predict: the kit's parts without the closure (tests/test_assembly_predict.py has the prediction)
-    run = subprocess.run([sys.executable, "-m", "fabpat", "assemble", str(FLAT), "--out", str(out), "--no-predict"],
-                         capture_output=True, text=True, cwd=ROOT, timeout=600)
-    assert run.returncode == 0, run.stderr
+    # predict=False: the kit's parts without the closure (tests/test_assembly_predict.py has the prediction and
+    # every format, from the command line); in-process, and only the formats whose files are checked here
+    spec = dataclasses.replace(load_spec(FLAT), formats=("step", "stl", "bom"))
+    assemble(spec, out, predict=False)
     manifest = json.loads((out / "manifest.json").read_text(encoding="utf-8"))
     assert manifest["counts"] == {"hex 0x0488": 20, "pent 0x0508": 12, "S-flat": 90}
     # bent sleeves: the exact flat parts side by side (parts.step), not placed on the polyhedron

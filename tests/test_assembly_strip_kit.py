@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import run_cli
+from tests.helpers import invoke
 
 ROOT = Path(__file__).resolve().parents[1]
 SMALL = ROOT / "assemblies" / "test-small.toml"
@@ -22,11 +22,12 @@ FIELDS = {"converged", "plates", "sleeves", "nodes", "energy", "peak", "half_rat
 @pytest.fixture(scope="module")
 def kit(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("strip") / "kit"
-    r = run_cli("assemble", str(SMALL), "--out", str(out), "--no-progress")
+    r = invoke("assemble", str(SMALL), "--out", str(out), "--no-progress")
     assert r.returncode == 0, r.stderr
     return out
 
 
+@pytest.mark.slow
 def test_the_strip_kit_holds_its_prediction(kit: Path) -> None:
     files = json.loads((kit / "manifest.json").read_text())["files"]
     assert {"prediction.json", "predicted.stl", "predicted.glb", "predicted.png", "assembly.step", "assembly.glb",
@@ -39,7 +40,7 @@ def test_the_strip_kit_holds_its_prediction(kit: Path) -> None:
 
 def test_the_prediction_is_what_simulate_assembly_reports(kit: Path) -> None:
     rec = json.loads((kit / "prediction.json").read_text())
-    r = run_cli("simulate-assembly", str(SMALL), "--json", "--no-progress")
+    r = invoke("simulate-assembly", str(SMALL), "--json", "--no-progress")
     assert r.returncode == 0, r.stderr
     sim = json.loads(r.stdout)
     assert rec["peak_strain_plate"] == sim["peak_strain_plate"] and rec["nodes"] == sim["nodes"]
@@ -60,24 +61,25 @@ def test_the_predicted_files_are_the_bent_strip(kit: Path) -> None:
     assert {"T1", "T2", "T3", "E1", "E2"} <= set(scene.graph.nodes)
 
 
+@pytest.mark.slow
 def test_a_strip_over_the_strain_limit_is_refused(tmp_path: Path) -> None:
     """2 mm plates pushed together by 10 % reach 3.5 % on the 1 × 3 strip (limit 2 %)."""
     spec = tmp_path / "thick.toml"
     spec.write_text(SMALL.read_text().replace("thickness = 0.8", "thickness = 2.0").replace(
         "[sheet]", '[output]\nformats = ["bom"]\n\n[sheet]'))
     out = tmp_path / "kit"
-    r = run_cli("assemble", str(spec), "--out", str(out), "--no-progress")
+    r = invoke("assemble", str(spec), "--out", str(out), "--no-progress")
     assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
     assert re.search(r"plate T\d would reach a peak strain of 0\.03\d+ when its end pins push the strip together by "
                      r"10 % of its length, over material.strain_limit = 0.02", r.stderr), r.stderr
     assert "--force" in r.stderr and not out.exists()
-    r = run_cli("assemble", str(spec), "--out", str(out), "--no-progress", "--force")
-    assert r.returncode == 0, r.stderr
-    warnings = [ln for ln in r.stderr.splitlines() if ln.startswith("fabpat: warning: plate T")]
+    res = invoke("assemble", str(spec), "--out", str(out), "--no-progress", "--force")
+    assert res.returncode == 0, res.stderr
+    warnings = [ln for ln in res.stderr.splitlines() if ln.startswith("fabpat: warning: plate T")]
     manifest = json.loads((out / "manifest.json").read_text())
     assert len(warnings) == len(manifest["warnings"]) == 3
-    r = run_cli("assemble", str(spec), "--out", str(tmp_path / "skipped"), "--no-progress", "--no-predict")
-    assert r.returncode == 0 and "not checked" in r.stderr and "push the strip together" in r.stderr, r.stderr
+    res = invoke("assemble", str(spec), "--out", str(tmp_path / "skipped"), "--no-progress", "--no-predict")
+    assert res.returncode == 0 and "not checked" in res.stderr and "push the strip together" in res.stderr, res.stderr
 
 
 def test_bom_and_manifest_record_the_patterns(kit: Path) -> None:

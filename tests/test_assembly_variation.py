@@ -12,7 +12,7 @@ from fabpat.assembly.build import plan
 from fabpat.assembly.spec import load_spec
 from fabpat.errors import SpecError
 from fabpat.library import get_pattern
-from tests.conftest import run_cli
+from tests.helpers import invoke
 
 SMALL = Path(__file__).parent.parent / "assemblies" / "test-small.toml"
 
@@ -58,7 +58,7 @@ def test_each_member_is_its_own_plate_type_with_its_own_outline(tmp_path: Path) 
 
 def test_the_kit_names_members_and_does_not_borrow_the_papers_energies(tmp_path: Path) -> None:
     spec = _spec(tmp_path, "bridge_weight = {T1 = 0.5}")
-    res = run_cli("assemble", str(spec), "--out", str(tmp_path / "kit"), "--no-predict")
+    res = invoke("assemble", str(spec), "--out", str(tmp_path / "kit"), "--no-predict")
     assert res.returncode == 0, res.stderr
     with (tmp_path / "kit" / "bom.csv").open() as f:
         rows = {r["part"]: r for r in csv.DictReader(f)}
@@ -183,7 +183,7 @@ def test_a_member_beyond_the_converged_family_says_so_and_not_sweep_again(tmp_pa
     """0x0488's Dome buckles beyond bridge_weight 1 in the built-in catalog's family: the note says the
     family converged only up to there, and does not send the user to a sweep that would add nothing."""
     spec = _spec(tmp_path, "bridge_weight = {T1 = 2.5}")
-    res = run_cli("assemble", str(spec), "--out", str(tmp_path / "kit"), "--no-predict")
+    res = invoke("assemble", str(spec), "--out", str(tmp_path / "kit"), "--no-predict")
     assert res.returncode == 0, res.stderr
     manifest = json.loads((tmp_path / "kit" / "manifest.json").read_text())
     note = next(r for r in manifest["patterns"] if r["part"] == "hex 0x0488 b2.5")["note"]

@@ -13,23 +13,26 @@ import pytest
 from fabpat.assembly.simulation import simulate_assembly
 from fabpat.assembly.spec import PatternSpec, load_spec
 from fabpat.errors import SpecError
+from tests.helpers import SPHERE_H, flat_sphere
 
 ROOT = Path(__file__).resolve().parents[1]
 SPHERE = ROOT / "assemblies" / "truncated-icosahedron.toml"
 STRIP = ROOT / "assemblies" / "test-small.toml"
 
 
+@pytest.mark.slow
 def test_warm_start_reaches_the_cold_equilibrium_with_a_third_of_the_factorizations() -> None:
     """The sphere with its pentagon pattern changed, warm-started from the shipped sphere's closed state
     (simulate_assembly(spec, start=…)), reaches the cold start's equilibrium (nodes within 1e-5 mm) with at
     most 35 % of its factorizations: 7 against 20 (the cold path took 22 before each increment's predictor
     reused the previous increment's factorization; the warm start is one increment and gains nothing from
-    that, so the ratio went from 0.32 to 0.35)."""
+    that, so the ratio went from 0.32 to 0.35). The shipped sphere's closure is the one the sphere-closure tests
+    share (tests.helpers.flat_sphere, h = 6 mm)."""
     spec = load_spec(SPHERE)
     other = dataclasses.replace(spec, patterns=PatternSpec(polygons=((6, "0x0488"), (5, "0x1c08"))))
-    shipped = simulate_assembly(spec, h=6.0)
-    cold = simulate_assembly(other, h=6.0)
-    warm = simulate_assembly(other, h=6.0, start=shipped)
+    shipped = flat_sphere()
+    cold = simulate_assembly(other, h=SPHERE_H)
+    warm = simulate_assembly(other, h=SPHERE_H, start=shipped)
     fc, fw = cold.fields(), warm.fields()
     assert fw["warm_start"] is True and fc["warm_start"] is False
     assert fw["factorizations"] <= 0.35 * fc["factorizations"], (fw["factorizations"], fc["factorizations"])
@@ -41,6 +44,7 @@ def test_warm_start_reaches_the_cold_equilibrium_with_a_third_of_the_factorizati
         simulate_assembly(STRIP, h=6.0, start=shipped)
 
 
+@pytest.mark.slow
 def test_strip_warm_start_from_a_one_column_change() -> None:
     """test-small (1 × 3) with its middle column changed, warm-started from the original strip's arch:
     the same equilibrium (nodes within 1e-4 mm, the arch's peak to 1e-6) in a third of the factorizations

@@ -1,6 +1,7 @@
 """Closed-tiling design: the target fits (sphere, ellipsoid, mesh) against shapes with known answers, the
 face groups, the Bayesian-optimisation search on a synthetic objective with a known optimum, per-face
-tiles on the truncated icosahedron, and a small end-to-end sphere design (h = 6 mm, a few solves)."""
+tiles on the truncated icosahedron, and a small end-to-end sphere design (h = 6 mm, one solve and the two
+baselines)."""
 
 from __future__ import annotations
 
@@ -72,7 +73,8 @@ def test_mesh_fit_scales_and_turns_the_file_onto_the_points(tmp_path: Path) -> N
     ell.export(tmp_path / "egg.obj")
     ball, egg = read_target(str(tmp_path / "ball.stl")), read_target(str(tmp_path / "egg.obj"))
     assert ball.kind == egg.kind == "mesh" and egg.bands == 3
-    P = _turned(_on_ellipsoid((1.0, 1.0, 1.3), 70.0))
+    # 200 points, not 800: the fit's cost is per point; its error stays 0.022–0.032 % over seeds 3–5 (measured)
+    P = _turned(_on_ellipsoid((1.0, 1.0, 1.3), 70.0, n=200))
     fit = egg.fit(P, np.array([0.0, 0.0, 1.0]))
     assert fit.scale == pytest.approx(70.0, rel=0.01)
     assert fit.relative_rms < 0.002  # the facets of a 5 120-triangle sphere are 0.05 % of its radius off
@@ -210,15 +212,18 @@ def test_sphere_tiles_name_every_face() -> None:
 
 @pytest.fixture(scope="module")
 def small_sphere(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
-    """fabpat design sphere on the shipped sphere spec at h = 6 mm with a budget of 3 solves."""
+    """fabpat design sphere on the shipped sphere spec at h = 6 mm with a budget of 1 solve: below the search's
+    START_DESIGNS (4), as the budget of 3 was before, so the same path (the baselines, then start designs up
+    to the budget; no refinement) at a third of the solves."""
     from tests.conftest import run_cli
 
     out = tmp_path_factory.mktemp("sph") / "d"
-    r = run_cli("design", "sphere", "--spec", str(SPHERE), "--out", str(out), "--h", "6", "--max-solves", "3",
+    r = run_cli("design", "sphere", "--spec", str(SPHERE), "--out", str(out), "--h", "6", "--max-solves", "1",
                 "--workers", "2", "--no-progress")
     return {"r": r, "out": out}
 
 
+@pytest.mark.slow
 def test_sphere_design_writes_a_spec_the_solver_agrees_with(small_sphere: dict[str, Any]) -> None:
     from fabpat.assembly.simulation import simulate_assembly
 
@@ -227,12 +232,12 @@ def test_sphere_design_writes_a_spec_the_solver_agrees_with(small_sphere: dict[s
     rec = json.loads((out / "design.json").read_text(encoding="utf-8"))
     assert rec["kind"] == "truncated-icosahedron" and len(rec["patterns"]) == 32
     assert {"spec", "single"} <= set(rec["baselines"])
-    assert rec["solves"] == 3 + 2  # the budget and the two baselines
+    assert rec["solves"] == 1 + 2  # the budget and the two baselines
     assert rec["relative_rms"] <= min(b["relative_rms"] for b in rec["baselines"].values()) + 1e-12
     assert rec["relative_rms"] == pytest.approx(rec["rms_error"] / rec["radius"])
     assert rec["scale"] == pytest.approx(rec["radius"])  # a sphere target's scale is its radius
     # the spec is complete: the solver re-run on it closes to the recorded sphericity
-    sim = simulate_assembly(str(out / "design.toml"), h=6.0)
+    sim = simulate_assembly(str(out / "design.toml"), h=6.0, steps=1)  # one step: the same equilibrium (helpers)
     assert sim.run.sphericity_rms == pytest.approx(rec["sphericity_rms"], rel=1e-6)
     assert sim.run.sphericity_rms == pytest.approx(rec["relative_rms"], rel=1e-6)
     assert (out / "design.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -3,6 +3,13 @@
 Reference values come from outside the code under test: the truncated icosahedron's radii per edge
 (face inradius 2.2673 a, circumradius 2.4780 a; ../shared notes, "How the paper's sphere bends"), its
 icosahedral symmetry, and the joint angles 138.19° / 142.62° with straight (180°) sleeves.
+
+Closures run at h = 6 mm (tests.helpers.SPHERE_H; 3–5 mm before): the read-outs here are bounds and
+comparisons, not mesh-converged values, and the shipped sphere's radius, sphericity, peak strain and
+symmetry hardly move from h = 3 to 7.5 mm (89.48 mm, 0.15 %, 1.3–1.5 %, ≤ 0.13 % spread, measured). Those
+that read only the final state close in one report step (SPHERE_STEPS: the same equilibrium). The shipped
+sphere is closed once (tests.helpers.flat_sphere) for every test that reads it, here and in the warm-start
+and prediction tests.
 """
 
 from __future__ import annotations
@@ -19,6 +26,7 @@ import pytest
 
 from fabpat.assembly.simulation import simulate_assembly
 from fabpat.assembly.spec import load_spec
+from tests.helpers import SPHERE_H, SPHERE_STEPS, flat_sphere, invoke
 
 ROOT = Path(__file__).resolve().parents[1]
 FLAT = ROOT / "assemblies" / "truncated-icosahedron.toml"
@@ -34,9 +42,10 @@ def with_pair(path: Path, hexagon: str, pentagon: str):  # noqa: ANN201 - an Ass
 
 @pytest.fixture(scope="module")
 def shipped():  # noqa: ANN201 - AssemblySimulation
-    return simulate_assembly(load_spec(FLAT), h=3.0)
+    return flat_sphere()
 
 
+@pytest.mark.slow
 def test_symmetry_of_the_shipped_sphere(shipped) -> None:  # noqa: ANN001
     m = shipped.model
     sides = np.array([len(p.mesh.interfaces) for p in m.plates])
@@ -103,13 +112,18 @@ def _edge(sim) -> float:  # noqa: ANN001
 
 @pytest.mark.parametrize("pair", [("0xff88", "0xff88"), ("0x0488", "0x0508")], ids=["solid", "lacy"])
 def test_solid_and_lacy_pairs_close(pair: tuple[str, str]) -> None:
-    sim = simulate_assembly(with_pair(FLAT, *pair), h=4.0)
+    patterns = load_spec(FLAT).patterns
+    if pair == (patterns.polygon_pattern(6), patterns.polygon_pattern(5)):  # lacy: the shipped pair, closed once
+        sim = flat_sphere()
+    else:
+        sim = simulate_assembly(with_pair(FLAT, *pair), h=SPHERE_H, steps=SPHERE_STEPS)
     f = sim.fields()
     E = _edge(sim)
     assert f["converged"] and INRADIUS * E < f["radius"] < CIRCUMRADIUS * E
     assert f["energy"] > 0 and min(f["sleeve_moments"].values()) > 0
 
 
+@pytest.mark.slow
 def test_the_sphere_read_from_an_obj_closes_as_the_built_in_one(shipped, tmp_path: Path) -> None:  # noqa: ANN001
     """``kind = "mesh"`` on the truncated icosahedron written as OBJ: the same closure (the tilings issue's
     bound: radius within 0.01 mm, plate energies within 0.1 %)."""
@@ -119,7 +133,8 @@ def test_the_sphere_read_from_an_obj_closes_as_the_built_in_one(shipped, tmp_pat
     (tmp_path / "ti.obj").write_bytes(write_obj(truncated_icosahedron(36.0)))
     text = FLAT.read_text(encoding="utf-8").replace('kind = "truncated-icosahedron"', 'kind = "mesh"\nfile = "ti.obj"')
     (tmp_path / "ti.toml").write_text(text.replace("edge = 36.0", ""), encoding="utf-8")
-    a, b = shipped.fields(), simulate_assembly(load_spec(tmp_path / "ti.toml"), h=3.0).fields()
+    read = simulate_assembly(load_spec(tmp_path / "ti.toml"), h=SPHERE_H, steps=SPHERE_STEPS)
+    a, b = shipped.fields(), read.fields()
     assert abs(a["radius"] - b["radius"]) < 0.01
     assert a["plate_energies"].keys() == b["plate_energies"].keys()
     assert max(abs(b["plate_energies"][k] / v - 1.0) for k, v in a["plate_energies"].items()) < 1e-3
@@ -132,14 +147,15 @@ def test_dihedral_sleeves_load_nothing() -> None:
     assert f["peak_strain"] < 1e-9 and f["over_limit"] == []
 
 
+@pytest.mark.slow
 def test_cli_fields_and_strain_warnings(tmp_path: Path) -> None:
     spec = tmp_path / "tight.toml"
     text = FLAT.read_text(encoding="utf-8")
     spec.write_text(text.replace("strain_limit = 0.02", "strain_limit = 0.001"), encoding="utf-8")
     assert "strain_limit = 0.001" in spec.read_text(encoding="utf-8")
     vtu = tmp_path / "s.vtu"
-    r = subprocess.run([sys.executable, "-m", "fabpat", "simulate-assembly", str(spec), "--h", "5", "--json",
-                        "--vtu", str(vtu)], capture_output=True, text=True, timeout=600)
+    # in-process: the command's output is the point (the real process is test_the_whole_assembly_mesh_is_bounded's)
+    r = invoke("simulate-assembly", str(spec), "--h", "6", "--steps", "1", "--json", "--vtu", str(vtu))
     assert r.returncode == 0, r.stderr
     row = json.loads(r.stdout)
     for key in ("radius", "sphericity_rms", "sphericity_max", "peak_strain", "peak_strain_plate", "strain_limit",
@@ -158,6 +174,7 @@ def test_cli_fields_and_strain_warnings(tmp_path: Path) -> None:
         assert name in mesh.point_data and np.all(np.isfinite(mesh.point_data[name]))
 
 
+@pytest.mark.slow
 def test_the_similar_energy_pair_is_rounder() -> None:
     """The paper's claim (§5) as a number: the shipped pair, whose Dome energies in the catalog differ by
     1.51× (mesh-converged; 1.45× with the one-mesh catalog before), closes rounder than a pair differing by
@@ -170,24 +187,32 @@ def test_the_similar_energy_pair_is_rounder() -> None:
     differing = ("0x0488", "0x2f88")
     ratio = [max(dome[a], dome[b]) / min(dome[a], dome[b]) for a, b in (similar, differing)]
     assert ratio[0] < 1.6 and ratio[1] >= 3.0
-    rms = [simulate_assembly(with_pair(FLAT, *pair), h=4.0).fields()["sphericity_rms"] for pair in (similar, differing)]
+    assert similar == ("0x0488", "0x0508")  # the shipped pair: its closure is the shared one
+    rms = [flat_sphere().fields()["sphericity_rms"],
+           simulate_assembly(with_pair(FLAT, *differing), h=SPHERE_H, steps=SPHERE_STEPS).fields()["sphericity_rms"]]
     assert rms[0] < 0.5 * rms[1], rms
 
 
+@pytest.mark.slow
 def test_a_roundest_spec_simulates_the_pair_the_kit_builds(tmp_path: Path) -> None:
-    """rule = "roundest" in simulate-assembly: the reported sphere is the rounder of the candidate pairs,
-    each of which is also closed here on its own, by name."""
+    """rule = "roundest" in simulate-assembly: the reported shape is the rounder of the candidate pairs,
+    each of which is also closed here on its own, by name. On the shipped spec's plates and sleeves as a
+    pentagon cap (hex-cap, 1 ring: 6 plates closed into a dome) rather than the 32-plate sphere: the rule's
+    path is the same for every closed tiling, and the cap's four closures take a fifth of the sphere's."""
     from fabpat.assembly.choice import candidate_pairs
 
-    text = FLAT.read_text(encoding="utf-8").replace('hexagon = "0x0488"\npentagon = "0x0508"',
-                                                    'rule = "roundest"\ncandidates = 2\nscenario = "dome"')
+    cap = FLAT.read_text(encoding="utf-8").replace('kind = "truncated-icosahedron"', 'kind = "hex-cap"\nrings = 1')
+    (tmp_path / "cap.toml").write_text(cap, encoding="utf-8")
     path = tmp_path / "roundest.toml"
-    path.write_text(text, encoding="utf-8")
+    path.write_text(cap.replace('hexagon = "0x0488"\npentagon = "0x0508"',
+                                'rule = "roundest"\ncandidates = 2\nscenario = "dome"'), encoding="utf-8")
     spec = load_spec(path)
+    assert spec.tiling.kind == "hex-cap" and spec.polygon_sides == (6, 5)
     pairs = candidate_pairs(spec)
     assert len(pairs) == 2
-    alone = [simulate_assembly(with_pair(FLAT, *p), h=5.0).fields()["sphericity_rms"] for p in pairs]
-    chosen = simulate_assembly(spec, h=5.0).fields()
+    # h = 7.5 mm, the coarsest the interfaces allow: the claim is that the two runs agree, at any mesh
+    alone = [simulate_assembly(with_pair(tmp_path / "cap.toml", *p), h=7.5).fields()["sphericity_rms"] for p in pairs]
+    chosen = simulate_assembly(spec, h=7.5).fields()
     assert chosen["sphericity_rms"] == pytest.approx(min(alone), rel=1e-9)
 
 
@@ -225,10 +250,13 @@ def test_the_whole_assembly_mesh_is_bounded(tmp_path: Path) -> None:
                         str(out)], capture_output=True, text=True, timeout=120)
     assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
     assert "--max-elements" in r.stderr and "whole assembly" in r.stderr and not out.exists()
-    for args in (["--end-shortening", "0.2"], ["--png-field", "strain"]):
-        r = subprocess.run([sys.executable, "-m", "fabpat", "simulate-assembly", str(FLAT), *args],
-                           capture_output=True, text=True, timeout=120)
-        assert r.returncode == 2 and r.stderr.count("\n") == 1, (args, r.stderr)
+    from click.testing import CliRunner
+
+    from fabpat.cli import cli
+
+    for args in (["--end-shortening", "0.2"], ["--png-field", "strain"]):  # the same refusal path: in-process
+        res = CliRunner().invoke(cli, ["simulate-assembly", str(FLAT), *args])
+        assert res.exit_code == 2 and res.stderr.count("\n") == 1, (args, res.stderr)
 
 
 def test_a_strip_that_never_leaves_its_plane_has_no_peak() -> None:
