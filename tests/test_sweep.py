@@ -187,6 +187,7 @@ def test_dask_local_cluster(tmp_path: Path) -> None:
     assert not new.exists()
 
 
+@pytest.mark.slow
 def test_real_pipeline_two_patterns_coarse(tmp_path: Path) -> None:
     """The real simulate_pattern through the CLI (process pool), at a coarse 3 mm mesh."""
     db = tmp_path / "c.sqlite"
@@ -223,6 +224,7 @@ def test_cli_errors_are_one_line(tmp_path: Path) -> None:
     assert res.exit_code == 2 and "--sample" in res.stderr
 
 
+@pytest.mark.slow
 def test_extrapolated_sweep_stores_richardson_energy_and_switching_recomputes(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """``--extrapolate`` (the default): the stored energy is E₁ + (E₁ − E₂)/(2^1.2 − 1) of the runs on a
@@ -334,6 +336,7 @@ def test_sweep_setup_refuses_bad_values_before_any_row(bad: dict[str, object]) -
         SweepSetup(**bad)  # type: ignore[arg-type]
 
 
+@pytest.mark.slow
 def test_extrapolated_sweep_meshes_a_narrow_pattern_finer_and_says_so(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Triangle patterns are narrower than 1 mm: the default 2.5 mm coarse mesh would not resolve them, so
