@@ -221,6 +221,7 @@ def test_trailing_colour_blocks_get_one_order(tmp_path: Path) -> None:
     assert sort_trailing_styles(referred) is False and referred.read_bytes() == before
 
 
+@pytest.mark.slow
 def test_assemble_with_a_timestamp_gives_byte_identical_step_files(tmp_path: Path) -> None:
     """Two runs (two processes: OCCT's order followed memory addresses) with one --timestamp.
 

@@ -39,6 +39,7 @@ def without_times(fields: dict) -> dict:  # type: ignore[type-arg]
     return {k: v for k, v in fields.items() if k != "seconds"}
 
 
+@pytest.mark.slow
 def test_simulate_assembly_in_a_pipe_prints_progress_lines_and_the_same_json() -> None:
     shown = run("simulate-assembly", str(SMALL), "--json")
     assert shown.returncode == 0, shown.stderr
@@ -51,6 +52,7 @@ def test_simulate_assembly_in_a_pipe_prints_progress_lines_and_the_same_json() -
     assert without_times(json.loads(shown.stdout)) == without_times(json.loads(quiet.stdout))
 
 
+@pytest.mark.slow
 def test_assemble_in_a_pipe_prints_its_steps(tmp_path: Path) -> None:
     # the small strip with its bill of materials only: the prediction step (the long one, whose lines are
     # checked) still runs, the files written after it (STEP, STL, GLB, …) are not what this test is about

@@ -187,6 +187,7 @@ def test_dask_local_cluster(tmp_path: Path) -> None:
     assert not new.exists()
 
 
+@pytest.mark.slow
 def test_real_pipeline_two_patterns_coarse(tmp_path: Path) -> None:
     """The real simulate_pattern through the CLI (process pool), at a coarse 3 mm mesh."""
     db = tmp_path / "c.sqlite"
@@ -223,7 +224,9 @@ def test_cli_errors_are_one_line(tmp_path: Path) -> None:
     assert res.exit_code == 2 and "--sample" in res.stderr
 
 
-def test_extrapolated_sweep_stores_richardson_energy_and_switching_recomputes(tmp_path: Path) -> None:
+@pytest.mark.slow
+def test_extrapolated_sweep_stores_richardson_energy_and_switching_recomputes(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """``--extrapolate`` (the default): the stored energy is E₁ + (E₁ − E₂)/(2^1.2 − 1) of the runs on a
     2 mm mesh and its nested refinement (Richardson with order 1.2), the other fields are the fine mesh's,
     ``h_fine`` says so; ``--no-extrapolate`` recomputes the row as one 1.5 mm mesh (the hash covers it),
@@ -234,14 +237,17 @@ def test_extrapolated_sweep_stores_richardson_energy_and_switching_recomputes(tm
     from fabpat.mesh import mesh_outline
     from fabpat.scenarios import run_scenario
 
+    # in this process (the real CLI group, --workers 1 runs inline): the test is about the stored rows,
+    # not the process; the library cache stays off as in run_cli
+    monkeypatch.setenv("FABPAT_CACHE", "off")
     db = tmp_path / "c.sqlite"
     other = {"table": "results", "id": "0xffff", "sides": 6, "depth": 2, "edge": 36.0, "thickness": 2.0,
              "weight": 0.2, "scenario": "dome", "E": 1000.0, "nu": 0.35, "h": 1.5, "nonlinear": 1, "energy": 1.0,
              "converged": 1, "solver_version": "v", "input_hash": "x", "computed_at": "now"}
     with open_catalog(db, write=True) as cat:  # a one-mesh row of another pattern: the sweep makes a mix
         cat.write_rows([other])
-    res = run_cli("sweep", "--sample", "1", "--seed", "0", "--db", str(db), "--workers", "1", "--extrapolate")
-    assert res.returncode == 0, res.stderr
+    res = invoke("sweep", "--sample", "1", "--seed", "0", "--db", str(db), "--workers", "1", "--extrapolate")
+    assert res.exit_code == 0, res.stderr
     assert "3 extrapolated and 1 one-mesh energies" in res.stderr and res.stderr.count("warning") == 1
     with open_catalog(db, write=True) as cat:
         cat.conn.execute("DELETE FROM results WHERE id = '0xffff'")
@@ -252,8 +258,8 @@ def test_extrapolated_sweep_stores_richardson_energy_and_switching_recomputes(tm
     pid = ids.pop()
     fp = fillet_pattern(get_pattern(pid, 6, 2, 36.0), 0.2)
     (_, coarse), (_, fine) = nested_meshes(fp.outline, 2.5, 6, 36.0)
-    e2, e1 = (run_scenario(m, "cylinder", sides=6).energy for m in (coarse, fine))
     run1 = run_scenario(fine, "cylinder", sides=6)
+    e2, e1 = run_scenario(coarse, "cylinder", sides=6).energy, run1.energy
     e15 = run_scenario(mesh_outline(fp.outline, 1.5, 6, 36.0), "cylinder", sides=6).energy
     converged = e1 + (e1 - e2) / (2.0**1.2 - 1.0)
     with open_catalog(db) as cat:
@@ -262,12 +268,12 @@ def test_extrapolated_sweep_stores_richardson_energy_and_switching_recomputes(tm
     assert row["energy"] == pytest.approx(converged, rel=1e-7)
     assert row["energy"] > e1 > e2  # the energy rises towards the converged value (docs/accuracy.md)
     assert row["nodes"] == run1.nodes and row["iterations"] == run1.iterations
-    res = run_cli("sweep", "--sample", "1", "--seed", "0", "--db", str(db), "--workers", "1", "--no-extrapolate")
+    res = invoke("sweep", "--sample", "1", "--seed", "0", "--db", str(db), "--workers", "1", "--no-extrapolate")
     assert "3 pattern-scenarios computed" in res.stdout and "warning" not in res.stderr, res.stdout
     with open_catalog(db) as cat:
         row = next(r for r in cat.results(scenario="cylinder"))
     assert row["h"] == 1.5 and row["h_fine"] is None and row["energy"] == pytest.approx(e15, rel=1e-7)
-    res = run_cli("sweep", "--sample", "1", "--seed", "0", "--db", str(db), "--workers", "1")
+    res = invoke("sweep", "--sample", "1", "--seed", "0", "--db", str(db), "--workers", "1")
     assert "3 pattern-scenarios computed" in res.stdout, res.stdout
     with open_catalog(db) as cat:
         row = next(r for r in cat.results(scenario="cylinder"))
@@ -330,12 +336,15 @@ def test_sweep_setup_refuses_bad_values_before_any_row(bad: dict[str, object]) -
         SweepSetup(**bad)  # type: ignore[arg-type]
 
 
-def test_extrapolated_sweep_meshes_a_narrow_pattern_finer_and_says_so(tmp_path: Path) -> None:
+@pytest.mark.slow
+def test_extrapolated_sweep_meshes_a_narrow_pattern_finer_and_says_so(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Triangle patterns are narrower than 1 mm: the default 2.5 mm coarse mesh would not resolve them, so
     each is meshed at the coarsest h that does (1.1 × min_width, rounded down) and the rows say which."""
+    monkeypatch.setenv("FABPAT_CACHE", "off")  # in this process (--workers 1 runs inline), as run_cli would
     db = tmp_path / "t.sqlite"
-    res = run_cli("sweep", "--sides", "3", "--sample", "1", "--seed", "0", "--db", str(db), "--workers", "1")
-    assert res.returncode == 0 and "(0 did not converge)" in res.stdout, res.stdout + res.stderr
+    res = invoke("sweep", "--sides", "3", "--sample", "1", "--seed", "0", "--db", str(db), "--workers", "1")
+    assert res.exit_code == 0 and "(0 did not converge)" in res.stdout, res.stdout + res.stderr
     with open_catalog(db) as cat:
         rows, pats = cat.results(), {p["id"]: p for p in cat.pattern_rows()}
     assert len(rows) == 3 and all(r["converged"] for r in rows)
