@@ -28,7 +28,7 @@ def parse(data: dict, **kw: object):  # type: ignore[no-untyped-def, type-arg]
 
 
 @pytest.fixture(scope="module")
-def strip_sim():  # type: ignore[no-untyped-def]
+def strip_run():  # type: ignore[no-untyped-def]
     """STRIP (no [sheet]) simulated at h = 6 mm, once for the tests that read a finished simulation."""
     from fabpat.assembly.simulation import simulate_assembly
 
@@ -88,9 +88,9 @@ def test_one_problem_stays_one_line() -> None:
 # -- [sheet] is the kit's --------------------------------------------------------------------------------
 
 
-def test_a_simulation_needs_no_sheet(strip_sim, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
-    assert parse(STRIP).sheet is None  # strip_sim's spec: simulated without a sheet
-    assert strip_sim.fields()["plates"] == 3
+def test_a_simulation_needs_no_sheet(strip_run, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    assert parse(STRIP).sheet is None  # strip_run's spec: simulated without a sheet
+    assert strip_run.fields()["plates"] == 3
     with pytest.raises(SpecError, match=r"missing table \[sheet\]"):
         parse(STRIP, need_sheet=True)
     path = tmp_path / "nosheet.toml"
@@ -205,7 +205,7 @@ def test_memory_is_estimated_before_meshing(monkeypatch: pytest.MonkeyPatch) -> 
 # -- library calls with the wrong types -----------------------------------------------------------------------
 
 
-def test_library_calls_raise_one_line_errors(strip_sim, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+def test_library_calls_raise_one_line_errors(strip_run, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
     from fabpat.assembly.build import assemble
     from fabpat.assembly.spec import load_spec, parse_spec
 
@@ -218,7 +218,7 @@ def test_library_calls_raise_one_line_errors(strip_sim, tmp_path: Path) -> None:
     with pytest.raises(SpecError, match="progress must be a callable"):
         assemble(SMALL, tmp_path / "kit", progress=5)  # type: ignore[arg-type]
     assert not (tmp_path / "kit").exists()
-    sim = strip_sim
+    sim = strip_run
     folder = tmp_path / "a_folder"
     folder.mkdir()
     for write in (sim.to_png, sim.to_vtu):
@@ -232,8 +232,8 @@ def test_library_calls_raise_one_line_errors(strip_sim, tmp_path: Path) -> None:
 # -- reprs ----------------------------------------------------------------------------------------------------
 
 
-def test_a_simulation_reprs_in_one_short_line(strip_sim) -> None:  # type: ignore[no-untyped-def]
-    sim = strip_sim
+def test_a_simulation_reprs_in_one_short_line(strip_run) -> None:  # type: ignore[no-untyped-def]
+    sim = strip_run
     text = repr(sim)
     assert "\n" not in text and len(text) < 300, text  # was 104 KB
     f = sim.fields()

@@ -46,8 +46,23 @@ def _cantilever_loads(V: np.ndarray, N: int, clamp: np.ndarray, tip: np.ndarray)
     return fixed, loads
 
 
-def test_sleeve_joint_agrees_with_welding_and_the_old_strip_model() -> None:
-    from fabpat.assembly.strip_sim import strip_model
+def _welded(model):  # noqa: ANN001, ANN202
+    """The model's plate meshes (flat, z = 0) with coincident nodes merged: a weld over the shared
+    interface segment, the joint a sleeve's full restraint approximates. (V (n, 2), F (m, 3))."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    pairs = cKDTree(model.X[:, :2]).query_pairs(1e-6, output_type="ndarray")  # mm: the same point
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(model.X),) * 2)
+    _, label = connected_components(graph, directed=False)
+    first = np.sort(np.unique(label, return_index=True)[1])
+    new = np.empty(len(first), dtype=np.int64)
+    new[label[first]] = np.arange(len(first))
+    return model.X[first, :2], new[label][model.F]
+
+
+def test_sleeve_joint_agrees_with_welding() -> None:
     from fabpat.shell import ShellProblem, solve_nonlinear
 
     model, (pa, ca), (pb, cb) = _two_plates()
@@ -61,19 +76,19 @@ def test_sleeve_joint_agrees_with_welding_and_the_old_strip_model() -> None:
     assert np.abs(np.linalg.norm(x[:, None] - x[None], axis=-1) - d0).max() < 1e-9
     assert sleeve.final.displacement[:, 2].max() > 5.0  # a large-deflection check, mm
 
-    # the same two meshes welded on the segment (the old strip model merges their coincident nodes)
-    old = strip_model(honeycomb_strip(1, 2), [PATTERN] * 2, h=H)
-    V3 = np.column_stack([old.V, np.zeros(len(old.V))])
+    # the same two meshes welded on the segment (their coincident nodes merged)
+    V2, F2 = _welded(model)
+    V3 = np.column_stack([V2, np.zeros(len(V2))])
     near = lambda P: np.unique(np.argmin(np.linalg.norm(V3[:, None] - P[None], axis=-1), axis=0))  # noqa: E731
     clamp, tip = near(model.X[model.nodes(pa, ca)]), near(model.X[model.nodes(pb, cb)])
-    fixed_w, loads_w = _cantilever_loads(old.V, len(old.V), clamp, np.sort(tip))
+    fixed_w, loads_w = _cantilever_loads(V2, len(V2), clamp, np.sort(tip))
     loads_w[:, 2] = 0.0
     loads_w[tip, 2] = loads[model.nodes(pb, cb), 2]  # same nodes, same shares
-    welded = solve_nonlinear(ShellProblem(old.V, old.F, old.material, fixed_w, loads_w))
-    linked_weld = solve_path(LinkedProblem(V3, old.F, old.material, np.zeros((0, 3)), [], [], np.zeros((0, 3)),
+    welded = solve_nonlinear(ShellProblem(V2, F2, model.material, fixed_w, loads_w))
+    linked_weld = solve_path(LinkedProblem(V3, F2, model.material, np.zeros((0, 3)), [], [], np.zeros((0, 3)),
                                            fixed_w, np.zeros_like(loads_w), loads_w), steps=1)
     slot_b = model.sleeves[0].slots[1]
-    assert len(old.V) == len(model.X) - model.nodes(*slot_b).size  # only the shared segment was merged
+    assert len(V2) == len(model.X) - model.nodes(*slot_b).size  # only the shared segment was merged
     assert linked_weld.final.energy == pytest.approx(welded.energy, rel=1e-6)  # two solvers, one weld
     assert sleeve.final.energy == pytest.approx(welded.energy, rel=0.01)
 
@@ -151,8 +166,8 @@ def test_cli_simulate_assembly_fields_files_and_bad_input(tmp_path) -> None:  # 
     assert not out.exists() and not list(tmp_path.glob("*.tmp*"))
 
 
-# The stiffest pattern of the built-in catalog in the Cylinder scenario and one about 4× softer (as in
-# test_assembly_strip_sim); strips of 1 × 4 tiles at a coarse mesh keep the paths quick.
+# The stiffest pattern of the built-in catalog in the Cylinder scenario (9.0 N·mm) and one about 4×
+# softer (35.7 N·mm); strips of 1 × 4 tiles at a coarse mesh keep the paths quick.
 STIFF, SOFT = "0xff88", "0x6808"
 STRIP_H = 5.0
 

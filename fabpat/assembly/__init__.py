@@ -16,8 +16,7 @@ Every module of the package, by job (heavy libraries are imported inside the fun
   ``simulate`` (the strip pushed into its arch); ``closure`` (the sphere closed by its sleeves);
   ``simulation`` (``simulate_assembly``, the front door for every kind); ``result`` (what it returns,
   ``AssemblySimulation``, and the one record of its fields that the CLI and a kit's prediction print);
-  ``sizing`` (the mesh and memory an assembly's solve would take, checked before meshing); ``strip_sim`` (the older
-  load-controlled strip model, sub-buckling, kept as a library function); ``predict`` (the kit's
+  ``sizing`` (the mesh and memory an assembly's solve would take, checked before meshing); ``predict`` (the kit's
   prediction) and ``preview`` (the predicted bent shape as GLB, PNG and mesh).
 * **The kit** — ``build`` (``assemble``: a spec in, a folder out) and ``kit_result`` (what it returns, the
   plates' fabrication checks); ``kit_files`` (every output written);

@@ -51,7 +51,8 @@ END_SHORTENING = 0.1
 #: total upward imperfection force (N) of the end-shortening path (see module doc)
 IMPERFECTION = 1e-2
 #: Newton tolerance relative to the reaction norm: the pin forces are a fraction of a newton while
-#: the element forces that cancel to them are thousands of times larger (as in strip_sim)
+#: the element forces that cancel to them are thousands of times larger, and their rounding would
+#: otherwise sit at a 1e-8 tolerance
 STRIP_RTOL = 1e-6
 PROFILE_BINS = 60
 #: first increment, as a fraction of the path: the shipped 2 × 15 strip buckles at about 0.01 %

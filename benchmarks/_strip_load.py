@@ -1,7 +1,11 @@
-"""A whole flat strip under horizontal compression, in the built-in shell solver (beyond paper §5).
+"""The load-controlled strip model of ``study_graded_strip.py``: a study, not part of fabpat's API.
 
 The paper shows by printing that a graded strip, pinned at both ends and pushed together, bends
-asymmetrically with its stiff end flatter. This module runs that experiment in the solver.
+asymmetrically with its stiff end flatter. fabpat's assembly solver does that past buckling, plates
+joined by sleeves under end shortening (``fabpat.assembly.simulate``, ``fabpat simulate-assembly``). This
+older model welds the tiles and stays below buckling under a controlled load; the study keeps it because
+its amplification reading (Southwell) estimates the buckling load, which the displacement-controlled
+solver does not report.
 
 Model (the decisions, in one place):
 
