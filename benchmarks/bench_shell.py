@@ -28,7 +28,7 @@ import numpy as np
 from fabpat.exchange.inp import read_ccx_energy, write_inp
 from fabpat.lattice import polygon_vertices
 from fabpat.mesh import ShellMesh, interface_segments, mesh_outline, mesh_polygons, solid_polygon_mesh
-from fabpat.scenarios import SCENARIOS, run_scenario
+from fabpat.scenarios import SCENARIOS, build_problem, run_scenario
 
 PATTERNS = ("0x2d88", "0x0488")
 
@@ -102,10 +102,10 @@ def main(argv: list[str]) -> None:
                     s, e = ccx_seconds(mesh, sc, nonlinear=(sc == "cantilever"))
                     row += f" {s:.1f} | {e:.4f} |"
                 if use_kratos:
-                    from fabpat.shell.kratos import kratos_scenario
+                    from fabpat.shell.kratos import solve_kratos
 
                     t = time.perf_counter()
-                    e = kratos_scenario(mesh, sc, sides=6)
+                    e = solve_kratos(build_problem(mesh, sc, sides=6), steps=20).energy
                     row += f" {time.perf_counter() - t:.1f} | {e:.4f} |"
                 print(row, flush=True)
     print(f"\ntotal {total:.2f} s")

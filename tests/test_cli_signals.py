@@ -68,7 +68,7 @@ def test_an_ignored_sigterm_stays_ignored() -> None:
 
 
 def test_interrupt_status_names_the_signal(monkeypatch) -> None:  # noqa: ANN001
-    import fabpat.__main__ as entry
+    import fabpat.interrupts as entry
     from fabpat.cli import interrupt_status
 
     monkeypatch.setattr(entry, "TERMINATED", entry.TERMINATED)

@@ -16,9 +16,10 @@ from typing import Any
 import click
 
 from fabpat import __version__
-from fabpat.__main__ import TERMINATED as _TERMINATED  # one list with the entry point's SIGTERM handler
-from fabpat.__main__ import on_sigterm as _on_sigterm
 from fabpat.errors import FabpatError
+from fabpat.interrupts import TERMINATED as _TERMINATED  # one list with the entry point's SIGTERM handler
+from fabpat.interrupts import interrupt_status
+from fabpat.interrupts import on_sigterm as _on_sigterm
 
 #: deprecation notices of the running command (:func:`deprecated`), said once it has run
 _NOTICES: list[str] = []
@@ -29,15 +30,6 @@ def deprecated(old: str, new: str) -> None:
     if it fails, the error line alone is printed, ending with the notice (one line, as every error)."""
     _NOTICES.append(f"{old} is deprecated and will be removed in the next release: use {new} "
                     "(same options and output)")
-
-
-def interrupt_status() -> tuple[str, int]:
-    """What ended the command and its exit code: ``("terminated", 143)`` after SIGTERM (128 + 15),
-    ``("interrupted", 130)`` after Ctrl-C (128 + SIGINT). For commands that report an interruption
-    themselves (``fabpat sweep`` says where its results are) and return the code."""
-    if _TERMINATED:
-        return "terminated", 128 + _TERMINATED[0]
-    return "interrupted", 130
 
 
 @contextlib.contextmanager
@@ -182,7 +174,7 @@ class FabpatGroup(click.Group):
 
 def _interrupted() -> None:
     """One line and 128 + the signal: 130 for Ctrl-C (SIGINT), 143 for SIGTERM (:func:`interrupt_status`)."""
-    from fabpat.__main__ import forget_interrupt
+    from fabpat.interrupts import forget_interrupt
 
     forget_interrupt()
     word, code = interrupt_status()

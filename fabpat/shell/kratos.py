@@ -159,11 +159,3 @@ def solve_kratos(p: ShellProblem, *, steps: int = 20, element: str = THICK, rtol
     work = float(np.sum(p.loads[:, :3] * (hist_u[-1] - int_u)) + np.sum(p.loads[:, 3:] * (hist_r[-1] - int_r)))
     return KratosResult(work, hist_u[-1], hist_r[-1], steps)
 
-
-def kratos_scenario(mesh: object, scenario: str, *, sides: int, steps: int = 20, element: str = THICK,
-                    **material: float) -> float:
-    """Strain energy (N·mm) of a fabpat scenario (``fabpat.scenarios.build_problem``) by Kratos."""
-    from fabpat.scenarios import build_problem
-
-    p = build_problem(mesh, scenario, sides=sides, **material)  # type: ignore[arg-type]
-    return solve_kratos(p, steps=steps, element=element).energy
