@@ -276,9 +276,6 @@ def library_families(catalog: Path | None, rows: list[dict]) -> None:
               f"{100 * reachable(lib, lo, hi):.1f} % | {100 * reachable_with_family(lib, spans, lo, hi):.1f} % |")
 
 
-if __name__ == "__main__":
-    main()
-
 
 def rule_mismatch(catalog: Path | None) -> None:
     """Table 6: how far the rules' patterns are from their targets, discrete and with members."""
@@ -313,3 +310,7 @@ def rule_mismatch(catalog: Path | None) -> None:
         ratio_after, who = hc.energy(w) / pd[pid], f"hexagon {hid} at {w:.3g}"
     print(f"\nsimilar-energy rule (Dome): {hid} / {pid}, energy ratio {hd[hid] / pd[pid]:.4f}; with members "
           f"({who}) {ratio_after:.4f}")
+
+
+if __name__ == "__main__":
+    main()
