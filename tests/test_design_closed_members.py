@@ -1,4 +1,4 @@
-"""Family members as closed-tiling design candidates (the strip's way: fabpat.members): the pools, a
+"""Family members as closed-tiling design candidates (the strip's way: fabpat.assembly.members): the pools, a
 target only a member reaches, the note for a polygon without family rows, and the written spec. The
 closure is replaced by a synthetic one (no solve): each plate's within-face error is set by the pattern
 and member it is given, zero only for the hexagon member 0x0508 b0.4 and the pentagon 0x0588."""

@@ -1,5 +1,5 @@
 """rule = "roundest" with bridge_weight = "rule": the catalog's swept family members join the candidate
-pairs (fabpat.members, as in fabpat design), a pair is always two patterns, a polygon without family rows
+pairs (fabpat.assembly.members, as in fabpat design), a pair is always two patterns, a polygon without family rows
 is named, and the closure is given the member itself. No solve: the closure is replaced where it is used."""
 
 from __future__ import annotations

@@ -7,7 +7,8 @@ Every module of the package, by job (heavy libraries are imported inside the fun
   data), ``spec_patterns`` (its ``[patterns]`` table) and ``spec_tables`` (reading its file and tables);
   ``tiling`` (skeleton surfaces); ``mesh_tiling`` (a polygon-mesh file read and checked as a tiling) and
   ``ply`` (its PLY reader); ``polyhedra`` (Goldberg polyhedra, hexagon tubes and caps); ``choice`` (one
-  pattern per face, by the spec's ``[patterns]``); ``rules`` (stiffness-based pattern choice);
+  pattern per face, by the spec's ``[patterns]``); ``members`` (family members as candidates); ``rules``
+  (stiffness-based pattern choice);
   ``provenance`` (where each chosen pattern and its catalog energies come from).
 * **Where the parts go** — ``placement`` (plates and sleeves in 3D); ``sleeve`` (the connector B-rep);
   ``parts`` (distinct solids and meshes, built once); ``checks`` (counts, midpoints, interference);

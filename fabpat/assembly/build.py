@@ -328,11 +328,11 @@ def _roundest(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | 
               predict: bool, h: float, force: bool, progress: Callable[[float], None] | None
               ) -> tuple[AssemblySpec, list[str], tuple[Any, float], list[dict[str, Any]], list[str]]:
     """``rule = "roundest"``: the candidates' closures (:func:`fabpat.assembly.predict.choose_roundest`);
-    returns the spec with the chosen pair's members (:func:`fabpat.members.with_candidates`), the chosen
+    returns the spec with the chosen pair's members (:func:`fabpat.assembly.members.with_candidates`), the chosen
     face IDs, (its ClosureRun, seconds), the pairs tried, and the check lines: the pair kept and what the
     candidates lacked (a polygon without family rows)."""
+    from fabpat.assembly.members import with_candidates
     from fabpat.assembly.predict import choose_roundest
-    from fabpat.members import with_candidates
 
     src = spec.source
     if not bends(spec):

@@ -1,6 +1,6 @@
 """Choosing a kit's patterns: one pattern ID (and family member) per face of the tiling, by the spec's
 ``[patterns]`` table — named patterns, groups, per-tile tables, or a rule over the catalog's energies
-(:mod:`fabpat.assembly.rules`; family members through :mod:`fabpat.members`).
+(:mod:`fabpat.assembly.rules`; family members through :mod:`fabpat.assembly.members`).
 
 Both front doors use it — the kit (:func:`fabpat.assembly.build.assemble`) and the solver
 (:func:`fabpat.assembly.simulation.simulate_assembly`) — as do panels and inverse design, so the choice
@@ -51,7 +51,7 @@ def candidate_pairs(spec: AssemblySpec, energies: Callable[[int], dict[str, floa
     """``rule = "roundest"``: the ``patterns.candidates`` (hexagon, pentagon) pairs of similar energy to try,
     best first (:func:`fabpat.assembly.rules.similar_pairs`). With ``bridge_weight = "rule"`` each polygon's
     pool also holds the catalog's swept family members of its patterns (:func:`_with_members`), and a pair's
-    entries are candidate names (``"0x0488 b0.63"``, :func:`fabpat.members.with_candidates`); a polygon the
+    entries are candidate names (``"0x0488 b0.63"``, :func:`fabpat.assembly.members.with_candidates`); a polygon the
     catalog has no family rows for keeps its paper's members and appends a line to ``notes``. Raises
     :class:`SpecError`."""
     from fabpat.assembly import rules
@@ -72,9 +72,9 @@ def candidate_pairs(spec: AssemblySpec, energies: Callable[[int], dict[str, floa
 def _with_members(spec: AssemblySpec, sides: int, pool: dict[str, float], notes: list[str] | None
                   ) -> dict[str, float]:
     """``pool`` ({ID: energy N·mm} of the spec's scenario on ``sides``-gons) and the converged swept family
-    members of its patterns (:func:`fabpat.members.member_rows` at the spec's plate set-up, else the default
+    members of its patterns (:func:`fabpat.assembly.members.member_rows` at the spec's plate set-up, else the default
     one, as the energies; the same candidates as ``fabpat design``'s)."""
-    from fabpat.members import member_energies, member_rows
+    from fabpat.assembly.members import member_energies, member_rows
 
     pl, p = spec.plates, spec.patterns
     try:

@@ -143,7 +143,7 @@ def choose_roundest(spec: AssemblySpec, pairs: list[tuple[str, str]], faces: lis
     roundest (smallest ``sphericity_rms``) whose plates all stay under ``material.strain_limit``.
 
     A pair's entries are pattern IDs or family members' names (``"0x0488 b0.63"``: the plate is that member,
-    :func:`fabpat.members.with_candidates`). ``faces`` are the tiling's polygon sizes (face order);
+    :func:`fabpat.assembly.members.with_candidates`). ``faces`` are the tiling's polygon sizes (face order);
     ``fits(spec, ids)`` (the spec with the pair's members, the face pattern IDs) raises a FabpatError when a
     pair cannot be built (e.g. a neck wider than its slot): that pair is reported and skipped, as is a pair
     whose closure fails. ``progress(f)``, f from 0 to 1 over all pairs. Returns (the chosen face names, its
@@ -153,7 +153,7 @@ def choose_roundest(spec: AssemblySpec, pairs: list[tuple[str, str]], faces: lis
     with ``force`` keeps the roundest of all; with no pair that closes it raises ExportError naming the
     first failure.
     """
-    from fabpat.members import with_candidates
+    from fabpat.assembly.members import with_candidates
 
     tried: list[dict] = []
     runs: list[tuple[list[str], Any, float, dict]] = []

@@ -14,7 +14,7 @@ dictionaries.
 * :func:`similar_pairs` — the ``count`` best such pairs, :func:`similar_pair`'s first, for
   ``rule = "roundest"`` (the closure solver keeps the roundest one under the strain limit). With
   ``bridge_weight = "rule"`` its pools also hold the catalog's swept family members, named ``"ID bW"``
-  (:mod:`fabpat.members`); a pair is always two different patterns, whatever their members.
+  (:mod:`fabpat.assembly.members`); a pair is always two different patterns, whatever their members.
 * :func:`graded_targets` and :func:`nearest_member` — with ``bridge_weight = "rule"`` the rules also
   choose each pattern's family member (:mod:`fabpat.variation`) that hits its target energy, from the
   pattern's family curve (anything with ``range``, ``energy(w)`` and ``members_for(E)``, such as
@@ -29,8 +29,8 @@ from typing import Any
 
 import numpy as np
 
+from fabpat.assembly.members import pattern_of
 from fabpat.errors import SpecError
-from fabpat.members import pattern_of
 
 TRIM = 0.05  # fraction of the catalog ignored at each end: extreme energies are near-mechanisms or outliers
 MIN_SEPARATION = 1.25  # smallest energy ratio between consecutive graded patterns called "well separated"
@@ -166,7 +166,7 @@ def similar_pair(hexagon: Mapping[str, float], pentagon: Mapping[str, float],
     """(hexagon ID, pentagon ID): two different patterns with similar energy, each on its own polygon.
 
     ``hexagon``: {ID: energy (N·mm)} of the hexagon plates, ``pentagon``: of the pentagon plates (the
-    same scenario and set-up; a key may be a family member's name ``"ID bW"``, :mod:`fabpat.members`). The
+    same scenario and set-up; a key may be a family member's name ``"ID bW"``, :mod:`fabpat.assembly.members`). The
     hexagon pattern is the one nearest the ``quantile`` of the hexagon log-energies (the median: a
     typical stiffness, away from outliers); the pentagon pattern is the other pattern's entry whose
     *pentagon* energy is nearest its hexagon energy (never a member of the hexagon's own pattern). Ties

@@ -118,9 +118,9 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
     if closed and spec.patterns.rule == "roundest":
         # the pair the kit would build: each candidate closed, the roundest kept (under the strain limit if any is)
         from fabpat.assembly.choice import candidate_pairs
+        from fabpat.assembly.members import with_candidates
         from fabpat.assembly.placement import build_tiling
         from fabpat.assembly.predict import choose_roundest
-        from fabpat.members import with_candidates
 
         pairs = candidate_pairs(spec)  # with bridge_weight = "rule" also the family members (names "ID bW")
         faces = [len(f) for f in build_tiling(spec).faces]

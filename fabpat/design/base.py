@@ -8,7 +8,7 @@
 * ``max_distinct``: the largest number of distinct patterns in the design (each is one more part type).
 * ``variations``: ``true`` (default) or ``false``: whether the candidates include the family members
   (:mod:`fabpat.variation`) the catalog's ``family`` table holds (``fabpat sweep --family``), a strip's
-  and a closed tiling's alike (:mod:`fabpat.members`).
+  and a closed tiling's alike (:mod:`fabpat.assembly.members`).
 
 Candidates of a strip are the hexagon patterns with a converged Cylinder energy in the catalog
 (``catalog`` key or the built-in one), at the base's plate set-up when the catalog has it, else at the
@@ -17,12 +17,12 @@ are, per polygon of its faces, the catalog rows of that polygon with all three e
 (:func:`closed_rows`), narrowed alike.
 
 A candidate that is a family member is written ``"ID bW"`` (``"0x0488 b0.63"``: pattern 0x0488 at
-``bridge_weight`` 0.63, as the kit labels it; :func:`fabpat.members.member_token`, :func:`~fabpat.members.
-split_member`): the swept members themselves, whose energies are solves, not interpolations. A closed
-tiling's member is a row like its pattern's (:func:`fabpat.members.member_rows`); a polygon the catalog
-has no family rows for keeps the paper's members, and :attr:`DesignBase.notes` says so (design.json
-``notes``). design.toml gives such a plate its pattern in ``tiles`` and its member in ``[patterns]
-bridge_weight``.
+``bridge_weight`` 0.63, as the kit labels it; :func:`fabpat.assembly.members.member_token`,
+:func:`~fabpat.assembly.members.split_member`): the swept members themselves, whose energies are solves,
+not interpolations. A closed tiling's member is a row like its pattern's
+(:func:`fabpat.assembly.members.member_rows`); a polygon the catalog has no family rows for keeps the
+paper's members, and :attr:`DesignBase.notes` says so (design.json ``notes``). design.toml gives such a
+plate its pattern in ``tiles`` and its member in ``[patterns] bridge_weight``.
 
 A base that names its patterns (``pattern``, ``hexagon`` + ``pentagon``, ``groups``, ``tiles``) or a
 ``rule`` gives the design a baseline, ``spec`` or ``rule`` in design.json, solved with the rest.
@@ -36,9 +36,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from fabpat.assembly.members import member_energies, member_rows, member_token, split_member
 from fabpat.assembly.spec import AssemblySpec, parse_spec
 from fabpat.errors import FabpatError, SpecError
-from fabpat.members import member_energies, member_rows, member_token, split_member
 
 __all__ = ["DesignBase", "load_base", "closed_rows", "candidates", "base_faces", "member_token", "split_member"]
 
@@ -136,7 +136,7 @@ def closed_rows(spec: AssemblySpec, source: str, catalog: str | None, keys: dict
                 notes: list[str] | None = None) -> dict[int, list[dict[str, Any]]]:
     """{polygon sides: catalog rows} of a closed tiling's candidates (module doc), at the base's plate
     set-up when the catalog has it, with the family members of its patterns unless ``variations = false``
-    (:func:`fabpat.members.member_rows`, all three energies converged); SpecError (one line) if a polygon
+    (:func:`fabpat.assembly.members.member_rows`, all three energies converged); SpecError (one line) if a polygon
     has none left. A polygon without family rows in the catalog appends a line to ``notes``."""
     from fabpat import catalog as cat
     from fabpat.assembly.placement import build_tiling
@@ -229,7 +229,7 @@ def candidates(spec: AssemblySpec, source: str, catalog: str | None, keys: dict[
 def _member_candidates(spec: AssemblySpec, catalog: str | None, energies: dict[str, float],
                        min_width: float) -> dict[str, float]:
     """{member name: Cylinder energy} of the catalog's converged family rows of the candidate patterns
-    (:func:`fabpat.members.member_rows`: at the base's set-up, else the default one), each member's own
+    (:func:`fabpat.assembly.members.member_rows`: at the base's set-up, else the default one), each member's own
     min_width at least ``min_width``."""
     rows, _ = _members(spec, catalog, 6, energies, min_width)
     return member_energies(rows, SCENARIO)
@@ -237,7 +237,7 @@ def _member_candidates(spec: AssemblySpec, catalog: str | None, energies: dict[s
 
 def _members(spec: AssemblySpec, catalog: str | None, sides: int, ids: Any,
              min_width: float) -> tuple[list[dict[str, Any]], str | None]:
-    """:func:`fabpat.members.member_rows` of the candidate patterns ``ids`` at the base's plate set-up;
+    """:func:`fabpat.assembly.members.member_rows` of the candidate patterns ``ids`` at the base's plate set-up;
     SpecError (one line) for a catalog that cannot be read."""
     pl = spec.plates
     try:

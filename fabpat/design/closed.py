@@ -5,7 +5,7 @@ pentagons) and, for a target that is not round, by latitude band about the desig
 polyhedron's 5-fold axis through face P01's centre: :data:`fabpat.design.target.BANDS` bands of equal
 height in cos θ), so that an ellipsoid's poles and equator can differ. Every face of a group takes one
 pattern from its polygon's catalog, or one of their family members the catalog holds (a candidate like
-any other, named ``"ID bW"``: :mod:`fabpat.members`, unless ``variations = false``); with
+any other, named ``"ID bW"``: :mod:`fabpat.assembly.members`, unless ``variations = false``); with
 ``max_distinct`` K the groups share at most K patterns (a member counts as its own).
 
 **No reduced model.** Unlike a strip (an elastica), the closed shape depends on how each pattern bends
@@ -55,7 +55,7 @@ WARM_START = True
 def pattern_features(rows: list[dict[str, Any]]) -> tuple[list[str], Arr]:
     """IDs and (n, 5) standardised features of catalog rows: log Dome, Cylinder and Cantilever energies,
     filleted area ratio, log min width (the rows' columns of :func:`fabpat.catalog.catalog`; a family
-    member's row, :func:`fabpat.members.member_rows`, has the same columns)."""
+    member's row, :func:`fabpat.assembly.members.member_rows`, has the same columns)."""
     keep = [r for r in rows if all(r.get(f"converged_{s}") for s in ("dome", "cylinder", "cantilever"))
             and r.get("min_width")]
     ids = [str(r["id"]) for r in keep]
@@ -90,7 +90,7 @@ def face_groups(V: Arr, faces: tuple[tuple[int, ...], ...], bands: int) -> tuple
 def solve_closed(spec: Any, patterns: tuple[str, ...], h: float,
                  start: tuple[Arr, Arr, Arr, Arr] | None = None) -> dict[str, Any]:
     """One full closure (the ``simulate-assembly`` path of a closed spec) with face patterns ``patterns``
-    (candidate names: a family member is ``"ID bW"``, :func:`fabpat.members.with_candidates`), warm-started
+    (candidate names: a family member is ``"ID bW"``, :func:`fabpat.assembly.members.with_candidates`), warm-started
     from ``start`` = the ``state`` of an earlier solve of the same tiling if given.
     Returns plain data: ``faces`` the patterns, ``P`` (n, 3) the deformed plate nodes (mm),
     ``peak_strain``, ``seconds``, ``radius`` and ``sphericity_rms`` of the least-squares sphere,
@@ -98,8 +98,8 @@ def solve_closed(spec: Any, patterns: tuple[str, ...], h: float,
     order), ``state`` (reference nodes, offsets, displacement, rotation: a later solve's warm start),
     ``factorizations``, ``warm`` (the warm start converged). Raises SolverError, GeometryError."""
     from fabpat.assembly.closure import closure_setup, run_closure
+    from fabpat.assembly.members import with_candidates
     from fabpat.assembly.model import warm_guess
-    from fabpat.members import with_candidates
 
     t0 = time.perf_counter()
     spec, ids = with_candidates(spec, patterns)

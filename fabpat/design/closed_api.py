@@ -76,7 +76,7 @@ POLYGONS = {6: "hexagon", 5: "pentagon"}
 
 def _pool_counts(rows: list[dict[str, Any]]) -> dict[str, int]:
     """How many candidates a polygon had: ``patterns`` (the paper's members) and ``members`` (family
-    members, :mod:`fabpat.members`)."""
+    members, :mod:`fabpat.assembly.members`)."""
     members = sum(1 for r in rows if "bridge_weight" in r)
     return {"patterns": len(rows) - members, "members": members}
 

@@ -31,8 +31,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from fabpat.assembly.members import with_candidates
 from fabpat.design.strip import assign, column_errors, column_turning, curvature_update, errors
-from fabpat.members import with_candidates
 
 __all__ = ["Evaluated", "Runner", "Search", "solve_candidate", "with_candidates"]
 
@@ -45,7 +45,7 @@ FIRST_STEP = 0.25
 def solve_candidate(spec: Any, patterns: tuple[str, ...], h: float, travel: float,
                     start: tuple[Any, ...] | None = None) -> dict[str, Any]:
     """One full strip solve: the face patterns ``patterns`` (candidate names: a family member is
-    ``"ID bW"``, :func:`fabpat.members.with_candidates`), mesh edge ``h`` mm, pins moved together by
+    ``"ID bW"``, :func:`fabpat.assembly.members.with_candidates`), mesh edge ``h`` mm, pins moved together by
     ``travel`` mm, warm-started from ``start`` (the ``state`` of an earlier solve of the same strip) if
     given. Returns plain data (it crosses process boundaries): ``x``, ``z`` the mid-line (mm,
     :func:`fabpat.design.strip.midline`), ``end_shortening`` (travel over the strip length, as
