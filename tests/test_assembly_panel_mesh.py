@@ -202,7 +202,23 @@ def test_the_square_kit_is_one_watertight_part_with_one_outer_loop(square_kit: P
     for name in ("panel.dxf", "sheets/sheet-01.dxf"):
         loops = dxf_loops(square_kit / name)
         assert len(loops) == 1 + len(square_panel.outline.holes) and outer_loops(loops) == 1, name
-    assert "12 squares of flat.obj" in (square_kit / "bom.md").read_text()
+    bom = (square_kit / "bom.md").read_text()
+    assert "12 squares of flat.obj" in bom
+    # no catalog holds squares: the energies are blank, and the BOM says why above them
+    assert "| – | – | – |" in bom and "the catalog has no energies for 4-gons at depth 2" in bom
+
+
+def test_a_panel_bom_names_the_sheet_file_only_when_the_kit_writes_it(square_panel) -> None:  # noqa: ANN001
+    from fabpat.assembly.panel_bom import bom_rows
+    from fabpat.assembly.panel_sheet import nest_panel
+
+    nesting, _ = nest_panel(square_panel.spec)
+    with_dxf = bom_rows(square_panel, nesting, ["panel.stl", "panel.dxf", "sheets/sheet-01.dxf"])
+    without = bom_rows(square_panel, nesting, ["panel.stl"])
+    assert square_panel.spec.plates.process == "print"  # the part's file is its STL, the sheet is a print bed
+    assert [r.file for r in with_dxf] == ["panel.stl", "sheets/"]
+    assert [r.file for r in without] == ["panel.stl", ""]  # formats without dxf: no sheet file is claimed
+    assert without[1].count == with_dxf[1].count == 1  # the plan of the sheet is the same
 
 
 def test_a_hexagon_patch_from_a_file_is_the_rows_by_columns_panel(tmp_path: Path) -> None:

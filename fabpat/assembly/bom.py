@@ -212,11 +212,9 @@ def bom_markdown(lib: PartLibrary, rows: list[BomRow], nesting: Nesting | None, 
     return "\n".join(out)
 
 
-def _patterns_section(rows: list[BomRow], patterns: Sequence[PatternRecord]) -> list[str]:
-    """The Markdown table of the plates' patterns: how each was chosen and its catalog energies (N·mm)."""
-    plates = [r for r in rows if r.kind == "plate"]
-    if not plates:
-        return []
+def energy_source(patterns: Sequence[PatternRecord]) -> str:
+    """Where a BOM's pattern energies come from (the catalog and the plate set-up it was solved at) and, for
+    every blank energy, why (the records' notes): one phrase for the sentence above the energies' table."""
     def setup(p: PatternRecord) -> str:
         s = p.catalog_setup
         return (f"{p.catalog} catalog at edge {s['edge']:g} mm, thickness {s['thickness']:g} mm, weight "
@@ -225,9 +223,17 @@ def _patterns_section(rows: list[BomRow], patterns: Sequence[PatternRecord]) -> 
     where = "; ".join(sorted({setup(p) for p in patterns if p.catalog_setup})) or \
         "; ".join(sorted({f"{p.catalog} catalog" for p in patterns}))
     notes = sorted({f"{p.part}: {p.note}" for p in patterns if p.note})
+    return (where or "no catalog") + (f"; {'; '.join(notes)}" if notes else "")
+
+
+def _patterns_section(rows: list[BomRow], patterns: Sequence[PatternRecord]) -> list[str]:
+    """The Markdown table of the plates' patterns: how each was chosen and its catalog energies (N·mm)."""
+    plates = [r for r in rows if r.kind == "plate"]
+    if not plates:
+        return []
     out = ["## Patterns", "",
            "How each plate's pattern was chosen, and its strain energy in the paper's three scenarios (N·mm, lower = "
-           f"stiffer; {where or 'no catalog'}" + (f"; {'; '.join(notes)}" if notes else "") + ").", "",
+           f"stiffer; {energy_source(patterns)}).", "",
            "| part | pattern | chosen by | Cantilever (N·mm) | Cylinder (N·mm) | Dome (N·mm) |",
            "|---|---|---|---:|---:|---:|"]
     for r in plates:

@@ -9,7 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from fabpat.assembly.bom import BomRow, bom_csv
+from fabpat.assembly.bom import BomRow, bom_csv, energy_source
 from fabpat.assembly.panel import Panel
 
 
@@ -32,9 +32,10 @@ def bom_rows(panel: Panel, nesting: Any, files: list[str]) -> list[BomRow]:
     if nesting is not None:
         s = spec.sheet
         what = "laser sheet" if laser else "print bed"
+        # the sheet's file only when the kit wrote it (``dxf`` in output.formats); the plan is the same without
         rows.append(BomRow(f"{what} {s.width:g} × {s.height:g} mm", "sheet", spec.plates.process, nesting.n_sheets,
-                           "sheets/", s.width * s.height, None, None, None, None, None,
-                           utilisation_pct=100.0 * nesting.utilisation(0)))
+                           "sheets/" if "sheets/sheet-01.dxf" in files else "", s.width * s.height,
+                           None, None, None, None, None, utilisation_pct=100.0 * nesting.utilisation(0)))
     return rows
 
 
@@ -46,6 +47,7 @@ def bom_markdown(panel: Panel, rows: list[BomRow], checks: list[str]) -> str:
 
     spec = panel.spec
     t = spec.tiling
+    records = {r.part: r for r in pattern_records(spec, list(dict.fromkeys(panel.types)))}
     counts = {n: sum(len(f) == n for f in panel.tiling.faces) for n in sorted({len(f) for f in panel.tiling.faces})}
     tiles = (f"{t.rows} × {t.columns} hexagons" if t.file is None else
              " and ".join(f"{k} {POLYGON_KEYS[n]}s" for n, k in counts.items()) + f" of {Path(t.file).name}")
@@ -64,11 +66,12 @@ def bom_markdown(panel: Panel, rows: list[BomRow], checks: list[str]) -> str:
                    f"{num(r.total_time_min)} | {num(r.utilisation_pct)} |")
     out += ["", f"Estimates: cutting = cut length / {spec.estimates.cut_speed:g} mm/s; printing = volume / "
             f"{spec.estimates.print_rate:g} mm³/s; masses at {spec.plates.density:g} g/cm³.", "",
-            "## Tiles", "", "Each tile's label is engraved on the sheet at its polygon edge 0.", "",
+            "## Tiles", "", "Each tile's label is engraved on the sheet at its polygon edge 0; its pattern's strain "
+            f"energy in the paper's three scenarios (N·mm, lower = stiffer; {energy_source(list(records.values()))}).",
+            "",
             f"| tile | {'row | column' if t.file is None else 'face'} | pattern | chosen by | Cantilever (N·mm) | "
             "Cylinder (N·mm) | Dome (N·mm) |",
             f"|---|{'---:|---:' if t.file is None else '---:'}|---|---|---:|---:|---:|"]
-    records = {r.part: r for r in pattern_records(spec, list(dict.fromkeys(panel.types)))}
     # a strip's tile sits at its row and column; a mesh's at its face (from 1, in the file's order)
     where = ([f"{int(r)} | {int(c)}" for r, c in panel.tiling.grid] if panel.tiling.grid is not None
              else [str(f + 1) for f in range(len(panel.types))])
