@@ -443,6 +443,9 @@ def fillet_solid(
     non-manifold vertices get ``variation.bridge_weight`` (1 in the paper). Returns
     the outline and, per interface vertex, the two full bow-tie arcs whose halves the outline keeps.
     Raises :class:`GeometryError` if the boundary cannot be traced into one outer loop plus holes.
+
+    Long because it walks every vertex of the pattern once and decides its fillet in place (the paper's §3.3
+    cases in order).
     """
     interfaces = interfaces or {}
     H = _boundary_half_edges(F, len(V))

@@ -534,6 +534,10 @@ class Outline:
         and if ``tol`` is outside ``width_tolerance`` of :mod:`fabpat.validate` ([1e-5, 1] mm: finer
         makes the ray cast of min_width grow without bound, 24 GB at 1e-300 mm; coarser replaces the arcs
         by their chords).
+
+        One function, not one per check: the checks run in order on one flattening (closure and orientation,
+        simplicity, containment, G1, symmetry, width) and each adds its line to the one report; split, each
+        would re-flatten or pass the report along.
         """
         tol = check("width_tolerance", tol, "tol", error=GeometryError)
         if any(not loop.segments for loop in self.loops):

@@ -176,6 +176,9 @@ def ray_min_width(
     angles [0, 2π/n], so rays start there only - n times fewer - and still hit every edge.
 
     Returns (width, p (2,), q (2,)) with p, q the ends of the narrowest ray.
+
+    One function: the vectorised ray casting, its candidate filtering and the neck's location share the same
+    arrays; its steps are commented in order.
     """
     from scipy.spatial import cKDTree
 

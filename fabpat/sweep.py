@@ -148,6 +148,9 @@ def simulate_pattern(pattern_id: str, sides: int, depth: int, edge: float, thick
     resumed sweep does not retry them; anything else propagates (a bug: nothing is stored).
     Hashes use the solver version of the process that computes (a dask worker with other code gets
     a different hash, and a later sweep recomputes its rows).
+
+    Long because it is the sweep's one task, done in a worker process: fillet, mesh, every scenario and the
+    row, each failure turned into a stored reason.
     """
     from fabpat.convergence import converged_h, nested_meshes, run_converged
     from fabpat.fillet import fillet_pattern

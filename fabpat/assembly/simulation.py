@@ -62,6 +62,9 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
     of the path (of the end shortening, of the sleeves' turn, or over all the candidate pairs of "roundest"). Raises
     SpecError (bad spec, argument or option for this kind), GeometryError (h too coarse for the
     interfaces, or a mesh too large), SolverError (path lost, naming the load or angle fraction reached).
+
+    Long because it dispatches every kind of assembly (strip, panel, closed tilings) to its model and load
+    with one shared set of checks; each branch calls the module named for that kind.
     """
     from fabpat.assembly.choice import face_patterns
     from fabpat.assembly.placement import build_tiling

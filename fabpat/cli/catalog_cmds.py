@@ -79,6 +79,9 @@ def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, wo
     Examples:
       fabpat sweep --db catalog.sqlite --workers 2
       fabpat sweep --db catalog.sqlite --family
+
+    Long because most of it is the command's options checked and passed on; the work is
+    :func:`fabpat.sweep.run_sweep`'s.
     """
     from rich.console import Console
     from rich.progress import (

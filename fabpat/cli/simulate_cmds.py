@@ -92,6 +92,9 @@ def simulate_cmd(
     JSON rows carry every variation parameter, the text lines the ones given.
 
     Example: fabpat simulate 0x2d88 --scenario dome --vtu dome.vtu --png dome.png --json
+
+    Long because most of it is the command's options checked and passed on, and its outputs written; the work
+    is the library's.
     """
     from fabpat.convergence import ONE_MESH_H, mesh_converged, run_converged
     from fabpat.exchange.inp import write_inp

@@ -91,7 +91,11 @@ def deck_text(mesh: ShellMesh, scenario: str, *, sides: int, thickness: float = 
 
     increment: initial and largest NLGEOM time increment (fraction of the load). Raises ValueError
     for an unknown scenario or element, :class:`ExportError` if an interface is not meshed along
-    element sides or the mesh has no two nodes off the loaded interfaces."""
+    element sides or the mesh has no two nodes off the loaded interfaces.
+
+    Long because it writes the deck's keyword blocks in the order CalculiX reads them (nodes, elements, sets,
+    material, shell section, boundary, step, loads, output), each a few lines.
+    """
     if scenario not in SCENARIOS:
         raise ValueError(f"unknown scenario {scenario!r}")
     element = element.upper()

@@ -52,6 +52,9 @@ def geometric_rows(Lg: Arr, Rg: Arr, fr: dict[str, Arr], lp: dict[str, Arr], MS:
     δtrF = Σ_a p_a·(δr_a + r_a × ω), p_a = (∂N_a/∂X, ∂N_a/∂Y, 0); and f_m,a = mg_a by
     −([mg_a]× + M_a) ω + M_a δω_a. Inner index: 0–2 ω-coefficients ⟷ Ω; 3–5 W_aᵀ ⟷ ([G_b]×, −M_b);
     6–8 n δ_ac ⟷ δv_c·h; 9 −(n·h)/trF q_a ⟷ p_b.
+
+    One function: the rows are one closed-form derivation (the reference above), term by term over the
+    vectorised elements; splitting it would split the formula.
     """
     # LgS, RgS: (row, node, [x | m or ω], axis, element)
     lx, ly, trF, cn = fr["lx"].T, fr["ly"].T, fr["trF"], fr["cn"]  # (a, m) and (m,)

@@ -434,6 +434,9 @@ def solve_path(
     was dropped: on the graded strip it took 593 factorizations against 93, as a straight-line
     extrapolation of a rising arch stretches it.)
     Raises SolverError (naming the λ reached) when an increment falls below ``min_step``.
+
+    One function: the report intervals, the Newton increments (halved after a failure, doubled after
+    easy ones) and the warm start share the state of one path (module doc: path following).
     """
     if steps < 1:
         raise ValueError(f"steps must be ≥ 1, got {steps}")

@@ -156,6 +156,9 @@ def solve_nonlinear(
     after 10 iterations, or non-finite values) is halved; below ``min_step`` of the load a
     SolverError is raised. Steps double after ≤ 4 iterations. ``linear_solver``: "auto", "pardiso" or
     "superlu" (:func:`fabpat.shell.linalg.factorizer`; the results agree to the Newton tolerance).
+
+    One function: the load stepping, the Newton loop, the step cuts and the error that says what was reached
+    share the solver state; its stages are commented in order.
     """
     t0 = time.perf_counter()
     if linear_solver not in BACKENDS:
