@@ -373,7 +373,10 @@ def stamp_document(doc: Any, timestamp: str, name: str) -> None:
     ``Drawing._update_metadata`` on every save. Its only switch against that,
     ``ezdxf.options.write_fixed_meta_data_for_testing``, is global (every drawing of the process, and
     fixed to 2000-01-01), so this wraps the method of this one drawing instead: ezdxf's own update runs
-    first (the handle seed, the code page) and the stamp's values are put back after it. Raises
+    first (the handle seed, the code page) and the stamp's values are put back after it. ezdxf also adds
+    some CLASSES (those of the entity types in use) in the order of a set of strings, which changes from
+    process to process (hash randomisation): the wrapped method also sorts the CLASSES section by name
+    (its order carries no meaning; entities name their class). Raises
     :class:`ExportError` for a bad ``timestamp`` or an ezdxf without that method (nothing then could keep
     the file reproducible)."""
     import ezdxf
@@ -402,8 +405,12 @@ def stamp_document(doc: Any, timestamp: str, name: str) -> None:
         doc.ezdxf_metadata()[WRITTEN_BY_EZDXF] = marker
 
     def update_then_stamp() -> None:
-        update()
+        update()  # runs after ezdxf has added every class it will write
         stamp()
+        classes = doc.classes.classes  # {(name, C++ class name): DXFClass}, written in this order
+        ordered = sorted(classes.items(), key=lambda kv: kv[0])
+        classes.clear()
+        classes.update(ordered)
 
     stamp()
     doc.ezdxf_metadata()[CREATED_BY_EZDXF] = marker

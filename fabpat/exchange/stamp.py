@@ -10,7 +10,7 @@ they identify, so the same input gives the same identifiers in every run and dis
 from __future__ import annotations
 
 import uuid
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 
 from fabpat.exchange.step import check_timestamp
 
@@ -35,7 +35,7 @@ def utc_time(timestamp: str) -> datetime:
     """The instant of ``timestamp`` in UTC, naive; a time stamp without a zone is taken as UTC.
     Raises :class:`~fabpat.errors.ExportError` as :func:`stamp_time`."""
     t = stamp_time(timestamp)
-    return t if t.tzinfo is None else t.astimezone(timezone.utc).replace(tzinfo=None)
+    return t if t.tzinfo is None else t.astimezone(UTC).replace(tzinfo=None)
 
 
 def zip_date_time(timestamp: str) -> tuple[int, int, int, int, int, int]:
