@@ -66,6 +66,21 @@ def test_zip_dates_and_ids_follow_the_stamp() -> None:
 # --- one writer at a time, in this process ---------------------------------------------------------------
 
 
+def test_step_occurrence_ids_start_at_one(tmp_path: Path) -> None:
+    """OCCT numbers assembly occurrences per process: a second assembly written by one process got '11', …"""
+    from fabpat.exchange.step_order import renumber_occurrences
+
+    def file(first: int) -> bytes:
+        return (f"DATA;\n#5 = NEXT_ASSEMBLY_USAGE_OCCURRENCE('{first + 1}','2x','',#1,#2,$);\n"
+                f"#9 = NEXT_ASSEMBLY_USAGE_OCCURRENCE('{first}','1x','',#2,#3,$);\nENDSEC;\n").encode()
+
+    warm, fresh = tmp_path / "warm.step", tmp_path / "fresh.step"
+    warm.write_bytes(file(11))
+    fresh.write_bytes(file(1))
+    assert renumber_occurrences(warm) is True and renumber_occurrences(fresh) is False
+    assert warm.read_bytes() == fresh.read_bytes() == file(1)
+
+
 def test_3mf_with_a_timestamp_is_the_same_bytes_and_dated_by_it(tmp_path: Path) -> None:
     from fabpat.exchange.threemf import dump_3mf
 

@@ -11,6 +11,11 @@ into the same range of numbers, so nothing else in the file changes.
 It only acts when the tail of the data section is exactly such blocks, all of one length, that
 refer only inside themselves or to earlier entities, and that no earlier entity refers to; any
 other file is left as OCCT wrote it.
+
+OCCT also numbers the ``NEXT_ASSEMBLY_USAGE_OCCURRENCE`` ids (their first attribute, '1', '2', …) with a
+counter that lives as long as the process, so a second assembly written by one process got '11', '12', …
+where a fresh process writes '1', '2', …: :func:`renumber_occurrences` shifts them to start at 1 (what a
+fresh process writes), so the file does not depend on what the process wrote before.
 """
 
 from __future__ import annotations
@@ -21,6 +26,7 @@ import re
 _ENTITY = re.compile(rb"^#(\d+) = ", re.MULTILINE)
 _REF = re.compile(rb"#(\d+)")
 _HEAD = b"MECHANICAL_DESIGN_GEOMETRIC_PRESENTATION_REPRESENTATION("
+_OCCURRENCE = re.compile(rb"(NEXT_ASSEMBLY_USAGE_OCCURRENCE\(')(\d+)(')")
 
 
 def _entities(data: bytes) -> tuple[bytes, list[tuple[int, bytes]], bytes] | None:
@@ -102,6 +108,22 @@ def sort_trailing_styles(path: str | os.PathLike[str]) -> bool:
     new = b"".join(out)
     if new == data:
         return False
+    with open(path, "wb") as f:
+        f.write(new)
+    return True
+
+
+def renumber_occurrences(path: str | os.PathLike[str]) -> bool:
+    """Rewrite the STEP file ``path`` with its ``NEXT_ASSEMBLY_USAGE_OCCURRENCE`` ids shifted to start at 1
+    (see the module docstring). Returns whether the file was rewritten (not when they start at 1, or there
+    are none)."""
+    with open(path, "rb") as f:
+        data = f.read()
+    ids = [int(m[2]) for m in _OCCURRENCE.finditer(data)]
+    if not ids or min(ids) == 1:
+        return False
+    shift = min(ids) - 1
+    new = _OCCURRENCE.sub(lambda m: m[1] + b"%d" % (int(m[2]) - shift) + m[3], data)
     with open(path, "wb") as f:
         f.write(new)
     return True
