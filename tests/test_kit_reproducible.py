@@ -211,9 +211,9 @@ def test_librecad_reads_a_stamped_sheet(tmp_path: Path) -> None:
     dxf = tmp_path / "p.dxf"
     write_dxf(rounded_square(), dxf, "T1", timestamp=STAMP, name="part")
     env = {"QT_QPA_PLATFORM": "offscreen", "HOME": str(tmp_path), "PATH": "/usr/bin:/bin"}
-    r = subprocess.run([librecad, "dxf2pdf", "-o", str(tmp_path / "p.pdf"), str(dxf)], capture_output=True,
+    r = subprocess.run([librecad, "dxf2pdf", "-o", str(tmp_path), str(dxf)], capture_output=True,
                        text=True, env=env, timeout=120)
-    assert r.returncode == 0, r.stderr
+    assert r.returncode == 0 and "DONE" in r.stdout + r.stderr, r.stderr
     assert (tmp_path / "p.pdf").read_bytes().startswith(b"%PDF")
 
 
