@@ -66,6 +66,57 @@ def test_zip_dates_and_ids_follow_the_stamp() -> None:
 # --- one writer at a time, in this process ---------------------------------------------------------------
 
 
+def _coloured(parts: list[tuple[int, str]]) -> bytes:
+    """A STEP data section ending in OCCT-style colour blocks, one per (target entity, colour) in order; a
+    colour is written once, in the first block that uses it, and later blocks refer to it (as OCCT does)."""
+    lines = ["DATA;", "#1 = SHAPE_REPRESENTATION('',(#2,#3,#4),#5);", "#2 = X();", "#3 = X();", "#4 = X();",
+             "#5 = Y();"]
+    n, defined = 10, {}
+    for target, rgb in parts:
+        lines += [f"#{n} = MECHANICAL_DESIGN_GEOMETRIC_PRESENTATION_REPRESENTATION('',(#{n + 1}),#5);",
+                  f"#{n + 1} = STYLED_ITEM('color',(#{n + 2}),#{target});"]
+        if rgb in defined:
+            lines.append(f"#{n + 2} = FILL_AREA_STYLE_COLOUR('',#{defined[rgb]});")
+            n += 3
+        else:
+            defined[rgb] = n + 3
+            lines += [f"#{n + 2} = FILL_AREA_STYLE_COLOUR('',#{n + 3});", f"#{n + 3} = COLOUR_RGB('',{rgb});"]
+            n += 4
+    return ("\n".join([*lines, "ENDSEC;", ""])).encode()
+
+
+def _colour_of(data: bytes) -> dict[str, str]:
+    """target entity → its colour, following the references of the colour blocks."""
+    import re
+
+    ents = dict(re.findall(rb"(?m)^#(\d+) = (.*);$", data))
+    out = {}
+    for text in ents.values():
+        if text.startswith(b"STYLED_ITEM"):
+            style, target = re.findall(rb"#(\d+)", text)
+            colour = re.search(rb"#(\d+)", ents[style])[1]  # type: ignore[index]
+            out[target.decode()] = ents[colour].decode()
+    return out
+
+
+def test_step_colour_blocks_with_a_shared_colour_get_one_order(tmp_path: Path) -> None:
+    """OCCT writes a colour once and refers to it from later blocks (the rigid sphere's two sleeve kinds share
+    their grey), so its blocks differ in length; they are put in one order all the same."""
+    from fabpat.exchange.step_order import sort_trailing_styles
+
+    grey, red = "0.1,0.1,0.1", "0.9,0.1,0.1"
+    one, two = tmp_path / "1.step", tmp_path / "2.step"
+    one.write_bytes(_coloured([(2, grey), (3, grey), (4, red)]))
+    two.write_bytes(_coloured([(4, red), (3, grey), (2, grey)]))
+    before = _colour_of(one.read_bytes())
+    assert before == _colour_of(two.read_bytes()) and one.read_bytes() != two.read_bytes()
+    sort_trailing_styles(one)
+    sort_trailing_styles(two)
+    assert one.read_bytes() == two.read_bytes()
+    assert _colour_of(one.read_bytes()) == before  # every part keeps its colour
+    assert one.read_text().count("COLOUR_RGB") == 2  # the shared colour still written once
+
+
 def test_step_occurrence_ids_start_at_one(tmp_path: Path) -> None:
     """OCCT numbers assembly occurrences per process: a second assembly written by one process got '11', …"""
     from fabpat.exchange.step_order import renumber_occurrences
@@ -229,6 +280,10 @@ KITS = {
     "sphere": ("truncated-icosahedron.toml", False, [
         "bom.csv", "bom.md", "manifest.json", "net.svg", "parts.3dm", "parts.step", "parts/plate-hex-0x0488.stl",
         "parts/plate-pent-0x0508.stl", "parts/sleeve-S-flat.stl", "sheets/sheet-01.dxf"]),
+    "rigid-sphere": ("truncated-icosahedron-rigid.toml", False, [
+        "assembly.3dm", "assembly.glb", "assembly.png", "assembly.step", "bom.csv", "bom.md", "manifest.json",
+        "net.svg", "parts/plate-hex-0x0488.stl", "parts/plate-pent-0x0508.stl", "parts/sleeve-S-HH.stl",
+        "parts/sleeve-S-HP.stl", "sheets/sheet-01.dxf"]),
     "panel": ("panel-squares.toml", False, [
         "bom.csv", "bom.md", "manifest.json", "panel.3dm", "panel.3mf", "panel.dxf", "panel.glb", "panel.png",
         "panel.step", "panel.stl", "panel.svg", "sheets/sheet-01.dxf"]),
