@@ -69,8 +69,8 @@ def test_zip_dates_and_ids_follow_the_stamp() -> None:
 def _coloured(parts: list[tuple[int, str]]) -> bytes:
     """A STEP data section ending in OCCT-style colour blocks, one per (target entity, colour) in order; a
     colour is written once, in the first block that uses it, and later blocks refer to it (as OCCT does)."""
-    lines = ["DATA;", "#1 = SHAPE_REPRESENTATION('',(#2,#3,#4),#5);", "#2 = X();", "#3 = X();", "#4 = X();",
-             "#5 = Y();"]
+    lines = ["ISO-10303-21;", "HEADER;", "ENDSEC;", "DATA;", "#1 = SHAPE_REPRESENTATION('',(#2,#3,#4),#5);",
+             "#2 = X();", "#3 = X();", "#4 = X();", "#5 = Y();"]
     n, defined = 10, {}
     for target, rgb in parts:
         lines += [f"#{n} = MECHANICAL_DESIGN_GEOMETRIC_PRESENTATION_REPRESENTATION('',(#{n + 1}),#5);",
@@ -82,7 +82,7 @@ def _coloured(parts: list[tuple[int, str]]) -> bytes:
             defined[rgb] = n + 3
             lines += [f"#{n + 2} = FILL_AREA_STYLE_COLOUR('',#{n + 3});", f"#{n + 3} = COLOUR_RGB('',{rgb});"]
             n += 4
-    return ("\n".join([*lines, "ENDSEC;", ""])).encode()
+    return ("\n".join([*lines, "ENDSEC;", "END-ISO-10303-21;", ""])).encode()
 
 
 def _colour_of(data: bytes) -> dict[str, str]:
@@ -110,8 +110,7 @@ def test_step_colour_blocks_with_a_shared_colour_get_one_order(tmp_path: Path) -
     two.write_bytes(_coloured([(4, red), (3, grey), (2, grey)]))
     before = _colour_of(one.read_bytes())
     assert before == _colour_of(two.read_bytes()) and one.read_bytes() != two.read_bytes()
-    sort_trailing_styles(one)
-    sort_trailing_styles(two)
+    assert [sort_trailing_styles(one), sort_trailing_styles(two)] == [False, True]  # one was in order already
     assert one.read_bytes() == two.read_bytes()
     assert _colour_of(one.read_bytes()) == before  # every part keeps its colour
     assert one.read_text().count("COLOUR_RGB") == 2  # the shared colour still written once
