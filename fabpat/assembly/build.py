@@ -39,7 +39,7 @@ from typing import Any
 
 from fabpat.assembly.checks import check_assembly
 from fabpat.assembly.choice import candidate_pairs, face_patterns, with_members
-from fabpat.assembly.kit_files import PREDICTION, write_all
+from fabpat.assembly.kit_files import PREDICTION, without_durations, write_all
 from fabpat.assembly.kit_folder import GENERATOR, MANIFEST, check_out, digests, swap_in
 from fabpat.assembly.kit_result import AssembleResult, fabrication_problems
 from fabpat.assembly.placement import (
@@ -269,6 +269,8 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
         tmp = Path(tempfile.mkdtemp(prefix=temp_prefix(out.name), suffix=".part", dir=parent))
     except OSError as e:  # a read-only or immutable parent: one line naming --out
         raise write_error(out, e) from e
+    if tried is not None:  # with a time stamp, a reproducible kit: no solver durations in the manifest and BOM
+        tried = [without_durations(rec, timestamp) for rec in tried]
     try:
         files = write_all(spec, lib, nesting, net, check_lines, tmp, tell, timestamp, bent(assembly), prediction,
                           tried, records)

@@ -7,6 +7,10 @@ flat_layout`) and the GLB, PNG, ``predicted.stl`` and ``prediction.json`` show t
 (:mod:`fabpat.assembly.preview`), or are left out without a prediction. A strip's ``assembly.*`` show
 it flat, as assembled, and its prediction (the end pins pushing it together) adds ``prediction.json``,
 ``predicted.stl``, ``predicted.glb`` and ``predicted.png``.
+
+With a time stamp (``fabpat assemble --timestamp``) every file is byte-reproducible: the same spec gives the
+same bytes in every run. A measured duration is not reproducible, so then ``prediction.json`` leaves out its
+``seconds`` (how long the solver ran), as do the manifest's ``candidates`` (:func:`without_durations`).
 """
 
 from __future__ import annotations
@@ -22,6 +26,16 @@ from fabpat.assembly.provenance import PatternRecord
 from fabpat.assembly.spec import AssemblySpec
 
 PREDICTION = "prediction.json"
+#: the fields of a record that are measured durations (s), left out of a kit written with a time stamp
+DURATIONS = ("seconds",)
+
+
+def without_durations(record: dict[str, Any], timestamp: str | None) -> dict[str, Any]:
+    """``record`` as a kit file holds it: without a ``timestamp`` as it is, with one (a reproducible kit)
+    without its :data:`DURATIONS`, which differ from run to run (a copy; ``record`` is left unchanged)."""
+    if timestamp is None:
+        return record
+    return {k: v for k, v in record.items() if k not in DURATIONS}
 
 
 def write_all(spec: AssemblySpec, lib: Any, nesting: Any, net: Any, check_lines: list[str], tmp: Path,
@@ -33,6 +47,7 @@ def write_all(spec: AssemblySpec, lib: Any, nesting: Any, net: Any, check_lines:
 
     With ``bent_sleeves`` the STEP and 3DM hold the flat parts side by side (``parts.*``) and the GLB,
     PNG (and ``predicted.stl``, ``prediction.json``) show the ``prediction``, or are left out without it.
+    ``timestamp`` (ISO 8601, checked by the caller) makes every file byte-reproducible (module docstring).
     """
     from fabpat.assembly import export
 
@@ -45,7 +60,8 @@ def write_all(spec: AssemblySpec, lib: Any, nesting: Any, net: Any, check_lines:
     if prediction is not None:
         from fabpat.assembly.preview import write_predicted_stl
 
-        (tmp / PREDICTION).write_text(json.dumps(prediction.record, indent=1) + "\n", encoding="utf-8")
+        record = without_durations(prediction.record, timestamp)
+        (tmp / PREDICTION).write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
         write_predicted_stl(prediction.shape, lib, tmp / "predicted.stl", spec.mesh_tolerance)
         files += [PREDICTION, "predicted.stl"]
     if "step" in f:
@@ -78,14 +94,14 @@ def write_all(spec: AssemblySpec, lib: Any, nesting: Any, net: Any, check_lines:
         from fabpat.exchange.rhino import write_assembly
 
         name = "parts.3dm" if bent_sleeves else "assembly.3dm"
-        write_assembly(lib, tmp / name, spec.name, spec.mesh_tolerance, layout)
+        write_assembly(lib, tmp / name, spec.name, spec.mesh_tolerance, layout, timestamp=timestamp)
         files.append(name)
     if "dxf" in f:
         tell("sheets")
         from fabpat.assembly.sheets import write_sheets
 
         (tmp / "sheets").mkdir()
-        sheet_files = [f"sheets/{n}" for n in write_sheets(asm, nesting, tmp / "sheets", lib.filleted)]
+        sheet_files = [f"sheets/{n}" for n in write_sheets(asm, nesting, tmp / "sheets", lib.filleted, timestamp)]
         files += sheet_files
     if "svg" in f:
         tell("net SVG")

@@ -216,7 +216,8 @@ def panel_steps(spec: Any) -> list[str]:
 
 def write_panel_files(panel: Panel, nesting: Any, quarter: bool, report: PanelReport, tmp: Path,
                       tell: Callable[[str], None], timestamp: str | None) -> list[str]:
-    """Write the panel kit's files into ``tmp`` (see the module docstring); returns them relative to it."""
+    """Write the panel kit's files into ``tmp`` (see the module docstring); returns them relative to it. With
+    ``timestamp`` (ISO 8601, checked) every file is byte-reproducible: the same panel gives the same bytes."""
     from fabpat.exchange.registry import ExportSettings, export_parts
 
     spec = panel.spec
@@ -235,7 +236,10 @@ def write_panel_files(panel: Panel, nesting: Any, quarter: bool, report: PanelRe
         tell("sheets")
         export_parts([(part, {"dxf": tmp / "panel.dxf"})], settings)
         (tmp / "sheets").mkdir()
-        sheet_document(panel, nesting, quarter).saveas(tmp / "sheets" / "sheet-01.dxf")
+        from fabpat.exchange.dxf import save_document
+
+        save_document(sheet_document(panel, nesting, quarter), tmp / "sheets" / "sheet-01.dxf", timestamp,
+                      f"{spec.name}/sheets/sheet-01.dxf")
         files += ["panel.dxf", "sheets/sheet-01.dxf"]
     if "glb" in f:
         tell("GLB")

@@ -144,18 +144,19 @@ def sheet_document(assembly: Assembly, nesting: Nesting, sheet: int, filleted: d
 
 
 def write_sheets(assembly: Assembly, nesting: Nesting, folder: os.PathLike[str] | str,
-                 filleted: dict[PlateType, Any]) -> list[str]:
-    """Write ``sheet-01.dxf`` … into ``folder``; returns the file names."""
+                 filleted: dict[PlateType, Any], timestamp: str | None = None) -> list[str]:
+    """Write ``sheet-01.dxf`` … into ``folder``; returns the file names. With ``timestamp`` (ISO 8601) each
+    file is byte-reproducible (:func:`fabpat.exchange.dxf.stamp_document`, its GUIDs from the spec's name
+    and the file's). Raises :class:`ExportError` (a bad ``timestamp``; an OSError, naming the file)."""
+    from fabpat.exchange.dxf import save_document
+
     names = []
     digits = max(2, len(str(nesting.n_sheets)))
     for s in range(nesting.n_sheets):
         name = f"sheet-{s + 1:0{digits}d}.dxf"
-        try:
-            sheet_document(assembly, nesting, s, filleted).saveas(os.path.join(folder, name))
-        except OSError as e:  # assemble names its --out folder and a full disk
-            from fabpat.io import writer_failed
-
-            raise writer_failed(os.path.join(folder, name), "cannot write the sheet", e) from e
+        # assemble names its --out folder and a full disk (save_document: writer_failed)
+        save_document(sheet_document(assembly, nesting, s, filleted), os.path.join(folder, name), timestamp,
+                      f"{assembly.spec.name}/sheets/{name}")
         names.append(name)
     return names
 

@@ -44,7 +44,8 @@ def _load(spec: str, need_sheet: bool = False):  # type: ignore[no-untyped-def] 
               help="Output folder (created; an earlier `fabpat assemble` output there is replaced).")
 @click.option("--progress/--no-progress", default=True, show_default=True, help=PROGRESS_HELP)
 @click.option("--timestamp", default=None, metavar="ISO8601",
-              help="Fixed STEP header time (ISO 8601, e.g. 2025-01-31T12:00:00Z), for byte-reproducible files.")
+              help="Fixed time (ISO 8601, e.g. 2025-01-31T12:00:00Z) for every file's dates and ids: two runs "
+                   "of one spec then write byte-identical files.")
 @click.option("--force", is_flag=True,
               help="Build even if a plate is too narrow for its process (the export check) or would exceed "
                    "material.strain_limit when bent sleeves close the object; warn instead.")

@@ -34,6 +34,14 @@ any degree, becomes a cubic (degree-3) non-rational SPLINE within ``tolerance`` 
 
 The label (:func:`fabpat.exchange.labels.place_label`) is a TEXT with its default alignment, so its
 first point is where the text starts, inside the part; a part with no room for a 1 mm label has none.
+
+Reproducible files: with a ``timestamp`` (ISO 8601, :func:`fabpat.exchange.step.check_timestamp`) the same
+drawing gives the same bytes in every run (:func:`stamp_document`): the header's dates ``$TDCREATE``,
+``$TDUPDATE`` (the stamp's own wall time) and ``$TDUCREATE``, ``$TDUUPDATE`` (UTC) are its Julian date,
+the editing timers ``$TDINDWG`` and ``$TDUSRTIMER`` are zero, ``$FINGERPRINTGUID`` and ``$VERSIONGUID``
+are name-based UUIDs of the stamp and the drawing's name (:func:`fabpat.exchange.stamp.stamp_uuid`), and
+ezdxf's ``CREATED_BY_EZDXF`` / ``WRITTEN_BY_EZDXF`` markers read ``<ezdxf version> @ <stamp>``. Without
+it ezdxf writes the clock's time and fresh GUIDs.
 """
 
 from __future__ import annotations
@@ -356,9 +364,70 @@ def dxf_document(
     return doc
 
 
-def dump_dxf(outline: Outline, path: str | os.PathLike[str], label: str | None = None, **options: Any) -> None:
-    """Write :func:`dxf_document` to ``path`` (not atomic; see :func:`write_dxf`)."""
-    doc = dxf_document(outline, label, **options)
+def stamp_document(doc: Any, timestamp: str, name: str) -> None:
+    """Give the ezdxf drawing ``doc`` the dates and identifiers of ``timestamp`` (ISO 8601) and ``name`` (what the
+    drawing is, e.g. its file name: two drawings of one stamp get different GUIDs when their names differ), now
+    and when it is saved, so that saving it gives the same bytes in every run (module docstring).
+
+    ezdxf rewrites ``$TDUPDATE``, ``$VERSIONGUID`` and its ``WRITTEN_BY_EZDXF`` marker from the clock in
+    ``Drawing._update_metadata`` on every save. Its only switch against that,
+    ``ezdxf.options.write_fixed_meta_data_for_testing``, is global (every drawing of the process, and
+    fixed to 2000-01-01), so this wraps the method of this one drawing instead: ezdxf's own update runs
+    first (the handle seed, the code page) and the stamp's values are put back after it. ezdxf also adds
+    some CLASSES (those of the entity types in use) in the order of a set of strings, which changes from
+    process to process (hash randomisation): the wrapped method also sorts the CLASSES section by name
+    (its order carries no meaning; entities name their class). Raises
+    :class:`ExportError` for a bad ``timestamp`` or an ezdxf without that method (nothing then could keep
+    the file reproducible)."""
+    import ezdxf
+    from ezdxf.document import CREATED_BY_EZDXF, WRITTEN_BY_EZDXF
+    from ezdxf.tools.juliandate import juliandate
+
+    from fabpat.exchange.stamp import stamp_time, stamp_uuid, utc_time
+    from fabpat.exchange.step import check_timestamp
+
+    text = check_timestamp(timestamp, "timestamp")
+    update = getattr(doc, "_update_metadata", None)
+    if not callable(update):
+        raise ExportError(f"ezdxf {ezdxf.__version__} has no Drawing._update_metadata: fabpat cannot write "
+                          "a reproducible DXF with it; write without --timestamp")
+    local = juliandate(stamp_time(timestamp).replace(tzinfo=None))  # AutoCAD: $TDCREATE is local time
+    universal = juliandate(utc_time(timestamp))
+    header = {"$TDCREATE": local, "$TDUPDATE": local, "$TDUCREATE": universal, "$TDUUPDATE": universal,
+              "$TDINDWG": 0.0, "$TDUSRTIMER": 0.0,  # days spent editing: none, the file was generated
+              "$FINGERPRINTGUID": _dxf_guid(stamp_uuid(timestamp, "DXF fingerprint", name)),
+              "$VERSIONGUID": _dxf_guid(stamp_uuid(timestamp, "DXF version", name))}
+    marker = f"{ezdxf.__version__} @ {text}"  # ezdxf's own form, "<version> @ <ISO time>"
+
+    def stamp() -> None:
+        for key, value in header.items():
+            doc.header[key] = value
+        doc.ezdxf_metadata()[WRITTEN_BY_EZDXF] = marker
+
+    def update_then_stamp() -> None:
+        update()  # runs after ezdxf has added every class it will write
+        stamp()
+        classes = doc.classes.classes  # {(name, C++ class name): DXFClass}, written in this order
+        ordered = sorted(classes.items(), key=lambda kv: kv[0])
+        classes.clear()
+        classes.update(ordered)
+
+    stamp()
+    doc.ezdxf_metadata()[CREATED_BY_EZDXF] = marker
+    doc._update_metadata = update_then_stamp  # this drawing only: see the docstring
+
+
+def _dxf_guid(u: Any) -> str:
+    """A GUID as DXF writes it (``$FINGERPRINTGUID``): upper case in braces."""
+    return "{" + str(u).upper() + "}"
+
+
+def save_document(doc: Any, path: str | os.PathLike[str], timestamp: str | None = None, name: str = "") -> None:
+    """Save the ezdxf drawing ``doc`` to ``path`` (not atomic); with ``timestamp`` (ISO 8601) first
+    :func:`stamp_document` with ``name``, so the file is byte-reproducible. Raises :class:`ExportError`
+    (a bad ``timestamp``, or :func:`fabpat.io.writer_failed` naming ``path`` for an OSError)."""
+    if timestamp is not None:
+        stamp_document(doc, timestamp, name)
     try:
         doc.saveas(os.fsdecode(path))
     except OSError as e:  # a full disk: atomic_outputs names the target (not this temporary file) and the cause
@@ -367,12 +436,27 @@ def dump_dxf(outline: Outline, path: str | os.PathLike[str], label: str | None =
         raise writer_failed(path, "cannot write the DXF file", e) from e
 
 
+def dump_dxf(outline: Outline, path: str | os.PathLike[str], label: str | None = None, *,
+             timestamp: str | None = None, name: str | None = None, **options: Any) -> None:
+    """Write :func:`dxf_document` to ``path`` (not atomic; see :func:`write_dxf`). ``timestamp`` (ISO 8601)
+    makes the file byte-reproducible; ``name`` (default ``label``) goes into its GUIDs (:func:`stamp_document`).
+    Raises :class:`ExportError`, :class:`GeometryError`."""
+    from fabpat.exchange.step import check_timestamp
+
+    check_timestamp(timestamp, "timestamp")  # before the drawing is made
+    doc = dxf_document(outline, label, **options)
+    save_document(doc, path, timestamp, (label or "") if name is None else name)
+
+
 def write(part: Part, path: Path, settings: ExportSettings) -> None:
-    """Registry entry point: the part's outline with the settings' curve mode, tolerance and kerf."""
+    """Registry entry point: the part's outline with the settings' curve mode, tolerance and kerf; with
+    ``settings.timestamp`` byte-reproducible (its GUIDs from the part's name)."""
     dump_dxf(
         part.outline,
         path,
         part.label,
+        timestamp=settings.timestamp,
+        name=part.name,
         curves=settings.curves,
         tolerance=settings.curve_tolerance,
         kerf=settings.kerf,
@@ -382,8 +466,13 @@ def write(part: Part, path: Path, settings: ExportSettings) -> None:
     )
 
 
-def write_dxf(outline: Outline, path: str | os.PathLike[str], label: str | None = None, **options: Any) -> Path:
-    """Write the outline as DXF atomically; ``options`` as for :func:`dxf_document`."""
+def write_dxf(outline: Outline, path: str | os.PathLike[str], label: str | None = None, *,
+              timestamp: str | None = None, name: str | None = None, **options: Any) -> Path:
+    """Write the outline as DXF atomically; ``options`` as for :func:`dxf_document`, ``timestamp`` and
+    ``name`` as for :func:`dump_dxf`. Returns the path. Raises :class:`ExportError`, :class:`GeometryError`."""
+    from fabpat.exchange.step import check_timestamp
+
+    check_timestamp(timestamp, "timestamp")
     check_options(
         options.get("curves", "arcs"),
         options.get("tolerance", DEFAULT_TOLERANCE),
@@ -393,5 +482,5 @@ def write_dxf(outline: Outline, path: str | os.PathLike[str], label: str | None 
         options.get("origin", DEFAULT_ORIGIN),
     )
     with atomic_outputs(path) as (tmp,):
-        dump_dxf(outline, tmp, label, **options)
+        dump_dxf(outline, tmp, label, timestamp=timestamp, name=name, **options)
     return Path(path)

@@ -67,7 +67,7 @@ class ExportSettings:
     ``dxf_entities``: polyline or segments (None: the default for the curve mode and version, see
     :mod:`fabpat.exchange.dxf`); ``svg_curves``: exact or cubic (:mod:`fabpat.exchange.svg`);
     ``origin``: corner or centre, where a single part's DXF/SVG lies (:mod:`fabpat.exchange.origin`);
-    ``timestamp``: fixed STEP header time (ISO 8601) for reproducible files.
+    ``timestamp``: fixed time (ISO 8601) for byte-reproducible STEP, 3MF, DXF and 3DM files.
     """
 
     mesh_tolerance: float = DEFAULT_CHORD

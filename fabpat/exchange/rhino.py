@@ -20,11 +20,20 @@ as OCCT solids, are meshes within the kit's ``mesh_tolerance`` (mm).
 
 The laser kerf is not applied here: the curves are the exact outline (Rhino's own ``Offset`` gives
 an exact kerf offset), so the file does not depend on ``ExportSettings.kerf``.
+
+Files are encoded in memory (``File3dm.Encode``) and then written, so they do not record the (temporary)
+path they were written to. With a ``timestamp`` (ISO 8601, :func:`fabpat.exchange.step.check_timestamp`)
+the same model gives the same bytes in every run (:func:`reproducible`): layer and object ids are
+name-based UUIDs of the stamp and the layer's name or the object's place and name
+(:func:`fabpat.exchange.stamp.stamp_uuid`); the ids rhino3dm draws at random for blocks and their
+geometry (it offers no way to choose them) and the file's created / last-edited times (read-only in
+rhino3dm, the clock's) are replaced in the encoded file (:mod:`fabpat.exchange.rhino_stamp`).
 """
 
 from __future__ import annotations
 
 import os
+import uuid
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -122,48 +131,100 @@ def _new_file() -> Any:
     return model
 
 
-def _layer(model: Any, name: str, colour: tuple[int, int, int], visible: bool = True) -> int:
+class _Ids:
+    """The ids of a model's layers and objects: with a time stamp name-based UUIDs, numbered in the order
+    they are made (a name may repeat), so one model gets the same ids in every run; without one, None
+    (openNURBS draws a fresh id)."""
+
+    def __init__(self, timestamp: str | None) -> None:
+        from fabpat.exchange.step import check_timestamp
+
+        self.timestamp = check_timestamp(timestamp, "timestamp")
+        self.count = 0
+
+    def next(self, kind: str, name: str) -> uuid.UUID | None:
+        """The id of the next ``kind`` (layer, object, block, …) called ``name``; None without a time stamp."""
+        if self.timestamp is None:
+            return None
+        from fabpat.exchange.stamp import stamp_uuid
+
+        self.count += 1
+        return stamp_uuid(self.timestamp, "3dm", kind, str(self.count), name)
+
+
+def _layer(model: Any, name: str, colour: tuple[int, int, int], visible: bool = True,
+           ids: _Ids | None = None) -> int:
     r3 = _rhino()
     layer = r3.Layer()
     layer.Name = name
     layer.Color = (*colour, 255)
     layer.Visible = visible
+    if ids is not None and (u := ids.next("layer", name)) is not None:
+        layer.Id = u
     return int(model.Layers.Add(layer))
 
 
-def _attributes(layer: int, name: str | None = None) -> Any:
+def _attributes(layer: int, name: str | None = None, ids: _Ids | None = None) -> Any:
     att = _rhino().ObjectAttributes()
     att.LayerIndex = layer
     if name:
         att.Name = name
+    if ids is not None and (u := ids.next("object", name or "")) is not None:
+        att.Id = u  # openNURBS keeps an id given here (unless the model already has it)
     return att
 
 
-def _save(model: Any, path: str | os.PathLike[str]) -> None:
-    if not model.Write(os.fsdecode(path), FILE_VERSION):  # a status without errno, as OCCT's writers
+def encode(model: Any, timestamp: str | None = None, ids: dict[uuid.UUID, uuid.UUID] | None = None) -> bytes:
+    """The ``rhino3dm.File3dm`` as the bytes of a Rhino 7 ``.3dm`` file; with ``timestamp`` (ISO 8601)
+    :func:`fabpat.exchange.rhino_stamp.reproducible` (``ids``: random ids to replace). Raises :class:`ExportError`."""
+    import base64
+
+    options = _rhino().File3dmWriteOptions()
+    options.Version = FILE_VERSION
+    text = model.Encode(options)
+    if not text:
+        raise ExportError("rhino3dm could not encode the .3dm file")
+    data = base64.b64decode(text)
+    if timestamp is None:
+        return data
+    from fabpat.exchange.rhino_stamp import reproducible
+
+    return reproducible(data, timestamp, ids)
+
+
+def _save(model: Any, path: str | os.PathLike[str], timestamp: str | None = None,
+          ids: dict[uuid.UUID, uuid.UUID] | None = None) -> None:
+    data = encode(model, timestamp, ids)
+    try:
+        Path(path).write_bytes(data)
+    except OSError as e:  # atomic_outputs names the target, not this temporary file
         from fabpat.io import writer_failed
 
-        raise writer_failed(path, "rhino3dm could not write the .3dm file")
+        raise writer_failed(path, "cannot write the .3dm file", e) from e
 
 
-def part_model(part: Part) -> Any:
-    """A ``rhino3dm.File3dm`` of one part: ``CUT`` curves, ``PLATE`` extrusion, ``INTERFACE`` arcs."""
+def part_model(part: Part, *, timestamp: str | None = None) -> Any:
+    """A ``rhino3dm.File3dm`` of one part: ``CUT`` curves, ``PLATE`` extrusion, ``INTERFACE`` arcs. With
+    ``timestamp`` (ISO 8601) the layers and objects get fixed ids (module docstring). Raises :class:`ExportError`."""
+    ids = _Ids(timestamp)
     model = _new_file()
-    cut = _layer(model, CUT_LAYER, (255, 0, 0))
-    plate = _layer(model, PLATE_LAYER, (40, 40, 40))
-    iface = _layer(model, INTERFACE_LAYER, (0, 0, 255), visible=False)
+    cut = _layer(model, CUT_LAYER, (255, 0, 0), ids=ids)
+    plate = _layer(model, PLATE_LAYER, (40, 40, 40), ids=ids)
+    iface = _layer(model, INTERFACE_LAYER, (0, 0, 255), visible=False, ids=ids)
     label = part.label or part.name
     for i, loop in enumerate(part.outline.loops):
-        model.Objects.AddCurve(loop_curve(loop), _attributes(cut, f"{label} {'outer' if i == 0 else f'hole {i}'}"))
-    model.Objects.AddExtrusion(plate_extrusion(part.outline, part.thickness), _attributes(plate, part.name))
+        model.Objects.AddCurve(loop_curve(loop),
+                               _attributes(cut, f"{label} {'outer' if i == 0 else f'hole {i}'}", ids))
+    model.Objects.AddExtrusion(plate_extrusion(part.outline, part.thickness), _attributes(plate, part.name, ids))
     for arc in part.support:
-        model.Objects.AddCurve(arc_curve(arc), _attributes(iface, f"{label} interface arc"))
+        model.Objects.AddCurve(arc_curve(arc), _attributes(iface, f"{label} interface arc", ids))
     return model
 
 
 def write(part: Part, path: Path, settings: ExportSettings) -> None:
-    """Registry entry point: the part as a ``.3dm`` file (exact; ``settings`` change nothing here)."""
-    _save(part_model(part), path)
+    """Registry entry point: the part as a ``.3dm`` file (exact; of ``settings`` only ``timestamp`` matters,
+    which makes the file byte-reproducible)."""
+    _save(part_model(part, timestamp=settings.timestamp), path, settings.timestamp)
 
 
 def _mesh(V: NDArray[np.float64], F: NDArray[np.int64]) -> Any:
@@ -187,7 +248,7 @@ def _transform(T: NDArray[np.float64]) -> Any:
 
 
 def write_assembly(lib: PartLibrary, path: str | os.PathLike[str], name: str, mesh_tolerance: float,
-                   placed: list[tuple[str, str, Any]] | None = None) -> None:
+                   placed: list[tuple[str, str, Any]] | None = None, *, timestamp: str | None = None) -> None:
     """The placed parts of an assembly as one ``.3dm``: a layer and a block per part type, one instance per part.
 
     ``placed`` (label, part key, 4 × 4 transform) defaults to the assembled object
@@ -196,11 +257,14 @@ def write_assembly(lib: PartLibrary, path: str | os.PathLike[str], name: str, me
 
     Plates are exact extrusions (their outline curves go into the block too, on the same layer);
     sleeves are meshes within ``mesh_tolerance`` mm. Instances carry the 4 × 4 rigid transforms of
-    :meth:`~fabpat.assembly.parts.PartLibrary.placed` and are named by the part labels.
+    :meth:`~fabpat.assembly.parts.PartLibrary.placed` and are named by the part labels. With ``timestamp``
+    (ISO 8601) the file is byte-reproducible (module docstring). Raises :class:`ExportError`.
     """
     from fabpat.assembly.export import colours
 
     r3 = _rhino()
+    ids = _Ids(timestamp)
+    fixed: dict[uuid.UUID, uuid.UUID] = {}  # the ids rhino3dm drew for blocks and their geometry → fixed ones
     model = _new_file()
     cols = colours(lib)
     thickness = lib.assembly.spec.plates.thickness
@@ -208,8 +272,8 @@ def write_assembly(lib: PartLibrary, path: str | os.PathLike[str], name: str, me
     layers: dict[str, int] = {}
     for key in lib.keys:
         rgb = tuple(int(cols[key][i:i + 2], 16) for i in (1, 3, 5))
-        layers[key] = _layer(model, key, rgb)  # type: ignore[arg-type]
-        att = _attributes(layers[key], lib.name(key))
+        layers[key] = _layer(model, key, rgb, ids=ids)  # type: ignore[arg-type]
+        att = _attributes(layers[key], lib.name(key))  # rhino3dm gives block geometry ids of its own
         pt = lib.plate_type(key)
         if pt is None:
             geometry = [_mesh(*lib.mesh(key, mesh_tolerance))]
@@ -220,8 +284,12 @@ def write_assembly(lib: PartLibrary, path: str | os.PathLike[str], name: str, me
                                               tuple(att for _ in geometry))
         if index < 0:
             raise ExportError(f"openNURBS rejected the block of part {key!r}")
-        blocks[key] = model.InstanceDefinitions.FindIndex(index).Id
+        block = model.InstanceDefinitions.FindIndex(index)
+        blocks[key] = block.Id
+        for drawn in [block.Id, *block.GetObjectIds()]:
+            if (u := ids.next("block", key)) is not None:
+                fixed[drawn] = u
     for label, key, T in lib.placed() if placed is None else placed:
         model.Objects.AddInstanceObject(r3.InstanceReference(blocks[key], _transform(T)),
-                                        _attributes(layers[key], label))
-    _save(model, path)
+                                        _attributes(layers[key], label, ids))
+    _save(model, path, ids.timestamp, fixed)

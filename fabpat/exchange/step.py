@@ -9,8 +9,9 @@ Names are written as ISO 10303-21 strings (§6.4.3, :func:`step_string`): printa
 every other character as a ``\\X2\\…\\X0\\`` (or ``\\X4\\…\\X0\\``) hexadecimal group, so
 the file is printable ASCII and a reader decodes the name back; control characters are refused.
 With a ``timestamp`` the file is byte-reproducible: OCCT's header fields other than the name and time
-are constants of its version, and the colour blocks of an assembly, which OCCT writes in an order
-that changes from run to run, are put in a fixed one (:mod:`fabpat.exchange.step_order`).
+are constants of its version, the colour blocks of an assembly, which OCCT writes in an order
+that changes from run to run, are put in a fixed one, and its occurrence ids start at 1 however many
+assemblies the process wrote before (:mod:`fabpat.exchange.step_order`).
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from fabpat.errors import ExportError
-from fabpat.exchange.step_order import sort_trailing_styles
+from fabpat.exchange.step_order import renumber_occurrences, sort_trailing_styles
 from fabpat.io import atomic_outputs
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -219,8 +220,9 @@ def write_document(doc: Any, path: str | os.PathLike[str], name: str, timestamp:
 
     if status != IFSelect_ReturnStatus.IFSelect_RetDone:
         raise writer_failed(path, "OCCT could not write the STEP file")
-    try:  # OCCT orders an assembly's colours by memory address: one order, so one file for one input
+    try:  # OCCT orders an assembly's colours by memory address and numbers occurrences per process
         sort_trailing_styles(path)
+        renumber_occurrences(path)
     except OSError as e:
         raise writer_failed(path, "could not rewrite the STEP file", e) from e
 

@@ -4,6 +4,11 @@ A small writer of our own (a zip with three XML parts) rather than trimesh's exp
 lxml and networkx and costs ≈ 1 s to import. The mesh comes from :func:`triangulate`
 (welded, outward CCW triangles), so slicers see one closed, consistently oriented object carrying
 the part name (pattern ID and parameters).
+
+With a ``timestamp`` (ISO 8601, :func:`fabpat.exchange.step.check_timestamp`) the package is
+byte-reproducible: the model holds no identifier or time of its own, and every ZIP member gets the
+stamp's time (UTC) as its date instead of the clock's (:func:`fabpat.exchange.stamp.zip_date_time`:
+ZIP dates cannot be before 1980, so an earlier stamp gives 1980-01-01).
 """
 
 from __future__ import annotations
@@ -110,20 +115,36 @@ def model_xml(V: NDArray[np.float64], F: NDArray[np.int64], name: str) -> str:
     )
 
 
-def dump_3mf(V: NDArray[np.float64], F: NDArray[np.int64], path: str | os.PathLike[str], name: str) -> None:
-    """Write a triangle mesh (mm) as a 3MF package to ``path`` (not atomic)."""
+def dump_3mf(V: NDArray[np.float64], F: NDArray[np.int64], path: str | os.PathLike[str], name: str,
+             timestamp: str | None = None) -> None:
+    """Write a triangle mesh (``V`` (n, 3) float mm, ``F`` (m, 3) int) as a 3MF package to ``path`` (not atomic).
+
+    ``timestamp`` (ISO 8601): the ZIP members' date, for a byte-reproducible file (module docstring); without
+    it they carry the time of writing. Raises :class:`ExportError` (an empty mesh, a bad ``timestamp``)."""
+    from fabpat.exchange.step import check_timestamp
+
+    timestamp = check_timestamp(timestamp, "timestamp")
+    members = (("[Content_Types].xml", _CONTENT_TYPES), ("_rels/.rels", _RELS),
+               ("3D/3dmodel.model", model_xml(V, F, name)))
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w", compression=zipfile.ZIP_DEFLATED) as z:
-        z.writestr("[Content_Types].xml", _CONTENT_TYPES)
-        z.writestr("_rels/.rels", _RELS)
-        z.writestr("3D/3dmodel.model", model_xml(V, F, name))
+        for member, text in members:
+            if timestamp is None:
+                z.writestr(member, text)  # dated now
+                continue
+            from fabpat.exchange.stamp import zip_date_time
+
+            info = zipfile.ZipInfo(member, date_time=zip_date_time(timestamp))
+            info.compress_type = zipfile.ZIP_DEFLATED
+            info.external_attr = 0o600 << 16  # what writestr gives a member named by a str: one file for both paths
+            z.writestr(info, text)
     Path(path).write_bytes(buf.getvalue())
 
 
 def write(part: Part, path: Path, settings: ExportSettings) -> None:
-    """Registry entry point: the part's solid meshed at ``settings.mesh_tolerance`` mm."""
+    """Registry entry point: the part's solid meshed at ``settings.mesh_tolerance`` mm, dated ``settings.timestamp``."""
     V, F = triangulate(part.solid, settings.mesh_tolerance, settings.angular_tolerance)
-    dump_3mf(V, F, path, part.name)
+    dump_3mf(V, F, path, part.name, settings.timestamp)
 
 
 def write_3mf(
@@ -132,9 +153,16 @@ def write_3mf(
     name: str,
     tolerance: float = DEFAULT_CHORD,
     angular: float = DEFAULT_ANGULAR,
+    *,
+    timestamp: str | None = None,
 ) -> Path:
-    """Mesh a solid within ``tolerance`` mm and write it as 3MF atomically; returns the path."""
+    """Mesh a solid within ``tolerance`` mm (``angular`` rad) and write it as 3MF atomically; returns the path.
+    ``timestamp`` (ISO 8601) makes the file byte-reproducible (module docstring). Raises :class:`ExportError`,
+    :class:`GeometryError` (a face without triangulation)."""
+    from fabpat.exchange.step import check_timestamp
+
+    check_timestamp(timestamp, "timestamp")  # before the meshing
     V, F = triangulate(getattr(shape, "wrapped", shape), tolerance, angular)
     with atomic_outputs(path) as (tmp,):
-        dump_3mf(V, F, tmp, name)
+        dump_3mf(V, F, tmp, name, timestamp)
     return Path(path)
