@@ -272,3 +272,27 @@ def write_glb(lib: PartLibrary, path: str | os.PathLike[str]) -> None:
         Path(path).write_bytes(data)
     except OSError as exc:
         raise writer_failed(path, "cannot write the GLB file", exc) from exc
+
+
+def write_3dm(lib: PartLibrary, path: str | os.PathLike[str], mesh_tolerance: float,
+              placed: list[tuple[str, str, np.ndarray]] | None = None, *, timestamp: str | None = None) -> None:
+    """The kit's parts as one Rhino ``.3dm`` (:func:`fabpat.exchange.rhino.write_assembly`): a block per
+    part type in its :func:`colours`, plates exact, sleeves as meshes within ``mesh_tolerance`` (mm).
+
+    ``placed`` (label, part key, 4 × 4 transform) defaults to the assembled object
+    (:meth:`~fabpat.assembly.parts.PartLibrary.placed`); :func:`flat_layout` lays the distinct parts out
+    flat instead. With ``timestamp`` (ISO 8601) the file is byte-reproducible. Raises :class:`ExportError`.
+    """
+    from fabpat.exchange.rhino import Block, write_assembly
+
+    cols = colours(lib)
+    thickness = lib.assembly.spec.plates.thickness
+    blocks = []
+    for key in lib.keys:
+        rgb = (int(cols[key][1:3], 16), int(cols[key][3:5], 16), int(cols[key][5:7], 16))
+        pt = lib.plate_type(key)
+        if pt is None:
+            blocks.append(Block(key, lib.name(key), rgb, mesh=lib.mesh(key, mesh_tolerance)))
+        else:
+            blocks.append(Block(key, lib.name(key), rgb, outline=lib.filleted[pt].outline, thickness=thickness))
+    write_assembly(blocks, lib.placed() if placed is None else placed, path, timestamp=timestamp)

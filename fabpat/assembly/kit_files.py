@@ -91,10 +91,10 @@ def write_all(spec: AssemblySpec, lib: Any, nesting: Any, net: Any, check_lines:
             files.append("predicted.glb")
     if "3dm" in f:
         tell("3DM")
-        from fabpat.exchange.rhino import write_assembly
+        from fabpat.assembly.export import write_3dm
 
         name = "parts.3dm" if bent_sleeves else "assembly.3dm"
-        write_assembly(lib, tmp / name, spec.name, spec.mesh_tolerance, layout, timestamp=timestamp)
+        write_3dm(lib, tmp / name, spec.mesh_tolerance, layout, timestamp=timestamp)
         files.append(name)
     if "dxf" in f:
         tell("sheets")

@@ -12,11 +12,12 @@ One pattern (:func:`write`) gives a file with three layers:
   the outline keeps, so the configured interface weight w is in the file as it is in STEP. The half
   arcs on ``CUT`` are in standard form, with middle weight √((1 + w)/2) (see :mod:`fabpat.fillet`).
 
-An assembly kit (:func:`write_assembly`) gives one file with a layer per part type (plate types by
+Placed parts (:func:`write_assembly`, which an assembly kit calls with its parts,
+:func:`fabpat.assembly.export.write_3dm`) give one file with a layer per part type (plate types by
 their label, e.g. ``hex 0x0488``, and sleeve kinds, e.g. ``S-HH``), one block (instance definition)
-per distinct part and every placed part as a block instance named by its label (``H07``, ``SE42``)
-with its rigid transform. Plates are the exact extrusions above; sleeves, which fabpat models only
-as OCCT solids, are meshes within the kit's ``mesh_tolerance`` (mm).
+per distinct part (:class:`Block`) and every placed part as a block instance named by its label (``H07``,
+``SE42``) with its rigid transform. Plates are the exact extrusions above; sleeves, which fabpat models
+only as OCCT solids, are meshes (the kit's within its ``mesh_tolerance``, mm).
 
 The laser kerf is not applied here: the curves are the exact outline (Rhino's own ``Offset`` gives
 an exact kerf offset), so the file does not depend on ``ExportSettings.kerf``.
@@ -35,6 +36,7 @@ from __future__ import annotations
 import os
 import uuid
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -45,7 +47,6 @@ from fabpat.errors import ExportError
 from fabpat.outline import Line, Loop, Outline, RationalQuad
 
 if TYPE_CHECKING:  # pragma: no cover
-    from fabpat.assembly.parts import PartLibrary
     from fabpat.exchange.registry import ExportSettings, Part
 
 CUT_LAYER = "CUT"
@@ -247,49 +248,56 @@ def _transform(T: NDArray[np.float64]) -> Any:
     return xf
 
 
-def write_assembly(lib: PartLibrary, path: str | os.PathLike[str], name: str, mesh_tolerance: float,
-                   placed: list[tuple[str, str, Any]] | None = None, *, timestamp: str | None = None) -> None:
-    """The placed parts of an assembly as one ``.3dm``: a layer and a block per part type, one instance per part.
+@dataclass(frozen=True, eq=False)
+class Block:
+    """One distinct part of a ``.3dm`` assembly (:func:`write_assembly`): its layer and block ``key``
+    (``"hex 0x0488"``, ``"S-HH"``), display ``name``, layer ``colour`` (r, g, b in 0–255) and its geometry:
+    an exact plate, ``outline`` extruded by ``thickness`` (mm, its loops as curves too), or a ``mesh``
+    (V (n, 3) mm, F (m, 3)) for a part fabpat models only as an OCCT solid (a sleeve)."""
 
-    ``placed`` (label, part key, 4 × 4 transform) defaults to the assembled object
-    (:meth:`~fabpat.assembly.parts.PartLibrary.placed`); :func:`fabpat.assembly.export.flat_layout`
-    lays the distinct parts out flat instead.
+    key: str
+    name: str
+    colour: tuple[int, int, int]
+    outline: Outline | None = None
+    thickness: float = 0.0
+    mesh: tuple[NDArray[np.float64], NDArray[np.int64]] | None = None
 
-    Plates are exact extrusions (their outline curves go into the block too, on the same layer);
-    sleeves are meshes within ``mesh_tolerance`` mm. Instances carry the 4 × 4 rigid transforms of
-    :meth:`~fabpat.assembly.parts.PartLibrary.placed` and are named by the part labels. With ``timestamp``
-    (ISO 8601) the file is byte-reproducible (module docstring). Raises :class:`ExportError`.
+
+def write_assembly(blocks: Sequence[Block], placed: Sequence[tuple[str, str, NDArray[np.float64]]],
+                   path: str | os.PathLike[str], *, timestamp: str | None = None) -> None:
+    """Placed parts as one ``.3dm``: a layer and a block (instance definition) per :class:`Block`, and one
+    block instance per ``placed`` entry (label, block key, 4 × 4 rigid transform in mm), named by its label.
+
+    With ``timestamp`` (ISO 8601) the file is byte-reproducible (module docstring). Raises
+    :class:`ExportError` (also for a placed key that is no block's).
     """
-    from fabpat.assembly.export import colours
-
     r3 = _rhino()
     ids = _Ids(timestamp)
     fixed: dict[uuid.UUID, uuid.UUID] = {}  # the ids rhino3dm drew for blocks and their geometry → fixed ones
     model = _new_file()
-    cols = colours(lib)
-    thickness = lib.assembly.spec.plates.thickness
-    blocks: dict[str, Any] = {}
+    ref: dict[str, Any] = {}
     layers: dict[str, int] = {}
-    for key in lib.keys:
-        rgb = tuple(int(cols[key][i:i + 2], 16) for i in (1, 3, 5))
-        layers[key] = _layer(model, key, rgb, ids=ids)  # type: ignore[arg-type]
-        att = _attributes(layers[key], lib.name(key))  # rhino3dm gives block geometry ids of its own
-        pt = lib.plate_type(key)
-        if pt is None:
-            geometry = [_mesh(*lib.mesh(key, mesh_tolerance))]
+    for b in blocks:
+        layers[b.key] = _layer(model, b.key, b.colour, ids=ids)
+        att = _attributes(layers[b.key], b.name)  # rhino3dm gives block geometry ids of its own
+        if b.outline is not None:
+            geometry = [plate_extrusion(b.outline, b.thickness)] + [loop_curve(loop) for loop in b.outline.loops]
+        elif b.mesh is not None:
+            geometry = [_mesh(*b.mesh)]
         else:
-            outline = lib.filleted[pt].outline
-            geometry = [plate_extrusion(outline, thickness)] + [loop_curve(loop) for loop in outline.loops]
-        index = model.InstanceDefinitions.Add(lib.name(key), key, "", "", r3.Point3d(0, 0, 0), tuple(geometry),
+            raise ExportError(f"block {b.key!r} has neither an outline nor a mesh")
+        index = model.InstanceDefinitions.Add(b.name, b.key, "", "", r3.Point3d(0, 0, 0), tuple(geometry),
                                               tuple(att for _ in geometry))
         if index < 0:
-            raise ExportError(f"openNURBS rejected the block of part {key!r}")
+            raise ExportError(f"openNURBS rejected the block of part {b.key!r}")
         block = model.InstanceDefinitions.FindIndex(index)
-        blocks[key] = block.Id
+        ref[b.key] = block.Id
         for drawn in [block.Id, *block.GetObjectIds()]:
-            if (u := ids.next("block", key)) is not None:
+            if (u := ids.next("block", b.key)) is not None:
                 fixed[drawn] = u
-    for label, key, T in lib.placed() if placed is None else placed:
-        model.Objects.AddInstanceObject(r3.InstanceReference(blocks[key], _transform(T)),
+    for label, key, T in placed:
+        if key not in ref:
+            raise ExportError(f"placed part {label!r} is of part {key!r}, which no block defines")
+        model.Objects.AddInstanceObject(r3.InstanceReference(ref[key], _transform(T)),
                                         _attributes(layers[key], label, ids))
     _save(model, path, ids.timestamp, fixed)
