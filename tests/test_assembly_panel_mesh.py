@@ -195,6 +195,11 @@ def test_the_square_kit_is_one_watertight_part_with_one_outer_loop(square_kit: P
     manifest = json.loads((square_kit / "manifest.json").read_text())
     assert {"panel.stl", "panel.dxf", "sheets/sheet-01.dxf", "bom.csv", "bom.md"} <= set(manifest["files"])
     assert manifest["tiles"]["Q01"] == f"quad {A}" and manifest["tiles"]["Q02"] == f"quad {B}"
+    # the provenance of a kit's manifest: each distinct tile's pattern, how it was chosen, why no energies
+    assert [(r["part"], r["sides"], r["chosen_by"]) for r in manifest["patterns"]] == [
+        (f"quad {A}", 4, "explicit (patterns.tiles)"), (f"quad {B}", 4, "explicit (patterns.tiles)")]
+    assert all(set(r["energies_Nmm"].values()) == {None} and "no energies for 4-gons" in r["note"]
+               for r in manifest["patterns"])
     m = trimesh.load(square_kit / "panel.stl", force="mesh")
     assert m.is_watertight and m.is_winding_consistent and len(m.split(only_watertight=False)) == 1
     exact = 2.0 * square_panel.outline.area

@@ -154,6 +154,7 @@ def assemble_panel(spec: Any, out: Path, tell: Callable[[str], None], timestamp:
     from fabpat.assembly.kit_folder import GENERATOR, MANIFEST, check_out, digests, swap_in
     from fabpat.assembly.kit_result import AssembleResult, fabrication_problems
     from fabpat.assembly.nesting import check_nesting
+    from fabpat.assembly.provenance import pattern_records
     from fabpat.io import remove_stale_temps, temp_prefix, write_error
 
     check_out(out)
@@ -185,6 +186,8 @@ def assemble_panel(spec: Any, out: Path, tell: Callable[[str], None], timestamp:
         manifest = {"generator": GENERATOR, "spec": spec.name, "source": spec.source, "files": files,
                     "counts": {panel.name: 1}, "tiles": dict(zip(panel.labels, [t.label for t in panel.types],
                                                                  strict=True)),
+                    # how each tile's pattern was chosen and its catalog energies, as a kit's manifest has them
+                    "patterns": [r.as_dict() for r in pattern_records(spec, list(dict.fromkeys(panel.types)))],
                     "sheets": nesting.n_sheets, "checks": report.lines(), "warnings": problems,
                     "prediction": "not made for a panel: `fabpat simulate-assembly` pushes it together as a strip",
                     "sha256": digests(tmp, files)}
