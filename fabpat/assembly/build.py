@@ -28,19 +28,17 @@ says so.
 
 from __future__ import annotations
 
-import json
 import math
 import os
-import shutil
-import tempfile
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from fabpat.assembly.checks import check_assembly
 from fabpat.assembly.choice import candidate_pairs, face_patterns, with_members
 from fabpat.assembly.kit_files import PREDICTION, without_durations, write_all
-from fabpat.assembly.kit_folder import GENERATOR, MANIFEST, check_out, digests, swap_in
+from fabpat.assembly.kit_folder import GENERATOR, MANIFEST, check_out, write_kit
 from fabpat.assembly.kit_result import AssembleResult, fabrication_problems
 from fabpat.assembly.placement import (
     Assembly,
@@ -56,7 +54,6 @@ from fabpat.assembly.predict import predict as predict_kit
 from fabpat.assembly.provenance import pattern_records
 from fabpat.assembly.spec import AssemblySpec, load_spec
 from fabpat.errors import ExportError, SpecError
-from fabpat.io import remove_stale_temps, temp_prefix, write_error
 
 NOT_NEEDED = "not needed: the sleeves are at the dihedral angles (the plates stay flat)"
 SKIPPED = "skipped (--no-predict)"
@@ -158,17 +155,43 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
     :class:`GeometryError` (``predict_h`` too coarse) / :class:`ExportError` / :class:`SolverError` (the
     closure's path lost); on any error ``out`` is untouched and no temporary folder is left.
     """
-    from fabpat.assembly.nesting import check_nesting
-    from fabpat.assembly.net import unfold
-    from fabpat.assembly.parts import PartLibrary
-    from fabpat.assembly.sheets import nest_plates
+    timestamp, spec = _checked_call(spec, out, timestamp, force, predict, predict_h,
+                                    progress=progress, energies=energies, predict_progress=predict_progress)
+    if spec.tiling.panel:  # one part, no sleeves: fabpat.assembly.panel_kit
+        from fabpat.assembly.panel_kit import assemble_panel
+
+        return assemble_panel(spec, Path(out), progress or (lambda _step: None), timestamp, energies, force)
+    out = Path(out)
+    if predict_h is None:
+        predict_h = default_predict_h(spec)
+    tell = progress or (lambda _step: None)
+    kit = _build(spec, energies, tell, predict, predict_h, force, predict_progress)
+    if kit.tried is not None:  # with a time stamp, a reproducible kit: no solver durations in the manifest and BOM
+        kit.tried = [without_durations(rec, timestamp) for rec in kit.tried]
+
+    def write(tmp: Path) -> tuple[list[str], dict[str, object]]:
+        files = write_all(kit.spec, kit.lib, kit.nesting, kit.net, kit.check_lines, tmp, tell, timestamp,
+                          bent(kit.assembly), kit.prediction, kit.tried, kit.records)
+        return files, _manifest(kit, files)
+
+    files = write_kit(out, write)
+    record = kit.prediction.record if kit.prediction is not None else None
+    sheets = kit.nesting.n_sheets if kit.nesting else 0
+    return AssembleResult(out, (*files, MANIFEST), kit.report, sheets, tuple(kit.problems), record,
+                          tuple(kit.check_lines[kit.first_note:]))
+
+
+def _checked_call(spec: AssemblySpec | str | os.PathLike[str], out: object, timestamp: str | None, force: object,
+                  predict: object, predict_h: float | None, **callables: object) -> tuple[str | None, AssemblySpec]:
+    """:func:`assemble`'s arguments checked before any work (one line each, :class:`SpecError` or the
+    timestamp's :class:`ExportError`): the normalised timestamp and the spec (read if a path)."""
     from fabpat.exchange.step import check_timestamp
 
     timestamp = check_timestamp(timestamp)
     for name, value in (("force", force), ("predict", predict)):
         if not isinstance(value, bool):
             raise SpecError(f"{name} must be True or False, got {value!r}")
-    for name, fn in (("progress", progress), ("energies", energies), ("predict_progress", predict_progress)):
+    for name, fn in callables.items():
         if fn is not None and not callable(fn):
             raise SpecError(f"{name} must be a callable or None, got {type(fn).__name__}")
     if predict_h is not None:
@@ -185,16 +208,10 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
     if spec.sheet is None:
         raise SpecError(f"{spec.source}: missing table [sheet] (fabpat assemble nests the plates on this laser sheet "
                         "or print bed: give its width and height)")
-    if spec.tiling.panel:  # one part, no sleeves: fabpat.assembly.panel_kit
-        if predict_h is not None:
-            raise SpecError(f"{spec.source}: predict_h (--predict-h) is the mesh of a kit's prediction, and a panel's "
-                            "kit has none: `fabpat simulate-assembly` pushes a panel together")
-        from fabpat.assembly.panel_kit import assemble_panel
-
-        if not isinstance(out, str | os.PathLike) or not str(out):
-            raise SpecError(f"out must be the path of the kit's folder, got {out!r}")
-        return assemble_panel(spec, Path(out), progress or (lambda _step: None), timestamp, energies, force)
-    if spec.tiling.fit == "best":
+    if spec.tiling.panel and predict_h is not None:
+        raise SpecError(f"{spec.source}: predict_h (--predict-h) is the mesh of a kit's prediction, and a panel's "
+                        "kit has none: `fabpat simulate-assembly` pushes a panel together")
+    if spec.tiling.fit == "best" and not spec.tiling.panel:
         # the kit's checks (slots on the interfaces, no interference) hold in the placement of an exact
         # tiling; here the placement is only a start of the closure, so they would need the closed shape
         raise SpecError(f"{spec.source}: tiling.kind = {spec.tiling.kind!r} places its plates only near its faces "
@@ -203,11 +220,10 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
                         "`fabpat simulate-assembly` predicts this one")
     if not isinstance(out, str | os.PathLike) or not str(out):
         raise SpecError(f"out must be the path of the kit's folder, got {out!r}")
-    out = Path(out)
-    check_out(out)
-    if predict_h is None:
-        predict_h = default_predict_h(spec)
-    elif predict and predicts(spec):  # before any work: a mesh too coarse for the interfaces cannot predict
+    if not spec.tiling.panel:
+        check_out(Path(out))
+    if predict_h is not None and predict and not spec.tiling.panel and predicts(spec):
+        # before any work: a mesh too coarse for the interfaces cannot predict
         from fabpat.assembly.simulate import check_h
         from fabpat.errors import GeometryError
 
@@ -215,9 +231,37 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
             check_h(predict_h, spec.tiling.edge, spec.plates.weight)
         except GeometryError as e:
             raise GeometryError(f"{spec.source}: predict_h (--predict-h): {e}") from e
-    tell = progress or (lambda _step: None)
-    f = spec.formats
+    return timestamp, spec
 
+
+@dataclass(eq=False)
+class _Kit:
+    """Everything :func:`assemble` builds and checks before the first file is written."""
+
+    spec: AssemblySpec
+    assembly: Any
+    lib: Any
+    nesting: Any
+    net: Any
+    report: Any
+    check_lines: list[str]
+    first_note: int  # the check lines from here on are told on the terminal too
+    problems: list[str]
+    prediction: Prediction | None
+    status: str
+    records: list[Any]
+    tried: list[dict[str, Any]] | None
+
+
+def _build(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | None, tell: Callable[[str], None],
+           predict: bool, predict_h: float, force: bool, predict_progress: Callable[[float], None] | None) -> _Kit:
+    """The patterns chosen, the parts placed once (:func:`plan`), nested, unfolded, checked and predicted."""
+    from fabpat.assembly.nesting import check_nesting
+    from fabpat.assembly.net import unfold
+    from fabpat.assembly.parts import PartLibrary
+    from fabpat.assembly.sheets import nest_plates
+
+    f = spec.formats
     spec = with_members(spec, energies)  # bridge_weight = "rule": every face's family member, once
     ids, chosen, tried, chose = None, None, None, []
     if spec.patterns.rule == "roundest":  # its pair, and with bridge_weight = "rule" their members, in the spec
@@ -238,7 +282,7 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
     report = check_assembly(lib)
     problems += report.shallow  # plates that enter their slots much less than sleeve.depth: a warning each
     check_lines = report.lines()
-    first_note = len(check_lines)  # what follows the parts' checks is told on the terminal too
+    first_note = len(check_lines)
     if spec.tiling.radius is not None:
         check_lines.append(radius_line(assembly))
     if nesting is not None:
@@ -247,7 +291,6 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
     if net is not None:
         check_lines.append(f"net without overlaps ({len(net.folds)} folds)")
     prediction: Prediction | None = None
-    notes: list[str] = []
     if predicted(assembly) and predict:
         if chosen is None:
             tell("prediction")
@@ -255,57 +298,38 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
         else:
             prediction = finish(chosen[0], assembly, predict_h, chosen[1])
         problems += strain_problems(spec, prediction.run, force)
-        notes += prediction_notes(prediction)
-        check_lines += notes + chose
+        check_lines += prediction_notes(prediction) + chose
     elif predicted(assembly):  # the plates bend but nothing checked how far: say so where the user looks
         problems.append(f"material.strain_limit = {spec.material.strain_limit:g} not checked: the prediction was "
                         f"skipped (--no-predict), and the plates bend when {use(spec)}")
     status = (NOT_NEEDED if not predicted(assembly) else PREDICTION if prediction is not None else SKIPPED)
-    records = pattern_records(spec, assembly.plate_types)
+    return _Kit(spec, assembly, lib, nesting, net, report, check_lines, first_note, problems, prediction, status,
+                pattern_records(spec, assembly.plate_types), tried)
 
-    parent = out.parent if str(out.parent) else Path(".")
-    remove_stale_temps(parent)  # the temporary folders of a killed earlier run
-    try:
-        tmp = Path(tempfile.mkdtemp(prefix=temp_prefix(out.name), suffix=".part", dir=parent))
-    except OSError as e:  # a read-only or immutable parent: one line naming --out
-        raise write_error(out, e) from e
-    if tried is not None:  # with a time stamp, a reproducible kit: no solver durations in the manifest and BOM
-        tried = [without_durations(rec, timestamp) for rec in tried]
-    try:
-        files = write_all(spec, lib, nesting, net, check_lines, tmp, tell, timestamp, bent(assembly), prediction,
-                          tried, records)
-        manifest = {"generator": GENERATOR, "spec": spec.name, "source": spec.source, "files": files,
-                    "counts": assembly.counts(), "patterns": [r.as_dict() for r in records],
-                    "sheets": nesting.n_sheets if nesting else 0,
-                    "skeleton_edge_mm": round(assembly.skeleton.edge_length(), 6),
-                    "plate_edge_mm": round(assembly.plate_edge, 6), "checks": check_lines,
-                    "warnings": problems, "prediction": status, "sha256": digests(tmp, files)}
-        if tried is not None:
-            manifest["candidates"] = tried
-        if bent(assembly):
-            manifest["shape"] = (f"assembly.glb, assembly.png and predicted.stl show the predicted bent shape "
-                                 f"({PREDICTION}); parts.step and parts.3dm hold the flat parts" if prediction else
-                                 "not predicted (--no-predict): no file shows the assembled shape; the flat parts "
-                                 "bend when the sleeves close the object (parts.step, parts.3dm)")
-        elif predicted(assembly):
-            manifest["shape"] = (f"assembly.* show the flat strip as assembled; predicted.glb, predicted.png and "
-                                 f"predicted.stl show it when {use(spec)} ({PREDICTION})" if prediction else
-                                 "not predicted (--no-predict): assembly.* show the flat strip as assembled, no file "
-                                 f"shows it when {use(spec)}")
-        (tmp / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
-        os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes 0700 folders; give the user's usual permissions
-        swap_in(tmp, out)
-    except OSError as e:  # a full disk while writing: one line naming --out, not a temporary file
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise write_error(out, e) from e
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    record = None
-    if prediction is not None:
-        record = prediction.record
-    return AssembleResult(out, (*files, MANIFEST), report, nesting.n_sheets if nesting else 0, tuple(problems),
-                          record, tuple(check_lines[first_note:]))
+
+def _manifest(kit: _Kit, files: list[str]) -> dict[str, object]:
+    """The kit's ``manifest.json`` (its ``sha256`` filled in by :func:`fabpat.assembly.kit_folder.write_kit`)."""
+    spec, assembly = kit.spec, kit.assembly
+    manifest: dict[str, object] = {
+        "generator": GENERATOR, "spec": spec.name, "source": spec.source, "files": files,
+        "counts": assembly.counts(), "patterns": [r.as_dict() for r in kit.records],
+        "sheets": kit.nesting.n_sheets if kit.nesting else 0,
+        "skeleton_edge_mm": round(assembly.skeleton.edge_length(), 6),
+        "plate_edge_mm": round(assembly.plate_edge, 6), "checks": kit.check_lines,
+        "warnings": kit.problems, "prediction": kit.status, "sha256": None}
+    if kit.tried is not None:
+        manifest["candidates"] = kit.tried
+    if bent(assembly):
+        manifest["shape"] = (f"assembly.glb, assembly.png and predicted.stl show the predicted bent shape "
+                             f"({PREDICTION}); parts.step and parts.3dm hold the flat parts" if kit.prediction else
+                             "not predicted (--no-predict): no file shows the assembled shape; the flat parts "
+                             "bend when the sleeves close the object (parts.step, parts.3dm)")
+    elif predicted(assembly):
+        manifest["shape"] = (f"assembly.* show the flat strip as assembled; predicted.glb, predicted.png and "
+                             f"predicted.stl show it when {use(spec)} ({PREDICTION})" if kit.prediction else
+                             "not predicted (--no-predict): assembly.* show the flat strip as assembled, no file "
+                             f"shows it when {use(spec)}")
+    return manifest
 
 
 def prediction_notes(prediction: Prediction) -> list[str]:
@@ -361,10 +385,3 @@ def _roundest(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | 
                     f"roundest of {len(tried)} pairs (sphericity rms {100 * kept['sphericity_rms']:.3f} %)")
     spec, ids = with_candidates(spec, names)
     return spec, ids, (run, seconds), tried, lines
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-

@@ -160,3 +160,35 @@ def swap_in(tmp: Path, out: Path, in_the_way: Callable[[Path], str | None] = for
                 aside.rmdir()
         raise
     shutil.rmtree(aside, ignore_errors=True)
+
+
+def write_kit(out: Path, write: Callable[[Path], tuple[list[str], dict[str, object]]]) -> list[str]:
+    """Write a kit into ``out`` all or nothing: ``write(tmp)`` writes the kit's files into a fresh temporary
+    folder beside ``out`` and returns them (relative paths) with the manifest, whose ``sha256`` entry (kept in
+    its place, or added last) gets their digests; the manifest is written, the folder given the user's usual
+    permissions and swapped in (:func:`swap_in`). Returns the files. An :class:`OSError` (a full disk, a
+    read-only parent) becomes one :class:`ExportError` naming ``out``; on any error the temporary folder is
+    removed and ``out`` is untouched."""
+    from fabpat.io import remove_stale_temps, write_error
+
+    parent = out.parent if str(out.parent) else Path(".")
+    remove_stale_temps(parent)  # the temporary folders of a killed earlier run
+    try:
+        tmp = Path(tempfile.mkdtemp(prefix=temp_prefix(out.name), suffix=".part", dir=parent))
+    except OSError as e:  # a read-only or immutable parent: one line naming --out
+        raise write_error(out, e) from e
+    try:
+        files, manifest = write(tmp)
+        manifest["sha256"] = digests(tmp, files)
+        (tmp / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
+        mask = os.umask(0)
+        os.umask(mask)
+        os.chmod(tmp, 0o777 & ~mask)  # mkdtemp makes 0700 folders
+        swap_in(tmp, out)
+    except OSError as e:  # a full disk while writing: one line naming --out, not a temporary file
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise write_error(out, e) from e
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return files

@@ -20,11 +20,7 @@ strip (:func:`fabpat.assembly.panel.panel_setup`).
 
 from __future__ import annotations
 
-import json
 import math
-import os
-import shutil
-import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -151,11 +147,10 @@ def assemble_panel(spec: Any, out: Path, tell: Callable[[str], None], timestamp:
     docstring. Raises SpecError, ExportError (plates too narrow for the process without ``force``; a fused part
     that fails its checks), GeometryError; on any error ``out`` is untouched."""
     from fabpat.assembly.choice import face_patterns, with_members
-    from fabpat.assembly.kit_folder import GENERATOR, MANIFEST, check_out, digests, swap_in
+    from fabpat.assembly.kit_folder import GENERATOR, MANIFEST, check_out, write_kit
     from fabpat.assembly.kit_result import AssembleResult, fabrication_problems
     from fabpat.assembly.nesting import check_nesting
     from fabpat.assembly.provenance import pattern_records
-    from fabpat.io import remove_stale_temps, temp_prefix, write_error
 
     check_out(out)
     spec = with_members(spec, energies)
@@ -175,33 +170,18 @@ def assemble_panel(spec: Any, out: Path, tell: Callable[[str], None], timestamp:
     v, plates = check_panel_part(panel)
     report = PanelReport(len(panel.types), panel.fused.fused, len(panel.outline.holes), v, plates, nesting.n_sheets,
                          panel.fused.mixed, panel.fused.mixed_gap)
-    parent = out.parent if str(out.parent) else Path(".")
-    remove_stale_temps(parent)
-    try:
-        tmp = Path(tempfile.mkdtemp(prefix=temp_prefix(out.name), suffix=".part", dir=parent))
-    except OSError as e:
-        raise write_error(out, e) from e
-    try:
+    def write(tmp: Path) -> tuple[list[str], dict[str, object]]:
         files = write_panel_files(panel, nesting, quarter, report, tmp, tell, timestamp)
-        manifest = {"generator": GENERATOR, "spec": spec.name, "source": spec.source, "files": files,
-                    "counts": {panel.name: 1}, "tiles": dict(zip(panel.labels, [t.label for t in panel.types],
-                                                                 strict=True)),
-                    # how each tile's pattern was chosen and its catalog energies, as a kit's manifest has them
-                    "patterns": [r.as_dict() for r in pattern_records(spec, list(dict.fromkeys(panel.types)))],
-                    "sheets": nesting.n_sheets, "checks": report.lines(), "warnings": problems,
-                    "prediction": "not made for a panel: `fabpat simulate-assembly` pushes it together as a strip",
-                    "sha256": digests(tmp, files)}
-        (tmp / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
-        mask = os.umask(0)
-        os.umask(mask)
-        os.chmod(tmp, 0o777 & ~mask)
-        swap_in(tmp, out)
-    except OSError as e:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise write_error(out, e) from e
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+        return files, {"generator": GENERATOR, "spec": spec.name, "source": spec.source, "files": files,
+                       "counts": {panel.name: 1}, "tiles": dict(zip(panel.labels, [t.label for t in panel.types],
+                                                                    strict=True)),
+                       # how each tile's pattern was chosen and its catalog energies, as a kit's manifest has them
+                       "patterns": [r.as_dict() for r in pattern_records(spec, list(dict.fromkeys(panel.types)))],
+                       "sheets": nesting.n_sheets, "checks": report.lines(), "warnings": problems,
+                       "prediction": "not made for a panel: `fabpat simulate-assembly` pushes it together as a strip",
+                       "sha256": None}
+
+    files = write_kit(out, write)
     return AssembleResult(out, (*files, MANIFEST), report, nesting.n_sheets, tuple(problems))
 
 
