@@ -37,7 +37,7 @@ from typing import Any
 
 from fabpat.assembly.checks import check_assembly
 from fabpat.assembly.choice import candidate_pairs, face_patterns, with_members
-from fabpat.assembly.kit_files import PREDICTION, without_durations, write_all
+from fabpat.assembly.kit_files import PREDICTION, KitOutput, without_durations, write_all
 from fabpat.assembly.kit_folder import GENERATOR, MANIFEST, check_out, write_kit
 from fabpat.assembly.kit_result import AssembleResult, fabrication_problems
 from fabpat.assembly.placement import (
@@ -170,8 +170,9 @@ def assemble(spec: AssemblySpec | str | os.PathLike[str], out: str | os.PathLike
         kit.tried = [without_durations(rec, timestamp) for rec in kit.tried]
 
     def write(tmp: Path) -> tuple[list[str], dict[str, object]]:
-        files = write_all(kit.spec, kit.lib, kit.nesting, kit.net, kit.check_lines, tmp, tell, timestamp,
-                          bent(kit.assembly), kit.prediction, kit.tried, kit.records)
+        output = KitOutput(kit.spec, kit.lib, kit.nesting, kit.net, kit.check_lines, timestamp, bent(kit.assembly),
+                           kit.prediction, kit.tried, kit.records)
+        files = write_all(output, tmp, tell)
         return files, _manifest(kit, files)
 
     files = write_kit(out, write)

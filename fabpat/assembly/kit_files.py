@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -38,105 +39,157 @@ def without_durations(record: dict[str, Any], timestamp: str | None) -> dict[str
     return {k: v for k, v in record.items() if k not in DURATIONS}
 
 
-def write_all(spec: AssemblySpec, lib: Any, nesting: Any, net: Any, check_lines: list[str], tmp: Path,
-              tell: Callable[[str], None], timestamp: str | None, bent_sleeves: bool = False,
-              prediction: Prediction | None = None, candidates: list[dict[str, Any]] | None = None,
-              patterns: Sequence[PatternRecord] = ()) -> list[str]:
-    """Write every requested file into ``tmp``; returns their paths relative to it. ``patterns``: the
-    plates' pattern records for the BOM (:mod:`fabpat.assembly.provenance`).
+@dataclass(eq=False)
+class KitOutput:
+    """What the kit's writers read (:data:`WRITERS`): the spec, the parts (``lib``, a
+    :class:`~fabpat.assembly.parts.PartLibrary`), the sheets' ``nesting``, the ``net``, the check lines, the
+    ``timestamp`` (ISO 8601 or None), whether the sleeves bend the plates, the ``prediction``, the roundest
+    rule's ``candidates``, the plates' pattern records; and what earlier writers wrote that the BOM lists
+    (``stl_files`` {part key: path}, ``sheet_files``)."""
 
-    With ``bent_sleeves`` the STEP and 3DM hold the flat parts side by side (``parts.*``) and the GLB,
-    PNG (and ``predicted.stl``, ``prediction.json``) show the ``prediction``, or are left out without it.
-    ``timestamp`` (ISO 8601, checked by the caller) makes every file byte-reproducible (module docstring).
+    spec: AssemblySpec
+    lib: Any
+    nesting: Any
+    net: Any
+    check_lines: list[str]
+    timestamp: str | None
+    bent_sleeves: bool
+    prediction: Prediction | None
+    candidates: list[dict[str, Any]] | None
+    patterns: Sequence[PatternRecord]
+    stl_files: dict[str, str] = field(default_factory=dict)
+    sheet_files: list[str] = field(default_factory=list)
+
+    @property
+    def shows_shape(self) -> bool:
+        """Whether the GLB and PNG can show the object: flat as assembled, or bent as predicted."""
+        return not self.bent_sleeves or self.prediction is not None
+
+    @property
+    def layout(self) -> Any:
+        """With bent sleeves, the distinct flat parts side by side (``parts.step``, ``parts.3dm``)."""
+        from fabpat.assembly.export import flat_layout
+
+        return flat_layout(self.lib) if self.bent_sleeves else None
+
+
+def _prediction(k: KitOutput, tmp: Path) -> list[str]:
+    from fabpat.assembly.preview import write_predicted_stl
+
+    assert k.prediction is not None
+    record = without_durations(k.prediction.record, k.timestamp)
+    (tmp / PREDICTION).write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
+    write_predicted_stl(k.prediction.shape, k.lib, tmp / "predicted.stl", k.spec.mesh_tolerance)
+    return [PREDICTION, "predicted.stl"]
+
+
+def _step(k: KitOutput, tmp: Path) -> list[str]:
+    from fabpat.assembly.export import write_step_assembly
+
+    name = "parts.step" if k.bent_sleeves else "assembly.step"
+    write_step_assembly(k.lib, tmp / name, k.spec.name, k.timestamp, k.layout)
+    return [name]
+
+
+def _stl(k: KitOutput, tmp: Path) -> list[str]:
+    from fabpat.assembly.export import write_part_stls
+
+    (tmp / "parts").mkdir()
+    for key, path in write_part_stls(k.lib, tmp / "parts", k.spec.mesh_tolerance).items():
+        k.stl_files[key] = f"parts/{path.name}"
+    return list(k.stl_files.values())
+
+
+def _glb(k: KitOutput, tmp: Path) -> list[str]:
+    from fabpat.assembly.export import write_glb
+    from fabpat.assembly.parts import CHECK_TOLERANCE
+    from fabpat.assembly.preview import write_predicted_glb
+
+    if k.prediction is not None and k.bent_sleeves:
+        write_predicted_glb(k.prediction.shape, k.lib, tmp / "assembly.glb", k.spec.name, CHECK_TOLERANCE)
+    else:
+        write_glb(k.lib, tmp / "assembly.glb")
+    if k.prediction is None or k.bent_sleeves:
+        return ["assembly.glb"]
+    # a loaded strip: as assembled, and in use
+    write_predicted_glb(k.prediction.shape, k.lib, tmp / "predicted.glb", k.spec.name, CHECK_TOLERANCE)
+    return ["assembly.glb", "predicted.glb"]
+
+
+def _3dm(k: KitOutput, tmp: Path) -> list[str]:
+    from fabpat.assembly.export import write_3dm
+
+    name = "parts.3dm" if k.bent_sleeves else "assembly.3dm"
+    write_3dm(k.lib, tmp / name, k.spec.mesh_tolerance, k.layout, timestamp=k.timestamp)
+    return [name]
+
+
+def _sheets(k: KitOutput, tmp: Path) -> list[str]:
+    from fabpat.assembly.sheets import write_sheets
+
+    (tmp / "sheets").mkdir()
+    names = write_sheets(k.lib.assembly, k.nesting, tmp / "sheets", k.lib.filleted, k.timestamp)
+    k.sheet_files = [f"sheets/{n}" for n in names]
+    return k.sheet_files
+
+
+def _net(k: KitOutput, tmp: Path) -> list[str]:
+    from fabpat.assembly.export import colours
+    from fabpat.assembly.net import net_svg
+
+    asm: Assembly = k.lib.assembly
+    cols = colours(k.lib)
+    svg = net_svg(k.net, [p.label for p in asm.plates], [p.edge_labels for p in asm.plates],
+                  f"{k.spec.name}: net", [cols[p.type.label] for p in asm.plates])
+    (tmp / "net.svg").write_text(svg, encoding="utf-8")
+    return ["net.svg"]
+
+
+def _png(k: KitOutput, tmp: Path) -> list[str]:
+    from fabpat.assembly.preview import prediction_title, render_predicted_png
+    from fabpat.assembly.render import render_png
+
+    p = k.prediction
+    if p is not None and k.bent_sleeves:
+        render_predicted_png(p.shape, k.lib, tmp / "assembly.png", prediction_title(k.spec.name, p.run, p.h))
+    else:
+        render_png(k.lib, tmp / "assembly.png", k.spec.name)
+    if p is None or k.bent_sleeves:
+        return ["assembly.png"]
+    render_predicted_png(p.shape, k.lib, tmp / "predicted.png", prediction_title(k.spec.name, p.run, p.h))
+    return ["assembly.png", "predicted.png"]
+
+
+def _bom(k: KitOutput, tmp: Path) -> list[str]:
+    from fabpat.assembly.bom import bom_csv, bom_markdown, bom_rows
+
+    rows = bom_rows(k.lib, k.stl_files, k.nesting, k.sheet_files, k.patterns)
+    (tmp / "bom.csv").write_text(bom_csv(rows), encoding="utf-8")
+    moments = k.prediction.run.sleeve_moments if k.prediction is not None else None
+    md = bom_markdown(k.lib, rows, k.nesting, k.check_lines, moments, k.candidates, k.patterns)
+    (tmp / "bom.md").write_text(md, encoding="utf-8")
+    return ["bom.csv", "bom.md"]
+
+
+#: format (``output.formats``) → (progress step, writer, whether it needs the object's shape), in the order
+#: written: the BOM last, since it lists the STL and sheet files written before it
+WRITERS: dict[str, tuple[str, Callable[[KitOutput, Path], list[str]], bool]] = {
+    "step": ("STEP", _step, False), "stl": ("STL", _stl, False), "glb": ("GLB", _glb, True),
+    "3dm": ("3DM", _3dm, False), "dxf": ("sheets", _sheets, False), "svg": ("net SVG", _net, False),
+    "png": ("PNG", _png, True), "bom": ("BOM", _bom, False)}
+
+
+def write_all(kit: KitOutput, tmp: Path, tell: Callable[[str], None]) -> list[str]:
+    """Write every file ``kit.spec``'s formats ask for into ``tmp`` (the prediction's first, then
+    :data:`WRITERS` in order, ``tell(step)`` before each); returns their paths relative to ``tmp``.
+
+    With bent sleeves the STEP and 3DM hold the flat parts side by side (``parts.*``) and the GLB and
+    PNG (and ``predicted.stl``, ``prediction.json``) show the prediction, or are left out without it.
+    A ``timestamp`` (ISO 8601, checked by the caller) makes every file byte-reproducible (module docstring).
     """
-    from fabpat.assembly import export
-
-    asm: Assembly = lib.assembly
-    f = spec.formats
-    files: list[str] = []
-    stl_files: dict[str, str] = {}
-    sheet_files: list[str] = []
-    layout = export.flat_layout(lib) if bent_sleeves else None
-    if prediction is not None:
-        from fabpat.assembly.preview import write_predicted_stl
-
-        record = without_durations(prediction.record, timestamp)
-        (tmp / PREDICTION).write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
-        write_predicted_stl(prediction.shape, lib, tmp / "predicted.stl", spec.mesh_tolerance)
-        files += [PREDICTION, "predicted.stl"]
-    if "step" in f:
-        tell("STEP")
-        name = "parts.step" if bent_sleeves else "assembly.step"
-        export.write_step_assembly(lib, tmp / name, spec.name, timestamp, layout)
-        files.append(name)
-    if "stl" in f:
-        tell("STL")
-        (tmp / "parts").mkdir()
-        for key, path in export.write_part_stls(lib, tmp / "parts", spec.mesh_tolerance).items():
-            stl_files[key] = f"parts/{path.name}"
-        files += list(stl_files.values())
-    show = not bent_sleeves or prediction is not None
-    if "glb" in f and show:
-        tell("GLB")
-        from fabpat.assembly.parts import CHECK_TOLERANCE
-        from fabpat.assembly.preview import write_predicted_glb
-
-        if prediction is not None and bent_sleeves:
-            write_predicted_glb(prediction.shape, lib, tmp / "assembly.glb", spec.name, CHECK_TOLERANCE)
-        else:
-            export.write_glb(lib, tmp / "assembly.glb")
-        files.append("assembly.glb")
-        if prediction is not None and not bent_sleeves:  # a loaded strip: as assembled, and in use
-            write_predicted_glb(prediction.shape, lib, tmp / "predicted.glb", spec.name, CHECK_TOLERANCE)
-            files.append("predicted.glb")
-    if "3dm" in f:
-        tell("3DM")
-        from fabpat.assembly.export import write_3dm
-
-        name = "parts.3dm" if bent_sleeves else "assembly.3dm"
-        write_3dm(lib, tmp / name, spec.mesh_tolerance, layout, timestamp=timestamp)
-        files.append(name)
-    if "dxf" in f:
-        tell("sheets")
-        from fabpat.assembly.sheets import write_sheets
-
-        (tmp / "sheets").mkdir()
-        sheet_files = [f"sheets/{n}" for n in write_sheets(asm, nesting, tmp / "sheets", lib.filleted, timestamp)]
-        files += sheet_files
-    if "svg" in f:
-        tell("net SVG")
-        from fabpat.assembly.export import colours
-        from fabpat.assembly.net import net_svg
-
-        cols = colours(lib)
-        svg = net_svg(net, [p.label for p in asm.plates], [p.edge_labels for p in asm.plates],
-                      f"{spec.name}: net", [cols[p.type.label] for p in asm.plates])
-        (tmp / "net.svg").write_text(svg, encoding="utf-8")
-        files.append("net.svg")
-    if "png" in f and show:
-        tell("PNG")
-        from fabpat.assembly.preview import prediction_title, render_predicted_png
-
-        if prediction is not None and bent_sleeves:
-            render_predicted_png(prediction.shape, lib, tmp / "assembly.png",
-                                 prediction_title(spec.name, prediction.run, prediction.h))
-        else:
-            from fabpat.assembly.render import render_png
-
-            render_png(lib, tmp / "assembly.png", spec.name)
-        files.append("assembly.png")
-        if prediction is not None and not bent_sleeves:
-            render_predicted_png(prediction.shape, lib, tmp / "predicted.png",
-                                 prediction_title(spec.name, prediction.run, prediction.h))
-            files.append("predicted.png")
-    if "bom" in f:
-        tell("BOM")
-        from fabpat.assembly.bom import bom_csv, bom_markdown, bom_rows
-
-        rows = bom_rows(lib, stl_files, nesting, sheet_files, patterns)
-        (tmp / "bom.csv").write_text(bom_csv(rows), encoding="utf-8")
-        moments = prediction.run.sleeve_moments if prediction is not None else None
-        md = bom_markdown(lib, rows, nesting, check_lines, moments, candidates, patterns)
-        (tmp / "bom.md").write_text(md, encoding="utf-8")
-        files += ["bom.csv", "bom.md"]
+    files = _prediction(kit, tmp) if kit.prediction is not None else []
+    for fmt, (step, writer, needs_shape) in WRITERS.items():
+        if fmt in kit.spec.formats and (kit.shows_shape or not needs_shape):
+            tell(step)
+            files += writer(kit, tmp)
     return files
