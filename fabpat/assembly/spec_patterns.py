@@ -117,6 +117,11 @@ def _labels(tiling: TilingSpec) -> list[str]:
 
 
 def _pattern_way(source: str, t: _Table, tiling: TilingSpec) -> PatternSpec:
+    """The ``[patterns]`` table ``t`` read as the one way it chooses (``pattern``, a pattern per polygon,
+    ``rule``, ``groups`` or ``tiles``) for ``tiling``; raises :class:`SpecError` naming the key.
+
+    One function, a branch per way: which keys are allowed depends on the way chosen, and a key the chosen
+    way does not read is refused here, against the same list of ways, rather than ignored."""
     strip = tiling.strip
     sides = tiling.sides
     names = [POLYGON_KEYS[n] for n in sides]
