@@ -162,13 +162,13 @@ def swap_in(tmp: Path, out: Path, in_the_way: Callable[[Path], str | None] = for
     shutil.rmtree(aside, ignore_errors=True)
 
 
-def write_kit(out: Path, write: Callable[[Path], tuple[list[str], dict[str, object]]]) -> list[str]:
-    """Write a kit into ``out`` all or nothing: ``write(tmp)`` writes the kit's files into a fresh temporary
-    folder beside ``out`` and returns them (relative paths) with the manifest, whose ``sha256`` entry (kept in
-    its place, or added last) gets their digests; the manifest is written, the folder given the user's usual
-    permissions and swapped in (:func:`swap_in`). Returns the files. An :class:`OSError` (a full disk, a
-    read-only parent) becomes one :class:`ExportError` naming ``out``; on any error the temporary folder is
-    removed and ``out`` is untouched."""
+def write_folder(out: Path, write: Callable[[Path], list[str]],
+                 in_the_way: Callable[[Path], str | None] = foreign_entries) -> list[str]:
+    """Write a folder of outputs into ``out`` all or nothing: ``write(tmp)`` fills a fresh temporary folder
+    beside ``out`` and returns its files (relative paths); the folder gets the user's usual permissions and is
+    swapped in (:func:`swap_in`, refusing an ``out`` that holds what ``in_the_way`` names). Returns the files.
+    An :class:`OSError` (a full disk, a read-only parent) becomes one :class:`ExportError` naming ``out``; on
+    any error the temporary folder is removed and ``out`` is untouched."""
     from fabpat.io import remove_stale_temps, write_error
 
     parent = out.parent if str(out.parent) else Path(".")
@@ -178,13 +178,11 @@ def write_kit(out: Path, write: Callable[[Path], tuple[list[str], dict[str, obje
     except OSError as e:  # a read-only or immutable parent: one line naming --out
         raise write_error(out, e) from e
     try:
-        files, manifest = write(tmp)
-        manifest["sha256"] = digests(tmp, files)
-        (tmp / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
+        files = write(tmp)
         mask = os.umask(0)
         os.umask(mask)
         os.chmod(tmp, 0o777 & ~mask)  # mkdtemp makes 0700 folders
-        swap_in(tmp, out)
+        swap_in(tmp, out, in_the_way)
     except OSError as e:  # a full disk while writing: one line naming --out, not a temporary file
         shutil.rmtree(tmp, ignore_errors=True)
         raise write_error(out, e) from e
@@ -192,3 +190,17 @@ def write_kit(out: Path, write: Callable[[Path], tuple[list[str], dict[str, obje
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     return files
+
+
+def write_kit(out: Path, write: Callable[[Path], tuple[list[str], dict[str, object]]]) -> list[str]:
+    """A kit written by :func:`write_folder`: ``write(tmp)`` writes the kit's files and returns them with the
+    manifest, whose ``sha256`` entry (kept in its place, or added last) gets their digests before
+    ``manifest.json`` is written. Returns the files (without the manifest)."""
+
+    def with_manifest(tmp: Path) -> list[str]:
+        files, manifest = write(tmp)
+        manifest["sha256"] = digests(tmp, files)
+        (tmp / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
+        return files
+
+    return write_folder(out, with_manifest)

@@ -13,8 +13,6 @@ import contextlib
 import json
 import math
 import os
-import shutil
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -189,14 +187,11 @@ def write_png(res: Any, path: Path) -> None:
 
 def write_design(res: Any, out: str | os.PathLike[str], kit: bool = False) -> list[str]:
     """Write the design's files into ``out`` atomically (module doc); returns their names in ``out``."""
-    from fabpat.assembly.kit_folder import swap_in
-    from fabpat.io import remove_stale_temps, temp_prefix, write_error
+    from fabpat.assembly.kit_folder import write_folder
 
     p = check_design_out(out)
-    parent = p.parent if str(p.parent) else Path(".")
-    remove_stale_temps(parent)
-    tmp = Path(tempfile.mkdtemp(prefix=temp_prefix(p.name), suffix=".part", dir=parent))
-    try:
+
+    def write(tmp: Path) -> list[str]:
         (tmp / "design.toml").write_text(spec_toml(design_spec_data(res)), encoding="utf-8")
         record = {**res.record, "generator": GENERATOR}
         (tmp / "design.json").write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
@@ -207,14 +202,6 @@ def write_design(res: Any, out: str | os.PathLike[str], kit: bool = False) -> li
 
             made = assemble(str(tmp / "design.toml"), tmp / "kit")
             files += [f"kit/{f}" for f in made.files]
-        mask = os.umask(0)
-        os.umask(mask)
-        os.chmod(tmp, 0o777 & ~mask)  # mkdtemp makes 0700 folders
-        swap_in(tmp, p, design_in_the_way)
-    except OSError as e:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise write_error(p, e) from e
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    return files
+        return files
+
+    return write_folder(p, write, design_in_the_way)
