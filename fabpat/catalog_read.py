@@ -14,8 +14,8 @@ from collections.abc import Iterator, Mapping, Sequence
 from functools import cache
 from pathlib import Path
 
-from fabpat.catalog import DEFAULT_SETUP, KEY, METRICS, Catalog, CatalogError, builtin_path, open_catalog
-from fabpat.catalog_rows import CatalogRows, check_row, find_rows, polygon_name
+from fabpat.catalog_rows import CatalogError, CatalogRows, check_row, find_rows, polygon_name
+from fabpat.catalog_store import DEFAULT_SETUP, KEY, METRICS, Catalog, builtin_path, open_catalog
 
 
 @cache

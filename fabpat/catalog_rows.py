@@ -17,15 +17,24 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from fabpat.errors import FabpatError
+
 _POLYGONS = {3: "triangles", 4: "squares", 5: "pentagons", 6: "hexagons", 7: "heptagons", 8: "octagons",
              9: "nonagons", 10: "decagons", 12: "dodecagons"}
 #: rows shown by a notebook's table of :class:`CatalogRows`
 HTML_ROWS = 10
 
 
-def _error(message: str) -> Exception:
-    from fabpat.catalog import CatalogError  # the catalog module imports this one: resolved when raised
+class CatalogError(FabpatError, ValueError):
+    """A catalog file that is missing, not a fabpat catalog, from an incompatible schema or holding a
+    bad value; a bad filter or query argument (a ``ValueError`` too, as before it was one of these).
 
+    Defined in the lowest of the catalog's modules, which every other one imports (``fabpat.catalog``
+    exports it; fabpat.errors holds the package-wide classes, and its code is digested into the solver
+    version, so a class added there would make every stored solve stale)."""
+
+
+def _error(message: str) -> Exception:
     return CatalogError(message)
 
 

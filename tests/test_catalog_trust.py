@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 import fabpat
-from fabpat import catalog as catalog_module
+from fabpat import catalog_store as catalog_module
 from fabpat.catalog import CatalogError, energies, open_catalog
 from fabpat.sweep import run_sweep
 from tests.test_catalog import fake_catalog, fake_rows, invoke

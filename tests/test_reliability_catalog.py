@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner, Result
 
-from fabpat import catalog as catalog_module
+from fabpat import catalog_store as catalog_module
 from fabpat.catalog import CatalogError, open_catalog
 from tests.test_reliability_files import in_small_tmpfs, needs_unshare, one_line_error
 
