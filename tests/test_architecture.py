@@ -1,0 +1,143 @@
+"""The package map in docs/design-notes.md is true: every module is in it once, in its stage, and the
+imports (every import statement: top-level, function-local and TYPE_CHECKING ones) run only from a stage
+to the stages its row names, except the arrows the page lists as running back, each with its reason."""
+
+from __future__ import annotations
+
+import ast
+import re
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGE = ROOT / "fabpat"
+NOTES = ROOT / "docs" / "design-notes.md"
+
+
+def modules() -> dict[str, Path]:
+    """Every module of fabpat by its dotted name without the ``fabpat.`` prefix (a package by its own name,
+    ``fabpat/__init__.py`` as ``__init__``)."""
+    out = {}
+    for f in sorted(PACKAGE.rglob("*.py")):
+        parts = list(f.relative_to(PACKAGE).with_suffix("").parts)
+        if parts[-1] == "__init__" and len(parts) > 1:
+            parts = parts[:-1]
+        out[".".join(parts)] = f
+    return out
+
+
+def imports(path: Path, known: dict[str, Path]) -> set[str]:
+    """The fabpat modules ``path`` imports (``from fabpat.shell import solve`` is ``shell.solve``; the
+    package ``fabpat`` itself, e.g. for ``__version__``, is ``__init__``)."""
+
+    def resolve(name: str) -> str:
+        rest = name.removeprefix("fabpat").removeprefix(".")
+        while rest and rest not in known:
+            rest = rest.rpartition(".")[0]
+        return rest or "__init__"
+
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.ImportFrom) and node.level == 0 and (node.module or "").split(".")[0] == "fabpat":
+            out |= {resolve(f"{node.module}.{a.name}") for a in node.names}
+        elif isinstance(node, ast.Import):
+            out |= {resolve(a.name) for a in node.names if a.name.split(".")[0] == "fabpat"}
+    return out
+
+
+def section(title: str) -> list[list[str]]:
+    """The rows of the first table under the heading ``title`` in docs/design-notes.md, as cells."""
+    text = NOTES.read_text(encoding="utf-8")
+    start = re.search(rf"^#+ {re.escape(title)}\s*$", text, re.M)
+    assert start, f"docs/design-notes.md has no section {title!r}"
+    rows = []
+    for line in text[start.end():].splitlines():
+        if line.startswith("#"):
+            break
+        if line.startswith("|") and not set(line) <= set("|-: "):
+            rows.append([c.strip() for c in line.strip().strip("|").split("|")])
+    return rows[1:]  # without the header
+
+
+def names(cell: str) -> list[str]:
+    return re.findall(r"`([^`]+)`", cell)
+
+
+def stage_map() -> tuple[list[str], dict[str, str], dict[str, set[str]]]:
+    """Stage order, module → stage, stage → the stages it may import (itself included)."""
+    order: list[str] = []
+    where: dict[str, str] = {}
+    allowed: dict[str, set[str]] = {}
+    for stage, uses, mods, *_ in section("Module map"):
+        if stage not in order:
+            order.append(stage)
+        ups = set(order) if uses == "every stage above" else {u.strip() for u in uses.split(",") if u.strip() != "–"}
+        allowed.setdefault(stage, {stage}).update(ups)
+        for m in names(mods):
+            assert m not in where, f"{m} is listed twice in the module map"
+            where[m] = stage
+    return order, where, allowed
+
+
+def back_arrows() -> set[tuple[str, str]]:
+    return {(names(a)[0], names(b)[0]) for a, b, *_ in section("Arrows that run back")}
+
+
+def test_every_module_is_in_the_map_once() -> None:
+    _, where, _ = stage_map()
+    have = set(modules())
+    assert sorted(have - set(where)) == [], "modules missing from docs/design-notes.md's module map"
+    assert sorted(set(where) - have) == [], "the module map names modules that do not exist"
+
+
+def test_stages_name_only_stages_above_them() -> None:
+    order, _, allowed = stage_map()
+    for stage, ups in allowed.items():
+        assert all(order.index(u) <= order.index(stage) for u in ups), (stage, ups)
+
+
+def test_no_import_from_a_later_stage_except_the_listed_arrows() -> None:
+    _, where, allowed = stage_map()
+    known = modules()
+    listed = back_arrows()
+    seen = set()
+    wrong = []
+    for m, path in known.items():
+        for t in imports(path, known) - {m}:
+            if where[t] in allowed[where[m]]:
+                continue
+            if (m, t) in listed:
+                seen.add((m, t))
+            else:
+                wrong.append(f"{m} ({where[m]}) imports {t} ({where[t]})")
+    assert wrong == []
+    assert sorted(listed - seen) == [], "arrows listed as running back that no longer exist"
+
+
+def test_the_shell_engine_knows_nothing_outside_itself() -> None:
+    known = modules()
+    for m, path in known.items():
+        if m == "shell" or m.startswith("shell."):
+            outside = {t for t in imports(path, known) if t != "errors" and not t.startswith("shell")}
+            assert outside == set(), f"{m} imports {outside}"
+
+
+def test_no_import_circle_but_through_the_listed_arrows() -> None:
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    known = modules()
+    index = {m: i for i, m in enumerate(known)}
+    listed = back_arrows()
+    edges = [(index[m], index[t]) for m, p in known.items() for t in imports(p, known) - {m} if (m, t) not in listed]
+    a, b = zip(*edges, strict=True)
+    graph = coo_matrix(([1] * len(a), (a, b)), shape=(len(known),) * 2)
+    n, label = connected_components(graph, directed=True, connection="strong")
+    circles = [sorted(m for m, i in index.items() if label[i] == k) for k in range(n)]
+    assert [c for c in circles if len(c) > 1] == []
+
+
+@pytest.mark.parametrize("title", ["Module map", "Arrows that run back"])
+def test_the_tables_exist(title: str) -> None:
+    assert section(title), f"the {title!r} table of docs/design-notes.md is empty"
