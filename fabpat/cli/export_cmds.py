@@ -31,6 +31,7 @@ from fabpat.exchange.registry import (
     ExportSettings,
     Job,
     Part,
+    check_settings,
     check_target,
     export_parts,
     filleted_part,
@@ -154,7 +155,7 @@ def export_cmd(pattern_id: str | None, sides: int, depth: int | None, edge: floa
     settings = ExportSettings(curves=curves, kerf=kerf, dxf_version=dxf_version, mesh_tolerance=mesh_tolerance,
                               curve_tolerance=curve_tolerance, dxf_entities=dxf_entities, svg_curves=svg_curves,
                               origin=origin, max_elements=max_elements)
-    settings.check()
+    check_settings(settings)
     files = {"step": step, "stl": stl, "3mf": threemf, "dxf": dxf, "svg": svg, "3dm": rhino}
     if all_:
         if pattern_id is not None:

@@ -35,7 +35,7 @@ any degree, becomes a cubic (degree-3) non-rational SPLINE within ``tolerance`` 
 The label (:func:`fabpat.exchange.labels.place_label`) is a TEXT with its default alignment, so its
 first point is where the text starts, inside the part; a part with no room for a 1 mm label has none.
 
-Reproducible files: with a ``timestamp`` (ISO 8601, :func:`fabpat.exchange.step.check_timestamp`) the same
+Reproducible files: with a ``timestamp`` (ISO 8601, :func:`fabpat.exchange.part.check_timestamp`) the same
 drawing gives the same bytes in every run (:func:`stamp_document`): the header's dates ``$TDCREATE``,
 ``$TDUPDATE`` (the stamp's own wall time) and ``$TDUCREATE``, ``$TDUUPDATE`` (UTC) are its Julian date,
 the editing timers ``$TDINDWG`` and ``$TDUSRTIMER`` are zero, ``$FINGERPRINTGUID`` and ``$VERSIONGUID``
@@ -63,7 +63,7 @@ from fabpat.io import atomic_outputs
 from fabpat.outline import Line, Loop, Outline
 
 if TYPE_CHECKING:  # pragma: no cover
-    from fabpat.exchange.registry import ExportSettings, Part
+    from fabpat.exchange.part import ExportSettings, Part
 
 CURVE_MODES = ("arcs", "spline", "lines")
 ENTITY_MODES = ("polyline", "segments")
@@ -383,8 +383,8 @@ def stamp_document(doc: Any, timestamp: str, name: str) -> None:
     from ezdxf.document import CREATED_BY_EZDXF, WRITTEN_BY_EZDXF
     from ezdxf.tools.juliandate import juliandate
 
+    from fabpat.exchange.part import check_timestamp
     from fabpat.exchange.stamp import stamp_time, stamp_uuid, utc_time
-    from fabpat.exchange.step import check_timestamp
 
     text = check_timestamp(timestamp, "timestamp")
     update = getattr(doc, "_update_metadata", None)
@@ -441,7 +441,7 @@ def dump_dxf(outline: Outline, path: str | os.PathLike[str], label: str | None =
     """Write :func:`dxf_document` to ``path`` (not atomic; see :func:`write_dxf`). ``timestamp`` (ISO 8601)
     makes the file byte-reproducible; ``name`` (default ``label``) goes into its GUIDs (:func:`stamp_document`).
     Raises :class:`ExportError`, :class:`GeometryError`."""
-    from fabpat.exchange.step import check_timestamp
+    from fabpat.exchange.part import check_timestamp
 
     check_timestamp(timestamp, "timestamp")  # before the drawing is made
     doc = dxf_document(outline, label, **options)
@@ -470,7 +470,7 @@ def write_dxf(outline: Outline, path: str | os.PathLike[str], label: str | None 
               timestamp: str | None = None, name: str | None = None, **options: Any) -> Path:
     """Write the outline as DXF atomically; ``options`` as for :func:`dxf_document`, ``timestamp`` and
     ``name`` as for :func:`dump_dxf`. Returns the path. Raises :class:`ExportError`, :class:`GeometryError`."""
-    from fabpat.exchange.step import check_timestamp
+    from fabpat.exchange.part import check_timestamp
 
     check_timestamp(timestamp, "timestamp")
     check_options(

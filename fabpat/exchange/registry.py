@@ -16,147 +16,29 @@ from __future__ import annotations
 
 import contextlib
 import importlib
-import math
 import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from functools import cached_property
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from fabpat.cad import DEFAULT_ANGULAR, DEFAULT_CHORD, DEFAULT_THICKNESS, make_solid, occt_errors
+from fabpat.cad import DEFAULT_THICKNESS, occt_errors
 from fabpat.errors import ExportError
+from fabpat.exchange.part import (  # noqa: F401 - Part, ExportSettings and their limits are part of this API
+    DEFAULT_MAX_EXPORT_ELEMENTS,
+    ExportSettings,
+    Part,
+    estimate_triangles,
+    flatten_arcs,
+)
 from fabpat.io import atomic_outputs, check_distinct, check_file_name
-from fabpat.outline import Line, Outline, RationalQuad
-from fabpat.validate import check, check_size, check_tolerance
+from fabpat.outline import Outline
+from fabpat.validate import check
 
 PRINT_MIN_WIDTH = 0.8  # mm
 LASER_WIDTH_FACTOR = 2.0  # × kerf
 WIDTH_TOL = 0.01  # mm: flattening tolerance of the min-width check (accurate to ≈ 2 × this)
 
-#: Default limit (``--max-elements``) on the estimated STL/3MF triangles or DXF/SVG segments of one
-#: part. Measured here: 0x0488 at a 1e-4 mm chord gives 1 085 068 triangles in 80 s and 589 MB
-#: (``/usr/bin/time -v fabpat export 0x0488 --stl m.stl --mesh-tolerance 1e-4``), so 2 000 000 triangles
-#: stay near 1 GB and three minutes.
-DEFAULT_MAX_EXPORT_ELEMENTS = 2_000_000
-
-#: BRepMesh triangles of an extruded plate ≈ WALL_TRIANGLES × (curved boundary length, mm) ×
-#: thickness (mm) / chord (mm): surface deflection control subdivides the curved side walls in both
-#: directions. Measured 0.10–0.17 for 0x7f88, 0x2d88 and 0x0488 at t = 2 and 4 mm, chords 1e-3 and 2e-3;
-#: 0.2 errs on the large side. The flat caps add about 4 triangles per boundary chord.
-WALL_TRIANGLES = 0.2
-CAP_TRIANGLES_PER_CHORD = 4
-
-
-def estimate_triangles(outline: Outline, thickness: float, tolerance: float) -> float:
-    """Expected STL/3MF triangle count of the extruded outline at a chord ``tolerance`` (mm)."""
-    curved = math.fsum(s.length for loop in outline.loops for s in loop.segments if not isinstance(s, Line))
-    return WALL_TRIANGLES * curved * thickness / tolerance + CAP_TRIANGLES_PER_CHORD * outline.estimate_segments(
-        tolerance)
-
-
-@dataclass(frozen=True)
-class ExportSettings:
-    """Format options, all lengths in mm.
-
-    ``mesh_tolerance``: STL/3MF chord height; ``angular_tolerance``: BRepMesh angle (rad);
-    ``curves``: DXF curve mode (arcs, spline, lines); ``curve_tolerance``: DXF/SVG fit tolerance;
-    ``kerf``: laser kerf width (DXF/SVG loops move out by kerf / 2); ``dxf_version``: R2010, R12, …;
-    ``dxf_entities``: polyline or segments (None: the default for the curve mode and version, see
-    :mod:`fabpat.exchange.dxf`); ``svg_curves``: exact or cubic (:mod:`fabpat.exchange.svg`);
-    ``origin``: corner or centre, where a single part's DXF/SVG lies (:mod:`fabpat.exchange.origin`);
-    ``timestamp``: fixed time (ISO 8601) for byte-reproducible STEP, 3MF, DXF and 3DM files.
-    """
-
-    mesh_tolerance: float = DEFAULT_CHORD
-    angular_tolerance: float = DEFAULT_ANGULAR
-    curves: str = "arcs"
-    curve_tolerance: float = 0.01
-    kerf: float = 0.0
-    dxf_version: str = "R2010"
-    dxf_entities: str | None = None
-    svg_curves: str = "cubic"
-    origin: str = "corner"
-    timestamp: str | None = None
-    max_elements: int = DEFAULT_MAX_EXPORT_ELEMENTS
-
-    def check(self) -> None:
-        """Raise :class:`ExportError` for an option no writer could honour (ranges: fabpat.validate)."""
-        from fabpat.exchange.dxf import check_options
-        from fabpat.exchange.step import check_timestamp
-        from fabpat.exchange.svg import check_svg_curves
-
-        for name, v in (("mesh_tolerance", self.mesh_tolerance), ("curve_tolerance", self.curve_tolerance),
-                        ("kerf", self.kerf), ("max_elements", self.max_elements)):
-            check(name, v, name.replace("_", " "), error=ExportError)
-        check_options(self.curves, self.curve_tolerance, self.kerf, self.dxf_version, self.dxf_entities, self.origin)
-        check_svg_curves(self.svg_curves)
-        check_timestamp(self.timestamp, "timestamp")
-        if not (self.angular_tolerance > 0 and math.isfinite(self.angular_tolerance)):
-            raise ExportError(f"angular tolerance must be > 0, got {self.angular_tolerance:g}")
-
-    def check_part(self, part: Part, formats: Sequence[str]) -> None:
-        """Refuse (ExportError) tolerances finer than floating point resolves on the part, and files
-        whose estimated triangles or segments are above ``max_elements``, before anything is built."""
-        outline = part.outline
-        box = np.asarray(outline.bbox)
-        size = float(np.linalg.norm(box[1] - box[0]))
-        processes = {FORMATS[f].process for f in formats}
-        if "print" in processes and any(f != "step" for f in formats if FORMATS[f].process == "print"):
-            check_tolerance(self.mesh_tolerance, size, "mesh tolerance", error=ExportError)
-            n = estimate_triangles(outline, part.thickness, self.mesh_tolerance)
-            check_size(n, self.max_elements, f"mesh triangles of {part.label or part.name}",
-                       "raise it with --max-elements", "or use a larger --mesh-tolerance", error=ExportError)
-        if ("dxf" in formats and self.curves != "spline") or ("svg" in formats and self.kerf > 0):
-            check_tolerance(self.curve_tolerance, size, "curve tolerance", error=ExportError)
-            n = outline.estimate_segments(self.curve_tolerance)
-            check_size(n, self.max_elements, f"curve segments of {part.label or part.name}",
-                       "raise it with --max-elements", "or use a larger --curve-tolerance", error=ExportError)
-
-
-@dataclass(eq=False)
-class Part:
-    """What gets exported: the exact outline, plate thickness (mm), product name and engraved label.
-
-    ``support``: whole interface arcs whose halves the outline keeps (see :func:`fabpat.cad.make_face`),
-    flat or as the (n, 2) pairs of ``FilletedPattern.interface_arcs`` (flattened here).
-    ``solid`` (a ``TopoDS_Solid``) is built on first use and shared by every 3D format.
-    Raises :class:`ExportError` for a thickness ≤ 0, a support that is not arcs, or a name or label
-    that is not text or holds a control character (:func:`fabpat.exchange.step.check_printable`).
-    Any other character is fine: STEP encodes it (:func:`fabpat.exchange.step.step_string`).
-    """
-
-    outline: Outline
-    thickness: float = DEFAULT_THICKNESS
-    name: str = "fabpat part"
-    label: str | None = None
-    support: tuple[RationalQuad, ...] = ()
-
-    def __post_init__(self) -> None:
-        from fabpat.exchange.step import check_printable
-
-        check("thickness", self.thickness, error=ExportError)
-        check_printable(self.name, "the part name")
-        if self.label is not None:
-            check_printable(self.label, "the part label")
-        self.support = flatten_arcs(self.support)
-
-    @cached_property
-    def solid(self) -> Any:
-        """The exact extruded ``TopoDS_Solid`` (z from 0 to thickness), built once by :func:`fabpat.cad.make_solid`."""
-        return make_solid(self.outline, self.thickness, self.support)
-
-
-def flatten_arcs(arcs: Any) -> tuple[RationalQuad, ...]:
-    """One flat tuple of arcs from arcs nested in tuples or lists (e.g. the interface arc pairs);
-    :class:`ExportError` for anything else."""
-    if isinstance(arcs, RationalQuad):
-        return (arcs,)
-    if not isinstance(arcs, tuple | list):
-        raise ExportError(f"support must be RationalQuad arcs (or pairs of them), got {type(arcs).__name__}")
-    return tuple(a for item in arcs for a in flatten_arcs(item))
 
 
 @dataclass(frozen=True)
@@ -272,6 +154,29 @@ def label_warning(part: Part, formats: list[str]) -> str | None:
 Job = tuple[Part | Callable[[], Part], Mapping[str, str | os.PathLike[str]]]
 
 
+def check_settings(settings: ExportSettings) -> None:
+    """Raise :class:`ExportError` for any option no writer could honour: the shared values
+    (:meth:`ExportSettings.check`), then each format's own options, checked by that format (the DXF curve
+    mode, version, entities and origin: :func:`fabpat.exchange.dxf.check_options`; the SVG curves:
+    :func:`fabpat.exchange.svg.check_svg_curves`), whatever formats are written: a bad option is
+    refused before any file, not when a later part reaches that format."""
+    from fabpat.exchange.dxf import check_options
+    from fabpat.exchange.svg import check_svg_curves
+
+    for name, v in (("mesh_tolerance", settings.mesh_tolerance), ("curve_tolerance", settings.curve_tolerance),
+                    ("kerf", settings.kerf), ("max_elements", settings.max_elements)):
+        check(name, v, name.replace("_", " "), error=ExportError)
+    check_options(settings.curves, settings.curve_tolerance, settings.kerf, settings.dxf_version,
+                  settings.dxf_entities, settings.origin)
+    check_svg_curves(settings.svg_curves)
+    settings.check()
+
+
+def meshed_formats() -> list[str]:
+    """The registered formats that are meshes of the solid (printed, but not the exact STEP)."""
+    return [name for name, f in FORMATS.items() if f.process == "print" and name != "step"]
+
+
 def export_parts(
     jobs: Sequence[Job],
     settings: ExportSettings | None = None,
@@ -290,7 +195,7 @@ def export_parts(
     atomic block. Returns the paths written.
     """
     settings = settings or ExportSettings()
-    settings.check()
+    check_settings(settings)
     paths: list[Path] = []
     for _, targets in jobs:
         if not targets:
@@ -304,7 +209,7 @@ def export_parts(
         for job, targets in jobs:
             with part_guard():
                 part = job() if callable(job) else job
-                settings.check_part(part, list(targets))
+                settings.check_part(part, list(targets), meshed_formats())
                 for name in targets:
                     with occt_errors(f"writing the {name.upper()} file of {part.label or part.name}"):
                         FORMATS[name].write(part, next(tmp), settings)

@@ -23,7 +23,7 @@ The laser kerf is not applied here: the curves are the exact outline (Rhino's ow
 an exact kerf offset), so the file does not depend on ``ExportSettings.kerf``.
 
 Files are encoded in memory (``File3dm.Encode``) and then written, so they do not record the (temporary)
-path they were written to. With a ``timestamp`` (ISO 8601, :func:`fabpat.exchange.step.check_timestamp`)
+path they were written to. With a ``timestamp`` (ISO 8601, :func:`fabpat.exchange.part.check_timestamp`)
 the same model gives the same bytes in every run (:func:`reproducible`): layer and object ids are
 name-based UUIDs of the stamp and the layer's name or the object's place and name
 (:func:`fabpat.exchange.stamp.stamp_uuid`); the ids rhino3dm draws at random for blocks and their
@@ -47,7 +47,7 @@ from fabpat.errors import ExportError
 from fabpat.outline import Line, Loop, Outline, RationalQuad
 
 if TYPE_CHECKING:  # pragma: no cover
-    from fabpat.exchange.registry import ExportSettings, Part
+    from fabpat.exchange.part import ExportSettings, Part
 
 CUT_LAYER = "CUT"
 PLATE_LAYER = "PLATE"
@@ -138,7 +138,7 @@ class _Ids:
     (openNURBS draws a fresh id)."""
 
     def __init__(self, timestamp: str | None) -> None:
-        from fabpat.exchange.step import check_timestamp
+        from fabpat.exchange.part import check_timestamp
 
         self.timestamp = check_timestamp(timestamp, "timestamp")
         self.count = 0

@@ -1,6 +1,6 @@
 """What a fixed time stamp becomes in each file format, so that a kit written twice is the same bytes.
 
-The time stamp itself is checked and normalised in one place, :func:`fabpat.exchange.step.check_timestamp`;
+The time stamp itself is checked and normalised in one place, :func:`fabpat.exchange.part.check_timestamp`;
 everything here starts from its result. A file format's own clock fields (ZIP member dates, DXF Julian
 dates, 3DM revision times) get the stamp's time, and identifiers that writers otherwise draw at random
 (DXF GUIDs, 3DM object and layer ids) are name-based UUIDs (RFC 4122 version 5) of the stamp and of what
@@ -12,7 +12,7 @@ from __future__ import annotations
 import uuid
 from datetime import UTC, datetime
 
-from fabpat.exchange.step import check_timestamp
+from fabpat.exchange.part import check_timestamp
 
 #: the namespace of fabpat's name-based UUIDs: itself the name-based UUID of the package's name (a constant;
 #: changing it changes every identifier of every reproducible file)
@@ -23,7 +23,7 @@ ZIP_LAST = (2107, 12, 31, 23, 59, 58)
 
 
 def stamp_time(timestamp: str) -> datetime:
-    """The instant of ``timestamp`` (any spelling :func:`~fabpat.exchange.step.check_timestamp` accepts) as a
+    """The instant of ``timestamp`` (any spelling :func:`~fabpat.exchange.part.check_timestamp` accepts) as a
     :class:`~datetime.datetime`, aware (its zone) when a zone is given, naive otherwise; whole seconds.
     Raises :class:`~fabpat.errors.ExportError` for a time stamp that is not ISO 8601."""
     text = check_timestamp(timestamp, "timestamp")

@@ -23,59 +23,15 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from fabpat.errors import ExportError
+from fabpat.exchange.part import check_printable, check_timestamp  # noqa: F401 - also this module's API
 from fabpat.exchange.step_order import renumber_occurrences, sort_trailing_styles
 from fabpat.io import atomic_outputs
 
 if TYPE_CHECKING:  # pragma: no cover
-    from fabpat.exchange.registry import ExportSettings, Part
+    from fabpat.exchange.part import ExportSettings, Part
 
 SCHEMA = "AP214IS"  # OCCT's name for the AP214 international standard schema
 ORIGINATING_SYSTEM = "fabpat"
-
-
-def check_timestamp(timestamp: str | None, what: str = "--timestamp") -> str | None:
-    """The STEP header time stamp, normalised to ``YYYY-MM-DDThh:mm:ss`` (plus ``Z`` or ``±hh:mm`` when
-    a zone is given), if ``timestamp`` is a valid ISO 8601 date or date-time (``2025-01-31``,
-    ``2025-01-31T12:00:00``, ``2025-01-31 12:00``, ``20250131``, ``…Z``, ``…+01:00``); fractions of a
-    second are dropped. :class:`ExportError` naming ``what`` otherwise.
-
-    Checked before any work, so free text never reaches a file header; the normalised form is what the
-    header gets (ISO 10303-21 §8.2.3 wants an ISO 8601 time_stamp, and every accepted spelling of one
-    instant gives the same bytes). Parsed by :meth:`datetime.datetime.fromisoformat`.
-    """
-    from datetime import datetime, timedelta
-
-    if timestamp is None:
-        return None
-    try:
-        if not isinstance(timestamp, str) or not timestamp.isascii() or not timestamp.strip():
-            raise ValueError
-        t = datetime.fromisoformat(timestamp)
-    except ValueError:
-        raise ExportError(f"{what} {timestamp!r} is not an ISO 8601 date or time: give e.g. 2025-01-31 or "
-                          "2025-01-31T12:00:00Z") from None
-    text = t.strftime("%Y-%m-%dT%H:%M:%S")
-    offset = t.utcoffset()
-    if offset is not None:
-        if offset == timedelta(0):
-            return text + "Z"
-        minutes = int(abs(offset.total_seconds())) // 60
-        text += f"{'-' if offset < timedelta(0) else '+'}{minutes // 60:02d}:{minutes % 60:02d}"
-    return text
-
-
-def check_printable(text: object, what: str) -> str:
-    """``text`` if it is a str without control characters (U+0000–U+001F, U+007F–U+009F: C0, DEL, C1);
-    :class:`ExportError` naming ``what`` and the first one otherwise. No file fabpat writes may hold
-    them in a name or label: STEP strings (ISO 10303-21 §6.4.3) and XML 1.0 (3MF, SVG) forbid them,
-    and a NUL cuts the name short in OCCT."""
-    if not isinstance(text, str):
-        raise ExportError(f"{what} must be text, got {type(text).__name__}")
-    bad = next((c for c in text if ord(c) < 0x20 or 0x7F <= ord(c) <= 0x9F), None)
-    if bad is not None:
-        raise ExportError(f"{what} {text!r} holds the control character U+{ord(bad):04X}: names and labels in "
-                          "STEP, 3MF, SVG and DXF files hold printable characters only; remove it")
-    return text
 
 
 def step_string(text: str, what: str = "name") -> str:

@@ -16,7 +16,7 @@ from fabpat.cad import DEFAULT_ANGULAR, DEFAULT_CHORD, mesh
 from fabpat.io import atomic_outputs, writer_failed
 
 if TYPE_CHECKING:  # pragma: no cover
-    from fabpat.exchange.registry import ExportSettings, Part
+    from fabpat.exchange.part import ExportSettings, Part
 
 DEFAULT_TOLERANCE = DEFAULT_CHORD  # mm: max distance between a facet and the exact surface (chord height)
 

@@ -42,7 +42,7 @@ from fabpat.io import atomic_outputs
 from fabpat.outline import Line, Outline
 
 if TYPE_CHECKING:  # pragma: no cover
-    from fabpat.exchange.registry import ExportSettings, Part
+    from fabpat.exchange.part import ExportSettings, Part
 
 SVG_CURVES = ("exact", "cubic")
 DEFAULT_SVG_CURVES = "cubic"

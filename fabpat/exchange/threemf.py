@@ -5,7 +5,7 @@ lxml and networkx and costs ≈ 1 s to import. The mesh comes from :func:`triang
 (welded, outward CCW triangles), so slicers see one closed, consistently oriented object carrying
 the part name (pattern ID and parameters).
 
-With a ``timestamp`` (ISO 8601, :func:`fabpat.exchange.step.check_timestamp`) the package is
+With a ``timestamp`` (ISO 8601, :func:`fabpat.exchange.part.check_timestamp`) the package is
 byte-reproducible: the model holds no identifier or time of its own, and every ZIP member gets the
 stamp's time (UTC) as its date instead of the clock's (:func:`fabpat.exchange.stamp.zip_date_time`:
 ZIP dates cannot be before 1980, so an earlier stamp gives 1980-01-01).
@@ -28,7 +28,7 @@ from fabpat.errors import ExportError, GeometryError
 from fabpat.io import atomic_outputs
 
 if TYPE_CHECKING:  # pragma: no cover
-    from fabpat.exchange.registry import ExportSettings, Part
+    from fabpat.exchange.part import ExportSettings, Part
 
 _CONTENT_TYPES = (
     '<?xml version="1.0" encoding="UTF-8"?>\n'
@@ -121,7 +121,7 @@ def dump_3mf(V: NDArray[np.float64], F: NDArray[np.int64], path: str | os.PathLi
 
     ``timestamp`` (ISO 8601): the ZIP members' date, for a byte-reproducible file (module docstring); without
     it they carry the time of writing. Raises :class:`ExportError` (an empty mesh, a bad ``timestamp``)."""
-    from fabpat.exchange.step import check_timestamp
+    from fabpat.exchange.part import check_timestamp
 
     timestamp = check_timestamp(timestamp, "timestamp")
     members = (("[Content_Types].xml", _CONTENT_TYPES), ("_rels/.rels", _RELS),
@@ -159,7 +159,7 @@ def write_3mf(
     """Mesh a solid within ``tolerance`` mm (``angular`` rad) and write it as 3MF atomically; returns the path.
     ``timestamp`` (ISO 8601) makes the file byte-reproducible (module docstring). Raises :class:`ExportError`,
     :class:`GeometryError` (a face without triangulation)."""
-    from fabpat.exchange.step import check_timestamp
+    from fabpat.exchange.part import check_timestamp
 
     check_timestamp(timestamp, "timestamp")  # before the meshing
     V, F = triangulate(getattr(shape, "wrapped", shape), tolerance, angular)
