@@ -219,25 +219,3 @@ def test_trailing_colour_blocks_get_one_order(tmp_path: Path) -> None:
     referred.write_text(file(blocks).replace("#2 = X();", "#2 = X(#14);"))
     before = referred.read_bytes()
     assert sort_trailing_styles(referred) is False and referred.read_bytes() == before
-
-
-@pytest.mark.slow
-def test_assemble_with_a_timestamp_gives_byte_identical_step_files(tmp_path: Path) -> None:
-    """Two runs (two processes: OCCT's order followed memory addresses) with one --timestamp.
-
-    The small strip spec with only its STEP file and no prediction: the flat strip's assembly.step is
-    the same file with or without the prediction (which only adds predicted.*), and the other formats
-    are written after it, so leaving them out keeps what is compared and saves most of each run."""
-    from tests.conftest import run_cli
-
-    small = Path(__file__).resolve().parents[1] / "assemblies" / "test-small.toml"
-    spec = tmp_path / "test-small.toml"
-    spec.write_text(small.read_text() + '\n[output]\nformats = ["step"]\n')
-    for k in ("1", "2"):
-        r = run_cli("assemble", str(spec), "--out", str(tmp_path / k), "--timestamp", "2025-01-31T12:00:00Z",
-                    "--no-progress", "--no-predict")
-        assert r.returncode == 0, r.stderr
-    one, two = (tmp_path / k / "assembly.step" for k in ("1", "2"))
-    assert "'2025-01-31T12:00:00Z'" in one.read_text()
-    assert one.read_text().count("COLOUR_RGB") == 4  # three plate colours and the sleeves' grey
-    assert one.read_bytes() == two.read_bytes()
