@@ -13,15 +13,14 @@ import zipfile
 from datetime import datetime
 from pathlib import Path
 
+import ezdxf
 import numpy as np
 import pytest
+import rhino3dm as r3
 
 from fabpat.exchange.registry import ExportSettings, Part, export_parts
 from tests.conftest import run_cli
 from tests.test_cad import rounded_square
-
-ezdxf = pytest.importorskip("ezdxf")
-r3 = pytest.importorskip("rhino3dm", reason="rhino3dm (PyPI) is needed to read .3dm files back")
 
 ROOT = Path(__file__).resolve().parents[1]
 STAMP = "2025-01-31T12:00:00Z"
@@ -145,7 +144,7 @@ def test_3mf_with_a_timestamp_is_the_same_bytes_and_dated_by_it(tmp_path: Path) 
         assert z.testzip() is None
     with zipfile.ZipFile(paths[2]) as z:
         assert {i.date_time[0] for i in z.infolist()} == {datetime.now().year}
-    trimesh = pytest.importorskip("trimesh")
+    import trimesh
     mesh = trimesh.load(paths[0], file_type="3mf", force="mesh")
     assert len(mesh.faces) == 4 and mesh.is_watertight
 
