@@ -126,7 +126,7 @@ def f(a: int = 1) -> float:
 
 
 def test_code_text_leaves_out_comments_and_docstrings_only() -> None:
-    from fabpat.catalog_version import code_text
+    from fabpat.catalog.version import code_text
 
     assert code_text(CODE) == ('import math\nX = "é";\ndef f(a: int = 1) -> float:\n'
                                '    s = "# not a comment"\n    return math.sqrt(a)')

@@ -2,9 +2,9 @@
 (filters, sort, top N) and showing them (a short ``repr``, a notebook table).
 
 Plain functions of the row dicts of :meth:`fabpat.catalog.Catalog.pattern_rows` (and
-:meth:`~fabpat.catalog.Catalog.results`); :mod:`fabpat.catalog` applies them, nothing here opens a
-file. A filter is parsed here into a :class:`Condition` and applied in Python: user text never
-reaches SQL.
+:meth:`~fabpat.catalog.Catalog.results`); :mod:`fabpat.catalog.store` and :mod:`fabpat.catalog.read`
+apply them, nothing here opens a file (only :mod:`fabpat.catalog.schema` is below this module). A
+filter is parsed here into a :class:`Condition` and applied in Python: user text never reaches SQL.
 """
 
 from __future__ import annotations
@@ -17,6 +17,8 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from fabpat.catalog.schema import CatalogError
+
 _POLYGONS = {3: "triangles", 4: "squares", 5: "pentagons", 6: "hexagons", 7: "heptagons", 8: "octagons",
              9: "nonagons", 10: "decagons", 12: "dodecagons"}
 #: rows shown by a notebook's table of :class:`CatalogRows`
@@ -24,8 +26,6 @@ HTML_ROWS = 10
 
 
 def _error(message: str) -> Exception:
-    from fabpat.catalog import CatalogError  # the catalog module imports this one: resolved when raised
-
     return CatalogError(message)
 
 
