@@ -120,7 +120,7 @@ def family_data(cat: Catalog, setup: dict[str, object], rows: list[dict[str, obj
     sweep's adaptive midpoints, :func:`fabpat.sweep.run_sweep`) is filled in for the others linearly in
     log–log between their own neighbouring swept members (:func:`_fill`), as the page interpolates, so a
     dot does not vanish there. None when the catalog holds no family rows for this set-up."""
-    from fabpat.catalog_rows import specific_stiffness
+    from fabpat.catalog.rows import specific_stiffness
 
     fam = cat.family(**setup)
     if not fam:
@@ -177,7 +177,7 @@ def render_page(data: dict[str, object]) -> str:
     template = (resources.files("fabpat") / "data" / "browse_template.html").read_text(encoding="utf-8")
     # "</" inside a <script> would end it early: escape it in the JSON (still valid JSON)
     blob = json.dumps(data, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
-    from fabpat.catalog_rows import polygon_name
+    from fabpat.catalog.rows import polygon_name
 
     sides = int(data["setup"]["sides"])  # type: ignore[index]
     title = f"fabpat library: {len(data['ids'])} {polygon_name(sides)}"  # type: ignore[arg-type]

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from fabpat.browse import choose_setup, metric_info
 from fabpat.catalog import Catalog
-from fabpat.catalog_rows import polygon_name
+from fabpat.catalog.rows import polygon_name
 from fabpat.errors import PatternError
 
 PALETTE = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#e377c2", "#17becf", "#8c564b", "#bcbd22",

@@ -108,7 +108,7 @@ def test_solver_version_covers_exactly_the_pipeline_code() -> None:
     names = {p.relative_to(builtin_path().parents[1]).as_posix() for p in pipeline_modules()}
     assert {"fillet.py", "mesh.py", "scenarios.py", "shell/solve.py", "shell/element.py", "shell/__init__.py",
             "lattice.py", "curves.py"} <= names
-    assert not {n for n in names if n.startswith("cli/") or n in ("catalog.py", "sweep.py", "browse.py")}
+    assert not {n for n in names if n.startswith(("cli/", "catalog/")) or n in ("sweep.py", "browse.py")}
     assert solver_version() == solver_version() and solver_version().startswith("fabpat ")
 
 
@@ -126,7 +126,7 @@ def f(a: int = 1) -> float:
 
 
 def test_code_text_leaves_out_comments_and_docstrings_only() -> None:
-    from fabpat.catalog_version import code_text
+    from fabpat.catalog.version import code_text
 
     assert code_text(CODE) == ('import math\nX = "é";\ndef f(a: int = 1) -> float:\n'
                                '    s = "# not a comment"\n    return math.sqrt(a)')

@@ -14,7 +14,7 @@ import pytest
 import fabpat
 from fabpat.browse import page_data
 from fabpat.catalog import CatalogError, open_catalog
-from fabpat.catalog_rows import find_rows, parse_condition
+from fabpat.catalog.rows import find_rows, parse_condition
 from fabpat.errors import PatternError
 from fabpat.plots import plot_catalog
 from tests.test_catalog import fake_catalog, invoke
@@ -206,7 +206,7 @@ def test_catalog_rows_repr_is_short_and_says_what_it_holds() -> None:
 
 
 def test_html_table_escapes_and_handles_few_rows() -> None:
-    from fabpat.catalog_rows import CatalogRows
+    from fabpat.catalog.rows import CatalogRows
 
     rows = CatalogRows([{"id": "<b>x</b>", "sides": 6, "energy_dome": None}], source="a&b.sqlite")
     page = rows._repr_html_()

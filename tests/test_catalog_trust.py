@@ -14,8 +14,8 @@ from pathlib import Path
 import pytest
 
 import fabpat
-from fabpat import catalog_store as catalog_module
 from fabpat.catalog import CatalogError, energies, open_catalog
+from fabpat.catalog import sqlite_file as catalog_file  # the file-level helpers a test replaces
 from fabpat.sweep import run_sweep
 from tests.test_catalog import fake_catalog, fake_rows, invoke
 from tests.test_sweep import IDS, fake_task
@@ -144,7 +144,7 @@ def test_two_writers_creating_one_catalog_keep_every_row(tmp_path: Path, monkeyp
     db = tmp_path / "c.sqlite"
     if start == "empty":
         db.write_bytes(b"")
-    real = catalog_module._create_sql
+    real = catalog_file._create_sql
     both_building = threading.Barrier(2, timeout=30)
     first_done = threading.Event()
     arrived: list[int] = []
@@ -159,7 +159,7 @@ def test_two_writers_creating_one_catalog_keep_every_row(tmp_path: Path, monkeyp
             assert first_done.wait(30)
         return real()
 
-    monkeypatch.setattr(catalog_module, "_create_sql", create_sql)
+    monkeypatch.setattr(catalog_file, "_create_sql", create_sql)
     errors: list[BaseException] = []
 
     def writer(pid: str) -> None:

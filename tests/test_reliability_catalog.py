@@ -12,8 +12,8 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner, Result
 
-from fabpat import catalog_store as catalog_module
 from fabpat.catalog import CatalogError, open_catalog
+from fabpat.catalog import sqlite_file as catalog_file  # the file-level helpers a test replaces
 from tests.test_reliability_files import in_small_tmpfs, needs_unshare, one_line_error
 
 SWEEP = ("sweep", "--sample", "2", "--h", "8", "--workers", "1")
@@ -113,7 +113,7 @@ def test_a_file_that_is_not_sqlite(tmp_path: Path) -> None:
 
 def test_locked_catalog_is_called_locked(small_catalog: Path, tmp_path: Path,
                                          monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(catalog_module, "LOCK_TIMEOUT", 0.2)
+    monkeypatch.setattr(catalog_file, "LOCK_TIMEOUT", 0.2)
     db = copy_of(small_catalog, tmp_path)
     holder = sqlite3.connect(db, isolation_level=None)
     holder.execute("BEGIN EXCLUSIVE")  # another program (sqlite3 shell, a stuck writer) holds the file
@@ -143,7 +143,7 @@ def test_read_only_catalog_is_called_read_only(small_catalog: Path, tmp_path: Pa
     with pytest.raises(sqlite3.OperationalError) as err:
         ro.execute("CREATE TABLE x (y)")  # SQLite's read-only error, as a read-only file or mount gives it
     ro.close()
-    assert catalog_module._cause(err.value, db, "write to").args[0].startswith(f"catalog {db} is read-only")
+    assert catalog_file._cause(err.value, db, "write to").args[0].startswith(f"catalog {db} is read-only")
 
 
 @needs_unshare
@@ -223,7 +223,7 @@ def test_new_catalog_on_a_full_disk_leaves_no_file(tmp_path: Path) -> None:
 
 def test_new_catalog_appears_only_complete(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """A failure while the new catalog is built (here: its tables) leaves neither it nor a temporary file."""
-    monkeypatch.setattr(catalog_module, "_create_sql", lambda: ["CREATE TABLE meta (key TEXT)", "NOT SQL"])
+    monkeypatch.setattr(catalog_file, "_create_sql", lambda: ["CREATE TABLE meta (key TEXT)", "NOT SQL"])
     with pytest.raises(CatalogError, match="cannot create catalog"):
         open_catalog(tmp_path / "c.sqlite", write=True)
     assert list(tmp_path.iterdir()) == []

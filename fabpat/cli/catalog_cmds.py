@@ -221,7 +221,7 @@ def catalog_cmd(db: str | None, fmt: str, long_: bool, sides: int, where: tuple[
       fabpat catalog --where "filleted_area<1200" --sort energy_dome --top 5
     """
     from fabpat.catalog import open_catalog, require_polygon
-    from fabpat.catalog_rows import find_rows, parse_condition, parse_sort
+    from fabpat.catalog.rows import find_rows, parse_condition, parse_sort
     from fabpat.cli.library_cmds import _print_rows
     from fabpat.io import check_distinct
 

@@ -1,5 +1,7 @@
 """What a stored result depends on: the solver version (the package version and a digest of the
 code of every module the pipeline runs) and the input hash of a catalog row (:mod:`fabpat.catalog`).
+It imports no other catalog module; the pipeline's modules are found from the package folder
+(``importlib.resources.files("fabpat")``), not from this file's place.
 
 A sweep skips a row whose stored hash equals the one it would compute now, so changing any input or
 the solver code recomputes exactly the affected rows. The digest reads the code without its comments

@@ -16,33 +16,39 @@ Two tables (stdlib :mod:`sqlite3`, no pandas):
 
 ``input_hash`` digests every input that affects a result (the key, the material, h, nonlinear, the
 solver version — which includes a digest of the source of every module the pipeline imports, see
-:func:`fabpat.catalog_version.pipeline_modules`): a sweep skips a row whose stored hash equals the one
+:func:`fabpat.catalog.version.pipeline_modules`): a sweep skips a row whose stored hash equals the one
 it would compute, so changing any input or the solver code recomputes exactly the affected rows.
-
-The catalog's rooms: :mod:`fabpat.catalog_rows` (checks of stored values, :class:`CatalogError`, the rows
-as Python sees them), :mod:`fabpat.catalog_store` (the SQLite file: schema, opening, :class:`Catalog`),
-:mod:`fabpat.catalog_read` (energies and rows for the rules and listings), :mod:`fabpat.catalog_version`
-(what a stored result depends on); this module is their front door and imports them, none of them it.
 
 Readers: :func:`open_catalog` (``None`` → the built-in catalog shipped in ``fabpat/data``),
 :meth:`Catalog.pattern_rows` (one plain dict per pattern with ``energy_<scenario>`` and
-``specific_stiffness_<scenario>`` columns, see :func:`fabpat.catalog_rows.specific_stiffness`),
+``specific_stiffness_<scenario>`` columns, see :func:`fabpat.catalog.rows.specific_stiffness`),
 :meth:`Catalog.query`,
 :func:`energies` and :func:`polygon_energies` (one polygon's own energies, for the assembly rules).
 Calling the module is :func:`catalog`: ``fabpat.catalog()`` → those rows as a list
-(:class:`fabpat.catalog_rows.CatalogRows`: filter, sort, top N, ``to_dataframe()`` with pandas).
+(:class:`fabpat.catalog.rows.CatalogRows`: filter, sort, top N, ``to_dataframe()`` with pandas).
 
 What is read back is checked as strictly as what a user types (a catalog is a file anyone can edit):
 an energy must be a finite, positive number (a converged row must have one), a displacement and every
 metric finite; a row that is not raises :class:`CatalogError` naming the catalog, the pattern, the
 scenario and the value, so that no listing, picture or assembly rule ever uses it. A sweep recomputes
 such rows (their stored hash is not trusted).
+
+The package, each module importing only the ones listed before it:
+:mod:`~fabpat.catalog.schema` (:class:`CatalogError`, the tables, the built-in catalog's path),
+:mod:`~fabpat.catalog.version` (the solver version and input hashes),
+:mod:`~fabpat.catalog.rows` (checks of stored values, finding rows, :class:`~fabpat.catalog.rows.CatalogRows`),
+:mod:`~fabpat.catalog.sqlite_file` (checking, making and tidying the file on disk),
+:mod:`~fabpat.catalog.store` (:class:`Catalog`, :func:`open_catalog`),
+:mod:`~fabpat.catalog.read` (:func:`catalog`, :func:`energies`, :func:`polygon_energies`). This
+package is their public face: the public names of each (of :mod:`~fabpat.catalog.rows`, the row checks,
+:func:`~fabpat.catalog.rows.specific_stiffness` and :class:`~fabpat.catalog.rows.CatalogRows`) are also
+``fabpat.catalog.<name>``.
 """
 
 from __future__ import annotations
 
 from fabpat._callable import make_callable
-from fabpat.catalog_read import (
+from fabpat.catalog.read import (
     catalog,
     energies,
     held_setups,
@@ -51,8 +57,10 @@ from fabpat.catalog_read import (
     polygon_energies,
     require_polygon,
 )
-from fabpat.catalog_rows import CatalogError, CatalogRows, specific_stiffness
-from fabpat.catalog_store import (
+from fabpat.catalog.rows import CatalogRows, check_row, pattern_problem, result_problem, specific_stiffness
+from fabpat.catalog.schema import (
+    ADDED_COLUMNS,
+    BUILTIN_NAME,
     DEFAULT_SETUP,
     FAMILY_COLUMNS,
     FAMILY_KEY,
@@ -61,15 +69,19 @@ from fabpat.catalog_store import (
     PATTERN_COLUMNS,
     RESULT_COLUMNS,
     SCHEMA_VERSION,
-    Catalog,
+    CatalogError,
     builtin_path,
-    open_catalog,
 )
-from fabpat.catalog_version import input_hash, pipeline_modules, solver_version
+from fabpat.catalog.sqlite_file import LOCK_TIMEOUT
+from fabpat.catalog.store import Catalog, open_catalog
+from fabpat.catalog.version import input_hash, pipeline_modules, solver_version
 
-__all__ = ["DEFAULT_SETUP", "FAMILY_COLUMNS", "FAMILY_KEY", "KEY", "METRICS", "PATTERN_COLUMNS", "RESULT_COLUMNS",
-           "SCHEMA_VERSION", "Catalog", "CatalogError", "CatalogRows", "builtin_path", "catalog", "energies",
-           "held_setups", "input_hash", "missing_polygon_message", "no_match_message", "open_catalog",
-           "pipeline_modules", "polygon_energies", "require_polygon", "solver_version", "specific_stiffness"]
+__all__ = [
+    "ADDED_COLUMNS", "BUILTIN_NAME", "DEFAULT_SETUP", "FAMILY_COLUMNS", "FAMILY_KEY", "KEY", "LOCK_TIMEOUT",
+    "METRICS", "PATTERN_COLUMNS", "RESULT_COLUMNS", "SCHEMA_VERSION", "Catalog", "CatalogError", "CatalogRows",
+    "builtin_path", "catalog", "check_row", "energies", "held_setups", "input_hash", "missing_polygon_message",
+    "no_match_message", "open_catalog", "pattern_problem", "pipeline_modules", "polygon_energies",
+    "require_polygon", "result_problem", "solver_version", "specific_stiffness",
+]
 
-make_callable(__name__, "fabpat.catalog_read:catalog")
+make_callable(__name__, catalog)

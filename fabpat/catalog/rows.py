@@ -2,9 +2,9 @@
 (filters, sort, top N) and showing them (a short ``repr``, a notebook table).
 
 Plain functions of the row dicts of :meth:`fabpat.catalog.Catalog.pattern_rows` (and
-:meth:`~fabpat.catalog.Catalog.results`); :mod:`fabpat.catalog` applies them, nothing here opens a
-file. A filter is parsed here into a :class:`Condition` and applied in Python: user text never
-reaches SQL.
+:meth:`~fabpat.catalog.Catalog.results`); :mod:`fabpat.catalog.store` and :mod:`fabpat.catalog.read`
+apply them, nothing here opens a file (only :mod:`fabpat.catalog.schema` is below this module). A
+filter is parsed here into a :class:`Condition` and applied in Python: user text never reaches SQL.
 """
 
 from __future__ import annotations
@@ -17,21 +17,12 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from fabpat.errors import FabpatError
+from fabpat.catalog.schema import CatalogError
 
 _POLYGONS = {3: "triangles", 4: "squares", 5: "pentagons", 6: "hexagons", 7: "heptagons", 8: "octagons",
              9: "nonagons", 10: "decagons", 12: "dodecagons"}
 #: rows shown by a notebook's table of :class:`CatalogRows`
 HTML_ROWS = 10
-
-
-class CatalogError(FabpatError, ValueError):
-    """A catalog file that is missing, not a fabpat catalog, from an incompatible schema or holding a
-    bad value; a bad filter or query argument (a ``ValueError`` too, as before it was one of these).
-
-    Defined in the lowest of the catalog's modules, which every other one imports (``fabpat.catalog``
-    exports it; fabpat.errors holds the package-wide classes, and its code is digested into the solver
-    version, so a class added there would make every stored solve stale)."""
 
 
 def _error(message: str) -> Exception:

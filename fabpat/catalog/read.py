@@ -1,8 +1,9 @@
 """Reading a catalog: energies for the assembly rules (:func:`energies`, :func:`polygon_energies`: one
 polygon's own rows) and the rows of ``fabpat.catalog()`` (:func:`catalog`, filtered, sorted, cut).
 
-Built on :mod:`fabpat.catalog` (the database file) and :mod:`fabpat.catalog_rows` (row checks,
-finding, :class:`~fabpat.catalog_rows.CatalogRows`); every name here is also ``fabpat.catalog.<name>``.
+Built on :mod:`fabpat.catalog.store` (the database file) and :mod:`fabpat.catalog.rows` (row checks,
+finding, :class:`~fabpat.catalog.rows.CatalogRows`); the top of the catalog modules but for the package
+:mod:`fabpat.catalog` itself, where every public name here is also ``fabpat.catalog.<name>``.
 """
 
 from __future__ import annotations
@@ -14,8 +15,9 @@ from collections.abc import Iterator, Mapping, Sequence
 from functools import cache
 from pathlib import Path
 
-from fabpat.catalog_rows import CatalogError, CatalogRows, check_row, find_rows, polygon_name
-from fabpat.catalog_store import DEFAULT_SETUP, KEY, METRICS, Catalog, builtin_path, open_catalog
+from fabpat.catalog.rows import CatalogRows, check_row, find_rows, polygon_name
+from fabpat.catalog.schema import DEFAULT_SETUP, KEY, METRICS, CatalogError, builtin_path
+from fabpat.catalog.store import Catalog, open_catalog
 
 
 @cache
@@ -118,12 +120,12 @@ def catalog(path: str | Path | None = None, *, sides: int | None = 6, where: Seq
     ``edge`` mm, ``thickness`` mm, ``weight``), lattice and filleted metrics (mm², mm, mm⁴),
     ``min_width`` (mm) and per scenario ``energy_<scenario>`` (N·mm), ``max_displacement_<scenario>``
     (mm) and ``specific_stiffness_<scenario>`` (1/(N·mm³), stiffness per mass:
-    :func:`~fabpat.catalog_rows.specific_stiffness`).
+    :func:`~fabpat.catalog.rows.specific_stiffness`).
 
     ``sides``: the polygon (default 6, the hexagon; None: every polygon, whose energies do not compare);
     other set-up keys filter too. ``where``: filters ``"FIELD OP NUMBER"`` that all hold (``OP`` one of
     ``< <= > >= = !=``), ``sort``: ``"FIELD"`` ascending or ``"-FIELD"`` descending, ``top``: keep the
-    first N (:func:`~fabpat.catalog_rows.find_rows`). The stiffest patterns per gram in the Dome
+    first N (:func:`~fabpat.catalog.rows.find_rows`). The stiffest patterns per gram in the Dome
     scenario: ``fabpat.catalog(sort="-specific_stiffness_dome", top=5)``. Raises :class:`CatalogError`
     (a polygon the catalog lacks names the ``fabpat sweep`` command that adds it).
     """
