@@ -49,7 +49,16 @@ from fabpat.assembly.placement import (
     place,
     radius_line,
 )
-from fabpat.assembly.predict import PREDICT_H, Prediction, bent, finish, predicted, strain_problems, use
+from fabpat.assembly.predict import (
+    PREDICT_H,
+    Prediction,
+    bent,
+    finish,
+    grip_problems,
+    predicted,
+    strain_problems,
+    use,
+)
 from fabpat.assembly.predict import predict as predict_kit
 from fabpat.assembly.provenance import pattern_records
 from fabpat.assembly.spec import AssemblySpec, load_spec
@@ -212,13 +221,6 @@ def _checked_call(spec: AssemblySpec | str | os.PathLike[str], out: object, time
     if spec.tiling.panel and predict_h is not None:
         raise SpecError(f"{spec.source}: predict_h (--predict-h) is the mesh of a kit's prediction, and a panel's "
                         "kit has none: `fabpat simulate-assembly` pushes a panel together")
-    if spec.tiling.fit == "best" and not spec.tiling.panel:
-        # the kit's checks (slots on the interfaces, no interference) hold in the placement of an exact
-        # tiling; here the placement is only a start of the closure, so they would need the closed shape
-        raise SpecError(f"{spec.source}: tiling.kind = {spec.tiling.kind!r} places its plates only near its faces "
-                        "(best fit), so its kit cannot be checked in place: fabpat assemble builds tilings of exactly "
-                        "regular faces (truncated-icosahedron, honeycomb-strip, a mesh with fit = \"exact\"); "
-                        "`fabpat simulate-assembly` predicts this one")
     if not isinstance(out, str | os.PathLike) or not str(out):
         raise SpecError(f"out must be the path of the kit's folder, got {out!r}")
     if not spec.tiling.panel:
@@ -298,11 +300,13 @@ def _build(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | Non
             prediction = predict_kit(spec, assembly, predict_h, predict_progress)
         else:
             prediction = finish(chosen[0], assembly, predict_h, chosen[1])
-        problems += strain_problems(spec, prediction.run, force)
+        problems += strain_problems(spec, prediction.run, force) + grip_problems(spec, prediction.fit, force)
         check_lines += prediction_notes(prediction) + chose
     elif predicted(assembly):  # the plates bend but nothing checked how far: say so where the user looks
+        grip = (" (nor whether the plates reach their slots: they sit only at their faces' best fit)"
+                if assembly.skeleton.best_fit else "")
         problems.append(f"material.strain_limit = {spec.material.strain_limit:g} not checked: the prediction was "
-                        f"skipped (--no-predict), and the plates bend when {use(spec)}")
+                        f"skipped (--no-predict), and the plates bend when {use(spec)}{grip}")
     status = (NOT_NEEDED if not predicted(assembly) else PREDICTION if prediction is not None else SKIPPED)
     return _Kit(spec, assembly, lib, nesting, net, report, check_lines, first_note, problems, prediction, status,
                 pattern_records(spec, assembly.plate_types), tried)
@@ -337,7 +341,10 @@ def prediction_notes(prediction: Prediction) -> list[str]:
     """The check lines of a kit's prediction: its shape (a closure's radius and sphericity, a strip's arch),
     peak strain and largest sleeve moment, then how well the printed sleeves grip the deformed plates."""
     run, h, fit = prediction.run, prediction.h, prediction.fit
-    if hasattr(run, "sphere_note"):  # a ClosureRun
+    if prediction.record.get("cylinder_radius") is not None:  # a tube: its cylinder, not a sphere
+        shape = (f"cylinder radius {prediction.record['cylinder_radius']:.2f} mm, cylindricity rms "
+                 f"{100 * prediction.record['cylindricity_rms']:.2f} %")
+    elif hasattr(run, "sphere_note"):  # a ClosureRun
         from fabpat.assembly.closure import sphere_text
 
         shape = sphere_text(run)

@@ -11,6 +11,12 @@ the sphere) cannot hold both plates as placed on the polyhedron: the plates bend
 the sleeves close it. Each of its two plates is therefore checked against the sleeve turned about the
 joint's edge onto that plate (:func:`bent_sleeve_transform`), the joint as it is put together; the
 closure solver predicts the shape after that.
+
+On a best-fit tiling (``tiling.fit = "best"``: faces only nearly regular) no placement holds both
+plates of a joint in their slots, so every joint is checked from each side in turn: the sleeve seated
+on that plate (:func:`slot_frame`); :func:`placement_mismatch` says how far the placement misses, and
+the prediction's grip check (:func:`fabpat.assembly.predict.grip_problems`) that the closed shape puts
+every plate in both of its slots.
 """
 
 from __future__ import annotations
@@ -47,6 +53,8 @@ class CheckReport:
     min_insertion: float
     #: :func:`shallow_warnings`: plates that enter their slots much less than ``sleeve.depth``
     shallow: tuple[str, ...] = ()
+    #: a best-fit tiling's :func:`placement_mismatch` (mm, rad); None on an exact tiling
+    mismatch: tuple[float, float] | None = None
 
     def lines(self) -> list[str]:
         """The report as the lines `fabpat assemble` prints and the manifest stores. A kit without
@@ -57,9 +65,16 @@ class CheckReport:
         if self.sleeves == 0:
             return [*head, "no sleeves (one plate, no shared edge): no plate–sleeve gap, slot or insertion depth "
                            "to check"]
-        return [*head, f"smallest plate–sleeve gap {self.min_plate_sleeve_gap:.3f} mm",
-                f"sleeves on interface midpoints within {self.midpoint_error:.1e} mm; "
-                f"plates enter their slots ≥ {self.min_insertion:.2f} mm"]
+        lines = [*head, f"smallest plate–sleeve gap {self.min_plate_sleeve_gap:.3f} mm",
+                 f"sleeves on interface midpoints within {self.midpoint_error:.1e} mm; "
+                 f"plates enter their slots ≥ {self.min_insertion:.2f} mm"]
+        if self.mismatch is not None:
+            lines[2:4] = [f"{lines[2]}, each joint checked as put together (the sleeve seated on one plate at a "
+                          "time: the plates sit at their faces' best fit)", f"{lines[3]} (seated)",
+                          f"best-fit placement: slots up to {self.mismatch[0]:.3g} mm and "
+                          f"{math.degrees(self.mismatch[1]):.3g}° from their plates' interfaces as placed; the "
+                          "closure takes that up (the predicted shape's grip check below)"]
+        return lines
 
 
 def expected_counts(assembly: Assembly) -> tuple[int, int]:
@@ -125,15 +140,82 @@ def _off_slot(asm: Assembly, s: PlacedSleeve, plate_index: int, off: float, alon
 
 def _slot_midpoints(lib: PartLibrary) -> Iterator[tuple[PlacedSleeve, int, int, NDArray[np.float64]]]:
     """Every (sleeve, side, plate index, the plate's interface midpoint in the sleeve's frame (3,) mm), in
-    the sleeves' order: what the slot checks measure."""
+    the sleeves' order: what the slot checks measure. On a best-fit tiling the frame is the sleeve seated
+    on that plate (:func:`slot_frame`)."""
     asm = lib.assembly
     for s in asm.sleeves:
-        inv = np.linalg.inv(s.transform)
-        for side, (p, i) in enumerate(s.plates):
-            plate = asm.plates[p]
-            seg = lib.filleted[plate.type].interface_segments[i]
-            mid = np.array([*seg.mean(axis=0), 0.5 * asm.spec.plates.thickness])
-            yield s, side, p, apply(inv, apply(plate.transform, mid[None]))[0]
+        for side, (p, _) in enumerate(s.plates):
+            inv = np.linalg.inv(slot_frame(lib, s, side))
+            yield s, side, p, apply(inv, _interface_frame(lib, s, side)[0][None])[0]
+
+
+def _interface_frame(lib: PartLibrary, s: PlacedSleeve, side: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(midpoint (3,) mm, axes (3, 3) as columns: along the edge, into the plate, its normal) of the interface
+    of sleeve ``s``'s plate ``side`` at mid-thickness, in the world as placed; the axes' signs follow the
+    sleeve's frame (edge line X, the slot's direction and its normal at the joint's dihedral)."""
+    asm = lib.assembly
+    p, i = s.plates[side]
+    plate = asm.plates[p]
+    seg = lib.filleted[plate.type].interface_segments[i]
+    mid = apply(plate.transform, np.array([[*seg.mean(axis=0), 0.5 * asm.spec.plates.thickness]]))[0]
+    R, T = plate.transform[:3, :3], s.transform[:3, :3]
+    d, n = joint_direction(s.dihedral, side), joint_normal(s.dihedral, side)
+    along = R @ np.array([*(seg[-1] - seg[0]), 0.0])
+    along /= np.linalg.norm(along)
+    normal = R[:, 2]
+    along *= np.sign(along @ T[:, 0])
+    normal *= np.sign(normal @ (T[:, 1:] @ n))
+    into = np.cross(normal, along)
+    into *= np.sign(into @ (T[:, 1:] @ d))
+    return mid, np.stack([along, into, normal], axis=1)
+
+
+def _seat(lib: PartLibrary, s: PlacedSleeve, side: int) -> NDArray[np.float64]:
+    """(4, 4) the rigid motion that takes slot ``side`` of sleeve ``s`` as placed onto its plate's interface:
+    the slot's centre line through the interface midpoint, its direction into the plate and its plane the
+    plate's mid-plane. The identity (to round-off) on an exact tiling; on a best-fit tiling the placement's
+    mismatch at that slot, which the closure takes up."""
+    asm = lib.assembly
+    plate = asm.plates[s.plates[side][0]]
+    d, n = joint_direction(s.dihedral, side), joint_normal(s.dihedral, side)
+    expect = setback(plate.type.sides, asm.skeleton.edge_length(), asm.plate_edge)
+    T = s.transform
+    slot_origin = apply(T, np.array([[0.0, *(expect * d)]]))[0]
+    slot_axes = np.stack([T[:3, 0], T[:3, 1:3] @ d, T[:3, 1:3] @ n], axis=1)
+    mid, axes = _interface_frame(lib, s, side)
+    C = np.eye(4)
+    C[:3, :3] = axes @ slot_axes.T
+    C[:3, 3] = mid - C[:3, :3] @ slot_origin
+    return C
+
+
+def slot_frame(lib: PartLibrary, s: PlacedSleeve, side: int) -> NDArray[np.float64]:
+    """(4, 4) sleeve local → world at the joint's dihedral, as slot ``side`` meets its plate.
+
+    On an exact tiling this is ``s.transform``: both plates sit on the sleeve's slots as placed. On a
+    best-fit tiling (``tiling.fit = "best"``, Goldberg spheres) the plates sit only near their faces and
+    the sleeve cannot meet both as placed; the kit is checked joint by joint as it is put together — the
+    sleeve seated on each of its plates in turn (:func:`_seat`) — and the closure predicts the shape that
+    puts both sides in their slots at once (the prediction's grip check)."""
+    if not lib.assembly.skeleton.best_fit:
+        return s.transform
+    return _seat(lib, s, side) @ s.transform
+
+
+def placement_mismatch(lib: PartLibrary) -> tuple[float, float]:
+    """(largest distance mm, largest angle rad) between a slot as placed and its plate's interface (the
+    :func:`_seat` motions): zero to round-off on an exact tiling; on a best-fit tiling what the closure
+    closes."""
+    dist, angle = 0.0, 0.0
+    for s in lib.assembly.sleeves:
+        for side in (0, 1):
+            C = _seat(lib, s, side)
+            cos = float(np.clip(0.5 * (np.trace(C[:3, :3]) - 1.0), -1.0, 1.0))
+            mid = _interface_frame(lib, s, side)[0]
+            # C takes the slot's point on the centre line as placed to the midpoint: C⁻¹ gives it back
+            dist = max(dist, float(np.linalg.norm(apply(np.linalg.inv(C), mid[None])[0] - mid)))
+            angle = max(angle, math.acos(cos))
+    return dist, angle
 
 
 def insertion_depths(lib: PartLibrary) -> list[tuple[float, str, str, str]]:
@@ -233,9 +315,10 @@ def intersections(lib: PartLibrary, tolerance: float = CHECK_TOLERANCE) -> tuple
     asm = lib.assembly
     turned = {}  # (sleeve label, plate label) → the sleeve turned onto that plate, for bent joints only
     for s in asm.sleeves:
-        if abs(s.angle - s.dihedral) > 1e-12:
+        if abs(s.angle - s.dihedral) > 1e-12 or asm.skeleton.best_fit:
             for side, (p, _) in enumerate(s.plates):
-                turned[s.label, asm.plates[p].label] = protos[s.kind].transform(bent_sleeve_transform(s, side)[:3, :4])
+                T = slot_frame(lib, s, side) @ np.linalg.inv(s.transform) @ bent_sleeve_transform(s, side)
+                turned[s.label, asm.plates[p].label] = protos[s.kind].transform(T[:3, :4])
     items = []
     for label, key, T in lib.placed():
         W = apply(T, base[key][0])
@@ -268,5 +351,6 @@ def check_assembly(lib: PartLibrary) -> CheckReport:
     err, depth = interface_midpoints(lib) if asm.sleeves else (0.0, math.inf)
     tested, worst, gap = intersections(lib)
     t = asm.skeleton
+    mismatch = placement_mismatch(lib) if t.best_fit else None
     return CheckReport(len(asm.plates), len(asm.sleeves), len(t.V), len(t.edges), tested, worst, gap, err, depth,
-                       tuple(shallow_warnings(lib)))
+                       tuple(shallow_warnings(lib)), mismatch)

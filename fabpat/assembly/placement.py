@@ -216,6 +216,7 @@ def _sleeve_frame(skel: Tiling, k: int) -> NDArray[np.float64]:
     X = skel.V[b] - skel.V[a]
     X /= np.linalg.norm(X)
     Z = skel.normals[fa] + skel.normals[fb]
+    Z -= (Z @ X) * X  # on a best-fit tiling the faces' normals are not quite square to the edge: a skewed frame
     Z /= np.linalg.norm(Z)
     into_a = skel.centroids[fa] - m
     into_a -= (into_a @ X) * X

@@ -34,8 +34,10 @@ BENT_TOLERANCE = 1e-9
 
 
 def bent(assembly: Assembly) -> bool:
-    """True when some sleeve is printed at an angle other than its joint's dihedral (the plates bend)."""
-    return any(abs(s.angle - s.dihedral) > BENT_TOLERANCE for s in assembly.sleeves)
+    """True when the plates bend as the sleeves close the object: some sleeve is printed at an angle other
+    than its joint's dihedral, or the tiling is placed at its faces' best fit (the sleeves' mismatch is
+    closed by bending, whatever their angles)."""
+    return assembly.skeleton.best_fit or any(abs(s.angle - s.dihedral) > BENT_TOLERANCE for s in assembly.sleeves)
 
 
 def predicted(assembly: Assembly) -> bool:
@@ -134,6 +136,25 @@ def strain_problems(spec: AssemblySpec, run: Any, force: bool) -> list[str]:
                           "anyway")
     return [f"plate {k}: predicted peak strain {run.plate_peak_strain[k]:.4g} exceeds material.strain_limit = "
             f"{lim:g} (built anyway: --force)" for k in over]
+
+
+def grip_problems(spec: AssemblySpec, fit: tuple[float, float], force: bool) -> list[str]:
+    """Refuse (ExportError, one line) a kit whose predicted shape leaves interface nodes off their slots —
+    farther from a slot's mid-plane than the slot's play (``sleeve.clearance`` / 2) or outside the slot
+    (more than 1e-6 mm) — or with ``force`` return that line as a warning. ``fit``: the prediction's
+    (mid-plane, outside) distances in mm (:func:`fabpat.assembly.preview.joint_fit`). Round-off on an exact
+    tiling, where every plate sits in its slots as placed; the check that matters on a best-fit tiling,
+    whose plates reach their slots only in the closed shape."""
+    play = 0.5 * spec.sleeve.clearance
+    if fit[0] <= play and fit[1] <= 1e-6:
+        return []
+    line = (f"{spec.source}: in the predicted shape the plates leave their slots (interface nodes "
+            f"{fit[0]:.3g} mm from a slot's mid-plane, sleeve.clearance / 2 = {play:g} mm; {fit[1]:.3g} mm "
+            "outside a slot)")
+    if not force:
+        raise ExportError(f"{line}: choose a larger sleeve.clearance or sleeve.margin, or give --force to build "
+                          "the kit anyway")
+    return [f"{line} (built anyway: --force)"]
 
 
 def choose_roundest(spec: AssemblySpec, pairs: list[tuple[str, str]], faces: list[int], h: float, force: bool,
