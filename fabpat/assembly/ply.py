@@ -109,35 +109,51 @@ def _check_elements(p: Path, elements: list[tuple[str, int, list[Prop]]]) -> Non
 Rows = dict[str, list[list[list[float]]]]
 
 
-def _rows_ascii(p: Path, text: bytes, elements: list[tuple[str, int, list[Prop]]]) -> Rows:
-    words = text.split()
-    at = 0
-    out: Rows = {}
-    for name, count, props in elements:
-        rows = []
-        for r in range(count):
-            row = []
-            for prop, code, _, _ in props:
-                try:
-                    if code:
-                        row.append([float(words[at])])
-                        at += 1
-                    else:
-                        k = int(words[at])
-                        row.append([float(w) for w in words[at + 1:at + 1 + k]])
-                        if k < 0 or len(row[-1]) != k:
-                            raise IndexError
-                        at += 1 + k
-                except (IndexError, ValueError):
-                    raise _fail(p, f"element {name} row {r + 1} of {count}, property {prop}: missing or not a "
-                                "number (the data ends early or does not match the header)") from None
-            rows.append(row)
-        out[name] = rows
-    return out
+class _Words:
+    """Reads an ASCII body's numbers in turn; what it raises means the data ended or is not a number."""
+
+    short = "missing or not a number (the data ends early or does not match the header)"
+    errors = (IndexError, ValueError)
+
+    def __init__(self, text: bytes) -> None:
+        self.words, self.at = text.split(), 0
+
+    def scalar(self, code: str) -> list[float]:
+        self.at += 1
+        return [float(self.words[self.at - 1])]
+
+    def sequence(self, ccode: str, icode: str) -> list[float]:
+        k = int(self.words[self.at])
+        values = [float(w) for w in self.words[self.at + 1:self.at + 1 + k]]
+        if k < 0 or len(values) != k:
+            raise IndexError
+        self.at += 1 + k
+        return values
 
 
-def _rows_binary(p: Path, data: bytes, order: str, elements: list[tuple[str, int, list[Prop]]]) -> Rows:
-    at = 0
+class _Bytes:
+    """Reads a binary body's values in turn (``order``: struct's byte-order character)."""
+
+    short = "the data ends early (a truncated file, or a header that does not match it)"
+    errors = (struct.error,)
+
+    def __init__(self, data: bytes, order: str) -> None:
+        self.data, self.order, self.at = data, order, 0
+
+    def _take(self, code: str, k: int = 1) -> tuple[float, ...]:
+        values = struct.unpack_from(f"{self.order}{k}{code}", self.data, self.at)
+        self.at += k * struct.calcsize(code)
+        return values
+
+    def scalar(self, code: str) -> list[float]:
+        return [float(self._take(code)[0])]
+
+    def sequence(self, ccode: str, icode: str) -> list[float]:
+        return [float(v) for v in self._take(icode, int(self._take(ccode)[0]))]
+
+
+def _rows(p: Path, body: _Words | _Bytes, elements: list[tuple[str, int, list[Prop]]]) -> Rows:
+    """Every element's rows, each a list of its properties' values (a scalar as a 1-list)."""
     out: Rows = {}
     for name, count, props in elements:
         rows = []
@@ -145,17 +161,9 @@ def _rows_binary(p: Path, data: bytes, order: str, elements: list[tuple[str, int
             row = []
             for prop, code, ccode, icode in props:
                 try:
-                    if code:
-                        row.append([float(struct.unpack_from(order + code, data, at)[0])])
-                        at += struct.calcsize(code)
-                    else:
-                        k = int(struct.unpack_from(order + ccode, data, at)[0])
-                        at += struct.calcsize(ccode)
-                        row.append([float(v) for v in struct.unpack_from(f"{order}{k}{icode}", data, at)])
-                        at += k * struct.calcsize(icode)
-                except struct.error:
-                    raise _fail(p, f"element {name} row {r + 1} of {count}, property {prop}: the data ends early "
-                                "(a truncated file, or a header that does not match it)") from None
+                    row.append(body.scalar(code) if code else body.sequence(ccode, icode))
+                except body.errors:
+                    raise _fail(p, f"element {name} row {r + 1} of {count}, property {prop}: {body.short}") from None
             rows.append(row)
         out[name] = rows
     return out
@@ -169,7 +177,7 @@ def read_ply(p: Path) -> tuple[NDArray[np.float64], Faces]:
     fmt, elements, start = _header(p, data)
     _check_elements(p, elements)
     body = data[start:]
-    rows = _rows_ascii(p, body, elements) if fmt == "ascii" else _rows_binary(p, body, FORMATS[fmt], elements)
+    rows = _rows(p, _Words(body) if fmt == "ascii" else _Bytes(body, FORMATS[fmt]), elements)
     props = {name: [q[0] for q in ps] for name, _, ps in elements}
     vp = props["vertex"]
     ix, iy, iz = vp.index("x"), vp.index("y"), vp.index("z")
