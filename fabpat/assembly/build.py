@@ -304,7 +304,7 @@ def _build(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | Non
         check_lines += prediction_notes(prediction) + chose
     elif predicted(assembly):  # the plates bend but nothing checked how far: say so where the user looks
         grip = (" (nor whether the plates reach their slots: they sit only at their faces' best fit)"
-                if assembly.skeleton.best_fit else "")
+                if spec.tiling.fit == "best" else "")
         problems.append(f"material.strain_limit = {spec.material.strain_limit:g} not checked: the prediction was "
                         f"skipped (--no-predict), and the plates bend when {use(spec)}{grip}")
     status = (NOT_NEEDED if not predicted(assembly) else PREDICTION if prediction is not None else SKIPPED)

@@ -189,6 +189,14 @@ def _seat(lib: PartLibrary, s: PlacedSleeve, side: int) -> NDArray[np.float64]:
     return C
 
 
+def seated(asm: Assembly) -> bool:
+    """Whether the kit is checked joint by joint with each sleeve seated on one plate at a time
+    (:func:`slot_frame`): a tiling placed at its faces' best fit (``tiling.fit = "best"``). A mesh file
+    with ``fit = "exact"`` is placed the same way but must sit in its slots as placed (its plates may be
+    off by ``tiling.tolerance`` at most, :func:`_slot_tolerance`)."""
+    return asm.spec.tiling.fit == "best"
+
+
 def slot_frame(lib: PartLibrary, s: PlacedSleeve, side: int) -> NDArray[np.float64]:
     """(4, 4) sleeve local → world at the joint's dihedral, as slot ``side`` meets its plate.
 
@@ -197,7 +205,7 @@ def slot_frame(lib: PartLibrary, s: PlacedSleeve, side: int) -> NDArray[np.float
     the sleeve cannot meet both as placed; the kit is checked joint by joint as it is put together — the
     sleeve seated on each of its plates in turn (:func:`_seat`) — and the closure predicts the shape that
     puts both sides in their slots at once (the prediction's grip check)."""
-    if not lib.assembly.skeleton.best_fit:
+    if not seated(lib.assembly):
         return s.transform
     return _seat(lib, s, side) @ s.transform
 
@@ -315,7 +323,7 @@ def intersections(lib: PartLibrary, tolerance: float = CHECK_TOLERANCE) -> tuple
     asm = lib.assembly
     turned = {}  # (sleeve label, plate label) → the sleeve turned onto that plate, for bent joints only
     for s in asm.sleeves:
-        if abs(s.angle - s.dihedral) > 1e-12 or asm.skeleton.best_fit:
+        if abs(s.angle - s.dihedral) > 1e-12 or seated(asm):
             for side, (p, _) in enumerate(s.plates):
                 T = slot_frame(lib, s, side) @ np.linalg.inv(s.transform) @ bent_sleeve_transform(s, side)
                 turned[s.label, asm.plates[p].label] = protos[s.kind].transform(T[:3, :4])
@@ -351,6 +359,6 @@ def check_assembly(lib: PartLibrary) -> CheckReport:
     err, depth = interface_midpoints(lib) if asm.sleeves else (0.0, math.inf)
     tested, worst, gap = intersections(lib)
     t = asm.skeleton
-    mismatch = placement_mismatch(lib) if t.best_fit else None
+    mismatch = placement_mismatch(lib) if seated(asm) else None
     return CheckReport(len(asm.plates), len(asm.sleeves), len(t.V), len(t.edges), tested, worst, gap, err, depth,
                        tuple(shallow_warnings(lib)), mismatch)

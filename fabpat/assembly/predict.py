@@ -37,7 +37,8 @@ def bent(assembly: Assembly) -> bool:
     """True when the plates bend as the sleeves close the object: some sleeve is printed at an angle other
     than its joint's dihedral, or the tiling is placed at its faces' best fit (the sleeves' mismatch is
     closed by bending, whatever their angles)."""
-    return assembly.skeleton.best_fit or any(abs(s.angle - s.dihedral) > BENT_TOLERANCE for s in assembly.sleeves)
+    return (assembly.spec.tiling.fit == "best"
+            or any(abs(s.angle - s.dihedral) > BENT_TOLERANCE for s in assembly.sleeves))
 
 
 def predicted(assembly: Assembly) -> bool:
