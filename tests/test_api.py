@@ -261,7 +261,8 @@ def test_writers_reached_from_pipeline_objects_stay_out_of_the_solver_digest() -
 
     names = {p.relative_to(builtin_path().parents[1]).as_posix() for p in pipeline_modules()}
     assert {"fillet.py", "pattern.py", "scenarios.py", "mesh.py", "_callable.py"} <= names
-    assert not {n for n in names if n.startswith("exchange/") or n in ("cad.py", "pictures.py", "plots.py", "io.py")}
+    writers = ("cad.py", "contours.py", "pictures.py", "plots.py", "io.py")
+    assert not {n for n in names if n.startswith("exchange/") or n in writers}
 
 
 def test_export_3dm_through_the_registry(tmp_path: Path) -> None:

@@ -227,23 +227,6 @@ def test_triangulation_is_closed_and_within_tolerance() -> None:
     assert 0 < exact - m.volume <= 2 * math.pi * 3.0 * 0.01 * 2.0
 
 
-def test_bulge_loops_and_kerf_offset() -> None:
-    tol = 0.01
-    loops = cad.bulge_loops(bowtie(), tol)
-    P = bowtie().perimeter
-    assert abs(sum(lp.area() for lp in loops) - bowtie_area()) <= P * tol
-    d = 0.1
-    grown = cad.offset_bulge_loops(loops, d)
-    assert len(grown) == 1 and grown[0].area() > 0
-    # Growth = perimeter × d + O(d²) at corners (convex corners add ≤ π d² in all).
-    assert sum(lp.area() for lp in grown) - bowtie_area() == pytest.approx(P * d, abs=P * tol + math.pi * d * d)
-    square = cad.bulge_loops(rounded_square(), tol)
-    assert square[0].bulges.tolist().count(0.0) == 4  # circular corners stay single exact arcs
-    offset_area = sum(lp.area() for lp in cad.offset_bulge_loops(square, d))
-    exact = (20 + 2 * d) ** 2 - (4 - math.pi) * (3 + d) ** 2  # a rounded square again
-    assert offset_area == pytest.approx(exact, abs=1e-9)
-
-
 @pytest.mark.parametrize("pattern_id, sides", [("0x0488", 6), ("0xd488", 5)])
 def test_library_pattern_solid_volume(pattern_id: str, sides: int) -> None:
     from fabpat.fillet import fillet_pattern

@@ -77,7 +77,7 @@ def sheet_document(panel: Panel, nesting: Any, quarter: bool) -> Any:
     import ezdxf
 
     from fabpat.assembly.sheets import SHEET_COLOR, SHEET_LAYER, edge_label_spots
-    from fabpat.cad import bulge_loops, offset_bulge_loops
+    from fabpat.contours import bulge_loops, offset_bulge_loops
     from fabpat.exchange.dxf import CUT_COLOR, CUT_LAYER, ENGRAVE_COLOR, ENGRAVE_LAYER, add_bulge_segments, set_extents
     from fabpat.exchange.labels import label_at
 

@@ -27,7 +27,7 @@ from pathlib import Path
 _PIPELINE_ROOTS = ("fabpat.library", "fabpat.fillet", "fabpat.mesh", "fabpat.scenarios", "fabpat.convergence")
 # Writers and pictures that pipeline objects reach for on request (``FilletedPattern.export``,
 # ``ScenarioResult.to_vtu``, notebook pictures) never change a stored number: not part of the digest.
-_OUTPUT_ONLY = ("fabpat.exchange", "fabpat.cad", "fabpat.pictures", "fabpat.plots", "fabpat.io")
+_OUTPUT_ONLY = ("fabpat.exchange", "fabpat.cad", "fabpat.contours", "fabpat.pictures", "fabpat.plots", "fabpat.io")
 
 
 

@@ -79,7 +79,7 @@ def quad_to_cubics(P: NDArray[np.float64], w: float, tol: float) -> list[NDArray
     ``P`` (3, 2) mm control points of a standard-form arc with middle weight ``w`` > 0. Raises
     :class:`GeometryError` if ``_MAX_DEPTH`` halvings do not reach ``tol``. The fit is done with
     the arc moved to P0 = origin, chord along +x, and cached (a fit is invariant under rigid
-    motions, and a pattern repeats its arcs by symmetry), as :func:`fabpat.cad.fitted_arcs` does.
+    motions, and a pattern repeats its arcs by symmetry), as :func:`fabpat.contours.fitted_arcs` does.
     """
     P = np.asarray(P, dtype=np.float64)
     chord = P[2] - P[0]

@@ -56,7 +56,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.cad import CLOSE_TOL, BulgeLoop, bulge_loops, make_face, offset_bulge_loops, offset_wires, ordered_edges
+from fabpat.cad import CLOSE_TOL, make_face
+from fabpat.contours import BulgeLoop, bulge_loops, offset_bulge_loops, offset_wires, ordered_edges
 from fabpat.errors import ExportError, GeometryError
 from fabpat.exchange.origin import DEFAULT_ORIGIN, check_origin, origin_shift, translated
 from fabpat.io import atomic_outputs

@@ -16,7 +16,7 @@ Curves (``curves``):
   libraries and cutters mis-place rotated arcs.
 
 With ``kerf`` > 0 the loops are the kerf offset of the circular-arc fit
-(:func:`fabpat.cad.offset_bulge_loops`): circular ``A`` arcs (never rotated) in "exact" mode, cubic
+(:func:`fabpat.contours.offset_bulge_loops`): circular ``A`` arcs (never rotated) in "exact" mode, cubic
 Béziers in "cubic" mode (arc fit and cubic each within half the tolerance). The default style is
 the laser convention (red hairline cut path, no fill, ID in blue); ``filled=True`` draws the part
 black with holes empty (even-odd rule). The label (:func:`fabpat.exchange.labels.place_label`)
@@ -35,7 +35,7 @@ from xml.sax.saxutils import escape, quoteattr
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.cad import BulgeLoop, bulge_loops, offset_bulge_loops
+from fabpat.contours import BulgeLoop, bulge_loops, offset_bulge_loops
 from fabpat.errors import ExportError
 from fabpat.exchange.origin import DEFAULT_ORIGIN, ORIGIN_MARGIN, origin_shift, transformed
 from fabpat.io import atomic_outputs
