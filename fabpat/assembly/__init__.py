@@ -4,7 +4,8 @@ polygon-mesh surface.
 Every module of the package, by job (heavy libraries are imported inside the functions that need them):
 
 * **What to build** — ``spec`` (TOML specs, every value checked), ``spec_types`` (its tables as plain
-  data), ``spec_patterns`` (its ``[patterns]`` table) and ``spec_tables`` (reading its file and tables);
+  data), ``spec_patterns`` (its ``[patterns]`` table), ``spec_tiling`` (its ``[tiling]`` table) and
+  ``spec_tables`` (reading its file and tables);
   ``tiling`` (skeleton surfaces); ``mesh_tiling`` (a polygon-mesh file read and checked as a tiling) and
   ``ply`` (its PLY reader); ``polyhedra`` (Goldberg polyhedra, hexagon tubes and caps); ``choice`` (one
   pattern per face, by the spec's ``[patterns]``); ``members`` (family members as candidates); ``rules``

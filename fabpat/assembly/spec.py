@@ -80,6 +80,7 @@ from fabpat.assembly.spec_tables import Table as _Table
 from fabpat.assembly.spec_tables import key_text as _key_text
 from fabpat.assembly.spec_tables import problems_of as _problems_of
 from fabpat.assembly.spec_tables import show as _show
+from fabpat.assembly.spec_tiling import read_tiling
 from fabpat.assembly.spec_types import (  # noqa: F401 - the spec's names, read from here too
     BUILTIN_TOLERANCE,
     FORMATS,
@@ -112,58 +113,9 @@ from fabpat.assembly.spec_types import (  # noqa: F401 - the spec's names, read 
     TilingSpec,
 )
 from fabpat.errors import SpecError
-from fabpat.validate import RANGES, check
+from fabpat.validate import RANGES
 
-# -- small typed readers ----------------------------------------------------------------------------
-
-
-_KIND_KEYS = {"rows": ("honeycomb-strip", "hex-tube", "panel"), "columns": ("honeycomb-strip", "hex-tube", "panel"),
-              "file": ("mesh", "panel"), "tolerance": ("mesh", "panel"), "fit": ("mesh",), "m": ("goldberg",),
-              "n": ("goldberg",), "realization": ("goldberg",), "rings": ("hex-cap",), "centre": ("hex-cap",),
-              "radius": tuple(RADIUS_KINDS)}
-
-
-def _tiling(source: str, data: Any) -> TilingSpec:
-    t = _Table(source, "tiling", data, ("kind", "edge", *_KIND_KEYS))
-    before = len(t.problems)
-    kind = t.choice("kind", TILINGS, None)
-    unknown_kind = len(t.problems) > before
-    if unknown_kind:  # which keys apply depends on the kind
-        t.settle()
-    for key, kinds in _KIND_KEYS.items():
-        if t.has(key) and kind not in kinds:
-            t.note(t.fail(key, f"is only for kind = {' or '.join(repr(k) for k in kinds)}".replace("'", '"')), None)
-    if t.has("radius") and kind not in RADIUS_KINDS:
-        t.settle()  # that one line: not also "missing key tiling.edge" for a spec that sized it otherwise
-    if kind == "mesh":
-        return _mesh_tiling(source, t)
-    if kind == "panel" and (t.has("file") or not (t.has("rows") or t.has("columns"))):
-        from fabpat.assembly.panel_mesh import panel_tiling_spec
-
-        return panel_tiling_spec(source, t)
-    radius = None
-    if t.has("radius") and kind in RADIUS_KINDS:
-        if t.has("edge"):
-            raise t.fail("radius", "and tiling.edge both size the tiling: give one of them")
-        # sized once [plates] and [sleeve] are read (:func:`_sized_by_radius`); unit edge until then. A
-        # positive length up to a sheet's 10 m here; which radii the plate edges reach is checked there
-        radius, edge = t.number("radius", None, "sheet_size"), 1.0
-    elif kind in RADIUS_KINDS and not t.has("edge"):
-        raise t.fail("edge", "is missing: give tiling.edge (the plate edge, mm) or tiling.radius (the size the "
-                     "plates lie at, mm)")
-    else:
-        edge = t.number("edge", None, "edge")
-    if kind == "honeycomb-strip":
-        return TilingSpec(kind, edge, t.integer("rows", None), t.integer("columns", None))
-    if kind == "panel":
-        if t.has("tolerance"):  # read only from a mesh file: never ignored
-            raise t.fail("tolerance", "applies to a panel from tiling.file (how far its mesh may be from flat regular "
-                         "polygons); rows × columns hexagons are exact")
-        return TilingSpec(kind, edge, t.integer("rows", None, 1, MAX_PANEL_ROWS),
-                          t.integer("columns", None, 1, MAX_PANEL_COLUMNS))
-    if kind in MESH_KINDS:
-        return replace(_builtin_tiling(source, t, kind, edge), radius=radius)
-    return TilingSpec(kind, edge, radius=radius)
+# -- the tables after [tiling] (read by :func:`fabpat.assembly.spec_tiling.read_tiling`) ---------------------
 
 
 def _sized_by_radius(source: str, tiling: TilingSpec, plates: PlateSpec, sleeve: SleeveSpec) -> TilingSpec:
@@ -189,74 +141,6 @@ def _sized_by_radius(source: str, tiling: TilingSpec, plates: PlateSpec, sleeve:
         raise SpecError(f"{source}: tiling.radius = {tiling.radius:g} mm is out of reach: {e}") from None
     scale = edge / tiling.edge
     return replace(tiling, edge=edge, vertices=tuple((x * scale, y * scale, z * scale) for x, y, z in tiling.vertices))
-
-
-def _builtin_tiling(source: str, t: _Table, kind: str, edge: float) -> TilingSpec:
-    """A built-in surface of nearly regular faces (:mod:`fabpat.assembly.polyhedra`) at plate edge ``edge``."""
-    from fabpat.assembly import polyhedra
-    from fabpat.assembly.mesh_tiling import mesh_tiling
-
-    if kind == "goldberg":
-        m = t.integer("m", None, 1, MAX_GOLDBERG_M)
-        n = t.integer("n", 0, 0, MAX_GOLDBERG_M)
-        realization = t.choice("realization", polyhedra.REALIZATIONS, "dual")
-        t.settle()
-        if n > m:
-            raise t.fail("n", f"= {n} must be at most tiling.m = {m} (GP(n, m) is the mirror image of GP(m, n))")
-        if m * m + m * n + n * n > MAX_GOLDBERG_M ** 2:
-            plates = 10 * (m * m + m * n + n * n) + 2
-            raise t.fail("n", f"= {n} with tiling.m = {m} makes GP({m}, {n}) of {plates} plates: at most m² + mn + "
-                         f"n² = {MAX_GOLDBERG_M ** 2} (GP({MAX_GOLDBERG_M}, 0), {10 * MAX_GOLDBERG_M ** 2 + 2} plates)")
-        V, faces = polyhedra.goldberg(m, n, realization)
-        extra: dict[str, Any] = {"m": m, "n": n, "realization": realization}
-    elif kind == "hex-tube":
-        rows, columns = t.integer("rows", None, 3, MAX_TUBE_ROWS), t.integer("columns", None, 1, MAX_TUBE_COLUMNS)
-        t.settle()
-        V, faces = polyhedra.hex_tube(rows, columns)
-        extra = {"rows": rows, "columns": columns}
-    else:
-        rings = t.integer("rings", None, 1, MAX_CAP_RINGS)
-        centre = t.integer("centre", 5, 5, 6)
-        t.settle()
-        V, faces = polyhedra.hex_cap(rings, centre)
-        extra = {"rings": rings, "centre": centre}
-    # our own surfaces are near-regular by construction: the bound only guards the closure's start (the
-    # roughest, hex-cap rings = 8 and GP(6, 0) planar, need 0.3 and 0.4 of the edge)
-    skel = mesh_tiling(V, faces, edge=edge, fit="best", name=kind, tolerance=BUILTIN_TOLERANCE * edge,
-                       source=f"{source}: tiling.kind = {kind!r}")
-    return TilingSpec(kind, edge, vertices=tuple((float(x), float(y), float(z)) for x, y, z in skel.V),
-                      faces=skel.faces, fit="best", **extra)
-
-
-def _mesh_tiling(source: str, t: _Table) -> TilingSpec:
-    """``kind = "mesh"``: read and check ``file`` (relative to the spec's folder) at ``edge`` and ``tolerance``."""
-    from fabpat.assembly.mesh_tiling import BEST_FIT_TOLERANCE, DEFAULT_TOLERANCE, FITS, mesh_tiling, read_polygon_mesh
-
-    name = t.string("file")
-    edge = t.number("edge", None, "edge") if t.has("edge") else None
-    fit = t.choice("fit", FITS, "exact")
-    # any positive length here; mesh_tiling bounds it by the edge (MAX_TOLERANCE × edge, as its default)
-    tolerance = t.number("tolerance", DEFAULT_TOLERANCE, "sleeve_length") if t.has("tolerance") else None
-    if name is None or not name.strip():
-        raise t.fail("file", f"is {'missing' if name is None else 'empty'}: the polygon mesh (OBJ, PLY or OFF) "
-                     "whose faces carry the plates")
-    t.settle()
-    path = Path(name) if Path(name).is_absolute() else Path(source).parent / name
-    try:
-        V, faces = read_polygon_mesh(path)
-        skel = mesh_tiling(V, faces, tolerance=tolerance, edge=edge, source=str(path), fit=fit)
-    except SpecError as e:
-        raise SpecError(f"{source}: tiling.file: {e}") from None
-    if edge is None:  # the plates take the mesh's own (mean) edge
-        edge = float(np.linalg.norm(skel.V[skel.edges[:, 1]] - skel.V[skel.edges[:, 0]], axis=1).mean())
-        try:
-            check("edge", edge, "the mesh's mean edge (tiling.edge)", error=SpecError)
-        except SpecError as err:
-            raise SpecError(f"{source}: tiling.file: {err}; give tiling.edge to scale the mesh") from None
-    if tolerance is None:
-        tolerance = DEFAULT_TOLERANCE if fit == "exact" else BEST_FIT_TOLERANCE * edge
-    return TilingSpec("mesh", edge, file=str(path), tolerance=tolerance, fit=fit,
-                      vertices=tuple((float(x), float(y), float(z)) for x, y, z in skel.V), faces=skel.faces)
 
 
 def _load(source: str, data: Any, kind: str) -> float | None:
@@ -489,7 +373,7 @@ def _read_tables(data: Mapping[str, Any], source: str, need_sheet: bool, problem
                 " (fabpat assemble nests the plates on this laser sheet or print bed: give its width and height)"
                 if key == "sheet" else ""))
     name = read(lambda: _name(source, data))
-    tiling = read(lambda: _tiling(source, data["tiling"])) if "tiling" in data else None
+    tiling = read(lambda: read_tiling(source, data["tiling"])) if "tiling" in data else None
     plates = read(lambda: _plates(source, data.get("plates", {})))
     process = plates.process if plates is not None else None
     kind = tiling.kind if tiling is not None else None
