@@ -50,7 +50,7 @@ def solvers(hs: list[float]) -> None:
     import scipy.sparse.linalg as spla
 
     from fabpat.shell.linalg import factorizer, superlu
-    from fabpat.shell.linked import _Reduced
+    from fabpat.shell.rigid_links import _Reduced
 
     spec = load_spec(SPEC)
     ids = face_patterns(spec)

@@ -6,7 +6,7 @@ its triangles keep their own local frames in the corotational solver.
 
 **Sleeve joint**: each sleeve is one extra 6-dof node, the sleeve frame (origin at the sleeve's
 centre, the joint's edge midpoint); every node of slot A's interface segment and of slot B's moves
-rigidly with it (a rigid link, :mod:`fabpat.shell.linked`: x_i = x_s + R_s Q_i r_i, R_i = R_s Q_i).
+rigidly with it (a rigid link, :mod:`fabpat.shell.rigid_links`: x_i = x_s + R_s Q_i r_i, R_i = R_s Q_i).
 The sleeve is a printed part that grips both plates' necks along the whole slot, far stiffer than the
 lacy plates, so it is modelled as rigid, by elimination: no penalty stiffness to choose, the
 constraint holds to round-off and the system does not grow (the two plates' interface nodes are
@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 from fabpat.errors import GeometryError
 from fabpat.mesh import ShellMesh
 from fabpat.shell.element import Material
-from fabpat.shell.linked import LinkedProblem
+from fabpat.shell.rigid_links import LinkedProblem
 from fabpat.shell.rotations import logmap
 
 Arr = NDArray[np.float64]
@@ -56,7 +56,7 @@ class ModelSleeve:
     slots: tuple[tuple[int, int], tuple[int, int]]
     angle: float = 0.0
     #: per slot (A, B), the rigid motion it makes relative to the sleeve body by λ = 1: a rotation
-    #: vector (3,) rad and an offset (3,) mm, world reference axes (:class:`fabpat.shell.linked.LinkedProblem`);
+    #: vector (3,) rad and an offset (3,) mm, world reference axes (:class:`fabpat.shell.rigid_links.LinkedProblem`);
     #: None: the turn of ∓``angle``/2 about the frame's X. A plate placed off its slot (a tiling only
     #: nearly regular, :func:`slot_motions`) is brought into it this way
     motions: tuple[tuple[Arr, Arr], tuple[Arr, Arr]] | None = None

@@ -1,22 +1,5 @@
-"""Shells with rigid links and prescribed motions: master–slave elimination and path following.
-
-A :class:`LinkedProblem` is a triangle mesh (any number of disconnected plates, placed in 3D) plus
-extra 6-dof **master** nodes. A *rigid link* ties a mesh node i (the slave) to a master s:
-
-    x_i = x_s + R_s (Q_i(λ) (X_i − X_s) + λ t_i),    R_i = R_s Q_i(λ),    Q_i(λ) = exp(λ [φ_i]×)
-
-(X reference positions, R total rotations, φ_i a relative rotation vector and t_i a relative offset
-(mm), both in reference axes and reached at λ = 1: a rampable joint angle and a gap the joint closes;
-φ = t = 0 is a rigid weld to the master). The offset changes where a slave sits, not how it moves with
-its master, so the variations below hold with c_i the current lever arm. Slaves are eliminated: the
-unknowns are the other mesh nodes and the masters. Their variations are δx_i = δx_s + δω_s × c_i,
-δω_i = δω_s (c_i = x_i − x_s, spatial spins), i.e. a 6 × 6 block T_i = [[I, −[c_i]×], [0, I]] that
-is applied to the element matrices of the elements touching a slave; the slaves' forces are sent to
-their master (f_s += g_i, m_s += m_i + c_i × g_i) and the constraint's curvature adds
-Σ_i [g_i]×[c_i]× to the master's spin–spin block (g_i the slave's net force), so Newton keeps its
-quadratic rate. After every correction the slaves are recomputed from their master exactly, so the
-constraints hold to round-off and the residual is the exact one (Felippa, *Nonlinear Finite Element
-Methods*, ch. 9, master–slave elimination; Crisfield vol. 2 §17 for the rotation updates).
+"""Shells with rigid links and prescribed motions: path following (the links and their master–slave
+elimination: :mod:`fabpat.shell.rigid_links`).
 
 **Prescribed motion**: ``fixed`` dofs follow ``λ · prescribed`` (translations in mm; rotations as a
 rotation vector exp(λ [θ]×), only on nodes whose three rotations are all prescribed). Dofs fixed at 0
@@ -43,11 +26,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import SolverError
-from fabpat.shell.assembly import Assembler
-from fabpat.shell.corotational import CorotationalTriangles
-from fabpat.shell.element import Material
 from fabpat.shell.linalg import Factor, Pardiso, SuperLUFactorizer, factorizer
-from fabpat.shell.rotations import expmap, logmap, skew
+from fabpat.shell.rigid_links import LinkedProblem, _Reduced
+from fabpat.shell.rotations import expmap, logmap
 from fabpat.shell.solve import ROUNDOFF_FACTOR
 
 Arr = NDArray[np.float64]
@@ -60,82 +41,6 @@ EASY_ITERATIONS = 6
 #: post-buckling increment takes 6–8 iterations but 3 factorizations (three Newton corrections), and
 #: doubling after them took the graded strip from the knee to 10 % in 93 factorizations, not 105 (h = 6)
 EASY_FACTORIZATIONS = 3
-
-
-@dataclass(frozen=True, eq=False)
-class LinkedProblem:
-    """Triangle mesh + master nodes + rigid links + prescribed motion (see module doc).
-
-    X: (n, 3) mesh node coordinates (mm). F: (m, 3) triangles. material: shell material.
-    masters: (s, 3) master node positions (mm); they are nodes n … n + s − 1 of every (N, 6) array.
-    link_slave: (k,) mesh node indices; link_master: (k,) master numbers 0 … s − 1; link_spin: (k, 3)
-    relative rotation (rad, reference axes) of each slave about its master reached at λ = 1; link_offset:
-    (k, 3) relative translation (mm, reference axes) reached at λ = 1 (default none).
-    fixed: (N, 6) bool prescribed dofs (N = n + s); prescribed: (N, 6) their values at λ = 1 (mm, rad);
-    loads: (N, 6) forces (N) and moments (N·mm) at λ = 1, global axes, fixed directions.
-    Raises ValueError on inconsistent shapes, a slave linked twice or fixed, or a partly prescribed
-    nonzero rotation.
-    """
-
-    X: Arr
-    F: NDArray[np.int64]
-    material: Material
-    masters: Arr
-    link_slave: NDArray[np.int64]
-    link_master: NDArray[np.int64]
-    link_spin: Arr
-    fixed: NDArray[np.bool_]
-    prescribed: Arr
-    loads: Arr
-    link_offset: Arr | None = None
-
-    def __post_init__(self) -> None:
-        X = np.asarray(self.X, dtype=np.float64)
-        if X.shape[1] == 2:
-            X = np.column_stack([X, np.zeros(len(X))])
-        M = np.asarray(self.masters, dtype=np.float64).reshape(-1, 3)
-        N = len(X) + len(M)
-        sl = np.asarray(self.link_slave, dtype=np.int64).ravel()
-        ma = np.asarray(self.link_master, dtype=np.int64).ravel()
-        sp = np.asarray(self.link_spin, dtype=np.float64).reshape(-1, 3)
-        fixed = np.asarray(self.fixed, dtype=bool).reshape(-1, 6)
-        pres = np.asarray(self.prescribed, dtype=np.float64).reshape(-1, 6)
-        loads = np.asarray(self.loads, dtype=np.float64).reshape(-1, 6)
-        if not (len(sl) == len(ma) == len(sp)) or fixed.shape[0] != N or pres.shape[0] != N or loads.shape[0] != N:
-            raise ValueError(f"inconsistent shapes: {len(X)} nodes + {len(M)} masters, links {len(sl)}/{len(ma)}/"
-                             f"{len(sp)}, fixed {fixed.shape}, prescribed {pres.shape}, loads {loads.shape}")
-        if sl.size and (sl.min() < 0 or sl.max() >= len(X) or ma.min() < 0 or ma.max() >= len(M)):
-            raise ValueError("link indices out of range")
-        if np.unique(sl).size != sl.size:
-            raise ValueError("a node is linked to more than one master")
-        if fixed[sl].any():
-            raise ValueError("a linked (slave) node cannot have prescribed dofs: prescribe its master")
-        partial = fixed[:, 3:].any(axis=1) & ~fixed[:, 3:].all(axis=1) & (pres[:, 3:] != 0).any(axis=1)
-        if partial.any():
-            raise ValueError("a nonzero prescribed rotation needs all three rotations of the node prescribed")
-        off = np.zeros_like(sp) if self.link_offset is None else np.asarray(self.link_offset, np.float64).reshape(-1, 3)
-        if off.shape != sp.shape:
-            raise ValueError(f"link_offset has {len(off)} rows for {len(sp)} links")
-        for name, v in (("X", X), ("masters", M), ("link_spin", sp), ("prescribed", pres), ("loads", loads),
-                        ("link_offset", off)):
-            object.__setattr__(self, name, v)
-        object.__setattr__(self, "F", np.asarray(self.F, dtype=np.int64))
-        object.__setattr__(self, "link_slave", sl)
-        object.__setattr__(self, "link_master", ma)
-        object.__setattr__(self, "fixed", fixed)
-
-    @property
-    def n_nodes(self) -> int:
-        """Mesh nodes plus master nodes."""
-        return len(self.X) + len(self.masters)
-
-    @property
-    def n_dofs(self) -> int:
-        """Unknowns after eliminating slaves and dofs fixed at 0 (the size of the linear systems)."""
-        N = self.n_nodes
-        slave = np.zeros(N, dtype=bool)
-        slave[self.link_slave] = True
-        return int(np.sum(~(self.fixed & (self.prescribed == 0)) & ~slave[:, None]))
 
 
 @dataclass(frozen=True, eq=False)
@@ -174,99 +79,6 @@ class PathResult:
     def final(self) -> PathPoint:
         """The state at λ = 1 (the last report point)."""
         return self.points[-1]
-
-
-class _Reduced:
-    """Index maps and operators of the reduced (slave-free) system of a LinkedProblem."""
-
-    def __init__(self, p: LinkedProblem) -> None:
-        n, N = len(p.X), p.n_nodes
-        self.n, self.N = n, N
-        self.model = CorotationalTriangles(p.X, p.F, p.material)
-        rep = np.arange(N)
-        rep[p.link_slave] = n + p.link_master
-        self.slave_mask = np.zeros(N, dtype=bool)
-        self.slave_mask[p.link_slave] = True
-        s = len(p.masters)
-        Fr = np.vstack([rep[p.F], np.repeat(n + np.arange(s), 3).reshape(s, 3)])  # + one pseudo-element per master
-        edofs = (6 * Fr[:, :, None] + np.arange(6)).reshape(-1, 18)
-        zero_fixed = p.fixed & (p.prescribed == 0)
-        free = ~zero_fixed & ~self.slave_mask[:, None]
-        self.asm = Assembler(edofs, free.ravel())
-        # prescribed (nonzero) dofs: identity rows in the matrix, excluded from the residual test
-        self.moving = (p.fixed & ~zero_fixed).ravel()
-        pos = np.full(6 * N, -1)
-        pos[self.asm.free] = np.arange(self.asm.free.size)
-        self.rows_p = pos[np.flatnonzero(self.moving)]
-        self.test = self.asm.free[~self.moving[self.asm.free]]  # dofs whose residual must vanish
-        # elements touching a slave: their corner blocks get the transformation T
-        corner = self.slave_mask[p.F]  # (m, 3)
-        self.aff = np.flatnonzero(corner.any(axis=1))
-        self.aff_corner = corner[self.aff]
-        self.master_of = np.full(N, -1)
-        self.master_of[p.link_slave] = n + p.link_master
-        self.m, self.s = len(p.F), s
-        self._rows: NDArray[np.int64] | None = None
-        self._diag: NDArray[np.int64] | None = None
-
-    def place_slaves(self, p: LinkedProblem, x: Arr, R: Arr, lam: float) -> None:
-        """Slave positions and rotations from their masters (in place), at joint angles λ φ."""
-        if p.link_slave.size == 0:
-            return
-        ms = self.n + p.link_master
-        Q = expmap(lam * p.link_spin)
-        Rm = R[ms]
-        RQ = Rm @ Q
-        r0 = p.X[p.link_slave] - p.masters[p.link_master]
-        x[p.link_slave] = x[ms] + np.einsum("kij,kj->ki", RQ, r0) + lam * np.einsum("kij,kj->ki", Rm, p.link_offset)
-        R[p.link_slave] = RQ
-
-    def forces(self, p: LinkedProblem, x: Arr, R: Arr, lam: float) -> tuple[Arr, Arr, Arr, Arr]:
-        """Full-space net internal force g = f_int − λ f_ext (N, 6), element forces, energies, local dofs."""
-        n = self.n
-        fe, U, d = self.model.element_forces(*self.model.gather(x[:n], R[:n]))
-        g = np.zeros(6 * self.N)
-        g[: 6 * n] = np.bincount(self.model.edofs.ravel(), weights=fe.ravel(), minlength=6 * n)
-        g = g.reshape(-1, 6) - lam * p.loads
-        return g, fe, U, d
-
-    def reduce(self, p: LinkedProblem, g: Arr, x: Arr) -> Arr:
-        """Reduced net force (N, 6) of the full one: slaves' forces moved to their masters."""
-        gr = g.copy()
-        if p.link_slave.size:
-            sl, ms = p.link_slave, self.n + p.link_master
-            c = x[sl] - x[ms]
-            np.add.at(gr, ms, np.concatenate([g[sl, :3], g[sl, 3:] + np.cross(c, g[sl, :3])], axis=1))
-            gr[sl] = 0.0
-        return gr
-
-    def matrix(self, p: LinkedProblem, x: Arr, R: Arr, d: Arr, g: Arr, scale: float) -> object:
-        """Reduced tangent (CSC) with identity rows (× scale) at the prescribed dofs."""
-        n = self.n
-        Ke = self.model.element_tangents(*self.model.gather(x[:n], R[:n]), d)
-        if self.aff.size:
-            F = p.F[self.aff]
-            c = x[F] - x[np.where(self.master_of[F] >= 0, self.master_of[F], F)]  # (a, 3, 3); 0 off slaves
-            T = np.broadcast_to(np.eye(18), (self.aff.size, 18, 18)).copy()
-            Sc = -skew(c) * self.aff_corner[..., None, None]
-            for a in range(3):
-                T[:, 6 * a:6 * a + 3, 6 * a + 3:6 * a + 6] = Sc[:, a]
-            Ke[self.aff] = T.transpose(0, 2, 1) @ Ke[self.aff] @ T
-        Km = np.zeros((self.s, 18, 18))
-        if p.link_slave.size:
-            sl, mm = p.link_slave, p.link_master
-            c = x[sl] - x[n + mm]
-            blk = skew(g[sl, :3]) @ skew(c)
-            np.add.at(Km[:, 3:6, 3:6], mm, blk)
-        K = self.asm.matrix(np.concatenate([Ke, Km]))
-        if self.rows_p.size:
-            if self._rows is None:  # the sparsity pattern is fixed: find the entries once
-                col = np.repeat(np.arange(K.shape[1]), np.diff(K.indptr))
-                self._rows = np.flatnonzero(np.isin(K.indices, self.rows_p))
-                self._diag = np.flatnonzero(np.isin(K.indices, self.rows_p) & (K.indices == col))
-            K.data[self._rows] = 0.0
-            K.data[self._diag] = scale
-        return K
 
 
 @dataclass
