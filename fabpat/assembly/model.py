@@ -118,11 +118,14 @@ class AssemblyModel:
             return z, z, np.zeros((0, 3)), z, np.zeros((0, 3))
         return np.concatenate(sl), np.concatenate(ma), np.vstack(sp), np.concatenate(slot), np.vstack(off)
 
-    def problem(self, fixed: NDArray[np.bool_], prescribed: Arr, loads: Arr) -> LinkedProblem:
-        """The linked shell problem with (n + s, 6) supports, prescribed values and loads (λ = 1)."""
+    def problem(self, fixed: NDArray[np.bool_], prescribed: Arr, loads: Arr,
+                dead_loads: Arr | None = None) -> LinkedProblem:
+        """The linked shell problem with (n + s, 6) supports, prescribed values and loads (λ = 1), and
+        ``dead_loads`` held in full along the path (:class:`fabpat.shell.rigid_links.LinkedProblem`)."""
         sl, ma, sp, _, off = self._links()
         masters = np.array([s.frame[:3, 3] for s in self.sleeves]).reshape(-1, 3)
-        return LinkedProblem(self.X, self.F, self.material, masters, sl, ma, sp, fixed, prescribed, loads, off)
+        return LinkedProblem(self.X, self.F, self.material, masters, sl, ma, sp, fixed, prescribed, loads, off,
+                             dead_loads)
 
     def lumped_area(self) -> Arr:
         """(n,) nodal share of the plates' area (mm²), a third of each triangle's area."""

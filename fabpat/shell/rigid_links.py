@@ -50,6 +50,9 @@ class LinkedProblem:
     (k, 3) relative translation (mm, reference axes) reached at λ = 1 (default none).
     fixed: (N, 6) bool prescribed dofs (N = n + s); prescribed: (N, 6) their values at λ = 1 (mm, rad);
     loads: (N, 6) forces (N) and moments (N·mm) at λ = 1, global axes, fixed directions.
+    dead_loads: (N, 6) forces and moments applied in full at every λ (default none): a load that only
+    selects a branch (an imperfection) need not grow with the path, and held from the start it rounds
+    off a bifurcation's knee (docs/assembly-solver.md, Solver speed).
     Raises ValueError on inconsistent shapes, a slave linked twice or fixed, or a partly prescribed
     nonzero rotation.
     """
@@ -65,6 +68,7 @@ class LinkedProblem:
     prescribed: Arr
     loads: Arr
     link_offset: Arr | None = None
+    dead_loads: Arr | None = None
 
     def __post_init__(self) -> None:
         X = np.asarray(self.X, dtype=np.float64)
@@ -93,8 +97,12 @@ class LinkedProblem:
         off = np.zeros_like(sp) if self.link_offset is None else np.asarray(self.link_offset, np.float64).reshape(-1, 3)
         if off.shape != sp.shape:
             raise ValueError(f"link_offset has {len(off)} rows for {len(sp)} links")
+        dead = (np.zeros_like(loads) if self.dead_loads is None
+                else np.asarray(self.dead_loads, dtype=np.float64).reshape(-1, 6))
+        if dead.shape != loads.shape:
+            raise ValueError(f"dead_loads has {len(dead)} rows for {len(loads)} nodes")
         for name, v in (("X", X), ("masters", M), ("link_spin", sp), ("prescribed", pres), ("loads", loads),
-                        ("link_offset", off)):
+                        ("link_offset", off), ("dead_loads", dead)):
             object.__setattr__(self, name, v)
         object.__setattr__(self, "F", np.asarray(self.F, dtype=np.int64))
         object.__setattr__(self, "link_slave", sl)
@@ -161,12 +169,12 @@ class _Reduced:
         R[p.link_slave] = RQ
 
     def forces(self, p: LinkedProblem, x: Arr, R: Arr, lam: float) -> tuple[Arr, Arr, Arr, Arr]:
-        """Full-space net internal force g = f_int − λ f_ext (N, 6), element forces, energies, local dofs."""
+        """Full-space net internal force g = f_int − λ f_ext − f_dead (N, 6), element forces, energies, local dofs."""
         n = self.n
         fe, U, d = self.model.element_forces(*self.model.gather(x[:n], R[:n]))
         g = np.zeros(6 * self.N)
         g[: 6 * n] = np.bincount(self.model.edofs.ravel(), weights=fe.ravel(), minlength=6 * n)
-        g = g.reshape(-1, 6) - lam * p.loads
+        g = g.reshape(-1, 6) - lam * p.loads - p.dead_loads  # type: ignore[operator] (an array after __post_init__)
         return g, fe, U, d
 
     def reduce(self, p: LinkedProblem, g: Arr, x: Arr) -> Arr:
