@@ -208,6 +208,30 @@ def test_straight_strip_stays_flat_then_buckles_into_a_symmetric_arch(uniform_st
     assert r.half_ratio == pytest.approx(1.0, abs=0.02)
 
 
+def test_a_dead_imperfection_reaches_the_equilibrium_of_a_ramped_one(uniform_strip) -> None:  # noqa: ANN001
+    """The strip holds its imperfection load in full from the start (a dead load, which rounds off the
+    knee of the path); an elastic equilibrium does not depend on the path to it, so the same load ramped
+    with the shortening must reach the same state at λ = 1."""
+    from fabpat.assembly.simulate import FIRST_STEP, MIN_STEP, STRIP_RTOL
+
+    setup = uniform_strip.setup
+    m = setup.model
+    N, n = m.n_nodes, len(m.X)
+    fixed = np.zeros((N, 6), dtype=bool)
+    fixed[setup.left, :3] = fixed[setup.right, :3] = True
+    pres = np.zeros((N, 6))
+    pres[setup.right, 0] = -0.1 * setup.length
+    loads = np.zeros((N, 6))
+    area = m.lumped_area()
+    loads[:n, 2] = 1e-2 * area / area.sum()
+    ramped = solve_path(m.problem(fixed, pres, loads), steps=5, rtol=STRIP_RTOL, first_step=FIRST_STEP,
+                        min_step=MIN_STEP, direction=loads).final
+    dead = uniform_strip.result.final
+    assert np.abs(dead.displacement - ramped.displacement).max() < 1e-4  # mm, of an arch ~40 mm high
+    assert dead.energy == pytest.approx(ramped.energy, rel=1e-7)
+    assert np.abs(dead.displacement[:n, 2]).max() > 0.15 * setup.length  # both on the buckled branch
+
+
 @pytest.mark.slow
 def test_graded_strip_peaks_towards_its_soft_end_and_mirrors(uniform_strip) -> None:  # noqa: ANN001
     from fabpat.assembly.simulate import run_strip
