@@ -209,9 +209,9 @@ def test_straight_strip_stays_flat_then_buckles_into_a_symmetric_arch(uniform_st
 
 
 def test_a_dead_imperfection_reaches_the_equilibrium_of_a_ramped_one(uniform_strip) -> None:  # noqa: ANN001
-    """The strip holds its imperfection load in full from the start (a dead load, which rounds off the
-    knee of the path); an elastic equilibrium does not depend on the path to it, so the same load ramped
-    with the shortening must reach the same state at λ = 1."""
+    """The strip's imperfection load reaches its full size early on the path and is held (which rounds off
+    the knee of the path); an elastic equilibrium does not depend on the path to it, so the same load
+    ramped with the shortening over the whole path must reach the same state at λ = 1."""
     from fabpat.assembly.simulate import FIRST_STEP, MIN_STEP, STRIP_RTOL
 
     setup = uniform_strip.setup

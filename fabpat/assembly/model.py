@@ -119,13 +119,14 @@ class AssemblyModel:
         return np.concatenate(sl), np.concatenate(ma), np.vstack(sp), np.concatenate(slot), np.vstack(off)
 
     def problem(self, fixed: NDArray[np.bool_], prescribed: Arr, loads: Arr,
-                dead_loads: Arr | None = None) -> LinkedProblem:
+                dead_loads: Arr | None = None, dead_ramp: float = 0.0) -> LinkedProblem:
         """The linked shell problem with (n + s, 6) supports, prescribed values and loads (λ = 1), and
-        ``dead_loads`` held in full along the path (:class:`fabpat.shell.rigid_links.LinkedProblem`)."""
+        ``dead_loads`` reached at λ = ``dead_ramp`` and held after it
+        (:class:`fabpat.shell.rigid_links.LinkedProblem`)."""
         sl, ma, sp, _, off = self._links()
         masters = np.array([s.frame[:3, 3] for s in self.sleeves]).reshape(-1, 3)
         return LinkedProblem(self.X, self.F, self.material, masters, sl, ma, sp, fixed, prescribed, loads, off,
-                             dead_loads)
+                             dead_loads, dead_ramp)
 
     def lumped_area(self) -> Arr:
         """(n,) nodal share of the plates' area (mm²), a third of each triangle's area."""

@@ -137,7 +137,7 @@ class _Newton:
             gr = red.reduce(p, g, xt)
             res = float(np.linalg.norm(gr.ravel()[red.test]))
             inc = self.targets(target, xt, Rt)
-            ref = max(float(np.linalg.norm((target * p.loads + p.dead_loads).ravel()[red.test])),
+            ref = max(float(np.linalg.norm(p.load_at(target).ravel()[red.test])),
                       float(np.linalg.norm(gr.ravel()[fixed_flat])),
                       float(np.linalg.norm(g[p.link_slave])) if self.link_reference else 0.0)
             pending = float(np.abs(inc).max())

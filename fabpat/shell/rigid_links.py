@@ -50,9 +50,12 @@ class LinkedProblem:
     (k, 3) relative translation (mm, reference axes) reached at λ = 1 (default none).
     fixed: (N, 6) bool prescribed dofs (N = n + s); prescribed: (N, 6) their values at λ = 1 (mm, rad);
     loads: (N, 6) forces (N) and moments (N·mm) at λ = 1, global axes, fixed directions.
-    dead_loads: (N, 6) forces and moments applied in full at every λ (default none): a load that only
-    selects a branch (an imperfection) need not grow with the path, and held from the start it rounds
-    off a bifurcation's knee (docs/assembly-solver.md, Solver speed).
+    dead_loads: (N, 6) forces and moments reached in full early on the path and held after it (default
+    none): they grow linearly over λ ∈ [0, ``dead_ramp``] (0: full from the start). A load that only
+    selects a branch (an imperfection) need not grow with the path, and near its full size at a
+    bifurcation's knee it rounds the knee off; ramping it, rather than applying it at once, lets a
+    halved increment carry less of it where the structure is too soft to take it in one step
+    (docs/assembly-solver.md, Solver speed).
     Raises ValueError on inconsistent shapes, a slave linked twice or fixed, or a partly prescribed
     nonzero rotation.
     """
@@ -69,6 +72,13 @@ class LinkedProblem:
     loads: Arr
     link_offset: Arr | None = None
     dead_loads: Arr | None = None
+    dead_ramp: float = 0.0
+
+    def load_at(self, lam: float) -> Arr:
+        """(N, 6) external forces (N) and moments (N·mm) at load fraction ``lam``: λ·loads plus the
+        dead loads' share, min(1, λ / dead_ramp) (1 when dead_ramp = 0)."""
+        share = 1.0 if self.dead_ramp <= 0.0 else min(1.0, lam / self.dead_ramp)
+        return lam * self.loads + share * self.dead_loads  # type: ignore[operator] (arrays after __post_init__)
 
     def __post_init__(self) -> None:
         X = np.asarray(self.X, dtype=np.float64)
@@ -101,6 +111,8 @@ class LinkedProblem:
                 else np.asarray(self.dead_loads, dtype=np.float64).reshape(-1, 6))
         if dead.shape != loads.shape:
             raise ValueError(f"dead_loads has {len(dead)} rows for {len(loads)} nodes")
+        if not 0.0 <= self.dead_ramp <= 1.0:
+            raise ValueError(f"dead_ramp must lie in [0, 1], got {self.dead_ramp!r}")
         for name, v in (("X", X), ("masters", M), ("link_spin", sp), ("prescribed", pres), ("loads", loads),
                         ("link_offset", off), ("dead_loads", dead)):
             object.__setattr__(self, name, v)
@@ -174,7 +186,7 @@ class _Reduced:
         fe, U, d = self.model.element_forces(*self.model.gather(x[:n], R[:n]))
         g = np.zeros(6 * self.N)
         g[: 6 * n] = np.bincount(self.model.edofs.ravel(), weights=fe.ravel(), minlength=6 * n)
-        g = g.reshape(-1, 6) - lam * p.loads - p.dead_loads  # type: ignore[operator] (an array after __post_init__)
+        g = g.reshape(-1, 6) - p.load_at(lam)
         return g, fe, U, d
 
     def reduce(self, p: LinkedProblem, g: Arr, x: Arr) -> Arr:
