@@ -99,7 +99,7 @@ def main() -> None:
     ap.add_argument("--shapes", default="circle,parabola,skewed")
     ap.add_argument("--closed", default="sphere;ellipsoid:1,1,1.15")
     ap.add_argument("--closed-solves", type=int, default=40)
-    ap.add_argument("--pictures", default=None, help="copy each closed design's design.png into this folder")
+    ap.add_argument("--pictures", default=None, help="copy each closed and shipped-strip design.png here")
     a = ap.parse_args()
     strips(a)
     if a.closed != "none":
@@ -157,6 +157,10 @@ def strips(a: argparse.Namespace) -> None:
             out = folder / f"out-{n}"
             r = design(target, spec, out=out, h=a.h, max_solves=a.max_solves, workers=a.workers).record
             again = resimulate(out, target, a.h)
+            if a.pictures and strip.startswith("2 × 15"):
+                import shutil
+
+                shutil.copy(out / "design.png", Path(a.pictures) / f"design-strip-{what}.png")
             b = r["baselines"]
             single = f"{b['single']['relative_rms']:.2%}" if "single" in b else "–"
             rule = f"{b['rule']['relative_rms']:.2%}" if "rule" in b else "–"

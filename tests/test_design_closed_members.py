@@ -134,3 +134,19 @@ def test_without_variations_the_same_target_is_out_of_reach(base: Path, closure:
     assert {v for k, v in res.record["patterns"].items() if k.startswith("H")} == {"0x0508"}
     assert res.record["relative_rms"] == pytest.approx(0.003 * np.sqrt(20 / 32), rel=0.02)
     assert "notes" not in res.record and res.record["candidates"]["hexagon"] == {"patterns": 3, "members": 0}
+
+
+def test_members_are_searched_after_the_patterns_and_around_the_best(base: Path, closure: list, tmp_path: Path
+                                                                      ) -> None:
+    """The paper's members first (all 3 × 3 designs here), then only the best design's patterns with their
+    family members: the hexagon 0x0508 (0.3 %, the best paper hexagon) with 0.4 and 1.6, the pentagon 0x0588."""
+    from fabpat.design import design
+
+    design("sphere", base, h=6.0, max_solves=30, workers=1)
+    weights = [{w for f in faces for w in [f.split()[1]]} for faces in closure]
+    first = next(k for k, ws in enumerate(weights) if ws != {"1.0"})
+    assert len({faces for faces in closure[:first]}) == 9  # every paper design before any member
+    later = closure[first:]
+    assert later and all(f.split()[0] == "0x0508" for faces in later for f in faces[:20])
+    assert all(f == "0x0588 1.0" for faces in later for f in faces[20:])
+    assert {faces[0] for faces in later} <= {"0x0508 0.4", "0x0508 1.6", "0x0508 1.0"}

@@ -120,15 +120,36 @@ def _pattern_way(source: str, t: _Table, tiling: TilingSpec) -> PatternSpec:
     """The ``[patterns]`` table ``t`` read as the one way it chooses (``pattern``, a pattern per polygon,
     ``rule``, ``groups`` or ``tiles``) for ``tiling``; raises :class:`SpecError` naming the key.
 
-    One function, a branch per way: which keys are allowed depends on the way chosen, and a key the chosen
-    way does not read is refused here, against the same list of ways, rather than ignored."""
-    strip = tiling.strip
+    Which keys are allowed depends on the way chosen: a key the chosen way does not read is refused
+    (:func:`_chosen_way`), against the same list of ways, rather than ignored; each way has its reader."""
+    way = _chosen_way(source, t, tiling)
     sides = tiling.sides
-    names = [POLYGON_KEYS[n] for n in sides]
-    by_polygon = " + ".join(names)
+    if way == "pattern":
+        return PatternSpec(pattern=pattern_id_of(source, "patterns.pattern", t.data["pattern"], sides))
+    if way in POLYGON_KEYS.values():
+        names = [POLYGON_KEYS[n] for n in sides]
+        for key in names:
+            if not t.has(key):
+                raise SpecError(f"{source}: missing key patterns.{key} (a pattern ID, e.g. \"0x0488\"): the tiling has "
+                                f"{' + '.join(names)} faces, each needs its pattern")
+        t.settle()
+        return PatternSpec(polygons=tuple((n, pattern_id_of(source, f"patterns.{key}", t.data[key], (n,)))
+                                          for n, key in zip(sides, names, strict=True)))
+    if way == "rule":
+        return _rule_way(source, t, tiling)
+    if way == "groups":
+        return _groups_way(source, t, tiling)
+    return _tiles_way(source, t, tiling)
+
+
+def _chosen_way(source: str, t: _Table, tiling: TilingSpec) -> str:
+    """The one way ``[patterns]`` chooses (module doc); refuses two ways, none, and keys that belong to
+    another tiling or another way (noted in ``t``: :meth:`_Table.note`)."""
+    strip = tiling.strip
+    names = [POLYGON_KEYS[n] for n in tiling.sides]
     given = [k for k in dict.fromkeys([*names, *POLYGON_KEYS.values()]) if t.has(k)]  # the tiling's own first
     ways = [k for k in ("pattern", "groups", "tiles", "rule") if t.has(k)] + given[:1]
-    options = "pattern, groups, tiles or rule" if strip else f"pattern, {by_polygon}, tiles or rule"
+    options = "pattern, groups, tiles or rule" if strip else f"pattern, {' + '.join(names)}, tiles or rule"
     if not ways:
         raise SpecError(f"{source}: [patterns] needs one of: {options}")
     if len(ways) > 1:
@@ -146,63 +167,66 @@ def _pattern_way(source: str, t: _Table, tiling: TilingSpec) -> PatternSpec:
             with_ = " or ".join(f"patterns.{w}" for w in _GOES_WITH[key])
             with_ += f" = {_ONLY_RULE[key]!r}" if key in _ONLY_RULE else ""
             t.note(t.fail(key, f"does not apply to patterns.{way} (it goes with {with_})"), None)
+    return way
+
+
+def _rule_way(source: str, t: _Table, tiling: TilingSpec) -> PatternSpec:
+    """``[patterns] rule = …`` and the keys that go with the rule."""
+    strip, sides = tiling.strip, tiling.sides
     catalog = t.string("catalog")
     if catalog and not Path(catalog).is_absolute() and Path(source).parent != Path(""):
         catalog = str(Path(source).parent / catalog)  # a relative catalog path is relative to the spec file
-    if way == "pattern":
-        return PatternSpec(pattern=pattern_id_of(source, "patterns.pattern", t.data["pattern"], sides))
-    if way in POLYGON_KEYS.values():
-        for key in names:
-            if not t.has(key):
-                raise SpecError(f"{source}: missing key patterns.{key} (a pattern ID, e.g. \"0x0488\"): the tiling has "
-                                f"{by_polygon} faces, each needs its pattern")
+    rules = STRIP_RULES if strip else SPHERE_RULES
+    before = len(t.problems)
+    rule = t.choice("rule", rules, None)
+    if len(t.problems) > before:  # what else is allowed depends on the rule
         t.settle()
-        return PatternSpec(polygons=tuple((n, pattern_id_of(source, f"patterns.{key}", t.data[key], (n,)))
-                                          for n, key in zip(sides, names, strict=True)))
-    if way == "rule":
-        rules = STRIP_RULES if strip else SPHERE_RULES
-        before = len(t.problems)
-        rule = t.choice("rule", rules, None)
-        if len(t.problems) > before:  # what else is allowed depends on the rule
-            t.settle()
-        scenario = t.choice("scenario", SCENARIOS, "cylinder" if strip else "dome")
-        count = t.integer("count", 5, 2) if strip else 2
-        if not strip and t.has("count"):
-            raise t.fail("count", f"does not apply to rule = {rule!r} (it picks two patterns; rule = \"roundest\" "
-                         "tries patterns.candidates pairs)")
-        if not strip and sides != (6, 5) and rule == "roundest":
-            raise t.fail("rule", f"= \"roundest\" tries hexagon–pentagon pairs, but this tiling's faces are "
-                         f"{', '.join(names)}: use rule = \"similar-energy\" or name the patterns")
-        if t.has("candidates") and rule != _ONLY_RULE["candidates"]:
-            raise t.fail("candidates", f"does not apply to patterns.rule = {rule!r} (it goes with patterns.rule = "
-                         f"{_ONLY_RULE['candidates']!r})")
-        candidates = t.integer("candidates", PatternSpec.candidates, 1, MAX_CANDIDATES)
-        group_columns = t.integer("group_columns", max(1, tiling.columns // count)) if strip else 1
-        t.settle()  # the group count below reads count and group_columns
-        if strip and math.ceil(tiling.columns / group_columns) != count:
-            raise t.fail("group_columns", f"= {group_columns} makes {math.ceil(tiling.columns / group_columns)} "
-                         f"groups of tiling.columns = {tiling.columns}, but patterns.count = {count}")
-        return PatternSpec(rule=rule, scenario=scenario, count=count, group_columns=group_columns, catalog=catalog,
-                           candidates=candidates)
-    if way == "groups":
-        groups = t.data["groups"]
-        if not isinstance(groups, list) or not groups:
-            raise t.fail("groups", "must be a non-empty list of pattern IDs (stiff → soft)")
-        ids = tuple(pattern_id_of(source, f"patterns.groups[{i}]", g, sides) for i, g in enumerate(groups))
-        gc = t.integer("group_columns", None)
-        t.settle()
-        need = math.ceil(tiling.columns / gc)
-        if need != len(ids):
-            raise t.fail("groups", f"has {len(ids)} IDs but tiling.columns = {tiling.columns} in groups of "
-                         f"patterns.group_columns = {gc} makes {need} groups")
-        return PatternSpec(groups=ids, group_columns=gc)
+    scenario = t.choice("scenario", SCENARIOS, "cylinder" if strip else "dome")
+    count = t.integer("count", 5, 2) if strip else 2
+    if not strip and t.has("count"):
+        raise t.fail("count", f"does not apply to rule = {rule!r} (it picks two patterns; rule = \"roundest\" "
+                     "tries patterns.candidates pairs)")
+    if not strip and sides != (6, 5) and rule == "roundest":
+        names = [POLYGON_KEYS[n] for n in sides]
+        raise t.fail("rule", f"= \"roundest\" tries hexagon–pentagon pairs, but this tiling's faces are "
+                     f"{', '.join(names)}: use rule = \"similar-energy\" or name the patterns")
+    if t.has("candidates") and rule != _ONLY_RULE["candidates"]:
+        raise t.fail("candidates", f"does not apply to patterns.rule = {rule!r} (it goes with patterns.rule = "
+                     f"{_ONLY_RULE['candidates']!r})")
+    candidates = t.integer("candidates", PatternSpec.candidates, 1, MAX_CANDIDATES)
+    group_columns = t.integer("group_columns", max(1, tiling.columns // count)) if strip else 1
+    t.settle()  # the group count below reads count and group_columns
+    if strip and math.ceil(tiling.columns / group_columns) != count:
+        raise t.fail("group_columns", f"= {group_columns} makes {math.ceil(tiling.columns / group_columns)} "
+                     f"groups of tiling.columns = {tiling.columns}, but patterns.count = {count}")
+    return PatternSpec(rule=rule, scenario=scenario, count=count, group_columns=group_columns, catalog=catalog,
+                       candidates=candidates)
+
+
+def _groups_way(source: str, t: _Table, tiling: TilingSpec) -> PatternSpec:
+    """``[patterns] groups = [...]`` (strips: one ID per group of ``group_columns`` columns)."""
+    groups = t.data["groups"]
+    if not isinstance(groups, list) or not groups:
+        raise t.fail("groups", "must be a non-empty list of pattern IDs (stiff → soft)")
+    ids = tuple(pattern_id_of(source, f"patterns.groups[{i}]", g, tiling.sides) for i, g in enumerate(groups))
+    gc = t.integer("group_columns", None)
+    t.settle()
+    need = math.ceil(tiling.columns / gc)
+    if need != len(ids):
+        raise t.fail("groups", f"has {len(ids)} IDs but tiling.columns = {tiling.columns} in groups of "
+                     f"patterns.group_columns = {gc} makes {need} groups")
+    return PatternSpec(groups=ids, group_columns=gc)
+
+
+def _tiles_way(source: str, t: _Table, tiling: TilingSpec) -> PatternSpec:
+    """``[patterns] tiles``: a table {label = ID} (closed tilings, or strips by label) or a strip's rows of IDs."""
     tiles = t.data["tiles"]
-    if not strip:
+    if not tiling.strip:
         if not isinstance(tiles, Mapping):
             raise t.fail("tiles", "must be a table {plate label = pattern ID} naming every face (H01 = \"0x0488\", …)")
         return PatternSpec(tiles=(_face_table(source, tiles, tiling),))
     if isinstance(tiles, Mapping):
-        return PatternSpec(tiles=_tile_table(source, tiles, tiling, sides))
+        return PatternSpec(tiles=_tile_table(source, tiles, tiling, tiling.sides))
     if (not isinstance(tiles, list) or len(tiles) != tiling.rows
             or any(not isinstance(r, list) or len(r) != tiling.columns for r in tiles)):
         raise t.fail("tiles", f"must be {tiling.rows} rows (tiling.rows) of {tiling.columns} IDs (tiling.columns)")
@@ -214,7 +238,7 @@ def _pattern_way(source: str, t: _Table, tiling: TilingSpec) -> PatternSpec:
             if not isinstance(pid, str):  # a list or table cell: unhashable, and not an ID anyway
                 raise SpecError(f"{source}: patterns.tiles[{r}][{c}] = {pid!r} must be a pattern ID string")
             if pid not in cache:
-                cache[pid] = pattern_id_of(source, f"patterns.tiles[{r}][{c}]", pid, sides)
+                cache[pid] = pattern_id_of(source, f"patterns.tiles[{r}][{c}]", pid, tiling.sides)
             out.append(cache[pid])
         rows.append(tuple(out))
     return PatternSpec(tiles=tuple(rows))

@@ -20,7 +20,7 @@ from fabpat.cli.options import h_option, number_option
 @h_option(3.0)
 @number_option("--max-solves", range_name="max_solves", default=None,
                help="Budget of full assembly solves for the search (the baselines' one or two come on top) "
-                    "[default: 12 for a strip, 40 for a closed tiling].")
+                    "[default: 12 for a strip, 60 for a closed tiling].")
 @number_option("--tolerance", range_name="design_tolerance", default=0.01, show_default=True,
                help="Reachable when the rms error is at most this fraction of the span (closed: of the radius).")
 @click.option("--scale-target", is_flag=True,

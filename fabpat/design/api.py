@@ -31,7 +31,7 @@ ARC_TOLERANCE = 0.02
 #: default solve budget of the search (the baselines come on top): a strip's, a closed tiling's
 #: (no reduced model guides it: docs/design.md)
 MAX_SOLVES = 12
-MAX_SOLVES_CLOSED = 40
+MAX_SOLVES_CLOSED = 60  # 40 over the paper's members and 20 around the best (closed.MEMBER_SHARE)
 #: default reachability tolerance: relative_rms (rms error over the span) at most 1 %
 TOLERANCE = 0.01
 

@@ -15,14 +15,23 @@ from typing import Any
 import numpy as np
 
 from fabpat.design.base import DesignBase, base_faces
-from fabpat.design.closed import ClosedEvaluated, ClosedSearch, design_axis, face_groups, pattern_features, solve_closed
+from fabpat.design.closed import (
+    MEMBER_SHARE,
+    ClosedEvaluated,
+    ClosedSearch,
+    design_axis,
+    face_groups,
+    pattern_features,
+    solve_closed,
+)
 from fabpat.design.search import Runner
 from fabpat.design.target import ClosedTarget
 
 
 def _single_key(search: ClosedSearch) -> tuple[int, ...] | None:
-    """The single-pattern baseline: the ID in every group's pool nearest the pools' median features."""
-    common = set(search.pools[0][0])
+    """The single-pattern baseline: the paper's member in every group's pool nearest the pools' median
+    features (a family member is no single pattern of the catalog)."""
+    common = {pid for pid in search.pools[0][0] if " " not in pid}
     for ids, _ in search.pools[1:]:
         common &= set(ids)
     if not common:
@@ -52,8 +61,14 @@ def design_closed(tgt: ClosedTarget, base: DesignBase, h: float, max_solves: int
     labels = list(skel.labels)
     runs = _baselines(search, base, runner, tgt)
     budget = max_solves + runner.solves
+    members = search.has_members()
+    if members:  # the paper's members first, then the best design's own families (closed module doc)
+        search.papers_only()
     search.evaluate([k for k in search.start()][: max(0, budget - runner.solves)])
-    search.refine(budget, max(2, workers))
+    search.refine(budget - (int(max_solves * MEMBER_SHARE) if members else 0), max(2, workers))
+    if members and search.best is not None:
+        search.around_best()
+        search.refine(budget, max(2, workers))
     best = search.best
     candidates = [ev for ev in (best, *runs.values()) if ev is not None]
     if not candidates:
