@@ -136,6 +136,52 @@ def test_code_text_leaves_out_comments_and_docstrings_only() -> None:
         assert code_text(CODE.replace(*change)) != code_text(CODE), change
 
 
+def _pipeline_sources() -> dict[str, str]:
+    base = builtin_path().parents[1]
+    return {p.relative_to(base).as_posix(): p.read_text(encoding="utf-8") for p in pipeline_modules()}
+
+
+def _moved(sources: dict[str, str], name: str, new_module: str) -> dict[str, str]:
+    """``sources`` with outline.py's top-level function ``name`` cut into a new module ``new_module`` that
+    has outline.py's imports, and imported back into outline.py from there."""
+    import ast
+
+    text = sources["outline.py"]
+    node = next(n for n in ast.parse(text).body if isinstance(n, ast.FunctionDef) and n.name == name)
+    lines = text.splitlines()
+    body = "\n".join(lines[node.lineno - 1:node.end_lineno])
+    head = "\n".join(ln for ln in lines if ln.startswith(("import ", "from ")))
+    rest = lines[:node.lineno - 1] + lines[node.end_lineno:]
+    rest.insert(next(i for i, ln in enumerate(rest) if ln.startswith("from fabpat")),
+                f"from fabpat.geometry.{new_module} import {name}")
+    out = dict(sources)
+    out["outline.py"] = "\n".join(rest) + "\n"
+    out[f"geometry/{new_module}.py"] = f'"""Moved."""\n{head}\n\n\n{body}\n'
+    return out
+
+
+def test_moving_code_between_modules_keeps_the_solver_digest() -> None:
+    """A function cut from one pipeline module into another (imports adjusted), or an import from another
+    module path, hashes the same; a changed statement, or an import switched to another module's
+    definition of a name two modules define, does not."""
+    from fabpat.catalog.version import ambiguous_names, program_digest
+
+    src = _pipeline_sources()
+    before = program_digest(list(src.values()))
+    moved = _moved(src, "flattening_tolerance", "tolerances")
+    assert program_digest(list(moved.values())) == before
+    renamed = {k: v.replace("from fabpat.errors import", "from fabpat.core.errors import") for k, v in src.items()}
+    assert renamed != src and program_digest(list(renamed.values())) == before
+    changed = dict(moved)
+    changed["geometry/tolerances.py"] = changed["geometry/tolerances.py"].replace("0 < value", "0 <= value")
+    assert changed != moved and program_digest(list(changed.values())) != before
+    assert "_subdivide" in ambiguous_names(list(src.values()))  # defined in mesh.py and polyline.py
+    switched = dict(src)
+    switched["mesh.py"] = src["mesh.py"].replace("from fabpat.polyline import _subdivide",
+                                                 "from fabpat.mesh import _subdivide")
+    assert switched != src and program_digest(list(switched.values())) != before
+
+
 def fake_rows(pattern_id: str, sides: int, energies: dict[str, object], *, area: float = 1000.0,
               thickness: float = 2.0, **result: object) -> list[dict[str, object]]:
     """A pattern's catalog rows written by hand (no solve): one ``patterns`` row with plausible metrics and
@@ -233,3 +279,54 @@ def test_cli_catalog_formats(tmp_path: Path) -> None:
     assert res.exit_code == 0 and "0xf608" in res.stdout and "energy_dome" in res.stdout
     res = invoke("catalog", "--db", str(tmp_path / "nope.sqlite"))
     assert res.exit_code == 2 and res.stderr.startswith("fabpat: error:") and res.stderr.count("\n") == 1
+
+
+def _stamped_catalog(path: Path, version: str) -> Path:
+    """A catalog of one pattern's rows with the input hashes a sweep under ``version`` stores: set-up mesh
+    2.5 mm (extrapolated with 1.25 mm); the Dome row used 2.14 mm, as a narrow neck makes it."""
+    from fabpat.sweep import pattern_hash, result_hash
+
+    rows = fake_rows("0x0488", 6, {"dome": 430.0, "cylinder": 40.0})
+    for r in rows:
+        key = (r["id"], r["sides"], 2, 36.0, 2.0, 0.2)
+        if r["table"] == "patterns":
+            r["input_hash"] = pattern_hash(*key, version)  # type: ignore[arg-type]
+        else:
+            r.update(solver_version=version, h_fine=1.25, input_hash=result_hash(
+                *key, 1000.0, 0.35, 2.5, r["scenario"], version, 1.25))  # type: ignore[arg-type]
+            if r["scenario"] == "dome":
+                r.update(h=2.14, h_fine=1.07)
+    with open_catalog(path, write=True) as cat:
+        cat.write_rows(rows)
+        cat.finish()
+    return path
+
+
+def test_restamp_rewrites_every_hash_for_the_new_version(tmp_path: Path) -> None:
+    import sqlite3
+
+    from fabpat.restamp import restamp
+    from fabpat.sweep import pattern_hash, result_hash
+
+    db = _stamped_catalog(tmp_path / "c.sqlite", "fabpat old")
+    report = restamp(db, "fabpat old", "fabpat new")
+    assert report.rows == {"patterns": 1, "results": 2, "family": 0}
+    con = sqlite3.connect(db)
+    key = ("0x0488", 6, 2, 36.0, 2.0, 0.2)
+    assert con.execute("SELECT input_hash FROM patterns").fetchall() == [(pattern_hash(*key, "fabpat new"),)]
+    got = dict(con.execute("SELECT scenario, input_hash FROM results").fetchall())
+    assert got == {s: result_hash(*key, 1000.0, 0.35, 2.5, s, "fabpat new", 1.25) for s in ("dome", "cylinder")}
+    assert con.execute("SELECT DISTINCT solver_version FROM results").fetchall() == [("fabpat new",)]
+    assert con.execute("SELECT energy FROM results WHERE scenario = 'dome'").fetchall() == [(430.0,)]
+
+
+def test_restamp_refuses_rows_stored_under_another_version_and_writes_nothing(tmp_path: Path) -> None:
+    from fabpat.restamp import restamp
+
+    db = _stamped_catalog(tmp_path / "c.sqlite", "fabpat other")
+    before = db.read_bytes()
+    with pytest.raises(CatalogError, match="its input hash is not the one 'fabpat old' gives its inputs"):
+        restamp(db, "fabpat old", "fabpat new")
+    assert db.read_bytes() == before and [p.name for p in tmp_path.iterdir()] == ["c.sqlite"]
+    with pytest.raises(CatalogError, match="no such catalog file"):
+        restamp(tmp_path / "none.sqlite", "a", "b")

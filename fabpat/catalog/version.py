@@ -5,8 +5,13 @@ It imports no other catalog module; the pipeline's modules are found from the pa
 
 A sweep skips a row whose stored hash equals the one it would compute now, so changing any input or
 the solver code recomputes exactly the affected rows. The digest reads the code without its comments
-and docstrings (:func:`code_text`): rewording an explanation does not make 11 000 stored solves stale,
-while any change to a statement, a constant or a default does.
+and docstrings (:func:`code_text`): rewording an explanation does not make 16 000 stored solves stale,
+while any change to a statement, a constant or a default does. It reads the pipeline as one program,
+not as files (:func:`code_statements`): its top-level statements and third-party imports, whatever
+module holds them, with imports of fabpat's own names reduced to the names. So moving a function to
+another module, splitting a module or putting modules in a package stales nothing, while the code that
+runs is what is hashed. A name defined in two pipeline modules (:func:`ambiguous_names`) keeps its
+module in every import of it, so switching between two definitions of one name is a change too.
 """
 
 from __future__ import annotations
@@ -99,18 +104,111 @@ def code_text(source: str) -> str:
     return "\n".join(line.rstrip() for line in lines if line.strip())
 
 
+def _defined_names(tree: ast.Module) -> list[str]:
+    """Names a module's top-level statements define (functions, classes, assigned names)."""
+    out: list[str] = []
+    for node in tree.body:
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef | ast.ClassDef):
+            out.append(node.name)
+        elif isinstance(node, ast.Assign | ast.AnnAssign):
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            out += [t.id for t in targets if isinstance(t, ast.Name)]
+    return out
+
+
+def ambiguous_names(sources: Sequence[str]) -> frozenset[str]:
+    """Top-level names defined in more than one of the modules ``sources`` (Python code), ``__all__``
+    aside: an import of one of them keeps its module in the digest (module doc)."""
+    seen: dict[str, int] = {}
+    for src in sources:
+        for name in set(_defined_names(ast.parse(src))):
+            seen[name] = seen.get(name, 0) + 1
+    return frozenset(n for n, k in seen.items() if k > 1 and n != "__all__")
+
+
+def _own_import(node: ast.AST, ambiguous: frozenset[str]) -> str | None:
+    """``from fabpat import a, b as c`` for an import of fabpat's own unambiguous names from any of its
+    modules (where a name lives does not change what it computes), else None."""
+    if (isinstance(node, ast.ImportFrom) and node.level == 0 and node.module
+            and node.module.split(".")[0] == "fabpat" and not {a.name for a in node.names} & ambiguous):
+        return "from fabpat import " + ", ".join(a.name if a.asname is None else f"{a.name} as {a.asname}"
+                                                  for a in node.names)
+    return None
+
+
+def _segment(lines: list[str], node: ast.stmt) -> str:
+    """A top-level statement's source, decorators included, from its first column to its last."""
+    first = min([node, *getattr(node, "decorator_list", [])], key=lambda n: (n.lineno, n.col_offset))
+    end_line, end_col = node.end_lineno or node.lineno, node.end_col_offset or 0
+    part = lines[first.lineno - 1:end_line]
+    if len(part) == 1:
+        return _cut(part[0], first.col_offset, end_col)
+    return "\n".join([_cut(part[0], first.col_offset, None), *part[1:-1], _cut(part[-1], 0, end_col)])
+
+
+def _cut(line: str, start: int, end: int | None) -> str:
+    """``line`` between two UTF-8 byte offsets (as :mod:`ast` counts columns)."""
+    b = line.encode()
+    return b[start:end].decode()
+
+
+def code_statements(source: str, ambiguous: frozenset[str] = frozenset()) -> tuple[list[str], list[str]]:
+    """(third-party imports, other statements) of a module's top level, each read by :func:`code_text`:
+    what the digest of :func:`solver_version` reads of one module (module doc).
+
+    Every import of fabpat's own unambiguous names, wherever it is (a function-local one too), is first
+    written ``from fabpat import …`` (:func:`_own_import`); at the top level it is then left out, as are
+    ``from __future__`` imports and ``__all__``: they bind names, and which code a name runs is hashed
+    where that code is defined. Raises :class:`SyntaxError` for code that does not parse.
+    """
+    lines = source.splitlines()
+    edits = []
+    for node in ast.walk(ast.parse(source)):
+        if (own := _own_import(node, ambiguous)) is not None:
+            assert isinstance(node, ast.stmt)
+            edits.append((node.lineno, node.col_offset, node.end_lineno or node.lineno, node.end_col_offset or 0, own))
+    for l0, c0, l1, c1, text in sorted(edits, reverse=True):  # from the end: earlier positions stay valid
+        lines[l0 - 1:l1] = [_cut(lines[l0 - 1], 0, c0) + text + _cut(lines[l1 - 1], c1, None)]
+    source = "\n".join(lines) + "\n"
+    lines = source.splitlines()
+    imports: list[str] = []
+    statements: list[str] = []
+    for node in ast.parse(source).body:
+        if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module in ("fabpat", "__future__"):
+            continue
+        if isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == "__all__" for t in node.targets):
+            continue
+        text = code_text(_segment(lines, node))
+        if text:
+            (imports if isinstance(node, ast.Import | ast.ImportFrom) else statements).append(text)
+    return imports, statements
+
+
+def program_digest(sources: Sequence[str]) -> bytes:
+    """SHA-256 digest of modules (Python code) read as one program (module doc): the set of their
+    third-party imports, then their other top-level statements sorted (:func:`code_statements`)."""
+    ambiguous = ambiguous_names(sources)
+    imports: set[str] = set()
+    statements: list[str] = []
+    for src in sources:
+        i, st = code_statements(src, ambiguous)
+        imports.update(i)
+        statements += st
+    h = hashlib.sha256()
+    for text in [*sorted(imports), "", *sorted(statements)]:
+        h.update(text.encode() + b"\0")
+    return h.digest()
+
+
 @cache
 def solver_version() -> str:
     """``fabpat <version>+<digest>``: the package version and a digest of the pipeline's code
-    (:func:`pipeline_modules`, read by :func:`code_text`: comments and docstrings left out) and of the
-    mesher's version (another Delaunay mesh, another energy)."""
+    (:func:`pipeline_modules`, read by :func:`code_statements`: comments, docstrings and the modules
+    that hold each statement left out; the third-party imports as a set, the statements sorted) and of
+    the mesher's version (another Delaunay mesh, another energy)."""
     from fabpat import __version__
 
-    base = Path(str(resources.files("fabpat")))
-    h = hashlib.sha256()
-    for f in pipeline_modules():
-        h.update(f.relative_to(base).as_posix().encode())
-        h.update(code_text(f.read_text(encoding="utf-8")).encode())
+    h = hashlib.sha256(program_digest([f.read_text(encoding="utf-8") for f in pipeline_modules()]))
     try:
         from importlib.metadata import version
 
