@@ -153,8 +153,9 @@ def _cut(line: str, start: int, end: int | None) -> str:
 
 
 def code_statements(source: str, ambiguous: frozenset[str] = frozenset()) -> tuple[list[str], list[str]]:
-    """(third-party imports, other statements) of a module's top level, each read by :func:`code_text`:
-    what the digest of :func:`solver_version` reads of one module (module doc).
+    """(third-party imports, other statements) of a module's top level: the names each import binds
+    (:func:`_bindings`) and each other statement read by :func:`code_text`; what the digest of
+    :func:`solver_version` reads of one module (module doc).
 
     Every import of fabpat's own unambiguous names, wherever it is (a function-local one too), is first
     written ``from fabpat import …`` (:func:`_own_import`); at the top level it is then left out, as are
@@ -178,15 +179,25 @@ def code_statements(source: str, ambiguous: frozenset[str] = frozenset()) -> tup
             continue
         if isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == "__all__" for t in node.targets):
             continue
-        text = code_text(_segment(lines, node))
-        if text:
-            (imports if isinstance(node, ast.Import | ast.ImportFrom) else statements).append(text)
+        if isinstance(node, ast.Import | ast.ImportFrom):
+            imports += _bindings(node)
+        elif text := code_text(_segment(lines, node)):
+            statements.append(text)
     return imports, statements
 
 
+def _bindings(node: ast.Import | ast.ImportFrom) -> list[str]:
+    """One line per name a top-level import binds (``numpy as np``, ``functools: lru_cache``): a module
+    that imports two names and one that imports either of them bind the same ones."""
+    if isinstance(node, ast.Import):
+        return [a.name if a.asname is None else f"{a.name} as {a.asname}" for a in node.names]
+    base = "." * node.level + (node.module or "")
+    return [f"{base}: {a.name}" if a.asname is None else f"{base}: {a.name} as {a.asname}" for a in node.names]
+
+
 def program_digest(sources: Sequence[str]) -> bytes:
-    """SHA-256 digest of modules (Python code) read as one program (module doc): the set of their
-    third-party imports, then their other top-level statements sorted (:func:`code_statements`)."""
+    """SHA-256 digest of modules (Python code) read as one program (module doc): the set of names their
+    third-party imports bind, then their other top-level statements sorted (:func:`code_statements`)."""
     ambiguous = ambiguous_names(sources)
     imports: set[str] = set()
     statements: list[str] = []
@@ -204,8 +215,8 @@ def program_digest(sources: Sequence[str]) -> bytes:
 def solver_version() -> str:
     """``fabpat <version>+<digest>``: the package version and a digest of the pipeline's code
     (:func:`pipeline_modules`, read by :func:`code_statements`: comments, docstrings and the modules
-    that hold each statement left out; the third-party imports as a set, the statements sorted) and of
-    the mesher's version (another Delaunay mesh, another energy)."""
+    that hold each statement left out; the names the third-party imports bind as a set, the statements
+    sorted) and of the mesher's version (another Delaunay mesh, another energy)."""
     from fabpat import __version__
 
     h = hashlib.sha256(program_digest([f.read_text(encoding="utf-8") for f in pipeline_modules()]))
