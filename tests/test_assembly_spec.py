@@ -1,4 +1,5 @@
-"""Spec files: the shipped specs load; every bad value is one clear line naming the key."""
+"""Spec files: the shipped specs load; every bad value is one clear line naming the key, and a key that does
+not apply (to the tiling, to the process) is an error."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import pytest
 
 from fabpat.assembly.spec import load_spec, parse_spec
 from fabpat.errors import SpecError
+from tests.helpers import strip
 
 ROOT = Path(__file__).resolve().parents[1]
 SPECS = ROOT / "assemblies"
@@ -139,3 +141,23 @@ def test_sheet_border_key() -> None:
     assert parse_spec(base(sheet={"width": 170.0, "height": 90.0, "border": False})).sheet.border is False
     with pytest.raises(SpecError, match="sheet.border .* must be true or false"):
         parse_spec(base(sheet={"width": 170.0, "height": 90.0, "border": "no"}))
+
+
+def sphere(**patterns: object) -> dict:
+    return {"tiling": {"kind": "truncated-icosahedron", "edge": 36.0}, "patterns": patterns,
+            "sheet": {"width": 600.0, "height": 400.0}}
+
+
+@pytest.mark.parametrize("data, key", [
+    (sphere(hexagon="0x0488", pentagon="0x0508", count=2), "patterns.count"),
+    (sphere(hexagon="0x0488", pentagon="0x0508", scenario="dome"), "patterns.scenario"),
+    (sphere(hexagon="0x0488", pentagon="0x0508", catalog="c.sqlite"), "patterns.catalog"),
+    (strip(pattern="0x0488", count=3), "patterns.count"),
+    (strip(pattern="0x0488", group_columns=1), "patterns.group_columns"),
+    (strip(groups=["0x0488", "0x0508", "0x0588"], group_columns=1, scenario="dome"), "patterns.scenario"),
+    (strip(tiles=[["0x0488", "0x0508", "0x0588"]], catalog="c.sqlite"), "patterns.catalog"),
+])
+def test_a_key_that_does_not_apply_is_an_error(data: dict, key: str) -> None:
+    with pytest.raises(SpecError, match=rf"{key} does not apply") as err:
+        parse_spec(data, "s.toml")
+    assert "\n" not in str(err.value)
