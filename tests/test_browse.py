@@ -14,7 +14,8 @@ import pytest
 from fabpat.browse import page_data, render_page
 from fabpat.catalog import open_catalog
 from tests.conftest import run_cli
-from tests.test_catalog import _tiny, invoke
+from tests.helpers import invoke_result as invoke
+from tests.test_catalog import _tiny
 
 CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
                  "--disable-sync", "--no-first-run"]

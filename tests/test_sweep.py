@@ -22,7 +22,7 @@ from fabpat.convergence import converged_h
 from fabpat.errors import FabpatError
 from fabpat.sweep import SweepSetup, run_sweep, simulate_pattern
 from tests.conftest import run_cli
-from tests.test_catalog import invoke
+from tests.helpers import invoke_result as invoke
 
 IDS = [f"0x{k:04x}" for k in range(0x1008, 0x1008 + 16 * 12, 16)]  # 12 fake IDs (never solved)
 
