@@ -1,5 +1,6 @@
 """Spec files: the shipped specs load; every bad value is one clear line naming the key, and a key that does
-not apply (to the tiling, to the process) is an error."""
+not apply (to the tiling, to the process) or a format listed twice is an error, and the numbers and sizes
+use the same ranges as the commands' options."""
 
 from __future__ import annotations
 
@@ -161,3 +162,32 @@ def test_a_key_that_does_not_apply_is_an_error(data: dict, key: str) -> None:
     with pytest.raises(SpecError, match=rf"{key} does not apply") as err:
         parse_spec(data, "s.toml")
     assert "\n" not in str(err.value)
+
+
+def _print_strip(**tables: dict) -> dict:
+    return {"tiling": {"kind": "honeycomb-strip", "edge": 36.0, "rows": 1, "columns": 3},
+            "patterns": {"pattern": "0x0488"}, "plates": {"process": "print"},
+            "sheet": {"width": 600.0, "height": 400.0}, **tables}
+
+
+@pytest.mark.parametrize("data, key", [
+    (_print_strip(sheet={"width": 600.0, "height": 400.0, "kerf": 0.2}), "sheet.kerf"),
+    (_print_strip(estimates={"cut_speed": 15.0}), "estimates.cut_speed"),
+])
+def test_laser_keys_do_not_apply_to_print(data: dict, key: str) -> None:
+    with pytest.raises(SpecError, match=rf"{key} does not apply to plates.process = 'print'"):
+        parse_spec(data, "s.toml")
+
+
+def test_laser_keys_apply_to_laser_and_print_rate_to_both() -> None:
+    data = _print_strip(sheet={"width": 600.0, "height": 400.0, "kerf": 0.2},
+                        estimates={"cut_speed": 12.0, "print_rate": 2.0})
+    data["plates"] = {"process": "laser"}
+    spec = parse_spec(data, "s.toml")
+    assert (spec.sheet.kerf, spec.estimates.cut_speed, spec.estimates.print_rate) == (0.2, 12.0, 2.0)
+    assert parse_spec(_print_strip(estimates={"print_rate": 2.0}), "s.toml").estimates.print_rate == 2.0
+
+
+def test_a_format_listed_twice_is_refused() -> None:
+    with pytest.raises(SpecError, match="output.formats lists 'step' twice"):
+        parse_spec(_print_strip(output={"formats": ["step", "stl", "step"]}), "s.toml")

@@ -21,7 +21,7 @@ from fabpat.catalog import CatalogError, builtin_path, energies, open_catalog, p
 from fabpat.catalog import sqlite_file as catalog_file  # the file-level helpers a test replaces
 from fabpat.scenarios import SCENARIOS
 from fabpat.sweep import simulate_pattern
-from tests.helpers import SWEEP, digest, in_small_tmpfs, needs_unshare, one_line_error
+from tests.helpers import SWEEP, digest, in_small_tmpfs, needs_unshare, one_line_error, tmpfs_error
 from tests.helpers import invoke_result as invoke
 
 REGENERATE = ("stale built-in catalog: regenerate it with `fabpat sweep --db fabpat/data/catalog.sqlite --family` "
@@ -434,3 +434,84 @@ def test_readers_never_write(small_catalog: Path, tmp_path: Path) -> None:
         assert res.exit_code == 0, res.stderr
     assert digest(db) == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["b.html", "c.sqlite"]  # no -wal, -shm, journal
+
+
+@needs_unshare
+def test_full_disk_mid_sweep_says_so_and_leaves_one_file(small_catalog: Path, tmp_path: Path) -> None:
+    """The catalog on a tmpfs with 16 KiB free: WAL's -shm index cannot grow. One line, no -wal/-shm."""
+    shutil.copy(small_catalog, tmp_path / "c0.db")
+    size = small_catalog.stat().st_size // 1024 + 4 + 16
+    disk = tmp_path / "disk"
+    res = in_small_tmpfs(disk, "cp c0.db disk/c.db && $FAB sweep --sample 12 --h 8 --workers 1 --db disk/c.db; "
+                               "echo rc=$?; cp disk/c.db c.db; ls -A disk", size=f"{size}k")
+    assert res.stdout.split() == ["rc=2", "c.db"], (res.stdout, res.stderr)
+    one_line_error(tmpfs_error(res), "cannot store results in catalog disk/c.db: the disk is full")
+    with sqlite3.connect(tmp_path / "c.db") as c:
+        assert c.execute("PRAGMA integrity_check").fetchall() == [("ok",)]
+        assert c.execute("PRAGMA journal_mode").fetchone()[0] == "delete"  # one file, opens read-only anywhere
+        assert c.execute("SELECT COUNT(*) FROM patterns").fetchone()[0] >= 2
+    c.close()
+
+
+@needs_unshare
+def test_new_catalog_without_rows_is_not_left_on_a_full_disk(tmp_path: Path) -> None:
+    disk = tmp_path / "disk"
+    res = in_small_tmpfs(disk, "$FAB sweep --sample 2 --h 6 --workers 1 --db disk/new.db; echo rc=$?; ls -A disk")
+    assert res.stdout.split() == ["rc=2"], (res.stdout, res.stderr)
+    one_line_error(tmpfs_error(res), "catalog disk/new.db", "the disk is full")
+
+
+def test_a_new_catalog_is_removed_when_its_sweep_fails_before_a_row(tmp_path: Path) -> None:
+    new, empty = tmp_path / "new.db", tmp_path / "empty.db"
+    empty.write_bytes(b"")
+    for db in (new, empty):
+        with pytest.raises(RuntimeError), open_catalog(db, write=True):
+            raise RuntimeError("the first pattern failed")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["empty.db"]  # the user's empty file stays as it was
+    assert empty.stat().st_size == 0
+
+
+def test_a_catalog_in_use_elsewhere_keeps_its_wal(small_catalog: Path, tmp_path: Path) -> None:
+    """The -wal/-shm clean-up happens only under SQLite's exclusive lock: never under another reader."""
+    db = tmp_path / "c.db"
+    shutil.copy(small_catalog, db)
+    other = sqlite3.connect(db)
+    other.execute("PRAGMA journal_mode=WAL")
+    other.execute("SELECT COUNT(*) FROM patterns").fetchone()
+    with pytest.raises(RuntimeError), open_catalog(db, write=True):
+        raise RuntimeError("boom")
+    assert (tmp_path / "c.db-wal").exists() and (tmp_path / "c.db-shm").exists()
+    assert other.execute("SELECT COUNT(*) FROM patterns").fetchone()[0] == 2  # the reader is unharmed
+    other.close()
+    assert db.exists()
+
+
+def test_an_empty_db_is_an_empty_file_everywhere(tmp_path: Path) -> None:
+    """Readers: "empty file" (not "damaged", no .recover); sweep makes the catalog in it, as in a missing file."""
+    db = tmp_path / "e.db"
+    db.write_bytes(b"")
+    for args in (("catalog",), ("browse", "--out", str(tmp_path / "b.html")), ("plot", "--out", str(tmp_path / "f"))):
+        res = invoke(*args, "--db", str(db))
+        one_line_error(res, "is an empty file", "fabpat sweep --db")
+        assert "recover" not in res.stderr and "damaged" not in res.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["e.db"] and db.stat().st_size == 0
+    with open_catalog(db, write=True) as cat:
+        assert cat.pattern_rows() == []
+    with open_catalog(db) as cat:  # now a catalog
+        assert cat.scenarios() == []
+    (tmp_path / "e2.db").write_bytes(b"")
+    with pytest.raises(CatalogError, match="empty file"):
+        open_catalog(tmp_path / "e2.db")
+
+
+def test_a_new_catalog_open_elsewhere_is_not_removed(tmp_path: Path) -> None:
+    """The failed sweep's new catalog is removed only under SQLite's exclusive lock."""
+    db = tmp_path / "new.db"
+    with pytest.raises(RuntimeError), open_catalog(db, write=True) as cat:
+        cat.finish()  # back in rollback-journal mode, as after a sweep's end
+        other = sqlite3.connect(db)
+        other.execute("BEGIN")
+        other.execute("SELECT COUNT(*) FROM patterns").fetchone()  # a reader holds its shared lock
+        raise RuntimeError("boom")
+    assert db.exists()
+    other.close()

@@ -1,4 +1,5 @@
-"""``fabpat export``: every file it writes read back by an independent reader; bad input → exit 2."""
+"""``fabpat export``: every file it writes read back by an independent reader; bad input → exit 2; an
+interrupted or killed ``export --all`` leaves no temporary file behind, and a full disk is named with the target."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import numpy as np
 import pytest
 
 from tests.conftest import run_cli
+from tests.helpers import in_small_tmpfs, needs_unshare
 from tests.test_cad import curve_weights, edge_curves
 from tests.test_exchange_dxf import bulge_area, chain, cut_loops, entity_pieces, read, solid_area
 
@@ -200,3 +202,17 @@ def test_show_refuses_an_svg_under_another_suffix(tmp_path: Path) -> None:
     r = run_cli("show", "0x0488", "--svg", str(tmp_path / "p.png"))
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "--svg must end in .svg" in r.stderr
     assert list(tmp_path.iterdir()) == []
+
+
+@needs_unshare
+def test_export_on_a_full_disk_names_the_target(tmp_path: Path) -> None:
+    disk = tmp_path / "disk"
+    res = in_small_tmpfs(disk, "for f in a.step a.stl; do $FAB export 0x0488 --${f#a.} disk/$f; echo rc=$?; done; "
+                               "dd if=/dev/zero of=disk/fill bs=1k count=56 2>/dev/null; "
+                               "$FAB export 0x0488 --dxf disk/a.dxf; echo rc=$?; ls -A disk")
+    assert res.stdout.split() == ["rc=2", "rc=2", "rc=2", "fill"], (res.stdout, res.stderr)
+    lines = res.stderr.splitlines()
+    assert len(lines) == 3, res.stderr
+    for line, name in zip(lines, ("a.step", "a.stl", "a.dxf"), strict=True):
+        assert line.startswith(f"fabpat: error: cannot write disk/{name}: the disk is full"), line
+        assert ".part" not in line

@@ -1,4 +1,5 @@
-"""STEP AP214: written by OCCT's XDE writer, read back by build123d's importer."""
+"""STEP AP214: written by OCCT's XDE writer, read back by build123d's importer; the header's time stamp is
+ISO 8601, normalised, or refused before any work."""
 
 from __future__ import annotations
 
@@ -219,3 +220,21 @@ def test_trailing_colour_blocks_get_one_order(tmp_path: Path) -> None:
     referred.write_text(file(blocks).replace("#2 = X();", "#2 = X(#14);"))
     before = referred.read_bytes()
     assert sort_trailing_styles(referred) is False and referred.read_bytes() == before
+
+
+@pytest.mark.parametrize("given, header", [
+    ("2025-01-31 12:00", "2025-01-31T12:00:00"),
+    ("20250131", "2025-01-31T00:00:00"),
+    ("2025-01-31", "2025-01-31T00:00:00"),
+    ("2025-01-31T12:00:00.75+00:00", "2025-01-31T12:00:00Z"),
+    ("2025-01-31T12:00-05:30", "2025-01-31T12:00:00-05:30"),
+])
+def test_step_timestamp_is_normalised(tmp_path: Path, given: str, header: str) -> None:
+    from fabpat import cad
+    from fabpat.exchange.step import check_timestamp, write_step
+    from tests.test_cad import bowtie
+
+    assert check_timestamp(given) == header
+    path = write_step(cad.make_solid(bowtie()), tmp_path / "t.step", "t", timestamp=given)
+    text = path.read_text(encoding="utf-8")
+    assert f"'{header}'" in text and (given == header or f"'{given}'" not in text)
