@@ -1,4 +1,6 @@
-"""SIGTERM from the first moments of a run, and a deprecated alias's error: one line each."""
+"""SIGTERM and Ctrl-C from the first moments of a run (inside an import) to the last part of an export: one
+line, exit 143 or 130, no file committed (``fabpat.cli.deferred_interrupts``); and a deprecated alias's error
+in one line."""
 
 from __future__ import annotations
 
@@ -9,6 +11,7 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
 from click.testing import CliRunner
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -91,3 +94,42 @@ def test_the_deprecated_alias_fails_in_one_line(tmp_path: Path) -> None:
     assert "use simulate-assembly" in r.stderr
     r = CliRunner().invoke(cli, ["simulate-assembly", str(tmp_path / "missing.toml")])
     assert r.exit_code == 2 and "is deprecated" not in r.stderr  # the notice belongs to the alias only
+
+
+def test_ctrl_c_during_the_last_part_stops_before_the_commit(tmp_path: Path) -> None:
+    """An interrupt held while a part is written (deferred_interrupts, one part at a time) is raised when
+    that part is done, still inside the atomic block: even during the last part no file is committed."""
+    import fabpat
+    from fabpat.cli import deferred_interrupts
+    from fabpat.exchange.registry import export_parts, filleted_part
+
+    part = filleted_part(fabpat.pattern("0x0488").fillet())
+    jobs = [(part, {"svg": tmp_path / f"p{i}.svg"}) for i in range(3)]
+    done: list[int] = []
+
+    def on_part(_part: object, _formats: list[str]) -> None:
+        done.append(1)
+        if len(done) == len(jobs):  # the last part: the signal arrives while it is being finished
+            os.kill(os.getpid(), signal.SIGINT)
+
+    with pytest.raises(KeyboardInterrupt):
+        export_parts(jobs, on_part=on_part, part_guard=deferred_interrupts)
+    assert len(done) == 3 and list(tmp_path.iterdir()) == []
+
+
+def test_deferred_interrupts_keep_an_ignored_sigint_and_surface_a_held_one() -> None:
+    from fabpat.cli import deferred_interrupts
+
+    before = signal.getsignal(signal.SIGINT)
+    try:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # a background job's SIGINT
+        with deferred_interrupts():
+            os.kill(os.getpid(), signal.SIGINT)
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGINT, before)
+    with pytest.raises(KeyboardInterrupt) as info, deferred_interrupts():  # held, then another error
+        os.kill(os.getpid(), signal.SIGINT)
+        raise ValueError("a writer failed")
+    assert isinstance(info.value.__context__, ValueError)
+    assert signal.getsignal(signal.SIGINT) is before

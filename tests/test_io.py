@@ -12,8 +12,8 @@ from pathlib import Path
 import pytest
 
 from fabpat.errors import ExportError
-from fabpat.io import check_distinct, input_scope, writer_failed
-from tests.helpers import ROOT, one_line_error
+from fabpat.io import atomic_outputs, check_distinct, input_scope, remove_stale_temps, writer_failed
+from tests.helpers import ROOT, SMALL_SPEC, one_line_error
 from tests.helpers import invoke_result as invoke
 
 STRIP_SPEC = ROOT / "assemblies" / "graded-strip.toml"
@@ -69,3 +69,48 @@ def test_write_failed_is_an_export_error_and_an_os_error(tmp_path: Path) -> None
     e = writer_failed(tmp_path / "a.dxf", "cannot write the DXF file", OSError(errno.EACCES, "Permission denied"))
     assert isinstance(e, ExportError) and isinstance(e, OSError) and e.errno == errno.EACCES
     assert str(e) == f"cannot write {tmp_path / 'a.dxf'}: Permission denied"
+
+
+def test_simulate_same_path_twice_is_refused(tmp_path: Path) -> None:
+    out = tmp_path / "x.vtu"
+    res = invoke("simulate", "0x2d88", "--scenario", "dome", "--vtu", str(out), "--png", str(out))
+    one_line_error(res, "same file")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_same_file_through_a_link_is_refused(tmp_path: Path) -> None:
+    (tmp_path / "a.vtu").write_text("old")
+    (tmp_path / "b.png").symlink_to(tmp_path / "a.vtu")
+    res = invoke("simulate", "0x2d88", "--scenario", "dome", "--vtu", str(tmp_path / "a.vtu"),
+                 "--png", str(tmp_path / "b.png"))
+    one_line_error(res, "same file")
+    assert (tmp_path / "a.vtu").read_text() == "old"
+
+
+def test_simulate_strip_same_path_twice_is_refused(tmp_path: Path) -> None:
+    out = tmp_path / "s.vtu"
+    res = invoke("simulate-assembly", str(SMALL_SPEC), "--vtu", str(out), "--png", str(out))
+    one_line_error(res, "same file")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_the_check_is_shared() -> None:
+    check_distinct(["a.svg", "b.svg"])
+    with pytest.raises(ExportError, match="same file"):
+        check_distinct(["a.svg", "./a.svg"])
+    with pytest.raises(ExportError, match="same file"), atomic_outputs("a.svg", "./a.svg"):
+        pass  # pragma: no cover - refused before the block
+
+
+def test_remove_stale_temps_only_touches_dead_writers(tmp_path: Path) -> None:
+    dead = tmp_path / ".a.999999999.abcdefgh.part.svg"  # above any pid_max: no such process
+    dead_dir = tmp_path / ".kit.999999999.ABCdef12.part"
+    dead_dir.mkdir()
+    (dead_dir / "x.stl").write_text("")
+    alive = tmp_path / f".a.{os.getppid()}.abcdefgh.part.svg"
+    mine = tmp_path / ".a.999999999.abc.part.svg"  # not fabpat's pattern (3 random characters)
+    for p in (dead, alive, mine):
+        p.write_text("")
+    removed = remove_stale_temps(tmp_path)
+    assert sorted(p.name for p in removed) == sorted([dead.name, dead_dir.name])
+    assert alive.exists() and mine.exists() and not dead.exists() and not dead_dir.exists()
