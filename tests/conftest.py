@@ -30,3 +30,14 @@ def run_cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[
     """Run the real ``fabpat`` entry point in a subprocess (as a user would)."""
     env = dict(os.environ, COLUMNS="160", FABPAT_CACHE="off")
     return subprocess.run([*FABPAT, *args], capture_output=True, text=True, cwd=cwd, env=env, timeout=600)
+
+
+@pytest.fixture(scope="module")
+def small_catalog(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A real catalog of 2 patterns × 3 scenarios (1.5 s), in DELETE journal mode as a finished sweep leaves it."""
+    from tests.helpers import SWEEP, invoke_result
+
+    db = tmp_path_factory.mktemp("cat") / "c.sqlite"
+    res = invoke_result(*SWEEP, "--db", str(db))
+    assert res.exit_code == 0, res.stderr
+    return db

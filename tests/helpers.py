@@ -3,9 +3,14 @@
 from __future__ import annotations
 
 import functools
+import hashlib
 import subprocess
+import sys
 from pathlib import Path
 from typing import Any
+
+import pytest
+from click.testing import Result
 
 ROOT = Path(__file__).resolve().parents[1]
 FLAT_SPHERE = ROOT / "assemblies" / "truncated-icosahedron.toml"
@@ -43,3 +48,115 @@ def invoke(*args: str) -> subprocess.CompletedProcess[str]:
     if r.exception is not None and not isinstance(r.exception, SystemExit):
         raise r.exception
     return subprocess.CompletedProcess(["fabpat", *args], r.exit_code, r.stdout, r.stderr)
+
+
+SPECS = ROOT / "assemblies"
+SMALL_SPEC = SPECS / "test-small.toml"
+#: a real sweep of 2 patterns × 3 scenarios at a coarse mesh (1.5 s): the small catalogs the tests refuse,
+#: damage and fill up
+SWEEP = ("sweep", "--sample", "2", "--h", "8", "--workers", "1")
+
+
+def invoke_result(*args: str) -> Result:
+    """``fabpat ARGS`` in this process (click's runner), click's own Result (``exit_code``, ``stdout``,
+    ``stderr``; an exception is caught in it): for the tests that read the Result itself."""
+    from click.testing import CliRunner
+
+    from fabpat.cli import cli
+
+    return CliRunner().invoke(cli, list(args))
+
+
+def one_line_error(res: Result | subprocess.CompletedProcess[str], *words: str) -> None:
+    """``res`` (a Result or a CompletedProcess) failed with exit code 2 and one stderr line naming ``words``."""
+    code = res.exit_code if isinstance(res, Result) else res.returncode
+    assert code == 2, res.stderr
+    assert res.stderr.startswith("fabpat: error:") and res.stderr.count("\n") == 1, res.stderr
+    for w in words:
+        assert w in res.stderr, res.stderr
+
+
+def run_in(tmp_path: Path, *args: str) -> tuple[int, str, str]:
+    """Run a command in-process with ``tmp_path`` as the current folder: (exit code, stdout, stderr)."""
+    import os
+
+    from click.testing import CliRunner
+
+    from fabpat.cli import cli
+
+    old = os.getcwd()
+    os.chdir(tmp_path)
+    try:
+        r = CliRunner(env={"FABPAT_CACHE": "off"}).invoke(cli, list(args), prog_name="fabpat")
+    finally:
+        os.chdir(old)
+    return r.exit_code, r.stdout, r.stderr
+
+
+def refusal_in(tmp_path: Path, *args: str) -> str:
+    """Assert the command fails with exit 2 and one stderr line, writes nothing; return that line."""
+    before = sorted(tmp_path.iterdir())
+    code, out, err = run_in(tmp_path, *args)
+    lines = err.strip().splitlines()
+    assert code == 2, (out, err)
+    assert len(lines) == 1 and lines[0].startswith("fabpat: error: "), err
+    assert sorted(tmp_path.iterdir()) == before
+    return lines[0]
+
+
+def parts(folder: Path) -> list[str]:
+    """The names of the temporary files (``….part…``) in ``folder``."""
+    return sorted(p.name for p in folder.iterdir() if ".part" in p.name) if folder.exists() else []
+
+
+def digest(path: Path) -> str:
+    """SHA-256 of the file's bytes: a file refused or read must be byte-identical afterwards."""
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _unshare_works() -> bool:
+    try:
+        return subprocess.run(["unshare", "-rm", "true"], capture_output=True, timeout=10).returncode == 0
+    except (OSError, subprocess.SubprocessError):
+        return False
+
+
+needs_unshare = pytest.mark.skipif(sys.platform != "linux" or not _unshare_works(),
+                                   reason="needs unshare (util-linux) with user and mount namespaces")
+
+
+def in_small_tmpfs(folder: Path, script: str, size: str = "64k") -> subprocess.CompletedProcess[str]:
+    """Run ``script`` (sh) with a ``size`` tmpfs mounted on ``folder`` (a private mount namespace):
+    a real full disk, no root needed on the host."""
+    import os
+
+    from tests.conftest import FABPAT
+
+    folder.mkdir(exist_ok=True)
+    env = dict(os.environ, FABPAT_CACHE="off", COLUMNS="160", FAB=" ".join(FABPAT))
+    return subprocess.run(["unshare", "-rm", "sh", "-c", f"mount -t tmpfs -o size={size} tmpfs {folder} && {script}"],
+                          capture_output=True, text=True, env=env, timeout=300, cwd=folder.parent)
+
+
+def tmpfs_error(res: subprocess.CompletedProcess[str]) -> subprocess.CompletedProcess[str]:
+    """The stderr of an :func:`in_small_tmpfs` run as a failed command's, for :func:`one_line_error`."""
+    return subprocess.CompletedProcess([], 2, "", res.stderr)
+
+
+def edited(src: Path, dst: Path, **changes: str | None) -> Path:
+    """``src`` with ``key = value`` lines replaced (the first line of that key in the file; None: removed)."""
+    lines = src.read_text(encoding="utf-8").splitlines()
+    for key, value in changes.items():
+        k = next(i for i, ln in enumerate(lines) if ln.split("=")[0].strip() == key)
+        if value is None:
+            del lines[k]
+        else:
+            lines[k] = f"{key} = {value}"
+    dst.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return dst
+
+
+def strip(**patterns: object) -> dict:
+    """A 1 × 3 honeycomb-strip spec (as parsed TOML) with these ``[patterns]`` keys."""
+    return {"tiling": {"kind": "honeycomb-strip", "edge": 36.0, "rows": 1, "columns": 3},
+            "patterns": patterns, "sheet": {"width": 600.0, "height": 400.0}}

@@ -1,6 +1,7 @@
 """Library calls with bad arguments raise one FabpatError subclass with a clear line, never a raw
 TypeError/ValueError/AttributeError (the hostile-tester cases, then a fuzz of None, text, NaN, inf,
-negative numbers and lists through the public entry points)."""
+negative numbers and lists through the public entry points, and the bad numbers and ``max_elements`` of the
+meshing, solving and export calls)."""
 
 from __future__ import annotations
 
@@ -130,3 +131,40 @@ def test_fuzz_raises_fabpat_errors(fp, bad, tmp_path, monkeypatch) -> None:
             if not (name == "Library[key]" and bad == -1):  # lib[-1] is the last pattern, as a list's
                 raw[name] = "accepted"
     assert raw == {}
+
+
+def test_api_refuses_bad_numbers() -> None:
+    from fabpat.exchange.registry import ExportSettings
+    from fabpat.fillet import fillet_pattern
+    from fabpat.library import get_pattern, sample_library
+    from fabpat.mesh import mesh_outline, solid_polygon_mesh
+    from fabpat.scenarios import run_scenario
+
+    with pytest.raises(PatternError, match=r"edge = -1 is out of range"):
+        get_pattern("0x0488", edge=-1)
+    with pytest.raises(PatternError, match="edge"):
+        get_pattern("0x0488", edge=math.nan)
+    with pytest.raises(PatternError, match="seed"):
+        sample_library(6, 3, 2, seed=-1)
+    mesh = solid_polygon_mesh(6, 36.0, h=9.0)
+    with pytest.raises(FabpatError, match=r"thickness = -2 is out of range"):
+        run_scenario(mesh, "cantilever", sides=6, thickness=-2.0)
+    for kw in ({"E": math.inf}, {"nu": 0.5}, {"edge": math.nan}):
+        with pytest.raises(FabpatError):
+            run_scenario(mesh, "cantilever", sides=6, **kw)
+    fp = fillet_pattern(get_pattern("0x0488"))
+    with pytest.raises(GeometryError, match="weight"):
+        fillet_pattern(get_pattern("0x0488"), 1e9)
+    with pytest.raises(FabpatError, match="h must be a finite"):
+        mesh_outline(fp.outline, math.nan)
+    with pytest.raises(ExportError, match="mesh tolerance"):
+        ExportSettings(mesh_tolerance=math.inf).check()
+
+
+@pytest.mark.parametrize("value", [0, -1, 10**19, "36", None, float("inf")])
+def test_api_max_elements_is_checked(value: object) -> None:
+    import fabpat as api
+
+    fp = api.pattern("0x0488").fillet()
+    with pytest.raises(FabpatError, match="max_elements"):
+        api.simulate(fp, "dome", h=3, max_elements=value)  # type: ignore[arg-type]

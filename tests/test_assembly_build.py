@@ -1,4 +1,5 @@
-"""`fabpat assemble`: every output of the small spec exists and re-reads; bad specs leave nothing."""
+"""`fabpat assemble`: every output of the small spec exists and re-reads; bad specs leave nothing, and the
+kit applies export's fabrication checks to its plates (too thin to print, below the laser's kerf limit)."""
 
 from __future__ import annotations
 
@@ -12,6 +13,9 @@ import numpy as np
 import pytest
 
 from tests.conftest import run_cli
+from tests.helpers import FLAT_SPHERE as SPHERE
+from tests.helpers import edited, one_line_error
+from tests.helpers import invoke_result as invoke
 
 ROOT = Path(__file__).resolve().parents[1]
 SMALL = ROOT / "assemblies" / "test-small.toml"
@@ -206,3 +210,44 @@ def test_failure_after_start_leaves_nothing(tmp_path: Path, monkeypatch: pytest.
     with pytest.raises(ExportError, match="simulated"):
         build.assemble(load_spec(SMALL), tmp_path / "kit")
     assert os.listdir(tmp_path) == []
+
+
+def test_count_beside_hexagon_is_refused_like_groups(tmp_path: Path) -> None:
+    text = SPHERE.read_text(encoding="utf-8")
+    for extra, key in (("count = 2", "patterns.count"), ('groups = ["0x0488"]', "groups")):
+        spec = tmp_path / "s.toml"
+        spec.write_text(text.replace('pentagon = "0x0508"', f'pentagon = "0x0508"\n{extra}'), encoding="utf-8")
+        one_line_error(invoke("assemble", str(spec), "--out", str(tmp_path / "kit")), key)
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["s.toml"]
+
+
+def test_plates_too_thin_to_print(tmp_path: Path) -> None:
+    """edge = 12 printed: export warns for these plates, the kit refuses them, or warns with --force."""
+    spec = edited(SPHERE, tmp_path / "s.toml", edge="12.0", process='"print"', depth="1.5", formats='["bom"]',
+                  kerf=None, cut_speed=None)  # laser-only keys are refused with process = "print"
+    res = invoke("assemble", str(spec), "--out", str(tmp_path / "kit"), "--no-progress")
+    one_line_error(res, "plate hex 0x0488: min feature width 0.658 mm is below 0.8 mm for printing",
+                   "(and 1 more)", "--force")
+    assert not (tmp_path / "kit").exists()
+    for pid, sides, width in (("0x0488", "6", "0.658"), ("0x0508", "5", "0.516")):  # export's own verdict
+        exp = invoke("export", pid, "--sides", sides, "--edge", "12", "--stl", str(tmp_path / "p.stl"))
+        assert exp.exit_code == 0 and f"min feature width {width} mm is below 0.8 mm for printing" in exp.stderr
+    res = invoke("assemble", str(spec), "--out", str(tmp_path / "kit"), "--no-progress", "--force", "--no-predict")
+    assert res.exit_code == 0, res.stderr
+    warnings = [ln for ln in res.stderr.splitlines() if ln.startswith("fabpat: warning:")]
+    # the two plates too thin to print, then the strain limit that --no-predict left unchecked
+    assert len(warnings) == 3 and "plate pent 0x0508" in warnings[1] and "0.8 mm for printing" in warnings[0]
+    assert "strain_limit" in warnings[2] and "not checked" in warnings[2]
+    manifest = json.loads((tmp_path / "kit" / "manifest.json").read_text(encoding="utf-8"))
+    assert len(manifest["warnings"]) == 3
+
+
+def test_laser_plates_use_the_kerf_limit(tmp_path: Path) -> None:
+    """Laser: the limit is 2 × sheet.kerf, as for export's DXF/SVG (the shipped sphere passes at 0.15)."""
+    spec = edited(SPHERE, tmp_path / "s.toml", kerf="1.0", formats='["bom"]')
+    res = invoke("assemble", str(spec), "--out", str(tmp_path / "kit"), "--no-progress")
+    one_line_error(res, "plate hex 0x0488: min feature width 1.95 mm is below 2 mm for laser cutting with a 1 mm kerf",
+                   "--force")
+    exp = invoke("export", "0x0488", "--dxf", str(tmp_path / "p.dxf"), "--kerf", "1")
+    assert "min feature width 1.95 mm is below 2 mm for laser cutting with a 1 mm kerf" in exp.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.dxf", "s.toml"]

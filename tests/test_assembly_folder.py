@@ -1,5 +1,6 @@
 """`fabpat assemble --out`: an earlier kit is replaced only when fabpat demonstrably wrote all of it, and a
-failed swap leaves the earlier kit and no temporary folder."""
+failed swap leaves the earlier kit and no temporary folder; a folder holding the spec is refused, and a full
+disk is named with the kit's folder."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from tests.conftest import run_cli
-from tests.helpers import invoke
+from tests.helpers import SMALL_SPEC, in_small_tmpfs, invoke, needs_unshare, one_line_error, tmpfs_error
 
 ROOT = Path(__file__).resolve().parents[1]
 SMALL = ROOT / "assemblies" / "test-small.toml"
@@ -162,3 +163,24 @@ def test_an_immutable_folder_leaves_no_part_folder(tmp_path: Path, where: str) -
         _chattr("-i", target)
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and f"cannot write {out}" in r.stderr, r.stderr
     assert names == ["kit"] and (out / "manifest.json").is_file()
+
+
+def test_assemble_out_folder_holding_the_spec_is_refused(tmp_path: Path) -> None:
+    """assemble replaces its --out folder whole: a spec inside it would be deleted."""
+    kit = tmp_path / "kit"
+    kit.mkdir()
+    spec = kit / "s.toml"
+    shutil.copy(SMALL_SPEC, spec)
+    res = invoke("assemble", str(spec), "--out", str(kit), "--no-progress")
+    one_line_error(res, "holds the input SPEC")
+    assert spec.read_bytes() == SMALL_SPEC.read_bytes()
+
+
+@needs_unshare
+def test_assemble_on_a_full_disk_names_the_kit(tmp_path: Path) -> None:
+    disk = tmp_path / "disk"
+    shutil.copy(SMALL_SPEC, tmp_path / "s.toml")
+    res = in_small_tmpfs(disk, "$FAB assemble s.toml --out disk/kit --no-progress; echo rc=$?; ls -A disk")
+    assert res.stdout.split() == ["rc=2"], (res.stdout, res.stderr)
+    one_line_error(tmpfs_error(res), "cannot write disk/kit: the disk is full")
+    assert ".part" not in res.stderr

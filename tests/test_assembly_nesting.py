@@ -1,4 +1,4 @@
-"""Nesting plates on sheets and unfolding nets: no overlaps, checked exactly."""
+"""Nesting plates on sheets and unfolding nets: no overlaps, checked exactly; the nesting raster is bounded."""
 
 from __future__ import annotations
 
@@ -110,3 +110,12 @@ def test_nesting_packs_the_sphere_and_the_strip_tighter() -> None:
     assert [len(beds.on_sheet(s)) for s in range(beds.n_sheets)] == [9, 9, 9, 3]
     check_nesting(beds)
     assert beds.utilisation(0) == pytest.approx(9 * 3 * math.sqrt(3) / 2 * 36.0**2 / (250 * 210))
+
+
+def test_nesting_raster_is_bounded() -> None:
+    from fabpat.assembly.nesting import nest
+    from fabpat.lattice import polygon_vertices
+
+    with pytest.raises(GeometryError, match="raster nodes of a 9000 × 9000 mm sheet"):
+        nest([polygon_vertices(6, 36.0)], 9000.0, 9000.0, 5.0, 3.0)
+    assert len(nest([polygon_vertices(6, 36.0)], 200.0, 200.0, 5.0, 3.0).placements) == 1

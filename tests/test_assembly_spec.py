@@ -1,16 +1,19 @@
-"""Spec files: the shipped specs load; every bad value is one clear line naming the key."""
+"""Spec files: the shipped specs load; every bad value is one clear line naming the key, and a key that does
+not apply (to the tiling, to the process) or a format listed twice is an error, and the numbers and sizes
+use the same ranges as the commands' options."""
 
 from __future__ import annotations
 
+import copy
+import math
+import tomllib
 from pathlib import Path
 
 import pytest
 
 from fabpat.assembly.spec import load_spec, parse_spec
 from fabpat.errors import SpecError
-
-ROOT = Path(__file__).resolve().parents[1]
-SPECS = ROOT / "assemblies"
+from tests.helpers import SPECS, strip
 
 
 def base(**tables: dict) -> dict:
@@ -139,3 +142,137 @@ def test_sheet_border_key() -> None:
     assert parse_spec(base(sheet={"width": 170.0, "height": 90.0, "border": False})).sheet.border is False
     with pytest.raises(SpecError, match="sheet.border .* must be true or false"):
         parse_spec(base(sheet={"width": 170.0, "height": 90.0, "border": "no"}))
+
+
+def sphere(**patterns: object) -> dict:
+    return {"tiling": {"kind": "truncated-icosahedron", "edge": 36.0}, "patterns": patterns,
+            "sheet": {"width": 600.0, "height": 400.0}}
+
+
+@pytest.mark.parametrize("data, key", [
+    (sphere(hexagon="0x0488", pentagon="0x0508", count=2), "patterns.count"),
+    (sphere(hexagon="0x0488", pentagon="0x0508", scenario="dome"), "patterns.scenario"),
+    (sphere(hexagon="0x0488", pentagon="0x0508", catalog="c.sqlite"), "patterns.catalog"),
+    (strip(pattern="0x0488", count=3), "patterns.count"),
+    (strip(pattern="0x0488", group_columns=1), "patterns.group_columns"),
+    (strip(groups=["0x0488", "0x0508", "0x0588"], group_columns=1, scenario="dome"), "patterns.scenario"),
+    (strip(tiles=[["0x0488", "0x0508", "0x0588"]], catalog="c.sqlite"), "patterns.catalog"),
+])
+def test_a_key_that_does_not_apply_is_an_error(data: dict, key: str) -> None:
+    with pytest.raises(SpecError, match=rf"{key} does not apply") as err:
+        parse_spec(data, "s.toml")
+    assert "\n" not in str(err.value)
+
+
+def _print_strip(**tables: dict) -> dict:
+    return {"tiling": {"kind": "honeycomb-strip", "edge": 36.0, "rows": 1, "columns": 3},
+            "patterns": {"pattern": "0x0488"}, "plates": {"process": "print"},
+            "sheet": {"width": 600.0, "height": 400.0}, **tables}
+
+
+@pytest.mark.parametrize("data, key", [
+    (_print_strip(sheet={"width": 600.0, "height": 400.0, "kerf": 0.2}), "sheet.kerf"),
+    (_print_strip(estimates={"cut_speed": 15.0}), "estimates.cut_speed"),
+])
+def test_laser_keys_do_not_apply_to_print(data: dict, key: str) -> None:
+    with pytest.raises(SpecError, match=rf"{key} does not apply to plates.process = 'print'"):
+        parse_spec(data, "s.toml")
+
+
+def test_laser_keys_apply_to_laser_and_print_rate_to_both() -> None:
+    data = _print_strip(sheet={"width": 600.0, "height": 400.0, "kerf": 0.2},
+                        estimates={"cut_speed": 12.0, "print_rate": 2.0})
+    data["plates"] = {"process": "laser"}
+    spec = parse_spec(data, "s.toml")
+    assert (spec.sheet.kerf, spec.estimates.cut_speed, spec.estimates.print_rate) == (0.2, 12.0, 2.0)
+    assert parse_spec(_print_strip(estimates={"print_rate": 2.0}), "s.toml").estimates.print_rate == 2.0
+
+
+def test_a_format_listed_twice_is_refused() -> None:
+    with pytest.raises(SpecError, match="output.formats lists 'step' twice"):
+        parse_spec(_print_strip(output={"formats": ["step", "stl", "step"]}), "s.toml")
+
+
+def _leaf_keys(data: dict, prefix: tuple = ()) -> list[tuple]:
+    out = []
+    for k, v in data.items():
+        if isinstance(v, dict):
+            out += _leaf_keys(v, (*prefix, k))
+        else:
+            out.append((*prefix, k))
+    return out
+
+
+def _with(data: dict, key: tuple, value: object) -> dict:
+    d = copy.deepcopy(data)
+    t = d
+    for k in key[:-1]:
+        t = t[k]
+    t[key[-1]] = value
+    return d
+
+
+GRADED = tomllib.loads((SPECS / "graded-strip.toml").read_text())
+
+
+SPHERE = tomllib.loads((SPECS / "truncated-icosahedron.toml").read_text())
+
+
+def _spec_numeric_keys() -> list[tuple[str, tuple]]:
+    out = []
+    for name, data in (("graded", GRADED), ("sphere", SPHERE)):
+        for key in _leaf_keys(data):
+            v = data
+            for k in key:
+                v = v[k]
+            if isinstance(v, float) and key[0] != "patterns":
+                out.append((name, key))
+    return out
+
+
+@pytest.mark.parametrize(("spec", "key"), _spec_numeric_keys())
+def test_spec_numbers_use_the_same_ranges(spec: str, key: tuple) -> None:
+    from fabpat.assembly.spec import parse_spec
+
+    data = GRADED if spec == "graded" else SPHERE
+    refused = 0
+    for value in (math.nan, math.inf, -1.0, 1e308):
+        with pytest.raises(SpecError) as e:
+            parse_spec(_with(data, key, value), "s.toml")
+        msg = str(e.value)
+        assert "\n" not in msg and ".".join(key) in msg
+        refused += 1
+    assert refused == 4
+
+
+@pytest.mark.parametrize(("key", "value", "words"), [
+    (("output", "mesh_tolerance"), 1e-7, ["output.mesh_tolerance", "[1e-06, 10] mm"]),
+    (("sheet", "width"), 1e12, ["sheet.width", "(0, 10000] mm"]),
+    (("tiling", "columns"), 10**12, ["tiling.columns", "[1, 1000]"]),
+])
+def test_spec_sizes(key: tuple, value: float, words: list[str]) -> None:
+    from fabpat.assembly.spec import parse_spec
+
+    with pytest.raises(SpecError) as e:
+        parse_spec(_with(GRADED, key, value), "s.toml")
+    for w in words:
+        assert w in str(e.value)
+
+
+@pytest.mark.parametrize("cell", [["0x0488"], {"id": "0x0488"}])
+def test_spec_cell_that_is_a_list_or_table(cell: object) -> None:
+    from fabpat.assembly.spec import parse_spec
+
+    data = copy.deepcopy(GRADED)
+    data["patterns"] = {"tiles": [[cell] * data["tiling"]["columns"]] * data["tiling"]["rows"]}
+    with pytest.raises(SpecError, match=r"patterns.tiles\[0\]\[0\]"):
+        parse_spec(data, "s.toml")
+
+
+@pytest.mark.parametrize("cell", [[1], {"a": 1}])
+def test_every_spec_value_as_list_or_table(cell: object) -> None:
+    from fabpat.assembly.spec import parse_spec
+
+    for key in _leaf_keys(SPHERE):
+        with pytest.raises(SpecError):
+            parse_spec(_with(SPHERE, key, cell), "s.toml")

@@ -1,4 +1,5 @@
-"""The browsing page (data, HTML, and a real headless Chromium) and the static figures."""
+"""The browsing page (data, HTML, and a real headless Chromium) and the static figures; `browse --out` never
+replaces the catalog it reads."""
 
 from __future__ import annotations
 
@@ -14,7 +15,9 @@ import pytest
 from fabpat.browse import page_data, render_page
 from fabpat.catalog import open_catalog
 from tests.conftest import run_cli
-from tests.test_catalog import _tiny, invoke
+from tests.helpers import digest, one_line_error
+from tests.helpers import invoke_result as invoke
+from tests.test_catalog import _tiny
 
 CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
                  "--disable-sync", "--no-first-run"]
@@ -224,3 +227,16 @@ def test_browse_refuses_a_page_that_is_not_html(tmp_path: Path) -> None:
     r = run_cli("browse", "--out", str(tmp_path / "x.png"))
     assert r.returncode == 2 and "must end in .html" in r.stderr and len(r.stderr.strip().splitlines()) == 1
     assert not (tmp_path / "x.png").exists()
+
+
+def test_browse_out_equal_to_db_is_refused(small_catalog: Path, tmp_path: Path) -> None:
+    db = tmp_path / "g.db"
+    shutil.copy(small_catalog, db)
+    (tmp_path / "hard.db").hardlink_to(db)
+    (tmp_path / "sym.db").symlink_to(db)
+    before = digest(db)
+    for db_arg, out in ((db, db), (db, tmp_path / "hard.db"), (tmp_path / "sym.db", db)):
+        res = invoke("browse", "--db", str(db_arg), "--out", str(out))
+        one_line_error(res, "is the input --db", str(out))
+        assert digest(db) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["g.db", "hard.db", "sym.db"]

@@ -1,4 +1,5 @@
-"""The exact B-rep: outline → face → solid, and the hand-made outlines the exchange tests share.
+"""The exact B-rep: outline → face → solid (OpenCASCADE's own errors raised as GeometryError), and the
+hand-made outlines the exchange tests share.
 
 The outlines here have closed-form areas and perimeters computed in this file, independently of
 fabpat.curves / fabpat.outline, so every writer's read-back is checked against numbers that no
@@ -238,3 +239,16 @@ def test_library_pattern_solid_volume(pattern_id: str, sides: int) -> None:
     assert cad.volume(solid) == pytest.approx(2.0 * fp.outline.area, rel=1e-6)
     on_support = [c for c in edge_curves(solid) if BOWTIE_W in curve_weights(c)]
     assert len(on_support) >= 2 * sides  # every interface half, on top and bottom faces
+
+
+def test_occt_errors_become_geometry_errors() -> None:
+    from fabpat.cad import make_solid, mesh
+    from fabpat.fillet import fillet_pattern
+    from fabpat.library import get_pattern
+
+    outline = fillet_pattern(get_pattern("0x2d88")).outline
+    with pytest.raises(GeometryError, match="OpenCASCADE"):
+        make_solid(outline, 1e-9)  # Standard_ConstructionError inside OCCT
+    solid = make_solid(outline, 2.0)
+    with pytest.raises(GeometryError, match="Standard_NumericError"):
+        mesh(solid, 1e-9)

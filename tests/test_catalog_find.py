@@ -17,7 +17,8 @@ from fabpat.catalog import CatalogError, open_catalog
 from fabpat.catalog.rows import find_rows, parse_condition
 from fabpat.errors import PatternError
 from fabpat.plots import plot_catalog
-from tests.test_catalog import fake_catalog, invoke
+from tests.helpers import invoke_result as invoke
+from tests.test_catalog import fake_catalog
 
 # filleted areas (fake_catalog): 850, 950, 1050, 1150 mm² in this order
 HEX = {"0x0488": {"dome": 400.0, "cylinder": 30.0}, "0x0508": {"dome": 200.0, "cylinder": 20.0},

@@ -17,7 +17,8 @@ import fabpat
 from fabpat.catalog import CatalogError, energies, open_catalog
 from fabpat.catalog import sqlite_file as catalog_file  # the file-level helpers a test replaces
 from fabpat.sweep import run_sweep
-from tests.test_catalog import fake_catalog, fake_rows, invoke
+from tests.helpers import invoke_result as invoke
+from tests.test_catalog import fake_catalog, fake_rows
 from tests.test_sweep import IDS, fake_task
 
 HEX = {"0x0488": {"dome": 400.0}, "0x0508": {"dome": 200.0}, "0x0588": {"dome": 100.0}}

@@ -1,13 +1,21 @@
-"""``fabpat export``: every file it writes read back by an independent reader; bad input → exit 2."""
+"""``fabpat export``: every file it writes read back by an independent reader; bad input → exit 2; an
+interrupted or killed ``export --all`` leaves no temporary file behind, and a full disk is named with the target."""
 
 from __future__ import annotations
 
+import os
+import signal
+import subprocess
+import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from tests.conftest import run_cli
+from fabpat.io import temp_prefix
+from tests.conftest import FABPAT, run_cli
+from tests.helpers import in_small_tmpfs, needs_unshare, one_line_error, parts
+from tests.helpers import invoke_result as invoke
 from tests.test_cad import curve_weights, edge_curves
 from tests.test_exchange_dxf import bulge_area, chain, cut_loops, entity_pieces, read, solid_area
 
@@ -200,3 +208,68 @@ def test_show_refuses_an_svg_under_another_suffix(tmp_path: Path) -> None:
     r = run_cli("show", "0x0488", "--svg", str(tmp_path / "p.png"))
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "--svg must end in .svg" in r.stderr
     assert list(tmp_path.iterdir()) == []
+
+
+@needs_unshare
+def test_export_on_a_full_disk_names_the_target(tmp_path: Path) -> None:
+    disk = tmp_path / "disk"
+    res = in_small_tmpfs(disk, "for f in a.step a.stl; do $FAB export 0x0488 --${f#a.} disk/$f; echo rc=$?; done; "
+                               "dd if=/dev/zero of=disk/fill bs=1k count=56 2>/dev/null; "
+                               "$FAB export 0x0488 --dxf disk/a.dxf; echo rc=$?; ls -A disk")
+    assert res.stdout.split() == ["rc=2", "rc=2", "rc=2", "fill"], (res.stdout, res.stderr)
+    lines = res.stderr.splitlines()
+    assert len(lines) == 3, res.stderr
+    for line, name in zip(lines, ("a.step", "a.stl", "a.dxf"), strict=True):
+        assert line.startswith(f"fabpat: error: cannot write disk/{name}: the disk is full"), line
+        assert ".part" not in line
+
+
+def test_export_all_with_no_formats_is_an_error(tmp_path: Path) -> None:
+    res = invoke("export", "--all", "--out", str(tmp_path / "o"), "--formats", "")
+    one_line_error(res, "no format", "step, stl, 3mf, dxf, svg")
+    res = invoke("export", "--all", "--out", str(tmp_path / "o"), "--formats", " , ")
+    one_line_error(res, "no format")
+    assert not (tmp_path / "o").exists()
+
+
+def _export_all(out: Path) -> subprocess.Popen[str]:
+    env = dict(os.environ, FABPAT_CACHE="off")
+    return subprocess.Popen([*FABPAT, "export", "--all", "--out", str(out), "--formats", "svg,dxf"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+
+
+def _wait_for_parts(proc: subprocess.Popen[str], out: Path) -> None:
+    t0 = time.monotonic()
+    while not parts(out):
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() - t0 < 120, "export --all wrote no temporary file"
+        time.sleep(0.05)
+    time.sleep(0.3)  # well inside the writing of 860 files
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_interrupted_export_all_leaves_no_part_files(tmp_path: Path, sig: signal.Signals) -> None:
+    out = tmp_path / "parts"
+    proc = _export_all(out)
+    _wait_for_parts(proc, out)
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 128 + sig, err  # 143 for SIGTERM, 130 for Ctrl-C
+    assert parts(out) == []
+    assert not out.exists()  # the folder this run created is removed again
+
+
+def test_stale_part_files_are_removed_by_the_next_run(tmp_path: Path) -> None:
+    out = tmp_path / "parts"
+    proc = _export_all(out)
+    _wait_for_parts(proc, out)
+    proc.kill()  # SIGKILL: no cleanup can run
+    proc.wait()
+    stale = parts(out)
+    assert stale
+    live = out / f"{temp_prefix('keep')}abcdefgh.part.svg"  # this process is alive: its file stays
+    live.write_text("")
+    res = invoke("export", "0x0488", "--svg", str(out / "p.svg"))
+    assert res.exit_code == 0, res.stderr
+    assert parts(out) == [live.name]
+    assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == ["p.svg"]

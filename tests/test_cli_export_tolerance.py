@@ -1,4 +1,5 @@
-"""The user-set tolerances of ``fabpat export`` reach the files: coarser = fewer pieces, within bound."""
+"""The user-set tolerances of ``fabpat export`` reach the files: coarser = fewer pieces, within bound; a
+tolerance or thickness out of range, or work above --max-elements, is one line before any work."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import numpy as np
 import pytest
 
 from tests.conftest import run_cli
+from tests.helpers import refusal_in as one_line_error
 from tests.test_exchange_dxf import bulge_area, cut_loops, read
 
 
@@ -63,3 +65,24 @@ def test_default_stl_of_the_curviest_pattern_is_within_0_1_percent_volume(tmp_pa
     m = trimesh.load(out, file_type="stl")
     assert m.is_watertight and m.is_winding_consistent
     assert m.volume == pytest.approx(2.0 * fillet_pattern(get_pattern("0x2508")).outline.area, rel=1e-3)
+
+
+def test_export_tolerances(tmp_path: Path) -> None:
+    assert "[1e-06, 10] mm" in one_line_error(tmp_path, "export", "0x2d88", "--curve-tolerance", "1e-12",
+                                               "--dxf", "a.dxf")
+    line = one_line_error(tmp_path, "export", "0x2d88", "--curves", "lines", "--curve-tolerance", "1e-5",
+                          "--max-elements", "1000", "--dxf", "a.dxf")
+    assert "curve segments" in line and "--max-elements" in line and "--curve-tolerance" in line
+    line = one_line_error(tmp_path, "export", "0x2d88", "--mesh-tolerance", "1e-5", "--max-elements", "1000",
+                          "--stl", "a.stl")
+    assert "mesh triangles" in line
+    # a 1000 mm hexagon is 2000 mm across: floating point (1e-9 relative) resolves 2e-6 mm, not 1e-6
+    line = one_line_error(tmp_path, "export", "0x2d88", "--edge", "1000", "--mesh-tolerance", "1e-6",
+                          "--stl", "a.stl")
+    assert "below what floating point resolves" in line
+
+
+def test_export_thickness_and_tolerance_are_one_line(tmp_path: Path) -> None:
+    assert "--thickness" in one_line_error(tmp_path, "export", "0x2d88", "--thickness", "1e-9", "--step", "a.step")
+    assert "--mesh-tolerance" in one_line_error(tmp_path, "export", "0x2d88", "--mesh-tolerance", "1e-9",
+                                                "--stl", "a.stl")

@@ -1,5 +1,6 @@
 """Every numeric option of every command refuses nan, inf, −1, 0 and 1e308 where they are out of range:
-one line on stderr naming the option, exit code 2, nothing written (issue 15 §2).
+one line on stderr naming the option, exit code 2, nothing written; ``--help`` states each range, a number
+that does not parse names it, and one weight check serves every command.
 
 The options are discovered from the click command objects, so a new option is covered without
 editing this file; an option parsed as a plain click FLOAT/INT (no range) fails
@@ -18,6 +19,9 @@ from click.testing import CliRunner
 from fabpat.cli import cli
 from fabpat.cli.options import NumberType
 from fabpat.validate import RANGES
+from tests.helpers import SPECS
+from tests.helpers import refusal_in as one_line_error
+from tests.helpers import run_in as fabpat
 
 ROOT = Path(__file__).resolve().parents[1]
 STRIP_SPEC = str(ROOT / "assemblies" / "test-small.toml")
@@ -107,3 +111,47 @@ def test_hostile_number_is_one_line_exit_2_nothing_written(tmp_path: Path, comma
 def test_ranges_are_consistent() -> None:
     for r in RANGES.values():
         assert r.low < r.high and r.describe()
+
+
+@pytest.mark.parametrize(("args", "words"), [
+    (["show", "0x0488", "--edge", "nan", "--svg", "p.svg"], ["--edge", "finite", "[1, 1000] mm"]),
+    (["simulate", "0x2d88", "--h", "inf"], ["--h", "finite"]),
+    (["sweep", "--edge", "nan", "--db", "c.sqlite"], ["--edge"]),
+    (["sweep", "--poisson", "nan", "--db", "c.sqlite"], ["--poisson", "(-1, 0.5)"]),
+    (["simulate", "0x2d88", "--thickness", "inf"], ["--thickness"]),
+    (["simulate", "0x2d88", "--youngs-modulus", "inf"], ["--youngs-modulus", "N/mm²"]),
+    (["library", "--sample", "3", "--seed", "-1"], ["--seed", "[0, 9223372036854775807]"]),
+    (["library", "--sides", "9" * 40], ["--sides", "[3, 64]"]),
+])
+def test_bad_numbers_are_one_line(tmp_path: Path, args: list[str], words: list[str]) -> None:
+    line = one_line_error(tmp_path, *args)
+    for w in words:
+        assert w in line
+
+
+def test_help_states_the_range(tmp_path: Path) -> None:
+    for name in cli.commands:
+        code, out, err = fabpat(tmp_path, name, "--help")
+        assert code == 0, (name, err)
+    code, out, _ = fabpat(tmp_path, "simulate", "--help")
+    text = " ".join(out.split())
+    assert "Range: [0.01, 10]." in text and "Range: (-1, 0.5)." in text and "Range: [0.001, 1e+07] N/mm²." in text
+
+
+def test_one_weight_check_for_every_command(tmp_path: Path) -> None:
+    a = one_line_error(tmp_path, "simulate", "0x2d88", "--weight", "1e9")
+    b = one_line_error(tmp_path, "export", "0x2d88", "--weight", "1e9", "--step", "a.step")
+    c = one_line_error(tmp_path, "show", "0x2d88", "--weight", "1e9", "--filleted", "--svg", "a.svg")
+    assert a == b == c and "[0.01, 10]" in a
+
+
+@pytest.mark.parametrize("value", ["0", "0.5", "-0.1", "nan"])
+def test_end_shortening_outside_its_range_is_refused(tmp_path: Path, value: str) -> None:
+    line = one_line_error(tmp_path, "simulate-assembly", str(SPECS / "test-small.toml"), "--end-shortening", value)
+    assert "--end-shortening" in line and "(0, 0.5)" in line
+
+
+@pytest.mark.parametrize("args", [("library", "--sides", "nan"), ("simulate", "0x0488", "--h", "1e")])
+def test_unparsable_number_names_the_range(tmp_path: Path, args: tuple[str, ...]) -> None:
+    line = one_line_error(tmp_path, *args)
+    assert "must be" in line and "[" in line

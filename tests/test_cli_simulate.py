@@ -1,9 +1,14 @@
+"""``fabpat simulate`` and ``simulate-assembly`` on the command line: JSON and text output, result files, the
+Abaqus deck; a mesh too fine or too coarse to run, or a --png without .png, is one line naming what works."""
+
 import json
 from pathlib import Path
 
 import pytest
 
 from tests.conftest import run_cli
+from tests.helpers import refusal_in as one_line_error
+from tests.helpers import run_in as fabpat
 
 
 def test_simulate_json_and_files(tmp_path: Path) -> None:
@@ -151,3 +156,29 @@ def test_simulate_png_is_captioned_with_the_energy_it_prints(tmp_path: Path, mon
     energy = json.loads(r.stdout)["energy"]
     assert len(titles) == 1 and "0x7f88" in titles[0] and "F = 1.5 N" in titles[0]
     assert f"U = {energy:.4g} N·mm" in titles[0]
+
+
+def test_too_many_elements_is_refused_before_meshing(tmp_path: Path) -> None:
+    line = one_line_error(tmp_path, "simulate", "0x2d88", "--h", "0.05")
+    assert "--max-elements" in line and "50000" in line and "h ≥" in line
+    line = one_line_error(tmp_path, "simulate", "0x2d88", "--edge", "1000")
+    assert "mesh elements" in line and "--max-elements" in line
+    line = one_line_error(tmp_path, "simulate", "0x2d88", "--h", "2", "--max-elements", "300")
+    assert "above the limit of 300" in line
+    assert "--h" in one_line_error(tmp_path, "simulate", "0x2d88", "--h", "1e-6")
+    assert "--edge" in one_line_error(tmp_path, "simulate", "0x2d88", "--edge", "1e9")
+    line = one_line_error(tmp_path, "sweep", "--h", "0.05", "--db", "c.sqlite")
+    assert "mesh elements" in line
+
+
+def test_too_coarse_mesh_names_the_h_that_works(tmp_path: Path) -> None:
+    line = one_line_error(tmp_path, "simulate", "0x2d88", "--h", "36", "--scenario", "dome")
+    assert "min_width" in line and "2.25 mm" in line and "use h ≤ 4.5 mm" in line
+    code, out, err = fabpat(tmp_path, "simulate", "0x2d88", "--h", "4.5", "--scenario", "cantilever", "--linear")
+    assert code == 0, err
+
+
+@pytest.mark.parametrize("name", ["out.txt", "out"])
+def test_png_suffix(tmp_path: Path, name: str) -> None:
+    line = one_line_error(tmp_path, "simulate", "0x2d88", "--scenario", "cantilever", "--png", name)
+    assert "--png" in line and ".png" in line

@@ -1,4 +1,5 @@
-"""STEP AP214: written by OCCT's XDE writer, read back by build123d's importer."""
+"""STEP AP214: written by OCCT's XDE writer, read back by build123d's importer; the header's time stamp is
+ISO 8601, normalised, or refused before any work."""
 
 from __future__ import annotations
 
@@ -10,6 +11,8 @@ from fabpat import cad
 from fabpat.errors import ExportError
 from fabpat.exchange.registry import ExportSettings, Part, export_part
 from fabpat.exchange.step import write_step
+from tests.helpers import SMALL_SPEC, one_line_error
+from tests.helpers import invoke_result as invoke
 from tests.test_cad import BOWTIE_W, SHAPES, bowtie, bowtie_area, curve_weights, edge_curves
 
 
@@ -219,3 +222,45 @@ def test_trailing_colour_blocks_get_one_order(tmp_path: Path) -> None:
     referred.write_text(file(blocks).replace("#2 = X();", "#2 = X(#14);"))
     before = referred.read_bytes()
     assert sort_trailing_styles(referred) is False and referred.read_bytes() == before
+
+
+@pytest.mark.parametrize("given, header", [
+    ("2025-01-31 12:00", "2025-01-31T12:00:00"),
+    ("20250131", "2025-01-31T00:00:00"),
+    ("2025-01-31", "2025-01-31T00:00:00"),
+    ("2025-01-31T12:00:00.75+00:00", "2025-01-31T12:00:00Z"),
+    ("2025-01-31T12:00-05:30", "2025-01-31T12:00:00-05:30"),
+])
+def test_step_timestamp_is_normalised(tmp_path: Path, given: str, header: str) -> None:
+    from fabpat import cad
+    from fabpat.exchange.step import check_timestamp, write_step
+    from tests.test_cad import bowtie
+
+    assert check_timestamp(given) == header
+    path = write_step(cad.make_solid(bowtie()), tmp_path / "t.step", "t", timestamp=given)
+    text = path.read_text(encoding="utf-8")
+    assert f"'{header}'" in text and (given == header or f"'{given}'" not in text)
+
+
+def test_timestamp_must_be_iso8601(tmp_path: Path) -> None:
+    from fabpat.exchange.registry import ExportSettings
+    from fabpat.exchange.step import check_timestamp
+
+    res = invoke("assemble", str(SMALL_SPEC), "--out", str(tmp_path / "kit"), "--timestamp", "garbage")
+    one_line_error(res, "--timestamp", "ISO 8601")
+    assert list(tmp_path.iterdir()) == []
+    for bad in ("garbage", "2025-13-01", "", "2025-01-31T25:00", "2025-01-31 \u00e9"):
+        with pytest.raises(ExportError, match="ISO 8601"):
+            check_timestamp(bad)
+        with pytest.raises(ExportError, match="ISO 8601"):
+            ExportSettings(timestamp=bad).check()
+    for good in ("2025-01-31T12:00:00", "2025-01-31T12:00:00Z", "2025-01-31T12:00:00+01:00"):
+        assert check_timestamp(good) == good  # already normal: unchanged
+
+
+def test_step_header_gets_a_valid_timestamp_only(tmp_path: Path) -> None:
+    from fabpat.exchange.step import dump_step
+
+    with pytest.raises(ExportError, match="ISO 8601"):
+        dump_step(object(), tmp_path / "x.step", "x", "not a time")  # refused before OCCT sees the shape
+    assert list(tmp_path.iterdir()) == []

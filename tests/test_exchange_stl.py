@@ -1,5 +1,6 @@
 """Binary STL (OCCT mesher and writer) read back by trimesh; 3MF (our writer) read back by trimesh,
-by the standard library's XML parser and by lib3mf (the 3MF consortium's reference library)."""
+by the standard library's XML parser and by lib3mf (the 3MF consortium's reference library); the triangle
+estimate checked before meshing bounds the STL's count."""
 
 from __future__ import annotations
 
@@ -104,3 +105,19 @@ def test_every_facet_lies_within_the_tolerance_of_the_exact_surface(tmp_path: Pa
     w = np.stack([d2, np.abs(X[:, 2] - t / 2) - t / 2], axis=1)  # extruded along z
     sdf = np.minimum(w.max(axis=1), 0) + np.hypot(*np.maximum(w, 0).T)
     assert np.abs(sdf).max() <= tol + 1e-9
+
+
+def test_triangle_estimate_bounds_the_stl(tmp_path: Path) -> None:
+    import struct
+
+    from fabpat.cad import make_solid
+    from fabpat.exchange.registry import estimate_triangles
+    from fabpat.exchange.stl import write_stl
+    from fabpat.fillet import fillet_pattern
+    from fabpat.library import get_pattern
+
+    outline = fillet_pattern(get_pattern("0x7f88")).outline
+    write_stl(make_solid(outline, 2.0), tmp_path / "p.stl", 0.005)
+    n = struct.unpack("<I", (tmp_path / "p.stl").read_bytes()[80:84])[0]  # binary STL: count after the header
+    est = estimate_triangles(outline, 2.0, 0.005)
+    assert n <= est < 3 * n, (n, est)

@@ -1,4 +1,5 @@
-"""Outputs and inputs that are not regular files: refused in one line, never renamed over, never read.
+"""Outputs and inputs that are not regular files: refused in one line, never renamed over, never read; an
+output that is a symbolic link is written through, a dangling one refused.
 
 Only FIFOs, directories and symbolic links made in tmp_path are used; a link to ``/dev/null`` is the
 one device in play, and every test asserts it is still the character device it was.
@@ -8,7 +9,6 @@ from __future__ import annotations
 
 import os
 import stat
-import subprocess
 from pathlib import Path
 
 import pytest
@@ -17,6 +17,7 @@ from click.testing import CliRunner, Result
 from fabpat.errors import ExportError
 from fabpat.io import atomic_outputs, check_suffix, read_input
 from tests.conftest import run_cli
+from tests.helpers import one_line_error, parts
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -25,14 +26,6 @@ def invoke(*args: str) -> Result:
     from fabpat.cli import cli
 
     return CliRunner(env={"FABPAT_CACHE": "off"}).invoke(cli, list(args))
-
-
-def one_line_error(res: Result | subprocess.CompletedProcess[str], *words: str) -> None:
-    code = res.exit_code if isinstance(res, Result) else res.returncode
-    assert code == 2, res.stderr
-    assert res.stderr.startswith("fabpat: error:") and res.stderr.count("\n") == 1, res.stderr
-    for w in words:
-        assert w in res.stderr, res.stderr
 
 
 def _dev_null_is_a_device() -> bool:
@@ -138,3 +131,26 @@ def test_read_input_refuses_special_files_and_bounds_the_size(tmp_path: Path) ->
     assert read_input(big, "cache", max_bytes=101) == b"x" * 101
     with pytest.raises(FileNotFoundError):
         read_input(tmp_path / "missing.json", "cache")
+
+
+def test_a_symlinked_output_is_written_through(tmp_path: Path) -> None:
+    real = tmp_path / "real"
+    real.mkdir()
+    (real / "p.svg").write_text("old")
+    link = tmp_path / "p.svg"
+    link.symlink_to(real / "p.svg")
+    res = invoke("export", "0x0488", "--svg", str(link))
+    assert res.exit_code == 0, res.stderr
+    assert link.is_symlink() and os.readlink(link) == str(real / "p.svg")
+    assert (real / "p.svg").read_text().startswith("<?xml")
+    assert parts(real) == [] and parts(tmp_path) == []
+
+
+def test_a_dangling_symlink_is_refused(tmp_path: Path) -> None:
+    link = tmp_path / "p.svg"
+    link.symlink_to(tmp_path / "missing" / "p.svg")
+    one_line_error(invoke("export", "0x0488", "--svg", str(link)), "symbolic link")
+    link2 = tmp_path / "q.svg"
+    link2.symlink_to(tmp_path / "q-target.svg")
+    one_line_error(invoke("export", "0x0488", "--svg", str(link2)), "dangling")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.svg", "q.svg"]

@@ -1,4 +1,8 @@
+"""The pattern library (``fabpat.library``): enumeration, connectedness, symmetry, metrics and sampling; deep
+sampling is bounded and runs in small batches."""
+
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -7,6 +11,7 @@ from fabpat.errors import PatternError
 from fabpat.lattice import Slice, polygon_vertices
 from fabpat.library import enumerate_library, is_connected, is_tileable, sample_library
 from fabpat.pattern import Pattern
+from tests.helpers import refusal_in as one_line_error
 
 
 @pytest.mark.parametrize("sides", range(3, 13))
@@ -130,3 +135,21 @@ def test_unknown_id_is_rejected(hex_library) -> None:
         hex_library.pattern("0x0001")
     assert "0x0001" not in hex_library
     assert hex_library.ids[0] in hex_library
+
+
+def test_deep_sampling_is_bounded(tmp_path: Path) -> None:
+    from fabpat.library import sample_library
+
+    assert "[1, 6]" in one_line_error(tmp_path, "library", "--depth", "12", "--sample", "1")
+    with pytest.raises(PatternError, match="above the limit of 50000000"):
+        sample_library(6, 6, 10_000)
+
+
+def test_sampling_in_small_batches(monkeypatch: pytest.MonkeyPatch) -> None:
+    import fabpat.library as library
+
+    full = library.sample_library(6, 3, 5, seed=3)
+    monkeypatch.setattr(library, "MAX_BATCH_FACES", 10 * 6 * 4**3)  # 10 draws per batch instead of 4096
+    small = library.sample_library(6, 3, 5, seed=3)
+    assert len(small) == 5 and small.candidates % 10 == 0 and small.candidates < full.candidates
+    assert library.is_connected(small.bits, 6, 3).all() and library.is_tileable(small.bits, 3).all()

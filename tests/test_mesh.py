@@ -1,4 +1,5 @@
-"""Meshing of hand-made polygons (hexagon with a hole and thin necks) and interface tagging."""
+"""Meshing of hand-made polygons (hexagon with a hole and thin necks) and interface tagging; the element
+estimate checked before meshing, and the mesh sizes the element-count and resolution checks suggest."""
 
 from __future__ import annotations
 
@@ -190,3 +191,36 @@ def test_mesh_limits_count_the_real_triangles_and_bad_tolerances_are_refused() -
     assert refine_nested(m, fp).n_elements == 4 * m.n_elements  # a FilletedPattern refines along its outline
     with pytest.raises(GeometryError, match="refine_nested needs"):
         refine_nested(m, None)
+
+
+def test_element_estimate_is_close_to_the_mesh() -> None:
+    from fabpat.fillet import fillet_pattern
+    from fabpat.library import get_pattern
+    from fabpat.mesh import estimate_elements, mesh_outline
+
+    outline = fillet_pattern(get_pattern("0x2d88")).outline
+    for h in (1.0, 2.0):
+        n = mesh_outline(outline, h).n_elements
+        est = estimate_elements(outline.area, outline.perimeter, h)
+        assert 0.67 < est / n < 1.5, (h, est, n)
+
+
+@pytest.mark.parametrize("pid", ["0x0488", "0x2d88"])
+def test_suggested_h_passes_the_check_that_suggested_it(pid: str) -> None:
+    import re
+
+    import fabpat as api
+    from fabpat.mesh import check_element_count, check_resolves
+
+    fp = api.pattern(pid).fillet()
+    m = fp.metrics
+    with pytest.raises(GeometryError) as err:
+        check_element_count(m.area, m.perimeter, 0.05, 50_000)
+    low = float(re.search(r"use h ≥ ([0-9.e+-]+) mm", str(err.value)).group(1))
+    check_element_count(m.area, m.perimeter, low, 50_000)  # the suggestion passes
+    width = fp.min_width()
+    with pytest.raises(GeometryError) as err:
+        check_resolves(36.0, width)
+    high = float(re.search(r"use h ≤ ([0-9.e+-]+) mm", str(err.value)).group(1))
+    check_resolves(high, width)
+    assert high > 0.99 * 2 * width  # and it is not needlessly small

@@ -1,4 +1,5 @@
-"""Outline metrics and validation on small hand-made outlines, against closed forms.
+"""Outline metrics and validation on small hand-made outlines, against closed forms; the segment estimate
+checked before flattening.
 
 Expected values are textbook formulas or test-local computations (explicit curve formula, dense
 shoelace), never outputs of the code under test.
@@ -509,3 +510,13 @@ def test_symmetry_check_sees_a_different_arc_weight() -> None:
     assert rep.min_width < symmetric.validate(1e-3, **lenient).min_width - 0.1  # the fat lens is the neck
     with pytest.raises(ValueError, match="symmetry"):
         odd.validate(1e-3, symmetry=0)
+
+
+def test_segment_estimate_is_close_to_the_flattening() -> None:
+    from fabpat.fillet import fillet_pattern
+    from fabpat.library import get_pattern
+
+    outline = fillet_pattern(get_pattern("0x0488")).outline
+    for tol in (1e-3, 1e-4):
+        actual = sum(len(loop) for loop in outline.flatten(tol))
+        assert 0.67 < outline.estimate_segments(tol) / actual < 1.5

@@ -1,6 +1,6 @@
 """Long work shows progress: plain lines on a piped stderr every FABPAT_PROGRESS_INTERVAL seconds, nothing
 on stdout (its data are unchanged), nothing with --no-progress, and nothing for work shorter than the
-interval (a quick refusal stays one line)."""
+interval (a quick refusal stays one line, also for `assemble`)."""
 
 from __future__ import annotations
 
@@ -17,6 +17,8 @@ import pytest
 
 from fabpat.errors import RangeError
 from fabpat.progress import INTERVAL_VARIABLE, Progress, progress_interval
+from tests.helpers import SPECS
+from tests.helpers import run_in as fabpat
 
 ROOT = Path(__file__).resolve().parents[1]
 SMALL = ROOT / "assemblies" / "test-small.toml"
@@ -136,3 +138,12 @@ def test_a_bad_interval_is_refused(value: str, monkeypatch: pytest.MonkeyPatch) 
         progress_interval()
     monkeypatch.setenv(INTERVAL_VARIABLE, "0.5")
     assert progress_interval() == 0.5
+
+
+def test_kit_refusal_is_one_line_without_a_progress_bar(tmp_path: Path) -> None:
+    # the progress bar drew an empty line on a piped stderr before the refusal
+    spec = tmp_path / "s.toml"
+    spec.write_text((SPECS / "test-small.toml").read_text().replace("kerf = 0.15", "kerf = 10"))
+    code, _, err = fabpat(tmp_path, "assemble", str(spec), "--out", str(tmp_path / "kit"))
+    assert code == 2 and err.startswith("fabpat: error: ") and err.count("\n") == 1, repr(err)
+    assert "kerf" in err and not (tmp_path / "kit").exists()

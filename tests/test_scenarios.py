@@ -1,6 +1,9 @@
-"""The paper's three scenarios on a solid hexagon vs the notes' CalculiX S6 reference numbers."""
+"""The paper's three scenarios on a solid hexagon vs the notes' CalculiX S6 reference numbers; non-finite or
+implausibly large results are solver errors, not converged answers."""
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 import pytest
@@ -76,3 +79,19 @@ def test_missing_interface_raises(hexagon) -> None:
         run_scenario(bad, "cantilever", sides=6)
     with pytest.raises(SolverError, match="twist"):
         build_problem(hexagon, "twist", sides=6)
+
+
+def test_non_finite_or_huge_results_are_solver_errors() -> None:
+    from fabpat.mesh import solid_polygon_mesh
+    from fabpat.scenarios import check_plausible, plate_size, run_scenario
+
+    assert plate_size(6, 36.0) == pytest.approx(72.0)
+    with pytest.raises(SolverError, match="not finite"):
+        check_plausible(math.nan, math.inf, 72.0, False, "dome")
+    with pytest.raises(SolverError, match="beyond what the model allows"):
+        check_plausible(1.0, 150.0, 72.0, True, "dome")
+    check_plausible(1.0, 140.0, 72.0, True, "dome")  # within 2 D: accepted
+    # a 0.01 mm plate under the paper's 1.5 N: linear theory gives metres of deflection
+    mesh = solid_polygon_mesh(6, 36.0, h=9.0)
+    with pytest.raises(SolverError, match="drop --linear"):
+        run_scenario(mesh, "cantilever", sides=6, thickness=0.01, nonlinear=False)

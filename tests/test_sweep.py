@@ -1,4 +1,5 @@
-"""The sweep machinery: resume by input hash, one transaction per pattern, SIGKILL mid-run, dask.
+"""The sweep machinery: resume by input hash, one transaction per pattern, SIGKILL mid-run, dask (and a
+dask address that is none refused in one line).
 
 Most tests inject a tiny fake task (module-level, so worker processes can import it); one runs the real
 fillet → mesh → solver pipeline on two patterns at a coarse mesh through the CLI.
@@ -22,7 +23,8 @@ from fabpat.convergence import converged_h
 from fabpat.errors import FabpatError
 from fabpat.sweep import SweepSetup, run_sweep, simulate_pattern
 from tests.conftest import run_cli
-from tests.test_catalog import invoke
+from tests.helpers import invoke_result as invoke
+from tests.helpers import refusal_in as one_line_error
 
 IDS = [f"0x{k:04x}" for k in range(0x1008, 0x1008 + 16 * 12, 16)]  # 12 fake IDs (never solved)
 
@@ -382,3 +384,9 @@ def test_a_signal_to_the_sweep_command_exits_128_plus_it(tmp_path: Path, sig: in
     assert "run the same command again to resume" in err and out == ""
     n_patterns, n_results = _count(db)
     assert 1 <= n_patterns < 6 and n_results == 3 * n_patterns
+
+
+def test_dask_garbage_address(tmp_path: Path) -> None:
+    pytest.importorskip("distributed", reason="dask.distributed is not installed")
+    line = one_line_error(tmp_path, "sweep", "--dask", "garbage://x", "--db", "c.sqlite")
+    assert "garbage://x" in line and "unknown address scheme" in line
