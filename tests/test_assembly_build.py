@@ -251,3 +251,34 @@ def test_laser_plates_use_the_kerf_limit(tmp_path: Path) -> None:
     exp = invoke("export", "0x0488", "--dxf", str(tmp_path / "p.dxf"), "--kerf", "1")
     assert "min feature width 1.95 mm is below 2 mm for laser cutting with a 1 mm kerf" in exp.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["p.dxf", "s.toml"]
+
+
+@pytest.mark.slow
+def test_assemble_places_the_sphere_and_fillets_its_plates_once(tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+                                                                 ) -> None:
+    """A default ``assemble`` of the shipped sphere (its prediction included) places the assembly once and
+    fillets each of its two plate types once: the prediction solves the kit's own placement and outlines."""
+    import fabpat.assembly.build as build
+    import fabpat.assembly.placement as placement
+    import fabpat.fillet as fillet
+
+    calls = {"place": 0, "fillet": 0}
+    place, fillet_pattern = placement.place, fillet.fillet_pattern
+
+    def counted_place(*args: object, **kwargs: object) -> object:
+        calls["place"] += 1
+        return place(*args, **kwargs)  # type: ignore[arg-type]
+
+    def counted_fillet(*args: object, **kwargs: object) -> object:
+        calls["fillet"] += 1
+        return fillet_pattern(*args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(placement, "place", counted_place)
+    monkeypatch.setattr(build, "place", counted_place)  # bound at build's import
+    monkeypatch.setattr(fillet, "fillet_pattern", counted_fillet)
+    spec = edited(ROOT / "assemblies" / "truncated-icosahedron.toml", tmp_path / "sphere.toml", formats='["bom"]')
+    r = invoke("assemble", str(spec), "--out", str(tmp_path / "kit"), "--predict-h", "7.5", "--no-progress")
+    assert r.exit_code == 0, r.stderr
+    prediction = json.loads((tmp_path / "kit" / "prediction.json").read_text(encoding="utf-8"))
+    assert prediction["sphericity_rms"] < 0.01  # the prediction ran
+    assert calls == {"place": 1, "fillet": 2}

@@ -48,8 +48,10 @@ from fabpat.assembly.placement import (
     check_necks,
     place,
     radius_line,
+    sleeve_kinds,
 )
 from fabpat.assembly.predict import (
+    BENT_TOLERANCE,
     PREDICT_H,
     Prediction,
     bent,
@@ -96,11 +98,14 @@ def plan(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | None 
 
 
 def bends(spec: AssemblySpec) -> bool:
-    """:func:`bent` from the spec alone: its sleeves placed (cheap: no pattern is filleted; the angles do not
-    depend on the patterns). Raises :class:`SpecError` as :func:`check_geometry`."""
+    """:func:`bent` from the spec alone, without placing anything: a best-fit tiling, or a joint whose
+    sleeve is printed at another angle than its skeleton's dihedral (:func:`sleeve_kinds`; neither depends
+    on the patterns or the scale). Raises :class:`SpecError` as :func:`check_geometry`."""
     check_geometry(spec)
-    faces = build_tiling(spec).faces
-    return bent(place(spec, ["0x0488"] * len(faces)))
+    if spec.tiling.fit == "best":
+        return True
+    kinds = sleeve_kinds(spec, build_tiling(spec))
+    return any(abs(angle - dihedral) > BENT_TOLERANCE for _, dihedral, angle in kinds.values())
 
 
 def default_predict_h(spec: AssemblySpec) -> float:
@@ -297,7 +302,7 @@ def _build(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | Non
     if predicted(assembly) and predict:
         if chosen is None:
             tell("prediction")
-            prediction = predict_kit(spec, assembly, predict_h, predict_progress)
+            prediction = predict_kit(spec, assembly, predict_h, predict_progress, lib.filleted)
         else:
             prediction = finish(chosen[0], assembly, predict_h, chosen[1])
         problems += strain_problems(spec, prediction.run, force) + grip_problems(spec, prediction.fit, force)

@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -237,21 +237,23 @@ def slot_motions(asm: Assembly, s: PlacedSleeve, plates: list[ModelPlate]) -> tu
 
 
 def closure_setup(spec: object, face_patterns: list[str], *, h: float = 3.0, E: float | None = None,
-                  nu: float | None = None) -> ClosureSetup:
+                  nu: float | None = None, placed: Any = None, filleted: dict[Any, Any] | None = None) -> ClosureSetup:
     """Mesh, place and join the plates of a closed spec (an AssemblySpec), sleeves turning from each
     joint's dihedral to the spec's sleeve angle. ``E`` (N/mm²) and ``nu`` default to ``[material]``.
+    ``placed`` and ``filleted``: the kit's Assembly and outlines, if already made
+    (:func:`fabpat.assembly.simulate.strip_setup`).
 
     Raises GeometryError if h is too coarse for the interfaces (as the strip).
     """
     from fabpat.assembly.placement import place
     from fabpat.assembly.simulate import check_h, model_plates
 
-    asm = place(spec, face_patterns)  # type: ignore[arg-type]
+    asm = place(spec, face_patterns) if placed is None else placed  # type: ignore[arg-type]
     t = spec.plates.thickness  # type: ignore[attr-defined]
     w = spec.plates.weight  # type: ignore[attr-defined]
     check_h(h, asm.plate_edge, w)
     mat = spec.material  # type: ignore[attr-defined]
-    plates = model_plates(asm, h, t, w)
+    plates = model_plates(asm, h, t, w, filleted)
     sleeves = [ModelSleeve(s.label, s.transform, s.plates, float(s.dihedral - s.angle), slot_motions(asm, s, plates))
                for s in asm.sleeves]
     material = Material(mat.youngs_modulus if E is None else E, mat.poisson if nu is None else nu, t)

@@ -72,15 +72,24 @@ class Prediction:
     record: dict[str, Any]
 
 
-def close(spec: AssemblySpec, ids: list[str], h: float, progress: Callable[[float], None] | None = None) -> Any:
+def _outlines(filleted: dict[Any, Any] | None) -> dict[tuple[str, int, float], Any] | None:
+    """The kit's outlines by (pattern ID, sides, bridge weight), as the size check looks them up."""
+    if filleted is None:
+        return None
+    return {(pt.pattern_id, pt.sides, pt.bridge_weight): fp.outline for pt, fp in filleted.items()}
+
+
+def close(spec: AssemblySpec, ids: list[str], h: float, progress: Callable[[float], None] | None = None,
+          assembly: Assembly | None = None, filleted: dict[Any, Any] | None = None) -> Any:
     """The ClosureRun of the spec with face pattern IDs ``ids`` at mesh edge h (mm), checked against
-    ``[material] strain_limit``. Raises GeometryError (h too coarse) or SolverError (path lost)."""
+    ``[material] strain_limit``; ``assembly`` and ``filleted``: the kit's placement and outlines, if made
+    (nothing is placed or filleted again). Raises GeometryError (h too coarse) or SolverError (path lost)."""
     from fabpat.assembly.closure import closure_setup, run_closure
     from fabpat.assembly.sizing import check_assembly_size
 
     check_assembly_size(spec, ids, h, ASSEMBLY_MAX_ELEMENTS, option="the limit of a kit's prediction, ≈ 8 GB",
-                        h_name="--predict-h")
-    setup = closure_setup(spec, ids, h=h)
+                        h_name="--predict-h", outlines=_outlines(filleted))
+    setup = closure_setup(spec, ids, h=h, placed=assembly, filleted=filleted)
     return run_closure(setup, strain_limit=spec.material.strain_limit, progress=progress)
 
 
@@ -94,28 +103,31 @@ def finish(run: Any, assembly: Assembly, h: float, seconds: float) -> Prediction
     return Prediction(run, predicted_shape(run, assembly), fit, h, seconds, record)
 
 
-def push(spec: AssemblySpec, ids: list[str], h: float, progress: Callable[[float], None] | None = None) -> Any:
+def push(spec: AssemblySpec, ids: list[str], h: float, progress: Callable[[float], None] | None = None,
+         assembly: Assembly | None = None, filleted: dict[Any, Any] | None = None) -> Any:
     """The StripRun of a strip spec with face pattern IDs ``ids`` at mesh edge h (mm): the end pins pushed
     together by :func:`fabpat.assembly.simulate.kit_end_shortening` of the length, as ``simulate-assembly``
-    does with its defaults, checked against ``[material] strain_limit``. Raises GeometryError (h too coarse,
-    mesh too large) or SolverError (path lost, implausible result)."""
+    does with its defaults, checked against ``[material] strain_limit``; ``assembly`` and ``filleted`` as
+    :func:`close`. Raises GeometryError (h too coarse, mesh too large) or SolverError (path lost,
+    implausible result)."""
     from fabpat.assembly.simulate import kit_end_shortening, run_strip, strip_setup
     from fabpat.assembly.sizing import check_assembly_size
 
     check_assembly_size(spec, ids, h, ASSEMBLY_MAX_ELEMENTS, option="the limit of a kit's prediction, ≈ 8 GB",
-                        h_name="--predict-h")
+                        h_name="--predict-h", outlines=_outlines(filleted))
     mat = spec.material
-    setup = strip_setup(spec, ids, h=h, E=mat.youngs_modulus, nu=mat.poisson)
+    setup = strip_setup(spec, ids, h=h, E=mat.youngs_modulus, nu=mat.poisson, placed=assembly, filleted=filleted)
     return run_strip(setup, kit_end_shortening(spec), progress=progress, strain_limit=mat.strain_limit)
 
 
 def predict(spec: AssemblySpec, assembly: Assembly, h: float,
-            progress: Callable[[float], None] | None = None) -> Prediction:
+            progress: Callable[[float], None] | None = None, filleted: dict[Any, Any] | None = None) -> Prediction:
     """Solve the placed ``assembly`` in use (:func:`predicted`: closed by its sleeves, or a strip pushed
-    together) at mesh edge h (mm); ``progress(λ)`` per report step."""
+    together) at mesh edge h (mm); ``progress(λ)`` per report step. The assembly itself is solved, not
+    placed again, with ``filleted`` (the kit's FilletedPattern per plate type) meshed if given."""
     t0 = time.perf_counter()
     ids = [p.type.pattern_id for p in assembly.plates]
-    run = (push if spec.tiling.kind == "honeycomb-strip" else close)(spec, ids, h, progress)
+    run = (push if spec.tiling.kind == "honeycomb-strip" else close)(spec, ids, h, progress, assembly, filleted)
     return finish(run, assembly, h, time.perf_counter() - t0)
 
 

@@ -32,6 +32,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -109,13 +110,25 @@ def check_h(h: float, plate_edge: float, weight: float) -> None:
                             f"long; use h ≤ {math.floor(MAX_H_PER_INTERFACE * seg * 1000) / 1000:g} mm")
 
 
-def model_plates(asm: object, h: float, thickness: float, weight: float) -> list[ModelPlate]:
+def model_plates(asm: object, h: float, thickness: float, weight: float,
+                 filleted: dict[Any, Any] | None = None) -> list[ModelPlate]:
     """The placed plates of a kit's Assembly as model plates: each type meshed once (target edge h, mm),
-    its mid-surface placed at half the thickness (mm) of the solid the placement maps."""
+    its mid-surface placed at half the thickness (mm) of the solid the placement maps. ``filleted``:
+    the kit's FilletedPattern per plate type, meshed instead of filleting the type again (the same
+    outline: :func:`plate_mesh` fillets it as the kit does)."""
+    from fabpat.mesh import mesh_outline
+
     plates = []
+    own: dict[Any, Any] = {}
     for pl in asm.plates:  # type: ignore[attr-defined]
-        mesh = plate_mesh(pl.type.pattern_id, pl.type.sides, asm.plate_edge, weight, h,  # type: ignore[attr-defined]
-                          pl.type.bridge_weight)
+        if filleted is not None and pl.type in filleted:
+            if pl.type not in own:
+                own[pl.type] = mesh_outline(filleted[pl.type].outline, h, pl.type.sides,
+                                            asm.plate_edge, weight=weight)  # type: ignore[attr-defined]
+            mesh = own[pl.type]
+        else:
+            mesh = plate_mesh(pl.type.pattern_id, pl.type.sides, asm.plate_edge, weight, h,  # type: ignore[attr-defined]
+                              pl.type.bridge_weight)
         T = pl.transform.copy()
         T[:3, 3] += T[:3, 2] * (0.5 * thickness)  # the transform maps the solid z ∈ [0, t]: mid-surface at t/2
         plates.append(ModelPlate(pl.label, mesh, T))
@@ -135,18 +148,20 @@ class StripSetup:
 
 
 def strip_setup(spec: object, face_patterns: list[str], *, h: float = 3.0, E: float = 1000.0,
-                nu: float = 0.35) -> StripSetup:
-    """Mesh, place and join the plates of a ``honeycomb-strip`` spec (an AssemblySpec).
+                nu: float = 0.35, placed: Any = None, filleted: dict[Any, Any] | None = None) -> StripSetup:
+    """Mesh, place and join the plates of a ``honeycomb-strip`` spec (an AssemblySpec). ``placed``: the
+    kit's Assembly of these patterns, if already placed, and ``filleted`` its outlines per plate type
+    (:func:`model_plates`): nothing is placed or filleted again.
 
     Raises GeometryError if h exceeds ``MAX_H_PER_INTERFACE`` × the interface segment's length.
     """
     from fabpat.assembly.placement import place
 
-    asm = place(spec, face_patterns)  # type: ignore[arg-type]
+    asm = place(spec, face_patterns) if placed is None else placed  # type: ignore[arg-type]
     t = spec.plates.thickness  # type: ignore[attr-defined]
     w = spec.plates.weight  # type: ignore[attr-defined]
     check_h(h, asm.plate_edge, w)
-    plates = model_plates(asm, h, t, w)
+    plates = model_plates(asm, h, t, w, filleted)
     sleeves = [ModelSleeve(s.label, s.transform, s.plates) for s in asm.sleeves]
     model = assembly_model(plates, sleeves, Material(E, nu, t))
     grid = asm.skeleton.grid

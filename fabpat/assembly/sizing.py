@@ -55,12 +55,14 @@ def check_assembly_memory(elements: float, what: str) -> float:
 
 
 def check_assembly_size(spec: Any, patterns: list[str], h: float, max_elements: int,
-                        option: str = "raise it with --max-elements", h_name: str = "h") -> float:
+                        option: str = "raise it with --max-elements", h_name: str = "h",
+                        outlines: dict[tuple[str, int, float], Any] | None = None) -> float:
     """Refuse (GeometryError, naming --max-elements and an h that passes) an assembly whose plate meshes
     at edge h (mm) would hold more than ``max_elements`` triangles in total, or whose solve would need
     more memory than the machine has (:func:`check_assembly_memory`), before any meshing; the estimate is
     :func:`fabpat.mesh.estimate_elements` of each distinct filleted outline × its count.
-    ``option`` (how to raise the limit) and ``h_name`` (how the caller spells h) word the message."""
+    ``option`` (how to raise the limit) and ``h_name`` (how the caller spells h) word the message;
+    ``outlines``: outlines already filleted, by (pattern ID, sides, bridge weight), not filleted again."""
     import math
 
     from fabpat.assembly.placement import build_tiling
@@ -79,7 +81,10 @@ def check_assembly_size(spec: Any, patterns: list[str], h: float, max_elements: 
         count[key] = count.get(key, 0) + 1
     area = perimeter = 0.0
     for (pid, sides, w), k in count.items():
-        o = fillet_pattern(get_pattern(pid, sides, None, spec.tiling.edge), spec.plates.weight, Variation(w)).outline
+        o = (outlines or {}).get((pid, sides, w))
+        if o is None:
+            pattern = get_pattern(pid, sides, None, spec.tiling.edge)
+            o = fillet_pattern(pattern, spec.plates.weight, Variation(w)).outline
         area += k * o.area
         perimeter += k * o.perimeter
     n = estimate_elements(area, perimeter, h)
