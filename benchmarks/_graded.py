@@ -6,7 +6,7 @@ Element size s(x) = h · min(1, (w/k + g·d) / H0) with w the local width at the
 or another loop), d the distance to those samples, k = 3 elements across a width, growth g = 0.3 and
 H0 = 1.5 mm: necks get k elements across at h = H0 and proportionally more on finer meshes, so the
 whole family refines uniformly with h (as a reference extrapolated in h needs). Curves are flattened
-as fabpat does (:func:`fabpat.mesh.flatten_outline`, 0.02·h mm); Triangle refines towards s by per-triangle
+as fabpat does (:func:`fabpat.simulation.mesh.flatten_outline`, 0.02·h mm); Triangle refines towards s by per-triangle
 area bounds.
 """
 
@@ -16,9 +16,8 @@ import math
 
 import numpy as np
 import triangle
+from fabpat.simulate import mesh as M
 from scipy.spatial import cKDTree
-
-from fabpat import mesh as M
 
 K_ACROSS, GROWTH, H0 = 3.0, 0.3, 1.5
 

@@ -9,7 +9,7 @@ solver does not report.
 
 Model (the decisions, in one place):
 
-* Every tile is its pattern's filleted outline, meshed as in the scenarios (:func:`fabpat.mesh.mesh_outline`,
+* Every tile is its pattern's filleted outline, meshed as in the scenarios (:func:`fabpat.simulation.mesh.mesh_outline`,
   target edge ``h``), on the ideal honeycomb of edge ``e``: the sleeve's web between the plates is not
   modelled. Tiles joined by a sleeve share the nodes of their common interface segment, i.e. the
   sleeve's "full restraint" is a welded joint over the segment (:func:`strip_model` checks that the two
@@ -39,10 +39,10 @@ from numpy.typing import NDArray
 from fabpat.assembly.placement import end_interfaces
 from fabpat.assembly.tiling import Tiling
 from fabpat.errors import GeometryError
-from fabpat.scenarios import tributary_weights
 from fabpat.shell import ShellProblem, ShellResult, solve_linear
 from fabpat.shell.element import Material
 from fabpat.shell.solve import solve_nonlinear
+from fabpat.simulation.scenarios import tributary_weights
 
 WELD_TOL = 1e-6  # mm: interface nodes of two tiles closer than this are one node
 STRIP_RTOL = 1e-6  # Newton tolerance relative to the load norm (see simulate_strip)
@@ -101,9 +101,9 @@ class StripResult:
 
 
 def _tile_mesh(pattern_id: str, edge: float, weight: float, h: float):  # noqa: ANN202 - a ShellMesh
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
-    from fabpat.mesh import mesh_outline
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
+    from fabpat.simulation.mesh import mesh_outline
 
     outline = fillet_pattern(get_pattern(pattern_id, 6, 2, edge), weight).outline
     return mesh_outline(outline, h, 6, edge, weight=weight)

@@ -69,7 +69,7 @@ def main() -> None:
 
         from fabpat.cli.export_cmds import make_part
         from fabpat.exchange.registry import FORMATS, ExportSettings, width_warnings
-        from fabpat.library import enumerate_library
+        from fabpat.patterns.library import enumerate_library
 
         lib = enumerate_library(6, 2)
         settings = ExportSettings()

@@ -18,8 +18,8 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from fabpat.fillet import fillet_pattern  # noqa: E402
-from fabpat.library import enumerate_library  # noqa: E402
+from fabpat.geometry.fillet import fillet_pattern  # noqa: E402
+from fabpat.patterns.library import enumerate_library  # noqa: E402
 
 
 def main() -> None:

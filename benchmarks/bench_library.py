@@ -10,9 +10,9 @@ import time
 
 import numpy as np
 
-from fabpat.lattice import edge_row, n_faces
-from fabpat.library import enumerate_library, is_connected, sample_library
-from fabpat.pattern import pattern_topology
+from fabpat.patterns.lattice import edge_row, n_faces
+from fabpat.patterns.library import enumerate_library, is_connected, sample_library
+from fabpat.patterns.pattern import pattern_topology
 
 
 def best_of(fn, repeat: int = 5) -> float:  # noqa: ANN001

@@ -14,12 +14,12 @@ from collections.abc import Callable
 
 import numpy as np
 
-from fabpat.fillet import fillet_pattern
-from fabpat.library import enumerate_library
-from fabpat.mesh import mesh_outline
-from fabpat.scenarios import build_problem
+from fabpat.geometry.fillet import fillet_pattern
+from fabpat.patterns.library import enumerate_library
 from fabpat.shell.linalg import Pardiso, SuperLUFactorizer, factorizer
 from fabpat.shell.solve import _setup
+from fabpat.simulation.mesh import mesh_outline
+from fabpat.simulation.scenarios import build_problem
 
 
 def best(fn: Callable[[], object], k: int = 5) -> float:

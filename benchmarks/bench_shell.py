@@ -25,18 +25,18 @@ from pathlib import Path
 
 import numpy as np
 
-from fabpat.exchange.inp import read_ccx_energy, write_inp
-from fabpat.lattice import polygon_vertices
-from fabpat.mesh import ShellMesh, interface_segments, mesh_outline, mesh_polygons, solid_polygon_mesh
-from fabpat.scenarios import SCENARIOS, build_problem, run_scenario
+from fabpat.patterns.lattice import polygon_vertices
+from fabpat.simulation.inp import read_ccx_energy, write_inp
+from fabpat.simulation.mesh import ShellMesh, interface_segments, mesh_outline, mesh_polygons, solid_polygon_mesh
+from fabpat.simulation.scenarios import SCENARIOS, build_problem, run_scenario
 
 PATTERNS = ("0x2d88", "0x0488")
 
 
 def library_pattern(pid: str) -> Callable[[float], ShellMesh]:
     """Mesh factory h ↦ mesh of the filleted library pattern ``pid`` (hexagon, edge 36 mm)."""
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
 
     outline = fillet_pattern(get_pattern(pid)).outline
     return lambda h: mesh_outline(outline, h, 6, 36.0)

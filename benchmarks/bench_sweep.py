@@ -22,11 +22,11 @@ import tempfile
 import time
 from pathlib import Path
 
-from fabpat.fillet import fillet_pattern
-from fabpat.library import enumerate_library, sample_library
-from fabpat.mesh import mesh_outline
-from fabpat.scenarios import SCENARIOS, run_scenario
-from fabpat.sweep import SweepSetup, fine_mesh, run_sweep
+from fabpat.catalog.sweep import SweepSetup, fine_mesh, run_sweep
+from fabpat.geometry.fillet import fillet_pattern
+from fabpat.patterns.library import enumerate_library, sample_library
+from fabpat.simulation.mesh import mesh_outline
+from fabpat.simulation.scenarios import SCENARIOS, run_scenario
 
 
 def sequential(ids: list[str], h: float) -> list[dict[str, float | str]]:

@@ -8,8 +8,9 @@ Run (from the repository root)::
 
 The Reissner–Mindlin plate has free-edge layers of width t/√(12κ) ≈ 0.6 mm (t = 2 mm, κ = 5/6) that an
 isotropic h = 1.5 mm mesh cannot form (docs/accuracy.md). The candidate mesh, built here and not in
-:mod:`fabpat.mesh` (it did not pay: docs/accuracy.md, "Boundary-layer rows"): every boundary loop, cut to ≤ h as
-:func:`fabpat.mesh.mesh_polygons` cuts it, gets one or more rows of quads split into triangles on its
+:mod:`fabpat.simulation.mesh` (it did not pay: docs/accuracy.md, "Boundary-layer rows"): every boundary loop, cut to
+≤ h as
+:func:`fabpat.simulation.mesh.mesh_polygons` cuts it, gets one or more rows of quads split into triangles on its
 material side — each node moved along the bisector of its sides' normals (miter offset), the rows thin
 across the edge (the row depths, mm) and as long as the boundary pieces along it — and the region inside
 the innermost row is meshed by Triangle at h as today, with no Steiner points on that row (``Y``) so the
@@ -43,7 +44,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.mesh import (
+from fabpat.simulation.mesh import (
     AREA_FACTOR,
     FLATTEN_TOL_PER_H,
     ShellMesh,
@@ -130,8 +131,8 @@ def layered_mesh(loops: Sequence[NDArray[np.float64]], h: float, depths: Sequenc
 
 
 def mesh_pattern(outline: object, h: float, depths: Sequence[float]) -> ShellMesh:
-    """Today's :func:`fabpat.mesh.mesh_outline`, or the layered mesh of the same flattened outline."""
-    from fabpat.mesh import mesh_outline
+    """Today's :func:`fabpat.simulation.mesh.mesh_outline`, or the layered mesh of the same flattened outline."""
+    from fabpat.simulation.mesh import mesh_outline
 
     if not depths:
         return mesh_outline(outline, h, 6, 36.0)
@@ -140,7 +141,7 @@ def mesh_pattern(outline: object, h: float, depths: Sequence[float]) -> ShellMes
 
 def check_interfaces(outline: object, h: float, m: ShellMesh) -> None:
     """Raise RuntimeError unless m's interface nodes are those of today's mesh at h, in the same order."""
-    from fabpat.mesh import mesh_outline
+    from fabpat.simulation.mesh import mesh_outline
 
     ref = mesh_outline(outline, h, 6, 36.0)
     if any(a.shape != b.shape or not np.array_equal(m.V[a], ref.V[b])
@@ -156,9 +157,9 @@ def quality(m: ShellMesh) -> tuple[float, float]:
 
 
 def pilots(repeat: int = 1) -> None:
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
-    from fabpat.scenarios import SCENARIOS, run_scenario
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
+    from fabpat.simulation.scenarios import SCENARIOS, run_scenario
 
     print(f"## Pilots (load average {os.getloadavg()[0]:.1f})\n")
     print("| pattern | scenario | mesh | energy (N·mm) | error vs reference | nodes | min angle | max aspect "
@@ -243,7 +244,7 @@ def torsion() -> None:
     print("\n| Triangle mesh | nodes | twist rate × G·J / T |\n|---|---|---|")
     for h, depths in ((1.5, ()), (1.0, ()), (0.5, ()), (0.25, ()), (1.5, (0.5,)), (1.5, (0.3, 0.4)),
                       (1.5, (0.1, 0.15, 0.25, 0.35))):
-        from fabpat.mesh import mesh_polygons
+        from fabpat.simulation.mesh import mesh_polygons
 
         m = layered_mesh(rect, h, depths) if depths else mesh_polygons(rect, h)
         name = f"h = {h:g}" + (f", rows {' + '.join(f'{d:g}' for d in depths)} mm" if depths else " uniform")
@@ -261,7 +262,7 @@ def element() -> None:
     print("| rows | nodes | min angle | max aspect | tip shear | tip moment | in-plane shear (Timoshenko) "
           "| patch energy error |\n|---|---|---|---|---|---|---|---|")
     for depths in ((), (0.5,), (0.3, 0.4), (0.15, 0.25)):
-        from fabpat.mesh import mesh_polygons
+        from fabpat.simulation.mesh import mesh_polygons
 
         rect = [np.array([[0, 0], [L, 0], [L, b], [0, b]], float)]
         m = layered_mesh(rect, 2.5, depths) if depths else mesh_polygons(rect, 2.5)

@@ -19,7 +19,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from fabpat.exchange.inp import read_ccx_energy
+from fabpat.simulation.inp import read_ccx_energy
 
 
 def main(argv: list[str]) -> None:

@@ -8,7 +8,7 @@ Run (from the repository root)::
 
 For ``--patterns`` random library patterns (``sample_library(6, 2, N, seed)``, seeded) and the three
 scenarios (nonlinear, as the sweep runs them), every pattern is filleted and meshed at each mesh size of
-``--h`` (uniform Triangle meshes, :func:`fabpat.mesh.mesh_outline`) and solved.
+``--h`` (uniform Triangle meshes, :func:`fabpat.simulation.mesh.mesh_outline`) and solved.
 
 Reference: the three finest meshes (by default h = 1.0, 0.7, 0.5) extrapolated to h → 0 with the model
 E(h) = E∞ − C·hᵖ, least squares per pattern-scenario, with the order p = :data:`REFERENCE_ORDER` = 1.2
@@ -25,12 +25,12 @@ pattern-scenario, meshing included, summed over the meshes it needs):
 * a single mesh h (h = 1.5 is what the catalog first shipped with, marked "one mesh before");
 * two-mesh Richardson extrapolation E₂ + (E₂ − E₁)/((h₁/h₂)ᵖ − 1) from two independent Triangle meshes,
   p = 1 (the pair 1.5 / 1.0 mm was the catalog's next method, marked "two meshes before");
-* the shipped method (:func:`fabpat.convergence.mesh_converged`, as ``fabpat sweep``): a Triangle mesh of
-  h = :data:`fabpat.convergence.CONVERGED_MESHES` [0] = 2.5 mm with its chord tolerance (finer for necks
-  narrower than 2.27 mm: :func:`fabpat.convergence.converged_h`; the table header counts the patterns per
+* the shipped method (:func:`fabpat.simulation.convergence.mesh_converged`, as ``fabpat sweep``): a Triangle mesh of
+  h = :data:`fabpat.simulation.convergence.CONVERGED_MESHES` [0] = 2.5 mm with its chord tolerance (finer for necks
+  narrower than 2.27 mm: :func:`fabpat.simulation.convergence.converged_h`; the table header counts the patterns per
   coarse h), and its nested
   refinement (every triangle split into four, new boundary nodes on the exact outline), extrapolated
-  with p = :data:`fabpat.convergence.RICHARDSON_ORDER` (1.2; the rows with p = 1.0 and 1.1 show how much
+  with p = :data:`fabpat.simulation.convergence.RICHARDSON_ORDER` (1.2; the rows with p = 1.0 and 1.1 show how much
   the order matters) — and the refined mesh alone.
 
 Seconds are CPU seconds of the worker process (one BLAS thread), so a machine shared with other jobs
@@ -51,9 +51,9 @@ from pathlib import Path
 
 import numpy as np
 
-from fabpat.convergence import CONVERGED_MESHES, RICHARDSON_ORDER, mesh_converged, richardson
-from fabpat.library import sample_library
-from fabpat.scenarios import SCENARIOS
+from fabpat.patterns.library import sample_library
+from fabpat.simulation.convergence import CONVERGED_MESHES, RICHARDSON_ORDER, mesh_converged, richardson
+from fabpat.simulation.scenarios import SCENARIOS
 
 #: (scenario, h) → (energy, seconds, nodes); h a float for uniform meshes, "nested 2" / "nested 1" for the
 #: coarse and fine mesh of the shipped method's pair (keys from when it was 2 / 1 mm; the file's
@@ -72,10 +72,10 @@ def _init() -> None:
 
 def run_pattern(pid: str, hs: tuple[float, ...]) -> tuple[str, Row]:
     """Energy, seconds (meshing shared by the three scenarios) and nodes of every (scenario, h)."""
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
-    from fabpat.mesh import mesh_outline
-    from fabpat.scenarios import run_scenario
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
+    from fabpat.simulation.mesh import mesh_outline
+    from fabpat.simulation.scenarios import run_scenario
 
     t0 = time.process_time()
     filleted = fillet_pattern(get_pattern(pid))

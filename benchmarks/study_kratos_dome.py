@@ -29,7 +29,6 @@ import time
 import numpy as np
 import scipy.sparse.linalg as spla
 
-from fabpat.scenarios import build_problem
 from fabpat.shell import ShellProblem, solve_linear
 from fabpat.shell.assembly import Assembler
 from fabpat.shell.corotational import CorotationalTriangles
@@ -37,15 +36,16 @@ from fabpat.shell.element import Material
 from fabpat.shell.kratos import THICK, THIN, solve_kratos
 from fabpat.shell.rotations import expmap
 from fabpat.shell.solve import solve_nonlinear
+from fabpat.simulation.scenarios import build_problem
 
 E, NU, T = 1000.0, 0.35, 2.0
 LIN_SCALE = 1e-4  # Kratos has no linear solver here: a tiny load, energy scaled by λ⁻²
 
 
 def lacy_mesh(h: float):  # noqa: ANN201 (ShellMesh)
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
-    from fabpat.mesh import mesh_outline
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
+    from fabpat.simulation.mesh import mesh_outline
 
     return mesh_outline(fillet_pattern(get_pattern("0x0488")).outline, h, 6, 36.0)
 

@@ -33,9 +33,9 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from numpy.typing import NDArray
 
-from fabpat.mesh import mesh_polygons
-from fabpat.scenarios import tributary_weights
 from fabpat.shell import Material, ShellProblem, solve_linear
+from fabpat.simulation.mesh import mesh_polygons
+from fabpat.simulation.scenarios import tributary_weights
 
 L_BAR, B_BAR, T_BAR, E_BAR = 60.0, 3.0, 2.0, 1000.0
 G_BAR = E_BAR / 2.0  # ν = 0
@@ -152,12 +152,12 @@ def t3_twist(V: NDArray, F: NDArray) -> float:
 def t6_scenario(mesh: object, scenario: str, shear_rule: tuple[NDArray, NDArray]) -> tuple[float, int]:
     """Linear strain energy (N·mm) and node count of ``scenario`` on the T6 version of a fabpat mesh.
 
-    The loads and supports are those of :func:`fabpat.scenarios.build_problem` (each interface's
+    The loads and supports are those of :func:`fabpat.simulation.scenarios.build_problem` (each interface's
     total force or moment spread uniformly along it; here with the quadratic edges' consistent shares
     1/6, 2/3, 1/6), restricted to the plate dofs: with moments and transverse forces only, the linear
     membrane is unloaded.
     """
-    from fabpat.scenarios import build_problem
+    from fabpat.simulation.scenarios import build_problem
 
     p = build_problem(mesh, scenario, sides=6)
     V2 = np.asarray(mesh.V)[:, :2]
@@ -190,10 +190,10 @@ def t6_scenario(mesh: object, scenario: str, shear_rule: tuple[NDArray, NDArray]
 
 def pilots(hs3: list[float], hs6: list[float], ids: list[str]) -> None:
     """Linear energies of the lacy pilots: T3 (fabpat) and T6 against the finest T6 mesh."""
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import enumerate_library
-    from fabpat.mesh import mesh_outline
-    from fabpat.scenarios import SCENARIOS, run_scenario
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import enumerate_library
+    from fabpat.simulation.mesh import mesh_outline
+    from fabpat.simulation.scenarios import SCENARIOS, run_scenario
 
     lib = enumerate_library(6, 2)
     print("\n## Library patterns, linear scenarios: energy / reference − 1 (nodes)\n")

@@ -23,7 +23,7 @@ runs them:
   code's formula with six nodes), the tangent its forward difference (36 force evaluations: slow, but
   only the answer is measured here, not the time);
 * **solve**: Newton–Raphson on the full load with step halving, residual ≤ 1e-8 of the load, as
-  ``fabpat.shell.solve``; loads and supports of :func:`fabpat.scenarios.build_problem` spread on the
+  ``fabpat.shell.solve``; loads and supports of :func:`fabpat.simulation.scenarios.build_problem` spread on the
   quadratic sides with the consistent shares 1/6, 2/3, 1/6.
 
 Checks printed first: at a load 1e-3 of the scenario's, the energy / load² equals the linear T6 plate
@@ -202,7 +202,7 @@ def solve(model: Quadratic, fixed: Arr, loads: Arr, rtol: float = 1e-8, max_iter
 
 def scenario_problem(mesh: object, scenario: str, scale: float = 1.0) -> tuple[Quadratic, Arr, Arr]:
     """The quadratic model, supports (n, 6) and loads (n, 6) of ``scenario`` on the T6 version of ``mesh``."""
-    from fabpat.scenarios import build_problem
+    from fabpat.simulation.scenarios import build_problem
 
     p = build_problem(mesh, scenario, sides=6)
     V2 = np.asarray(mesh.V)[:, :2]
@@ -228,10 +228,10 @@ def scenario_problem(mesh: object, scenario: str, scale: float = 1.0) -> tuple[Q
 
 
 def main() -> None:
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import enumerate_library
-    from fabpat.mesh import mesh_outline
-    from fabpat.scenarios import SCENARIOS, run_scenario
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import enumerate_library
+    from fabpat.simulation.mesh import mesh_outline
+    from fabpat.simulation.scenarios import SCENARIOS, run_scenario
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--h", type=float, nargs="+", default=[2.0, 1.5, 1.0])

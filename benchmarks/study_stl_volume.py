@@ -13,10 +13,10 @@ import time
 
 import numpy as np
 
-from fabpat.cad import DEFAULT_CHORD, make_solid
 from fabpat.cli.export_cmds import make_part
+from fabpat.exchange.cad import DEFAULT_CHORD, make_solid
 from fabpat.exchange.threemf import triangulate
-from fabpat.library import enumerate_library
+from fabpat.patterns.library import enumerate_library
 
 
 def mesh_volume(V: np.ndarray, F: np.ndarray) -> float:

@@ -10,7 +10,7 @@ For ``--patterns`` random hexagon patterns that have non-manifold vertices (seed
 one has a one-member family), every member on a grid of ``bridge_weight`` is solved as the catalog is
 (``fabpat sweep --variation bridge_weight=W``: fillet, the converged two-mesh energy of each scenario)
 into a study catalog (``--db``, resumable). The grid is the family's interpolation nodes
-(:data:`fabpat.sweep.FAMILY_SAMPLES` and the paper's 1) and three members inside each interval, 21 in all.
+(:data:`fabpat.catalog.sweep.FAMILY_SAMPLES` and the paper's 1) and three members inside each interval, 21 in all.
 
 Tables:
 
@@ -18,7 +18,7 @@ Tables:
    (range over the patterns) and the largest *jump*: how far a member's energy is from the cubic
    through its four nearest neighbours, relative — a jump beyond the ~1 % of the converged energies
    (docs/accuracy.md) would show a discontinuity (a remeshing artefact, a change of buckling mode).
-2. **Interpolant**: the family interpolant (:mod:`fabpat.family`, PCHIP through the nodes only) against
+2. **Interpolant**: the family interpolant (:mod:`fabpat.catalog.family`, PCHIP through the nodes only) against
    the direct solve of every member between the nodes: worst and median relative error.
 3. **Range**: per pattern, the ratio of the largest to the smallest Dome energy over the converged members.
 4. **Reachable energies**: the fraction of the log-energy axis between the library's stiffest and softest
@@ -27,7 +27,7 @@ Tables:
 5. **The library's families** (when ``--catalog`` holds family rows, ``fabpat sweep --family``): per
    scenario the ratio of the largest to the smallest energy over each pattern's converged members
    (median, 10th and 90th percentile over the library) and the fraction of the energy axis within 2 %
-   of some pattern and member (the family interpolant, :mod:`fabpat.family`).
+   of some pattern and member (the family interpolant, :mod:`fabpat.catalog.family`).
 """
 
 from __future__ import annotations
@@ -43,10 +43,10 @@ from pathlib import Path
 import numpy as np
 
 from fabpat.catalog import open_catalog
-from fabpat.fillet import vertex_stars
-from fabpat.library import enumerate_library
-from fabpat.scenarios import SCENARIOS
-from fabpat.sweep import FAMILY_SAMPLES, SweepSetup, run_sweep
+from fabpat.catalog.sweep import FAMILY_SAMPLES, SweepSetup, run_sweep
+from fabpat.geometry.fillet import vertex_stars
+from fabpat.patterns.library import enumerate_library
+from fabpat.simulation.scenarios import SCENARIOS
 
 
 def grid() -> list[float]:
@@ -172,7 +172,7 @@ def picture(pid: str, data: dict, out: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from fabpat.library import get_pattern
+    from fabpat.patterns.library import get_pattern
 
     shown = [0.25, 0.5, 1.0, 1.6, 2.5]
     fig = plt.figure(figsize=(11, 4.6))
@@ -256,7 +256,7 @@ def main() -> None:
 
 def library_families(catalog: Path | None, rows: list[dict]) -> None:
     """Table 5, from the catalog's family rows (nothing without them)."""
-    from fabpat.family import family_curves
+    from fabpat.catalog.family import family_curves
 
     with open_catalog(catalog) as cat:
         if not cat.family(sides=6):
@@ -281,7 +281,7 @@ def rule_mismatch(catalog: Path | None) -> None:
     """Table 6: how far the rules' patterns are from their targets, discrete and with members."""
     from fabpat.assembly import rules
     from fabpat.catalog import polygon_energies
-    from fabpat.family import family_curves
+    from fabpat.catalog.family import family_curves
 
     with open_catalog(catalog) as cat:
         if not cat.family(sides=6):

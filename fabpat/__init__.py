@@ -15,33 +15,38 @@ The Python front door (everything is imported on first use, so ``import fabpat``
     sim.fields()["sphericity_rms"]                        # and every simulate-assembly field
     d = fabpat.design("arch.csv", "assemblies/graded-strip.toml")  # one pattern per column for a target arch
 
-``fabpat.library``, ``fabpat.pattern`` and ``fabpat.catalog`` are also the submodules of those names:
-calling one calls :func:`fabpat.library.library`, :func:`fabpat.library.pattern` or
-:func:`fabpat.catalog.catalog`.
+``fabpat.library``, ``fabpat.pattern`` and ``fabpat.catalog`` are also modules (``fabpat.patterns.library``,
+``fabpat.patterns.pattern``, ``fabpat.catalog``): calling one calls :func:`fabpat.patterns.library.library`,
+:func:`fabpat.patterns.library.pattern` or :func:`fabpat.catalog.catalog`. The modules live in one package
+per stage of the pipeline (``patterns``, ``geometry``, ``exchange``, ``simulation``, ``shell``, ``catalog``,
+``views``, ``assembly``, ``design``, ``cli``); their earlier flat names (``fabpat.fillet``) still import
+(:mod:`fabpat._moved`).
 """
 
 import importlib as _importlib
+
+from fabpat import _moved  # noqa: F401 - the earlier flat module names keep importing
 
 __version__ = "0.1.0"
 
 # name → "module" (the module itself, callable) or "module:attribute"; resolved on first access
 _LAZY = {
-    "library": "fabpat.library",
-    "pattern": "fabpat.pattern",
+    "library": "fabpat.patterns.library",
+    "pattern": "fabpat.patterns.pattern",
     "catalog": "fabpat.catalog",
-    "simulate": "fabpat.convergence:simulate",
+    "simulate": "fabpat.simulation.convergence:simulate",
     "simulate_assembly": "fabpat.assembly.simulation:simulate_assembly",
     "design": "fabpat.design:design",
-    "variations": "fabpat.variation:variations",
-    "Variation": "fabpat.variation:Variation",
-    "Library": "fabpat.library:Library",
-    "Pattern": "fabpat.pattern:Pattern",
-    "FilletedPattern": "fabpat.fillet:FilletedPattern",
-    "Outline": "fabpat.outline:Outline",
+    "variations": "fabpat.patterns.variation:variations",
+    "Variation": "fabpat.patterns.variation:Variation",
+    "Library": "fabpat.patterns.library:Library",
+    "Pattern": "fabpat.patterns.pattern:Pattern",
+    "FilletedPattern": "fabpat.geometry.fillet:FilletedPattern",
+    "Outline": "fabpat.geometry.outline:Outline",
     "Part": "fabpat.exchange.registry:Part",
-    "RegionMetrics": "fabpat.metrics:RegionMetrics",
-    "ScenarioResult": "fabpat.scenarios:ScenarioResult",
-    "SCENARIOS": "fabpat.scenarios:SCENARIOS",
+    "RegionMetrics": "fabpat.patterns.metrics:RegionMetrics",
+    "ScenarioResult": "fabpat.simulation.scenarios:ScenarioResult",
+    "SCENARIOS": "fabpat.simulation.scenarios:SCENARIOS",
     "FabpatError": "fabpat.errors:FabpatError",
     "PatternError": "fabpat.errors:PatternError",
     "GeometryError": "fabpat.errors:GeometryError",

@@ -8,8 +8,8 @@ range. The table, with the reasons for each bound, is in docs/reliability.md.
 
 The ranges are physical, not computational: what a plate, a material or a fabrication process can
 be. Whether the *work* a valid combination asks for fits in memory and time is a separate question,
-answered by the size estimates next to the heavy code (``fabpat.mesh.estimate_elements``,
-``fabpat.outline.Outline.estimate_segments``) with limits an option can raise.
+answered by the size estimates next to the heavy code (``fabpat.simulation.mesh.estimate_elements``,
+``fabpat.geometry.outline.Outline.estimate_segments``) with limits an option can raise.
 
 This module imports nothing from fabpat but the errors, so the first stage (``lattice``) can use it.
 """

@@ -16,7 +16,7 @@ import pytest
 for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_variable, "1")
 
-from fabpat.library import Library, enumerate_library  # noqa: E402 - after the thread settings
+from fabpat.patterns.library import Library, enumerate_library  # noqa: E402 - after the thread settings
 
 FABPAT = [sys.executable, "-m", "fabpat"]
 

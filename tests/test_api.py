@@ -1,4 +1,4 @@
-"""The top-level Python API (``fabpat.library``, ``pattern``, ``simulate``, ``catalog``), the objects'
+"""The top-level Python API (``fabpat.patterns.library``, ``pattern``, ``simulate``, ``catalog``), the objects'
 notebook display, and the errors bad arguments raise."""
 
 from __future__ import annotations
@@ -20,7 +20,8 @@ SUB_AREA = math.sqrt(3) / 4 * 36.0**2 / 16  # mm²: one depth-2 sub-triangle of 
 
 
 def test_import_is_lazy_and_dir_lists_the_api() -> None:
-    code = ("import sys, fabpat; heavy = [m for m in ('fabpat.library', 'fabpat.outline', 'numpy', 'scipy') "
+    code = ("import sys, fabpat; heavy = [m for m in ('fabpat.patterns.library', 'fabpat.geometry.outline', 'numpy', "
+            "'scipy') "
             "if m in sys.modules]; print(heavy, sorted(dir(fabpat)))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.startswith("[] ")
@@ -105,7 +106,7 @@ def test_filleted_pattern_knows_its_polygon_and_one_metrics() -> None:
 
 def test_pentagon_outline_meshes_without_being_told_its_sides() -> None:
     """Friction: ``mesh_outline`` on a pentagon's outline used to assume a hexagon and fail about h."""
-    from fabpat.mesh import mesh_outline
+    from fabpat.simulation.mesh import mesh_outline
 
     fp = fabpat.pattern("0x0488", sides=5).fillet()
     mesh = mesh_outline(fp.outline, 2.0)
@@ -214,8 +215,8 @@ def test_outline_plot_draws_the_area() -> None:
 
 
 def test_simulate_result_and_its_files(tmp_path: Path) -> None:
-    from fabpat.mesh import mesh_outline
-    from fabpat.scenarios import run_scenario
+    from fabpat.simulation.mesh import mesh_outline
+    from fabpat.simulation.scenarios import run_scenario
 
     fp = fabpat.pattern("0x0488").fillet()
     r = fabpat.simulate(fp, "cantilever", h=3.5, linear=True)
@@ -260,9 +261,10 @@ def test_writers_reached_from_pipeline_objects_stay_out_of_the_solver_digest() -
     from fabpat.catalog import builtin_path, pipeline_modules
 
     names = {p.relative_to(builtin_path().parents[1]).as_posix() for p in pipeline_modules()}
-    assert {"fillet.py", "pattern.py", "scenarios.py", "mesh.py", "_callable.py"} <= names
-    writers = ("cad.py", "contours.py", "pictures.py", "plots.py", "io.py")
-    assert not {n for n in names if n.startswith("exchange/") or n in writers}
+    assert {"geometry/fillet.py", "patterns/pattern.py", "simulation/scenarios.py", "simulation/mesh.py",
+            "_callable.py"} <= names
+    writers = ("simulation/vtu.py", "simulation/png_result.py", "simulation/inp.py", "io.py", "_moved.py")
+    assert not {n for n in names if n.startswith(("exchange/", "views/")) or n in writers}
 
 
 def test_export_3dm_through_the_registry(tmp_path: Path) -> None:

@@ -12,9 +12,9 @@ import pytest
 
 import fabpat
 from fabpat.errors import ExportError, FabpatError, GeometryError, PatternError, SolverError
-from fabpat.fillet import fillet_pattern
-from fabpat.outline import Line, Loop, Outline
-from fabpat.scenarios import run_scenario
+from fabpat.geometry.fillet import fillet_pattern
+from fabpat.geometry.outline import Line, Loop, Outline
+from fabpat.simulation.scenarios import run_scenario
 
 
 @pytest.fixture(scope="module")
@@ -135,10 +135,10 @@ def test_fuzz_raises_fabpat_errors(fp, bad, tmp_path, monkeypatch) -> None:
 
 def test_api_refuses_bad_numbers() -> None:
     from fabpat.exchange.registry import ExportSettings
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern, sample_library
-    from fabpat.mesh import mesh_outline, solid_polygon_mesh
-    from fabpat.scenarios import run_scenario
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern, sample_library
+    from fabpat.simulation.mesh import mesh_outline, solid_polygon_mesh
+    from fabpat.simulation.scenarios import run_scenario
 
     with pytest.raises(PatternError, match=r"edge = -1 is out of range"):
         get_pattern("0x0488", edge=-1)

@@ -16,7 +16,7 @@ import pytest
 
 import fabpat
 from fabpat.errors import ExportError, FabpatError, GeometryError, PatternError
-from fabpat.outline import Outline
+from fabpat.geometry.outline import Outline
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -82,7 +82,7 @@ def test_bad_tolerance_is_a_geometry_error(fp, tol) -> None:  # noqa: ANN001
 
 def test_callable_modules_describe_their_call() -> None:
     from fabpat.catalog import catalog
-    from fabpat.library import library, pattern
+    from fabpat.patterns.library import library, pattern
 
     for module, func in ((fabpat.library, library), (fabpat.pattern, pattern), (fabpat.catalog, catalog)):
         sig = inspect.signature(module)

@@ -260,7 +260,7 @@ def test_assemble_places_the_sphere_and_fillets_its_plates_once(tmp_path: Path, 
     fillets each of its two plate types once: the prediction solves the kit's own placement and outlines."""
     import fabpat.assembly.build as build
     import fabpat.assembly.placement as placement
-    import fabpat.fillet as fillet
+    import fabpat.geometry.fillet as fillet
 
     calls = {"place": 0, "fillet": 0}
     place, fillet_pattern = placement.place, fillet.fillet_pattern

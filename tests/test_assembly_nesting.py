@@ -12,7 +12,7 @@ from fabpat.assembly.nesting import Nesting, Placement, check_nesting, convex_di
 from fabpat.assembly.net import net_svg, unfold
 from fabpat.assembly.tiling import honeycomb_strip, truncated_icosahedron
 from fabpat.errors import GeometryError
-from fabpat.lattice import polygon_vertices
+from fabpat.patterns.lattice import polygon_vertices
 
 HEX, PENT = polygon_vertices(6, 36.0), polygon_vertices(5, 36.0)
 
@@ -114,7 +114,7 @@ def test_nesting_packs_the_sphere_and_the_strip_tighter() -> None:
 
 def test_nesting_raster_is_bounded() -> None:
     from fabpat.assembly.nesting import nest
-    from fabpat.lattice import polygon_vertices
+    from fabpat.patterns.lattice import polygon_vertices
 
     with pytest.raises(GeometryError, match="raster nodes of a 9000 × 9000 mm sheet"):
         nest([polygon_vertices(6, 36.0)], 9000.0, 9000.0, 5.0, 3.0)

@@ -50,8 +50,8 @@ def kit(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def single_plate(pid: str):  # noqa: ANN201 - FilletedPattern
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
 
     return fillet_pattern(get_pattern(pid, 6, 2, 36.0), 0.2)
 
@@ -91,7 +91,7 @@ def test_one_valid_solid_whose_volume_is_the_plates_volumes(panel) -> None:  # n
     from OCP.TopAbs import TopAbs_SOLID
     from OCP.TopExp import TopExp_Explorer
 
-    from fabpat.cad import check_valid, make_solid, volume
+    from fabpat.exchange.cad import check_valid, make_solid, volume
 
     check_valid(panel.solid, "panel")  # BRepCheck_Analyzer
     solids, ex = 0, TopExp_Explorer(panel.solid, TopAbs_SOLID)
@@ -121,7 +121,7 @@ def test_step_reads_back_as_one_solid_of_the_plates_volume(kit: Path, panel) -> 
     from OCP.IFSelect import IFSelect_ReturnStatus
     from OCP.STEPControl import STEPControl_Reader
 
-    from fabpat.cad import check_valid, volume
+    from fabpat.exchange.cad import check_valid, volume
 
     reader = STEPControl_Reader()
     assert reader.ReadFile(str(kit / "panel.step")) == IFSelect_ReturnStatus.IFSelect_RetDone

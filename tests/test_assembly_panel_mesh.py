@@ -119,15 +119,15 @@ def spec_of(tmp: Path, mesh: str, patterns: dict, **tiling: object):  # noqa: AN
 
 
 def plate(pid: str, n: int):  # noqa: ANN201 - FilletedPattern
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
 
     return fillet_pattern(get_pattern(pid, n, 2, E), 0.2)
 
 
 def plate_volume(pid: str, n: int) -> float:
     """One plate's exact solid (2 mm), built apart from any panel."""
-    from fabpat.cad import make_solid, volume
+    from fabpat.exchange.cad import make_solid, volume
 
     fp = plate(pid, n)
     return volume(make_solid(fp.outline, 2.0, fp.support_arcs))
@@ -175,7 +175,7 @@ def test_a_square_panel_is_one_valid_solid_of_its_plates_volume(square_panel) ->
     from OCP.TopAbs import TopAbs_SOLID
     from OCP.TopExp import TopExp_Explorer
 
-    from fabpat.cad import check_valid, volume
+    from fabpat.exchange.cad import check_valid, volume
 
     check_valid(square_panel.solid, "square panel")  # BRepCheck_Analyzer
     solids, ex = 0, TopExp_Explorer(square_panel.solid, TopAbs_SOLID)
@@ -229,7 +229,7 @@ def test_a_panel_bom_names_the_sheet_file_only_when_the_kit_writes_it(square_pan
 def test_a_hexagon_patch_from_a_file_is_the_rows_by_columns_panel(tmp_path: Path) -> None:
     from fabpat.assembly.panel import build_panel
     from fabpat.assembly.spec import parse_spec
-    from fabpat.cad import volume
+    from fabpat.exchange.cad import volume
 
     write_obj(tmp_path / "hex.obj", *hexagons(2, 3))
     mesh = build_panel(spec_of(tmp_path, "hex.obj", {"hexagon": A}))
@@ -265,7 +265,7 @@ def test_different_polygons_meet_g1_and_fuse(tmp_path: Path, build, pats: dict, 
                                              mixed: int) -> None:
     from fabpat.assembly.panel import build_panel, joints, relink_angles
     from fabpat.assembly.spec_types import POLYGON_KEYS
-    from fabpat.cad import check_valid, volume
+    from fabpat.exchange.cad import check_valid, volume
 
     write_ply(tmp_path / "mixed.ply", *build())
     p = build_panel(spec_of(tmp_path, "mixed.ply", pats))

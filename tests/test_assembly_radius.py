@@ -15,7 +15,7 @@ import pytest
 from fabpat.assembly.placement import place, radius_line
 from fabpat.assembly.spec import parse_spec
 from fabpat.errors import SpecError
-from fabpat.lattice import polygon_vertices
+from fabpat.patterns.lattice import polygon_vertices
 
 
 def spec_of(tiling: dict[str, object], angle: str = "flat") -> dict[str, object]:

@@ -11,7 +11,7 @@ from fabpat.assembly import rules
 from fabpat.assembly.choice import candidate_pairs, face_patterns
 from fabpat.assembly.spec import parse_spec
 from fabpat.errors import SpecError
-from fabpat.library import enumerate_library
+from fabpat.patterns.library import enumerate_library
 from tests.test_catalog import fake_catalog
 
 

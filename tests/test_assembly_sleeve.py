@@ -16,7 +16,7 @@ ANGLES = [math.pi, HEX_HEX_DIHEDRAL, HEX_PENT_DIHEDRAL]
 
 @pytest.mark.parametrize("phi", ANGLES)
 def test_sleeve_solid_is_valid_with_exact_volume(phi: float) -> None:
-    from fabpat.cad import volume
+    from fabpat.exchange.cad import volume
 
     s = Sleeve(phi, required_setback(phi, 2.0, 0.2, 1.2))
     solid = s.solid()  # BRepCheck-valid or GeometryError

@@ -10,10 +10,10 @@ import pytest
 from fabpat.assembly.model import ModelPlate, ModelSleeve, assembly_model
 from fabpat.assembly.simulate import plate_mesh
 from fabpat.assembly.tiling import honeycomb_strip
-from fabpat.scenarios import opposite, run_scenario, tributary_weights
 from fabpat.shell.element import Material
 from fabpat.shell.linked import solve_path
 from fabpat.shell.rigid_links import LinkedProblem
+from fabpat.simulation.scenarios import opposite, run_scenario, tributary_weights
 
 PATTERN = "0x6808"
 H = 4.0

@@ -50,7 +50,7 @@ def test_defaults() -> None:
     assert spec.formats == ("step", "stl", "glb", "3dm", "dxf", "svg", "bom", "png")
     assert spec.sheet.kerf == 0.0
     assert parse_spec(base(plates={"process": "laser"})).sheet.kerf == pytest.approx(0.15)
-    from fabpat.cad import DEFAULT_CHORD
+    from fabpat.exchange.cad import DEFAULT_CHORD
 
     assert spec.mesh_tolerance == DEFAULT_CHORD and spec.curve_tolerance == 0.01
     tuned = parse_spec(base(output={"mesh_tolerance": 0.05, "curve_tolerance": 0.002}))

@@ -13,7 +13,7 @@ from fabpat.assembly.tiling import (
     honeycomb_strip,
     truncated_icosahedron,
 )
-from fabpat.lattice import polygon_vertices
+from fabpat.patterns.lattice import polygon_vertices
 
 
 @pytest.fixture(scope="module")

@@ -11,7 +11,7 @@ import pytest
 from fabpat.assembly.build import plan
 from fabpat.assembly.spec import load_spec
 from fabpat.errors import SpecError
-from fabpat.library import get_pattern
+from fabpat.patterns.library import get_pattern
 from tests.helpers import invoke
 
 SMALL = Path(__file__).parent.parent / "assemblies" / "test-small.toml"
@@ -85,7 +85,7 @@ def test_the_kit_names_members_and_does_not_borrow_the_papers_energies(tmp_path:
 
 
 class PowerCurve:
-    """A hand-made family curve E(w) = e1 · w^p over [lo, hi] (what fabpat.family.FamilyCurve offers)."""
+    """A hand-made family curve E(w) = e1 · w^p over [lo, hi] (what fabpat.catalog.family.FamilyCurve offers)."""
 
     def __init__(self, e1: float, p: float, lo: float = 0.25, hi: float = 2.5) -> None:
         self.e1, self.p, self.range = e1, p, (lo, hi)

@@ -12,8 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from fabpat.browse import page_data, render_page
 from fabpat.catalog import open_catalog
+from fabpat.views.browse import page_data, render_page
 from tests.conftest import run_cli
 from tests.helpers import digest, one_line_error
 from tests.helpers import invoke_result as invoke

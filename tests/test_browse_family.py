@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from fabpat.browse import page_data, render_page
 from fabpat.catalog import open_catalog
+from fabpat.views.browse import page_data, render_page
 from tests.test_browse import CHROMIUM_ARGS
 from tests.test_catalog import fake_rows
 from tests.test_family import family_rows

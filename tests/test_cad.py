@@ -2,7 +2,7 @@
 hand-made outlines the exchange tests share.
 
 The outlines here have closed-form areas and perimeters computed in this file, independently of
-fabpat.curves / fabpat.outline, so every writer's read-back is checked against numbers that no
+fabpat.geometry.curves / fabpat.geometry.outline, so every writer's read-back is checked against numbers that no
 fabpat code produced.
 """
 
@@ -13,10 +13,10 @@ import math
 import numpy as np
 import pytest
 
-from fabpat import cad
 from fabpat.errors import GeometryError
+from fabpat.exchange import cad
 from fabpat.exchange.threemf import triangulate
-from fabpat.outline import Line, Loop, Outline, RationalQuad
+from fabpat.geometry.outline import Line, Loop, Outline, RationalQuad
 
 # ------------------------------------------------------------------------------ shared test shapes
 
@@ -204,7 +204,7 @@ def test_bad_outlines_raise_geometry_error() -> None:
 
 def test_support_arc_keeps_configured_weight() -> None:
     """An outline segment that is half of a bow-tie arc is built on the whole arc (weights 1, w, 1)."""
-    from fabpat.curves import split_quad
+    from fabpat.geometry.curves import split_quad
 
     full = RationalQuad((4, -4), (0, 0), (4, 4), BOWTIE_W)
     (PL, wl), (PR, wr) = split_quad(full.control_points, full.w)
@@ -230,8 +230,8 @@ def test_triangulation_is_closed_and_within_tolerance() -> None:
 
 @pytest.mark.parametrize("pattern_id, sides", [("0x0488", 6), ("0xd488", 5)])
 def test_library_pattern_solid_volume(pattern_id: str, sides: int) -> None:
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import enumerate_library
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import enumerate_library
 
     fp = fillet_pattern(enumerate_library(sides, 2).pattern(pattern_id), BOWTIE_W)
     support = [a for pair in fp.interface_arcs for a in pair]
@@ -242,9 +242,9 @@ def test_library_pattern_solid_volume(pattern_id: str, sides: int) -> None:
 
 
 def test_occt_errors_become_geometry_errors() -> None:
-    from fabpat.cad import make_solid, mesh
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
+    from fabpat.exchange.cad import make_solid, mesh
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
 
     outline = fillet_pattern(get_pattern("0x2d88")).outline
     with pytest.raises(GeometryError, match="OpenCASCADE"):

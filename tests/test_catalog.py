@@ -19,8 +19,8 @@ import pytest
 
 from fabpat.catalog import CatalogError, builtin_path, energies, open_catalog, pipeline_modules, solver_version
 from fabpat.catalog import sqlite_file as catalog_file  # the file-level helpers a test replaces
-from fabpat.scenarios import SCENARIOS
-from fabpat.sweep import simulate_pattern
+from fabpat.catalog.sweep import simulate_pattern
+from fabpat.simulation.scenarios import SCENARIOS
 from tests.helpers import SWEEP, digest, in_small_tmpfs, needs_unshare, one_line_error, tmpfs_error
 from tests.helpers import invoke_result as invoke
 
@@ -31,7 +31,7 @@ REGENERATE = ("stale built-in catalog: regenerate it with `fabpat sweep --db fab
 def test_builtin_catalog_is_the_default_library(hex_library) -> None:
     """The hexagons of the default set-up, and beside them, once swept, the pentagons of the same set-up
     (each polygon its own rows): every pattern of the library, mesh-converged, every solve converged."""
-    from fabpat.library import enumerate_library
+    from fabpat.patterns.library import enumerate_library
 
     default = {"depth": 2, "edge": 36.0, "thickness": 2.0, "weight": 0.2, "patterns": 430}
     with open_catalog() as cat:
@@ -105,9 +105,9 @@ def test_builtin_catalog_was_computed_by_this_code() -> None:
 
 def test_solver_version_covers_exactly_the_pipeline_code() -> None:
     names = {p.relative_to(builtin_path().parents[1]).as_posix() for p in pipeline_modules()}
-    assert {"fillet.py", "mesh.py", "scenarios.py", "shell/solve.py", "shell/element.py", "shell/__init__.py",
-            "lattice.py", "curves.py"} <= names
-    assert not {n for n in names if n.startswith(("cli/", "catalog/")) or n in ("sweep.py", "browse.py")}
+    assert {"geometry/fillet.py", "simulation/mesh.py", "simulation/scenarios.py", "shell/solve.py", "shell/element.py",
+            "shell/__init__.py", "patterns/lattice.py", "geometry/curves.py", "__init__.py"} <= names
+    assert not {n for n in names if n.startswith(("cli/", "catalog/", "views/"))}
     assert solver_version() == solver_version() and solver_version().startswith("fabpat ")
 
 
@@ -141,11 +141,11 @@ def _pipeline_sources() -> dict[str, str]:
 
 
 def _moved(sources: dict[str, str], name: str, new_module: str) -> dict[str, str]:
-    """``sources`` with outline.py's top-level function ``name`` cut into a new module ``new_module`` that
+    """``sources`` with geometry/outline.py's top-level function ``name`` cut into a new module ``new_module`` that
     has outline.py's imports, and imported back into outline.py from there."""
     import ast
 
-    text = sources["outline.py"]
+    text = sources["geometry/outline.py"]
     node = next(n for n in ast.parse(text).body if isinstance(n, ast.FunctionDef) and n.name == name)
     lines = text.splitlines()
     body = "\n".join(lines[node.lineno - 1:node.end_lineno])
@@ -154,7 +154,7 @@ def _moved(sources: dict[str, str], name: str, new_module: str) -> dict[str, str
     rest.insert(next(i for i, ln in enumerate(rest) if ln.startswith("from fabpat")),
                 f"from fabpat.geometry.{new_module} import {name}")
     out = dict(sources)
-    out["outline.py"] = "\n".join(rest) + "\n"
+    out["geometry/outline.py"] = "\n".join(rest) + "\n"
     out[f"geometry/{new_module}.py"] = f'"""Moved."""\n{head}\n\n\n{body}\n'
     return out
 
@@ -170,8 +170,9 @@ def test_moving_code_between_modules_keeps_the_solver_digest() -> None:
     moved = _moved(src, "flattening_tolerance", "tolerances")
     assert program_digest(list(moved.values())) == before
     split = dict(moved)
-    split["segments.py"] = moved["segments.py"].replace("from functools import cached_property, lru_cache\n",
-                                                        "from functools import lru_cache\n")
+    seg = "geometry/segments.py"
+    split[seg] = moved[seg].replace("from functools import cached_property, lru_cache\n",
+                                    "from functools import lru_cache\n")
     assert split != moved and program_digest(list(split.values())) == before  # cached_property is bound elsewhere
     renamed = {k: v.replace("from fabpat.errors import", "from fabpat.core.errors import") for k, v in src.items()}
     assert renamed != src and program_digest(list(renamed.values())) == before
@@ -180,8 +181,9 @@ def test_moving_code_between_modules_keeps_the_solver_digest() -> None:
     assert changed != moved and program_digest(list(changed.values())) != before
     assert "_subdivide" in ambiguous_names(list(src.values()))  # defined in mesh.py and polyline.py
     switched = dict(src)
-    switched["mesh.py"] = src["mesh.py"].replace("from fabpat.polyline import _subdivide",
-                                                 "from fabpat.mesh import _subdivide")
+    mesh = "simulation/mesh.py"
+    switched[mesh] = src[mesh].replace("from fabpat.geometry.polyline import _subdivide",
+                                       "from fabpat.simulation.mesh import _subdivide")
     assert switched != src and program_digest(list(switched.values())) != before
 
 
@@ -287,7 +289,7 @@ def test_cli_catalog_formats(tmp_path: Path) -> None:
 def _stamped_catalog(path: Path, version: str) -> Path:
     """A catalog of one pattern's rows with the input hashes a sweep under ``version`` stores: set-up mesh
     2.5 mm (extrapolated with 1.25 mm); the Dome row used 2.14 mm, as a narrow neck makes it."""
-    from fabpat.sweep import pattern_hash, result_hash
+    from fabpat.catalog.sweep import pattern_hash, result_hash
 
     rows = fake_rows("0x0488", 6, {"dome": 430.0, "cylinder": 40.0})
     for r in rows:
@@ -308,8 +310,8 @@ def _stamped_catalog(path: Path, version: str) -> Path:
 def test_restamp_rewrites_every_hash_for_the_new_version(tmp_path: Path) -> None:
     import sqlite3
 
-    from fabpat.restamp import restamp
-    from fabpat.sweep import pattern_hash, result_hash
+    from fabpat.catalog.restamp import restamp
+    from fabpat.catalog.sweep import pattern_hash, result_hash
 
     db = _stamped_catalog(tmp_path / "c.sqlite", "fabpat old")
     report = restamp(db, "fabpat old", "fabpat new")
@@ -324,7 +326,7 @@ def test_restamp_rewrites_every_hash_for_the_new_version(tmp_path: Path) -> None
 
 
 def test_restamp_refuses_rows_stored_under_another_version_and_writes_nothing(tmp_path: Path) -> None:
-    from fabpat.restamp import restamp
+    from fabpat.catalog.restamp import restamp
 
     db = _stamped_catalog(tmp_path / "c.sqlite", "fabpat other")
     before = db.read_bytes()
@@ -465,7 +467,7 @@ def test_read_only_mount(small_catalog: Path, tmp_path: Path) -> None:
 
 def test_disk_full_while_storing_keeps_the_committed_rows(tmp_path: Path) -> None:
     """SQLite's own full-disk error (SQLITE_FULL), reached with max_page_count: runs without a tmpfs."""
-    from fabpat.sweep import simulate_pattern
+    from fabpat.catalog.sweep import simulate_pattern
 
     db = tmp_path / "c.sqlite"
     rows = [simulate_pattern(pid, 6, 2, 36.0, 2.0, 0.2, 1000.0, 0.35, 1.5, [])  # geometry only: fast

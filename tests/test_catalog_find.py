@@ -12,11 +12,11 @@ from pathlib import Path
 import pytest
 
 import fabpat
-from fabpat.browse import page_data
 from fabpat.catalog import CatalogError, open_catalog
 from fabpat.catalog.rows import find_rows, parse_condition
 from fabpat.errors import PatternError
-from fabpat.plots import plot_catalog
+from fabpat.views.browse import page_data
+from fabpat.views.plots import plot_catalog
 from tests.helpers import invoke_result as invoke
 from tests.test_catalog import fake_catalog
 

@@ -16,7 +16,7 @@ import pytest
 import fabpat
 from fabpat.catalog import CatalogError, energies, open_catalog
 from fabpat.catalog import sqlite_file as catalog_file  # the file-level helpers a test replaces
-from fabpat.sweep import run_sweep
+from fabpat.catalog.sweep import run_sweep
 from tests.helpers import invoke_result as invoke
 from tests.test_catalog import fake_catalog, fake_rows
 from tests.test_sweep import IDS, fake_task

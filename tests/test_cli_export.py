@@ -21,8 +21,8 @@ from tests.test_exchange_dxf import bulge_area, chain, cut_loops, entity_pieces,
 
 
 def _outline(pattern_id: str, sides: int = 6, edge: float = 36.0, weight: float = 0.2):  # noqa: ANN202
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import enumerate_library
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import enumerate_library
 
     return fillet_pattern(enumerate_library(sides, 2).pattern(pattern_id, edge), weight).outline
 
@@ -113,12 +113,12 @@ def test_export_all_in_one_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatc
     """``--all`` on a three-pattern library (the whole one is timed by benchmarks/bench_export.py)."""
     from click.testing import CliRunner
 
-    import fabpat.library
+    import fabpat.patterns.library
     from fabpat.cli import cli
-    from fabpat.library import Library, enumerate_library
+    from fabpat.patterns.library import Library, enumerate_library
 
     full = enumerate_library(6, 2)
-    monkeypatch.setattr(fabpat.library, "enumerate_library", lambda s, d: Library(s, d, full.bits[:3], 3))
+    monkeypatch.setattr(fabpat.patterns.library, "enumerate_library", lambda s, d: Library(s, d, full.bits[:3], 3))
     out = tmp_path / "parts"
     result = CliRunner().invoke(cli, ["export", "--all", "--out", str(out), "--formats", "dxf,svg,3mf"])
     assert result.exit_code == 0, result.output

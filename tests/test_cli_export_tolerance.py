@@ -14,8 +14,8 @@ from tests.test_exchange_dxf import bulge_area, cut_loops, read
 
 
 def _outline():  # noqa: ANN202
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
 
     return fillet_pattern(get_pattern("0x2d88")).outline
 
@@ -56,8 +56,8 @@ def test_default_stl_of_the_curviest_pattern_is_within_0_1_percent_volume(tmp_pa
     # 0x2508 has the largest STL volume error of the library (benchmarks/study_stl_volume.py: +0.107 %
     # at a 0.01 mm chord, +0.051 % at the 0.005 mm default); the issue asks for 0.1 % at the default
     trimesh = pytest.importorskip("trimesh")
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
 
     out = tmp_path / "p.stl"
     r = run_cli("export", "0x2508", "--stl", str(out))

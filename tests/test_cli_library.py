@@ -130,7 +130,7 @@ def test_bad_input_is_one_line_exit_2_no_file(tmp_path: Path, args: list[str], w
 def test_filleted_columns_cache_follows_the_pipeline_code(tmp_path, monkeypatch) -> None:  # noqa: ANN001
     import fabpat.catalog
     from fabpat.cli.library_cmds import _cache_path, library_rows
-    from fabpat.library import enumerate_library
+    from fabpat.patterns.library import enumerate_library
 
     monkeypatch.setenv("FABPAT_CACHE", str(tmp_path))
     lib = enumerate_library(6, 1)

@@ -139,7 +139,7 @@ def test_simulate_png_is_captioned_with_the_energy_it_prints(tmp_path: Path, mon
     """The picture names the pattern, the scenario and its load, and the energy the JSON reports."""
     from click.testing import CliRunner
 
-    import fabpat.exchange.png_result as png_result
+    import fabpat.simulation.png_result as png_result
     from fabpat.cli import cli
 
     titles: list[str] = []

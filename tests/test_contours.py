@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from fabpat import contours
+from fabpat.exchange import contours
 from tests.test_cad import bowtie, bowtie_area, rounded_square
 
 

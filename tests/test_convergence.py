@@ -1,15 +1,15 @@
-"""Mesh-converged energies (fabpat.convergence): the extrapolation formula, and library patterns in the
+"""Mesh-converged energies (fabpat.simulation.convergence): the extrapolation formula, and library patterns in the
 three nonlinear scenarios against references from much finer meshes."""
 
 from __future__ import annotations
 
 import pytest
 
-from fabpat.convergence import CONVERGED_MESHES, mesh_converged, nested_meshes, richardson, run_converged
 from fabpat.errors import SolverError
-from fabpat.fillet import fillet_pattern
-from fabpat.library import get_pattern
-from fabpat.scenarios import SCENARIOS
+from fabpat.geometry.fillet import fillet_pattern
+from fabpat.patterns.library import get_pattern
+from fabpat.simulation.convergence import CONVERGED_MESHES, mesh_converged, nested_meshes, richardson, run_converged
+from fabpat.simulation.scenarios import SCENARIOS
 
 #: N·mm. Nonlinear energies on uniform meshes h = 1.0, 0.7, 0.5 and 0.35 mm (2 000–13 400 nodes) fitted
 #: by E∞ − C·hᵖ (least squares) with the order p = 1.2 measured on nested meshes (1.1–1.3); E∞ taken (fitting
@@ -154,7 +154,7 @@ def test_converged_h_resolves_the_narrowest_neck() -> None:
     1.95 and 2.25 mm necks: 2.14 and 2.47 mm), else the default 2.5 mm or the h given."""
     import math
 
-    from fabpat.convergence import converged_h
+    from fabpat.simulation.convergence import converged_h
 
     assert converged_h(1.9485571585149866) == 2.14 and converged_h(2.25) == 2.47
     assert converged_h(2.28) == converged_h(3.75) == converged_h(math.inf) == CONVERGED_MESHES[0] == 2.5
@@ -164,7 +164,7 @@ def test_converged_h_resolves_the_narrowest_neck() -> None:
 def test_suggested_sizes_are_clean_decimals() -> None:
     """h values that reach the JSON and the catalog are the decimals they print as (1.13, not
     1.1300000000000001, from 113 × 0.01)."""
-    from fabpat.convergence import converged_h
+    from fabpat.simulation.convergence import converged_h
 
     assert repr(converged_h(1.0273)) == "1.13" and repr(converged_h(1.0273) / 2) == "0.565"
 

@@ -14,8 +14,8 @@ from scipy.integrate import quad
 from scipy.spatial import cKDTree
 from scipy.special import ellipe
 
-from fabpat import conics, curves
 from fabpat.errors import GeometryError
+from fabpat.geometry import conics, curves
 
 RNG = np.random.default_rng(20240611)
 

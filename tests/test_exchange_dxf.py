@@ -18,7 +18,7 @@ import pytest
 
 from fabpat.errors import ExportError
 from fabpat.exchange.dxf import write_dxf
-from fabpat.outline import Line
+from fabpat.geometry.outline import Line
 from tests.test_cad import BOWTIE_W, SHAPES, bowtie, bowtie_area, hexagon_with_hole, rounded_square
 
 ezdxf = pytest.importorskip("ezdxf")
@@ -326,8 +326,8 @@ def on_material(polys: list[np.ndarray], X: np.ndarray) -> np.ndarray:
 
 @functools.cache
 def library_outline(pattern_id: str, sides: int):  # noqa: ANN201
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import enumerate_library
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import enumerate_library
 
     return fillet_pattern(enumerate_library(sides, 2).pattern(pattern_id, 36.0), 0.2).outline
 

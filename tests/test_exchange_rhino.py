@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fabpat.fillet import fillet_pattern
-from fabpat.library import get_pattern
+from fabpat.geometry.fillet import fillet_pattern
+from fabpat.patterns.library import get_pattern
 from tests.conftest import run_cli
 
 r3 = pytest.importorskip("rhino3dm", reason="rhino3dm (PyPI) is needed to read .3dm files back")
@@ -74,7 +74,7 @@ def test_interface_weight_is_kept(exported: tuple[object, object]) -> None:
     model, _ = exported
     layers = _layers(model)
     w = 0.35
-    half = math.sqrt((1 + w) / 2)  # the half bow-tie arc in standard form (fabpat.fillet, split at t = ½)
+    half = math.sqrt((1 + w) / 2)  # the half bow-tie arc in standard form (fabpat.geometry.fillet, split at t = ½)
     weights = [x for c in _on_layer(model, layers["CUT"]) for x in _span_weights(c)]
     interface = [x for x in weights if abs(x - 1.0) > 1e-12]
     # lines and interior arcs have weight 1; each of the 6 interfaces contributes two half arcs

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from fabpat import cad
 from fabpat.errors import ExportError
+from fabpat.exchange import cad
 from fabpat.exchange.registry import ExportSettings, Part, export_part
 from fabpat.exchange.step import write_step
 from tests.helpers import SMALL_SPEC, one_line_error
@@ -85,8 +85,8 @@ def test_export_part_writes_step_atomically(tmp_path: Path) -> None:
 
 def test_export_parts_refuses_a_suffix_of_another_format(tmp_path: Path) -> None:
     from fabpat.exchange.registry import export_parts, filleted_part
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
 
     part = filleted_part(fillet_pattern(get_pattern("0x0488", 6, 2, 36.0), 0.2))
     with pytest.raises(ExportError, match=r"the DXF file must end in \.dxf, got .*out\.dwg"):
@@ -232,7 +232,7 @@ def test_trailing_colour_blocks_get_one_order(tmp_path: Path) -> None:
     ("2025-01-31T12:00-05:30", "2025-01-31T12:00:00-05:30"),
 ])
 def test_step_timestamp_is_normalised(tmp_path: Path, given: str, header: str) -> None:
-    from fabpat import cad
+    from fabpat.exchange import cad
     from fabpat.exchange.step import check_timestamp, write_step
     from tests.test_cad import bowtie
 

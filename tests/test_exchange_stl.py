@@ -13,7 +13,7 @@ from xml.etree import ElementTree
 import numpy as np
 import pytest
 
-from fabpat import cad
+from fabpat.exchange import cad
 from fabpat.exchange.stl import write_stl
 from fabpat.exchange.threemf import write_3mf
 from tests.test_cad import SHAPES, rounded_square, rounded_square_area
@@ -110,11 +110,11 @@ def test_every_facet_lies_within_the_tolerance_of_the_exact_surface(tmp_path: Pa
 def test_triangle_estimate_bounds_the_stl(tmp_path: Path) -> None:
     import struct
 
-    from fabpat.cad import make_solid
+    from fabpat.exchange.cad import make_solid
     from fabpat.exchange.registry import estimate_triangles
     from fabpat.exchange.stl import write_stl
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
 
     outline = fillet_pattern(get_pattern("0x7f88")).outline
     write_stl(make_solid(outline, 2.0), tmp_path / "p.stl", 0.005)

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from fabpat.exchange.svg import write_svg
-from fabpat.outline import Line
+from fabpat.geometry.outline import Line
 from tests.test_cad import SHAPES, bowtie, hexagon_with_hole
 
 svgpathtools = pytest.importorskip("svgpathtools")

@@ -42,8 +42,8 @@ def needs(program: str, package: str) -> str:
 
 @functools.cache
 def library_outline(pattern_id: str, sides: int = 6):  # noqa: ANN201
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import enumerate_library
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import enumerate_library
 
     return fillet_pattern(enumerate_library(sides, 2).pattern(pattern_id, 36.0), 0.2).outline
 

@@ -10,9 +10,9 @@ import pytest
 from click.testing import CliRunner
 
 from fabpat.catalog import CatalogError, open_catalog
+from fabpat.catalog.family import family_curves, family_energy, match_energy
+from fabpat.catalog.sweep import FAMILY_SAMPLES, SweepSetup, result_hash, run_sweep, simulate_pattern
 from fabpat.cli import cli
-from fabpat.family import family_curves, family_energy, match_energy
-from fabpat.sweep import FAMILY_SAMPLES, SweepSetup, result_hash, run_sweep, simulate_pattern
 from tests.test_catalog import fake_rows
 
 KEY = {"sides": 6, "depth": 2, "edge": 36.0, "thickness": 2.0, "weight": 0.2}
@@ -116,7 +116,7 @@ def test_cli_sweep_family_and_variation_are_exclusive(tmp_path: Path) -> None:
 
 
 def test_refinements_bisect_where_the_curve_bends_or_buckles(tmp_path: Path) -> None:
-    from fabpat.sweep import refinements
+    from fabpat.catalog.sweep import refinements
 
     db = tmp_path / "r.sqlite"
     with open_catalog(db, write=True) as cat:
@@ -138,8 +138,8 @@ def test_refinements_bisect_where_the_curve_bends_or_buckles(tmp_path: Path) -> 
 def test_family_energy_refuses_a_bad_member_as_a_range_error(bad: object) -> None:
     """A value that is no member at all is the caller's mistake (RangeError naming the range), not a gap
     in the catalog (CatalogError) and never a raw ValueError."""
+    from fabpat.catalog.family import family_energy
     from fabpat.errors import RangeError
-    from fabpat.family import family_energy
 
     with pytest.raises(RangeError, match=r"bridge_weight .*\[0\.25, 2\.5\]"):
         family_energy("0x0488", "dome", bad)  # type: ignore[arg-type]

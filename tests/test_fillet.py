@@ -7,15 +7,15 @@ import math
 import numpy as np
 import pytest
 
-from fabpat.fillet import (
+from fabpat.geometry.fillet import (
     HEXAGON_STAR_TABLE,
     fillet_pattern,
     fillet_solid,
     interface_half_length,
     vertex_stars,
 )
-from fabpat.library import enumerate_library
-from fabpat.outline import Line, RationalQuad
+from fabpat.geometry.outline import Line, RationalQuad
+from fabpat.patterns.library import enumerate_library
 
 # --- tiny hand-made stars -------------------------------------------------------------------------
 
@@ -235,7 +235,7 @@ def test_weight_is_a_parameter() -> None:
 
 def _local_change(arc_pieces: list, vertex: np.ndarray) -> float:
     """Signed area between a piece of the outline and the lattice corner it replaces (added > 0)."""
-    from fabpat.outline import Loop
+    from fabpat.geometry.outline import Loop
 
     first, last = arc_pieces[0].start, arc_pieces[-1].end
     return Loop((*arc_pieces, Line(last, vertex), Line(vertex, first))).signed_area
@@ -270,7 +270,7 @@ def test_area_change_is_explained_by_the_arcs(filleted) -> None:
 def test_star_table_figure() -> None:
     from xml.etree import ElementTree
 
-    from fabpat.pictures import star_table_svg
+    from fabpat.views.pictures import star_table_svg
 
     root = ElementTree.fromstring(star_table_svg())
     texts = [e.text for e in root.iter() if e.tag.endswith("text")]
@@ -279,9 +279,9 @@ def test_star_table_figure() -> None:
 
 
 def test_closed_form_halves_match_de_casteljau() -> None:
-    from fabpat.curves import split_quad
-    from fabpat.fillet import _halves
-    from fabpat.outline import RationalQuad
+    from fabpat.geometry.curves import split_quad
+    from fabpat.geometry.fillet import _halves
+    from fabpat.geometry.outline import RationalQuad
 
     for w in (0.05, 0.2, 1.0, 3.0):
         arc = RationalQuad([0.3, -1.0], [1.0, 2.0], [2.5, 0.2], w)

@@ -25,9 +25,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fabpat.scenarios import SCENARIOS, build_problem, run_scenario
 from fabpat.shell import ShellProblem, solve_linear
 from fabpat.shell.kratos import available, solve_kratos
+from fabpat.simulation.scenarios import SCENARIOS, build_problem, run_scenario
 
 pytestmark = pytest.mark.skipif(
     not available(), reason="Kratos not installed (optional: pip install KratosMultiphysics "
@@ -35,9 +35,9 @@ pytestmark = pytest.mark.skipif(
 
 
 def _mesh(pid: str, h: float = 2.0):
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
-    from fabpat.mesh import mesh_outline
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
+    from fabpat.simulation.mesh import mesh_outline
 
     return mesh_outline(fillet_pattern(get_pattern(pid)).outline, h, 6, 36.0)
 

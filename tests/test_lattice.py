@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from fabpat.errors import PatternError
-from fabpat.lattice import bits_to_id, edge_row, id_to_bits, normalize_id, slice_lattice
+from fabpat.patterns.lattice import bits_to_id, edge_row, id_to_bits, normalize_id, slice_lattice
 
 
 @pytest.mark.parametrize("depth", [1, 2, 3])

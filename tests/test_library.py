@@ -1,4 +1,4 @@
-"""The pattern library (``fabpat.library``): enumeration, connectedness, symmetry, metrics and sampling; deep
+"""The pattern library (``fabpat.patterns.library``): enumeration, connectedness, symmetry, metrics and sampling; deep
 sampling is bounded and runs in small batches."""
 
 import math
@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from fabpat.errors import PatternError
-from fabpat.lattice import Slice, polygon_vertices
-from fabpat.library import enumerate_library, is_connected, is_tileable, sample_library
-from fabpat.pattern import Pattern
+from fabpat.patterns.lattice import Slice, polygon_vertices
+from fabpat.patterns.library import enumerate_library, is_connected, is_tileable, sample_library
+from fabpat.patterns.pattern import Pattern
 from tests.helpers import refusal_in as one_line_error
 
 
@@ -138,7 +138,7 @@ def test_unknown_id_is_rejected(hex_library) -> None:
 
 
 def test_deep_sampling_is_bounded(tmp_path: Path) -> None:
-    from fabpat.library import sample_library
+    from fabpat.patterns.library import sample_library
 
     assert "[1, 6]" in one_line_error(tmp_path, "library", "--depth", "12", "--sample", "1")
     with pytest.raises(PatternError, match="above the limit of 50000000"):
@@ -146,7 +146,7 @@ def test_deep_sampling_is_bounded(tmp_path: Path) -> None:
 
 
 def test_sampling_in_small_batches(monkeypatch: pytest.MonkeyPatch) -> None:
-    import fabpat.library as library
+    import fabpat.patterns.library as library
 
     full = library.sample_library(6, 3, 5, seed=3)
     monkeypatch.setattr(library, "MAX_BATCH_FACES", 10 * 6 * 4**3)  # 10 draws per batch instead of 4096

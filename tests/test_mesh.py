@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from fabpat.errors import GeometryError
-from fabpat.lattice import polygon_vertices
-from fabpat.mesh import interface_segments, mesh_polygons, solid_polygon_mesh, tag_segments
+from fabpat.patterns.lattice import polygon_vertices
+from fabpat.simulation.mesh import interface_segments, mesh_polygons, solid_polygon_mesh, tag_segments
 
 
 def _hex_with_hole_and_necks() -> list[np.ndarray]:
@@ -74,9 +74,9 @@ def test_bad_input_raises() -> None:
 def test_filleted_pattern_interfaces_follow_the_fillet_weight(weight: float) -> None:
     # the interface segment is (edge/16)/(1 + w) either side of the midpoint: every mesh node on it
     # must be tagged, whatever w the outline was filleted with
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
-    from fabpat.mesh import mesh_outline
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
+    from fabpat.simulation.mesh import mesh_outline
 
     fp = fillet_pattern(get_pattern("0x0488"), weight)
     mesh = mesh_outline(fp.outline, 1.0, 6, 36.0, weight=weight)
@@ -98,7 +98,7 @@ def _distance_to(loops: list[np.ndarray], X: np.ndarray) -> np.ndarray:
     """(m,) distance of points X to closed polylines (a reference flattening of the exact outline)."""
     from scipy.spatial import cKDTree
 
-    from fabpat.mesh import _subdivide
+    from fabpat.simulation.mesh import _subdivide
 
     loops = [_subdivide(L, 0.02) for L in loops]  # short pieces: a point's own piece is among its nearest
     A = np.vstack(loops)
@@ -115,9 +115,9 @@ def _signed_area_of(loops: list[np.ndarray]) -> float:
 
 @pytest.mark.parametrize("pid", ["0x4888", "0x2d08"])
 def test_shifted_chords_keep_the_area_and_the_tolerance(pid: str) -> None:
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
-    from fabpat.mesh import _subdivide, flatten_outline
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
+    from fabpat.simulation.mesh import _subdivide, flatten_outline
 
     outline = fillet_pattern(get_pattern(pid)).outline
     tol = 0.03
@@ -133,9 +133,9 @@ def test_shifted_chords_keep_the_area_and_the_tolerance(pid: str) -> None:
 
 
 def test_refine_nested_splits_every_triangle_and_puts_new_boundary_nodes_on_the_outline() -> None:
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
-    from fabpat.mesh import mesh_outline, refine_nested
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
+    from fabpat.simulation.mesh import mesh_outline, refine_nested
 
     outline = fillet_pattern(get_pattern("0x4888")).outline
     coarse = mesh_outline(outline, 2.0)
@@ -163,9 +163,9 @@ def test_refine_nested_splits_every_triangle_and_puts_new_boundary_nodes_on_the_
 
 
 def test_nested_meshes_are_the_converged_pair() -> None:
-    from fabpat.convergence import CONVERGED_MESHES, nested_meshes
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
+    from fabpat.simulation.convergence import CONVERGED_MESHES, nested_meshes
 
     (h1, coarse), (h2, fine) = nested_meshes(fillet_pattern(get_pattern("0x2d08")), CONVERGED_MESHES[0])
     assert (h1, h2) == CONVERGED_MESHES and fine.n_elements == 4 * coarse.n_elements
@@ -174,9 +174,9 @@ def test_nested_meshes_are_the_converged_pair() -> None:
 
 
 def test_mesh_limits_count_the_real_triangles_and_bad_tolerances_are_refused() -> None:
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
-    from fabpat.mesh import mesh_outline, refine_nested
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
+    from fabpat.simulation.mesh import mesh_outline, refine_nested
 
     fp = fillet_pattern(get_pattern("0x4888"))
     m = mesh_outline(fp, 2.0)
@@ -194,9 +194,9 @@ def test_mesh_limits_count_the_real_triangles_and_bad_tolerances_are_refused() -
 
 
 def test_element_estimate_is_close_to_the_mesh() -> None:
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
-    from fabpat.mesh import estimate_elements, mesh_outline
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
+    from fabpat.simulation.mesh import estimate_elements, mesh_outline
 
     outline = fillet_pattern(get_pattern("0x2d88")).outline
     for h in (1.0, 2.0):
@@ -210,7 +210,7 @@ def test_suggested_h_passes_the_check_that_suggested_it(pid: str) -> None:
     import re
 
     import fabpat as api
-    from fabpat.mesh import check_element_count, check_resolves
+    from fabpat.simulation.mesh import check_element_count, check_resolves
 
     fp = api.pattern(pid).fillet()
     m = fp.metrics

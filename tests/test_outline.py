@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from fabpat.errors import GeometryError
-from fabpat.metrics import RegionMetrics
-from fabpat.outline import Line, Loop, Outline, OutlineReport, RationalQuad
+from fabpat.geometry.outline import Line, Loop, Outline, OutlineReport, RationalQuad
+from fabpat.patterns.metrics import RegionMetrics
 
 # ------------------------------------------------------------------------------ test-local helpers
 
@@ -513,8 +513,8 @@ def test_symmetry_check_sees_a_different_arc_weight() -> None:
 
 
 def test_segment_estimate_is_close_to_the_flattening() -> None:
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
 
     outline = fillet_pattern(get_pattern("0x0488")).outline
     for tol in (1e-3, 1e-4):

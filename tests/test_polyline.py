@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fabpat import polyline
+from fabpat.geometry import polyline
 
 
 def test_polyline_intersections_and_point_in_polygon() -> None:

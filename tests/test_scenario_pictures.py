@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import fabpat
-from fabpat.exchange.png_result import draw
-from fabpat.scenarios import load_label
+from fabpat.simulation.png_result import draw
+from fabpat.simulation.scenarios import load_label
 
 matplotlib.use("Agg")
 
@@ -51,7 +51,7 @@ def test_caption_prints_the_api_energy_not_the_fine_mesh(extrapolated) -> None:
 
 def test_to_png_title_keeps_the_energy_line(extrapolated, tmp_path, monkeypatch) -> None:
     seen: list[str] = []
-    import fabpat.exchange.png_result as png
+    import fabpat.simulation.png_result as png
 
     real = png.write_png
     monkeypatch.setattr(png, "write_png", lambda *a, title="", **k: seen.append(title) or real(*a, title=title, **k))

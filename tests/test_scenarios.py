@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from fabpat.errors import SolverError
-from fabpat.lattice import polygon_vertices
-from fabpat.mesh import interface_segments, mesh_polygons, solid_polygon_mesh
-from fabpat.scenarios import build_problem, edge_tangents, opposite, run_scenario
+from fabpat.patterns.lattice import polygon_vertices
+from fabpat.simulation.mesh import interface_segments, mesh_polygons, solid_polygon_mesh
+from fabpat.simulation.scenarios import build_problem, edge_tangents, opposite, run_scenario
 
 
 @pytest.fixture(scope="module")
@@ -82,8 +82,8 @@ def test_missing_interface_raises(hexagon) -> None:
 
 
 def test_non_finite_or_huge_results_are_solver_errors() -> None:
-    from fabpat.mesh import solid_polygon_mesh
-    from fabpat.scenarios import check_plausible, plate_size, run_scenario
+    from fabpat.simulation.mesh import solid_polygon_mesh
+    from fabpat.simulation.scenarios import check_plausible, plate_size, run_scenario
 
     assert plate_size(6, 36.0) == pytest.approx(72.0)
     with pytest.raises(SolverError, match="not finite"):

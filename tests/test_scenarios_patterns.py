@@ -11,16 +11,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fabpat.mesh import ShellMesh
-from fabpat.scenarios import CANTILEVER_FORCE, SCENARIOS, ScenarioResult, run_scenario
+from fabpat.simulation.mesh import ShellMesh
+from fabpat.simulation.scenarios import CANTILEVER_FORCE, SCENARIOS, ScenarioResult, run_scenario
 
 DENSE, LACY = "0x2d88", "0x0488"
 
 
 def _mesh(pid: str) -> ShellMesh:
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
-    from fabpat.mesh import mesh_outline
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
+    from fabpat.simulation.mesh import mesh_outline
 
     return mesh_outline(fillet_pattern(get_pattern(pid)).outline, 2.0, 6, 36.0)
 

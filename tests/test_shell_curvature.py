@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from fabpat.errors import GeometryError
-from fabpat.mesh import mesh_polygons, solid_polygon_mesh
 from fabpat.shell.curvature import curvature_fields, mesh_components, principal_curvatures
+from fabpat.simulation.mesh import mesh_polygons, solid_polygon_mesh
 
 RHO_SPHERE = 87.0  # about the truncated icosahedron's midradius for edge 36 (2.4271 a)
 RHO_CYL = 20.0
@@ -61,9 +61,9 @@ def test_sphere_cap_mean_and_gaussian(hexagon_cap) -> None:
 
 def test_lacy_plate_on_a_sphere() -> None:
     """The sphere's plates are lacy: bars a few elements wide. Ring neighbourhoods stay on the bars."""
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
-    from fabpat.mesh import mesh_outline
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
+    from fabpat.simulation.mesh import mesh_outline
 
     m = mesh_outline(fillet_pattern(get_pattern("0x0488")).outline, 1.5, 6, 36.0)
     k1, k2 = principal_curvatures(_cap(m.V, RHO_SPHERE), m.F)

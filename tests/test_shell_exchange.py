@@ -11,11 +11,11 @@ import subprocess
 import numpy as np
 import pytest
 
-from fabpat.exchange.inp import deck_text, read_ccx_energy, write_inp
-from fabpat.exchange.png_result import write_png
-from fabpat.exchange.vtu import write_vtu
-from fabpat.mesh import solid_polygon_mesh
-from fabpat.scenarios import edge_tangents, opposite, run_scenario
+from fabpat.simulation.inp import deck_text, read_ccx_energy, write_inp
+from fabpat.simulation.mesh import solid_polygon_mesh
+from fabpat.simulation.png_result import write_png
+from fabpat.simulation.scenarios import edge_tangents, opposite, run_scenario
+from fabpat.simulation.vtu import write_vtu
 
 
 @pytest.fixture(scope="module")

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fabpat.mesh import mesh_polygons
 from fabpat.shell import Material, ShellProblem, solve_linear
 from fabpat.shell.element import local_stiffness
+from fabpat.simulation.mesh import mesh_polygons
 from tests.shell_fixtures import edge_weights, rect_mesh
 
 

@@ -12,11 +12,11 @@ import itertools
 import pytest
 
 from fabpat.errors import SolverError
-from fabpat.fillet import fillet_pattern
-from fabpat.library import get_pattern
-from fabpat.mesh import ShellMesh, mesh_outline
-from fabpat.scenarios import SCENARIOS, build_problem
+from fabpat.geometry.fillet import fillet_pattern
+from fabpat.patterns.library import get_pattern
 from fabpat.shell import solve as shell_solve
+from fabpat.simulation.mesh import ShellMesh, mesh_outline
+from fabpat.simulation.scenarios import SCENARIOS, build_problem
 
 
 @pytest.fixture(scope="module")

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from fabpat.errors import GeometryError
-from fabpat.mesh import mesh_polygons
 from fabpat.shell import Material, ShellProblem, solve_nonlinear
 from fabpat.shell.rotations import expmap
 from fabpat.shell.strain import principal_2d, surface_strain_field, surface_strains
+from fabpat.simulation.mesh import mesh_polygons
 from tests.shell_fixtures import edge_weights, rect_mesh
 
 MAT = Material(E=1000.0, nu=0.35, t=2.0)

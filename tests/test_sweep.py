@@ -19,9 +19,9 @@ from pathlib import Path
 import pytest
 
 from fabpat.catalog import open_catalog
-from fabpat.convergence import converged_h
+from fabpat.catalog.sweep import SweepSetup, run_sweep, simulate_pattern
 from fabpat.errors import FabpatError
-from fabpat.sweep import SweepSetup, run_sweep, simulate_pattern
+from fabpat.simulation.convergence import converged_h
 from tests.conftest import run_cli
 from tests.helpers import invoke_result as invoke
 from tests.helpers import refusal_in as one_line_error
@@ -33,7 +33,7 @@ def fake_task(pattern_id: str, sides: int, depth: int, edge: float, thickness: f
               nu: float, h: float, scenarios: tuple[str, ...], extrapolate: bool = False) -> list[dict[str, object]]:
     """Rows shaped like simulate_pattern's, with energy = E/1000 · (index of the scenario + 1)."""
     from fabpat.catalog import solver_version
-    from fabpat.sweep import fine_mesh, pattern_hash, result_hash
+    from fabpat.catalog.sweep import fine_mesh, pattern_hash, result_hash
 
     if os.environ.get("FAKE_PID_FILE"):  # the kill test checks that workers die with the parent
         with open(os.environ["FAKE_PID_FILE"], "a") as f:
@@ -108,7 +108,7 @@ def test_write_rows_is_all_or_nothing(tmp_path: Path) -> None:
 
 _KILL_SCRIPT = """
 import sys
-from fabpat.sweep import run_sweep
+from fabpat.catalog.sweep import run_sweep
 from tests.test_sweep import IDS, fake_task
 run_sweep(sys.argv[1], IDS, workers=2, task=fake_task)
 """
@@ -233,11 +233,11 @@ def test_extrapolated_sweep_stores_richardson_energy_and_switching_recomputes(
     2 mm mesh and its nested refinement (Richardson with order 1.2), the other fields are the fine mesh's,
     ``h_fine`` says so; ``--no-extrapolate`` recomputes the row as one 1.5 mm mesh (the hash covers it),
     and the default again recomputes it extrapolated."""
-    from fabpat.convergence import nested_meshes
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
-    from fabpat.mesh import mesh_outline
-    from fabpat.scenarios import run_scenario
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
+    from fabpat.simulation.convergence import nested_meshes
+    from fabpat.simulation.mesh import mesh_outline
+    from fabpat.simulation.scenarios import run_scenario
 
     # in this process (the real CLI group, --workers 1 runs inline): the test is about the stored rows,
     # not the process; the library cache stays off as in run_cli
@@ -317,7 +317,7 @@ def test_catalog_without_h_fine_reads_as_single_mesh_and_gains_the_column_when_w
 def test_extrapolated_sweep_too_fine_names_the_finer_mesh_and_a_valid_h(tmp_path: Path) -> None:
     """The size check covers the finer mesh (the refinement to h/2) and suggests an --h that passes (one
     line, exit 2, no file)."""
-    from fabpat.mesh import check_polygon_elements
+    from fabpat.simulation.mesh import check_polygon_elements
 
     db = tmp_path / "c.sqlite"
     res = invoke("sweep", "--sample", "1", "--extrapolate", "--h", "0.5", "--db", str(db))

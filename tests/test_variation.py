@@ -13,11 +13,11 @@ from click.testing import CliRunner
 import fabpat
 from fabpat.cli import cli
 from fabpat.errors import FabpatError, GeometryError
-from fabpat.fillet import fillet_pattern, vertex_stars
-from fabpat.library import enumerate_library, get_pattern
-from fabpat.outline import RationalQuad
+from fabpat.geometry.fillet import fillet_pattern, vertex_stars
+from fabpat.geometry.outline import RationalQuad
+from fabpat.patterns.library import enumerate_library, get_pattern
+from fabpat.patterns.variation import PAPER_VARIATION, Variation, variations
 from fabpat.validate import RANGES
-from fabpat.variation import PAPER_VARIATION, Variation, variations
 
 LOW, HIGH = RANGES["bridge_weight"].low, RANGES["bridge_weight"].high
 #: mm: two 0.4 mm extrusion lines, the thinnest wall a slicer prints solid (and the CLI's print warning)
@@ -259,7 +259,7 @@ def test_cli_simulate_json_carries_the_variation() -> None:
 
 def test_cli_simulate_nonconvergence_names_the_scenario_and_the_member(monkeypatch: pytest.MonkeyPatch) -> None:
     """A scenario the solver cannot finish is one error line that says which scenario of which member."""
-    import fabpat.convergence as convergence
+    import fabpat.simulation.convergence as convergence
     from fabpat.errors import SolverError
 
     def lost(*args: object, **kwargs: object) -> None:

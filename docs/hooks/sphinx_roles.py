@@ -1,9 +1,9 @@
 """griffe extension for the API reference: the Sphinx roles of fabpat's docstrings become links.
 
 fabpat's docstrings name other objects with Sphinx roles (``:class:`Outline```,
-``:func:`~fabpat.cad.make_solid```). mkdocstrings renders Markdown, where a role would show as raw
+``:func:`~fabpat.exchange.cad.make_solid```). mkdocstrings renders Markdown, where a role would show as raw
 text. This extension rewrites each role, once the package is loaded, into an autorefs link
-(``[`Outline`][fabpat.outline.Outline]``) when the name resolves to a public, documented fabpat
+(``[`Outline`][fabpat.geometry.outline.Outline]``) when the name resolves to a public, documented fabpat
 object, and into plain code otherwise. A link that then finds no target fails the strict build.
 """
 

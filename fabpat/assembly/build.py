@@ -78,8 +78,8 @@ def plan(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | None 
     ``ids``: the face pattern IDs, if already chosen (else :func:`face_patterns`, progress step
     "patterns"). Raises :class:`SpecError` when a plate's neck does not fit the sleeve's slot.
     """
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
 
     tell = progress or (lambda _step: None)
     check_geometry(spec)
@@ -114,7 +114,7 @@ def default_predict_h(spec: AssemblySpec) -> float:
     :data:`fabpat.assembly.simulate.MAX_H_PER_INTERFACE` × the interface segment 2d)."""
     from fabpat.assembly.simulate import MAX_H_PER_INTERFACE
 
-    segment = 2.0 * spec.tiling.edge / 16.0 / (1.0 + spec.plates.weight)  # fabpat.mesh.interface_segments
+    segment = 2.0 * spec.tiling.edge / 16.0 / (1.0 + spec.plates.weight)  # fabpat.simulation.mesh.interface_segments
     return min(PREDICT_H, MAX_H_PER_INTERFACE * segment)
 
 

@@ -128,11 +128,11 @@ def face_patterns(spec: AssemblySpec, energies: Callable[[int], dict[str, float]
 
 
 def _family_curves(spec: AssemblySpec, sides: int) -> dict[str, Any]:
-    """Every pattern's family curve in the spec's scenario (:func:`fabpat.family.family_curves`) at the
+    """Every pattern's family curve in the spec's scenario (:func:`fabpat.catalog.family.family_curves`) at the
     spec's plate set-up, else the catalog's default one (a pattern without family rows: a one-member
     curve, the paper's). Raises SpecError when the catalog holds neither set-up."""
     from fabpat.assembly.provenance import CATALOG_SETUP
-    from fabpat.family import family_curves
+    from fabpat.catalog.family import family_curves
 
     pl, p = spec.plates, spec.patterns
     problem: FabpatError | None = None
@@ -158,7 +158,7 @@ def with_members(spec: AssemblySpec, energies: Callable[[int], dict[str, float]]
       hexagon's (or, when the catalog has no pentagon family, the hexagon's member whose energy is the
       pentagon's).
 
-    ``curves(sides)`` supplies {ID: family curve} (default: the catalog's, :mod:`fabpat.family`).
+    ``curves(sides)`` supplies {ID: family curve} (default: the catalog's, :mod:`fabpat.catalog.family`).
     Raises :class:`SpecError` as :func:`face_patterns`.
     """
     from fabpat.assembly import rules

@@ -210,7 +210,7 @@ def slot_motions(asm: Assembly, s: PlacedSleeve, plates: list[ModelPlate]) -> tu
     """
     from fabpat.assembly.placement import setback
     from fabpat.assembly.sleeve import joint_direction
-    from fabpat.lattice import polygon_vertices
+    from fabpat.patterns.lattice import polygon_vertices
     from fabpat.shell.rotations import logmap
 
     origin, SR = s.transform[:3, 3], s.transform[:3, :3]

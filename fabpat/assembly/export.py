@@ -24,8 +24,8 @@ from pathlib import Path
 import numpy as np
 
 from fabpat.assembly.parts import CHECK_TOLERANCE, PartLibrary, gp_trsf, transformed
-from fabpat.cad import DEFAULT_CHORD
 from fabpat.errors import ExportError
+from fabpat.exchange.cad import DEFAULT_CHORD
 
 PALETTE = ["#f2a541", "#4a90d9", "#7bc67b", "#d96c6c", "#a57fd1", "#5cc4c4", "#c9b458"]
 SLEEVE_COLOUR = "#5a5a5a"

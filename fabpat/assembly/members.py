@@ -1,6 +1,6 @@
 """Family members as candidates: their names, their catalog rows, and a spec whose plates are them.
 
-One code path for every choice that may take a family member (:mod:`fabpat.variation`) instead of a
+One code path for every choice that may take a family member (:mod:`fabpat.patterns.variation`) instead of a
 catalog pattern: the strip design and the closed-tiling design (:mod:`fabpat.design`) and the sphere's
 ``rule = "roundest"`` with ``bridge_weight = "rule"`` (:mod:`fabpat.assembly.build`).
 
@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from fabpat.catalog import DEFAULT_SETUP, Catalog, open_catalog
-from fabpat.variation import Variation
+from fabpat.patterns.variation import Variation
 
 #: the scenarios a member row carries (the catalog's)
 SCENARIOS = ("cantilever", "cylinder", "dome")

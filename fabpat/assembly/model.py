@@ -27,10 +27,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import GeometryError
-from fabpat.mesh import ShellMesh
 from fabpat.shell.element import Material
 from fabpat.shell.rigid_links import LinkedProblem
 from fabpat.shell.rotations import logmap
+from fabpat.simulation.mesh import ShellMesh
 
 Arr = NDArray[np.float64]
 
@@ -189,12 +189,12 @@ PLAUSIBLE_STRAIN = 0.2
 
 def check_plausible(model: AssemblyModel, energy: float, displacement: Arr, peak_strain: float, what: str) -> None:
     """Raise SolverError unless a solved assembly is plausible: finite and within the displacement bound
-    of the scenarios (:func:`fabpat.scenarios.check_plausible`, nonlinear: at most twice the assembly's
+    of the scenarios (:func:`fabpat.simulation.scenarios.check_plausible`, nonlinear: at most twice the assembly's
     size, the diagonal of its plates' bounding box, mm), and with a peak surface strain (dimensionless)
     at most :data:`PLAUSIBLE_STRAIN`. ``displacement`` (N, ≥ 3) is the nodes' final displacement (mm);
     ``what`` starts the message."""
     from fabpat.errors import SolverError
-    from fabpat.scenarios import check_plausible as check_scenario
+    from fabpat.simulation.scenarios import check_plausible as check_scenario
 
     n = len(model.X)
     size = float(np.linalg.norm(np.ptp(model.X, axis=0)))

@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 from fabpat.assembly.nesting import convex_distance
 from fabpat.assembly.tiling import Tiling
 from fabpat.errors import GeometryError
-from fabpat.lattice import polygon_vertices
+from fabpat.patterns.lattice import polygon_vertices
 
 OVERLAP_TOL = 1e-6  # mm: faces sharing an edge or a vertex "touch" at distance 0 up to rounding
 

@@ -8,9 +8,9 @@ interfaces into one exact outline (lines and quadratic rational arcs, nothing ap
 writer of :mod:`fabpat.exchange.registry` takes as a part.
 
 **How the outlines fuse** (:func:`fuse`). Two neighbouring plates share a polygon edge, and the edge
-rule of the library (:func:`fabpat.library.is_tileable`) leaves only the middle sub-triangle of each
+rule of the library (:func:`fabpat.patterns.library.is_tileable`) leaves only the middle sub-triangle of each
 edge row solid, its apex at the edge midpoint M: a plate touches its polygon only along its interface
-segment [M − d, M + d] (:mod:`fabpat.fillet`), identical for every pattern, family member and polygon
+segment [M − d, M + d] (:mod:`fabpat.geometry.fillet`), identical for every pattern, family member and polygon
 of one edge. Each plate's outer loop runs ``… a₁, L, a₂ …`` there: a₁ the first half of the bow-tie
 arc that crosses the edge at M − d at right angles, L the segment, a₂ the second half of the other
 bow-tie arc. The neighbour runs the same segment the other way. So the union of the two plates is
@@ -59,7 +59,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import GeometryError
-from fabpat.outline import Line, Loop, Outline, RationalQuad, Segment
+from fabpat.geometry.outline import Line, Loop, Outline, RationalQuad, Segment
 
 Arr = NDArray[np.float64]
 #: mm: two world points of neighbouring plates closer than this are the same point (the plates' shared
@@ -83,7 +83,7 @@ def _same_arc(a: RationalQuad, b: RationalQuad) -> bool:
 
 @dataclass(frozen=True, eq=False)
 class PlacedOutline:
-    """One plate of a panel: its ``filleted`` pattern (:class:`~fabpat.fillet.FilletedPattern`) and the rigid
+    """One plate of a panel: its ``filleted`` pattern (:class:`~fabpat.geometry.fillet.FilletedPattern`) and the rigid
     2D motion ``R`` (2, 2), ``t`` (2,) mm from its polygon frame to the panel's plane."""
 
     filleted: Any
@@ -116,9 +116,9 @@ class PlacedOutline:
 
 @dataclass(frozen=True)
 class Fused:
-    """The fused outline (:class:`~fabpat.outline.Outline`, no polygon frame), the whole bow-tie arcs whose
+    """The fused outline (:class:`~fabpat.geometry.outline.Outline`, no polygon frame), the whole bow-tie arcs whose
     halves its free interfaces and its interfaces between two polygons keep (``support``, for
-    :func:`fabpat.cad.make_face`), how many interfaces were fused and how many bow-tie arcs were made whole
+    :func:`fabpat.exchange.cad.make_face`), how many interfaces were fused and how many bow-tie arcs were made whole
     again there (two per fused interface of one polygon)."""
 
     outline: Outline
@@ -282,7 +282,7 @@ class Panel:
 
     @property
     def solid(self) -> Any:
-        """The exact ``TopoDS_Solid`` (BRepCheck valid; :func:`fabpat.cad.make_solid`), built on first use."""
+        """The exact ``TopoDS_Solid`` (BRepCheck valid; :func:`fabpat.exchange.cad.make_solid`), built on first use."""
         return self.part.solid
 
     def ends(self) -> tuple[list[tuple[int, int]], list[tuple[int, int]]]:
@@ -318,8 +318,8 @@ def build_panel(spec: Any, face_patterns: Sequence[str] | None = None) -> Panel:
     from fabpat.assembly.choice import face_patterns as choose
     from fabpat.assembly.panel_mesh import panel_tiling
     from fabpat.assembly.placement import PlateType
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
 
     check_panel(spec)
     ids = list(choose(spec) if face_patterns is None else face_patterns)
@@ -357,7 +357,8 @@ def panel_setup(spec: Any, face_patterns: Sequence[str], *, h: float = 3.0, E: f
                 nu: float = 0.35) -> Any:
     """The fused panel as the strip's end-shortening experiment (:class:`fabpat.assembly.simulate.StripSetup`):
     ONE shell plate, the fused outline meshed at target edge ``h`` (mm) by Triangle (curves flattened at
-    :data:`fabpat.mesh.FLATTEN_TOL_PER_H` × h, chords moved towards their arcs, :func:`fabpat.mesh.flatten_outline`),
+    :data:`fabpat.simulation.mesh.FLATTEN_TOL_PER_H` × h, chords moved towards their arcs,
+    :func:`fabpat.simulation.mesh.flatten_outline`),
     its mid-surface on z = 0, no sleeves; pinned at the free interfaces of its first and last columns as a strip is
     (:func:`fabpat.assembly.placement.end_interfaces`), a mesh panel at those of its ends along the longer side
     of its bounding box (:meth:`Panel.ends`; turned by 90° onto x when that is y: the experiment pushes along x).
@@ -369,8 +370,8 @@ def panel_setup(spec: Any, face_patterns: Sequence[str], *, h: float = 3.0, E: f
     from fabpat.assembly.panel_mesh import push_axis
     from fabpat.assembly.simulate import StripSetup, check_h
     from fabpat.errors import SpecError
-    from fabpat.mesh import ASSEMBLY_MAX_ELEMENTS, FLATTEN_TOL_PER_H, flatten_outline, mesh_polygons
     from fabpat.shell.element import Material
+    from fabpat.simulation.mesh import ASSEMBLY_MAX_ELEMENTS, FLATTEN_TOL_PER_H, flatten_outline, mesh_polygons
 
     check_h(h, spec.tiling.edge, spec.plates.weight)
     panel = build_panel(spec, face_patterns)

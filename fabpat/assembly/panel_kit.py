@@ -34,7 +34,7 @@ from fabpat.assembly.panel_sheet import nest_panel, quarter_turn
 from fabpat.errors import ExportError
 
 #: relative difference allowed between the fused solid's volume and the plates' volumes summed: both are
-#: exact (adaptive Gauss–Kronrod at 1e-10, :func:`fabpat.cad.volume`); measured 4e-16 on a 3 × 4 panel
+#: exact (adaptive Gauss–Kronrod at 1e-10, :func:`fabpat.exchange.cad.volume`); measured 4e-16 on a 3 × 4 panel
 VOLUME_RTOL = 1e-6
 #: the kit files of each ``output.formats`` entry
 PANEL_FILES = {"step": ("panel.step",), "stl": ("panel.stl",), "3mf": ("panel.3mf",), "3dm": ("panel.3dm",),
@@ -77,7 +77,7 @@ def sheet_document(panel: Panel, nesting: Any, quarter: bool) -> Any:
     import ezdxf
 
     from fabpat.assembly.sheets import SHEET_COLOR, SHEET_LAYER, edge_label_spots
-    from fabpat.contours import bulge_loops, offset_bulge_loops
+    from fabpat.exchange.contours import bulge_loops, offset_bulge_loops
     from fabpat.exchange.dxf import CUT_COLOR, CUT_LAYER, ENGRAVE_COLOR, ENGRAVE_LAYER, add_bulge_segments, set_extents
     from fabpat.exchange.labels import label_at
 
@@ -122,7 +122,7 @@ def sheet_document(panel: Panel, nesting: Any, quarter: bool) -> Any:
 
 def plate_volume(panel: Panel) -> float:
     """The plates' volumes summed (mm³), each distinct plate's own exact solid built apart (not the fused one)."""
-    from fabpat.cad import make_solid, volume
+    from fabpat.exchange.cad import make_solid, volume
 
     one = {pt: volume(make_solid(fp.outline, panel.spec.plates.thickness, fp.support_arcs))
            for pt, fp in panel.filleted.items()}
@@ -131,8 +131,8 @@ def plate_volume(panel: Panel) -> float:
 
 def check_panel_part(panel: Panel) -> tuple[float, float]:
     """(solid volume, plates' summed volume) in mm³; ExportError unless they agree within :data:`VOLUME_RTOL`.
-    The solid is BRepCheck valid or not built (:func:`fabpat.cad.make_solid` checks it: GeometryError)."""
-    from fabpat.cad import volume
+    The solid is BRepCheck valid or not built (:func:`fabpat.exchange.cad.make_solid` checks it: GeometryError)."""
+    from fabpat.exchange.cad import volume
 
     v, plates = volume(panel.solid), plate_volume(panel)
     if abs(v - plates) > VOLUME_RTOL * plates:
@@ -262,7 +262,7 @@ def render_png(panel: Panel, path: Path) -> None:
 
     from fabpat.assembly.export import PALETTE
     from fabpat.assembly.render import plain_text
-    from fabpat.outline import Loop, Outline
+    from fabpat.geometry.outline import Loop, Outline
 
     colour = {pt: PALETTE[i % len(PALETTE)] for i, pt in enumerate(dict.fromkeys(panel.types))}
     fig, ax = plt.subplots(figsize=(8, 7), dpi=120)

@@ -44,7 +44,7 @@ class PartLibrary:
 
     def name(self, key: str) -> str:
         """Product name with every parameter that changes the part's geometry."""
-        from fabpat.cad import part_name
+        from fabpat.exchange.cad import part_name
 
         pt = self.plate_type(key)
         if pt is None:
@@ -60,7 +60,7 @@ class PartLibrary:
     def solid(self, key: str) -> Any:
         """``TopoDS_Solid`` of the part in its own frame: plates z ∈ [0, t]; sleeves in the joint frame."""
         if key not in self._solids:
-            from fabpat.cad import make_solid
+            from fabpat.exchange.cad import make_solid
 
             pt = self.plate_type(key)
             if pt is None:
@@ -73,7 +73,7 @@ class PartLibrary:
     def mesh(self, key: str, tolerance: float = CHECK_TOLERANCE) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
         """``V`` (n, 3) mm, ``F`` (m, 3) of the part in its own frame (closed, outward)."""
         if (key, tolerance) not in self._meshes:
-            from fabpat.cad import make_solid
+            from fabpat.exchange.cad import make_solid
 
             # Mesh a fresh copy: BRepMesh stores its triangulation in the shape, and the exact solid
             # is also written to STEP and STL at other tolerances.

@@ -37,7 +37,7 @@ from fabpat.assembly.sleeve import Sleeve, joint_direction, min_plate_edge, setb
 from fabpat.assembly.spec import RADIUS_KINDS, AssemblySpec, sleeve_angle
 from fabpat.assembly.tiling import FACE_LETTERS, Tiling, mean_distance
 from fabpat.errors import GeometryError, SpecError
-from fabpat.variation import Variation
+from fabpat.patterns.variation import Variation
 
 SHORT_NAMES = {3: "tri", 4: "quad", 5: "pent", 6: "hex"}
 #: degrees: on a tiling whose joints of one polygon pair have several dihedral angles (a mesh), sleeves
@@ -50,7 +50,7 @@ NECK_CLEARANCE = 0.05  # mm: least gap required between the neck and a slot's en
 @dataclass(frozen=True)
 class PlateType:
     """One distinct plate: polygon ``sides``, pattern ID and family member (``bridge_weight``, the
-    paper's 1 by default; :mod:`fabpat.variation`); ``label`` like "hex 0x0488" or "hex 0x0488 b0.5"."""
+    paper's 1 by default; :mod:`fabpat.patterns.variation`); ``label`` like "hex 0x0488" or "hex 0x0488 b0.5"."""
 
     sides: int
     pattern_id: str
@@ -65,7 +65,7 @@ class PlateType:
 
     @property
     def variation(self) -> Variation:
-        """The family member as a :class:`~fabpat.variation.Variation`."""
+        """The family member as a :class:`~fabpat.patterns.variation.Variation`."""
         return Variation(self.bridge_weight)
 
     @property
@@ -138,7 +138,7 @@ class Assembly:
         """Mean distance (mm) of the plates' mid-surfaces, as placed, from the skeleton's centre (or its
         ``axis``): :func:`fabpat.assembly.tiling.mean_distance` of the plates' polygons (what
         ``tiling.radius`` asks for)."""
-        from fabpat.lattice import polygon_vertices
+        from fabpat.patterns.lattice import polygon_vertices
 
         loops = []
         for p in self.plates:
@@ -259,7 +259,7 @@ def check_geometry(spec: AssemblySpec) -> None:
     names the key and its valid range (mm), derived from the other keys:
 
     * ``tiling.edge`` ≥ (``sleeve.margin`` + 2 × ``sleeve.wall``) / (1 − 1 / (8 (1 + w))): a sleeve (the
-      interface segment 2 · edge / 16 / (1 + w), :func:`fabpat.fillet.interface_half_length`, plus the
+      interface segment 2 · edge / 16 / (1 + w), :func:`fabpat.geometry.fillet.interface_half_length`, plus the
       margin and its two end walls) must fit on the plate's edge;
     * ``plates.weight`` ≤ edge / (8 · 10 · ``output.mesh_tolerance``) − 1: the interface segment must be
       at least :data:`MIN_INTERFACE_CHORDS` STL chords long;

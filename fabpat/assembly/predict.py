@@ -23,7 +23,7 @@ from typing import Any
 from fabpat.assembly.placement import Assembly
 from fabpat.assembly.spec import AssemblySpec
 from fabpat.errors import ExportError, FabpatError
-from fabpat.mesh import ASSEMBLY_MAX_ELEMENTS
+from fabpat.simulation.mesh import ASSEMBLY_MAX_ELEMENTS
 
 #: default mesh edge (mm) of the kit's closure prediction, the simulate-assembly default: the shipped
 #: sphere's whole kit takes 26 s on the shared 2-core machine with it, and h = 2 or 1.5 move the radius

@@ -28,8 +28,8 @@ class PatternRecord:
     ``chosen_by`` (see the module docstring), ``energies`` {scenario: N·mm or None}, the ``catalog``
     read ("built-in" or its path) and the ``catalog_setup`` {edge, thickness, weight} of the energies
     (None when the catalog gave none, ``note`` then says why); ``bridge_weight`` the family member
-    (:mod:`fabpat.variation`; 1 = the paper's, whose energies are the catalog's own; another member's
-    are interpolated over the catalog's family, :mod:`fabpat.family`)."""
+    (:mod:`fabpat.patterns.variation`; 1 = the paper's, whose energies are the catalog's own; another member's
+    are interpolated over the catalog's family, :mod:`fabpat.catalog.family`)."""
 
     part: str
     pattern: str
@@ -81,9 +81,9 @@ def _lookup(spec: AssemblySpec, sides: int, depth: int) -> tuple[dict[str, dict[
 
 
 def _member_energies(spec: AssemblySpec, pt: Any, setup: dict[str, float]) -> tuple[dict[str, float | None], str]:
-    """A family member's energies interpolated from the catalog's family rows (:mod:`fabpat.family`),
+    """A family member's energies interpolated from the catalog's family rows (:mod:`fabpat.catalog.family`),
     None where its curve does not reach the member, with a note saying so."""
-    from fabpat.family import family_curves
+    from fabpat.catalog.family import family_curves
 
     out: dict[str, float | None] = {}
     missing = []

@@ -99,10 +99,10 @@ class AssemblySimulation:
         return self.model.X + self.run.result.final.displacement[:n]
 
     def to_vtu(self, path: str | os.PathLike[str]) -> None:
-        """Every plate, deformed, for ParaView: the shell fields of :func:`fabpat.exchange.vtu.write_vtu`
+        """Every plate, deformed, for ParaView: the shell fields of :func:`fabpat.simulation.vtu.write_vtu`
         plus point fields ``plate``, ``mean_curvature``, ``gaussian_curvature`` and the cell field
         ``surface_strain``."""
-        from fabpat.exchange.vtu import write_vtu
+        from fabpat.simulation.vtu import write_vtu
 
         _check_path(path)
         m = self.model

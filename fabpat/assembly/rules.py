@@ -16,9 +16,9 @@ dictionaries.
   ``bridge_weight = "rule"`` its pools also hold the catalog's swept family members, named ``"ID bW"``
   (:mod:`fabpat.assembly.members`); a pair is always two different patterns, whatever their members.
 * :func:`graded_targets` and :func:`nearest_member` — with ``bridge_weight = "rule"`` the rules also
-  choose each pattern's family member (:mod:`fabpat.variation`) that hits its target energy, from the
+  choose each pattern's family member (:mod:`fabpat.patterns.variation`) that hits its target energy, from the
   pattern's family curve (anything with ``range``, ``energy(w)`` and ``members_for(E)``, such as
-  :class:`fabpat.family.FamilyCurve`), instead of settling for the nearest catalog energy.
+  :class:`fabpat.catalog.family.FamilyCurve`), instead of settling for the nearest catalog energy.
 """
 
 from __future__ import annotations

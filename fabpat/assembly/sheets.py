@@ -1,7 +1,7 @@
 """Laser sheets (or print-bed layouts) of an assembly's plates: one DXF per sheet.
 
 Each plate's exact outline is fitted by circular arcs within the spec's ``output.curve_tolerance``
-(default 0.01 mm; :func:`fabpat.contours.bulge_loops`),
+(default 0.01 mm; :func:`fabpat.exchange.contours.bulge_loops`),
 offset by kerf/2 into the void when a kerf is given, turned and moved to its nested place, and written
 as closed LWPOLYLINEs with bulges on layer ``CUT`` (a rigid motion keeps every bulge; laser software
 fills and orders closed shapes), or, with ``[sheet] dxf_entities = "segments"``, as one LINE or ARC
@@ -35,7 +35,7 @@ LINE_GAP = 0.3  # mm between the joint label line and the plate label line
 
 def plate_polygon(pt: PlateType, edge: float) -> NDArray[np.float64]:
     """(n, 2) polygon that contains the plate (the plate's frame, mm)."""
-    from fabpat.lattice import polygon_vertices
+    from fabpat.patterns.lattice import polygon_vertices
 
     return polygon_vertices(pt.sides, edge)
 
@@ -98,7 +98,7 @@ def sheet_document(assembly: Assembly, nesting: Nesting, sheet: int, filleted: d
     """The ezdxf drawing of one sheet (mm; layers CUT, ENGRAVE, SHEET)."""
     import ezdxf
 
-    from fabpat.contours import bulge_loops, offset_bulge_loops
+    from fabpat.exchange.contours import bulge_loops, offset_bulge_loops
     from fabpat.exchange.dxf import CUT_COLOR, CUT_LAYER, ENGRAVE_COLOR, ENGRAVE_LAYER, add_bulge_segments, set_extents
     from fabpat.exchange.labels import label_at
 

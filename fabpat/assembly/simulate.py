@@ -89,14 +89,14 @@ def kit_end_shortening(spec: object) -> float:
 def plate_mesh(pattern_id: str, sides: int, edge: float, weight: float, h: float,  # noqa: ANN201 - ShellMesh
                bridge_weight: float = 1.0):
     """The filleted pattern's mesh (target edge h, mm) with its interfaces tagged, cached per type and
-    family member (``bridge_weight``, :mod:`fabpat.variation`).
+    family member (``bridge_weight``, :mod:`fabpat.patterns.variation`).
 
     Raises GeometryError when an interface gets fewer than 2 nodes (h too coarse).
     """
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
-    from fabpat.mesh import mesh_outline
-    from fabpat.variation import Variation
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
+    from fabpat.patterns.variation import Variation
+    from fabpat.simulation.mesh import mesh_outline
 
     outline = fillet_pattern(get_pattern(pattern_id, sides, 2, edge), weight, Variation(bridge_weight)).outline
     return mesh_outline(outline, h, sides, edge, weight=weight)
@@ -104,7 +104,8 @@ def plate_mesh(pattern_id: str, sides: int, edge: float, weight: float, h: float
 
 def check_h(h: float, plate_edge: float, weight: float) -> None:
     """Raise GeometryError unless 0 < h ≤ ``MAX_H_PER_INTERFACE`` × the interface segment 2d (mm)."""
-    seg = 2.0 * plate_edge / 16.0 / (1.0 + weight)  # interface segment length 2d (fabpat.mesh.interface_segments)
+    # the interface segment's length 2d (fabpat.simulation.mesh.interface_segments)
+    seg = 2.0 * plate_edge / 16.0 / (1.0 + weight)
     if not 0 < h <= MAX_H_PER_INTERFACE * seg:
         raise GeometryError(f"mesh too coarse for the interface: h = {h:g} mm, the interface segment is {seg:.3g} mm "
                             f"long; use h ≤ {math.floor(MAX_H_PER_INTERFACE * seg * 1000) / 1000:g} mm")
@@ -116,7 +117,7 @@ def model_plates(asm: object, h: float, thickness: float, weight: float,
     its mid-surface placed at half the thickness (mm) of the solid the placement maps. ``filleted``:
     the kit's FilletedPattern per plate type, meshed instead of filleting the type again (the same
     outline: :func:`plate_mesh` fillets it as the kit does)."""
-    from fabpat.mesh import mesh_outline
+    from fabpat.simulation.mesh import mesh_outline
 
     plates = []
     own: dict[Any, Any] = {}

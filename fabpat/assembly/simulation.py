@@ -28,7 +28,7 @@ from fabpat.assembly.model import AssemblyModel
 from fabpat.assembly.result import PNG_FIELDS, AssemblySimulation, read_outs
 from fabpat.assembly.sizing import check_assembly_size
 from fabpat.errors import SpecError
-from fabpat.mesh import ASSEMBLY_MAX_ELEMENTS
+from fabpat.simulation.mesh import ASSEMBLY_MAX_ELEMENTS
 
 Arr = NDArray[np.float64]
 #: the front door's return type and its picture fields, importable from here as from their room

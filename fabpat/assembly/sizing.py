@@ -13,7 +13,7 @@ from typing import Any
 #: ``/usr/bin/time -v`` on 1 × 3 and 1 × 12 strips of 0x0488 (0.8 mm plates) through simulate_assembly at
 #: h = 3 mm: 1 476 and 5 904 elements, 198 MB and 466 MB maximum resident set, i.e. 60.5 kB per element
 #: over 109 MB (the graded 2 × 15 strip, ≈ 19 000 elements, peaked near 1.2 GB, on the same line);
-#: rounded up. A scenario solve needs about 40 kB per element (fabpat.mesh.DEFAULT_MAX_ELEMENTS).
+#: rounded up. A scenario solve needs about 40 kB per element (fabpat.simulation.mesh.DEFAULT_MAX_ELEMENTS).
 ASSEMBLY_BYTES_PER_ELEMENT = 62_000
 ASSEMBLY_BASE_BYTES = 120_000_000
 
@@ -60,20 +60,20 @@ def check_assembly_size(spec: Any, patterns: list[str], h: float, max_elements: 
     """Refuse (GeometryError, naming --max-elements and an h that passes) an assembly whose plate meshes
     at edge h (mm) would hold more than ``max_elements`` triangles in total, or whose solve would need
     more memory than the machine has (:func:`check_assembly_memory`), before any meshing; the estimate is
-    :func:`fabpat.mesh.estimate_elements` of each distinct filleted outline × its count.
+    :func:`fabpat.simulation.mesh.estimate_elements` of each distinct filleted outline × its count.
     ``option`` (how to raise the limit) and ``h_name`` (how the caller spells h) word the message;
     ``outlines``: outlines already filleted, by (pattern ID, sides, bridge weight), not filleted again."""
     import math
 
     from fabpat.assembly.placement import build_tiling
     from fabpat.errors import GeometryError
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
-    from fabpat.mesh import estimate_elements
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
+    from fabpat.simulation.mesh import estimate_elements
     from fabpat.validate import check, check_size, round_up
 
     max_elements = int(check("max_elements", max_elements, "max_elements", error=GeometryError))
-    from fabpat.variation import Variation
+    from fabpat.patterns.variation import Variation
 
     count: dict[tuple[str, int, float], int] = {}
     for f, (pid, face) in enumerate(zip(patterns, build_tiling(spec).faces, strict=True)):

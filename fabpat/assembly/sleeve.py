@@ -204,7 +204,7 @@ class Sleeve:
         """The sleeve as a BRepCheck-valid ``TopoDS_Solid`` in the local frame."""
         from OCP.BRepAlgoAPI import BRepAlgoAPI_Cut
 
-        from fabpat.cad import check_valid
+        from fabpat.exchange.cad import check_valid
 
         x0 = -0.5 * self.length
         body = _prism(self.section, x0, self.length)

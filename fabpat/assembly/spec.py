@@ -281,7 +281,7 @@ def check_sheet_fits(spec: AssemblySpec) -> None:
     Tries the two turns the nesting uses (0 and π/n); the 1 mm slack is the nesting grid's step.
     """
     from fabpat.assembly.nesting import DEFAULT_RESOLUTION
-    from fabpat.lattice import polygon_vertices
+    from fabpat.patterns.lattice import polygon_vertices
 
     if spec.tiling.panel:
         from fabpat.assembly.panel_sheet import check_panel_fits

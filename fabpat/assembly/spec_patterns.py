@@ -33,8 +33,8 @@ _ONLY_RULE = {"candidates": "roundest"}
 
 def pattern_id_of(source: str, key: str, pid: Any, sides: tuple[int, ...]) -> str:
     """The canonical ID if it is a library pattern for every polygon in ``sides``; SpecError otherwise."""
-    from fabpat.lattice import normalize_id
-    from fabpat.library import get_pattern
+    from fabpat.patterns.lattice import normalize_id
+    from fabpat.patterns.library import get_pattern
 
     if not isinstance(pid, str):
         raise SpecError(f"{source}: {key} = {pid!r} must be a pattern ID string such as \"0x0488\"")

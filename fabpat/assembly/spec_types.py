@@ -128,7 +128,7 @@ class PatternSpec:
     count: int = 5
     catalog: str | None = None
     candidates: int = 8  # rule = "roundest": similar-energy pairs the closure solver tries
-    #: per face (in face order) the family member's bridge_weight (fabpat.variation); () = the paper's
+    #: per face (in face order) the family member's bridge_weight (fabpat.patterns.variation); () = the paper's
     #: fillets on every plate
     bridge_weights: tuple[float, ...] = ()
     #: ``bridge_weight = "rule"``: the rule also picks every pattern's family member, to hit its target
@@ -214,7 +214,7 @@ class AssemblySpec:
     sheet: SheetSpec | None
     estimates: EstimateSpec
     formats: tuple[str, ...]
-    mesh_tolerance: float = 0.005  # mm: STL chord of the parts (fabpat.cad.DEFAULT_CHORD)
+    mesh_tolerance: float = 0.005  # mm: STL chord of the parts (fabpat.exchange.cad.DEFAULT_CHORD)
     curve_tolerance: float = 0.01  # mm: DXF sheets' arcs from the exact outlines
     material: MaterialSpec = MaterialSpec()
     end_shortening: float | None = None  # [load]: strips' default end-pin travel / strip length

@@ -10,7 +10,7 @@ to). Two tilings are built here:
 * :func:`honeycomb_strip` — ``rows`` × ``columns`` flat-topped hexagons in the plane z = 0 (columns
   along x, odd columns shifted up by half a hexagon), every interior edge shared by two tiles.
 
-Face loop ``(v0, v1, …)`` matches :func:`fabpat.lattice.polygon_vertices`: corner i of the plate is
+Face loop ``(v0, v1, …)`` matches :func:`fabpat.patterns.lattice.polygon_vertices`: corner i of the plate is
 v_i, so polygon edge i of the plate lies on skeleton edge (v_i, v_{i+1}).
 """
 
@@ -23,7 +23,7 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.lattice import polygon_vertices
+from fabpat.patterns.lattice import polygon_vertices
 
 PHI = (1.0 + math.sqrt(5.0)) / 2.0
 HEX_HEX_DIHEDRAL = math.acos(-math.sqrt(5.0) / 3.0)  # rad, ≈ 138.19°

@@ -11,7 +11,7 @@ Two tables (stdlib :mod:`sqlite3`, no pandas):
   ``seconds``, mesh size in nodes/elements, ``error`` (message of a deterministic failure: no
   convergence, unmeshable outline), ``solver_version``, ``input_hash`` and ``h_fine`` (mm): NULL for
   the energy of one mesh of size h; else the energy is Richardson-extrapolated from meshes h and
-  h_fine (``fabpat sweep --extrapolate``, :mod:`fabpat.convergence`) and the other fields are the
+  h_fine (``fabpat sweep --extrapolate``, :mod:`fabpat.simulation.convergence`) and the other fields are the
   h_fine mesh's (``seconds`` summed over both).
 
 ``input_hash`` digests every input that affects a result (the key, the material, h, nonlinear, the

@@ -58,7 +58,7 @@ def energies(catalog: Catalog | str | Path | None, scenario: str, sides: int = 6
     for this polygon and set-up (:func:`polygon_energies` refuses that instead). Raises
     :class:`CatalogError` for an unknown scenario or a bad stored value.
     """
-    from fabpat.scenarios import SCENARIOS
+    from fabpat.simulation.scenarios import SCENARIOS
 
     if scenario not in SCENARIOS:
         raise CatalogError(f"unknown scenario {scenario!r}; expected one of {', '.join(SCENARIOS)}")

@@ -38,7 +38,7 @@ RESULT_COLUMNS: dict[str, str] = {
     "solver_version": "TEXT NOT NULL", "input_hash": "TEXT NOT NULL", "computed_at": "TEXT NOT NULL",
     "h_fine": "REAL",
 }
-#: ``family``: the results of a pattern's family members (:mod:`fabpat.variation`) other than the
+#: ``family``: the results of a pattern's family members (:mod:`fabpat.patterns.variation`) other than the
 #: paper's (whose results are in ``results``), one row per member × scenario, with the member's
 #: ``min_width`` (mm) and ``filleted_area`` (mm²); key: ``results``' plus ``bridge_weight``. A table added
 #: after schema 1: a catalog without it is sound (it holds no family), opening it for writing adds it.

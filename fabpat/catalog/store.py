@@ -65,7 +65,7 @@ class Catalog:
 
     def scenarios(self) -> list[str]:
         """Scenario names present in ``results``, in the paper's order first."""
-        from fabpat.scenarios import SCENARIOS
+        from fabpat.simulation.scenarios import SCENARIOS
 
         found = {r["scenario"] for r in self.query("SELECT DISTINCT scenario FROM results")}
         return [s for s in SCENARIOS if s in found] + sorted(str(s) for s in found - set(SCENARIOS))

@@ -29,10 +29,13 @@ from pathlib import Path
 # The results depend on the code of these modules and of every fabpat module they import (found by
 # reading their import statements): that code's digest is part of the solver version, so a code change
 # invalidates stored results instead of silently mixing them, and an unrelated module does not.
-_PIPELINE_ROOTS = ("fabpat.library", "fabpat.fillet", "fabpat.mesh", "fabpat.scenarios", "fabpat.convergence")
+_PIPELINE_ROOTS = ("fabpat.patterns.library", "fabpat.geometry.fillet", "fabpat.simulation.mesh",
+                   "fabpat.simulation.scenarios", "fabpat.simulation.convergence")
 # Writers and pictures that pipeline objects reach for on request (``FilletedPattern.export``,
 # ``ScenarioResult.to_vtu``, notebook pictures) never change a stored number: not part of the digest.
-_OUTPUT_ONLY = ("fabpat.exchange", "fabpat.cad", "fabpat.contours", "fabpat.pictures", "fabpat.plots", "fabpat.io")
+# The old-name finder (fabpat._moved) only maps import paths.
+_OUTPUT_ONLY = ("fabpat.exchange", "fabpat.views", "fabpat.simulation.vtu", "fabpat.simulation.png_result",
+                "fabpat.simulation.inp", "fabpat.io", "fabpat._moved")
 
 
 
@@ -66,7 +69,7 @@ def pipeline_modules(roots: Sequence[str] = _PIPELINE_ROOTS) -> list[Path]:
             continue
         seen[mod] = path
         parts = mod.split(".")
-        todo.extend(".".join(parts[:k]) for k in range(2, len(parts)))  # importing a.b.c runs a.b's __init__
+        todo.extend(".".join(parts[:k]) for k in range(1, len(parts)))  # importing a.b.c runs a's and a.b's __init__
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
             if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("fabpat"):
                 todo.append(node.module)

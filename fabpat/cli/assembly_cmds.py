@@ -16,7 +16,7 @@ from pathlib import Path
 import click
 
 from fabpat.cli.options import h_option, max_elements_option, number_option
-from fabpat.mesh import ASSEMBLY_MAX_ELEMENTS
+from fabpat.simulation.mesh import ASSEMBLY_MAX_ELEMENTS
 
 #: more plates over the strain limit than this get one warning line between them, not one each
 MAX_STRAIN_LINES = 3
@@ -161,7 +161,7 @@ def _simulate_assembly(spec: str, end_shortening: float | None, h: float, steps:
     from fabpat.assembly.simulation import simulate_assembly
     from fabpat.io import atomic_outputs, check_distinct, check_suffix
     from fabpat.progress import Progress
-    from fabpat.scenarios import PNG_SUFFIXES, VTU_SUFFIXES
+    from fabpat.simulation.scenarios import PNG_SUFFIXES, VTU_SUFFIXES
 
     outputs = [p for p in (vtu, png) if p is not None]
     check_distinct(outputs, inputs={"SPEC": spec})

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 import click
 
+from fabpat.catalog.sweep import FAMILY_SAMPLES
 from fabpat.cli.options import (
     depth_option,
     edge_option,
@@ -21,11 +22,10 @@ from fabpat.cli.options import (
     variation_option,
     weight_option,
 )
-from fabpat.sweep import FAMILY_SAMPLES
-from fabpat.variation import Variation
+from fabpat.patterns.variation import Variation
 
 if TYPE_CHECKING:
-    from fabpat.sweep import SweepSetup
+    from fabpat.catalog.sweep import SweepSetup
 
 DEFAULT_DB = "catalog.sqlite"
 _db_help = "Catalog file (SQLite) [default: the built-in catalog of the default library]."
@@ -61,7 +61,7 @@ _db_help = "Catalog file (SQLite) [default: the built-in catalog of the default 
 @click.option("--family", is_flag=True,
               help=f"Also sweep the family members {', '.join(f'{w:g}' for w in FAMILY_SAMPLES)} of bridge_weight "
                    "(into the catalog's family table, after the paper's own results), then the midpoints of the "
-                   "intervals where a pattern's energy bends or buckles (up to two rounds): what fabpat.family "
+                   "intervals where a pattern's energy bends or buckles (up to two rounds): what fabpat.catalog.family "
                    "interpolates.")
 def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, workers: int | None,
               dask_address: str | None, force: bool, edge: float, thickness: float, weight: float, modulus: float,
@@ -81,7 +81,7 @@ def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, wo
       fabpat sweep --db catalog.sqlite --family
 
     Long because most of it is the command's options checked and passed on; the work is
-    :func:`fabpat.sweep.run_sweep`'s.
+    :func:`fabpat.catalog.sweep.run_sweep`'s.
     """
     from rich.console import Console
     from rich.progress import (
@@ -93,10 +93,10 @@ def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, wo
         TimeRemainingColumn,
     )
 
+    from fabpat.catalog.sweep import SweepSetup, run_sweep
     from fabpat.cli.library_cmds import load_library
     from fabpat.io import check_distinct
-    from fabpat.mesh import DEFAULT_MAX_ELEMENTS, check_polygon_elements
-    from fabpat.sweep import SweepSetup, run_sweep
+    from fabpat.simulation.mesh import DEFAULT_MAX_ELEMENTS, check_polygon_elements
 
     check_distinct([], inputs={"--db": db})  # the library cache, say, may never replace the catalog
     if family and not variation.is_paper:
@@ -140,7 +140,7 @@ def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, wo
                 reports.append(run_sweep(db, ids, member, workers=workers, dask=dask_address, force=force,
                                          progress=progress))
             if family:
-                from fabpat.sweep import refine_family
+                from fabpat.catalog.sweep import refine_family
 
                 reports += refine_family(db, ids, setup, workers=workers, dask=dask_address, force=force,
                                          progress=progress, tell=lambda line: click.echo(line, err=True))
@@ -271,9 +271,9 @@ def browse_cmd(db: str | None, out: str, open_: bool, sides: int) -> None:
 
     Example: fabpat browse --out library.html --open
     """
-    from fabpat.browse import write_page
     from fabpat.catalog import open_catalog
     from fabpat.io import check_distinct, check_suffix
+    from fabpat.views.browse import write_page
 
     check_distinct([out], inputs={"--db": db})  # first: writing over the catalog is the graver mistake
     check_suffix(out, (".html", ".htm"), "--out (the browsing page)")
@@ -299,7 +299,7 @@ def plot_cmd(db: str | None, out: str, highlight: str | None, sides: int) -> Non
     """
     from fabpat.catalog import open_catalog
     from fabpat.io import check_distinct, check_output_folder
-    from fabpat.plots import plot_catalog
+    from fabpat.views.plots import plot_catalog
 
     check_output_folder(out)
     check_distinct([], inputs={"--db": db})  # no figure may replace the catalog

@@ -12,7 +12,6 @@ from typing import TYPE_CHECKING
 
 import click
 
-from fabpat.cad import DEFAULT_CHORD
 from fabpat.cli.options import (
     edge_option,
     id_depth_option,
@@ -25,6 +24,7 @@ from fabpat.cli.options import (
     weight_option,
 )
 from fabpat.errors import ExportError
+from fabpat.exchange.cad import DEFAULT_CHORD
 from fabpat.exchange.registry import (
     DEFAULT_MAX_EXPORT_ELEMENTS,
     FORMATS,
@@ -40,10 +40,10 @@ from fabpat.exchange.registry import (
     width_warnings,
 )
 from fabpat.io import check_output_folder, output_folder
-from fabpat.variation import PAPER_VARIATION, Variation
+from fabpat.patterns.variation import PAPER_VARIATION, Variation
 
 if TYPE_CHECKING:  # pragma: no cover
-    from fabpat.pattern import Pattern
+    from fabpat.patterns.pattern import Pattern
 
 DEFAULT_ALL_FORMATS = "step,stl,dxf"
 #: the option that names each format's file
@@ -178,8 +178,8 @@ def export_cmd(pattern_id: str | None, sides: int, depth: int | None, edge: floa
         raise ExportError("no output requested: give at least one of --step, --stl, --3mf, --dxf, --svg, --3dm")
     for name, p in targets.items():  # before the pattern is built: --dxf out.dwg is refused as the API does
         check_target(name, p, OPTION_OF[name])
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
 
     pattern = get_pattern(pattern_id, sides, depth, edge)  # depth None: from the ID's length
     warn_inert_variation(variation, fillet_pattern(pattern, weight, variation).variation, pattern.id)
@@ -190,7 +190,7 @@ def export_cmd(pattern_id: str | None, sides: int, depth: int | None, edge: floa
 
 def _export_library(sides: int, edge: float, thickness: float, weight: float, names: list[str], out: Path,
                     settings: ExportSettings, variation: Variation) -> None:
-    from fabpat.library import enumerate_library
+    from fabpat.patterns.library import enumerate_library
 
     check_output_folder(out)
     lib = enumerate_library(sides, 2)

@@ -22,7 +22,7 @@ from fabpat.errors import FabpatError
 
 Job = tuple[str, int, int, float, float]  # (id, sides, depth, edge, weight)
 
-#: the filleted columns, as :meth:`fabpat.fillet.FilletedPattern.catalog_columns` names them
+#: the filleted columns, as :meth:`fabpat.geometry.fillet.FilletedPattern.catalog_columns` names them
 COLUMNS = ("filleted_area", "filleted_perimeter", "filleted_ratio", "filleted_polar_moment", "min_width")
 #: bumped when the file's layout changes, so an old file is another key and never read
 LAYOUT = 2

@@ -25,9 +25,9 @@ from fabpat.cli.options import (
 )
 from fabpat.errors import PatternError
 from fabpat.io import atomic_outputs, check_suffix
-from fabpat.library import Library, enumerate_library, get_pattern, sample_library
-from fabpat.pattern import DEFAULT_EDGE, Pattern
-from fabpat.variation import Variation, variations
+from fabpat.patterns.library import Library, enumerate_library, get_pattern, sample_library
+from fabpat.patterns.pattern import DEFAULT_EDGE, Pattern
+from fabpat.patterns.variation import Variation, variations
 
 
 def load_library(sides: int, depth: int, sample: int | None = None, seed: int = 0) -> Library:
@@ -38,7 +38,7 @@ def load_library(sides: int, depth: int, sample: int | None = None, seed: int = 
 
 
 def _filleted_row(args: tuple[str, int, int, float, float]) -> dict[str, float]:
-    from fabpat.fillet import fillet_pattern
+    from fabpat.geometry.fillet import fillet_pattern
 
     pid, sides, depth, edge, weight = args
     fp = fillet_pattern(Pattern.from_id(pid, sides, depth, edge), weight)
@@ -163,7 +163,7 @@ def library_cmd(
     if sample is None:
         source = f"{lib.candidates} candidates"
     else:  # lib.candidates counts the random draws, not the slices the sample stands for
-        from fabpat.lattice import n_faces
+        from fabpat.patterns.lattice import n_faces
 
         source = f"random sample, seed {seed}, of the 2^{n_faces(depth)} − 1 slices"
     title = f"{len(rows)} patterns, {sides}-gon, depth {depth}, edge {edge:g} mm ({source})"
@@ -192,7 +192,7 @@ def show_cmd(pattern_id: str, sides: int, depth: int | None, edge: float, svg: s
       fabpat show 0x0488 --variation bridge_weight=0.4 --svg wide-necks.svg
       fabpat show 0x0488 > pattern.svg
     """
-    from fabpat.pictures import pattern_svg
+    from fabpat.views.pictures import pattern_svg
 
     if svg is not None:
         check_suffix(svg, (".svg",), "--svg")  # an SVG in a .png would open as a broken picture
@@ -222,7 +222,7 @@ def sheet_cmd(sides: int, depth: int, sample: int | None, seed: int, out: str) -
 
     Example: fabpat sheet --sides 6 --out library.png
     """
-    from fabpat.pictures import contact_sheet_png, contact_sheet_svg
+    from fabpat.views.pictures import contact_sheet_png, contact_sheet_svg
 
     suffix = Path(out).suffix.lower()
     if suffix not in (".svg", ".png"):

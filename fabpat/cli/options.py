@@ -15,9 +15,9 @@ from typing import Any
 import click
 
 from fabpat.errors import GeometryError, RangeError
-from fabpat.pattern import DEFAULT_EDGE
+from fabpat.patterns.pattern import DEFAULT_EDGE
+from fabpat.patterns.variation import Variation
 from fabpat.validate import RANGES, check
-from fabpat.variation import Variation
 
 
 class NumberType(click.ParamType):
@@ -92,7 +92,7 @@ def h_option(default: float) -> Any:
 
 
 def parse_variation(texts: Iterable[str]) -> Variation:
-    """A :class:`~fabpat.variation.Variation` from ``NAME=VALUE`` strings (the repeatable ``--variation``).
+    """A :class:`~fabpat.patterns.variation.Variation` from ``NAME=VALUE`` strings (the repeatable ``--variation``).
 
     Raises :class:`~fabpat.errors.GeometryError` for a string without ``=``, a value that is not a
     finite number, a parameter given twice, an unknown name or a value outside its range.
@@ -142,7 +142,7 @@ VARIATION_GIVEN = "fabpat.variation_given"
 def warn_inert_variation(asked: Variation, made: Variation, pattern_id: str) -> None:
     """One warning line on stderr when ``--variation`` asked for a member (``asked``) and the filleted
     pattern came out the paper's (``made``): a pattern without non-manifold vertices has no bridging
-    arc for ``bridge_weight`` to act on (:func:`fabpat.fillet.fillet_pattern`)."""
+    arc for ``bridge_weight`` to act on (:func:`fabpat.geometry.fillet.fillet_pattern`)."""
     if not asked.is_paper and made.is_paper:
         click.echo(f"fabpat: warning: pattern {pattern_id} has no non-manifold vertex, so {asked.label()} does not "
                    "change it: its outline is the paper's", err=True)
@@ -155,7 +155,7 @@ def variation_given() -> tuple[str, ...]:
 
 
 #: ``--variation NAME=VALUE`` (repeatable): the pattern's family member (``fabpat variations``), parsed
-#: into a :class:`fabpat.variation.Variation` (the paper's fillets when not given)
+#: into a :class:`fabpat.patterns.variation.Variation` (the paper's fillets when not given)
 variation_option = click.option(
     "--variation", "variation", multiple=True, metavar="NAME=VALUE", callback=_variation,
     help="A continuous variation of the pattern (repeatable; `fabpat variations` lists them), e.g. "

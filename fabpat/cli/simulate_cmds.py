@@ -24,8 +24,8 @@ from fabpat.cli.options import (
 )
 from fabpat.errors import FabpatError, SolverError
 from fabpat.io import atomic_outputs, check_distinct, check_suffix
-from fabpat.mesh import DEFAULT_MAX_ELEMENTS
-from fabpat.variation import Variation
+from fabpat.patterns.variation import Variation
+from fabpat.simulation.mesh import DEFAULT_MAX_ELEMENTS
 
 SCENARIO_CHOICES = ("cantilever", "cylinder", "dome", "all")
 
@@ -96,14 +96,14 @@ def simulate_cmd(
     Long because most of it is the command's options checked and passed on, and its outputs written; the work
     is the library's.
     """
-    from fabpat.convergence import ONE_MESH_H, mesh_converged, run_converged
-    from fabpat.exchange.inp import write_inp
-    from fabpat.exchange.png_result import write_png
-    from fabpat.exchange.vtu import write_vtu
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
     from fabpat.progress import Progress
-    from fabpat.scenarios import PNG_SUFFIXES, SCENARIOS, VTU_SUFFIXES, mesh_filleted
+    from fabpat.simulation.convergence import ONE_MESH_H, mesh_converged, run_converged
+    from fabpat.simulation.inp import write_inp
+    from fabpat.simulation.png_result import write_png
+    from fabpat.simulation.scenarios import PNG_SUFFIXES, SCENARIOS, VTU_SUFFIXES, mesh_filleted
+    from fabpat.simulation.vtu import write_vtu
 
     if extrapolate is None:  # converged by default; a mesh size given means that mesh
         extrapolate = h is None

@@ -7,7 +7,7 @@
 * ``min_width``: mm, drop candidates whose narrowest feature (the catalog's ``min_width``) is smaller;
 * ``max_distinct``: the largest number of distinct patterns in the design (each is one more part type).
 * ``variations``: ``true`` (default) or ``false``: whether the candidates include the family members
-  (:mod:`fabpat.variation`) the catalog's ``family`` table holds (``fabpat sweep --family``), a strip's
+  (:mod:`fabpat.patterns.variation`) the catalog's ``family`` table holds (``fabpat sweep --family``), a strip's
   and a closed tiling's alike (:mod:`fabpat.assembly.members`).
 
 Candidates of a strip are the hexagon patterns with a converged Cylinder energy in the catalog

@@ -109,7 +109,7 @@ def design_spec_data(res: Any) -> dict[str, Any]:
     members = {lab: split_member(c) for lab, c in res.record["patterns"].items()}
     data["patterns"] = {"tiles": {lab: pid for lab, (pid, _) in members.items()}}
     varied = {lab: w for lab, (_, w) in members.items() if w != 1.0}
-    if varied:  # family members: each plate's bridge_weight (fabpat.variation); the others keep the paper's
+    if varied:  # family members: each plate's bridge_weight (fabpat.patterns.variation); the others keep the paper's
         data["patterns"]["bridge_weight"] = varied
     if "end_shortening" in res.record:
         data["load"] = {"end_shortening": float(res.record["end_shortening"])}

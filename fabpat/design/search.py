@@ -106,7 +106,7 @@ class Runner:
             ) -> list[dict[str, Any] | BaseException]:
         """Solve every face-pattern tuple of ``batch`` (``extra`` replaces the runner's own extra arguments
         for this batch); a failed solve comes back as its exception."""
-        from fabpat.sweep import _dask_client, _run_dask, _run_local
+        from fabpat.catalog.sweep import _dask_client, _run_dask, _run_local
 
         more = self.extra if extra is None else extra
         jobs = [((self.spec, pats, self.h, *more), str(i)) for i, pats in enumerate(batch)]

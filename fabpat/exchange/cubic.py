@@ -11,7 +11,7 @@ Casteljau) and each half approximated again; the error of this cubic falls like 
 of the arc's turning angle, so one or two splits are typical at 0.01 mm.
 
 Error check: the larger of the two one-sided distances between 65 points on the cubic and a
-flattening of the exact arc within tol / 20 (:func:`fabpat.curves.flatten_quad`) and the reverse;
+flattening of the exact arc within tol / 20 (:func:`fabpat.geometry.curves.flatten_quad`) and the reverse;
 an arc is accepted when that is ≤ 0.8 × tol, the 20 % kept for what lies between the samples.
 """
 
@@ -50,7 +50,7 @@ def _segment_distance(X: NDArray[np.float64], P: NDArray[np.float64]) -> NDArray
 
 def cubic_error(C: NDArray[np.float64], P: NDArray[np.float64], w: float, tol: float) -> float:
     """Sampled two-sided distance (mm) between the cubic C (4, 2) and the rational arc (P, w)."""
-    from fabpat.curves import flatten_quad
+    from fabpat.geometry.curves import flatten_quad
 
     exact = np.asarray(flatten_quad(P, w, tol / 20.0))
     approx = cubic_points(C, np.linspace(0.0, 1.0, _SAMPLES))
@@ -58,7 +58,7 @@ def cubic_error(C: NDArray[np.float64], P: NDArray[np.float64], w: float, tol: f
 
 
 def _fit(P: NDArray[np.float64], w: float, tol: float, depth: int = 0) -> list[NDArray[np.float64]]:
-    from fabpat.curves import split_quad
+    from fabpat.geometry.curves import split_quad
 
     C = _cubic(P, w)
     if cubic_error(C, P, w, tol) <= 0.8 * tol:
@@ -79,7 +79,7 @@ def quad_to_cubics(P: NDArray[np.float64], w: float, tol: float) -> list[NDArray
     ``P`` (3, 2) mm control points of a standard-form arc with middle weight ``w`` > 0. Raises
     :class:`GeometryError` if ``_MAX_DEPTH`` halvings do not reach ``tol``. The fit is done with
     the arc moved to P0 = origin, chord along +x, and cached (a fit is invariant under rigid
-    motions, and a pattern repeats its arcs by symmetry), as :func:`fabpat.contours.fitted_arcs` does.
+    motions, and a pattern repeats its arcs by symmetry), as :func:`fabpat.exchange.contours.fitted_arcs` does.
     """
     P = np.asarray(P, dtype=np.float64)
     chord = P[2] - P[0]
@@ -109,7 +109,7 @@ def bulge_to_quads(
     A circular arc of sweep φ < π from A to B is the standard-form arc with P1 at the tangents'
     intersection and w = cos(φ / 2) (Piegl & Tiller, *The NURBS Book*, §7.3).
     """
-    from fabpat.conics import arc_center_radius, arc_points
+    from fabpat.geometry.conics import arc_center_radius, arc_points
 
     c, R, theta = arc_center_radius(s, e, bulge)
     n = max(1, math.ceil(abs(theta) / (0.5 * math.pi) - 1e-12))

@@ -8,12 +8,12 @@ extents (:mod:`ezdxf.bbox`), so viewers open zoomed onto the part. The part lies
 Curve modes (``curves``):
 
 * ``"arcs"`` (default): every rational arc fitted by circular arcs within ``tolerance`` mm (G1
-  biarcs from :func:`fabpat.conics.fit_arcs`). Lines stay exact.
+  biarcs from :func:`fabpat.geometry.conics.fit_arcs`). Lines stay exact.
 * ``"spline"``: exact: one rational degree-2 SPLINE per curved segment (3 control points, weights
   (1, w, 1), knots (0, 0, 0, 1, 1, 1)) and a LINE per straight segment, loops head to tail (outer
   counter-clockwise, holes clockwise).
 * ``"lines"``: polylines within ``tolerance`` mm (exact chord test of
-  :func:`fabpat.curves.flatten_quad`).
+  :func:`fabpat.geometry.curves.flatten_quad`).
 
 Entities (``entities``) for ``"arcs"`` and ``"lines"``:
 
@@ -56,12 +56,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.cad import CLOSE_TOL, make_face
-from fabpat.contours import BulgeLoop, bulge_loops, offset_bulge_loops, offset_wires, ordered_edges
 from fabpat.errors import ExportError, GeometryError
+from fabpat.exchange.cad import CLOSE_TOL, make_face
+from fabpat.exchange.contours import BulgeLoop, bulge_loops, offset_bulge_loops, offset_wires, ordered_edges
 from fabpat.exchange.origin import DEFAULT_ORIGIN, check_origin, origin_shift, translated
+from fabpat.geometry.outline import Line, Loop, Outline
 from fabpat.io import atomic_outputs
-from fabpat.outline import Line, Loop, Outline
 
 if TYPE_CHECKING:  # pragma: no cover
     from fabpat.exchange.part import ExportSettings, Part
@@ -233,7 +233,7 @@ def offset_spline_pieces(outline: Outline, distance: float, tol: float) -> list[
 
 def polyline(loop: Loop, tol: float) -> NDArray[np.float64]:
     """(m, 2) closed polyline within ``tol`` mm of the loop (last point not repeated)."""
-    from fabpat.curves import flatten_quad
+    from fabpat.geometry.curves import flatten_quad
 
     pts: list[NDArray[np.float64]] = []
     for seg in loop.segments:

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.outline import Outline
+from fabpat.geometry.outline import Outline
 
 MAX_TEXT_HEIGHT = 3.0  # mm
 MIN_TEXT_HEIGHT = 1.0  # mm: smaller engraved text is unreadable

@@ -12,7 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import ExportError
-from fabpat.outline import Line, Loop, Outline, RationalQuad
+from fabpat.geometry.outline import Line, Loop, Outline, RationalQuad
 
 ORIGINS = ("corner", "centre")
 DEFAULT_ORIGIN = "corner"

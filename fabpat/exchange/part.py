@@ -14,9 +14,9 @@ from typing import Any
 
 import numpy as np
 
-from fabpat.cad import DEFAULT_ANGULAR, DEFAULT_CHORD, DEFAULT_THICKNESS, make_solid
 from fabpat.errors import ExportError
-from fabpat.outline import Line, Outline, RationalQuad
+from fabpat.exchange.cad import DEFAULT_ANGULAR, DEFAULT_CHORD, DEFAULT_THICKNESS, make_solid
+from fabpat.geometry.outline import Line, Outline, RationalQuad
 from fabpat.validate import check, check_size, check_tolerance
 
 #: Default limit (``--max-elements``) on the estimated STL/3MF triangles or DXF/SVG segments of one
@@ -101,7 +101,7 @@ class ExportSettings:
 class Part:
     """What gets exported: the exact outline, plate thickness (mm), product name and engraved label.
 
-    ``support``: whole interface arcs whose halves the outline keeps (see :func:`fabpat.cad.make_face`),
+    ``support``: whole interface arcs whose halves the outline keeps (see :func:`fabpat.exchange.cad.make_face`),
     flat or as the (n, 2) pairs of ``FilletedPattern.interface_arcs`` (flattened here).
     ``solid`` (a ``TopoDS_Solid``) is built on first use and shared by every 3D format.
     Raises :class:`ExportError` for a thickness ≤ 0, a support that is not arcs, or a name or label
@@ -124,7 +124,8 @@ class Part:
 
     @cached_property
     def solid(self) -> Any:
-        """The exact extruded ``TopoDS_Solid`` (z from 0 to thickness), built once by :func:`fabpat.cad.make_solid`."""
+        """The exact extruded ``TopoDS_Solid`` (z from 0 to thickness), built once by
+        :func:`fabpat.exchange.cad.make_solid`."""
         return make_solid(self.outline, self.thickness, self.support)
 
 

@@ -22,8 +22,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from fabpat.cad import DEFAULT_THICKNESS, occt_errors
 from fabpat.errors import ExportError
+from fabpat.exchange.cad import DEFAULT_THICKNESS, occt_errors
 from fabpat.exchange.part import (  # noqa: F401 - Part, ExportSettings and their limits are part of this API
     DEFAULT_MAX_EXPORT_ELEMENTS,
     ExportSettings,
@@ -31,8 +31,8 @@ from fabpat.exchange.part import (  # noqa: F401 - Part, ExportSettings and thei
     estimate_triangles,
     flatten_arcs,
 )
+from fabpat.geometry.outline import Outline
 from fabpat.io import atomic_outputs, check_distinct, check_file_name
-from fabpat.outline import Outline
 from fabpat.validate import check
 
 PRINT_MIN_WIDTH = 0.8  # mm
@@ -226,11 +226,11 @@ def export_part(
 
 
 def filleted_part(filleted: Any, thickness: float = DEFAULT_THICKNESS) -> Part:
-    """The part of a :class:`~fabpat.fillet.FilletedPattern`: named by its ID and parameters (and its
-    variation, :func:`fabpat.cad.part_name`), labelled with its ID (``"0x0488 b0.5"`` for a
+    """The part of a :class:`~fabpat.geometry.fillet.FilletedPattern`: named by its ID and parameters (and its
+    variation, :func:`fabpat.exchange.cad.part_name`), labelled with its ID (``"0x0488 b0.5"`` for a
     ``bridge_weight`` of 0.5, so two members of one family are told apart on the sheet), its interface
     bow-tie arcs as ``support`` (so STEP carries their weights (1, w, 1))."""
-    from fabpat.cad import part_name
+    from fabpat.exchange.cad import part_name
 
     variation = filleted.variation
     name = part_name(filleted.id, filleted.sides, filleted.edge, thickness, filleted.weight, variation.label())

@@ -5,12 +5,12 @@ One pattern (:func:`write`) gives a file with three layers:
 * ``CUT``: one closed curve per loop of the outline (outer loop counter-clockwise, holes clockwise),
   each an exact degree-2 rational NURBS curve: every segment of the outline is one Bézier span of
   the curve (a line as a span with its middle control point at the midpoint, weight 1; a
-  :class:`~fabpat.outline.RationalQuad` as its control points with weights (1, w, 1)), spans joined
-  by double knots. Nothing is flattened: the file holds the outline of :mod:`fabpat.outline` exactly.
+  :class:`~fabpat.geometry.outline.RationalQuad` as its control points with weights (1, w, 1)), spans joined
+  by double knots. Nothing is flattened: the file holds the outline of :mod:`fabpat.geometry.outline` exactly.
 * ``PLATE``: the plate as a closed (capped) extrusion of those curves by the thickness, z ∈ [0, t].
 * ``INTERFACE`` (hidden): the whole bow-tie arcs (P0, M, P0′) with weights (1, w, 1) whose halves
   the outline keeps, so the configured interface weight w is in the file as it is in STEP. The half
-  arcs on ``CUT`` are in standard form, with middle weight √((1 + w)/2) (see :mod:`fabpat.fillet`).
+  arcs on ``CUT`` are in standard form, with middle weight √((1 + w)/2) (see :mod:`fabpat.geometry.fillet`).
 
 Placed parts (:func:`write_assembly`, which an assembly kit calls with its parts,
 :func:`fabpat.assembly.export.write_3dm`) give one file with a layer per part type (plate types by
@@ -44,7 +44,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import ExportError
-from fabpat.outline import Line, Loop, Outline, RationalQuad
+from fabpat.geometry.outline import Line, Loop, Outline, RationalQuad
 
 if TYPE_CHECKING:  # pragma: no cover
     from fabpat.exchange.part import ExportSettings, Part

@@ -1,7 +1,7 @@
 """STEP AP214 (ISO 10303-214, ``AUTOMOTIVE_DESIGN``) export of the exact solid, in millimetres.
 
 Written through OCCT's XDE document so the part carries a product name (pattern ID and parameters,
-see :func:`fabpat.cad.part_name`). Rational Bézier edges are written as
+see :func:`fabpat.exchange.cad.part_name`). Rational Bézier edges are written as
 ``RATIONAL_B_SPLINE_CURVE`` with their weights (1, w, 1): a CAD program re-importing the file gets
 the exact fillet, not a facetted approximation.
 

@@ -12,7 +12,7 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from fabpat.cad import DEFAULT_ANGULAR, DEFAULT_CHORD, mesh
+from fabpat.exchange.cad import DEFAULT_ANGULAR, DEFAULT_CHORD, mesh
 from fabpat.io import atomic_outputs, writer_failed
 
 if TYPE_CHECKING:  # pragma: no cover

@@ -11,12 +11,12 @@ Curves (``curves``):
 * ``"cubic"`` (default, for cutting): lines and cubic Béziers ``C`` within ``tolerance`` mm of the
   exact outline (:mod:`fabpat.exchange.cubic`) — what every cutter and plotter reads.
 * ``"exact"``: lines, exact elliptical ``A`` arcs for w < 1 (rotated ellipses in general), quadratic
-  ``Q`` for w = 1 (:meth:`fabpat.outline.Outline.to_svg_path`; hyperbolic arcs, w > 1, which SVG
+  ``Q`` for w = 1 (:meth:`fabpat.geometry.outline.Outline.to_svg_path`; hyperbolic arcs, w > 1, which SVG
   cannot express, flattened within 0.001 mm). Browsers and svgelements read it exactly; some
   libraries and cutters mis-place rotated arcs.
 
 With ``kerf`` > 0 the loops are the kerf offset of the circular-arc fit
-(:func:`fabpat.contours.offset_bulge_loops`): circular ``A`` arcs (never rotated) in "exact" mode, cubic
+(:func:`fabpat.exchange.contours.offset_bulge_loops`): circular ``A`` arcs (never rotated) in "exact" mode, cubic
 Béziers in "cubic" mode (arc fit and cubic each within half the tolerance). The default style is
 the laser convention (red hairline cut path, no fill, ID in blue); ``filled=True`` draws the part
 black with holes empty (even-odd rule). The label (:func:`fabpat.exchange.labels.place_label`)
@@ -35,11 +35,11 @@ from xml.sax.saxutils import escape, quoteattr
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.contours import BulgeLoop, bulge_loops, offset_bulge_loops
 from fabpat.errors import ExportError
+from fabpat.exchange.contours import BulgeLoop, bulge_loops, offset_bulge_loops
 from fabpat.exchange.origin import DEFAULT_ORIGIN, ORIGIN_MARGIN, origin_shift, transformed
+from fabpat.geometry.outline import Line, Outline
 from fabpat.io import atomic_outputs
-from fabpat.outline import Line, Outline
 
 if TYPE_CHECKING:  # pragma: no cover
     from fabpat.exchange.part import ExportSettings, Part

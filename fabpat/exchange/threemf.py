@@ -23,8 +23,8 @@ from xml.sax.saxutils import escape, quoteattr
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.cad import DEFAULT_ANGULAR, DEFAULT_CHORD, mesh
 from fabpat.errors import ExportError, GeometryError
+from fabpat.exchange.cad import DEFAULT_ANGULAR, DEFAULT_CHORD, mesh
 from fabpat.io import atomic_outputs
 
 if TYPE_CHECKING:  # pragma: no cover

@@ -1,7 +1,7 @@
 """Closed polylines (flattened outlines): crossings, containment and the narrowest neck.
 
 A loop is a ``(k, 2) float`` array of vertices in mm, closed implicitly (no repeated last point);
-edge e joins vertex e to e + 1. These are the checks :meth:`fabpat.outline.Outline.validate` runs on
+edge e joins vertex e to e + 1. These are the checks :meth:`fabpat.geometry.outline.Outline.validate` runs on
 an outline flattened within a tolerance; they are pure numpy plus scipy's k-d tree.
 """
 
@@ -12,7 +12,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from fabpat.curves import FloatArray, cross2d, rot90
+from fabpat.geometry.curves import FloatArray, cross2d, rot90
 
 __all__ = ["points_in_polygon", "polyline_intersections", "ray_min_width"]
 

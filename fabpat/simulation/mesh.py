@@ -4,11 +4,11 @@
 (``triangle`` package): every boundary edge is first cut into pieces of length ≤ h (so both sides of a
 shared boundary see the same nodes and curves are followed consistently), then a constrained,
 quality (minimum angle) Delaunay mesh whose mean edge length is ≈ h is built.
-:func:`mesh_outline` flattens an exact :class:`fabpat.outline.Outline` with a chord tolerance
+:func:`mesh_outline` flattens an exact :class:`fabpat.geometry.outline.Outline` with a chord tolerance
 tied to h (:func:`flatten_outline`: chords moved towards their arcs, so that the polygon keeps the
 curves' area) and tags the interface node sets of the regular n-gon the pattern lives in.
 :func:`refine_nested` splits every triangle of a mesh into four, its new boundary nodes on the exact
-outline: the finer mesh of a mesh-converged energy (:mod:`fabpat.convergence`).
+outline: the finer mesh of a mesh-converged energy (:mod:`fabpat.simulation.convergence`).
 
 Lengths are millimetres. Node arrays are float64, triangles int64, counter-clockwise.
 """
@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import GeometryError
-from fabpat.mesh_size import (
+from fabpat.simulation.mesh_size import (
     ASSEMBLY_MAX_ELEMENTS,
     DEFAULT_MAX_ELEMENTS,
     MAX_H_PER_MIN_WIDTH,
@@ -271,7 +271,7 @@ def mesh_polygons(
 def _shifted_chords(seg: object, tol: float) -> NDArray[np.float64]:
     """(k, 2) points of one outline segment: a line's ends, or a curve's chord polygon (vertices on the
     curve within ``tol`` mm) with each chord moved towards its arc by CHORD_SHIFT × its sagitta."""
-    from fabpat import curves
+    from fabpat.geometry import curves
 
     if not hasattr(seg, "w"):
         return np.asarray(seg.flatten(tol))  # type: ignore[attr-defined]
@@ -301,7 +301,7 @@ def flatten_outline(outline: object, tol: float) -> list[NDArray[np.float64]]:
     chords' middles 1/3; measured ≤ 0.75 · tol on library patterns). Raises GeometryError if ``tol`` is
     not a positive number.
     """
-    from fabpat.outline import flattening_tolerance
+    from fabpat.geometry.outline import flattening_tolerance
 
     tol = flattening_tolerance(tol)
     return [np.vstack([_shifted_chords(s, tol)[:-1] for s in loop.segments])
@@ -315,13 +315,13 @@ def refine_nested(mesh: ShellMesh, outline: object) -> ShellMesh:
     the union of four new ones), so two meshes of an extrapolation differ by refinement only, not by a
     new Delaunay triangulation (whose node placement alone scatters the energy by tenths of a percent).
     Midpoints of boundary sides are moved to the nearest point of ``outline`` (an
-    :class:`~fabpat.outline.Outline`, within :data:`PROJECTION_TOL` mm), so the boundary converges with
+    :class:`~fabpat.geometry.outline.Outline`, within :data:`PROJECTION_TOL` mm), so the boundary converges with
     the mesh. Each interface node set gains the midpoints between its consecutive nodes, in order.
     Raises GeometryError if a moved node inverts a triangle.
     """
     from scipy.spatial import cKDTree
 
-    from fabpat.polyline import _subdivide as cut_edges
+    from fabpat.geometry.polyline import _subdivide as cut_edges
 
     outline = getattr(outline, "outline", outline)  # a FilletedPattern refines along its outline
     if not hasattr(outline, "flatten") or not isinstance(mesh, ShellMesh):
@@ -381,7 +381,7 @@ def interface_segments(
     d defaults to (edge/16)/(1 + weight) (1.875 mm for a 36 mm edge); ``half_length = edge/2`` gives
     whole edges (a solid polygon).
     """
-    from fabpat.lattice import polygon_vertices
+    from fabpat.patterns.lattice import polygon_vertices
 
     P = polygon_vertices(sides, edge)
     d = (edge / 16.0) / (1.0 + weight) if half_length is None else half_length
@@ -398,7 +398,7 @@ def mesh_outline(
     min_angle: float = 25.0, weight: float = INTERFACE_WEIGHT, max_elements: int = DEFAULT_MAX_ELEMENTS,
     flatten_tol: float | None = None, refine: int = 0,
 ) -> ShellMesh:
-    """Mesh an exact :class:`fabpat.outline.Outline` (or a ``FilletedPattern``) and tag its n
+    """Mesh an exact :class:`fabpat.geometry.outline.Outline` (or a ``FilletedPattern``) and tag its n
     interface node sets.
 
     Curves are flattened with chord tolerance ``flatten_tol`` (mm; default ``FLATTEN_TOL_PER_H · h``,
@@ -406,7 +406,7 @@ def mesh_outline(
     flattened side is cut to ≤ h. ``refine`` > 0 splits the mesh that many times with
     :func:`refine_nested` (each time 4× the triangles, half the edge length; new boundary nodes on the
     exact outline), e.g. the finer mesh of an extrapolation. A filleted pattern's outline carries its polygon
-    (:class:`~fabpat.outline.PolygonFrame`): interface i is then its exact interface segment on polygon
+    (:class:`~fabpat.geometry.outline.PolygonFrame`): interface i is then its exact interface segment on polygon
     edge i, and ``sides``/``edge``, if given, must agree. A free-standing outline needs ``sides`` and
     ``edge``; interface i is then the segment of :func:`interface_segments` (whose length depends on the
     interface ``weight`` the outline was filleted with: pass the same one).
@@ -455,7 +455,7 @@ def mesh_outline(
 
 def solid_polygon_mesh(sides: int = 6, edge: float = 36.0, h: float = 1.5) -> ShellMesh:
     """A solid regular n-gon whose interfaces are the whole edges (the notes' CalculiX reference)."""
-    from fabpat.lattice import polygon_vertices
+    from fabpat.patterns.lattice import polygon_vertices
 
     segs = interface_segments(sides, edge, half_length=edge / 2)
     return mesh_polygons([polygon_vertices(sides, edge)], h, interfaces=segs)

@@ -21,7 +21,8 @@ def draw(V: np.ndarray, F: np.ndarray, result: ShellResult, *, caption: str = ""
     (N·mm/mm², log scale so that the narrow, highly loaded necks and the quiet parts are both visible).
 
     V: (n, 2) or (n, 3) reference coordinates (mm); F: (m, 3) triangles; ``caption`` is the figure's
-    title, as given (the caller states the energy it reports: :meth:`fabpat.scenarios.ScenarioResult.caption`).
+    title, as given (the caller states the energy it reports:
+    :meth:`fabpat.simulation.scenarios.ScenarioResult.caption`).
     The caller closes the figure (``matplotlib.pyplot.close``)."""
     import matplotlib
 

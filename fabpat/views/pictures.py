@@ -13,9 +13,9 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.lattice import polygon_vertices
-from fabpat.outline import Line, Loop, Outline, RationalQuad
-from fabpat.pattern import Pattern
+from fabpat.geometry.outline import Line, Loop, Outline, RationalQuad
+from fabpat.patterns.lattice import polygon_vertices
+from fabpat.patterns.pattern import Pattern
 
 _SEAM = 0.04  # mm: a same-colour stroke that hides anti-aliasing seams between solid triangles
 
@@ -189,7 +189,7 @@ def _only_arcs_at(outline: Outline, centre: NDArray[np.float64]) -> Outline:
 def star_table_svg(k: int = 6, radius: float = 9.0, columns: int = 3) -> str:
     """The filleting lookup table as a figure: each star configuration before (lattice triangles) and
     after filleting its centre vertex (exact arcs), with kind and actions — the paper's Figs 9–10."""
-    from fabpat.fillet import fillet_solid, star_table
+    from fabpat.geometry.fillet import fillet_solid, star_table
 
     rows = [r for r in star_table(k) if r[1] not in ("empty", "interior")]
     cell = 2.5 * radius

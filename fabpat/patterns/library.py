@@ -33,8 +33,8 @@ from scipy.sparse.csgraph import connected_components
 
 from fabpat._callable import make_callable
 from fabpat.errors import PatternError
-from fabpat.lattice import bits_to_id, check_depth, check_sides, depth_of_id, edge_row, id_to_bits, n_faces
-from fabpat.pattern import DEFAULT_EDGE, Pattern, pattern_topology
+from fabpat.patterns.lattice import bits_to_id, check_depth, check_sides, depth_of_id, edge_row, id_to_bits, n_faces
+from fabpat.patterns.pattern import DEFAULT_EDGE, Pattern, pattern_topology
 from fabpat.validate import check, check_size
 
 HTML_ROWS = 10  # patterns shown by Library._repr_html_ (a notebook cell, not a report)
@@ -96,7 +96,7 @@ def _all_bits(depth: int) -> NDArray[np.bool_]:
 class Library:
     """A set of valid slices for one polygon: ``bits`` (k, 4**depth) bool, in ID order.
 
-    ``len(lib)`` patterns; ``for p in lib`` yields :class:`~fabpat.pattern.Pattern` objects of edge
+    ``len(lib)`` patterns; ``for p in lib`` yields :class:`~fabpat.patterns.pattern.Pattern` objects of edge
     ``edge`` (mm); ``lib["0x0488"]`` is the pattern of an ID, ``lib[0]`` the first one. A missing ID,
     a position out of range or another key raises :class:`PatternError`.
     """
@@ -241,7 +241,7 @@ def get_pattern(
 ) -> Pattern:
     """The pattern of a valid ID; :class:`PatternError` naming the problem otherwise.
 
-    ``depth=None`` takes it from the ID's length (:func:`fabpat.lattice.depth_of_id`). Depth ≤ 2 looks
+    ``depth=None`` takes it from the ID's length (:func:`fabpat.patterns.lattice.depth_of_id`). Depth ≤ 2 looks
     the ID up in the listed library; deeper IDs are checked by the two filters. ``edge`` (mm),
     ``sides`` and ``depth`` must be in their ranges (:mod:`fabpat.validate`): PatternError otherwise.
     """

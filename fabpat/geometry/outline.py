@@ -7,7 +7,7 @@ Coordinates are millimetres in the polygon's plane, the polygon centre at the or
 
 This is the exact geometry of the paper's §3.3: every approximation (flattening for DXF lines, STL,
 the FE mesh) is derived from it with an explicit tolerance in mm. The curve mathematics lives in
-:mod:`fabpat.curves`; the methods here are thin wrappers over it.
+:mod:`fabpat.geometry.curves`; the methods here are thin wrappers over it.
 """
 
 from __future__ import annotations
@@ -21,10 +21,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from fabpat import polyline
 from fabpat.errors import GeometryError
-from fabpat.metrics import RegionMetrics
-from fabpat.segments import Line, Loop, Point, RationalQuad, Segment, _end_direction, _start_direction, _unit
+from fabpat.geometry import polyline
+from fabpat.geometry.segments import Line, Loop, Point, RationalQuad, Segment, _end_direction, _start_direction, _unit
+from fabpat.patterns.metrics import RegionMetrics
 from fabpat.validate import check
 
 __all__ = ["SVG_FLATTEN_TOL", "Line", "Loop", "Outline", "OutlineReport", "Point", "PolygonFrame", "RationalQuad",
@@ -42,7 +42,7 @@ class OutlineReport:
     tolerance). ``orientation_ok``: outer counter-clockwise, holes clockwise. ``holes_inside``: every
     hole inside the outer loop and outside the other holes. ``worst_g1_angle``: the largest angle
     between the tangents at a joint where an arc meets another segment (exempt joints excluded).
-    ``min_width``: see :func:`fabpat.polyline.ray_min_width`; ``min_width_at`` are the two ends of the
+    ``min_width``: see :func:`fabpat.geometry.polyline.ray_min_width`; ``min_width_at`` are the two ends of the
     narrowest chord. ``problems`` lists every failure; empty means valid.
     """
 
@@ -74,7 +74,7 @@ def _dedupe(V: NDArray[np.float64], atol: float) -> NDArray[np.float64]:
 
 def flattening_tolerance(tol: object) -> float:
     """``tol`` as a float in mm, or :class:`GeometryError` if it is not a positive number: the
-    flattening routines of :mod:`fabpat.curves` need tol > 0 (they raise a bare ValueError)."""
+    flattening routines of :mod:`fabpat.geometry.curves` need tol > 0 (they raise a bare ValueError)."""
     try:
         value = float(tol)  # type: ignore[arg-type]
     except (TypeError, ValueError):
@@ -94,7 +94,7 @@ class PolygonFrame:
     """The regular polygon a pattern's outline lives in, so meshing and scenarios need not be told.
 
     ``sides`` n, ``edge`` (mm), ``interfaces`` (n, 2, 2) float: the straight piece of the outline on
-    polygon edge i, from M − d to M + d counter-clockwise (see :mod:`fabpat.fillet`).
+    polygon edge i, from M − d to M + d counter-clockwise (see :mod:`fabpat.geometry.fillet`).
     """
 
     sides: int
@@ -138,7 +138,7 @@ class Outline:
         """Notebook picture: the exact outline (lines, exact arcs ``A``/``Q``) filled black, true size (mm),
         framed by its polygon when it knows one (as a ``FilletedPattern``'s picture is), else by its
         bounding box."""
-        from fabpat.pictures import outline_svg
+        from fabpat.views.pictures import outline_svg
 
         return outline_svg(self)
 

@@ -11,8 +11,8 @@ Conventions
   result, an array gives ``(m, d)``.
 
 Everything here is pure numpy (plus scipy's adaptive quadrature for arc length). The conic and
-circular-arc forms the file formats need are in :mod:`fabpat.conics`, the polyline checks of a
-flattened outline in :mod:`fabpat.polyline`.
+circular-arc forms the file formats need are in :mod:`fabpat.geometry.conics`, the polyline checks of a
+flattened outline in :mod:`fabpat.geometry.polyline`.
 """
 
 from __future__ import annotations

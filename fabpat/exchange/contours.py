@@ -1,10 +1,10 @@
 """2-D cutting contours for laser cutting: an outline as closed loops of lines and circular arcs (mm).
 
 The DXF and SVG writers and the assembly sheets cut along these, not along the B-rep solid of
-:mod:`fabpat.cad`: a :class:`BulgeLoop` is a DXF ``LWPOLYLINE`` (lines and circular arcs, each arc by
+:mod:`fabpat.exchange.cad`: a :class:`BulgeLoop` is a DXF ``LWPOLYLINE`` (lines and circular arcs, each arc by
 its bulge), :func:`bulge_loops` fits every rational arc of an outline by circular arcs within a
 tolerance, and :func:`offset_bulge_loops` offsets the loops by the laser's kerf with OCCT. The OCCT
-wires are built with :mod:`fabpat.cad`'s edge builder, so both rooms make edges the same way.
+wires are built with :mod:`fabpat.exchange.cad`'s edge builder, so both rooms make edges the same way.
 
 All OCP imports are inside the functions, so importing this module costs nothing.
 """
@@ -18,9 +18,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.cad import CLOSE_TOL, _pnt, _wire_from
 from fabpat.errors import GeometryError
-from fabpat.outline import Line, Outline, RationalQuad
+from fabpat.exchange.cad import CLOSE_TOL, _pnt, _wire_from
+from fabpat.geometry.outline import Line, Outline, RationalQuad
 
 
 @dataclass(frozen=True, eq=False)
@@ -48,7 +48,7 @@ class BulgeLoop:
 
     def flatten(self, tol: float) -> NDArray[np.float64]:
         """(m, 2) points of a closed polyline within ``tol`` mm of the loop (last point not repeated)."""
-        from fabpat.conics import arc_points
+        from fabpat.geometry.conics import arc_points
 
         out: list[NDArray[np.float64]] = []
         E = np.roll(self.V, -1, axis=0)
@@ -72,7 +72,7 @@ _ARC_CACHE_SIZE = 8192
 def fitted_arcs(seg: RationalQuad, tol: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Starts (k, 2) and bulges (k,) of circular arcs within ``tol`` mm of a rational arc.
 
-    :func:`fabpat.conics.fit_arcs` on the arc moved to a canonical position (P0 at the origin, chord
+    :func:`fabpat.geometry.conics.fit_arcs` on the arc moved to a canonical position (P0 at the origin, chord
     along +x), cached: an arc fit is invariant under rigid motions, and a pattern — let alone a
     library — repeats the same few arcs many times, so this makes DXF export several times faster.
     """
@@ -89,7 +89,7 @@ def fitted_arcs(seg: RationalQuad, tol: float) -> tuple[NDArray[np.float64], NDA
     key = (round(float(q[0]), 10), round(float(q[1]), 10), round(length, 10), seg.w, tol)
     arcs = _ARC_CACHE.get(key)
     if arcs is None:
-        from fabpat.conics import fit_arcs
+        from fabpat.geometry.conics import fit_arcs
 
         Q = np.array([[0.0, 0.0], q, [length, 0.0]])
         arcs = np.array([(s_[0], s_[1], b) for s_, _e, b in fit_arcs(Q, seg.w, tol)])
@@ -104,7 +104,7 @@ def fitted_arcs(seg: RationalQuad, tol: float) -> tuple[NDArray[np.float64], NDA
 def bulge_loops(outline: Outline, tol: float) -> list[BulgeLoop]:
     """Every loop (outer first) with each rational arc fitted by circular arcs within ``tol`` mm.
 
-    G1 biarcs from :func:`fabpat.conics.fit_arcs` (one exact arc for a circular Bézier arc).
+    G1 biarcs from :func:`fabpat.geometry.conics.fit_arcs` (one exact arc for a circular Bézier arc).
     """
     loops = []
     for loop in outline.loops:
@@ -126,7 +126,7 @@ def bulge_loops(outline: Outline, tol: float) -> list[BulgeLoop]:
 def _bulge_wire(loop: BulgeLoop) -> Any:
     from OCP.GC import GC_MakeArcOfCircle
 
-    from fabpat.conics import arc_points
+    from fabpat.geometry.conics import arc_points
 
     E = np.roll(loop.V, -1, axis=0)
     curves = [

@@ -1,7 +1,7 @@
 """The catalog over each pattern's family: energies between the swept members, without a solve.
 
 ``fabpat sweep --family`` stores every pattern's three energies at the standard members
-:data:`fabpat.sweep.FAMILY_SAMPLES` of ``bridge_weight`` (:mod:`fabpat.variation`) next to the
+:data:`fabpat.catalog.sweep.FAMILY_SAMPLES` of ``bridge_weight`` (:mod:`fabpat.patterns.variation`) next to the
 paper's (``bridge_weight = 1``, the catalog's own results). Between them the energy is interpolated
 by a monotone piecewise-cubic Hermite interpolant (PCHIP: Fritsch & Carlson, *SIAM J. Numer. Anal.* 17,
 1980; :class:`scipy.interpolate.PchipInterpolator`) in log w and log energy: the energies are monotone
@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.catalog import CatalogError, open_catalog
-from fabpat.scenarios import scenario_name
+from fabpat.simulation.scenarios import scenario_name
 from fabpat.validate import check
 
 

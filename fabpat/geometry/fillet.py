@@ -28,7 +28,7 @@ edge at a vertex is joined to the outgoing edge **across its void run** (never a
 * each half-edge carries at most one arc (it belongs to exactly one vertex star), and two arcs ending
   at the same edge midpoint are both tangent to that edge: G1 by construction.
 * interior arcs have weights (1, 1, 1) (parabolic arcs, as in the paper), except that a
-  :class:`~fabpat.variation.Variation` may give the bridging arcs at non-manifold vertices another
+  :class:`~fabpat.patterns.variation.Variation` may give the bridging arcs at non-manifold vertices another
   middle weight (``bridge_weight``: the pattern's continuous family; interfaces never change).
 
 Interface vertices (notes, "A consistent interface geometry"): the bow-tie that forms when a
@@ -53,11 +53,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import ExportError, GeometryError
-from fabpat.lattice import polygon_vertices
-from fabpat.metrics import RegionMetrics
-from fabpat.outline import Line, Loop, Outline, OutlineReport, PolygonFrame, RationalQuad, Segment
-from fabpat.pattern import Pattern
-from fabpat.stars import (
+from fabpat.geometry.outline import Line, Loop, Outline, OutlineReport, PolygonFrame, RationalQuad, Segment
+from fabpat.geometry.stars import (
     _ANGLE_EPS,
     HEXAGON_STAR_TABLE,
     StarRun,
@@ -70,8 +67,11 @@ from fabpat.stars import (
     star_table,
     vertex_stars,
 )
+from fabpat.patterns.lattice import polygon_vertices
+from fabpat.patterns.metrics import RegionMetrics
+from fabpat.patterns.pattern import Pattern
+from fabpat.patterns.variation import PAPER_VARIATION, Variation
 from fabpat.validate import check, check_path
-from fabpat.variation import PAPER_VARIATION, Variation
 
 __all__ = ["DEFAULT_WEIGHT", "HEXAGON_STAR_TABLE", "FilletedPattern", "StarRun", "VertexStar", "classify",
            "fillet_pattern", "fillet_solid", "interface_half_length", "star_actions", "star_runs", "star_table",
@@ -84,15 +84,15 @@ _LEN_EPS = 1e-9  # mm
 @dataclass(frozen=True, eq=False)
 class FilletedPattern:
     """A pattern's exact outline and the data that explains it; made by :meth:`Pattern.fillet
-    <fabpat.pattern.Pattern.fillet>` or :func:`fillet_pattern`.
+    <fabpat.patterns.pattern.Pattern.fillet>` or :func:`fillet_pattern`.
 
     It knows its polygon (``sides``, ``edge`` mm, ``depth``) and interface ``weight``, and its
-    ``outline`` carries them (:class:`~fabpat.outline.PolygonFrame`), so meshing and the scenarios
+    ``outline`` carries them (:class:`~fabpat.geometry.outline.PolygonFrame`), so meshing and the scenarios
     never ask again. ``interface_segments`` (n, 2, 2): the straight piece of the outline on each
     polygon edge, from M − d to M + d (counter-clockwise). ``interface_arcs``: for each polygon edge
     the two full bow-tie arcs (P0, M, P0', w) whose halves the outline keeps — their middle weight is
     the configured w; :attr:`support_arcs` is the same arcs as one flat tuple. ``variation``: the
-    family member (:class:`~fabpat.variation.Variation`; the paper's fillets by default) that the outline
+    family member (:class:`~fabpat.patterns.variation.Variation`; the paper's fillets by default) that the outline
     *is*: a pattern without non-manifold vertices has no bridging arc, so every member of its family is
     the paper's outline and is recorded as the paper's (:func:`fillet_pattern`).
     """
@@ -112,7 +112,7 @@ class FilletedPattern:
     @property
     def label(self) -> str:
         """The ID and, for a family member, its tag: ``"0x0488"``, ``"0x0488 b0.5"``
-        (:meth:`~fabpat.variation.Variation.tag`) — what parts, sheets and pictures call it."""
+        (:meth:`~fabpat.patterns.variation.Variation.tag`) — what parts, sheets and pictures call it."""
         tag = self.variation.tag()
         return f"{self.id} {tag}" if tag else self.id
 
@@ -160,7 +160,8 @@ class FilletedPattern:
     @property
     def metrics(self) -> RegionMetrics:
         """Exact area (mm²), perimeter (mm), ratio 4πA/P² and polar moment (mm⁴) of the outline: the
-        same :class:`~fabpat.metrics.RegionMetrics` as :attr:`Pattern.metrics <fabpat.pattern.Pattern.metrics>`
+        same :class:`~fabpat.patterns.metrics.RegionMetrics` as
+        :attr:`Pattern.metrics <fabpat.patterns.pattern.Pattern.metrics>`
         for the lattice triangles."""
         return self.outline.metrics
 
@@ -215,7 +216,7 @@ class FilletedPattern:
 
     def _repr_svg_(self) -> str:
         """Notebook picture: the exact filleted outline (true curves) in its polygon, true size (mm)."""
-        from fabpat.pictures import outline_svg
+        from fabpat.views.pictures import outline_svg
 
         p = self.pattern
         return outline_svg(self.outline, title=f"{self.label} ({p.sides}-gon, edge {p.edge:g} mm)")
@@ -247,7 +248,7 @@ def _halves(arc: RationalQuad) -> tuple[RationalQuad, RationalQuad]:
 
     In homogeneous coordinates the left half has control points P0, (P0 + w P1)/2 and the midpoint,
     weights 1, (1 + w)/2, (1 + w)/2; bringing it to standard form gives the middle weight
-    √((1 + w)/2) (see :func:`fabpat.curves.standardize_quad`, which the tests use to check this).
+    √((1 + w)/2) (see :func:`fabpat.geometry.curves.standardize_quad`, which the tests use to check this).
     """
     w, mid = arc.w, _midpoint(arc)
     ws = math.sqrt((1 + w) / 2)
@@ -371,7 +372,7 @@ def fillet_pattern(pattern: Pattern, weight: float = DEFAULT_WEIGHT,
 
     ``weight``: the middle weight w of the interface arcs (the paper's 0.2), in its range
     (fabpat.validate: GeometryError otherwise). ``variation``: the family member
-    (:class:`~fabpat.variation.Variation`: interior fillet weights; None = the paper's). A pattern
+    (:class:`~fabpat.patterns.variation.Variation`: interior fillet weights; None = the paper's). A pattern
     without non-manifold vertices (0x0f88) has no arc the variation acts on: its outline, and the
     ``variation`` it records, are the paper's.
     Raises :class:`GeometryError` if the pattern cannot be filleted (not expected for library patterns).

@@ -2,10 +2,10 @@
 
 A pattern is the labelled triangulation ``V, F, c`` of the polygon; the *solid pattern* is the
 sub-complex of the faces with ``c = True``. Fan triangle ``f`` has its apex at the centre and its base
-on polygon edge ``f`` (see :func:`fabpat.lattice.polygon_vertices`); the slice is mapped linearly into
+on polygon edge ``f`` (see :func:`fabpat.patterns.lattice.polygon_vertices`); the slice is mapped linearly into
 it, so the same slice fits every n (exchangeability).
 
-Calling the module is :func:`fabpat.library.pattern`: ``fabpat.pattern("0x0488")`` checks the ID
+Calling the module is :func:`fabpat.patterns.library.pattern`: ``fabpat.pattern("0x0488")`` checks the ID
 against the library and infers its depth from its length.
 """
 
@@ -20,13 +20,13 @@ from numpy.typing import NDArray
 
 from fabpat._callable import make_callable
 from fabpat.errors import GeometryError, PatternError
-from fabpat.lattice import Slice, check_depth, check_sides, polygon_vertices, slice_lattice
-from fabpat.metrics import RegionMetrics, triangle_metrics
+from fabpat.patterns.lattice import Slice, check_depth, check_sides, polygon_vertices, slice_lattice
+from fabpat.patterns.metrics import RegionMetrics, triangle_metrics
 from fabpat.validate import check
 
 if TYPE_CHECKING:  # pragma: no cover
-    from fabpat.fillet import FilletedPattern
-    from fabpat.variation import Variation
+    from fabpat.geometry.fillet import FilletedPattern
+    from fabpat.patterns.variation import Variation
 
 DEFAULT_EDGE = 36.0  # mm: the paper's hexagon edge (§4.1)
 
@@ -159,7 +159,7 @@ class Pattern:
     def metrics(self) -> RegionMetrics:
         """Area (mm²), perimeter (mm), ratio 4πA/P² and polar moment (mm⁴) of the solid pattern (the
         union of its solid lattice triangles); the filleted outline has the same four numbers as
-        :attr:`fabpat.fillet.FilletedPattern.metrics`."""
+        :attr:`fabpat.geometry.fillet.FilletedPattern.metrics`."""
         area, J = triangle_metrics(self.V, self.solid_faces)
         e = self.boundary_edges
         perimeter = float(np.linalg.norm(self.V[e[:, 0]] - self.V[e[:, 1]], axis=1).sum())
@@ -167,13 +167,13 @@ class Pattern:
 
     def fillet(self, weight: float = 0.2, variation: Variation | None = None, **values: float) -> FilletedPattern:
         """The exact filleted outline (paper §3.3) with interface-arc middle weight ``weight`` (the
-        paper's 0.2) and a family member (:mod:`fabpat.variation`, ``fabpat variations``): either a
-        :class:`~fabpat.variation.Variation` or its values by name (``bridge_weight=0.5``), not both.
+        paper's 0.2) and a family member (:mod:`fabpat.patterns.variation`, ``fabpat variations``): either a
+        :class:`~fabpat.patterns.variation.Variation` or its values by name (``bridge_weight=0.5``), not both.
         Raises :class:`~fabpat.errors.GeometryError` for a weight or variation outside its range, an
         unknown variation name, a ``variation`` that is not a Variation, or both spellings at once."""
         # A convenience over the next stage, imported when called: the pattern stage stays self-contained.
-        from fabpat.fillet import fillet_pattern
-        from fabpat.variation import Variation
+        from fabpat.geometry.fillet import fillet_pattern
+        from fabpat.patterns.variation import Variation
 
         if variation is not None and values:
             raise GeometryError(f"give the variation once: fillet(variation=Variation(...)) or fillet("
@@ -189,9 +189,9 @@ class Pattern:
 
     def _repr_svg_(self) -> str:
         """Notebook picture: the solid lattice triangles in the polygon, true size (mm)."""
-        from fabpat.pictures import pattern_svg
+        from fabpat.views.pictures import pattern_svg
 
         return pattern_svg(self)
 
 
-make_callable(__name__, "fabpat.library:pattern")
+make_callable(__name__, "fabpat.patterns.library:pattern")

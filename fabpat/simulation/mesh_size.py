@@ -2,7 +2,7 @@
 too large to solve, and the coarsest h that still resolves a pattern's narrowest feature.
 
 Lengths in mm, areas in mm². Every check raises :class:`~fabpat.errors.GeometryError` with the h that
-would pass; :mod:`fabpat.mesh` calls them before Triangle runs.
+would pass; :mod:`fabpat.simulation.mesh` calls them before Triangle runs.
 """
 
 from __future__ import annotations

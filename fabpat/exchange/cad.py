@@ -1,7 +1,7 @@
 """Exact B-rep geometry of a pattern plate: outline → planar face → extruded solid (mm).
 
-Every :class:`~fabpat.outline.Line` becomes a line edge and every
-:class:`~fabpat.outline.RationalQuad` a rational Bézier edge with weights (1, w, 1) — the same
+Every :class:`~fabpat.geometry.outline.Line` becomes a line edge and every
+:class:`~fabpat.geometry.outline.RationalQuad` a rational Bézier edge with weights (1, w, 1) — the same
 construction as build123d's ``Edge.make_bezier(p0, p1, p2, weights=[1, w, 1])``, never a polyline.
 The solid is checked with ``BRepCheck_Analyzer``; an invalid one raises :class:`GeometryError`.
 
@@ -12,7 +12,7 @@ Layers:
 * :func:`outline_face` / :func:`pattern_solid` wrap the same shapes as build123d ``Face`` / ``Solid``
   for interactive and scripted use (build123d is imported only when they are called).
 * The 2D cutting contours for DXF/SVG (loops of lines and circular arcs, their kerf offset) live in
-  :mod:`fabpat.contours`, which builds its OCCT wires with this module's edge builder.
+  :mod:`fabpat.exchange.contours`, which builds its OCCT wires with this module's edge builder.
 
 All OCP imports are inside the functions, so importing this module costs nothing.
 """
@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import GeometryError
-from fabpat.outline import Line, Loop, Outline, RationalQuad
+from fabpat.geometry.outline import Line, Loop, Outline, RationalQuad
 
 if TYPE_CHECKING:  # pragma: no cover - typing only
     from build123d import Face, Solid
@@ -43,7 +43,7 @@ DEFAULT_CHORD = 0.005
 
 def part_name(pattern_id: str, sides: int, edge: float, thickness: float, weight: float, variation: str = "") -> str:
     """The product name written to STEP/3MF: ID and every parameter that changes the geometry,
-    ending with the family member's ``variation`` label (:meth:`fabpat.variation.Variation.label`) if any.
+    ending with the family member's ``variation`` label (:meth:`fabpat.patterns.variation.Variation.label`) if any.
 
     >>> part_name("0x0488", 6, 36.0, 2.0, 0.2)
     'fabpat 0x0488 n6 e36mm t2mm w0.2'
@@ -113,7 +113,7 @@ Support = tuple[tuple[NDArray[np.float64], float, Any, float, float], ...]
 
 def _support(arcs: Sequence[RationalQuad]) -> Support:
     """(control points, weight, whole curve, first, last) of both halves of every support arc."""
-    from fabpat.curves import split_quad
+    from fabpat.geometry.curves import split_quad
 
     out = []
     for arc in arcs:

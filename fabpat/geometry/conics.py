@@ -5,7 +5,7 @@
 * Circular arcs given by (start, end, bulge) as in a DXF ``LWPOLYLINE``, and :func:`fit_arcs`, a G1
   biarc fit of a quadratic within a tolerance in mm (laser cutters want arcs and lines).
 
-Conventions as in :mod:`fabpat.curves` (millimetres, ``(3, 2)`` control points, weights (1, w, 1)).
+Conventions as in :mod:`fabpat.geometry.curves` (millimetres, ``(3, 2)`` control points, weights (1, w, 1)).
 """
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
-from fabpat.curves import FloatArray, cross2d, derivative, evaluate, point_segment_distance, rot90
 from fabpat.errors import GeometryError
+from fabpat.geometry.curves import FloatArray, cross2d, derivative, evaluate, point_segment_distance, rot90
 
 ArcTriple = tuple[tuple[float, float], tuple[float, float], float]
 """One LWPOLYLINE piece: (start (x, y), end (x, y), bulge = tan(sweep / 4), > 0 counter-clockwise)."""

@@ -50,14 +50,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import ExportError, GeometryError, SolverError
-from fabpat.mesh import DEFAULT_MAX_ELEMENTS, ShellMesh, mesh_outline
 from fabpat.shell.element import Material
 from fabpat.shell.results import ShellResult
 from fabpat.shell.solve import ShellProblem, solve_linear, solve_nonlinear
+from fabpat.simulation.mesh import DEFAULT_MAX_ELEMENTS, ShellMesh, mesh_outline
 from fabpat.validate import check, check_path, round_down
 
 if TYPE_CHECKING:  # pragma: no cover
-    from fabpat.pattern import Pattern
+    from fabpat.patterns.pattern import Pattern
 
 SCENARIOS = ("cantilever", "cylinder", "dome")
 #: the suffixes :meth:`ScenarioResult.to_vtu` and :meth:`ScenarioResult.to_png` (and ``fabpat simulate``) accept
@@ -86,10 +86,10 @@ class ScenarioResult:
     ``energy``: total strain energy (N·mm); ``max_displacement`` (mm); ``mesh`` the meshed pattern
     (set by :func:`run_scenario`), which :meth:`to_vtu` and :meth:`to_png` draw deformed. ``h``: the mesh
     sizes (mm) the energy comes from and ``mesh_energies`` (N·mm) their energies: one mesh, or two when
-    the energy is extrapolated to the mesh-converged value (:func:`fabpat.convergence.simulate`; every
+    the energy is extrapolated to the mesh-converged value (:func:`fabpat.simulation.convergence.simulate`; every
     other field is then the finer mesh's); empty when the caller did not say (:func:`run_scenario`).
     ``pattern_id``: the pattern's ID when :func:`simulate` made the result ("" from :func:`run_scenario`);
-    ``member``: its family member's tag (``"b0.5"``, :meth:`fabpat.variation.Variation.tag`; "" for the
+    ``member``: its family member's tag (``"b0.5"``, :meth:`fabpat.patterns.variation.Variation.tag`; "" for the
     paper's). :attr:`label` is the two together, as the repr and the caption show them.
     In a notebook it shows as the picture :meth:`to_png` draws (``_repr_png_``).
     """
@@ -132,7 +132,7 @@ class ScenarioResult:
 
     def _repr_png_(self) -> bytes:
         """The deformed pattern as :meth:`to_png` draws it (PNG bytes), for a notebook."""
-        from fabpat.exchange.png_result import png_bytes
+        from fabpat.simulation.png_result import png_bytes
 
         mesh = self._need_mesh()
         return png_bytes(mesh.V, mesh.F, self.result, caption=self.caption())
@@ -144,10 +144,10 @@ class ScenarioResult:
 
     def to_vtu(self, path: str | os.PathLike[str]) -> Path:
         """Write the deformed mesh with its fields for ParaView (.vtu; see
-        :func:`fabpat.exchange.vtu.write_vtu`), atomically. Returns the path. Raises
+        :func:`fabpat.simulation.vtu.write_vtu`), atomically. Returns the path. Raises
         :class:`~fabpat.errors.ExportError` if the suffix is not ``.vtu``."""
-        from fabpat.exchange.vtu import write_vtu  # a writer: loaded only when a file is asked for
         from fabpat.io import atomic_outputs, check_suffix
+        from fabpat.simulation.vtu import write_vtu  # a writer: loaded only when a file is asked for
 
         path = check_path(path, "a VTU file name", error=ExportError)
         check_suffix(path, VTU_SUFFIXES, "a VTU file name")
@@ -161,8 +161,8 @@ class ScenarioResult:
         captioned by :meth:`caption` (``title``, a string, replaces its first line; the energy line stays).
         Raises :class:`~fabpat.errors.ExportError` if ``path`` is not a path ending in ``.png`` or
         ``title`` is not a string."""
-        from fabpat.exchange.png_result import write_png
         from fabpat.io import atomic_outputs, check_suffix
+        from fabpat.simulation.png_result import write_png
 
         path = check_path(path, "a PNG file name", error=ExportError)
         check_suffix(path, PNG_SUFFIXES, "a PNG file name")
@@ -268,7 +268,8 @@ def run_scenario(mesh: ShellMesh, scenario: str, *, sides: int | None = None, ed
     parameter is outside its range (:mod:`fabpat.validate`).
     """
     if not isinstance(mesh, ShellMesh):
-        raise SolverError(f"run_scenario needs a ShellMesh (fabpat.mesh.mesh_outline), got {type(mesh).__name__}")
+        raise SolverError("run_scenario needs a ShellMesh (fabpat.simulation.mesh.mesh_outline), "
+                          f"got {type(mesh).__name__}")
     edge = check("edge", edge, error=SolverError)
     sides = len(mesh.interfaces) if sides is None else sides
     t0 = time.perf_counter()
@@ -285,10 +286,10 @@ def simulate(
 ) -> ScenarioResult:
     """Mesh a filleted pattern once (size h) and run one of the paper's scenarios (§4.1).
 
-    ``fabpat.simulate`` (:func:`fabpat.convergence.simulate`) calls this when given ``h``; without it,
+    ``fabpat.simulate`` (:func:`fabpat.simulation.convergence.simulate`) calls this when given ``h``; without it,
     it extrapolates the energy from two meshes to the mesh-converged value, as ``fabpat simulate``.
 
-    ``filleted``: a :class:`~fabpat.fillet.FilletedPattern` (its polygon and interfaces come with it);
+    ``filleted``: a :class:`~fabpat.geometry.fillet.FilletedPattern` (its polygon and interfaces come with it);
     ``scenario``: "cantilever", "cylinder" or "dome" (any capitalisation); ``h``: target mesh edge (mm);
     ``linear``: small displacements instead of the geometrically nonlinear analysis; ``thickness`` (mm),
     ``youngs_modulus`` (N/mm², PLA 1000 as in the paper), ``poisson`` (0.35, our choice for PLA).
@@ -343,12 +344,12 @@ def check_plausible(energy: float, max_displacement: float, size: float, nonline
 
 
 def mesh_filleted(filleted: Any, h: float, *, max_elements: int = DEFAULT_MAX_ELEMENTS) -> ShellMesh:
-    """Mesh a :class:`~fabpat.fillet.FilletedPattern` with target edge ``h`` (mm), as the scenarios need.
+    """Mesh a :class:`~fabpat.geometry.fillet.FilletedPattern` with target edge ``h`` (mm), as the scenarios need.
 
     Refuses (GeometryError) an h above ``MAX_H_PER_MIN_WIDTH`` × the outline's min_width, naming the
     h that would work, and a mesh estimated above ``max_elements`` triangles.
     """
-    from fabpat.mesh import MAX_H_PER_MIN_WIDTH, check_element_count, check_resolves
+    from fabpat.simulation.mesh import MAX_H_PER_MIN_WIDTH, check_element_count, check_resolves
 
     h = check("h", h, "mesh size h", error=GeometryError)
     min_width = filleted.validate(raise_on_error=False).min_width
@@ -361,6 +362,6 @@ def mesh_filleted(filleted: Any, h: float, *, max_elements: int = DEFAULT_MAX_EL
 
 def mesh_pattern(pattern: Pattern, weight: float, h: float, *, max_elements: int = DEFAULT_MAX_ELEMENTS) -> ShellMesh:
     """Fillet ``pattern`` with interface weight ``weight`` and mesh it (see :func:`mesh_filleted`)."""
-    from fabpat.fillet import fillet_pattern
+    from fabpat.geometry.fillet import fillet_pattern
 
     return mesh_filleted(fillet_pattern(pattern, weight), h, max_elements=max_elements)

@@ -10,7 +10,7 @@ or refining a band along the free edges saved nodes but did not converge faster.
 extrapolation: with E(h) ≈ E∞ − C·hᵖ, two meshes h₁ > h₂ give
 E∞ ≈ E₂ + (E₂ − E₁) / ((h₁/h₂)ᵖ − 1)  (Richardson, Phil. Trans. R. Soc. A 210 (1911) 307).
 
-The two meshes are *nested* (:func:`fabpat.mesh.refine_nested`: the finer one splits every triangle of
+The two meshes are *nested* (:func:`fabpat.simulation.mesh.refine_nested`: the finer one splits every triangle of
 the coarser into four, its new boundary nodes on the exact outline), not two independent Delaunay
 meshes: independent meshes of neighbouring h scatter by tenths of a percent, and on narrow necks by
 whole percents (0x4888, Dome: 298.7–304.8 N·mm for h = 1.15–1.5 mm, in plateaus as the necks'
@@ -22,7 +22,7 @@ and 1.0 mm are within 1 % in 68 and 66, worst −4.4 and −4.9 % (docs/accuracy
 
 Displacements, rotations and fields of a converged run are those of the finer mesh; only the
 energy is extrapolated. Used by ``fabpat simulate`` and ``fabpat.simulate`` (:func:`simulate`) unless
-they are given a mesh size, and by ``fabpat sweep`` (:func:`fabpat.sweep.simulate_pattern`) unless
+they are given a mesh size, and by ``fabpat sweep`` (:func:`fabpat.catalog.sweep.simulate_pattern`) unless
 told ``--no-extrapolate``: the built-in catalog's energies are extrapolated this way.
 Units: mm, N·mm.
 """
@@ -35,9 +35,9 @@ from dataclasses import dataclass
 from typing import Any
 
 from fabpat.errors import GeometryError, SolverError
-from fabpat.mesh import DEFAULT_MAX_ELEMENTS, MAX_H_PER_MIN_WIDTH, ShellMesh
-from fabpat.scenarios import ScenarioResult, run_scenario, simulate_inputs
-from fabpat.scenarios import simulate as simulate_mesh
+from fabpat.simulation.mesh import DEFAULT_MAX_ELEMENTS, MAX_H_PER_MIN_WIDTH, ShellMesh
+from fabpat.simulation.scenarios import ScenarioResult, run_scenario, simulate_inputs
+from fabpat.simulation.scenarios import simulate as simulate_mesh
 from fabpat.validate import check, check_size, round_down, round_up
 
 #: order p of the extrapolation, measured on nested meshes (each triangle split into four; the same
@@ -49,7 +49,7 @@ from fabpat.validate import check, check_size, round_down, round_up
 RICHARDSON_ORDER = 1.2
 
 #: the two mesh sizes (mm) of a converged run: a Triangle mesh of h = 2.5 and its nested refinement
-#: (:func:`fabpat.mesh.refine_nested`, half the edge length); :func:`converged_h` lowers the coarse h for
+#: (:func:`fabpat.simulation.mesh.refine_nested`, half the edge length); :func:`converged_h` lowers the coarse h for
 #: narrow necks. The study (docs/accuracy.md) measured 2.0 / 1.0 within 1 % in 72 / 68 of 72 (graded /
 #: uniform reference) and 2.5 / 1.25 with the neck rule in 72 / 68 with 25 % less CPU (the curved
 #: boundary, followed to a tolerance ∝ h, sets much of the node count);
@@ -61,7 +61,7 @@ CONVERGED_MESHES = (2.5, 1.25)
 ONE_MESH_H = 1.5
 
 #: chord tolerance of the coarse mesh of a converged run, per mm of its h (0.0375 mm at h = 2.5): finer
-#: than the one-mesh default (``fabpat.mesh.FLATTEN_TOL_PER_H``) because the refined mesh inherits the
+#: than the one-mesh default (``fabpat.simulation.mesh.FLATTEN_TOL_PER_H``) because the refined mesh inherits the
 #: coarse mesh's boundary vertices. One-off runs on the study's 24 patterns (p = 1.2), coarse h = 2:
 #: 0.04 mm left the lacy 0x4888 1.4–1.6 % below the mean of the two references (Cylinder, Dome; its
 #: 2.3 mm necks); 0.03 and 0.0375 mm kept all 72 within 1 % of the graded one (worst +0.59, +0.54 %),
@@ -141,13 +141,13 @@ def nested_meshes(outline: Any, h: float, sides: int | None = None, edge: float 
     """[(h, coarse), (h/2, fine)]: a Triangle mesh of ``outline`` and its nested refinement (mm).
 
     The coarse mesh follows curves to ``NESTED_FLATTEN_TOL_PER_H`` · h; the fine one is
-    :func:`fabpat.mesh.refine_nested` of it (new boundary nodes on the exact outline), with exactly 4×
-    its triangles. ``sides``, ``edge``, ``weight``: as :func:`fabpat.mesh.mesh_outline`. Raises
+    :func:`fabpat.simulation.mesh.refine_nested` of it (new boundary nodes on the exact outline), with exactly 4×
+    its triangles. ``sides``, ``edge``, ``weight``: as :func:`fabpat.simulation.mesh.mesh_outline`. Raises
     GeometryError if the finer mesh would exceed ``max_elements``: the message names it and the
     smallest coarse h (in steps of 15 %, up to ``h_max`` mm if given) whose refinement fits, found by
     meshing (``option``: how to raise the limit).
     """
-    from fabpat.mesh import INTERFACE_WEIGHT, estimate_elements, mesh_outline, refine_nested
+    from fabpat.simulation.mesh import INTERFACE_WEIGHT, estimate_elements, mesh_outline, refine_nested
 
     outline = getattr(outline, "outline", outline)
     if not hasattr(outline, "flatten"):
@@ -197,7 +197,7 @@ def nested_meshes(outline: Any, h: float, sides: int | None = None, edge: float 
 #: converged value 430.9 N·mm (nested meshes from 2.0 and 2.5 mm down to 0.25 and 0.31 mm, 29 600 and 23 000
 #: nodes, extrapolated with their observed order 1.7–1.8: 430.8 and 431.0); 0x0b08 +0.00 / +0.03 (2.2) / +0.32
 #: (2.25) / +0.56 % (2.5) against its 2.0 / 1.0 mm value; the jump lies between 2.2 and 2.25 mm, i.e.
-#: 1.13–1.15 × min_width. (A one-mesh run only needs h ≤ ``fabpat.mesh.MAX_H_PER_MIN_WIDTH`` × min_width.)
+#: 1.13–1.15 × min_width. (A one-mesh run only needs h ≤ ``fabpat.simulation.mesh.MAX_H_PER_MIN_WIDTH`` × min_width.)
 CONVERGED_H_PER_MIN_WIDTH = 1.1
 
 
@@ -219,9 +219,9 @@ def mesh_converged(filleted: Any, h: float | None = None, *, max_elements: int =
     ``h`` None: :func:`converged_h` (2.5 mm, finer for an outline with necks narrower than 2.27 mm). Raises
     GeometryError before meshing if the finer mesh would exceed ``max_elements`` (see
     :func:`nested_meshes`), or if a given h is too coarse for the outline (as
-    :func:`fabpat.scenarios.mesh_filleted`).
+    :func:`fabpat.simulation.scenarios.mesh_filleted`).
     """
-    from fabpat.mesh import check_resolves
+    from fabpat.simulation.mesh import check_resolves
 
     min_width = filleted.validate(raise_on_error=False).min_width
     if h is not None:  # a given h is the user's: refused, naming the h that works, rather than changed
@@ -252,7 +252,7 @@ def simulate(
     result's ``h`` and ``mesh_energies`` name the meshes used. Raises :class:`SolverError` (bad
     argument, nonconvergence, implausible result) and :class:`~fabpat.errors.GeometryError` (outline
     not meshable at this h, or the finer mesh above ``max_elements``), as
-    :func:`fabpat.scenarios.simulate`.
+    :func:`fabpat.simulation.scenarios.simulate`.
     """
     if extrapolate is None:
         extrapolate = h is None

@@ -10,10 +10,10 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-from fabpat.browse import choose_setup, metric_info
 from fabpat.catalog import Catalog
 from fabpat.catalog.rows import polygon_name
 from fabpat.errors import PatternError
+from fabpat.views.browse import choose_setup, metric_info
 
 PALETTE = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#e377c2", "#17becf", "#8c564b", "#bcbd22",
            "#7f7f7f")
@@ -54,7 +54,7 @@ def plot_catalog(cat: Catalog, out: str | Path, highlight: Sequence[str] = (), s
     files written. A folder created here is removed again when the figures cannot be written.
 
     ``sides``: the polygon whose rows (and energies) to draw; None: the default set-up's (see
-    :func:`fabpat.browse.choose_setup`). Raises PatternError if a highlighted ID is not among them,
+    :func:`fabpat.views.browse.choose_setup`). Raises PatternError if a highlighted ID is not among them,
     CatalogError if the catalog has no patterns of ``sides`` (naming the ``fabpat sweep`` command that
     adds them) or holds a bad value, ExportError if ``out`` cannot be written (a full disk is named as such).
     """

@@ -4,10 +4,10 @@
   wedges that lock badly), or ``element="S3"`` / ``"STRI3"`` (Abaqus' thin triangle; CalculiX has
   no STRI3) for Abaqus users: three-node connectivity, loads with the (1/2, 1/2) side weights.
 * Numbers are written with ``%.12e`` (≤ 19 characters): CalculiX silently cuts fields longer than 20.
-* Interface loads are the same uniform line loads as :mod:`fabpat.scenarios`, with the *consistent*
+* Interface loads are the same uniform line loads as :mod:`fabpat.simulation.scenarios`, with the *consistent*
   weights of the element side: (1/6, 4/6, 1/6)·length for S6 (corner, mid-side, corner), (1/2, 1/2)
   for S3. Equal shares per node would add 2–18 % spurious energy.
-* Supports as in :mod:`fabpat.scenarios`, on every interface node (corner and mid-side), except the
+* Supports as in :mod:`fabpat.simulation.scenarios`, on every interface node (corner and mid-side), except the
   in-plane part of the moment scenarios' pins: with NLGEOM, CalculiX 2.20 stalls on a node that carries
   a ``*CLOAD`` moment and an in-plane (DOF 1/2) support (the Cylinder deck stopped at 5 % of the load,
   notes.md pitfall 3). Cylinder and Dome decks hold uz on the interface nodes and put a statically
@@ -35,8 +35,8 @@ from pathlib import Path
 import numpy as np
 
 from fabpat.errors import ExportError
-from fabpat.mesh import ShellMesh
-from fabpat.scenarios import (
+from fabpat.simulation.mesh import ShellMesh
+from fabpat.simulation.scenarios import (
     CANTILEVER_FORCE,
     CYLINDER_MOMENT,
     DOME_MOMENT,
@@ -87,7 +87,7 @@ def deck_text(mesh: ShellMesh, scenario: str, *, sides: int, thickness: float = 
     """The input deck as a string (see module docstring). Node/element ids are 1-based.
 
     pattern: what the heading names the plate by (``"0x0488 b0.5"``, :attr:`FilletedPattern.label
-    <fabpat.fillet.FilletedPattern.label>`); "" names only its polygon.
+    <fabpat.geometry.fillet.FilletedPattern.label>`); "" names only its polygon.
 
     increment: initial and largest NLGEOM time increment (fraction of the load). Raises ValueError
     for an unknown scenario or element, :class:`ExportError` if an interface is not meshed along

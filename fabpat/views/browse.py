@@ -70,7 +70,7 @@ def _short_path(d: str) -> str:
 
 def _lattice_path(pattern_id: str, sides: int, depth: int, edge: float) -> str:
     """Fallback picture: the solid lattice triangles as path data (for rows without an outline)."""
-    from fabpat.pattern import Pattern
+    from fabpat.patterns.pattern import Pattern
 
     try:
         p = Pattern.from_id(pattern_id, sides, depth, edge)
@@ -82,7 +82,7 @@ def _lattice_path(pattern_id: str, sides: int, depth: int, edge: float) -> str:
 
 def page_data(cat: Catalog, sides: int | None = None) -> dict[str, object]:
     """Everything the page shows, as one JSON-ready dict (columnar values, one entry per pattern)."""
-    from fabpat.lattice import polygon_vertices
+    from fabpat.patterns.lattice import polygon_vertices
 
     setup = choose_setup(cat, sides)
     rows = cat.pattern_rows(pictures=True, **setup)
@@ -117,7 +117,7 @@ def family_data(cat: Catalog, setup: dict[str, object], rows: list[dict[str, obj
     metric that changes with it (``energy_<s>``, ``specific_stiffness_<s>``, ``min_width``,
     ``filleted_area``), one list per pattern of its value at each member (None: not converged, or outside
     the pattern's own swept members). A member that some patterns were swept at and others not (the
-    sweep's adaptive midpoints, :func:`fabpat.sweep.run_sweep`) is filled in for the others linearly in
+    sweep's adaptive midpoints, :func:`fabpat.catalog.sweep.run_sweep`) is filled in for the others linearly in
     log–log between their own neighbouring swept members (:func:`_fill`), as the page interpolates, so a
     dot does not vanish there. None when the catalog holds no family rows for this set-up."""
     from fabpat.catalog.rows import specific_stiffness

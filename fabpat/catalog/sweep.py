@@ -28,10 +28,10 @@ from fabpat.errors import FabpatError
 #: the paper's PLA: E = 1 GPa (§4.1); ν is not given, 0.35 is usual for PLA (notes)
 PLA_E = 1000.0  # N/mm²
 PLA_NU = 0.35
-DEFAULT_H = 1.5  # mm: mesh size of a one-mesh sweep (--no-extrapolate; fabpat.mesh.mesh_outline's default)
-#: the family members ``fabpat sweep --family`` computes (bridge_weight, fabpat.variation), besides the
+DEFAULT_H = 1.5  # mm: mesh size of a one-mesh sweep (--no-extrapolate; fabpat.simulation.mesh.mesh_outline's default)
+#: the family members ``fabpat sweep --family`` computes (bridge_weight, fabpat.patterns.variation), besides the
 #: paper's 1 whose results are the catalog's own: log-spaced over the range (ratio ≈ 1.6), the nodes of
-#: the interpolant in :mod:`fabpat.family` (its measured error is in docs/variations.md)
+#: the interpolant in :mod:`fabpat.catalog.family` (its measured error is in docs/variations.md)
 FAMILY_SAMPLES = (0.25, 0.4, 0.63, 1.6, 2.5)
 #: adaptive refinement of the family (:func:`refinements`): an interval between two converged members
 #: gets its geometric midpoint when the log–log slope changes across either end by more than
@@ -64,7 +64,7 @@ class SweepSetup:
     #: mesh-converged value, as the built-in catalog; False: one mesh of h, ≈ 3× faster and 3–5 % low in
     #: the median; docs/accuracy.md)
     extrapolate: bool = True
-    #: the family member (:mod:`fabpat.variation`): 1 = the paper's fillets, stored in ``results``; any
+    #: the family member (:mod:`fabpat.patterns.variation`): 1 = the paper's fillets, stored in ``results``; any
     #: other value is stored in the catalog's ``family`` table
     bridge_weight: float = 1.0
 
@@ -74,7 +74,7 @@ class SweepSetup:
         from fabpat.validate import check
 
         if self.h is None:
-            from fabpat.convergence import CONVERGED_MESHES
+            from fabpat.simulation.convergence import CONVERGED_MESHES
 
             object.__setattr__(self, "h", CONVERGED_MESHES[0] if self.extrapolate is True else DEFAULT_H)
         for name, value in (("sides", self.sides), ("depth", self.depth), ("edge", self.edge),
@@ -99,8 +99,8 @@ class SweepSetup:
 
 def fine_mesh(h: float) -> float:
     """The second mesh (mm) of an extrapolated energy: h/2, the nested refinement of the mesh of h
-    (:data:`fabpat.convergence.CONVERGED_MESHES`, as ``fabpat simulate --extrapolate``)."""
-    from fabpat.convergence import CONVERGED_MESHES
+    (:data:`fabpat.simulation.convergence.CONVERGED_MESHES`, as ``fabpat simulate --extrapolate``)."""
+    from fabpat.simulation.convergence import CONVERGED_MESHES
 
     return float(h) * (CONVERGED_MESHES[1] / CONVERGED_MESHES[0])  # 0.5 exactly: 1.76 → 0.88, not 0.8800000000000001
 
@@ -136,10 +136,10 @@ def simulate_pattern(pattern_id: str, sides: int, depth: int, edge: float, thick
     """Fillet, mesh and run ``scenarios`` (nonlinear) on one pattern; the catalog rows to store.
 
     Returns one ``patterns`` row (``"table": "patterns"``) and one ``results`` row per scenario; for a
-    family member (``bridge_weight`` ≠ 1, :mod:`fabpat.variation`) one ``family`` row per scenario,
+    family member (``bridge_weight`` ≠ 1, :mod:`fabpat.patterns.variation`) one ``family`` row per scenario,
     carrying the member's ``bridge_weight``, ``min_width`` and ``filleted_area``, and no patterns row.
-    ``extrapolate``: also refine the mesh once (:func:`fabpat.convergence.nested_meshes`, h/2) and
-    store the Richardson-extrapolated energy (:func:`fabpat.convergence.run_converged`, as ``fabpat
+    ``extrapolate``: also refine the mesh once (:func:`fabpat.simulation.convergence.nested_meshes`, h/2) and
+    store the Richardson-extrapolated energy (:func:`fabpat.simulation.convergence.run_converged`, as ``fabpat
     simulate --extrapolate``) with ``h_fine``;
     the row's other fields are then the fine mesh's, and ``seconds`` the sum over both (as the JSON of
     ``fabpat simulate --extrapolate``).
@@ -152,11 +152,11 @@ def simulate_pattern(pattern_id: str, sides: int, depth: int, edge: float, thick
     Long because it is the sweep's one task, done in a worker process: fillet, mesh, every scenario and the
     row, each failure turned into a stored reason.
     """
-    from fabpat.convergence import converged_h, nested_meshes, run_converged
-    from fabpat.fillet import fillet_pattern
-    from fabpat.library import get_pattern
-    from fabpat.mesh import ShellMesh, check_resolves, mesh_outline
-    from fabpat.variation import Variation
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.library import get_pattern
+    from fabpat.patterns.variation import Variation
+    from fabpat.simulation.convergence import converged_h, nested_meshes, run_converged
+    from fabpat.simulation.mesh import ShellMesh, check_resolves, mesh_outline
 
     version = solver_version()
     member = bridge_weight != 1.0
@@ -398,10 +398,10 @@ def run_sweep(db: str | Path, ids: Sequence[str], setup: SweepSetup = SweepSetup
     if task is simulate_pattern:
         # import the pipeline before forking workers: they all run the code the version digest describes,
         # even if a source file is edited while the sweep runs
-        import fabpat.convergence  # noqa: F401
-        import fabpat.fillet  # noqa: F401
-        import fabpat.mesh  # noqa: F401
-        import fabpat.scenarios  # noqa: F401
+        import fabpat.geometry.fillet  # noqa: F401
+        import fabpat.simulation.convergence  # noqa: F401
+        import fabpat.simulation.mesh  # noqa: F401
+        import fabpat.simulation.scenarios  # noqa: F401
     # connect first: an unreachable scheduler must not leave a new, empty catalog behind
     client = _dask_client(dask, dask_timeout) if dask else None
     with contextlib.ExitStack() as stack:

@@ -1,7 +1,7 @@
 """The segments of an outline: straight :class:`Line` pieces, quadratic rational Bézier arcs
 (:class:`RationalQuad`, paper §3.3) and the closed :class:`Loop` chains of them that an
-:class:`fabpat.outline.Outline` is made of. Coordinates in mm; the curve mathematics lives in
-:mod:`fabpat.curves`, and these classes are thin exact wrappers over it.
+:class:`fabpat.geometry.outline.Outline` is made of. Coordinates in mm; the curve mathematics lives in
+:mod:`fabpat.geometry.curves`, and these classes are thin exact wrappers over it.
 """
 
 from __future__ import annotations
@@ -14,8 +14,8 @@ from functools import cached_property, lru_cache
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from fabpat import conics, curves
 from fabpat.errors import GeometryError
+from fabpat.geometry import conics, curves
 
 Point = NDArray[np.float64]  # shape (2,)
 

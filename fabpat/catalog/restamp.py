@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from fabpat.catalog import CatalogError, solver_version
-from fabpat.sweep import fine_mesh, pattern_hash, result_hash
+from fabpat.catalog.sweep import fine_mesh, pattern_hash, result_hash
 
 _KEY = ("id", "sides", "depth", "edge", "thickness", "weight")
 
@@ -98,7 +98,7 @@ def _retag(row: sqlite3.Row, new: str, setups: list[float]) -> str | None:
     """The input hash of a results or family row under ``new``, or None if no set-up reproduces its stored
     hash under its own version. Each set-up mesh size of ``setups`` (mm) is tried: a row stores the mesh
     it used, which a narrow neck lowers below the set-up's, while its hash keeps the set-up's
-    (:func:`fabpat.sweep.simulate_pattern`)."""
+    (:func:`fabpat.catalog.sweep.simulate_pattern`)."""
     bw = float(row["bridge_weight"]) if "bridge_weight" in row.keys() else 1.0
     old = row["solver_version"]
     for h in setups:

@@ -1,5 +1,5 @@
 """Vertex stars: which boundary vertices of a solid pattern are problematic, and what filleting does at
-each (paper §3.3, Fig. 8a; the rule is in :mod:`fabpat.fillet`'s module doc).
+each (paper §3.3, Fig. 8a; the rule is in :mod:`fabpat.geometry.fillet`'s module doc).
 
 Around a boundary vertex the lattice triangles form solid and void *runs*; one solid run that is not a
 straight angle makes a **sharp** vertex, two or more a **non-manifold** one, and the polygon-edge
@@ -16,8 +16,8 @@ from itertools import groupby
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.lattice import polygon_vertices
-from fabpat.pattern import Pattern
+from fabpat.patterns.lattice import polygon_vertices
+from fabpat.patterns.pattern import Pattern
 
 _ANGLE_EPS = 1e-9  # rad: runs this close to 180° are straight
 @dataclass(frozen=True)
