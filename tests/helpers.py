@@ -160,3 +160,15 @@ def strip(**patterns: object) -> dict:
     """A 1 × 3 honeycomb-strip spec (as parsed TOML) with these ``[patterns]`` keys."""
     return {"tiling": {"kind": "honeycomb-strip", "edge": 36.0, "rows": 1, "columns": 3},
             "patterns": patterns, "sheet": {"width": 600.0, "height": 400.0}}
+
+
+def solid_count(shape: object) -> int:
+    """How many solids an OCCT shape holds (``TopExp_Explorer`` over ``TopAbs_SOLID``)."""
+    from OCP.TopAbs import TopAbs_SOLID
+    from OCP.TopExp import TopExp_Explorer
+
+    n, ex = 0, TopExp_Explorer(shape, TopAbs_SOLID)
+    while ex.More():
+        n += 1
+        ex.Next()
+    return n

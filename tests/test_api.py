@@ -284,3 +284,21 @@ def test_export_3dm_through_the_registry(tmp_path: Path) -> None:
     assert all(c.Degree == 2 and c.IsRational for c in cut)
     areas = sorted((abs(_sampled_area([c], 64)) for c in cut), reverse=True)
     assert areas[0] - sum(areas[1:]) == pytest.approx(fp.metrics.area, rel=1e-4)
+
+
+def test_the_flat_module_names_still_import_as_the_same_modules() -> None:
+    """Code written before the stage packages keeps working: an old module path imports the module under
+    its new one (one object, classes and all), and the new module keeps its own spec."""
+    import importlib
+
+    from fabpat._moved import MOVED
+
+    for old, new in MOVED.items():
+        assert importlib.import_module(old) is importlib.import_module(new), old
+    from fabpat.fillet import FilletedPattern
+
+    from fabpat.geometry import fillet
+
+    assert FilletedPattern is fillet.FilletedPattern and fillet.__spec__.name == "fabpat.geometry.fillet"
+    with pytest.raises(ModuleNotFoundError):
+        importlib.import_module("fabpat.no_such_module")

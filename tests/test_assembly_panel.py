@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from tests.conftest import run_cli
+from tests.helpers import solid_count
 
 ROOT = Path(__file__).resolve().parents[1]
 A, B = "0x0488", "0x0588"
@@ -88,17 +89,10 @@ def test_the_plates_meet_tangentially_where_the_boundary_is_relinked(panel) -> N
 
 
 def test_one_valid_solid_whose_volume_is_the_plates_volumes(panel) -> None:  # noqa: ANN001
-    from OCP.TopAbs import TopAbs_SOLID
-    from OCP.TopExp import TopExp_Explorer
-
     from fabpat.exchange.cad import check_valid, make_solid, volume
 
     check_valid(panel.solid, "panel")  # BRepCheck_Analyzer
-    solids, ex = 0, TopExp_Explorer(panel.solid, TopAbs_SOLID)
-    while ex.More():
-        solids += 1
-        ex.Next()
-    assert solids == 1
+    assert solid_count(panel.solid) == 1
     one = {pid: volume(make_solid(single_plate(pid).outline, 2.0, single_plate(pid).support_arcs)) for pid in (A, B)}
     expected = sum(one[p] for p in tile_ids())
     assert volume(panel.solid) == pytest.approx(expected, rel=1e-6)

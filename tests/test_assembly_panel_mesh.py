@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from tests.conftest import run_cli
+from tests.helpers import solid_count
 from tests.test_assembly_panel import dxf_loops, outer_loops, toml_text
 
 E = 36.0  # mm
@@ -172,17 +173,10 @@ def test_a_square_panel_is_its_plates_fused(square_panel) -> None:  # noqa: ANN0
 
 
 def test_a_square_panel_is_one_valid_solid_of_its_plates_volume(square_panel) -> None:  # noqa: ANN001
-    from OCP.TopAbs import TopAbs_SOLID
-    from OCP.TopExp import TopExp_Explorer
-
     from fabpat.exchange.cad import check_valid, volume
 
     check_valid(square_panel.solid, "square panel")  # BRepCheck_Analyzer
-    solids, ex = 0, TopExp_Explorer(square_panel.solid, TopAbs_SOLID)
-    while ex.More():
-        solids += 1
-        ex.Next()
-    assert solids == 1
+    assert solid_count(square_panel.solid) == 1
     one = {pid: plate_volume(pid, 4) for pid in (A, B)}
     assert volume(square_panel.solid) == pytest.approx(sum(one[pid] for pid in CHECKER), rel=1e-6)
 

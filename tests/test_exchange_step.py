@@ -53,21 +53,10 @@ def test_step_header_schema_units_and_product_name(tmp_path: Path) -> None:
 
 
 def test_step_product_name_reads_back_with_xde(tmp_path: Path) -> None:
-    from OCP.collections import Sequence_TDF_Label
-    from OCP.STEPCAFControl import STEPCAFControl_Reader
-    from OCP.TCollection import TCollection_ExtendedString
     from OCP.TDataStd import TDataStd_Name
-    from OCP.TDocStd import TDocStd_Document
-    from OCP.XCAFDoc import XCAFDoc_DocumentTool
 
     path = write_step(cad.make_solid(bowtie()), tmp_path / "x.step", "fabpat 0xabcd n5 e30mm t2mm w0.2")
-    reader = STEPCAFControl_Reader()
-    reader.SetNameMode(True)
-    reader.ReadFile(str(path))
-    doc = TDocStd_Document(TCollection_ExtendedString("XmlOcaf"))
-    assert reader.Transfer(doc)
-    labels = Sequence_TDF_Label()
-    XCAFDoc_DocumentTool.ShapeTool_s(doc.Main()).GetFreeShapes(labels)
+    _, labels = _xde_read(path)
     attr = TDataStd_Name()
     assert labels.Length() == 1 and labels.Value(1).FindAttribute(TDataStd_Name.GetID_s(), attr)
     assert attr.Get().ToExtString() == "fabpat 0xabcd n5 e30mm t2mm w0.2"
@@ -97,13 +86,11 @@ def test_export_parts_refuses_a_suffix_of_another_format(tmp_path: Path) -> None
 # -- names as ISO 10303-21 strings, reproducible files ---------------------------------------------------
 
 
-def _xde_names(path: Path) -> list[str]:
-    """Every product name OCCT's XDE reader decodes from the file (the free shapes and their parts)."""
+def _xde_read(path: Path) -> tuple[object, object]:
+    """(document, free-shape labels) of a STEP file read by OCCT's XDE reader, product names kept."""
     from OCP.collections import Sequence_TDF_Label
     from OCP.STEPCAFControl import STEPCAFControl_Reader
     from OCP.TCollection import TCollection_ExtendedString
-    from OCP.TDataStd import TDataStd_Name
-    from OCP.TDF import TDF_ChildIterator
     from OCP.TDocStd import TDocStd_Document
     from OCP.XCAFDoc import XCAFDoc_DocumentTool
 
@@ -114,8 +101,18 @@ def _xde_names(path: Path) -> list[str]:
     assert reader.Transfer(doc)
     labels = Sequence_TDF_Label()
     XCAFDoc_DocumentTool.ShapeTool_s(doc.Main()).GetFreeShapes(labels)
+    return doc, labels
+
+
+def _xde_names(path: Path) -> list[str]:
+    """Every product name OCCT's XDE reader decodes from the file (the free shapes and their parts)."""
+    from OCP.TDataStd import TDataStd_Name
+    from OCP.TDF import TDF_ChildIterator
+    from OCP.XCAFDoc import XCAFDoc_DocumentTool
+
+    doc, _ = _xde_read(path)
     names = []
-    it = TDF_ChildIterator(XCAFDoc_DocumentTool.ShapesLabel_s(doc.Main()), True)
+    it = TDF_ChildIterator(XCAFDoc_DocumentTool.ShapesLabel_s(doc.Main()), True)  # type: ignore[attr-defined]
     while it.More():
         attr = TDataStd_Name()
         if it.Value().FindAttribute(TDataStd_Name.GetID_s(), attr):

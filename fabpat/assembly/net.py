@@ -161,7 +161,10 @@ def net_svg(net: Net, plate_labels: list[str], edge_labels: list[tuple[str, ...]
                 continue
             m = 0.5 * (a + b)
             pos = m + 0.16 * (c - m)  # inside the face, near the edge: the label belongs to this plate's side
-            ang = -math.degrees(math.atan2(b[1] - a[1], b[0] - a[0]))
+            ang = round(-math.degrees(math.atan2(b[1] - a[1], b[0] - a[0])), 2)
+            # in (−180°, 180°], no −0: a horizontal edge's round-off sign (atan2 of ±1e-15) would make the
+            # same net read −180.00 on one machine and 180.00 on another
+            ang = (ang + 360.0 if ang <= -180.0 else ang) + 0.0
             colour = "#d00000" if text == "PIN" else "#000080"
             out.append(f'<text class="edge-label" x="{pos[0]:.3f}" y="{-pos[1]:.3f}" font-family="sans-serif" '
                        f'font-size="{fs_edge:.2f}" fill="{colour}" text-anchor="middle" dominant-baseline="central" '
