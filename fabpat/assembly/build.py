@@ -65,6 +65,7 @@ from fabpat.assembly.predict import predict as predict_kit
 from fabpat.assembly.provenance import pattern_records
 from fabpat.assembly.spec import AssemblySpec, load_spec
 from fabpat.errors import ExportError, SpecError
+from fabpat.geometry.fillet import interface_half_length
 
 NOT_NEEDED = "not needed: the sleeves are at the dihedral angles (the plates stay flat)"
 SKIPPED = "skipped (--no-predict)"
@@ -114,7 +115,7 @@ def default_predict_h(spec: AssemblySpec) -> float:
     :data:`fabpat.assembly.simulate.MAX_H_PER_INTERFACE` × the interface segment 2d)."""
     from fabpat.assembly.simulate import MAX_H_PER_INTERFACE
 
-    segment = 2.0 * spec.tiling.edge / 16.0 / (1.0 + spec.plates.weight)  # fabpat.simulation.mesh.interface_segments
+    segment = 2.0 * interface_half_length(spec.tiling.edge, weight=spec.plates.weight)
     return min(PREDICT_H, MAX_H_PER_INTERFACE * segment)
 
 

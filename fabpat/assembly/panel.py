@@ -59,6 +59,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import GeometryError
+from fabpat.geometry.fillet import interface_half_length
 from fabpat.geometry.outline import Line, Loop, Outline, RationalQuad, Segment
 
 Arr = NDArray[np.float64]
@@ -346,10 +347,10 @@ def check_panel(spec: Any) -> None:
 
     e, w = spec.tiling.edge, spec.plates.weight
     seg_min = MIN_INTERFACE_CHORDS * spec.mesh_tolerance
-    w_max = 2.0 * e / 16.0 / seg_min - 1.0
+    w_max = 2.0 * interface_half_length(e, weight=0.0) / seg_min - 1.0
     if w > w_max:
         raise SpecError(f"{spec.source}: plates.weight = {w:g} must be in (0, {w_max:.4g}]: a larger weight makes the "
-                        f"interface segment ({2.0 * e / 16.0 / (1.0 + w):.3g} mm) shorter than "
+                        f"interface segment ({2.0 * interface_half_length(e, weight=w):.3g} mm) shorter than "
                         f"{MIN_INTERFACE_CHORDS:g} × output.mesh_tolerance = {seg_min:g} mm")
 
 

@@ -37,6 +37,7 @@ from fabpat.assembly.sleeve import Sleeve, joint_direction, min_plate_edge, setb
 from fabpat.assembly.spec import RADIUS_KINDS, AssemblySpec, sleeve_angle
 from fabpat.assembly.tiling import FACE_LETTERS, Tiling, mean_distance
 from fabpat.errors import GeometryError, SpecError
+from fabpat.geometry.fillet import interface_half_length
 from fabpat.patterns.variation import Variation
 
 SHORT_NAMES = {3: "tri", 4: "quad", 5: "pent", 6: "hex"}
@@ -275,10 +276,10 @@ def check_geometry(spec: AssemblySpec) -> None:
         raise SpecError(f"{src}: {given} must be ≥ {e_min:.3g} mm: a sleeve (interface segment + "
                         f"sleeve.margin = {s.margin:g} + 2 × sleeve.wall = {s.wall:g}) must fit on the plate's edge")
     seg_min = MIN_INTERFACE_CHORDS * spec.mesh_tolerance
-    w_max = 2.0 * e / 16.0 / seg_min - 1.0
+    w_max = 2.0 * interface_half_length(e, weight=0.0) / seg_min - 1.0
     if w > w_max:
         raise SpecError(f"{src}: plates.weight = {w:g} must be in (0, {w_max:.4g}]: a larger weight makes the "
-                        f"interface segment ({2.0 * e / 16.0 / (1.0 + w):.3g} mm) shorter than "
+                        f"interface segment ({2.0 * interface_half_length(e, weight=w):.3g} mm) shorter than "
                         f"{MIN_INTERFACE_CHORDS:g} × output.mesh_tolerance = {seg_min:g} mm")
     unit = build_tiling(spec)
     E = skeleton_edge(unit, e, spec.plates.thickness, s.clearance, s.wall, printed_angles(spec, unit))
@@ -310,7 +311,7 @@ def place(spec: AssemblySpec, face_patterns: list[str]) -> Assembly:
     e = spec.tiling.edge
     E = skeleton_edge(unit, e, t, s.clearance, s.wall, printed_angles(spec, unit))
     skel = unit.scaled(E)
-    slot_length = 2.0 * e / 16.0 / (1.0 + spec.plates.weight) + s.margin  # interface segment 2d + margin
+    slot_length = 2.0 * interface_half_length(e, weight=spec.plates.weight) + s.margin  # segment 2d + margin
 
     kind_of = sleeve_kinds(spec, skel)
     g_of: dict[str, float] = {}  # one part per key, set back by the smallest setback of all its joints
@@ -416,7 +417,7 @@ def neck_advice(assembly: Assembly, filleted: dict[PlateType, Any]) -> str:
     """
     spec, skel, e = assembly.spec, assembly.skeleton, assembly.plate_edge
     s, E = spec.sleeve, skel.edge_length()
-    interface = 2.0 * e / 16.0 / (1.0 + spec.plates.weight)
+    interface = 2.0 * interface_half_length(e, weight=spec.plates.weight)
     pairs = [(sl, pt, filleted[pt].outline, setback(pt.sides, E, e), e / (2.0 * math.tan(math.pi / pt.sides)))
              for sl in assembly.sleeve_types.values() for pt in assembly.plate_types]
 
@@ -435,7 +436,7 @@ def neck_advice(assembly: Assembly, filleted: dict[PlateType, Any]) -> str:
     # the plate's plane a sleeve covers its slot arm (out to arm_end from the edge line) over its length,
     # and two arms at a corner of interior angle α meet unless each ends ≥ arm_end / tan(α/2) from it
     corner = max(sl.arm_end / math.tan(0.5 * math.pi * (pt.sides - 2) / pt.sides) for sl, pt, *_ in pairs)
-    margin_max = min(e * (1.0 - 2.0 / 16.0 / (1.0 + spec.plates.weight)),
+    margin_max = min(e - 2.0 * interface_half_length(e, weight=spec.plates.weight),
                      E - 2.0 * (corner + NECK_CLEARANCE) - interface) - 2.0 * s.wall
     raise_to = math.ceil(margin * 100.0 - 1e-6) / 100.0 if margin_max >= margin else None
 

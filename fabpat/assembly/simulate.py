@@ -46,6 +46,7 @@ from fabpat.assembly.model import (
     sleeve_moments,
 )
 from fabpat.errors import GeometryError
+from fabpat.geometry.fillet import interface_half_length
 from fabpat.shell.element import Material
 from fabpat.shell.linked import PathResult, solve_path
 
@@ -105,7 +106,7 @@ def plate_mesh(pattern_id: str, sides: int, edge: float, weight: float, h: float
 def check_h(h: float, plate_edge: float, weight: float) -> None:
     """Raise GeometryError unless 0 < h ≤ ``MAX_H_PER_INTERFACE`` × the interface segment 2d (mm)."""
     # the interface segment's length 2d (fabpat.simulation.mesh.interface_segments)
-    seg = 2.0 * plate_edge / 16.0 / (1.0 + weight)
+    seg = 2.0 * interface_half_length(plate_edge, weight=weight)
     if not 0 < h <= MAX_H_PER_INTERFACE * seg:
         raise GeometryError(f"mesh too coarse for the interface: h = {h:g} mm, the interface segment is {seg:.3g} mm "
                             f"long; use h ≤ {math.floor(MAX_H_PER_INTERFACE * seg * 1000) / 1000:g} mm")

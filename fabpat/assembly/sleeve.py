@@ -26,6 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import GeometryError
+from fabpat.geometry.fillet import interface_half_length
 
 if TYPE_CHECKING:  # pragma: no cover
     from fabpat.assembly.tiling import Tiling
@@ -51,7 +52,7 @@ def setback(sides: int, skeleton: float, plate: float) -> float:
 def min_plate_edge(margin: float, wall: float, weight: float) -> float:
     """Smallest plate edge (mm) a sleeve fits on: its slot (the interface segment, 2e/16/(1 + w) of the
     edge e for interface weight w, plus ``margin``) and two walls of ``wall`` within the edge."""
-    return (margin + 2.0 * wall) / (1.0 - 2.0 / 16.0 / (1.0 + weight))
+    return (margin + 2.0 * wall) / (1.0 - 2.0 * interface_half_length(1.0, weight=weight))
 
 
 def skeleton_edge(tiling: Tiling, plate_edge: float, thickness: float, clearance: float, wall: float,
