@@ -59,7 +59,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import GeometryError
-from fabpat.geometry.fillet import interface_half_length
 from fabpat.geometry.outline import Line, Loop, Outline, RationalQuad, Segment
 
 Arr = NDArray[np.float64]
@@ -339,19 +338,12 @@ def build_panel(spec: Any, face_patterns: Sequence[str] | None = None) -> Panel:
 
 
 def check_panel(spec: Any) -> None:
-    """Refuse (SpecError naming the key and its range) a panel whose interface segment 2 · edge / 16 / (1 + w)
-    is shorter than :data:`fabpat.assembly.placement.MIN_INTERFACE_CHORDS` STL chords (``output.mesh_tolerance``),
-    as for a kit's plates: the part's mesh would not resolve it."""
-    from fabpat.assembly.placement import MIN_INTERFACE_CHORDS
-    from fabpat.errors import SpecError
+    """Refuse (SpecError naming the key and its range) a panel whose interface segment is shorter than
+    :data:`fabpat.assembly.placement.MIN_INTERFACE_CHORDS` STL chords, as for a kit's plates
+    (:func:`fabpat.assembly.placement.check_interface_chords`)."""
+    from fabpat.assembly.placement import check_interface_chords
 
-    e, w = spec.tiling.edge, spec.plates.weight
-    seg_min = MIN_INTERFACE_CHORDS * spec.mesh_tolerance
-    w_max = 2.0 * interface_half_length(e, weight=0.0) / seg_min - 1.0
-    if w > w_max:
-        raise SpecError(f"{spec.source}: plates.weight = {w:g} must be in (0, {w_max:.4g}]: a larger weight makes the "
-                        f"interface segment ({2.0 * interface_half_length(e, weight=w):.3g} mm) shorter than "
-                        f"{MIN_INTERFACE_CHORDS:g} × output.mesh_tolerance = {seg_min:g} mm")
+    check_interface_chords(spec)
 
 
 def panel_setup(spec: Any, face_patterns: Sequence[str], *, h: float = 3.0, E: float = 1000.0,

@@ -255,6 +255,20 @@ def end_interfaces(skel: Tiling) -> list[tuple[int, int]]:
 MIN_INTERFACE_CHORDS = 10.0
 
 
+def check_interface_chords(spec: AssemblySpec) -> None:
+    """Refuse (SpecError naming ``plates.weight`` and its range) a weight that makes the interface segment
+    2 · edge / 16 / (1 + w) (:func:`fabpat.geometry.fillet.interface_half_length`) shorter than
+    :data:`MIN_INTERFACE_CHORDS` STL chords (``output.mesh_tolerance``): a part's mesh would not resolve it.
+    A kit's plates and a one-piece panel alike."""
+    e, w = spec.tiling.edge, spec.plates.weight
+    seg_min = MIN_INTERFACE_CHORDS * spec.mesh_tolerance
+    w_max = 2.0 * interface_half_length(e, weight=0.0) / seg_min - 1.0
+    if w > w_max:
+        raise SpecError(f"{spec.source}: plates.weight = {w:g} must be in (0, {w_max:.4g}]: a larger weight makes "
+                        f"the interface segment ({2.0 * interface_half_length(e, weight=w):.3g} mm) shorter than "
+                        f"{MIN_INTERFACE_CHORDS:g} × output.mesh_tolerance = {seg_min:g} mm")
+
+
 def check_geometry(spec: AssemblySpec) -> None:
     """Refuse, before any work, spec values the kit's geometry cannot take; each :class:`SpecError`
     names the key and its valid range (mm), derived from the other keys:
@@ -275,12 +289,7 @@ def check_geometry(spec: AssemblySpec) -> None:
                  if spec.tiling.radius is not None else f"tiling.edge = {e:g} mm")
         raise SpecError(f"{src}: {given} must be ≥ {e_min:.3g} mm: a sleeve (interface segment + "
                         f"sleeve.margin = {s.margin:g} + 2 × sleeve.wall = {s.wall:g}) must fit on the plate's edge")
-    seg_min = MIN_INTERFACE_CHORDS * spec.mesh_tolerance
-    w_max = 2.0 * interface_half_length(e, weight=0.0) / seg_min - 1.0
-    if w > w_max:
-        raise SpecError(f"{src}: plates.weight = {w:g} must be in (0, {w_max:.4g}]: a larger weight makes the "
-                        f"interface segment ({2.0 * interface_half_length(e, weight=w):.3g} mm) shorter than "
-                        f"{MIN_INTERFACE_CHORDS:g} × output.mesh_tolerance = {seg_min:g} mm")
+    check_interface_chords(spec)
     unit = build_tiling(spec)
     E = skeleton_edge(unit, e, spec.plates.thickness, s.clearance, s.wall, printed_angles(spec, unit))
     lo: dict[str, float] = {}
