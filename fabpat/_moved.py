@@ -50,13 +50,13 @@ MOVED = {
 class _OldName(importlib.abc.MetaPathFinder, importlib.abc.Loader):
     """Finds an old name of :data:`MOVED` and loads it as the module it moved to."""
 
+    def __init__(self) -> None:
+        self._specs: dict[str, importlib.machinery.ModuleSpec | None] = {}
+
     def find_spec(self, fullname: str, path: Sequence[str] | None = None,
                   target: types.ModuleType | None = None) -> importlib.machinery.ModuleSpec | None:
         """A spec for an old name, else None (the other finders go on)."""
         return importlib.util.spec_from_loader(fullname, self) if fullname in MOVED else None
-
-    def __init__(self) -> None:
-        self._specs: dict[str, importlib.machinery.ModuleSpec | None] = {}
 
     def create_module(self, spec: importlib.machinery.ModuleSpec) -> types.ModuleType:
         """The module under its new name (imported if it is not yet)."""
