@@ -30,3 +30,17 @@ class SpecError(FabpatError, ValueError):
 
 class RangeError(FabpatError, ValueError):
     """A number that is not finite or outside its physical range, or work too large to start."""
+
+
+class CatalogError(FabpatError, ValueError):
+    """A catalog file that is missing, not a fabpat catalog, from an incompatible schema or holding a
+    bad value; a bad filter or query argument (a ``ValueError`` too, as before it was one of these)."""
+
+
+class WriteFailed(ExportError, OSError):
+    """A writer could not write a file: an :class:`ExportError` for callers, and an ``OSError`` (with
+    ``errno`` and ``filename``) so that :func:`fabpat.io.atomic_outputs` names the target instead of its
+    temporary file, and a full disk as such."""
+
+    def __str__(self) -> str:
+        return f"cannot write {self.filename}: {self.strerror}"

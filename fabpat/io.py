@@ -36,7 +36,7 @@ import stat
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 
-from fabpat.errors import ExportError
+from fabpat.errors import ExportError, WriteFailed
 
 #: ``.<name>.<pid>.<8 random characters>.part[<suffix>]``: the temporary names of fabpat (see temp_prefix)
 _TEMP_NAME = re.compile(r"^\..*\.(?P<pid>[0-9]+)\.[A-Za-z0-9_]{8}\.part(\.[^/]*)?$")
@@ -248,15 +248,6 @@ def write_error(target: str | os.PathLike[str], e: OSError) -> ExportError:
 #: bytes: a folder with less free space than this after a failed write is called full (a failed writer's
 #: partial file has used up what was left; an honest "the disk is full" needs the space to be gone)
 FULL_BELOW = 256 * 1024
-
-
-class WriteFailed(ExportError, OSError):
-    """A writer could not write a file: an :class:`ExportError` for callers, and an ``OSError`` (with
-    ``errno`` and ``filename``) so that :func:`atomic_outputs` names the target instead of its
-    temporary file, and a full disk as such."""
-
-    def __str__(self) -> str:
-        return f"cannot write {self.filename}: {self.strerror}"
 
 
 def writer_failed(path: str | os.PathLike[str], what: str, cause: OSError | None = None) -> WriteFailed:

@@ -1,8 +1,9 @@
-"""The bottom of :mod:`fabpat.catalog`: the catalog's error, its schema and where the built-in one lives.
+"""The bottom of :mod:`fabpat.catalog`: its schema and where the built-in one lives (and, for the modules
+above it, the catalog's error, :class:`fabpat.errors.CatalogError`).
 
 The tables and their columns (:data:`PATTERN_COLUMNS`, :data:`RESULT_COLUMNS`, :data:`FAMILY_COLUMNS`,
 see :mod:`fabpat.catalog`), the key of a row (:data:`KEY`), the set-up of the built-in catalog
-(:data:`DEFAULT_SETUP`) and :class:`CatalogError`. Every other catalog module imports from this one and
+(:data:`DEFAULT_SETUP`). Every other catalog module imports from this one and
 this one imports none of them.
 """
 
@@ -11,7 +12,7 @@ from __future__ import annotations
 from importlib import resources
 from pathlib import Path
 
-from fabpat.errors import FabpatError
+from fabpat.errors import CatalogError  # noqa: F401 - the catalog modules import it from here
 
 SCHEMA_VERSION = "1"
 BUILTIN_NAME = "catalog.sqlite"
@@ -53,14 +54,7 @@ METRICS = ("area", "perimeter", "ratio", "polar_moment", "filleted_area", "fille
            "filleted_polar_moment", "min_width")
 
 
-class CatalogError(FabpatError, ValueError):
-    """A catalog file that is missing, not a fabpat catalog, from an incompatible schema or holding a
-    bad value; a bad filter or query argument (a ``ValueError`` too, as before it was one of these).
 
-    Defined here, in the lowest catalog module, rather than in :mod:`fabpat.errors` with the other
-    children of :class:`~fabpat.errors.FabpatError`: that module is part of the solver's code digest
-    (:func:`~fabpat.catalog.version.solver_version`), so editing it would make every stored result
-    stale; and here every catalog module can raise it without importing a module above its own."""
 
 
 def builtin_path() -> Path:
