@@ -120,6 +120,10 @@ RANGES: dict[str, Range] = {r.name: r for r in (
 #: Precision::Confusion is 1e-7 mm on parts of 10–100 mm), so 1e-9 × size is the finest meaningful value.
 FLOAT_RESOLUTION = 1e-9
 
+#: mm: two points closer than this are one point, the round-off of millimetre geometry (skeleton
+#: vertices welded, segment ends meeting, a node on an interface segment, faces that touch)
+SAME_POINT = 1e-6
+
 
 def _label(name: str, label: str | None) -> str:
     return label or name

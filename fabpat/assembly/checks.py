@@ -32,9 +32,9 @@ from fabpat.assembly.parts import CHECK_TOLERANCE, PartLibrary, apply
 from fabpat.assembly.placement import Assembly, PlacedSleeve, neck_advice, setback
 from fabpat.assembly.sleeve import joint_direction, joint_normal
 from fabpat.errors import GeometryError
+from fabpat.validate import SAME_POINT
 
 OVERLAP_VOLUME = 1e-6  # mm³: intersections below this are rounding, not material
-MIDPOINT_TOL = 1e-6  # mm
 GAP_SEARCH = 1.0  # mm: how far manifold3d looks for the smallest gap between a plate and a sleeve
 
 
@@ -104,12 +104,12 @@ SHALLOW_FRACTION = 0.75
 
 def _slot_tolerance(asm: Assembly) -> float:
     """mm: how far a plate's interface midpoint may be off its slot's centre line. An exact tiling's
-    plates sit on it (:data:`MIDPOINT_TOL`, round-off); a mesh file's faces are regular only within
+    plates sit on it (:data:`fabpat.validate.SAME_POINT`, round-off); a mesh file's faces are regular only within
     ``tiling.tolerance``, which moves a plate's interface by up to about twice that, but never more
     than the slot's play across the plate (``sleeve.clearance`` / 2) lets it fit."""
     if asm.spec.tiling.kind != "mesh":
-        return MIDPOINT_TOL
-    return max(MIDPOINT_TOL, min(2.0 * asm.spec.tiling.tolerance, 0.5 * asm.spec.sleeve.clearance))
+        return SAME_POINT
+    return max(SAME_POINT, min(2.0 * asm.spec.tiling.tolerance, 0.5 * asm.spec.sleeve.clearance))
 
 
 def _off_slot(asm: Assembly, s: PlacedSleeve, plate_index: int, off: float, along: float) -> GeometryError:

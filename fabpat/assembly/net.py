@@ -25,8 +25,7 @@ from fabpat.assembly.nesting import convex_distance
 from fabpat.assembly.tiling import Tiling
 from fabpat.errors import GeometryError
 from fabpat.patterns.lattice import polygon_vertices
-
-OVERLAP_TOL = 1e-6  # mm: faces sharing an edge or a vertex "touch" at distance 0 up to rounding
+from fabpat.validate import SAME_POINT
 
 
 @dataclass(frozen=True, eq=False)
@@ -60,7 +59,7 @@ class Net:
         out = []
         for a in range(len(self.polygons)):
             for b in range(a + 1, len(self.polygons)):
-                if convex_distance(self.polygons[a], self.polygons[b]) < -OVERLAP_TOL:
+                if convex_distance(self.polygons[a], self.polygons[b]) < -SAME_POINT:
                     out.append((a, b))
         return out
 

@@ -24,11 +24,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.patterns.lattice import polygon_vertices
+from fabpat.validate import SAME_POINT
 
 PHI = (1.0 + math.sqrt(5.0)) / 2.0
 HEX_HEX_DIHEDRAL = math.acos(-math.sqrt(5.0) / 3.0)  # rad, ≈ 138.19°
 HEX_PENT_DIHEDRAL = math.acos(-math.sqrt((5.0 + 2.0 * math.sqrt(5.0)) / 15.0))  # rad, ≈ 142.62°
-_WELD = 1e-6  # mm: skeleton vertices closer than this are one vertex
 #: a polyhedron's plate label prefix by polygon sides ("F" for any other polygon)
 FACE_LETTERS = {3: "T", 4: "Q", 5: "P", 6: "H"}
 
@@ -237,7 +237,7 @@ def mean_distance(polygons: list[NDArray[np.float64]], centre: NDArray[np.float6
     return total / weight
 
 
-def weld(points: list[NDArray[np.float64]] | NDArray[np.float64], tol: float = _WELD
+def weld(points: list[NDArray[np.float64]] | NDArray[np.float64], tol: float = SAME_POINT
          ) -> tuple[NDArray[np.float64], list[int]]:
     """Merge points closer than about ``tol`` (mm; rounded to a grid of that step): the unique points (n, 3)
     in order of first appearance, and the index of each input point among them."""

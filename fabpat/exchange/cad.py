@@ -29,12 +29,12 @@ from numpy.typing import NDArray
 
 from fabpat.errors import GeometryError
 from fabpat.geometry.outline import Line, Loop, Outline, RationalQuad
+from fabpat.validate import SAME_POINT
 
 if TYPE_CHECKING:  # pragma: no cover - typing only
     from build123d import Face, Solid
 
 DEFAULT_THICKNESS = 2.0  # mm: the paper's plate thickness (§4.1)
-CLOSE_TOL = 1e-6  # mm: consecutive segment end points closer than this are the same vertex
 DEFAULT_ANGULAR = 0.5  # rad: BRepMesh angular deflection; the chord tolerance in mm is what matters
 # mm: STL/3MF chord height. 0.005, not 0.01: at 0.01 the chords of concave arcs, which lie outside the
 # material, put one lacy pattern (0x2508) 0.107 % over its volume; at 0.005 every pattern is within 0.1 %.
@@ -140,13 +140,13 @@ def _wire(loop: Loop, support: Support = ()) -> Any:
     A segment that is one half of a ``support`` arc is built on that whole arc, trimmed to
     [0, ½] or [½, 1]: the same point set, but its curve keeps the arc's own weights.
     """
-    segs = [s for s in loop.segments if isinstance(s, RationalQuad) or np.linalg.norm(s.end - s.start) > CLOSE_TOL]
+    segs = [s for s in loop.segments if isinstance(s, RationalQuad) or np.linalg.norm(s.end - s.start) > SAME_POINT]
     if len(segs) < 2:
         raise GeometryError(f"a loop needs at least 2 segments, got {len(segs)}")
     curves: list[Any] = []
     for i, s in enumerate(segs):
         gap = float(np.linalg.norm(s.end - segs[(i + 1) % len(segs)].start))
-        if gap > CLOSE_TOL:
+        if gap > SAME_POINT:
             raise GeometryError(f"loop is not closed: gap of {gap:.3g} mm after segment {i}")
         if isinstance(s, Line):
             curves.append(None)

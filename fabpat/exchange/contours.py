@@ -19,8 +19,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import GeometryError
-from fabpat.exchange.cad import CLOSE_TOL, _pnt, _wire_from
+from fabpat.exchange.cad import _pnt, _wire_from
 from fabpat.geometry.outline import Line, Outline, RationalQuad
+from fabpat.validate import SAME_POINT
 
 
 @dataclass(frozen=True, eq=False)
@@ -79,7 +80,7 @@ def fitted_arcs(seg: RationalQuad, tol: float) -> tuple[NDArray[np.float64], NDA
     P = seg.control_points
     chord = P[2] - P[0]
     length = float(np.hypot(*chord))
-    if length <= CLOSE_TOL:
+    if length <= SAME_POINT:
         raise GeometryError("a rational arc that returns to its start cannot be fitted")
     c, s = chord / length
     R = np.array([[c, s], [-s, c]])  # rotates the chord onto +x
@@ -112,7 +113,7 @@ def bulge_loops(outline: Outline, tol: float) -> list[BulgeLoop]:
         B: list[NDArray[np.float64]] = []
         for seg in loop.segments:
             if isinstance(seg, Line):
-                if np.linalg.norm(seg.p1 - seg.p0) > CLOSE_TOL:
+                if np.linalg.norm(seg.p1 - seg.p0) > SAME_POINT:
                     V.append(seg.p0[None])
                     B.append(np.zeros(1))
                 continue
@@ -204,7 +205,7 @@ def offset_bulge_loops(loops: list[BulgeLoop], distance: float) -> list[BulgeLoo
         for e, a, b in ordered_edges(wire):
             chord = b - a
             L2 = float(chord @ chord)
-            if L2 <= CLOSE_TOL**2:
+            if L2 <= SAME_POINT**2:
                 continue
             c = BRepAdaptor_Curve(e)
             kind = c.GetType()

@@ -57,11 +57,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import ExportError, GeometryError
-from fabpat.exchange.cad import CLOSE_TOL, make_face
+from fabpat.exchange.cad import make_face
 from fabpat.exchange.contours import BulgeLoop, bulge_loops, offset_bulge_loops, offset_wires, ordered_edges
 from fabpat.exchange.origin import DEFAULT_ORIGIN, check_origin, origin_shift, translated
 from fabpat.geometry.outline import Line, Loop, Outline
 from fabpat.io import atomic_outputs
+from fabpat.validate import SAME_POINT
 
 if TYPE_CHECKING:  # pragma: no cover
     from fabpat.exchange.part import ExportSettings, Part
@@ -148,7 +149,7 @@ def spline_pieces(outline: Outline) -> list[list[Piece]]:
         pieces: list[Piece] = []
         for seg in _oriented(lp, i == 0).segments:
             if isinstance(seg, Line) or seg.is_straight:
-                if np.linalg.norm(seg.end - seg.start) > CLOSE_TOL:
+                if np.linalg.norm(seg.end - seg.start) > SAME_POINT:
                     pieces.append(np.array([seg.start, seg.end]))
                 continue
             pieces.append(SplinePiece(2, np.array(seg.control_points), seg.weights,
@@ -190,7 +191,7 @@ def offset_spline_pieces(outline: Outline, distance: float, tol: float) -> list[
         starts = []
         for e, a, b in ordered_edges(wire):
             chord = b - a
-            if float(chord @ chord) <= CLOSE_TOL**2:
+            if float(chord @ chord) <= SAME_POINT**2:
                 continue
             starts.append(a)
             kind = BRepAdaptor_Curve(e).GetType()

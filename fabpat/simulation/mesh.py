@@ -32,10 +32,10 @@ from fabpat.simulation.mesh_size import (
     check_resolves,
     estimate_elements,
 )
-from fabpat.validate import check
+from fabpat.validate import SAME_POINT, check
 
 __all__ = ["AREA_FACTOR", "ASSEMBLY_MAX_ELEMENTS", "CHORD_SHIFT", "DEFAULT_MAX_ELEMENTS", "FLATTEN_TOL_PER_H",
-           "INTERFACE_TOL", "INTERFACE_WEIGHT", "MAX_H_PER_MIN_WIDTH", "PROJECTION_TOL", "ShellMesh",
+           "INTERFACE_WEIGHT", "MAX_H_PER_MIN_WIDTH", "PROJECTION_TOL", "ShellMesh",
            "check_element_count", "check_polygon_elements", "check_resolves", "estimate_elements", "flatten_outline",
            "interface_segments", "mesh_outline", "mesh_polygons", "refine_nested", "solid_polygon_mesh",
            "tag_segments"]
@@ -56,9 +56,6 @@ CHORD_SHIFT = 2.0 / 3.0
 #: Tolerance (mm) of the projection of a refined mesh's new boundary nodes onto the exact outline
 #: (:func:`refine_nested`): they are placed on a flattening this fine.
 PROJECTION_TOL = 1e-4
-
-#: Distance (mm) within which a node counts as lying on an interface segment.
-INTERFACE_TOL = 1e-6
 
 #: Triangle's area bound is a maximum, so its triangles come out smaller than the bound; 1.5 × the
 #: area of an equilateral triangle of edge h makes the *mean* edge length ≈ h (measured: 1.01–1.53–2.03
@@ -170,7 +167,7 @@ def _point_inside(loop: NDArray[np.float64]) -> NDArray[np.float64]:
 
 def tag_segments(
     V: NDArray[np.float64], segments: Sequence[tuple[NDArray[np.float64], NDArray[np.float64]] | None],
-    tol: float = INTERFACE_TOL,
+    tol: float = SAME_POINT,
 ) -> tuple[NDArray[np.int64], ...]:
     """Nodes on each segment (p0, p1): within ``tol`` of its line and between its ends, ordered p0→p1.
 
