@@ -19,7 +19,8 @@ import pytest
 
 from fabpat.assembly.closure import SPHERE_RMS_LIMIT, shape_sphere
 from fabpat.assembly.mesh_tiling import read_polygon_mesh
-from fabpat.assembly.placement import neck_extent, neck_half_width, place
+from fabpat.assembly.necks import neck_extent, neck_half_width
+from fabpat.assembly.placement import place
 from fabpat.assembly.simulation import simulate_assembly
 from fabpat.assembly.sleeve import required_setback
 from fabpat.assembly.spec import load_spec, parse_spec

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+import trimesh
 
 from fabpat.errors import SpecError
 
@@ -273,3 +274,22 @@ def test_closed_refusals_are_one_line_and_write_nothing(tmp_path: Path) -> None:
         lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
         assert r.exit_code == 2 and len(lines) == 1 and lines[0].startswith("fabpat: error: "), (word, r.stderr)
         assert not out.exists() and word in lines[0], (word, lines[0])
+
+
+def test_a_mesh_target_with_a_nan_vertex_or_no_volume_is_refused(tmp_path: Path) -> None:
+    """A NaN vertex is refused before trimesh's processing could drop it (and its faces) unseen, and a flat
+    mesh, onto which no similarity transform puts a closed tiling, is refused by name."""
+    from fabpat.design.target import TargetError, read_target
+
+    ball = trimesh.creation.icosphere(subdivisions=2)
+    V = ball.vertices.copy()
+    V[0] = np.nan
+    lines = [f"v {a} {b} {c}" for a, b, c in V] + [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in ball.faces]
+    (tmp_path / "nan.obj").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    trimesh.creation.box((1.0, 1.0, 1e-9)).export(tmp_path / "flat.stl")
+    for name, words in (("nan.obj", "a vertex is not finite"), ("flat.stl", "is flat")):
+        with pytest.raises(TargetError, match=words) as e:
+            read_target(str(tmp_path / name))
+        assert "\n" not in str(e.value)
+    ball.export(tmp_path / "ball.obj")
+    assert read_target(str(tmp_path / "ball.obj")).source.endswith("ball.obj")

@@ -40,12 +40,12 @@ from fabpat.assembly.choice import candidate_pairs, face_patterns, with_members
 from fabpat.assembly.kit_files import PREDICTION, KitOutput, without_durations, write_all
 from fabpat.assembly.kit_folder import GENERATOR, MANIFEST, check_out, write_kit
 from fabpat.assembly.kit_result import AssembleResult, fabrication_problems
+from fabpat.assembly.necks import check_necks
 from fabpat.assembly.placement import (
     Assembly,
     PlateType,
     build_tiling,
     check_geometry,
-    check_necks,
     place,
     radius_line,
     sleeve_kinds,

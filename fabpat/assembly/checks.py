@@ -28,8 +28,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from fabpat.assembly.necks import neck_advice
 from fabpat.assembly.parts import CHECK_TOLERANCE, PartLibrary, apply
-from fabpat.assembly.placement import Assembly, PlacedSleeve, neck_advice, setback
+from fabpat.assembly.placement import Assembly, PlacedSleeve, setback
 from fabpat.assembly.sleeve import joint_direction, joint_normal
 from fabpat.errors import GeometryError
 from fabpat.validate import SAME_POINT

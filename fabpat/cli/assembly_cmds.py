@@ -103,7 +103,7 @@ def assemble_cmd(spec: str, out: str, progress: bool, timestamp: str | None, for
 @number_option("--end-shortening", range_name="end_shortening", default=None,
                help="Strips: the end pins move towards each other by this fraction of the strip length "
                     "[default: 0.1].")
-@h_option(3.0)
+@h_option(3.0, "assembly")
 @number_option("--steps", range_name="steps", default=None,
                help="Report steps of the path [default: 10 for a strip, 4 for a closed assembly].")
 @number_option("--imperfection", range_name="imperfection_force", default=None,
@@ -223,7 +223,7 @@ def _simulate_assembly(spec: str, end_shortening: float | None, h: float, steps:
 @click.command("simulate-strip")
 @click.argument("spec", type=click.Path(dir_okay=False))
 @number_option("--end-shortening", range_name="end_shortening", default=None, help="See simulate-assembly.")
-@h_option(3.0)
+@h_option(3.0, "assembly")
 @number_option("--steps", range_name="steps", default=None, help="See simulate-assembly.")
 @number_option("--imperfection", range_name="imperfection_force", default=None, help="See simulate-assembly.")
 @number_option("--youngs-modulus", "E", range_name="youngs_modulus", default=None, help="See simulate-assembly.")

@@ -17,7 +17,7 @@ from fabpat.cli.options import h_option, number_option
               help="Base assembly spec (TOML); [patterns] may narrow the candidates: allowed, min_width, max_distinct.")
 @click.option("--out", required=True, type=click.Path(file_okay=False),
               help="Output folder (created; an earlier `fabpat design` output there is replaced).")
-@h_option(3.0)
+@h_option(3.0, "assembly")
 @number_option("--max-solves", range_name="max_solves", default=None,
                help="Budget of full assembly solves for the search (the baselines' one or two come on top) "
                     "[default: 12 for a strip, 60 for a closed tiling].")

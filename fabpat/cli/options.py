@@ -85,10 +85,17 @@ modulus_option = number_option("--youngs-modulus", "E", range_name="youngs_modul
                                show_default=True, help="Young's modulus in N/mm² (PLA: 1000).")
 
 
-def h_option(default: float) -> Any:
-    """``--h``: the target mesh edge in mm, with a command's own default."""
+#: what bounds ``--h`` for one pattern (fabpat.simulation.mesh_size.MAX_H_PER_MIN_WIDTH) and for an assembly
+#: (fabpat.assembly.simulate.MAX_H_PER_INTERFACE × the interface segment)
+H_LIMITS = {"pattern": "at most twice the pattern's min_width",
+            "assembly": "at most twice the interface segment, 7.5 mm for 36 mm plates at weight 0.2"}
+
+
+def h_option(default: float, limit: str = "pattern") -> Any:
+    """``--h``: the target mesh edge in mm, with a command's own default; ``limit`` names what bounds it
+    (a key of :data:`H_LIMITS`)."""
     return number_option("--h", "h", range_name="h", default=default, show_default=True,
-                         help="Target mesh edge length in mm (at most twice the pattern's min_width).")
+                         help=f"Target mesh edge length in mm ({H_LIMITS[limit]}).")
 
 
 def parse_variation(texts: Iterable[str]) -> Variation:

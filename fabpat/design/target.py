@@ -141,21 +141,35 @@ def _closed(text: str) -> ClosedTarget | None:
     return None
 
 
+#: a mesh target whose thinnest principal extent (singular value of its centred vertices) is at most this
+#: fraction of its widest is flat: no similarity transform puts a closed tiling onto it
+FLAT_TARGET = 0.01
+
+
 def _read_mesh(path: str) -> Any:
     """The surface of a mesh file (trimesh), or TargetError: unreadable, no faces, or degenerate."""
     import trimesh
 
     what = "a surface mesh (OBJ, STL or PLY with at least 4 triangles or polygons of positive area)"
     try:
-        m = trimesh.load(path, force="mesh", process=True)
+        # read as written (trimesh's processing would drop a non-finite vertex and its faces unseen)
+        m = trimesh.load(path, force="mesh", process=False)
+        finite = bool(np.isfinite(np.asarray(getattr(m, "vertices", np.zeros((0, 3))), dtype=np.float64)).all())
+        if finite:
+            m.process()
     except Exception as e:  # noqa: BLE001 - trimesh raises many kinds for a file that is no mesh
         raise TargetError(f"target {path} is not {what}: {str(e).splitlines()[0][:80] if str(e) else type(e).__name__}"
                           ) from None
+    if not finite:
+        raise TargetError(f"target {path}: a vertex is not finite (NaN or infinite coordinates)")
     faces = getattr(m, "faces", None)
     if faces is None or len(faces) < 4 or not float(getattr(m, "area", 0.0)) > 0:
         raise TargetError(f"target {path} is not {what}: it has {0 if faces is None else len(faces)} face(s)")
-    if not np.isfinite(np.asarray(m.vertices)).all():
-        raise TargetError(f"target {path}: a vertex is not finite")
+    V = np.asarray(m.vertices, dtype=np.float64)
+    spread = np.linalg.svd(V - V.mean(axis=0), compute_uv=False)
+    if spread[2] <= FLAT_TARGET * spread[0]:  # a closed tiling's shape cannot be fitted to a plane
+        raise TargetError(f"target {path} is flat (its thinnest extent is {spread[2] / spread[0]:.2g} of its widest): "
+                          "a closed tiling needs a surface that encloses a volume")
     return m
 
 
