@@ -239,3 +239,18 @@ def test_a_target_the_elastica_cannot_follow_is_designed_by_the_search(setup: di
     rec = json.loads((tmp_path / "d" / "design.json").read_text(encoding="utf-8"))
     assert rec["solves"] == res.record["solves"] >= 2 and rec["relative_rms"] > 0
     assert rec["rms_error"] <= rec["baselines"]["single"]["rms_error"] + 1e-9
+
+
+@pytest.mark.slow
+def test_kit_is_built_and_predicted_at_the_designs_mesh_edge(setup: dict, tmp_path: Path) -> None:
+    """``--kit`` writes the assemble kit of design.toml into DIR/kit, its prediction solved at the design's
+    own h (design.json ``h``), so the kit's prediction is the designed strip's solve."""
+    from fabpat.design import design
+
+    res = design(setup["target"], setup["spec"], out=tmp_path / "d", h=float(H), max_solves=1, workers=1, kit=True)
+    rec = json.loads((tmp_path / "d" / "design.json").read_text(encoding="utf-8"))
+    assert rec["h"] == float(H) == res.record["h"]
+    manifest = json.loads((tmp_path / "d" / "kit" / "manifest.json").read_text(encoding="utf-8"))
+    assert "prediction.json" in manifest["files"]
+    pred = json.loads((tmp_path / "d" / "kit" / "prediction.json").read_text(encoding="utf-8"))
+    assert pred["h"] == float(H)

@@ -156,6 +156,7 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
     else:
         res = _design_strip(tgt, base, h, MAX_SOLVES if max_solves is None else max_solves, tolerance,
                             scale_target, workers, dask, progress, t0)
+    res.record["h"] = h  # every solve's mesh edge (mm): the kit's prediction (--kit) uses it too
     if out is not None:
         res.write(out, kit)
     return res

@@ -200,7 +200,8 @@ def write_design(res: Any, out: str | os.PathLike[str], kit: bool = False) -> li
         if kit:
             from fabpat.assembly.build import assemble
 
-            made = assemble(str(tmp / "design.toml"), tmp / "kit")
+            # predicted at the design's own mesh edge, so kit/prediction.json and design.json agree
+            made = assemble(str(tmp / "design.toml"), tmp / "kit", predict_h=res.record.get("h"))
             files += [f"kit/{f}" for f in made.files]
         return files
 
