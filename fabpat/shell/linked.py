@@ -26,6 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import SolverError
+from fabpat.shell.compiled import pardiso_threads
 from fabpat.shell.linalg import Factor, Pardiso, SuperLUFactorizer, factorizer
 from fabpat.shell.rigid_links import LinkedProblem, _Reduced
 from fabpat.shell.rotations import expmap, logmap
@@ -211,6 +212,7 @@ def solve_path(
     link_reference: bool = False,
     progress: Callable[[float], None] | None = None,
     start: tuple[Arr, Arr] | None = None,
+    threads: int | None = None,
 ) -> PathResult:
     """Follow λ = 0 → 1 (loads λ·loads, prescribed dofs λ·prescribed, joint angles λ·φ); see module doc.
 
@@ -235,6 +237,8 @@ def solve_path(
     λ = 1 from there in one increment; if that converges (``warm`` in the result) the only report point
     is λ = 1, else the path is followed from λ = 0 as without it (its iterations and factorizations
     counted). A warm start reaches the same equilibrium only where the problem has one near the guess.
+    ``threads``: threads for the element kernels, the matrix sums and the factorisations (default: the
+    cores this process may use, :func:`fabpat.shell.compiled.cores`).
 
     Convergence of an increment: ‖r‖ ≤ max(rtol · max(‖λ f‖, ‖reactions‖), floor) over the dofs that
     are neither prescribed nor slaves, with the round-off floor of :mod:`fabpat.shell.solve`. Each
@@ -253,7 +257,7 @@ def solve_path(
     if steps < 1:
         raise ValueError(f"steps must be ≥ 1, got {steps}")
     t0 = time.perf_counter()
-    red = _Reduced(p)
+    red = _Reduced(p, threads)
     N, n = red.N, red.n
     X = np.vstack([p.X, p.masters])
     K0 = red.model.linear_element_matrices()
@@ -269,54 +273,55 @@ def solve_path(
     next_report = 1
     unstable = warm = False
     guess, kept = start, None
-    while lam < 1.0 - 1e-12:
-        if guess is not None:
-            next_report = steps  # one increment to λ = 1
-        goal = next_report / steps
-        target = min(goal, lam + dlam) if guess is None else 1.0
-        if goal - target < 1e-9:
-            target = goal
-        xt, Rt = x.copy(), R.copy()
-        if guess is not None:  # the guess starts on the targets; else the predictor takes them there
-            xt, Rt = nw.pin(X + np.asarray(guess[0], dtype=np.float64),
-                            expmap(np.asarray(guess[1], dtype=np.float64)), target)
-        else:
-            red.place_slaves(p, xt, Rt, target)
-        f0 = nw.factorizations
-        ok, its, xt, Rt, lu = nw.run(xt, Rt, target, kept if guess is None else None)
-        if ok and not _on_branch(X, xt, Rt, direction):
-            ok, unstable = False, True  # the other branch (see ``direction``)
-        if guess is not None:
-            guess = None
-            if not ok:  # the guess was too far: follow the path from the start instead
-                next_report = 1
-                continue
-            warm = True
-        kept = lu if ok else None
-        if ok:
-            unstable = False
-            x, R, lam = xt, Rt, target
-            incs += 1
-            if its <= EASY_ITERATIONS or nw.factorizations - f0 <= EASY_FACTORIZATIONS:
-                dlam = min(2.0 * dlam, 1.0 / steps)
-            if abs(lam - goal) < 1e-12:
-                assert nw.state is not None
-                g, _, U, _ = nw.state
-                react = np.where(p.fixed, red.reduce(p, g, x), 0.0)
-                points.append(PathPoint(goal, x - X, logmap(R), react, float(U.sum()), g[p.link_slave].copy()))
-                next_report += 1
-                if progress is not None:
-                    progress(goal)
-        else:
-            cuts += 1
-            dlam = 0.5 * (target - lam)
-            if dlam < min_step:
-                raise SolverError(
-                    f"path following did not converge: the increment fell below {min_step:g} at load fraction "
-                    f"λ = {lam:.4f} (aiming for {target:.4f}) after {nw.iterations} iterations and {cuts} step "
-                    f"cuts (residual {nw.residual:.3e}"
-                    + ("; it converges only onto a branch against ``direction``" if unstable else "")
-                    + "); the path may snap back or the mesh may be too coarse")
+    with pardiso_threads(red.model.threads):  # one large matrix: its factorisations may use every core
+        while lam < 1.0 - 1e-12:
+            if guess is not None:
+                next_report = steps  # one increment to λ = 1
+            goal = next_report / steps
+            target = min(goal, lam + dlam) if guess is None else 1.0
+            if goal - target < 1e-9:
+                target = goal
+            xt, Rt = x.copy(), R.copy()
+            if guess is not None:  # the guess starts on the targets; else the predictor takes them there
+                xt, Rt = nw.pin(X + np.asarray(guess[0], dtype=np.float64),
+                                expmap(np.asarray(guess[1], dtype=np.float64)), target)
+            else:
+                red.place_slaves(p, xt, Rt, target)
+            f0 = nw.factorizations
+            ok, its, xt, Rt, lu = nw.run(xt, Rt, target, kept if guess is None else None)
+            if ok and not _on_branch(X, xt, Rt, direction):
+                ok, unstable = False, True  # the other branch (see ``direction``)
+            if guess is not None:
+                guess = None
+                if not ok:  # the guess was too far: follow the path from the start instead
+                    next_report = 1
+                    continue
+                warm = True
+            kept = lu if ok else None
+            if ok:
+                unstable = False
+                x, R, lam = xt, Rt, target
+                incs += 1
+                if its <= EASY_ITERATIONS or nw.factorizations - f0 <= EASY_FACTORIZATIONS:
+                    dlam = min(2.0 * dlam, 1.0 / steps)
+                if abs(lam - goal) < 1e-12:
+                    assert nw.state is not None
+                    g, _, U, _ = nw.state
+                    react = np.where(p.fixed, red.reduce(p, g, x), 0.0)
+                    points.append(PathPoint(goal, x - X, logmap(R), react, float(U.sum()), g[p.link_slave].copy()))
+                    next_report += 1
+                    if progress is not None:
+                        progress(goal)
+            else:
+                cuts += 1
+                dlam = 0.5 * (target - lam)
+                if dlam < min_step:
+                    raise SolverError(
+                        f"path following did not converge: the increment fell below {min_step:g} at load fraction "
+                        f"λ = {lam:.4f} (aiming for {target:.4f}) after {nw.iterations} iterations and {cuts} step "
+                        f"cuts (residual {nw.residual:.3e}"
+                        + ("; it converges only onto a branch against ``direction``" if unstable else "")
+                        + "); the path may snap back or the mesh may be too coarse")
     assert nw.state is not None
     ee = red.model.energy_split(nw.state[3])
     seconds = {"tangent": nw.t_tan, "factor_solve": nw.t_lu, "total": time.perf_counter() - t0}

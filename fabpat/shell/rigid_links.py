@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.shell.assembly import Assembler
-from fabpat.shell.corotational import CorotationalTriangles
+from fabpat.shell.compiled import CompiledAssembler, CompiledTriangles, transform_elements
 from fabpat.shell.element import Material
 from fabpat.shell.rotations import expmap, skew
 
@@ -136,12 +136,13 @@ class LinkedProblem:
 
 
 class _Reduced:
-    """Index maps and operators of the reduced (slave-free) system of a LinkedProblem."""
+    """Index maps and operators of the reduced (slave-free) system of a LinkedProblem; the element
+    kernels and the matrix sums run compiled on ``threads`` threads (:mod:`fabpat.shell.compiled`)."""
 
-    def __init__(self, p: LinkedProblem) -> None:
+    def __init__(self, p: LinkedProblem, threads: int | None = None) -> None:
         n, N = len(p.X), p.n_nodes
         self.n, self.N = n, N
-        self.model = CorotationalTriangles(p.X, p.F, p.material)
+        self.model = CompiledTriangles(p.X, p.F, p.material, threads=threads)
         rep = np.arange(N)
         rep[p.link_slave] = n + p.link_master
         self.slave_mask = np.zeros(N, dtype=bool)
@@ -151,7 +152,7 @@ class _Reduced:
         edofs = (6 * Fr[:, :, None] + np.arange(6)).reshape(-1, 18)
         zero_fixed = p.fixed & (p.prescribed == 0)
         free = ~zero_fixed & ~self.slave_mask[:, None]
-        self.asm = Assembler(edofs, free.ravel())
+        self.asm = CompiledAssembler(Assembler(edofs, free.ravel()), threads)
         # prescribed (nonzero) dofs: identity rows in the matrix, excluded from the residual test
         self.moving = (p.fixed & ~zero_fixed).ravel()
         pos = np.full(6 * N, -1)
@@ -206,18 +207,14 @@ class _Reduced:
         if self.aff.size:
             F = p.F[self.aff]
             c = x[F] - x[np.where(self.master_of[F] >= 0, self.master_of[F], F)]  # (a, 3, 3); 0 off slaves
-            T = np.broadcast_to(np.eye(18), (self.aff.size, 18, 18)).copy()
-            Sc = -skew(c) * self.aff_corner[..., None, None]
-            for a in range(3):
-                T[:, 6 * a:6 * a + 3, 6 * a + 3:6 * a + 6] = Sc[:, a]
-            Ke[self.aff] = T.transpose(0, 2, 1) @ Ke[self.aff] @ T
+            transform_elements(Ke, self.aff, c, self.model.threads)
         Km = np.zeros((self.s, 18, 18))
         if p.link_slave.size:
             sl, mm = p.link_slave, p.link_master
             c = x[sl] - x[n + mm]
             blk = skew(g[sl, :3]) @ skew(c)
             np.add.at(Km[:, 3:6, 3:6], mm, blk)
-        K = self.asm.matrix(np.concatenate([Ke, Km]))
+        K = self.asm.matrix(Ke, Km)
         if self.rows_p.size:
             if self._rows is None:  # the sparsity pattern is fixed: find the entries once
                 col = np.repeat(np.arange(K.shape[1]), np.diff(K.indptr))

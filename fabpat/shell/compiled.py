@@ -1,0 +1,133 @@
+"""The assembly solver's element kernels compiled and on every core (:mod:`fabpat.shell.kernels`).
+
+An assembly's mesh has 10–50 k triangles, and its Newton iterations spend most of their time in the
+element forces and tangents and in summing the element matrices into the sparse tangent. Here those
+run as compiled loops over the elements, shared among the cores, and the PARDISO factorisations of
+the one large matrix use the same cores (:func:`pardiso_threads`). The catalog's per-plate scenarios
+keep the numpy kernels of :class:`fabpat.shell.corotational.CorotationalTriangles`: their numbers are
+the catalog's, pinned by its solver version, and their worker processes already fill the cores.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+import numba
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+from fabpat.shell.assembly import Assembler
+from fabpat.shell.corotational import CorotationalTriangles
+from fabpat.shell.element import Material
+from fabpat.shell.kernels import element_kernels, gather_sum, link_transform
+from fabpat.shell.linalg import mkl
+
+Arr = NDArray[np.float64]
+
+
+def cores() -> int:
+    """Cores this process may run on (its CPU affinity; the machine's count where that is unknown)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+class CompiledTriangles(CorotationalTriangles):
+    """:class:`CorotationalTriangles` whose unbatched force and tangent evaluations run compiled on
+    ``threads`` threads (default :func:`cores`). Same shapes and units; the numbers agree with the numpy
+    kernels to round-off (~1e-13 relative), not bitwise.
+
+    X: (n, 3) node coordinates (mm); F: (m, 3) triangles; mat: material and thickness.
+    """
+
+    def __init__(self, X: Arr, F: NDArray[np.int64], mat: Material, *, threads: int | None = None) -> None:
+        super().__init__(X, F, mat)
+        self.threads = max(1, min(threads or cores(), numba.config.NUMBA_NUM_THREADS))
+        self._consts = tuple(np.ascontiguousarray(a) for a in
+                             (self.gN, self.xl0, self.E0, self.local.K, self._stiffness_root()))
+        m = len(self.F)
+        self._fe, self._U, self._d = np.empty((m, 18)), np.empty(m), np.empty((m, 18))
+        self._Kt: Arr | None = None
+
+    def _run(self, xe: Arr, Re: Arr, Kt: Arr | None) -> None:
+        numba.set_num_threads(self.threads)
+        xe = np.ascontiguousarray(xe, dtype=np.float64)
+        Re = np.ascontiguousarray(Re, dtype=np.float64)
+        out = Kt if Kt is not None else np.empty((0, 18, 18))
+        element_kernels(xe, Re, *self._consts, self._fe, self._U, self._d, out, Kt is not None)
+
+    def element_forces(self, xe: Arr, Re: Arr) -> tuple[Arr, Arr, Arr]:
+        """Element internal forces (m, 18), strain energies (m,) N·mm and local dofs (m, 18) of element
+        states xe (m, 3, 3) mm, Re (m, 3, 3, 3) (batched states: the numpy kernels)."""
+        if xe.ndim != 3:
+            return super().element_forces(xe, Re)
+        self._run(xe, Re, None)
+        return self._fe.copy(), self._U.copy(), self._d.copy()
+
+    def element_tangents(self, xe: Arr, Re: Arr, d: Arr) -> Arr:
+        """(m, 18, 18) consistent tangents at element states xe, Re (their local dofs d are recomputed:
+        compiled, the frame costs less than checking that d belongs to them). The array is overwritten
+        by the next call."""
+        if self._Kt is None:
+            self._Kt = np.empty((len(self.F), 18, 18))
+        self._run(xe, Re, self._Kt)
+        return self._Kt
+
+
+class CompiledAssembler:
+    """An :class:`Assembler`'s matrix sum as a compiled gather over the matrix entries, on every core.
+
+    Each nonzero sums its element entries in the order ``np.bincount`` does, so the matrix is bitwise
+    :meth:`Assembler.matrix`'s. ``free``, ``n_free`` and ``vector`` are the assembler's.
+    """
+
+    def __init__(self, asm: Assembler, threads: int | None = None) -> None:
+        self.asm, self.free, self.n_free = asm, asm.free, asm.n_free
+        self.threads = max(1, min(threads or cores(), numba.config.NUMBA_NUM_THREADS))
+        inv = asm._inv
+        order = np.argsort(inv, kind="stable")
+        # positions in Ke.ravel() of the entries that go to each nonzero, in element order
+        self._order = order if asm._valid is None else asm._valid[order]
+        self._start = np.concatenate([[0], np.cumsum(np.bincount(inv, minlength=asm._nnz))]).astype(np.int64)
+
+    def matrix(self, Ke: Arr, tail: Arr | None = None) -> sp.csc_matrix:
+        """(n_free, n_free) CSC matrix of element matrices Ke (m, 18, 18) followed by ``tail`` (k, 18, 18)
+        (the assembler's elements m … m + k − 1; none by default): the sum of the two without
+        concatenating them."""
+        numba.set_num_threads(self.threads)
+        data = np.empty(self.asm._nnz)
+        rest = np.zeros(0) if tail is None else np.ascontiguousarray(tail).reshape(-1)
+        gather_sum(np.ascontiguousarray(Ke).reshape(-1), rest, self._order, self._start, data)
+        return sp.csc_matrix((data, self.asm._indices, self.asm._indptr), shape=(self.n_free, self.n_free))
+
+    def vector(self, fe: Arr) -> Arr:
+        """(N,) global vector of element vectors fe (m, 18)."""
+        return self.asm.vector(fe)
+
+
+def transform_elements(Kt: Arr, elements: NDArray[np.int64], c: Arr, threads: int | None = None) -> None:
+    """Kt[e] ← Tᵀ Kt[e] T in place for the ``elements`` whose corners have lever arms c (k, 3, 3) mm to a
+    master (0 at corners that are not slaves): the rigid-link transformation of
+    :mod:`fabpat.shell.rigid_links`, compiled (:func:`fabpat.shell.kernels.link_transform`)."""
+    numba.set_num_threads(max(1, min(threads or cores(), numba.config.NUMBA_NUM_THREADS)))
+    link_transform(Kt, np.ascontiguousarray(elements, dtype=np.int64), np.ascontiguousarray(c, dtype=np.float64))
+
+
+@contextmanager
+def pardiso_threads(n: int) -> Iterator[None]:
+    """Let PARDISO use ``n`` threads inside the block (one outside it, :mod:`fabpat.shell.linalg`);
+    no effect without MKL."""
+    lib = mkl()
+    if lib is None or n <= 1:
+        yield
+        return
+    lib.MKL_Domain_Set_Num_Threads(ctypes.c_int(n), ctypes.c_int(4))  # 4: MKL_DOMAIN_PARDISO
+    try:
+        yield
+    finally:
+        lib.MKL_Domain_Set_Num_Threads(ctypes.c_int(1), ctypes.c_int(4))

@@ -1,0 +1,96 @@
+"""The compiled element kernels (fabpat.shell.kernels) against the numpy reference kernels."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fabpat.shell.assembly import Assembler
+from fabpat.shell.compiled import CompiledAssembler, CompiledTriangles, transform_elements
+from fabpat.shell.corotational import CorotationalTriangles
+from fabpat.shell.element import Material
+from fabpat.shell.rotations import expmap, skew
+
+
+def _mesh(nx: int = 9, ny: int = 7) -> tuple[np.ndarray, np.ndarray]:
+    xs, ys = np.meshgrid(np.linspace(0.0, 30.0, nx + 1), np.linspace(0.0, 20.0, ny + 1))
+    rng = np.random.default_rng(3)
+    X = np.column_stack([xs.ravel(), ys.ravel(), np.zeros(xs.size)])
+    X[:, :2] += rng.uniform(-0.4, 0.4, size=(len(X), 2))  # no two triangles alike
+    idx = np.arange(len(X)).reshape(ny + 1, nx + 1)
+    a, b, c, d = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, 1:].ravel(), idx[1:, :-1].ravel()
+    return X, np.vstack([np.column_stack([a, b, c]), np.column_stack([a, c, d])])
+
+
+@pytest.mark.parametrize("spin", [1e-9, 1e-3, 0.05, 0.8])
+def test_compiled_force_and_tangent_match_the_numpy_kernels(spin: float) -> None:
+    # rotation sizes on both sides of the kernels' series switches (1e-7, 1e-3, 1e-2 rad) and large ones
+    X, F = _mesh()
+    mat = Material(E=1800.0, nu=0.33, t=1.2)
+    rng = np.random.default_rng(int(spin * 1e9) % 1000)
+    x = X + rng.normal(scale=0.2, size=X.shape)
+    x[:, 2] += 0.02 * np.abs(X[:, 0]) ** 1.5  # bent out of plane
+    R = expmap(rng.normal(scale=spin, size=X.shape))
+    ref, comp = CorotationalTriangles(X, F, mat), CompiledTriangles(X, F, mat, threads=2)
+    xe, Re = ref.gather(x, R)
+    fe0, U0, d0 = ref.element_forces(xe, Re)
+    K0 = ref.element_tangents(xe, Re, d0)
+    fe, U, d = comp.element_forces(xe, Re)
+    K = comp.element_tangents(xe, Re, d)
+    for got, want in ((fe, fe0), (U, U0), (d, d0), (K, K0)):
+        assert np.abs(got - want).max() <= 1e-12 * np.abs(want).max()
+    assert not np.array_equal(K0, np.zeros_like(K0))
+
+
+def test_compiled_tangent_is_the_derivative_of_the_compiled_force() -> None:
+    # independent of the numpy kernels: central differences of the force in one translation and one spin
+    X, F = _mesh(3, 2)
+    comp = CompiledTriangles(X, F, Material(E=1000.0, nu=0.3, t=1.0), threads=1)
+    rng = np.random.default_rng(5)
+    x = X + rng.normal(scale=0.3, size=X.shape)
+    R = expmap(rng.normal(scale=0.2, size=X.shape))
+    xe, Re = comp.gather(x, R)
+    K = comp.element_tangents(xe, Re, comp.element_forces(xe, Re)[2]).copy()
+    h = 1e-6
+    for col in (2, 6 * 1 + 3 + 2):  # (node 0, z) and (node 1, ω_z)
+        node, dof = divmod(col, 6)
+        xp, xm, Rp, Rm = xe.copy(), xe.copy(), Re.copy(), Re.copy()
+        if dof < 3:
+            xp[:, node, dof] += h
+            xm[:, node, dof] -= h
+        else:
+            w = np.zeros(3)
+            w[dof - 3] = h
+            Rp[:, node] = expmap(w) @ Re[:, node]
+            Rm[:, node] = expmap(-w) @ Re[:, node]
+        fd = (comp.element_forces(xp, Rp)[0] - comp.element_forces(xm, Rm)[0]) / (2 * h)
+        assert np.abs(fd - K[:, :, col]).max() <= 1e-5 * np.abs(K).max()
+
+
+def test_compiled_matrix_sum_is_bitwise_the_assemblers() -> None:
+    X, F = _mesh()
+    edofs = (6 * F[:, :, None] + np.arange(6)).reshape(-1, 18)
+    free = np.ones(6 * len(X), dtype=bool)
+    free[:6] = False  # one node's dofs left out: the assembler's gather of free entries
+    asm = Assembler(edofs, free)
+    Ke = np.random.default_rng(1).normal(size=(len(F), 18, 18))
+    A = asm.matrix(Ke)
+    B = CompiledAssembler(asm, threads=2).matrix(Ke[:-4], Ke[-4:])  # the last 4 as the tail
+    assert np.array_equal(A.indptr, B.indptr) and np.array_equal(A.indices, B.indices)
+    assert np.array_equal(A.data, B.data)
+
+
+def test_link_transformation_is_t_transpose_k_t() -> None:
+    rng = np.random.default_rng(2)
+    Kt = rng.normal(size=(6, 18, 18))
+    elements = np.array([1, 4])
+    c = rng.normal(size=(2, 3, 3))
+    c[0, 1] = 0.0  # a corner that is not a slave
+    want = Kt.copy()
+    for q, e in enumerate(elements):
+        T = np.eye(18)
+        for a in range(3):
+            T[6 * a:6 * a + 3, 6 * a + 3:6 * a + 6] = -skew(c[q, a])
+        want[e] = T.T @ Kt[e] @ T
+    transform_elements(Kt, elements, c, threads=2)
+    assert np.allclose(Kt, want, rtol=0.0, atol=1e-12)
