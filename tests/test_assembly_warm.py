@@ -21,13 +21,13 @@ STRIP = ROOT / "assemblies" / "test-small.toml"
 
 
 @pytest.mark.slow
-def test_warm_start_reaches_the_cold_equilibrium_with_a_third_of_the_factorizations() -> None:
+def test_warm_start_reaches_the_cold_equilibrium_in_fewer_factorizations() -> None:
     """The sphere with its pentagon pattern changed, warm-started from the shipped sphere's closed state
-    (simulate_assembly(spec, start=…)), reaches the cold start's equilibrium (nodes within 1e-5 mm) with at
-    most 35 % of its factorizations: 7 against 20 (the cold path took 22 before each increment's predictor
-    reused the previous increment's factorization; the warm start is one increment and gains nothing from
-    that, so the ratio went from 0.32 to 0.35). The shipped sphere's closure is the one the sphere-closure tests
-    share (tests.helpers.flat_sphere, h = 6 mm)."""
+    (simulate_assembly(spec, start=…)), reaches the cold start's equilibrium (nodes within 1e-5 mm) in
+    fewer factorizations: 7 against 11. The cold closure is itself one increment now (closure.
+    CLOSURE_FIRST_STEP; it took 20 factorizations in 4), so the warm start gains only its nearer first
+    guess, not the path. The shipped sphere's closure is the one the sphere-closure tests share
+    (tests.helpers.flat_sphere, h = 6 mm)."""
     spec = load_spec(SPHERE)
     other = dataclasses.replace(spec, patterns=PatternSpec(polygons=((6, "0x0488"), (5, "0x1c08"))))
     shipped = flat_sphere()
@@ -35,7 +35,7 @@ def test_warm_start_reaches_the_cold_equilibrium_with_a_third_of_the_factorizati
     warm = simulate_assembly(other, h=SPHERE_H, start=shipped)
     fc, fw = cold.fields(), warm.fields()
     assert fw["warm_start"] is True and fc["warm_start"] is False
-    assert fw["factorizations"] <= 0.35 * fc["factorizations"], (fw["factorizations"], fc["factorizations"])
+    assert fw["factorizations"] <= 0.7 * fc["factorizations"], (fw["factorizations"], fc["factorizations"])
     n = len(cold.model.X)
     moved = np.abs(warm.run.x[:n] - cold.run.x[:n]).max()
     assert moved < 1e-5, moved

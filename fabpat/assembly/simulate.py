@@ -72,6 +72,10 @@ PROFILE_BINS = 60
 FIRST_STEP = 1.0 / 1024
 #: smallest increment: the knee of that strip's path spans about 0.01 mm of end shortening (λ ≈ 10⁻⁴)
 MIN_STEP = 2.0**-20
+#: largest increment (fraction of the path): past the knee the arch takes increments of a quarter of the
+#: path in as many factorizations as a tenth (3–4), and the report points between are interpolated
+#: (shell.linked.solve_path, ``max_step``): the shipped strip at h = 3 in 54 factorizations, not 64
+MAX_STEP = 0.25
 #: Largest mesh edge h (mm) as a multiple of the interface segment's length 2d (3.75 mm on a 36 mm
 #: hexagon): a sleeve grips the segment and the plate's load passes through the neck behind it, so
 #: elements much larger than the segment cannot carry it (the mesher would still put 2 nodes on it)
@@ -267,7 +271,7 @@ def run_strip(setup: StripSetup, end_shortening: float = END_SHORTENING, *, step
     area = m.lumped_area()
     loads[:n, 2] = imperfection * area / area.sum()
     problem = m.problem(fixed, pres, np.zeros_like(loads), dead_loads=loads, dead_ramp=IMPERFECTION_RAMP)
-    r = solve_path(problem, steps=steps, rtol=STRIP_RTOL, first_step=FIRST_STEP,
+    r = solve_path(problem, steps=steps, rtol=STRIP_RTOL, first_step=FIRST_STEP, max_step=MAX_STEP,
                    min_step=MIN_STEP, direction=loads if imperfection > 0 else None, progress=progress,
                    start=start)
     path = []
