@@ -9,10 +9,11 @@ Output folders go to a temporary directory that is removed afterwards.
 ``python benchmarks/bench_assembly.py --solve [--h 3 2] [--save F.json] [--before F.json]`` times the
 assembly solver alone (``simulate_assembly``) on the shipped graded strip (2 × 15, 10 % end shortening)
 and the shipped sphere closure: nodes, dofs, Newton iterations, factorizations, seconds in the tangent
-(element tangents, transformation, sparse assembly), in factorization and solves, in the rest of the path
-(residuals, read-outs between iterations) and set-up/read-outs outside the path, and the answers (peak,
-reaction, radius, sphericity). ``--save`` keeps the rows as JSON; ``--before`` adds the saved rows of an
-earlier version beside them and the relative change of every answer.
+(element tangents, transformation, sparse assembly), in factorization and solves, in the residuals
+(element forces), in the rest of the path (state updates, read-outs between iterations) and set-up and
+read-outs outside the path, and the answers (peak, reaction, radius, sphericity). The compiled kernels
+are loaded first (their seconds printed apart). ``--save`` keeps the rows as JSON; ``--before`` adds
+the saved rows of an earlier version beside them and the relative change of every answer.
 """
 
 from __future__ import annotations
@@ -64,26 +65,33 @@ def solve_row(name: str, h: float) -> dict[str, object]:
     sec = dict(sim.run.result.seconds)
     return {"spec": name, "h": h, "nodes": f["nodes"], "dofs": f["dofs"], "iterations": f["iterations"],
             "factorizations": f["factorizations"], "tangent_s": sec["tangent"], "factor_solve_s": sec["factor_solve"],
-            "rest_of_path_s": sec["total"] - sec["tangent"] - sec["factor_solve"],
+            "residual_s": sec.get("residual"),
+            "rest_of_path_s": sec["total"] - sec["tangent"] - sec["factor_solve"] - sec.get("residual", 0.0),
             "outside_path_s": wall - sec["total"],
             "total_s": wall, "plate_energies": f["plate_energies"], **{k: f.get(k) for k in ANSWERS}}
 
 
 def solve_table(hs: list[float], save: Path | None, before: Path | None, rows_file: Path | None = None) -> None:
     """Solve (or read ``rows_file``, rows of an earlier ``--save``) and print the tables."""
+    if rows_file is None:
+        from fabpat.shell.compiled import load_kernels
+
+        print(f"compiled kernels loaded in {load_kernels():.1f} s (not in the rows below)\n")
     rows = json.loads(rows_file.read_text()) if rows_file else [solve_row(name, h) for h in hs for name in SOLVE_SPECS]
     if save is not None:
         save.write_text(json.dumps(rows, indent=1))
     old = {(r["spec"], r["h"]): r for r in json.loads(before.read_text())} if before else {}
-    cols = ("nodes", "dofs", "iterations", "factorizations", "tangent_s", "factor_solve_s", "rest_of_path_s",
-            "outside_path_s", "total_s")
+    cols = ("nodes", "dofs", "iterations", "factorizations", "tangent_s", "factor_solve_s", "residual_s",
+            "rest_of_path_s", "outside_path_s", "total_s")
     print("| assembly | h mm | " + " | ".join(cols) + " |")
     print("|---|---:|" + "---:|" * len(cols))
     for r in rows:
         for label, src in (("before", old.get((r["spec"], r["h"]))), ("now", r)):
             if src is None:
                 continue
-            cells = [f"{src[c]:.1f}" if c.endswith("_s") else str(src[c]) for c in cols]
+            # rows saved before the residuals were timed apart count them in rest_of_path_s
+            cells = [("–" if src.get(c) is None else f"{src[c]:.1f}") if c.endswith("_s") else str(src[c])
+                     for c in cols]
             print(f"| {r['spec']} ({label}) | {r['h']:g} | " + " | ".join(cells) + " |")
     if old:
         print()

@@ -94,3 +94,22 @@ def test_link_transformation_is_t_transpose_k_t() -> None:
         want[e] = T.T @ Kt[e] @ T
     transform_elements(Kt, elements, c, threads=2)
     assert np.allclose(Kt, want, rtol=0.0, atol=1e-12)
+
+
+def _child_run(_: int) -> tuple[int, float]:
+    from fabpat.shell.compiled import cores, load_kernels
+
+    return cores(), load_kernels()
+
+
+def test_kernels_survive_a_fork_after_running_and_children_use_one_thread() -> None:
+    # the design loop forks its worker processes after the parent has solved: on GNU OpenMP's threads
+    # the children terminated at once and the pool waited forever
+    import multiprocessing as mp
+
+    from fabpat.shell.compiled import load_kernels
+
+    load_kernels()
+    with mp.get_context("fork").Pool(2) as pool:
+        got = pool.map_async(_child_run, range(2)).get(timeout=120)
+    assert [c for c, _ in got] == [1, 1]

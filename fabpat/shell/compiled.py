@@ -11,7 +11,9 @@ the catalog's, pinned by its solver version, and their worker processes already 
 from __future__ import annotations
 
 import ctypes
+import multiprocessing
 import os
+import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 
@@ -28,13 +30,43 @@ from fabpat.shell.linalg import mkl
 
 Arr = NDArray[np.float64]
 
+# numba's own work queue, not OpenMP: after a kernel has run on GNU OpenMP threads, a fork()ed child
+# (the design loop's and the sweep's worker processes) terminates at once ("fork() called from a process
+# already using GNU OpenMP"); the work queue is as fast here (shipped strip: 15.6 s against 16.1 s) and
+# survives a fork, but must not be entered from two threads at once, hence the lock
+if "NUMBA_THREADING_LAYER" not in os.environ:
+    numba.config.THREADING_LAYER = "workqueue"
+_KERNEL_LOCK = threading.Lock()
+
 
 def cores() -> int:
-    """Cores this process may run on (its CPU affinity; the machine's count where that is unknown)."""
+    """Threads a solve in this process uses by default: the cores it may run on (its CPU affinity; the
+    machine's count where that is unknown), or 1 in a child process (a worker of the design loop's
+    pool, which shares the cores with its siblings)."""
+    if multiprocessing.parent_process() is not None:
+        return 1
     try:
         return len(os.sched_getaffinity(0))
     except AttributeError:  # not on Linux
         return os.cpu_count() or 1
+
+
+def load_kernels() -> float:
+    """Compile the kernels (or load them from numba's cache, next to :mod:`fabpat.shell.kernels`) by
+    calling them once on one triangle; returns the seconds it took (~20 s the first time on a machine,
+    ~0.5 s from the cache). A solve does this on its first call anyway; benchmarks call it first so
+    that their timings are of the solver alone."""
+    import time
+
+    t = time.perf_counter()
+    X = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    tri = CompiledTriangles(X, np.array([[0, 1, 2]]), Material(), threads=1)
+    xe, Re = tri.gather(X, np.broadcast_to(np.eye(3), (3, 3, 3)).copy())
+    tri.element_tangents(xe, Re, tri.element_forces(xe, Re)[2])
+    asm = Assembler(tri.edofs, np.ones(18, dtype=bool))
+    CompiledAssembler(asm, threads=1).matrix(np.zeros((1, 18, 18)))
+    transform_elements(np.zeros((1, 18, 18)), np.zeros(1, dtype=np.int64), np.zeros((1, 3, 3)), threads=1)
+    return time.perf_counter() - t
 
 
 class CompiledTriangles(CorotationalTriangles):
@@ -55,11 +87,12 @@ class CompiledTriangles(CorotationalTriangles):
         self._Kt: Arr | None = None
 
     def _run(self, xe: Arr, Re: Arr, Kt: Arr | None) -> None:
-        numba.set_num_threads(self.threads)
         xe = np.ascontiguousarray(xe, dtype=np.float64)
         Re = np.ascontiguousarray(Re, dtype=np.float64)
         out = Kt if Kt is not None else np.empty((0, 18, 18))
-        element_kernels(xe, Re, *self._consts, self._fe, self._U, self._d, out, Kt is not None)
+        with _KERNEL_LOCK:
+            numba.set_num_threads(self.threads)
+            element_kernels(xe, Re, *self._consts, self._fe, self._U, self._d, out, Kt is not None)
 
     def element_forces(self, xe: Arr, Re: Arr) -> tuple[Arr, Arr, Arr]:
         """Element internal forces (m, 18), strain energies (m,) N·mm and local dofs (m, 18) of element
@@ -99,10 +132,11 @@ class CompiledAssembler:
         """(n_free, n_free) CSC matrix of element matrices Ke (m, 18, 18) followed by ``tail`` (k, 18, 18)
         (the assembler's elements m … m + k − 1; none by default): the sum of the two without
         concatenating them."""
-        numba.set_num_threads(self.threads)
         data = np.empty(self.asm._nnz)
         rest = np.zeros(0) if tail is None else np.ascontiguousarray(tail).reshape(-1)
-        gather_sum(np.ascontiguousarray(Ke).reshape(-1), rest, self._order, self._start, data)
+        with _KERNEL_LOCK:
+            numba.set_num_threads(self.threads)
+            gather_sum(np.ascontiguousarray(Ke).reshape(-1), rest, self._order, self._start, data)
         return sp.csc_matrix((data, self.asm._indices, self.asm._indptr), shape=(self.n_free, self.n_free))
 
     def vector(self, fe: Arr) -> Arr:
@@ -114,8 +148,9 @@ def transform_elements(Kt: Arr, elements: NDArray[np.int64], c: Arr, threads: in
     """Kt[e] ← Tᵀ Kt[e] T in place for the ``elements`` whose corners have lever arms c (k, 3, 3) mm to a
     master (0 at corners that are not slaves): the rigid-link transformation of
     :mod:`fabpat.shell.rigid_links`, compiled (:func:`fabpat.shell.kernels.link_transform`)."""
-    numba.set_num_threads(max(1, min(threads or cores(), numba.config.NUMBA_NUM_THREADS)))
-    link_transform(Kt, np.ascontiguousarray(elements, dtype=np.int64), np.ascontiguousarray(c, dtype=np.float64))
+    with _KERNEL_LOCK:
+        numba.set_num_threads(max(1, min(threads or cores(), numba.config.NUMBA_NUM_THREADS)))
+        link_transform(Kt, np.ascontiguousarray(elements, dtype=np.int64), np.ascontiguousarray(c, dtype=np.float64))
 
 
 @contextmanager
