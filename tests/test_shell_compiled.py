@@ -113,3 +113,11 @@ def test_kernels_survive_a_fork_after_running_and_children_use_one_thread() -> N
     with mp.get_context("fork").Pool(2) as pool:
         got = pool.map_async(_child_run, range(2)).get(timeout=120)
     assert [c for c, _ in got] == [1, 1]
+
+
+def test_linear_diagonal_is_the_element_matrices_diagonal() -> None:
+    X, F = _mesh(4, 3)
+    X = X @ np.linalg.qr(np.random.default_rng(4).normal(size=(3, 3)))[0]  # a plate tilted in space
+    comp = CompiledTriangles(X, F, Material(E=1000.0, nu=0.3, t=1.5), threads=1)
+    want = np.einsum("mii->mi", comp.linear_element_matrices())
+    assert np.allclose(comp.linear_diagonal(), want, rtol=1e-13, atol=1e-12 * np.abs(want).max())

@@ -39,18 +39,19 @@ def _eta(t2: float) -> float:
 
 @njit(cache=True)
 def _state(
-    e: int, xe: Arr, Re: Arr, gN: Arr, xl0: Arr, E0: Arr, K: Arr, cols: Arr, lx: Arr, ly: Arr, th: Arr, d: Arr,
+    e: int, x: Arr, R: Arr, F: Arr, gN: Arr, xl0: Arr, E0: Arr, K: Arr, cols: Arr, lx: Arr, ly: Arr, th: Arr, d: Arr,
     ft: Arr, ml: Arr, mg: Arr, fx: Arr, v: Arr, q: Arr, h: Arr, r: Arr, Q0: Arr, RQ: Arr,
 ) -> tuple[float, float, float]:
-    """Frame, local dofs d (18), local force K d split per node, and the force's local parts of element
-    e; returns (energy, |a × b|, tr F). cols[k] = e1, e2, n; v, q (2, 3): (vx, vy), (qx, qy) per node."""
+    """Frame of element e (corners F[e] of node positions x (n, 3) mm, rotations R (n, 3, 3)), local dofs
+    d (18), local force K d split per node and the force's local parts; returns (energy, |a × b|, tr F).
+    cols[k] = e1, e2, n; v, q (2, 3): (vx, vy), (qx, qy) per node."""
     # frame (CorotationalTriangles.deformational); r, Q0, RQ (3, 3) scratch
     for i in range(3):
-        xc = (xe[e, 0, i] + xe[e, 1, i] + xe[e, 2, i]) / 3.0
+        xc = (x[F[e, 0], i] + x[F[e, 1], i] + x[F[e, 2], i]) / 3.0
         for a in range(3):
-            r[a, i] = xe[e, a, i] - xc
-    A0, A1, A2 = xe[e, 1, 0] - xe[e, 0, 0], xe[e, 1, 1] - xe[e, 0, 1], xe[e, 1, 2] - xe[e, 0, 2]
-    B0, B1, B2 = xe[e, 2, 0] - xe[e, 0, 0], xe[e, 2, 1] - xe[e, 0, 1], xe[e, 2, 2] - xe[e, 0, 2]
+            r[a, i] = x[F[e, a], i] - xc
+    A0, A1, A2 = x[F[e, 1], 0] - x[F[e, 0], 0], x[F[e, 1], 1] - x[F[e, 0], 1], x[F[e, 1], 2] - x[F[e, 0], 2]
+    B0, B1, B2 = x[F[e, 2], 0] - x[F[e, 0], 0], x[F[e, 2], 1] - x[F[e, 0], 1], x[F[e, 2], 2] - x[F[e, 0], 2]
     c0, c1, c2 = A1 * B2 - A2 * B1, A2 * B0 - A0 * B2, A0 * B1 - A1 * B0
     cn = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
     n0, n1, n2 = c0 / cn, c1 / cn, c2 / cn
@@ -82,7 +83,7 @@ def _state(
     for a in range(3):
         for i in range(3):
             for k in range(3):
-                RQ[i, k] = Re[e, a, i, 0] * Q0[0, k] + Re[e, a, i, 1] * Q0[1, k] + Re[e, a, i, 2] * Q0[2, k]
+                RQ[i, k] = R[F[e, a], i, 0] * Q0[0, k] + R[F[e, a], i, 1] * Q0[1, k] + R[F[e, a], i, 2] * Q0[2, k]
         x0, x1, x2 = 0.5 * (RQ[2, 1] - RQ[1, 2]), 0.5 * (RQ[0, 2] - RQ[2, 0]), 0.5 * (RQ[1, 0] - RQ[0, 1])
         cos_t = 0.5 * (RQ[0, 0] + RQ[1, 1] + RQ[2, 2] - 1.0)
         s2 = 0.0
@@ -320,16 +321,17 @@ def _tangent(
 
 @njit(cache=True, parallel=True)
 def element_kernels(
-    xe: Arr, Re: Arr, gN: Arr, xl0: Arr, E0: Arr, K: Arr, Q: Arr, fe: Arr, U: Arr, d: Arr, Kt: Arr,
+    x: Arr, R: Arr, F: Arr, gN: Arr, xl0: Arr, E0: Arr, K: Arr, Q: Arr, fe: Arr, U: Arr, d: Arr, Kt: Arr,
     tangent: bool,
 ) -> None:
     """Element forces fe (m, 18), energies U (m,), local dofs d (m, 18) and, if ``tangent``, tangents
-    Kt (m, 18, 18) of element states xe (m, 3, 3) mm and Re (m, 3, 3, 3), with the element constants of a
+    Kt (m, 18, 18) of the triangles F (m, 3) at node positions x (n, 3) mm and rotations R (n, 3, 3), with
+    the element constants of a
     ``CorotationalTriangles`` (gN, xl0, E0, local K, its root Q); outputs are filled in place.
 
     The elements go in blocks, each with its scratch arrays (allocating them per element cost more
     than the arithmetic)."""
-    m, r = xe.shape[0], Q.shape[1]
+    m, r = F.shape[0], Q.shape[1]
     blocks = (m + _BLOCK - 1) // _BLOCK
     for blk in prange(blocks):
         cols, th, r3, Q0, RQ = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
@@ -342,7 +344,7 @@ def element_kernels(
         Lg, Rg = np.empty((10, 18)), np.empty((10, 18))
         QY, CE, LE, RE = np.empty((r, 3)), np.empty((r, 18)), np.empty((10, 18)), np.empty((10, 18))
         for e in range(blk * _BLOCK, min(m, (blk + 1) * _BLOCK)):
-            Ue, cn, trF = _state(e, xe, Re, gN, xl0, E0, K, cols, lx, ly, th, de, ft, ml, mg, fx, v, q, h, r3, Q0, RQ)
+            Ue, cn, trF = _state(e, x, R, F, gN, xl0, E0, K, cols, lx, ly, th, de, ft, ml, mg, fx, v, q, h, r3, Q0, RQ)
             U[e] = Ue
             for j in range(18):
                 d[e, j] = de[j]

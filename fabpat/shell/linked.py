@@ -287,8 +287,7 @@ def solve_path(
     red = _Reduced(p, threads)
     N, n = red.N, red.n
     X = np.vstack([p.X, p.masters])
-    K0 = red.model.linear_element_matrices()
-    diagK = np.bincount(red.model.edofs.ravel(), weights=np.einsum("mii->mi", K0).ravel(), minlength=6 * n)
+    diagK = np.bincount(red.model.edofs.ravel(), weights=red.model.linear_diagonal().ravel(), minlength=6 * n)
     dscale = float(np.mean(diagK[diagK > 0])) if np.any(diagK > 0) else 1.0
     noise = np.finfo(np.float64).eps * float(np.abs(X).max()) * float(np.linalg.norm(diagK))
     nw = _Newton(p, red, X, p.fixed[:, 3:].all(axis=1), dscale, ROUNDOFF_FACTOR * noise, rtol, max_iter,

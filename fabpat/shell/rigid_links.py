@@ -184,7 +184,7 @@ class _Reduced:
     def forces(self, p: LinkedProblem, x: Arr, R: Arr, lam: float) -> tuple[Arr, Arr, Arr, Arr]:
         """Full-space net internal force g = f_int − λ f_ext − f_dead (N, 6), element forces, energies, local dofs."""
         n = self.n
-        fe, U, d = self.model.element_forces(*self.model.gather(x[:n], R[:n]))
+        fe, U, d = self.model.forces_at(x, R)  # the mesh's nodes come first: masters are not read
         g = np.zeros(6 * self.N)
         g[: 6 * n] = np.bincount(self.model.edofs.ravel(), weights=fe.ravel(), minlength=6 * n)
         g = g.reshape(-1, 6) - p.load_at(lam)
@@ -203,7 +203,7 @@ class _Reduced:
     def matrix(self, p: LinkedProblem, x: Arr, R: Arr, d: Arr, g: Arr, scale: float) -> object:
         """Reduced tangent (CSC) with identity rows (× scale) at the prescribed dofs."""
         n = self.n
-        Ke = self.model.element_tangents(*self.model.gather(x[:n], R[:n]), d)
+        Ke = self.model.tangents_at(x, R)
         if self.aff.size:
             F = p.F[self.aff]
             c = x[F] - x[np.where(self.master_of[F] >= 0, self.master_of[F], F)]  # (a, 3, 3); 0 off slaves
