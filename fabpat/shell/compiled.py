@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 from fabpat.shell.assembly import Assembler
 from fabpat.shell.corotational import CorotationalTriangles
 from fabpat.shell.element import Material
-from fabpat.shell.kernels import element_kernels, gather_sum, link_transform
+from fabpat.shell.kernels import counting_order, element_kernels, gather_sum, link_transform
 from fabpat.shell.linalg import mkl
 
 Arr = NDArray[np.float64]
@@ -153,13 +153,12 @@ class CompiledAssembler:
     def __init__(self, asm: Assembler, threads: int | None = None) -> None:
         self.asm, self.free, self.n_free = asm, asm.free, asm.n_free
         self.threads = max(1, min(threads or cores(), numba.config.NUMBA_NUM_THREADS))
-        inv = asm._inv
-        order = np.argsort(inv, kind="stable")
-        # positions in Ke.ravel() of the entries that go to each nonzero, in element order
+        order, start = counting_order(asm._inv, asm._nnz)
         # int32 where it fits: the gather reads these once per matrix, and half the bytes is ~15 % faster
         small = np.int32 if _entry_count(asm) < np.iinfo(np.int32).max else np.int64
+        # positions in Ke.ravel() of the entries that go to each nonzero, in element order
         self._order = (order if asm._valid is None else asm._valid[order]).astype(small)
-        self._start = np.concatenate([[0], np.cumsum(np.bincount(inv, minlength=asm._nnz))]).astype(small)
+        self._start = start.astype(small)
 
     def matrix(self, Ke: Arr, tail: Arr | None = None) -> sp.csc_matrix:
         """(n_free, n_free) CSC matrix of element matrices Ke (m, 18, 18) followed by ``tail`` (k, 18, 18)
