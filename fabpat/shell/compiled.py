@@ -57,9 +57,9 @@ def cores() -> int:
 
 def load_kernels() -> float:
     """Compile the kernels (or load them from numba's cache, next to :mod:`fabpat.shell.kernels`) by
-    calling them once on one triangle; returns the seconds it took (~20 s the first time on a machine,
-    ~0.5 s from the cache). A solve does this on its first call anyway; benchmarks call it first so
-    that their timings are of the solver alone."""
+    calling them once on one triangle; returns the seconds it took (8 s the first time on the 2-core
+    machine, 0.2 s from the cache). A solve does this on its first call anyway; benchmarks call it
+    first so that their timings are of the solver alone."""
     import time
 
     t = time.perf_counter()
