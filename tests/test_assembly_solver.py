@@ -115,6 +115,28 @@ def test_displacement_control_reproduces_the_load_controlled_cantilever() -> Non
     assert np.abs(out.final.displacement - r.displacement).max() < 2e-7 * np.abs(r.displacement).max()
 
 
+def test_long_increments_interpolate_the_report_points_they_jump_over() -> None:
+    """solve_path(max_step=…): the same λ = 1 equilibrium as one increment per report point, in fewer
+    increments; the points between are flagged and lie between the equilibria around them."""
+    mesh = plate_mesh(PATTERN, 6, 36.0, 0.2, 3.0)
+    p = run_scenario(mesh, "cantilever", sides=6).problem
+    prob = LinkedProblem(p.X, p.F, p.material, np.zeros((0, 3)), [], [], np.zeros((0, 3)), p.fixed,
+                         np.zeros((mesh.n_nodes, 6)), p.loads)
+    short = solve_path(prob, steps=4)
+    long = solve_path(prob, steps=4, first_step=1.0, max_step=1.0)
+    assert [q.exact for q in short.points] == [True] * 4
+    assert long.increments < short.increments and long.factorizations < short.factorizations
+    assert [q.lam for q in long.points] == pytest.approx([0.25, 0.5, 0.75, 1.0])
+    assert long.points[-1].exact and not all(q.exact for q in long.points)
+    assert long.final.energy == pytest.approx(short.final.energy, rel=1e-7)
+    tip = np.abs(short.final.displacement).max()
+    assert np.abs(long.final.displacement - short.final.displacement).max() < 1e-6 * tip
+    for a, b, c in zip(long.points, long.points[1:], long.points[2:], strict=False):
+        if not b.exact:  # the deflection grows along the path, so an interpolated point lies between
+            za, zb, zc = (np.abs(q.displacement).max() for q in (a, b, c))
+            assert za <= zb <= zc
+
+
 @pytest.mark.slow
 def test_cli_simulate_assembly_fields_files_and_bad_input(tmp_path) -> None:  # noqa: ANN001
     import json
@@ -142,6 +164,7 @@ def test_cli_simulate_assembly_fields_files_and_bad_input(tmp_path) -> None:  # 
     assert sum(row["plate_energies"].values()) == pytest.approx(row["energy"])
     assert [p["end_shortening"] for p in row["path"]] == pytest.approx([0.0025, 0.005])
     assert row["path"][-1]["reaction"] == row["reaction"] > 0  # compression
+    assert row["path"][-1]["exact"] is True  # λ = 1 is an equilibrium, never interpolated
     assert row["path"][1]["reaction"] > row["path"][0]["reaction"] > 0
     mesh = meshio.read(vtu)
     assert len(mesh.points) == row["nodes"] - row["sleeves"]

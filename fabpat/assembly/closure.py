@@ -348,7 +348,7 @@ def run_closure(setup: ClosureSetup, *, steps: int = CLOSURE_STEPS, strain_limit
         mom = sleeve_moments(m, X + pt.displacement, pt.link_forces) if m.sleeves else np.zeros(0)
         moments = np.maximum(moments, mom)
         path.append({"angle_fraction": pt.lam, "energy": pt.energy,
-                     "max_sleeve_moment": float(mom.max()) if mom.size else 0.0})
+                     "max_sleeve_moment": float(mom.max()) if mom.size else 0.0, "exact": pt.exact})
     P = x[:n]
     sphere = shape_sphere(P)
     eps = surface_strains(m.X, m.F, m.material, P, expmap(fin.rotation[:n]))

@@ -277,7 +277,7 @@ def run_strip(setup: StripSetup, end_shortening: float = END_SHORTENING, *, step
     path = []
     for pt in r.points:
         path.append({"end_shortening": pt.lam * end_shortening, "reaction": float(-pt.reactions[setup.right, 0].sum()),
-                     "max_deflection": float(pt.displacement[:n, 2].max())})
+                     "max_deflection": float(pt.displacement[:n, 2].max()), "exact": pt.exact})
     fin = r.final
     x, w = profile(setup, fin.displacement[:, 2])
     half = setup.length / 2
