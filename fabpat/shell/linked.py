@@ -18,6 +18,7 @@ load fraction reached.
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -33,6 +34,10 @@ from fabpat.shell.rotations import expmap, logmap
 from fabpat.shell.solve import ROUNDOFF_FACTOR
 
 Arr = NDArray[np.float64]
+
+#: one path at a time per process: PARDISO's thread count is process-wide (compiled.pardiso_threads),
+#: and two overlapping solves from Python threads crashed in PARDISO or lost their path
+_PATH_LOCK = threading.Lock()
 
 #: an increment that converged within this many iterations (the predictor included) doubles the next
 #: one: on the strip's post-buckling branch increments take 6 iterations, and 4 kept them at 1/12 of
@@ -301,7 +306,7 @@ def solve_path(
     unstable = warm = False
     guess, kept = start, None
     here = PathPoint(0.0, np.zeros((N, 3)), np.zeros((N, 3)), np.zeros((N, 6)), 0.0, np.zeros((len(p.link_slave), 6)))
-    with pardiso_threads(red.model.threads):  # one large matrix: its factorisations may use every core
+    with _PATH_LOCK, pardiso_threads(red.model.threads):  # one large matrix: its factorisations may use every core
         while lam < 1.0 - 1e-12:
             if guess is not None:
                 next_report = steps  # one increment to λ = 1
