@@ -11,6 +11,7 @@ The Python front door (everything is imported on first use, so ``import fabpat``
     fp.export("p.step")                                   # .step .stl .3mf .dxf .svg, by suffix
     r = fabpat.simulate(fp, "dome")                       # r.energy (N·mm, mesh-converged), r.to_vtu(…)
     rows = fabpat.catalog()                               # the built-in catalog; rows.to_dataframe()
+    fabpat.predict(["0x0488"]).records()                  # energies, min width, area ± 90 % in microseconds
     sim = fabpat.simulate_assembly("assemblies/truncated-icosahedron.toml")  # the sphere, closed
     sim.fields()["sphericity_rms"]                        # and every simulate-assembly field
     d = fabpat.design("arch.csv", "assemblies/graded-strip.toml")  # one pattern per column for a target arch
@@ -37,6 +38,7 @@ _LAZY = {
     "simulate": "fabpat.simulation.convergence:simulate",
     "simulate_assembly": "fabpat.assembly.simulation:simulate_assembly",
     "design": "fabpat.design:design",
+    "predict": "fabpat.catalog.response:predict",
     "variations": "fabpat.patterns.variation:variations",
     "Variation": "fabpat.patterns.variation:Variation",
     "Library": "fabpat.patterns.library:Library",

@@ -196,7 +196,8 @@ def cli() -> None:
 
 
 # Each module under fabpat/cli/ exposes COMMANDS; one line here adds a module's commands.
-_COMMAND_MODULES = ("library_cmds", "simulate_cmds", "export_cmds", "catalog_cmds", "assembly_cmds", "design_cmds")
+_COMMAND_MODULES = ("library_cmds", "simulate_cmds", "export_cmds", "catalog_cmds", "assembly_cmds", "design_cmds",
+                    "predict_cmds")
 
 
 def _register() -> None:

@@ -1,0 +1,136 @@
+"""The learned response (fabpat.catalog.response, ``fabpat predict``): its features, its trees against
+scikit-learn's, its accuracy on patterns it never saw, its stored file, and what it refuses."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from scipy.stats import spearmanr
+
+import fabpat
+from fabpat.catalog import response as R
+from fabpat.errors import CatalogError, PatternError
+from fabpat.patterns.lattice import bits_to_id, id_to_bits
+from fabpat.patterns.library import _all_bits, is_connected, is_tileable
+
+ENERGIES = ("energy_cantilever", "energy_cylinder", "energy_dome")
+
+
+@pytest.fixture(scope="module")
+def hexagons() -> tuple[list[str], np.ndarray]:
+    return R.training_arrays(fabpat.catalog(sides=6))
+
+
+def test_a_depth_2_pattern_and_its_depth_3_refinement_have_the_same_cells() -> None:
+    # 0x0488 drawn on the depth-3 lattice by hand: each depth-2 cell becomes its four children
+    ids2 = ["0x0488", "0x0508", "0xda08"]
+    ids3 = [bits_to_id(id_to_bits(i, 2)[R._refinement(2)]) for i in ids2]
+    X2, X3 = R.cell_features(ids2), R.cell_features(ids3)
+    assert np.array_equal(X2[:, :75], X3[:, :75])
+    assert list(X2[:, 75]) == [2, 2, 2] and list(X3[:, 75]) == [3, 3, 3]
+    assert list(X2[:, 74]) == [4 * id_to_bits(i, 2).sum() for i in ids2]  # solid cells: 4 per depth-2 cell
+
+
+@pytest.mark.parametrize("sides", [5, 6])
+def test_the_compiled_connectivity_check_agrees_with_the_library_on_every_depth_2_slice(sides: int) -> None:
+    bits = _all_bits(2)
+    bits = bits[is_tileable(bits, 2)]
+    ids = [bits_to_id(b) for b in bits]
+    want = is_connected(bits, sides, 2)
+    assert want.sum() == 430  # the paper's count (notes: the same for every n)
+    good = [i for i, w in zip(ids, want, strict=True) if w]
+    assert R.check_ids(good, sides) == good
+    for i in [i for i, w in zip(ids, want, strict=True) if not w][:5]:
+        with pytest.raises(PatternError, match="disconnected"):
+            R.check_ids([i], sides)
+
+
+def test_the_trees_walk_like_scikit_learns(hexagons: tuple[list[str], np.ndarray]) -> None:
+    ids, Y = hexagons
+    X = R.cell_features(ids)
+    model = R._regressor(3).fit(X[:200], np.log(Y[:200, 1]))
+    assert np.allclose(R._trees(model).predict(X), model.predict(X), rtol=0, atol=1e-12)
+
+
+def test_energies_of_patterns_it_never_saw(hexagons: tuple[list[str], np.ndarray]) -> None:
+    """5-fold cross-validation on the hexagon catalog (every pattern predicted by a model that never saw it):
+    rank correlation ≥ 0.95 and median relative error ≤ 5 % per scenario; intervals calibrated on the
+    even-numbered patterns cover 85–95 % of the odd-numbered ones."""
+    ids, Y = hexagons
+    Y = Y[:, :3]
+    oof = R.out_of_fold(R.cell_features(ids), Y)
+    resid = oof - np.log(Y)
+    for j, name in enumerate(ENERGIES):
+        rho = spearmanr(oof[:, j], np.log(Y[:, j])).statistic
+        median = np.median(np.abs(np.expm1(resid[:, j])))
+        q = R.conformal_quantile(resid[0::2, j])
+        cover = np.mean(np.abs(resid[1::2, j]) <= q)
+        assert rho >= 0.95, (name, rho)
+        assert median <= 0.05, (name, median)
+        assert 0.85 <= cover <= 0.95, (name, cover)
+
+
+def test_conformal_quantile() -> None:
+    r = np.arange(1.0, 20.0)  # 19 residuals: the ceil(20 * 0.9) = 18th smallest
+    assert R.conformal_quantile(r) == 18.0
+    assert R.conformal_quantile(-r) == 18.0
+    assert R.conformal_quantile(np.array([0.5, 0.1])) == 0.5
+
+
+def _small_response(hexagons: tuple[list[str], np.ndarray], version: str) -> R.Response:
+    ids, Y = hexagons
+    rows = [{"id": i, **dict(zip(R.TARGETS, y, strict=True))} for i, y in zip(ids[:60], Y[:60], strict=True)]
+    return R.fit_response(rows, 6, version, trees=10)  # few trees: this is about the file, not accuracy
+
+
+def test_a_stored_response_predicts_the_same_and_a_stale_one_is_refused(
+        hexagons: tuple[list[str], np.ndarray], tmp_path) -> None:  # noqa: ANN001
+    db = tmp_path / "mine.sqlite"
+    fresh = _small_response(hexagons, fabpat.catalog.solver_version())
+    path = R.save_responses([fresh], R.response_path(db))
+    assert path.name == "mine.sqlite.response.npz"
+    ids = hexagons[0][100:110]
+    a, b = fresh.predict(ids), R.predict(ids, 6, db)
+    for t in R.TARGETS:
+        assert np.array_equal(a.values[t], b.values[t]) and np.array_equal(a.intervals[t], b.intervals[t])
+        assert np.all(b.intervals[t][:, 0] <= b.values[t]) and np.all(b.values[t] <= b.intervals[t][:, 1])
+    with pytest.raises(CatalogError, match="no learned response for the 5-gon"):
+        R.predict(ids, 5, db)
+    R.save_responses([dataclasses.replace(fresh, solver_version="fabpat 0.0.1+000000000000")], R.response_path(db))
+    with pytest.raises(CatalogError, match="stale"):
+        R.predict(ids, 6, db)
+    r = subprocess.run([sys.executable, "-m", "fabpat", "predict", ids[0], "--db", str(db)], capture_output=True,
+                       text=True)
+    assert r.returncode == 2 and r.stdout == ""
+    assert r.stderr.count("\n") == 1 and "stale" in r.stderr
+
+
+@pytest.mark.parametrize("bad, reason", [("0xzz88", "hex"), ("0x0001", "tileable"), ("0x048", "digits"),
+                                         ("0x" + "0" * 63 + "1", "depths 2 and 3")])
+def test_bad_ids_are_refused_by_name(bad: str, reason: str) -> None:
+    with pytest.raises(PatternError) as e:
+        fabpat.predict(bad)
+    assert reason in str(e.value) or bad.removeprefix("0x") in str(e.value)
+
+
+def test_predict_on_the_command_line() -> None:
+    """The built-in response is shipped, current, and answers in the documented JSON form."""
+    r = subprocess.run([sys.executable, "-m", "fabpat", "predict", "0x0488", "0X0508", "--json"],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert [o["id"] for o in out] == ["0x0488", "0x0508"]
+    truth = {row["id"]: row for row in fabpat.catalog(sides=6)}
+    for o in out:
+        for t in R.TARGETS:
+            low, high = o[f"{t}_interval"]
+            assert 0 < low <= o[t] <= high
+            assert abs(o[t] / truth[o["id"]][t] - 1) < 0.5  # trained on these rows: far from exact would be a bug
+    bad = subprocess.run([sys.executable, "-m", "fabpat", "predict", "0x0001"], capture_output=True, text=True)
+    assert bad.returncode == 2 and bad.stderr.startswith("fabpat: error: 0x0001 is not tileable")
+    assert bad.stderr.count("\n") == 1
