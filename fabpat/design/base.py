@@ -1,5 +1,8 @@
 """The base spec of a design: an assembly spec whose pattern choice is left open, and its candidates.
 
+The spec file is read as every spec is (a regular file of at most 1 MiB; a FIFO or device is refused unread),
+and its tiling must be a honeycomb strip or one of :data:`CLOSED_KINDS` (:func:`check_kind`), before any solve.
+
 ``[patterns]`` of the base may hold, besides (optionally) one of the spec's ways of choosing patterns
 (a ``rule`` there is the design's second baseline), the design keys:
 
