@@ -40,7 +40,7 @@ from pathlib import Path
 from typing import Any
 
 from fabpat.assembly.members import member_energies, member_rows, member_token, split_member
-from fabpat.assembly.spec import AssemblySpec, parse_spec
+from fabpat.assembly.spec import TILINGS, AssemblySpec, parse_spec
 from fabpat.errors import FabpatError, SpecError
 
 __all__ = ["DesignBase", "load_base", "closed_rows", "candidates", "base_faces", "member_token", "split_member"]
@@ -91,6 +91,10 @@ def load_base(path: str | Path) -> DesignBase:
     design key, or no candidate left."""
     source = str(path)
     data = _read_toml(path)
+    tiling = data.get("tiling")
+    kind = tiling.get("kind") if isinstance(tiling, dict) else None
+    if isinstance(kind, str) and kind in TILINGS:  # first: the [patterns] a kind takes differ (an unknown kind:
+        check_kind(source, kind)                   # the spec reader's line)
     pats = data.get("patterns", {})
     if not isinstance(pats, dict):
         raise SpecError(f"{source}: [patterns] must be a table")
@@ -106,7 +110,6 @@ def load_base(path: str | Path) -> DesignBase:
         rest = {"pattern": "0x0488"}  # a placeholder: every design names each tile's pattern itself
     parsed = dict(data, patterns=rest)
     spec = parse_spec(parsed, source)
-    check_kind(source, spec.tiling.kind)
     clean = copy.deepcopy(data)
     clean["patterns"] = {k: v for k, v in pats.items() if k not in DESIGN_KEYS}
     if catalog is not None and not isinstance(catalog, str):
