@@ -146,16 +146,23 @@ def test_a_path_that_exists_is_a_file_whatever_its_name(tmp_path: Path, monkeypa
     Path(name).unlink()
     if name.lower() == "sphere" or name.startswith("ellipsoid:"):
         assert read_target(name).kind in ("sphere", "ellipsoid")  # without the file: the keyword
+        Path(name).mkdir()  # a folder of that name (an earlier run's --out) is no target file
+        assert read_target(name).kind in ("sphere", "ellipsoid")
     else:
         with pytest.raises(TargetError, match="cannot read target ellipsoid-arch.csv") as e:
             read_target(name)
         assert "ellipsoid:A,B,C" not in str(e.value)
 
 
-def test_command_refusals_are_one_line(tmp_path: Path, no_solve: None) -> None:
+def test_command_refusals_are_one_line(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, no_solve: None) -> None:
+    """Including with a folder ``sphere`` where the command runs (an earlier ``--out sphere``): the keyword,
+    not "TARGET sphere is a directory"."""
     from click.testing import CliRunner
 
     from fabpat.cli import cli
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "sphere").mkdir()
 
     for args, words in ((["ellipsoid:1,1,1e300", "--spec", str(SPHERE)], "axis ratio C"),
                         (["sphere", "--spec", str(ROOT / "assemblies" / "panel.toml")], "cannot be designed")):

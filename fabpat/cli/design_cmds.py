@@ -45,11 +45,12 @@ def design_cmd(target: str, spec: str, out: str, h: float, max_solves: int | Non
     fabpat design sphere --spec assemblies/truncated-icosahedron.toml --out sphere-design
     """
     from fabpat.design import design
+    from fabpat.design.target import target_file
     from fabpat.io import check_distinct
 
     if dask_address and workers:
         raise click.UsageError("--workers is for local processes; the dask cluster decides with --dask")
-    check_distinct([out], inputs={"TARGET": target, "--spec": spec})
+    check_distinct([out], inputs={"TARGET": target_file(target), "--spec": spec})
     tell = _progress(max_solves) if progress else None
     try:
         res = design(target, spec, out=out, h=h, max_solves=max_solves, tolerance=tolerance,

@@ -8,9 +8,10 @@
   fix it (:mod:`fabpat.design.surface`).
 
 A path that exists is a file, whatever its name (a CSV called ``sphere`` or ``ellipsoid-arch.csv`` is a
-strip target). A file is read only if it is a regular file (a FIFO or a device is refused unopened) of at
-most :data:`MAX_CSV_BYTES` (a CSV) or :data:`fabpat.assembly.mesh_tiling.MAX_MESH_BYTES` (a mesh, the bound of
-a tiling's mesh file), through :func:`fabpat.io.read_input`. Every problem is a :class:`TargetError` whose one
+strip target); a folder is not (a folder ``sphere`` left by ``--out sphere`` leaves the keyword alone). A
+file is read only if it is a regular file (a FIFO or a device is refused unopened) of at most
+:data:`MAX_CSV_BYTES` (a CSV) or :data:`fabpat.assembly.mesh_tiling.MAX_MESH_BYTES` (a mesh, the bound of a
+tiling's mesh file), through :func:`fabpat.io.read_input`. Every problem is a :class:`TargetError` whose one
 line names the target and what is expected, before any solve.
 """
 
@@ -107,12 +108,31 @@ class ClosedTarget:
         return fit_to_mesh(P, self.mesh)
 
 
+def target_file(target: Any) -> str | None:
+    """The path of the file ``target`` names, or None for a name (``sphere``, ``ellipsoid:A,B,C``) or an
+    array: what :func:`read_target` reads, and what a command declares as its TARGET input file (an output
+    must not replace it). A path that exists and is not a folder is a file, whatever its name."""
+    if not isinstance(target, str | os.PathLike) or isinstance(target, bytes):
+        return None
+    text = os.fspath(target)
+    # a file, whatever its name: a CSV may be called "sphere"; a folder is none (`--out sphere` of a run before)
+    if text and os.path.lexists(text) and not os.path.isdir(text):
+        return text
+    return None if _named(text) else text
+
+
+def _named(text: str) -> bool:
+    """Whether ``text`` is spelled as a named closed target (``sphere``, ``ellipsoid``, ``ellipsoid:…``)."""
+    low = text.strip().lower()
+    return low in ("sphere", "ellipsoid") or low.startswith("ellipsoid:")
+
+
 def read_target(target: Any) -> StripTarget | ClosedTarget:
     """The target named by ``target``: "sphere", "ellipsoid:A,B,C", a mesh file path, a CSV path, or an
     (n, 2) array of (x, z) points in mm. Raises :class:`TargetError` (one line)."""
     if isinstance(target, str | os.PathLike) and not isinstance(target, bytes):
         text = os.fspath(target)
-        if text and os.path.lexists(text):  # a file, whatever its name: a CSV may be called "sphere"
+        if target_file(text) is not None and os.path.lexists(text):
             if Path(text).suffix.lower() in MESH_SUFFIXES:
                 return ClosedTarget(text, "mesh", path=text, mesh=_read_mesh(text))
             return _read_csv(Path(text))
@@ -136,7 +156,7 @@ def _closed(text: str) -> ClosedTarget | None:
     low = text.strip().lower()
     if low == "sphere":
         return ClosedTarget("sphere", "sphere")
-    if low.startswith("ellipsoid:") or low == "ellipsoid":
+    if _named(text):  # an ellipsoid
         return ClosedTarget(text, "ellipsoid", _axes(text, low.removeprefix("ellipsoid").removeprefix(":")))
     if Path(text).suffix.lower() in MESH_SUFFIXES:  # a path that exists was read as a file (read_target)
         raise TargetError(f"cannot read target {text}: no such file")
