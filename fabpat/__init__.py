@@ -14,11 +14,16 @@ The Python front door (everything is imported on first use, so ``import fabpat``
     fabpat.predict(["0x0488"]).records()                  # energies, min width, area ± 90 % in microseconds
     sim = fabpat.simulate_assembly("assemblies/truncated-icosahedron.toml")  # the sphere, closed
     sim.fields()["sphericity_rms"]                        # and every simulate-assembly field
+    kit = fabpat.assemble("assemblies/truncated-icosahedron.toml", "sphere-kit")  # the checked kit, written
     d = fabpat.design("arch.csv", "assemblies/graded-strip.toml")  # one pattern per column for a target arch
 
-``fabpat.library``, ``fabpat.pattern`` and ``fabpat.catalog`` are also modules (``fabpat.patterns.library``,
-``fabpat.patterns.pattern``, ``fabpat.catalog``): calling one calls :func:`fabpat.patterns.library.library`,
-:func:`fabpat.patterns.library.pattern` or :func:`fabpat.catalog.catalog`. The modules live in one package
+``fabpat.library``, ``fabpat.pattern``, ``fabpat.catalog`` and ``fabpat.design`` are also modules
+(``fabpat.patterns.library``, ``fabpat.patterns.pattern``, ``fabpat.catalog``, ``fabpat.design``): calling one
+calls :func:`fabpat.patterns.library.library`, :func:`fabpat.patterns.library.pattern`,
+:func:`fabpat.catalog.catalog` or :func:`fabpat.design.api.design`. A function could not keep such a name: the
+import system sets the package attribute to the submodule whenever the submodule is first imported
+(``from fabpat.design import design`` before ``fabpat.design(...)``), so the module itself is the call
+(:mod:`fabpat._callable`), whichever is imported first. The modules live in one package
 per stage of the pipeline (``patterns``, ``geometry``, ``exchange``, ``simulation``, ``shell``, ``catalog``,
 ``views``, ``assembly``, ``design``, ``cli``); their earlier flat names (``fabpat.fillet``) still import
 (:mod:`fabpat._moved`).
@@ -37,7 +42,8 @@ _LAZY = {
     "catalog": "fabpat.catalog",
     "simulate": "fabpat.simulation.convergence:simulate",
     "simulate_assembly": "fabpat.assembly.simulation:simulate_assembly",
-    "design": "fabpat.design:design",
+    "assemble": "fabpat.assembly.build:assemble",
+    "design": "fabpat.design",
     "predict": "fabpat.catalog.response:predict",
     "variations": "fabpat.patterns.variation:variations",
     "Variation": "fabpat.patterns.variation:Variation",

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import inspect
 import json
+import os
 import pydoc
 import re
 import subprocess
@@ -92,6 +93,41 @@ def test_callable_modules_describe_their_call() -> None:
         text = pydoc.render_doc(module, renderer=pydoc.plaintext)
         assert str(sig).split(",")[0] in text and inspect.getdoc(func).split("\n")[0] in text
     assert "sample" in str(inspect.signature(fabpat.library)) and "depth" in str(inspect.signature(fabpat.pattern))
+
+
+#: in a fresh interpreter: ``fabpat.design`` first, then (the submodules forgotten) the submodule import first
+_FRONT_DOOR = """
+import inspect, sys, fabpat
+from fabpat.errors import FabpatError
+
+def check(order):
+    from fabpat.design.api import design
+    same = inspect.signature(fabpat.design) == inspect.signature(design)
+    try:
+        fabpat.design(object(), "no.toml")
+    except FabpatError as e:
+        print(order, same, type(e).__name__)
+
+fabpat.design
+check("attribute-first")
+for name in [m for m in sys.modules if m.startswith("fabpat.design")]:
+    del sys.modules[name]
+del fabpat.design
+from fabpat.design import design  # the import system sets fabpat.design to the submodule here
+check("submodule-first")
+"""
+
+
+def test_design_is_the_call_whichever_import_comes_first() -> None:
+    """``from fabpat.design import design`` binds the submodule to ``fabpat.design`` (today's main: "'module'
+    object is not callable"); the call must survive it, and ``fabpat.assemble`` is the kit's front door."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    run = subprocess.run([sys.executable, "-c", _FRONT_DOOR], capture_output=True, text=True, env=env, timeout=60)
+    assert run.stdout.split() == ["attribute-first", "True", "TargetError", "submodule-first", "True", "TargetError"], \
+        run.stderr.strip().splitlines()[-1:]
+    from fabpat.assembly.build import assemble
+
+    assert fabpat.assemble is assemble and "assemble" in dir(fabpat)
 
 
 def test_stp_suffix_is_step(fp, tmp_path: Path) -> None:  # noqa: ANN001

@@ -325,3 +325,13 @@ def test_assemble_writes_the_flat_sphere_kit(tmp_path: Path) -> None:
     assert manifest["counts"] == {"hex 0x0488": 20, "pent 0x0508": 12, "S-flat": 90}
     # bent sleeves: the exact flat parts side by side (parts.step), not placed on the polyhedron
     assert (out / "parts" / "sleeve-S-flat.stl").is_file() and (out / "parts.step").is_file()
+
+
+def test_a_goldberg_sphere_bends_by_default_as_the_shipped_sphere_does() -> None:
+    """Without [sleeve] angle a Goldberg sphere was a nearly rigid polyhedron ("dihedral") while the shipped
+    sphere is bent by straight sleeves: its default is now "flat"; the other kinds keep "dihedral"."""
+    gp = {"kind": "goldberg", "m": 1, "n": 1, "edge": 36.0}  # the smallest with hexagons: a fast parse
+    assert parse_spec(sphere(tiling=gp), "g.toml").sleeve.angle == "flat"
+    assert parse_spec(sphere(), "s.toml").sleeve.angle == "dihedral"
+    tube = {"kind": "hex-tube", "rows": 6, "columns": 2, "edge": 36.0}
+    assert parse_spec(sphere(tiling=tube, patterns={"hexagon": "0x0488"}), "t.toml").sleeve.angle == "dihedral"

@@ -34,10 +34,11 @@ A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented 
   ``density`` (g/cm³, for masses).
 * ``[sleeve]``  ``clearance`` (slot width = thickness + clearance), ``margin`` (slot length =
   interface segment + margin), ``wall``, ``depth`` (how far a plate enters its slot), ``angle``: the
-  angle the sleeves are printed at — "dihedral" (default: each joint's dihedral angle, the plates stay
-  flat on a rigid polyhedron), "flat" (180°: straight sleeves that bend the plates when they close the
-  sphere, paper §5) or a number of degrees from the tiling's smallest dihedral to 180
-  (:func:`sleeve_angle`). A honeycomb strip's joints are flat, so it takes "dihedral", "flat" or 180.
+  angle the sleeves are printed at — "dihedral" (each joint's dihedral angle, the plates stay flat on a
+  rigid polyhedron), "flat" (180°: straight sleeves that bend the plates when they close the sphere,
+  paper §5) or a number of degrees from the tiling's smallest dihedral to 180 (:func:`sleeve_angle`);
+  default "flat" on a ``goldberg`` sphere, "dihedral" on every other kind (:data:`DEFAULT_SLEEVE_ANGLE`).
+  A honeycomb strip's joints are flat, so it takes "dihedral", "flat" or 180.
 * ``[material]`` the plates' material for the closure solver: ``youngs_modulus`` (N/mm², default
   1000), ``poisson`` (default 0.35), ``strain_limit`` (largest allowed principal strain, default
   0.02: see :class:`MaterialSpec`).
@@ -83,6 +84,7 @@ from fabpat.assembly.spec_tables import show as _show
 from fabpat.assembly.spec_tiling import read_tiling
 from fabpat.assembly.spec_types import (  # noqa: F401 - the spec's names, read from here too
     BUILTIN_TOLERANCE,
+    DEFAULT_SLEEVE_ANGLE,
     FORMATS,
     MAX_CANDIDATES,
     MAX_CAP_RINGS,
@@ -176,9 +178,10 @@ def smallest_dihedral(tiling: TilingSpec) -> float:
 
 
 def _sleeve_angle(t: _Table, tiling: TilingSpec) -> str | float:
-    """``[sleeve] angle``: "dihedral", "flat" or degrees in [smallest dihedral of the tiling, 180]."""
-    v = t.data.get("angle", "dihedral")
+    """``[sleeve] angle``: "dihedral", "flat" or degrees in [smallest dihedral of the tiling, 180]; without
+    it the kind's default (:data:`DEFAULT_SLEEVE_ANGLE`, else "dihedral")."""
     kind = tiling.kind
+    v = t.data.get("angle", DEFAULT_SLEEVE_ANGLE.get(kind, "dihedral"))
     if isinstance(v, str):
         if v not in SLEEVE_ANGLES:
             raise t.fail("angle", f"= {v!r} is not allowed: choose \"dihedral\", \"flat\" or a number of degrees"

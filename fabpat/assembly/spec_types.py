@@ -39,6 +39,10 @@ STRIP_RULES = ("graded",)
 SPHERE_RULES = ("similar-energy", "roundest")
 SCENARIOS = ("cantilever", "cylinder", "dome")
 SLEEVE_ANGLES = ("dihedral", "flat")  # the named values of [sleeve] angle; a number of degrees is the third way
+#: ``[sleeve] angle`` when the spec gives none, by tiling kind (else "dihedral"): a Goldberg sphere is made to bend
+#: like the shipped sphere (straight sleeves, paper §5); at its dihedral angles it is a nearly rigid polyhedron
+#: whose patterns barely matter. The truncated icosahedron keeps "dihedral": both shipped specs name their angle
+DEFAULT_SLEEVE_ANGLE = {"goldberg": "flat"}
 #: largest ``patterns.candidates``: each candidate pair is one closure of the sphere (8 took 4 min 49 s at
 #: h = 3 on the shared 2-core machine, docs/fabrication-files.md), so 20 bound the choice to about
 #: 12 minutes; the similar-energy ranking puts the likely winners first anyway

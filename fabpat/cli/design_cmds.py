@@ -35,8 +35,9 @@ def design_cmd(target: str, spec: str, out: str, h: float, max_solves: int | Non
     """Choose one pattern per tile so that the assembled strip or closed tiling matches TARGET.
 
     For a honeycomb-strip spec, TARGET is a CSV of the arch's mid-line (header x,z, mm; x from column 0's
-    pin, z up, both pins at z = 0). For a closed tiling (truncated-icosahedron) it is `sphere`,
-    `ellipsoid:A,B,C` (axis ratios) or a surface mesh file (.obj, .stl, .ply); the plates fix its size.
+    pin, z up, both pins at z = 0). For a closed tiling (truncated-icosahedron or goldberg; other kinds are
+    refused) it is `sphere`, `ellipsoid:A,B,C` (axis ratios 0.1 to 10) or a surface mesh file (.obj, .stl,
+    .ply); the plates fix its size. A TARGET that names an existing file is that file.
     Writes DIR/design.toml (a spec for `fabpat assemble` and `fabpat simulate-assembly`, with every
     tile's pattern and, for a strip, [load] end_shortening), DIR/design.json and DIR/design.png.
 
@@ -44,11 +45,12 @@ def design_cmd(target: str, spec: str, out: str, h: float, max_solves: int | Non
     fabpat design sphere --spec assemblies/truncated-icosahedron.toml --out sphere-design
     """
     from fabpat.design import design
+    from fabpat.design.target import target_file
     from fabpat.io import check_distinct
 
     if dask_address and workers:
         raise click.UsageError("--workers is for local processes; the dask cluster decides with --dask")
-    check_distinct([out], inputs={"TARGET": target, "--spec": spec})
+    check_distinct([out], inputs={"TARGET": target_file(target), "--spec": spec})
     tell = _progress(max_solves) if progress else None
     try:
         res = design(target, spec, out=out, h=h, max_solves=max_solves, tolerance=tolerance,

@@ -101,15 +101,18 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
     """Design an assembly whose predicted shape matches ``target``: one pattern per tile.
 
     ``target``: for a honeycomb-strip spec a CSV path (header x,z, mm) or an (n, 2) array of (x, z) mm; for a
-    closed tiling "sphere", "ellipsoid:A,B,C" or a surface mesh file (OBJ, STL, PLY;
-    :mod:`fabpat.design.closed`); ``spec``: the base spec (TOML path; :mod:`fabpat.design.base`). ``h`` mesh
-    edge (mm) of every solve; ``max_solves`` the search's budget of full assembly solves (the baselines come
+    closed tiling (:data:`fabpat.design.base.CLOSED_KINDS`) "sphere", "ellipsoid:A,B,C" or a surface mesh file
+    (OBJ, STL, PLY; :mod:`fabpat.design.closed`); a path that exists is a file, whatever its name
+    (:func:`fabpat.design.target.read_target`); ``spec``: the base spec (TOML path; :mod:`fabpat.design.base`).
+    ``h`` mesh edge (mm) of every solve; ``max_solves`` the search's budget of full assembly solves (the baselines come
     on top; default :data:`MAX_SOLVES` for a strip, :data:`MAX_SOLVES_CLOSED` for a closed tiling);
     ``tolerance``: reachable when relative_rms (rms over the span, or over the radius) ≤ it; ``scale_target``
     scales a strip target whose arc length is off by > 2 % to the strip's length; ``workers`` local processes
     or ``dask`` a scheduler address for the parallel solves; ``out`` writes the outputs there (``kit``: also
     ``fabpat assemble`` into out/kit); ``progress(solves, seconds)`` after every solve. Raises TargetError,
-    SpecError (bad input, one line), SolverError (no candidate converged), ExportError (outputs).
+    SpecError (bad input, one line, before the first solve: a target or spec that is a FIFO or device, too
+    large, or of a tiling kind a design does not take), SolverError (no candidate converged), ExportError
+    (outputs).
     """
     from fabpat.errors import SpecError
 

@@ -1,5 +1,8 @@
 """The base spec of a design: an assembly spec whose pattern choice is left open, and its candidates.
 
+The spec file is read as every spec is (a regular file of at most 1 MiB; a FIFO or device is refused unread),
+and its tiling must be a honeycomb strip or one of :data:`CLOSED_KINDS` (:func:`check_kind`), before any solve.
+
 ``[patterns]`` of the base may hold, besides (optionally) one of the spec's ways of choosing patterns
 (a ``rule`` there is the design's second baseline), the design keys:
 
@@ -37,7 +40,7 @@ from pathlib import Path
 from typing import Any
 
 from fabpat.assembly.members import member_energies, member_rows, member_token, split_member
-from fabpat.assembly.spec import AssemblySpec, parse_spec
+from fabpat.assembly.spec import TILINGS, AssemblySpec, parse_spec
 from fabpat.errors import FabpatError, SpecError
 
 __all__ = ["DesignBase", "load_base", "closed_rows", "candidates", "base_faces", "member_token", "split_member"]
@@ -48,6 +51,13 @@ DESIGN_KEYS = ("allowed", "min_width", "max_distinct", "variations")
 _WAYS = ("pattern", "groups", "tiles", "hexagon", "pentagon", "rule")
 #: the scenario whose energy gives a pattern's bending stiffness (two end moments bend the plate)
 SCENARIO = "cylinder"
+#: the tiling kind whose design target is an arch (a strip's mid-line)
+STRIP_KIND = "honeycomb-strip"
+#: the closed tilings a design takes (a target surface): spheres of hexagons and pentagons, whose closure has a
+#: least-squares sphere and whose polygons both catalogs hold. A tube, a cap, a panel or a mesh file is refused
+#: before any solve: no sphere describes a tube's or a flat panel's shape, and a mesh file's faces may be any
+#: polygon (docs/design.md, "Which tilings")
+CLOSED_KINDS = ("truncated-icosahedron", "goldberg")
 
 
 @dataclass(frozen=True, eq=False)
@@ -68,19 +78,12 @@ class DesignBase:
 
 
 def _read_toml(path: str | Path) -> dict[str, Any]:
-    import tomllib
+    """The decoded TOML of the base spec file, read as every spec is
+    (:func:`fabpat.assembly.spec_tables.read_spec_file`: a regular file of at most
+    :data:`~fabpat.assembly.spec_tables.MAX_SPEC_BYTES`, a FIFO or device refused unread)."""
+    from fabpat.assembly.spec_tables import read_spec_file
 
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8-sig")
-    except OSError as e:
-        raise SpecError(f"cannot read spec {p}: {e.strerror or e}") from e
-    except UnicodeDecodeError as e:
-        raise SpecError(f"{p}: not a UTF-8 text file") from e
-    try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        raise SpecError(f"{p}: invalid TOML: {e}") from e
+    return read_spec_file(path)[1]
 
 
 def load_base(path: str | Path) -> DesignBase:
@@ -88,6 +91,10 @@ def load_base(path: str | Path) -> DesignBase:
     design key, or no candidate left."""
     source = str(path)
     data = _read_toml(path)
+    tiling = data.get("tiling")
+    kind = tiling.get("kind") if isinstance(tiling, dict) else None
+    if isinstance(kind, str) and kind in TILINGS:  # first: the [patterns] a kind takes differ (an unknown kind:
+        check_kind(source, kind)                   # the spec reader's line)
     pats = data.get("patterns", {})
     if not isinstance(pats, dict):
         raise SpecError(f"{source}: [patterns] must be a table")
@@ -112,12 +119,21 @@ def load_base(path: str | Path) -> DesignBase:
     k = keys.get("max_distinct")
     if k is not None and (isinstance(k, bool) or not isinstance(k, int) or k < 1):
         raise SpecError(f"{source}: patterns.max_distinct = {k!r} must be an integer ≥ 1 (distinct patterns allowed)")
-    if spec.tiling.kind != "honeycomb-strip":
+    if spec.tiling.kind != STRIP_KIND:
         notes: list[str] = []
         rows = closed_rows(spec, source, catalog, keys, notes)
         return DesignBase(spec, clean, {}, k, spec.patterns.rule is not None, way, rows, tuple(notes))
     energies = candidates(spec, source, catalog, keys)
     return DesignBase(spec, clean, energies, k, spec.patterns.rule is not None, way)
+
+
+def check_kind(source: str, kind: str) -> None:
+    """:class:`SpecError` (one line) unless a design takes the tiling ``kind``: :data:`STRIP_KIND` or one of
+    :data:`CLOSED_KINDS`."""
+    if kind != STRIP_KIND and kind not in CLOSED_KINDS:
+        closed = " or ".join(f'"{k}"' for k in CLOSED_KINDS)
+        raise SpecError(f'{source}: tiling.kind = "{kind}" cannot be designed: fabpat design takes a "{STRIP_KIND}" '
+                        f"(a target arch) or a closed tiling of kind {closed} (a target surface)")
 
 
 def _catalog_energies(spec: AssemblySpec, catalog: str | None) -> dict[str, float]:

@@ -6,6 +6,9 @@
   takes about a minute on 2 cores: 1000 is a long night, beyond that the budget is a typo).
 * ``design_tolerance``: reachable when the rms error is at most this fraction of the span, in (0, 0.5]
   (above half the span any arch would count as reached).
+* ``axis_ratio``: each of an ``ellipsoid:A,B,C`` target's axis ratios, 0.1 … 10 (a hundredfold spread between two
+  axes at most: no tiling of plates of one size closes into a needle or a disc, and a ratio like 1e300 or
+  1e-320 overflowed the fit after the solves instead of being refused before them).
 """
 
 from __future__ import annotations
@@ -17,6 +20,8 @@ DESIGN_RANGES = (
           "strip solve is about a minute on 2 cores"),
     Range("design_tolerance", 0.0, 0.5, low_open=True, why="rms error over the span that counts as reached: above "
           "half the span any arch would"),
+    Range("axis_ratio", 0.1, 10.0, why="an ellipsoid target's axis ratio, as in ellipsoid:1,1,1.15: a closed tiling "
+          "of plates of one size cannot close into a needle or a disc"),
 )
 for _r in DESIGN_RANGES:
     RANGES.setdefault(_r.name, _r)

@@ -2,16 +2,21 @@
 
 * **Strip target** (:class:`StripTarget`): a CSV of the arch's mid-line, header ``x,z``, in mm; x along
   the span from column 0's pin, z up, both pins at z = 0 (within :data:`END_TOLERANCE` of the span).
-* **Closed-tiling targets** (:class:`ClosedTarget`): ``sphere``, ``ellipsoid:A,B,C`` (axis ratios) or a
-  surface mesh file (``.obj``, ``.stl``, ``.ply``, read by trimesh; at least 4 faces with a positive
-  area). They have no size: the plates fix it (:mod:`fabpat.design.surface`).
+* **Closed-tiling targets** (:class:`ClosedTarget`): ``sphere``, ``ellipsoid:A,B,C`` (axis ratios, each
+  0.1 … 10: the range ``axis_ratio`` of :mod:`fabpat.design.ranges`) or a surface mesh file (``.obj``,
+  ``.stl``, ``.ply``, read by trimesh; at least 4 faces with a positive area). They have no size: the plates
+  fix it (:mod:`fabpat.design.surface`).
 
-Every problem is a :class:`TargetError` whose one line names the target and what is expected.
+A path that exists is a file, whatever its name (a CSV called ``sphere`` or ``ellipsoid-arch.csv`` is a
+strip target); a folder is not (a folder ``sphere`` left by ``--out sphere`` leaves the keyword alone). A
+file is read only if it is a regular file (a FIFO or a device is refused unopened) of at most
+:data:`MAX_CSV_BYTES` (a CSV) or :data:`fabpat.assembly.mesh_tiling.MAX_MESH_BYTES` (a mesh, the bound of a
+tiling's mesh file), through :func:`fabpat.io.read_input`. Every problem is a :class:`TargetError` whose one
+line names the target and what is expected, before any solve.
 """
 
 from __future__ import annotations
 
-import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,6 +37,9 @@ END_TOLERANCE = 0.005
 MESH_SUFFIXES = (".obj", ".stl", ".ply")
 #: the named closed-tiling targets
 CLOSED_NAMES = ("sphere", "ellipsoid:A,B,C")
+#: largest strip target file read (bytes): a mid-line of some 50 000 points; the design compares it column by
+#: column, and a 200 MB file read whole ran out of memory instead of being refused
+MAX_CSV_BYTES = 1024 * 1024
 #: what a strip target file must look like (said in every refusal of one)
 STRIP_FORMAT = "a CSV of the arch's mid-line with header x,z (mm; x from column 0's pin, z up, both ends at z = 0)"
 
@@ -100,11 +108,34 @@ class ClosedTarget:
         return fit_to_mesh(P, self.mesh)
 
 
+def target_file(target: Any) -> str | None:
+    """The path of the file ``target`` names, or None for a name (``sphere``, ``ellipsoid:A,B,C``) or an
+    array: what :func:`read_target` reads, and what a command declares as its TARGET input file (an output
+    must not replace it). A path that exists and is not a folder is a file, whatever its name."""
+    if not isinstance(target, str | os.PathLike) or isinstance(target, bytes):
+        return None
+    text = os.fspath(target)
+    # a file, whatever its name: a CSV may be called "sphere"; a folder is none (`--out sphere` of a run before)
+    if text and os.path.lexists(text) and not os.path.isdir(text):
+        return text
+    return None if _named(text) else text
+
+
+def _named(text: str) -> bool:
+    """Whether ``text`` is spelled as a named closed target (``sphere``, ``ellipsoid``, ``ellipsoid:…``)."""
+    low = text.strip().lower()
+    return low in ("sphere", "ellipsoid") or low.startswith("ellipsoid:")
+
+
 def read_target(target: Any) -> StripTarget | ClosedTarget:
     """The target named by ``target``: "sphere", "ellipsoid:A,B,C", a mesh file path, a CSV path, or an
     (n, 2) array of (x, z) points in mm. Raises :class:`TargetError` (one line)."""
     if isinstance(target, str | os.PathLike) and not isinstance(target, bytes):
         text = os.fspath(target)
+        if target_file(text) is not None and os.path.lexists(text):
+            if Path(text).suffix.lower() in MESH_SUFFIXES:
+                return ClosedTarget(text, "mesh", path=text, mesh=_read_mesh(text))
+            return _read_csv(Path(text))
         closed = _closed(text)
         if closed is not None:
             return closed
@@ -120,25 +151,38 @@ def read_target(target: Any) -> StripTarget | ClosedTarget:
 
 
 def _closed(text: str) -> ClosedTarget | None:
-    """A closed-tiling target, or None if ``text`` names a file that should be a strip CSV."""
+    """The closed-tiling target ``text`` names (no file of that name exists), or None: then it is the name of a
+    strip CSV."""
     low = text.strip().lower()
     if low == "sphere":
         return ClosedTarget("sphere", "sphere")
-    if low.startswith("ellipsoid"):
-        parts = low.removeprefix("ellipsoid").removeprefix(":").split(",")
-        try:
-            axes = tuple(float(p) for p in parts)
-        except ValueError:
-            axes = ()
-        if len(axes) != 3 or not all(math.isfinite(a) and a > 0 for a in axes):
-            raise TargetError(f"target {text!r}: an ellipsoid is ellipsoid:A,B,C with three positive axis ratios, "
-                              "e.g. ellipsoid:1,1,1.15")
-        return ClosedTarget(text, "ellipsoid", axes)  # type: ignore[arg-type]
-    if Path(text).suffix.lower() in MESH_SUFFIXES:
-        if not Path(text).is_file():
-            raise TargetError(f"cannot read target {text}: no such file")
-        return ClosedTarget(text, "mesh", path=text, mesh=_read_mesh(text))
+    if _named(text):  # an ellipsoid
+        return ClosedTarget(text, "ellipsoid", _axes(text, low.removeprefix("ellipsoid").removeprefix(":")))
+    if Path(text).suffix.lower() in MESH_SUFFIXES:  # a path that exists was read as a file (read_target)
+        raise TargetError(f"cannot read target {text}: no such file")
     return None
+
+
+def _axes(text: str, spec: str) -> tuple[float, float, float]:
+    """The three axis ratios of ``ellipsoid:A,B,C`` (``spec`` the part after the colon), each in the range
+    ``axis_ratio`` (:mod:`fabpat.design.ranges`); TargetError (one line) otherwise."""
+    import fabpat.design.ranges  # noqa: F401 - registers axis_ratio's range
+    from fabpat.validate import RANGES, check
+
+    what = (f"target {text!r}: an ellipsoid is ellipsoid:A,B,C with three axis ratios in "
+            f"{RANGES['axis_ratio'].describe()}, e.g. ellipsoid:1,1,1.15")
+    try:
+        axes = tuple(float(p) for p in spec.split(","))
+    except ValueError:
+        raise TargetError(what) from None
+    if len(axes) != 3:
+        raise TargetError(what)
+    for name, a in zip("ABC", axes, strict=True):
+        try:
+            check("axis_ratio", a, f"axis ratio {name}", error=TargetError)
+        except TargetError as e:
+            raise TargetError(f"target {text!r}: {e} (ellipsoid:A,B,C, e.g. ellipsoid:1,1,1.15)") from None
+    return axes  # type: ignore[return-value]
 
 
 #: a mesh target whose thinnest principal extent (singular value of its centred vertices) is at most this
@@ -148,12 +192,17 @@ FLAT_TARGET = 0.01
 
 def _read_mesh(path: str) -> Any:
     """The surface of a mesh file (trimesh), or TargetError: unreadable, no faces, or degenerate."""
+    import io
+
+    from fabpat.assembly.mesh_tiling import MAX_MESH_BYTES
+
+    data = _read_file(path, MAX_MESH_BYTES)  # first: refusing a FIFO or a device needs no trimesh
     import trimesh
 
     what = "a surface mesh (OBJ, STL or PLY with at least 4 triangles or polygons of positive area)"
     try:
         # read as written (trimesh's processing would drop a non-finite vertex and its faces unseen)
-        m = trimesh.load(path, force="mesh", process=False)
+        m = trimesh.load(io.BytesIO(data), file_type=Path(path).suffix.lower()[1:], force="mesh", process=False)
         finite = bool(np.isfinite(np.asarray(getattr(m, "vertices", np.zeros((0, 3))), dtype=np.float64)).all())
         if finite:
             m.process()
@@ -173,11 +222,22 @@ def _read_mesh(path: str) -> Any:
     return m
 
 
-def _read_csv(path: Path) -> StripTarget:
+def _read_file(path: str | os.PathLike[str], max_bytes: int) -> bytes:
+    """The bytes of the target file ``path`` (:func:`fabpat.io.read_input`: a regular file of at most
+    ``max_bytes``); TargetError (one line) otherwise."""
+    from fabpat.errors import ExportError
+    from fabpat.io import read_input
+
     try:
-        raw = path.read_bytes()
+        return read_input(path, "target", max_bytes)
+    except ExportError as e:
+        raise TargetError(str(e)) from None
     except OSError as e:
-        raise TargetError(f"cannot read target {path}: {e.strerror or e}") from e
+        raise TargetError(f"cannot read target {os.fspath(path)}: {e.strerror or e}") from None
+
+
+def _read_csv(path: Path) -> StripTarget:
+    raw = _read_file(path, MAX_CSV_BYTES)
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError:
@@ -229,12 +289,15 @@ def check_strip(source: str, x: Arr, z: Arr) -> StripTarget:
 
 def require_match(target: StripTarget | ClosedTarget, spec_source: str, kind: str) -> None:
     """:class:`TargetError` unless the target fits the spec's tiling: a strip target (CSV mid-line) for a
-    honeycomb strip, a closed target (sphere, ellipsoid, mesh) for a closed tiling."""
-    strip = kind == "honeycomb-strip"
+    honeycomb strip, a closed target (sphere, ellipsoid, mesh) for a closed tiling (the kind itself is checked
+    by :func:`fabpat.design.base.check_kind`)."""
+    from fabpat.design.base import CLOSED_KINDS, STRIP_KIND
+
+    strip = kind == STRIP_KIND
     if strip and isinstance(target, ClosedTarget):
+        closed = " or ".join(f'"{k}"' for k in CLOSED_KINDS)
         raise TargetError(f"target {target.source!r} is a closed-tiling target ({target.kind}), but {spec_source} is a "
-                          f"honeycomb strip: give {STRIP_FORMAT}, or a closed-tiling spec "
-                          "(tiling.kind = \"truncated-icosahedron\")")
+                          f"honeycomb strip: give {STRIP_FORMAT}, or a closed-tiling spec (tiling.kind = {closed})")
     if not strip and isinstance(target, StripTarget):
         raise TargetError(f"target {target.source} is a strip mid-line, but {spec_source} is a closed tiling "
                           f"(tiling.kind = {kind!r}): give sphere, ellipsoid:A,B,C or a surface mesh file "
