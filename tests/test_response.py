@@ -134,3 +134,33 @@ def test_predict_on_the_command_line() -> None:
     bad = subprocess.run([sys.executable, "-m", "fabpat", "predict", "0x0001"], capture_output=True, text=True)
     assert bad.returncode == 2 and bad.stderr.startswith("fabpat: error: 0x0001 is not tileable")
     assert bad.stderr.count("\n") == 1
+
+
+def test_learning_picks_the_pools_printable_extremes(tmp_path, monkeypatch) -> None:  # noqa: ANN001
+    from fabpat.catalog import learn
+    from fabpat.catalog.learn import SCENARIO, choose
+    from fabpat.patterns.library import sample_library
+
+    assert 0.5 < learn.printable_floor(6) < 3.0  # mm: the depth-2 hexagons' narrowest neck
+    pool = list(sample_library(6, 3, 300, seed=4).ids)
+    p = fabpat.predict(pool)
+    floor = float(np.median(p.values["min_width"]))  # a floor that half the pool misses
+    monkeypatch.setattr(learn, "printable_floor", lambda sides: floor)
+    chosen = choose(tmp_path / "none.sqlite", 6, pool, 6)
+    assert len(chosen) == len(set(chosen)) == 6 and set(chosen) <= set(pool)
+    printable = p.values["min_width"] >= floor
+    at = {i: k for k, i in enumerate(p.ids)}
+    lows = p.intervals[SCENARIO][:, 0]
+    highs = p.intervals[SCENARIO][:, 1]
+    assert printable[[at[i] for i in chosen]].all()
+    assert lows[at[chosen[0]]] == lows[printable].min()  # the stiffest the interval allows, first
+    assert highs[at[chosen[1]]] == highs[printable].max()  # then the softest
+
+
+@pytest.mark.parametrize("args, says", [(["--learn", "0", "--depth", "3"], "--learn"),
+                                        (["--learn", "2"], "give --depth 3")])
+def test_bad_learn_options(args: list[str], says: str, tmp_path) -> None:  # noqa: ANN001
+    r = subprocess.run([sys.executable, "-m", "fabpat", "sweep", *args, "--db", str(tmp_path / "c.sqlite")],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and says in r.stderr
+    assert not (tmp_path / "c.sqlite").exists()

@@ -63,9 +63,14 @@ _db_help = "Catalog file (SQLite) [default: the built-in catalog of the default 
                    "(into the catalog's family table, after the paper's own results), then the midpoints of the "
                    "intervals where a pattern's energy bends or buckles (up to two rounds): what fabpat.catalog.family "
                    "interpolates.")
+@click.option("--learn", type=click.IntRange(min=1), default=None, metavar="N",
+              help="Depth 3: simulate the N patterns of a --sample pool (default 20000) that most widen the "
+                   "catalog's Cylinder-energy range at a printable min width, as the learned response ranks them "
+                   "(docs/learned-response.md); the response is refitted afterwards.")
 def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, workers: int | None,
               dask_address: str | None, force: bool, edge: float, thickness: float, weight: float, modulus: float,
-              poisson: float, h: float | None, extrapolate: bool, variation: Variation, family: bool) -> int:
+              poisson: float, h: float | None, extrapolate: bool, variation: Variation, family: bool,
+              learn: int | None) -> int:
     """Simulate every pattern (fillet → mesh → cantilever, cylinder, dome, nonlinear) into a catalog.
 
     Each pattern's results are committed as soon as they are computed; re-running resumes (rows whose
@@ -111,7 +116,7 @@ def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, wo
                            option="fixed for sweeps")
     if dask_address and workers:
         raise click.UsageError("--workers is for local processes; the dask cluster decides with --dask")
-    ids = load_library(sides, depth, sample, seed).ids
+    ids = _learn_ids(db, sides, depth, sample, seed, learn) if learn else load_library(sides, depth, sample, seed).ids
     console = Console(stderr=True)
     columns = (TextColumn("simulating"), BarColumn(), MofNCompleteColumn(), TextColumn("pattern-scenarios"),
                TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn())
@@ -163,11 +168,42 @@ def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, wo
     click.echo(f"{db}: {report.computed} pattern-scenarios computed ({report.failed_rows} did not converge), "
                f"{report.skipped} already up to date, {len(ids)} patterns{members_text}, {report.seconds:.1f} s")
     _warn_mixed(db, setup)
+    _refit(db)
     if report.crashed:
         click.echo(f"fabpat: warning: {len(report.crashed)} patterns raised and were not stored (re-run to retry): "
                    f"{report.crashed[0]}", err=True)
         return 1
     return 0
+
+
+def _learn_ids(db: str, sides: int, depth: int, sample: int | None, seed: int, learn: int) -> tuple[str, ...]:
+    """The patterns ``--learn`` simulates (:func:`fabpat.catalog.learn.choose` over a seeded pool)."""
+    from fabpat.catalog.learn import choose
+    from fabpat.cli.library_cmds import load_library
+
+    if depth != 3:
+        raise click.UsageError(f"--learn chooses depth-3 patterns (the learned response reads depths 2 and 3; "
+                               f"depth 2 is swept whole): give --depth 3, not {depth}")
+    pool = load_library(sides, depth, sample or 20_000, seed).ids
+    chosen = choose(db, sides, pool, learn)
+    click.echo(f"--learn: {len(chosen)} of {len(pool)} drawn patterns chosen to widen the Cylinder-energy range",
+               err=True)
+    return tuple(chosen)
+
+
+def _refit(db: str) -> None:
+    """Refit the catalog's learned response after a sweep (one stderr line; a failure is a warning: the rows
+    are stored whatever the model does)."""
+    from fabpat.catalog.response import refit_responses
+    from fabpat.errors import FabpatError
+
+    try:
+        path = refit_responses(db)
+    except FabpatError as e:
+        click.echo(f"fabpat: warning: the learned response was not refitted: {e}", err=True)
+        return
+    if path is not None:
+        click.echo(f"learned response refitted: {path}", err=True)
 
 
 def _warn_mixed(db: str, setup: SweepSetup) -> None:
