@@ -71,6 +71,7 @@ class _Face:
     corners: tuple[tuple[int, int], ...]  # (working index, voltage) of each corner but the centre
     take: tuple[int, ...]  # working index of each frontier entry before the face
     keep: tuple[int, ...]  # working indices that stay on the frontier after it
+    drop: tuple[int, ...]  # working indices that leave it (no later face touches them)
     size: int  # length of the working list: the frontier before the face and the face's corners
     forced: int | None  # the edge rule's label, or None for a free face
     solid_ahead: bool  # a face after this one is forced solid
@@ -105,7 +106,8 @@ def _faces(depth: int) -> tuple[_Face, ...]:
         pos = {v: w for w, v in enumerate(work)}
         keep = [v for v in work if last[v] > k]
         steps.append(_Face(tuple((pos[v], t) for v, t in cs), tuple(pos[v] for v in frontier),
-                           tuple(pos[v] for v in keep), len(work), forced.get(k), solid_after[k]))
+                           tuple(pos[v] for v in keep), tuple(pos[v] for v in work if last[v] == k), len(work),
+                           forced.get(k), solid_after[k]))
         frontier = keep
     return tuple(steps)
 
@@ -120,12 +122,11 @@ def _step(state: State, solid: bool, face: _Face) -> State | None:
     if state and state[0] == _DONE:
         return None if solid else state
     m = len(face.take)
-    size = face.size
-    labs = [-1] * size
-    pots = [0] * size
-    for s, w in enumerate(face.take):
-        labs[w] = state[s]
-        pots[w] = state[m + s]
+    labs = [-1] * face.size
+    pots = [0] * face.size
+    for w, c, p in zip(face.take, state[:m], state[m:2 * m], strict=True):
+        labs[w] = c
+        pots[w] = p
     gs: list[int] = list(state[2 * m:])
     if solid:
         new = len(gs)
@@ -138,20 +139,13 @@ def _step(state: State, solid: bool, face: _Face) -> State | None:
                 gs[new] = math.gcd(gs[new], volt - pots[w])
             else:  # another component joins: shift its potentials so that this corner has ``volt``
                 shift = volt - pots[w]
-                for x in range(size):
-                    if labs[x] == c:
-                        labs[x], pots[x] = new, pots[x] + shift
+                for x, cx in enumerate(labs):
+                    if cx == c:
+                        labs[x] = new
+                        pots[x] += shift
                 gs[new] = math.gcd(gs[new], gs[c])
-    present = {c for c in labs if c >= 0}
-    kept = {labs[w] for w in face.keep if labs[w] >= 0}
-    closed = present - kept
-    if closed:
-        (c, *others) = closed
-        if others or kept or face.solid_ahead or gs[c] == 0:
-            return None  # two pieces, or one that winds 0 times (n disjoint copies)
-        return (_DONE, gs[c])
-    relabel: dict[int, int] = {}
-    first: dict[int, int] = {}
+    relabel: dict[int, int] = {}  # old label → new, in order of first appearance on the new frontier
+    first: list[int] = []
     out_labs, out_pots = [], []
     for w in face.keep:
         c = labs[w]
@@ -159,14 +153,22 @@ def _step(state: State, solid: bool, face: _Face) -> State | None:
             out_labs.append(-1)
             out_pots.append(0)
             continue
-        if c not in relabel:
-            relabel[c] = len(relabel)
-            first[c] = pots[w]
+        r = relabel.get(c)
+        if r is None:
+            r = relabel[c] = len(first)
+            first.append(pots[w])
         g = gs[c]
-        p = pots[w] - first[c]
-        out_labs.append(relabel[c])
+        p = pots[w] - first[r]
+        out_labs.append(r)
         out_pots.append(p % g if g else p)
-    return tuple(out_labs) + tuple(out_pots) + tuple(gs[c] for c in relabel)
+    # A component closes when its last vertices leave the frontier: they are among the dropped ones.
+    closed = {labs[w] for w in face.drop if labs[w] >= 0 and labs[w] not in relabel}
+    if closed:
+        (c, *others) = closed
+        if others or relabel or face.solid_ahead or gs[c] == 0:
+            return None  # two pieces, or one that winds 0 times (n disjoint copies)
+        return (_DONE, gs[c])
+    return (*out_labs, *out_pots, *(gs[c] for c in relabel))
 
 
 @dataclass(frozen=True)
@@ -327,12 +329,17 @@ class Enumeration:
         out: list[int] = []
         seen: set[int] = set()
         while len(out) < count:
-            r = _below(rng, self.total)
-            if distinct:
-                if r in seen:
-                    continue
-                seen.add(r)
-            out.append(r)
+            want = count - len(out)
+            if self.total < 2**63:  # numpy draws them at once, unbiased
+                batch = [int(r) for r in rng.integers(0, self.total, size=want, dtype=np.int64)]
+            else:
+                batch = [_below(rng, self.total) for _ in range(want)]
+            for r in batch:
+                if distinct:
+                    if r in seen:
+                        continue
+                    seen.add(r)
+                out.append(r)
         return out
 
     def sample(self, count: int, seed: int = 0) -> NDArray[np.bool_]:
