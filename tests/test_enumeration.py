@@ -84,6 +84,8 @@ def test_depth3_counts_of_completions_match_a_brute_force(seed: int) -> None:
 
 
 def test_depth3_count_does_not_depend_on_n_and_matches_the_acceptance_rate() -> None:
+    # every finished pattern winds g = 1 times (g = 0 is cut): a g ≥ 2 would make the count depend on n
+    assert set(enumeration(6, 3).table.final_g) == {1}
     five, six = count_library(5, 3), count_library(6, 3)
     assert five == six == count_library(3, 3) == count_library(12, 3)
     draws = 2000  # an independent estimate: the share of uniform edge-rule slices that are connected
@@ -120,12 +122,23 @@ def test_exact_sampler_is_uniform_over_the_430() -> None:
 
 def test_exact_depth3_sample_is_valid_distinct_and_follows_the_face_marginals() -> None:
     E = enumeration(6, 3)
-    s = sample_library(6, 3, 2000, seed=4)  # "auto" is exact at depth 3
+    s = sample_library(6, 3, 2000, seed=4, method="exact")
     assert s.candidates == 2000 and len(set(s.ids)) == 2000
     assert is_tileable(s.bits, 3).all() and is_connected(s.bits, 6, 3).all()
     # P(face 0 solid) = count of patterns with face 0 solid / total, from the counts; the draws follow it
     p = E.count_prefix([True]) / E.total
     assert abs(s.bits[:, 0].mean() - p) < 4 * np.sqrt(p * (1 - p) / 2000)
+
+
+def test_auto_sampling_is_exact_at_depth3_from_its_threshold(monkeypatch: pytest.MonkeyPatch) -> None:
+    import fabpat.patterns.library as library
+
+    monkeypatch.setattr(library, "EXACT_SAMPLE_FROM", 20)
+    exact = library.sample_library(6, 3, 20, seed=3)
+    assert exact.candidates == 20  # nothing drawn and rejected
+    assert exact.ids == library.sample_library(6, 3, 20, seed=3, method="exact").ids
+    assert library.sample_library(6, 3, 19, seed=3).candidates % 4096 == 0  # below it: rejection batches
+    assert library.sample_library(6, 2, 30, seed=3).candidates % 4096 == 0  # depth 2 keeps its seeds' samples
 
 
 def test_sampling_methods() -> None:

@@ -24,7 +24,7 @@ The programme
 Faces are decided one at a time in ID order (face 0 first: row by row from the apex, each row from
 ``AB`` to ``AC``), the edge row fixed by the edge rule. After face ``k`` the *frontier* is the set of
 vertices touched by a face ``≤ k`` and by a face ``> k``: between consecutive rows with the seam,
-about ``2**depth + 2`` vertices. A *state* is, for each frontier vertex, whether a solid face touches
+at most ``2**depth + 1`` vertices. A *state* is, for each frontier vertex, whether a solid face touches
 it, the component it belongs to and its potential (the voltage of a path to the component's first
 frontier vertex), and for each component its ``g`` (potentials are taken modulo ``g``). Everything
 decided so far that can still matter is in the state, so equal states have equal completions: the
@@ -38,7 +38,7 @@ may follow. A closed component with ``g = 0`` is ``n`` disjoint copies: cut too.
 What it gives: :func:`count_library` (the exact number, also for depths far beyond listing), and
 :class:`Enumeration`: ``unrank`` (the ``r``-th pattern in ID order), uniform sampling (a uniform rank,
 unranked), the full listing of small depths, and ``contains`` for one slice. Depths 1–3 build in
-milliseconds to seconds; the frontier of depth 4 has ~18 vertices and its states do not fit: refused
+milliseconds to seconds; the frontier of depth 4 has 17 vertices and its states do not fit: refused
 (:data:`MAX_ENUMERATED_DEPTH`).
 """
 
@@ -191,7 +191,7 @@ def _table(depth: int) -> _Table:
     """The layered state graph of a depth, built forward from the empty frontier."""
     d = check_depth(depth)
     if d > MAX_ENUMERATED_DEPTH:
-        raise PatternError(f"depth {d} is too deep to enumerate (its frontier has {2**d + 2} vertices); "
+        raise PatternError(f"depth {d} is too deep to enumerate (its frontier has up to {2**d + 1} vertices); "
                            f"depths 1–{MAX_ENUMERATED_DEPTH} are counted exactly, deeper ones can be sampled "
                            "(--sample N)")
     layer: dict[State, int] = {(): 0}
