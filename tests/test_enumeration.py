@@ -151,6 +151,10 @@ def test_sampling_methods() -> None:
         sample_library(6, 3, 2, method="fast")
     with pytest.raises(PatternError, match="too deep to enumerate"):
         sample_library(6, 4, 2, method="exact")
+    with pytest.raises(PatternError, match="sample size"):
+        enumeration(6, 2).sample(0)
+    with pytest.raises(PatternError, match="seed"):
+        enumeration(6, 2).sample(3, seed=-1)
 
 
 def test_big_uniform_integers_stay_below_and_spread() -> None:

@@ -54,6 +54,7 @@ from numpy.typing import NDArray
 
 from fabpat.errors import PatternError
 from fabpat.patterns.lattice import check_depth, check_sides, edge_row, slice_lattice
+from fabpat.validate import check
 
 #: The deepest library the programme builds: depth 4's frontier states do not fit in time or memory.
 MAX_ENUMERATED_DEPTH = 3
@@ -322,7 +323,10 @@ class Enumeration:
     def ranks(self, count: int, seed: int = 0, distinct: bool = True) -> list[int]:
         """``count`` uniform random ranks in ``[0, total)`` from numpy's generator seeded with ``seed``:
         distinct ones (a uniform random subset, in draw order) unless ``distinct=False``.
-        Raises :class:`PatternError` if ``count`` distinct ranks are asked of fewer patterns."""
+        Raises :class:`PatternError` for a bad count or seed, or ``count`` distinct ranks asked of fewer
+        patterns."""
+        count = int(check("sample", count, "sample size", error=PatternError))
+        seed = int(check("seed", seed, error=PatternError))
         if distinct and count > self.total:
             raise PatternError(f"depth {self.depth} has only {self.total} patterns, cannot sample {count}")
         rng = np.random.default_rng(seed)
