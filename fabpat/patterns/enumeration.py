@@ -73,7 +73,7 @@ class _Face:
     take: tuple[int, ...]  # working index of each frontier entry before the face
     keep: tuple[int, ...]  # working indices that stay on the frontier after it
     drop: tuple[int, ...]  # working indices that leave it (no later face touches them)
-    size: int  # length of the working list: the frontier before the face and the face's corners
+    fresh: tuple[int, ...]  # working indices of the corners new to the frontier, ascending
     forced: int | None  # the edge rule's label, or None for a free face
     solid_ahead: bool  # a face after this one is forced solid
 
@@ -107,8 +107,8 @@ def _faces(depth: int) -> tuple[_Face, ...]:
         pos = {v: w for w, v in enumerate(work)}
         keep = [v for v in work if last[v] > k]
         steps.append(_Face(tuple((pos[v], t) for v, t in cs), tuple(pos[v] for v in frontier),
-                           tuple(pos[v] for v in keep), tuple(pos[v] for v in work if last[v] == k), len(work),
-                           forced.get(k), solid_after[k]))
+                           tuple(pos[v] for v in keep), tuple(pos[v] for v in work if last[v] == k),
+                           tuple(pos[v] for v in work if v not in frontier), forced.get(k), solid_after[k]))
         frontier = keep
     return tuple(steps)
 
@@ -123,12 +123,15 @@ def _step(state: State, solid: bool, face: _Face) -> State | None:
     if state and state[0] == _DONE:
         return None if solid else state
     m = len(face.take)
-    labs = [-1] * face.size
-    pots = [0] * face.size
-    for w, c, p in zip(face.take, state[:m], state[m:2 * m], strict=True):
-        labs[w] = c
-        pots[w] = p
+    # The working list is the frontier with the face's new corners inserted (positions ascending).
+    labs = list(state[:m])
+    pots = list(state[m:2 * m])
+    for w in face.fresh:
+        labs.insert(w, -1)
+        pots.insert(w, 0)
     gs: list[int] = list(state[2 * m:])
+    if not solid and not face.drop:  # nothing joins or leaves: the state, with the new corners untouched
+        return (*labs, *pots, *gs)
     if solid:
         new = len(gs)
         gs.append(0)
