@@ -18,11 +18,12 @@ Depth 2 gives 65 535 candidates, 512 pass the edge rule and 430 are connected fo
 which builds only valid patterns (no candidate is drawn and rejected); the two filters above stay as the
 independent check of single slices (:func:`get_pattern`) and of the enumeration itself (tests).
 Depth ≥ 3 cannot be listed (2**49 configurations pass the edge rule at depth 3, 442 048 129 028 432 of
-them connected: :func:`fabpat.patterns.enumeration.count_library`). :func:`sample_library` draws depth 3
-exactly (uniform ranks of the enumeration, unranked); deeper libraries, and depth ≤ 2 (whose seeds keep
-giving the patterns they always gave), by rejection: uniform draws among the configurations that pass the
-edge rule, disconnected ones rejected, so the accepted patterns are uniform too. The rejection
-sampler's acceptance rate is measured by ``python benchmarks/bench_library.py``.
+them connected: :func:`fabpat.patterns.enumeration.count_library`). :func:`sample_library` draws large
+depth-3 samples exactly (uniform ranks of the enumeration, unranked; :data:`EXACT_SAMPLE_FROM`), and
+everything else by rejection: uniform draws among the configurations that pass the edge rule,
+disconnected ones rejected, so the accepted patterns are uniform too (depth ≤ 2 thus keeps the samples
+its seeds always gave). Both samplers and the acceptance rate are measured by
+``python benchmarks/bench_library.py``.
 """
 
 from __future__ import annotations
