@@ -49,6 +49,22 @@ def test_library_sample_depth3() -> None:
     assert len(set(ids)) == 5 and all(len(i) == 18 for i in ids)
 
 
+def test_library_count_is_exact_and_says_so(tmp_path: Path) -> None:
+    from fabpat.patterns.enumeration import count_library
+    from tests.helpers import invoke, refusal_in
+
+    r = invoke("library", "--depth", "2", "--sides", "7", "--count", "--format", "json")
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout) | {"method": ""} == {"sides": 7, "depth": 2, "count": 430, "exact": True, "low": 430,
+                                                     "high": 430, "edge_rule_slices": 512, "draws": 0, "method": ""}
+    deep = invoke("library", "--depth", "3", "--count")
+    assert deep.returncode == 0, deep.stderr
+    assert deep.stdout.split()[0] == str(count_library(6, 3)) and "exact" in deep.stdout
+    assert deep.stdout.count("\n") == 1
+    assert "takes no --sample" in refusal_in(tmp_path, "library", "--depth", "3", "--count", "--sample", "2")
+    assert "[3, 64]" in refusal_in(tmp_path, "library", "--count", "--sides", "2")
+
+
 def test_show_writes_svg(tmp_path: Path) -> None:
     out = tmp_path / "p.svg"
     r = run_cli("show", "0x0688", "--sides", "7", "--edge", "20", "--svg", str(out))

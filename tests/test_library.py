@@ -148,8 +148,8 @@ def test_deep_sampling_is_bounded(tmp_path: Path) -> None:
 def test_sampling_in_small_batches(monkeypatch: pytest.MonkeyPatch) -> None:
     import fabpat.patterns.library as library
 
-    full = library.sample_library(6, 3, 5, seed=3)
+    full = library.sample_library(6, 3, 5, seed=3, method="rejection")
     monkeypatch.setattr(library, "MAX_BATCH_FACES", 10 * 6 * 4**3)  # 10 draws per batch instead of 4096
-    small = library.sample_library(6, 3, 5, seed=3)
+    small = library.sample_library(6, 3, 5, seed=3, method="rejection")
     assert len(small) == 5 and small.candidates % 10 == 0 and small.candidates < full.candidates
     assert library.is_connected(small.bits, 6, 3).all() and library.is_tileable(small.bits, 3).all()

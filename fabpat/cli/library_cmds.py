@@ -25,6 +25,7 @@ from fabpat.cli.options import (
 )
 from fabpat.errors import PatternError
 from fabpat.io import atomic_outputs, check_suffix
+from fabpat.patterns.count import LibraryCount, count_patterns
 from fabpat.patterns.library import Library, enumerate_library, get_pattern, sample_library
 from fabpat.patterns.pattern import DEFAULT_EDGE, Pattern
 from fabpat.patterns.variation import Variation, variations
@@ -148,16 +149,29 @@ def _print_rows(rows: list[dict[str, object]], fmt: str, title: str, header: lis
 @seed_option
 @weight_option
 @click.option("--no-fillet", is_flag=True, help="Lattice metrics only (skip the filleted columns; instant).")
+@click.option("--count", "count_only", is_flag=True,
+              help="Print how many patterns there are instead of listing them: exact up to depth 3 (pruned "
+                   "enumeration), beyond an estimate with its 95 % interval (uniform draws, --seed).")
 def library_cmd(
-    sides: int, depth: int, edge: float, fmt: str, sample: int | None, seed: int, weight: float, no_fillet: bool
+    sides: int, depth: int, edge: float, fmt: str, sample: int | None, seed: int, weight: float, no_fillet: bool,
+    count_only: bool,
 ) -> None:
-    """List the connected, tileable patterns with their geometric metrics.
+    """List the connected, tileable patterns with their geometric metrics, or count them (--count).
 
     Columns: lattice metrics of the solid pattern (area mm², perimeter mm, ratio = 4πA/P², polar
     moment mm⁴ about the centre) and the same for the filleted outline, plus its min_width (mm).
 
-    Example: fabpat library --sides 6 --format json > library.json
+    \b
+    Examples:
+      fabpat library --sides 6 --format json > library.json
+      fabpat library --depth 3 --count
     """
+    if count_only:
+        if sample is not None:
+            raise PatternError("--count counts the whole library and takes no --sample (an estimate's draws "
+                               "are fixed; --seed chooses them)")
+        _print_count(count_patterns(sides, depth, seed), fmt, seed)
+        return
     lib = load_library(sides, depth, sample, seed)
     rows = library_rows(lib, edge, None if no_fillet else weight)
     if sample is None:
@@ -168,6 +182,21 @@ def library_cmd(
         source = f"random sample, seed {seed}, of the 2^{n_faces(depth)} − 1 slices"
     title = f"{len(rows)} patterns, {sides}-gon, depth {depth}, edge {edge:g} mm ({source})"
     _print_rows(rows, fmt, title)
+
+
+def _print_count(c: LibraryCount, fmt: str, seed: int) -> None:
+    """One count: a sentence (table), a JSON object or a CSV row, labelled exact or estimate."""
+    if fmt == "json":
+        click.echo(json.dumps(c.as_dict(), indent=1))  # one object, the count an exact integer
+    elif fmt == "csv":
+        _print_rows([c.as_dict()], fmt, "")
+    elif c.exact:
+        click.echo(f"{c.count} connected, tileable patterns ({c.sides}-gon, depth {c.depth}): exact, by pruned "
+                   f"enumeration of the {c.edge_rule_slices} slices that pass the edge rule")
+    else:
+        click.echo(f"about {c.count:.4g} connected, tileable patterns ({c.sides}-gon, depth {c.depth}): an "
+                   f"estimate, 95 % interval {c.low:.4g} … {c.high:.4g}, from {c.draws} uniform draws (seed "
+                   f"{seed}) of the {c.edge_rule_slices:.4g} slices that pass the edge rule")
 
 
 @click.command("show")
