@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 from xml.etree import ElementTree
 
+import numpy as np
 import pytest
 
 from fabpat.errors import ExportError, GeometryError, SolverError, SpecError
@@ -243,3 +244,113 @@ def test_a_simulation_reprs_in_one_short_line(strip_run) -> None:  # type: ignor
     assert "<table>" in html and "peak_strain" in html and "plate_energies" not in html and len(html) < 5000
     png = sim._repr_png_()
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 10_000
+
+
+# -- hostile tiling meshes: every one refused by name, without a warning or a traceback -------------------
+
+HEX_MESH = {"patterns": {"pattern": "0x0488"}, "plates": {"thickness": 1.0}}
+
+
+def _mesh_spec(tmp_path: Path, kind: str, file: object) -> SpecError:
+    from fabpat.assembly.spec import parse_spec
+
+    with pytest.raises(SpecError) as e:
+        parse_spec({**HEX_MESH, "tiling": {"kind": kind, "file": file, "edge": 36.0}}, str(tmp_path / "s.toml"))
+    assert "\n" not in str(e.value)
+    return e.value
+
+
+@pytest.mark.parametrize("kind", ["mesh", "panel"])
+def test_an_off_file_of_only_its_keyword_is_broken_not_an_index_error(tmp_path: Path, kind: str) -> None:
+    (tmp_path / "only.off").write_text("OFF\n")
+    assert "only.off: broken OFF file" in str(_mesh_spec(tmp_path, kind, "only.off"))
+
+
+@pytest.mark.parametrize("kind", ["mesh", "panel"])
+def test_a_file_that_is_not_a_string_is_one_problem(tmp_path: Path, kind: str) -> None:
+    err = _mesh_spec(tmp_path, kind, 5)
+    assert str(err).endswith("tiling.file = 5 must be a string"), err  # not also "tiling.file is missing"
+
+
+@pytest.mark.parametrize("scale, words", [
+    (1e300, "has a coordinate of 1.5e+300: beyond 1e+100"),
+    (1e-300, "mean edge is 1e-300: below 1e-100"),
+])
+def test_non_representable_mesh_scales_are_refused_by_name_without_warnings(tmp_path: Path, scale: float,
+                                                                           words: str) -> None:
+    import warnings
+
+    tri = [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (0.5, 0.8660254037844386, 0.0), (1.5, 0.8660254037844386, 0.0)]
+    lines = [f"v {x * scale!r} {y * scale!r} {z!r}" for x, y, z in tri] + ["f 1 2 3", "f 2 4 3"]
+    (tmp_path / "m.obj").write_text("\n".join(lines) + "\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # numpy's overflow warnings came before the line
+        err = _mesh_spec(tmp_path, "mesh", "m.obj")
+    assert words in str(err) and "rescale the mesh" in str(err), err  # not "visits a vertex twice"
+
+
+def test_a_mesh_of_too_many_faces_is_refused_before_its_checks(tmp_path: Path) -> None:
+    import time
+
+    from fabpat.assembly.mesh_tiling import MAX_MESH_FACES, mesh_tiling, read_polygon_mesh
+
+    n = 40_000  # 40 000 tiny triangles (a scan): counted, not checked
+    (tmp_path / "scan.off").write_text(f"OFF\n{n + 2} {n} 0\n" + "0 0 0\n" * (n + 2)
+                                       + "".join(f"3 {i} {i + 1} {i + 2}\n" for i in range(n)))
+    start = time.perf_counter()
+    with pytest.raises(SpecError, match=f"has {n} faces, more than the {MAX_MESH_FACES} plates"):
+        read_polygon_mesh(tmp_path / "scan.off")
+    V = np.zeros((3, 3))
+    with pytest.raises(SpecError, match=f"has {MAX_MESH_FACES + 1} faces"):
+        mesh_tiling(V, ((0, 1, 2),) * (MAX_MESH_FACES + 1))
+    assert time.perf_counter() - start < 2.0
+
+
+V3 = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, 0.8660254037844386, 0.0]])
+
+
+@pytest.mark.parametrize("call, words", [
+    (lambda: read_polygon_mesh_(None),
+     "the tiling mesh must be a file name"),
+    (lambda: mesh_tiling_(None, ((0, 1, 2),)), "the vertices must be an (n, 3) array of finite numbers"),
+    (lambda: mesh_tiling_("abc", ((0, 1, 2),)), "the vertices must be an (n, 3) array"),
+    (lambda: mesh_tiling_(1.5, ((0, 1, 2),)), "the vertices must be an (n, 3) array"),
+    (lambda: mesh_tiling_(V3, None), "the faces must be a sequence of vertex loops, got NoneType"),
+    (lambda: mesh_tiling_(V3, "abc"), "the faces must be a sequence of vertex loops, got str"),
+    (lambda: mesh_tiling_(V3, (1.5,)), "face 1 must be a loop of vertex indices, got float"),
+    (lambda: mesh_tiling_(V3, ((0, 1.5, 2),)), "face 1 names vertex 1.5: a vertex index is an integer"),
+    (lambda: mesh_tiling_(V3, ((0, 1, 2.0),)), "face 1 names vertex 2.0: a vertex index is an integer"),
+    (lambda: mesh_tiling_(V3, ((0, 1, 2),), edge="abc"), "edge must be a finite number of mm (or None), got 'abc'"),
+    (lambda: mesh_tiling_(V3, ((0, 1, 2),), tolerance=float("nan")), "tolerance must be a finite number"),
+    (lambda: mesh_tiling_(V3, ((0, 1, 2),), fit=None), "fit = None: choose one of exact, best"),
+    (lambda: polyhedra_().goldberg(None, 0), "m must be an integer, got None"),
+    (lambda: polyhedra_().goldberg(2, "1"), "n must be an integer, got '1'"),
+    (lambda: polyhedra_().goldberg(1.5, 0), "m must be an integer, got 1.5"),
+    (lambda: polyhedra_().hex_tube(None, 2), "rows must be an integer, got None"),
+    (lambda: polyhedra_().hex_tube(3, 2.5), "columns must be an integer, got 2.5"),
+    (lambda: polyhedra_().hex_cap("2"), "rings must be an integer, got '2'"),
+    (lambda: polyhedra_().hex_cap(1.5), "rings must be an integer, got 1.5"),
+    (lambda: polyhedra_().hex_cap(1, None), "centre must be an integer, got None"),
+])
+def test_the_mesh_helpers_refuse_none_strings_and_floats_by_name(call, words: str) -> None:  # type: ignore[no-untyped-def]
+    with pytest.raises(SpecError) as e:
+        call()
+    assert words in str(e.value), e.value
+
+
+def mesh_tiling_(*args: object, **kw: object):  # type: ignore[no-untyped-def]
+    from fabpat.assembly.mesh_tiling import mesh_tiling
+
+    return mesh_tiling(*args, **kw)  # type: ignore[arg-type]
+
+
+def polyhedra_():  # type: ignore[no-untyped-def]
+    from fabpat.assembly import polyhedra
+
+    return polyhedra
+
+
+def read_polygon_mesh_(path: object):  # type: ignore[no-untyped-def]
+    from fabpat.assembly.mesh_tiling import read_polygon_mesh
+
+    return read_polygon_mesh(path)  # type: ignore[arg-type]
