@@ -28,11 +28,13 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import errno
+import io
 import os
 import re
 import secrets
 import shutil
 import stat
+import sys
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 
@@ -236,13 +238,80 @@ def _through_link(p: Path) -> Path:
 
 
 def write_error(target: str | os.PathLike[str], e: OSError) -> ExportError:
-    """One-line :class:`ExportError` for an ``OSError`` while writing ``target`` (names a full disk)."""
+    """One-line :class:`ExportError` for an ``OSError`` while writing ``target`` (names a full disk and
+    the file size limit)."""
     if e.errno in _DISK_FULL:
         t = Path(target)
         folder = t if t.is_dir() else t.parent if str(t.parent) else Path(".")
         return ExportError(f"cannot write {target}: the disk is full ({e.strerror or e}); free space in "
                            f"{folder} and run again")
+    if e.errno == errno.EFBIG:  # explained once (writer_failed may have said it already)
+        why = e.strerror if e.strerror and "ulimit -f" in e.strerror else _too_large(e.strerror)
+        return ExportError(f"cannot write {target}: {why}")
     return ExportError(f"cannot write {target}: {e.strerror or e}")
+
+
+def _file_size_limit() -> int | None:
+    """Bytes a file this process writes may hold (``ulimit -f``, RLIMIT_FSIZE), None if unlimited."""
+    try:
+        import resource
+
+        limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+    except (ImportError, OSError, ValueError):
+        return None
+    return None if limit == resource.RLIM_INFINITY else int(limit)
+
+
+def _too_large(strerror: str | None) -> str:
+    """The text of EFBIG: the file reached the process's file size limit (the shell's ``ulimit -f``)."""
+    limit = _file_size_limit()
+    cap = f" of {limit} bytes" if limit is not None else ""
+    return (f"{strerror or os.strerror(errno.EFBIG)}: it reached the file size limit{cap} (ulimit -f); raise "
+            "the limit or write elsewhere")
+
+
+#: errors of a write that say where the data went cannot take it (a full disk or device, the size limit)
+_NO_ROOM = (*_DISK_FULL, errno.EFBIG)
+
+
+def stdout_name() -> str:
+    """What standard output is, for a message: the file or device behind it (``/proc/self/fd/1``) or
+    ``standard output``."""
+    try:
+        return f"standard output ({os.readlink('/proc/self/fd/1')})"
+    except OSError:
+        return "standard output"
+
+
+def stdout_error(e: OSError) -> WriteFailed | None:
+    """The :class:`WriteFailed` naming standard output for ``e``, an ``OSError`` without a file name
+    that says the output has no room (a full disk or ``/dev/full``: ENOSPC; the file size limit: EFBIG),
+    which only a write to a stream raises once fabpat's own files name themselves; else None."""
+    if e.filename is not None or e.errno not in _NO_ROOM:
+        return None
+    why = _too_large(e.strerror) if e.errno == errno.EFBIG else e.strerror or os.strerror(e.errno or 0)
+    return WriteFailed(e.errno, why, stdout_name())
+
+
+def check_stdout() -> None:
+    """Flush standard output and raise :class:`WriteFailed` (naming it) if what was printed did not all
+    arrive: the flush fails (``/dev/full``), or the regular file behind it reached the file size limit.
+    Python's text layer drops the rest of a short write silently (``fabpat catalog --format csv >
+    out.csv`` under ``ulimit -f`` exited 0 with a cut file), so the size is checked too."""
+    stream = sys.stdout
+    if stream is None:
+        return
+    try:
+        stream.flush()
+    except OSError as e:
+        raise stdout_error(e) or e from None
+    try:
+        st = os.fstat(stream.fileno())
+    except (OSError, ValueError, AttributeError, io.UnsupportedOperation):
+        return  # not a file descriptor (a test's captured output)
+    limit = _file_size_limit()
+    if stat.S_ISREG(st.st_mode) and limit is not None and st.st_size >= limit:
+        raise WriteFailed(errno.EFBIG, _too_large(None), stdout_name())
 
 
 #: bytes: a folder with less free space than this after a failed write is called full (a failed writer's
@@ -256,10 +325,16 @@ def writer_failed(path: str | os.PathLike[str], what: str, cause: OSError | None
     With ``cause`` (the writer's own ``OSError``), its ``errno`` and text. Without (OCCT's STEP and STL
     writers and rhino3dm return a failure status, no ``errno``): ``ENOSPC`` if the file system of
     ``path`` has less than :data:`FULL_BELOW` bytes free for the user (``os.statvfs``), so the message
-    says "the disk is full" only when it is; otherwise ``EIO`` with ``what`` as its text.
+    says "the disk is full" only when it is; ``EFBIG`` if the partial file reached the process's file size
+    limit (``ulimit -f``); otherwise ``EIO`` with ``what`` as its text.
     """
     if cause is not None:
-        return WriteFailed(cause.errno, cause.strerror or what, os.fspath(path))
+        why = _too_large(cause.strerror) if cause.errno == errno.EFBIG else cause.strerror or what
+        return WriteFailed(cause.errno, why, os.fspath(path))
+    limit = _file_size_limit()
+    with contextlib.suppress(OSError):
+        if limit is not None and os.path.getsize(path) >= limit:  # the writer stopped at `ulimit -f`
+            return WriteFailed(errno.EFBIG, f"{what}: {_too_large(None)}", os.fspath(path))
     folder = os.path.dirname(os.fspath(path)) or "."
     try:
         st = os.statvfs(folder)
@@ -382,7 +457,7 @@ def atomic_outputs(*paths: str | os.PathLike[str]) -> Iterator[list[Path]]:
         except OSError as e:  # a writer's own OSError (a full disk): name the target, not the temp file
             by_temp = {os.fspath(x): t for x, t in zip(temps, targets, strict=True)}
             hit = by_temp.get(os.fspath(e.filename)) if isinstance(e.filename, str | os.PathLike) else None
-            if hit is None and e.errno in _DISK_FULL:
+            if hit is None and e.errno in _NO_ROOM:  # a write's error names no file: the target it was for
                 hit = targets[0] if len(targets) == 1 else (targets[0].parent if str(targets[0].parent) else Path("."))
             if hit is None:
                 raise
