@@ -202,3 +202,19 @@ def test_processes_racing_to_create_one_catalog_keep_every_row(tmp_path: Path) -
             p.join(60)
         assert [p.exitcode for p in procs] == [0] * len(procs)
         assert sorted(energies(db, "dome")) == sorted(ids)
+
+
+def test_a_refused_foreign_wal_database_gets_no_side_files(tmp_path: Path) -> None:
+    db = tmp_path / "foreign.sqlite"
+    conn = sqlite3.connect(db)
+    conn.execute("PRAGMA journal_mode=WAL")
+    conn.execute("CREATE TABLE t(x)")
+    conn.commit()
+    conn.close()  # the last connection: SQLite removes -wal and -shm, the file stays in WAL mode
+    before = db.read_bytes()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["foreign.sqlite"]
+    for write in (False, True):
+        with pytest.raises(CatalogError, match="is not a fabpat catalog"):
+            open_catalog(db, write=write)
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["foreign.sqlite"]  # no -shm, no -wal
+    assert db.read_bytes() == before
