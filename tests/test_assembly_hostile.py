@@ -230,6 +230,16 @@ def test_library_calls_raise_one_line_errors(strip_run, tmp_path: Path) -> None:
             sim.to_png("/dev/null")
 
 
+def test_a_strip_png_takes_no_field(strip_run, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    with pytest.raises(SpecError, match=r"png field must be one of energy, .*, got 'bogus'"):
+        strip_run.to_png(tmp_path / "s.png", "bogus")  # was drawn as the profile, the field ignored
+    with pytest.raises(SpecError, match=r"png field 'strain' colours a closed assembly's bent shape; a strip's PNG"):
+        strip_run.to_png(tmp_path / "s.png", "strain")
+    with pytest.raises(SpecError, match="got 5"):
+        strip_run.to_png(tmp_path / "s.png", 5)
+    assert list(tmp_path.iterdir()) == []
+
+
 # -- reprs ----------------------------------------------------------------------------------------------------
 
 

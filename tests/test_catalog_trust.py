@@ -44,6 +44,10 @@ def readers(db: Path, tmp: Path) -> dict[str, tuple[str, ...]]:
     ("energy", float("inf"), "energy = inf"), ("energy", -5.0, "energy = -5.0"), ("energy", "abc", "energy = 'abc'"),
     ("energy", 0.0, "energy = 0.0"), ("energy", None, "energy = NULL in a converged row"),
     ("max_displacement", float("-inf"), "max_displacement = -inf"), ("converged", "yes", "converged = 'yes'"),
+    # plausibility: finite, positive and still no result (listed as one before)
+    ("energy", 1e308, "energy = 1e+308 (implausible: the scenarios' fixed loads store at most 1e+06 N·mm"),
+    ("max_displacement", 1e300, "max_displacement = 1e+300 (implausible: a solve moves a plate at most 2 × its "
+                                "diameter, 144 mm)"),
 ])
 def test_a_poisoned_result_is_one_line_everywhere(tmp_path: Path, column: str, bad: object, shown: str) -> None:
     db = fake_catalog(tmp_path / "c.sqlite", {6: HEX})

@@ -44,10 +44,30 @@ def _finite(value: object) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
 
 
+#: N·mm: the largest energy a stored result may hold. The scenarios' loads are fixed (a 1.5 N force,
+#: moments of 50 and 100 N·mm per interface) and a solve moves at most twice the plate's diameter
+#: (fabpat.simulation.scenarios.check_plausible), so even 64 interfaces turning ten full turns under
+#: 100 N·mm store 64 × 100 × 20π ≈ 4e5 N·mm; the built-in catalog's largest is 1 206 N·mm (a family member)
+MAX_ENERGY = 1e6
+#: a stored displacement may be at most this many times the polygon's diameter (edge / sin(π/n)): the
+#: solver's own bound for a nonlinear solve (fabpat.simulation.scenarios.check_plausible)
+MAX_DISPLACEMENT_PER_DIAMETER = 2.0
+
+
+def _diameter(r: Mapping[str, object]) -> float | None:
+    """The diameter (mm) of the row's polygon, edge / sin(π/n), or None if its key is not sound."""
+    n, edge = r.get("sides"), r.get("edge")
+    if not (isinstance(n, int) and not isinstance(n, bool) and n >= 3 and _finite(edge) and edge > 0):  # type: ignore[operator]
+        return None
+    return float(edge) / math.sin(math.pi / n)  # type: ignore[arg-type]
+
+
 def result_problem(r: Mapping[str, object]) -> str | None:
     """What is wrong with a stored ``results`` row, or None: ``converged`` must be 0 or 1, ``energy``
-    (N·mm) a finite, positive number (present in a converged row), ``max_displacement`` (mm) finite
-    and ≥ 0, the numbers of :data:`RESULT_NUMBERS` finite. (SQLite stores a NaN as NULL.)"""
+    (N·mm) a finite, positive number (present in a converged row) up to :data:`MAX_ENERGY`,
+    ``max_displacement`` (mm) finite, ≥ 0 and at most :data:`MAX_DISPLACEMENT_PER_DIAMETER` × the polygon's
+    diameter (plausibility: an energy of 1e308 or a displacement of 1e300 mm was listed as a result), the
+    numbers of :data:`RESULT_NUMBERS` finite. (SQLite stores a NaN as NULL.)"""
     conv, e, d = r.get("converged"), r.get("energy"), r.get("max_displacement")
     if conv not in (0, 1):
         return f"converged = {conv!r} (must be 0 or 1)"
@@ -56,8 +76,15 @@ def result_problem(r: Mapping[str, object]) -> str | None:
             return "energy = NULL in a converged row (must be a finite, positive number of N·mm)"
     elif not (_finite(e) and e > 0):  # type: ignore[operator]
         return f"energy = {e!r} (must be a finite, positive number of N·mm)"
+    elif e > MAX_ENERGY:  # type: ignore[operator]
+        return (f"energy = {e!r} (implausible: the scenarios' fixed loads store at most {MAX_ENERGY:g} N·mm in any "
+                "plate)")
     if d is not None and not (_finite(d) and d >= 0):  # type: ignore[operator]
         return f"max_displacement = {d!r} (must be a finite number ≥ 0 of mm)"
+    size = _diameter(r)
+    if d is not None and size is not None and d > MAX_DISPLACEMENT_PER_DIAMETER * size:  # type: ignore[operator]
+        return (f"max_displacement = {d!r} (implausible: a solve moves a plate at most "
+                f"{MAX_DISPLACEMENT_PER_DIAMETER:g} × its diameter, {MAX_DISPLACEMENT_PER_DIAMETER * size:.4g} mm)")
     for c in RESULT_NUMBERS:
         v = r.get(c)
         if v is not None and not _finite(v):
