@@ -203,6 +203,25 @@ def test_memory_is_estimated_before_meshing(monkeypatch: pytest.MonkeyPatch) -> 
     assert 6.5 < need < 8.5  # ≈ 116 000 elements × 62 kB
 
 
+def test_memory_is_estimated_against_the_process_limit(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Under `ulimit -v 6000000` (RLIMIT_AS, 6 GB) the same strip died of a MemoryError traceback: free memory
+    was all the estimate knew."""
+    import resource
+
+    from fabpat.assembly import simulation, sizing
+
+    real = resource.getrlimit
+    monkeypatch.setattr(resource, "getrlimit", lambda which: (6_000_000_000, resource.RLIM_INFINITY)
+                        if which == resource.RLIMIT_AS else real(which))
+    room = sizing.available_memory()
+    assert room is not None and room < 6_000_000_000  # less what the process has mapped already
+    spec = parse({**STRIP, "tiling": {"kind": "honeycomb-strip", "edge": 36.0, "rows": 1, "columns": 1000},
+                  "patterns": {"pattern": "0x0488"}})
+    monkeypatch.setattr("fabpat.assembly.simulate.strip_setup", lambda *a, **k: pytest.fail("meshed"))
+    with pytest.raises(GeometryError, match=r"more than the [0-5]\.\d GB available to this process .*ulimit -v"):
+        simulation.simulate_assembly(spec, h=6.0)
+
+
 # -- library calls with the wrong types -----------------------------------------------------------------------
 
 

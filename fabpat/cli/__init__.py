@@ -168,6 +168,9 @@ class FabpatGroup(click.Group):
 
             named = stdout_error(e)  # no room, and no file named: the printed output (files name themselves)
             _fail(str(named) if named else f"{e.filename}: {e.strerror}" if e.filename and e.strerror else str(e))
+        except MemoryError:  # past every size estimate (they are estimates): still one line, not a traceback
+            _fail("out of memory: the work asked for more memory than this process may use (free memory, a "
+                  "container's or `ulimit -v` limit); use a coarser --h, a smaller input or a machine with more memory")
         except _Interrupted:
             _interrupted()
         except click.exceptions.Abort as e:
