@@ -28,13 +28,11 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import errno
-import io
 import os
 import re
 import secrets
 import shutil
 import stat
-import sys
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 
@@ -246,12 +244,12 @@ def write_error(target: str | os.PathLike[str], e: OSError) -> ExportError:
         return ExportError(f"cannot write {target}: the disk is full ({e.strerror or e}); free space in "
                            f"{folder} and run again")
     if e.errno == errno.EFBIG:  # explained once (writer_failed may have said it already)
-        why = e.strerror if e.strerror and "ulimit -f" in e.strerror else _too_large(e.strerror)
+        why = e.strerror if e.strerror and "ulimit -f" in e.strerror else too_large_text(e.strerror)
         return ExportError(f"cannot write {target}: {why}")
     return ExportError(f"cannot write {target}: {e.strerror or e}")
 
 
-def _file_size_limit() -> int | None:
+def file_size_limit() -> int | None:
     """Bytes a file this process writes may hold (``ulimit -f``, RLIMIT_FSIZE), None if unlimited."""
     try:
         import resource
@@ -262,56 +260,18 @@ def _file_size_limit() -> int | None:
     return None if limit == resource.RLIM_INFINITY else int(limit)
 
 
-def _too_large(strerror: str | None) -> str:
+#: errors of a write that say where the data went cannot take it (a full disk or device, the size limit)
+NO_ROOM = (*_DISK_FULL, errno.EFBIG)
+
+
+def too_large_text(strerror: str | None) -> str:
     """The text of EFBIG: the file reached the process's file size limit (the shell's ``ulimit -f``)."""
-    limit = _file_size_limit()
+    limit = file_size_limit()
     cap = f" of {limit} bytes" if limit is not None else ""
     return (f"{strerror or os.strerror(errno.EFBIG)}: it reached the file size limit{cap} (ulimit -f); raise "
             "the limit or write elsewhere")
 
 
-#: errors of a write that say where the data went cannot take it (a full disk or device, the size limit)
-_NO_ROOM = (*_DISK_FULL, errno.EFBIG)
-
-
-def stdout_name() -> str:
-    """What standard output is, for a message: the file or device behind it (``/proc/self/fd/1``) or
-    ``standard output``."""
-    try:
-        return f"standard output ({os.readlink('/proc/self/fd/1')})"
-    except OSError:
-        return "standard output"
-
-
-def stdout_error(e: OSError) -> WriteFailed | None:
-    """The :class:`WriteFailed` naming standard output for ``e``, an ``OSError`` without a file name
-    that says the output has no room (a full disk or ``/dev/full``: ENOSPC; the file size limit: EFBIG),
-    which only a write to a stream raises once fabpat's own files name themselves; else None."""
-    if e.filename is not None or e.errno not in _NO_ROOM:
-        return None
-    why = _too_large(e.strerror) if e.errno == errno.EFBIG else e.strerror or os.strerror(e.errno or 0)
-    return WriteFailed(e.errno, why, stdout_name())
-
-
-def check_stdout() -> None:
-    """Flush standard output and raise :class:`WriteFailed` (naming it) if what was printed did not all
-    arrive: the flush fails (``/dev/full``), or the regular file behind it reached the file size limit.
-    Python's text layer drops the rest of a short write silently (``fabpat catalog --format csv >
-    out.csv`` under ``ulimit -f`` exited 0 with a cut file), so the size is checked too."""
-    stream = sys.stdout
-    if stream is None:
-        return
-    try:
-        stream.flush()
-    except OSError as e:
-        raise stdout_error(e) or e from None
-    try:
-        st = os.fstat(stream.fileno())
-    except (OSError, ValueError, AttributeError, io.UnsupportedOperation):
-        return  # not a file descriptor (a test's captured output)
-    limit = _file_size_limit()
-    if stat.S_ISREG(st.st_mode) and limit is not None and st.st_size >= limit:
-        raise WriteFailed(errno.EFBIG, _too_large(None), stdout_name())
 
 
 #: bytes: a folder with less free space than this after a failed write is called full (a failed writer's
@@ -329,12 +289,12 @@ def writer_failed(path: str | os.PathLike[str], what: str, cause: OSError | None
     limit (``ulimit -f``); otherwise ``EIO`` with ``what`` as its text.
     """
     if cause is not None:
-        why = _too_large(cause.strerror) if cause.errno == errno.EFBIG else cause.strerror or what
+        why = too_large_text(cause.strerror) if cause.errno == errno.EFBIG else cause.strerror or what
         return WriteFailed(cause.errno, why, os.fspath(path))
-    limit = _file_size_limit()
+    limit = file_size_limit()
     with contextlib.suppress(OSError):
         if limit is not None and os.path.getsize(path) >= limit:  # the writer stopped at `ulimit -f`
-            return WriteFailed(errno.EFBIG, f"{what}: {_too_large(None)}", os.fspath(path))
+            return WriteFailed(errno.EFBIG, f"{what}: {too_large_text(None)}", os.fspath(path))
     folder = os.path.dirname(os.fspath(path)) or "."
     try:
         st = os.statvfs(folder)
@@ -457,7 +417,7 @@ def atomic_outputs(*paths: str | os.PathLike[str]) -> Iterator[list[Path]]:
         except OSError as e:  # a writer's own OSError (a full disk): name the target, not the temp file
             by_temp = {os.fspath(x): t for x, t in zip(temps, targets, strict=True)}
             hit = by_temp.get(os.fspath(e.filename)) if isinstance(e.filename, str | os.PathLike) else None
-            if hit is None and e.errno in _NO_ROOM:  # a write's error names no file: the target it was for
+            if hit is None and e.errno in NO_ROOM:  # a write's error names no file: the target it was for
                 hit = targets[0] if len(targets) == 1 else (targets[0].parent if str(targets[0].parent) else Path("."))
             if hit is None:
                 raise

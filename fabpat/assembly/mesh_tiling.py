@@ -146,8 +146,8 @@ def check_scale(V: NDArray[np.float64], faces: Faces, source: str) -> None:
     big = float(np.abs(V[used]).max())
     if big > MAX_COORDINATE:
         raise SpecError(f"{source}: the tiling mesh has a coordinate of {big:.3g}: beyond {MAX_COORDINATE:g} (in any "
-                        "unit) its lengths, areas and volumes do not fit in floating point; rescale the mesh (tiling.edge "
-                        "sets the plate edge whatever the file's unit)")
+                        "unit) its lengths, areas and volumes do not fit in floating point; rescale the mesh "
+                        "(tiling.edge sets the plate edge whatever the file's unit)")
     loops = [[int(i) for i in f] for f in faces if len(f) >= 2 and all(isinstance(i, int | np.integer)
                                                                        and 0 <= i < len(V) for i in f)]
     if not loops:
@@ -158,8 +158,8 @@ def check_scale(V: NDArray[np.float64], faces: Faces, source: str) -> None:
     mean = float((np.linalg.norm(d / top, axis=1) * top).mean()) if top > 0 else 0.0
     if 0.0 < mean < MIN_MEAN_EDGE:
         raise SpecError(f"{source}: the tiling mesh's mean edge is {mean:.3g}: below {MIN_MEAN_EDGE:g} (in any unit) "
-                        "its lengths, areas and volumes do not fit in floating point; rescale the mesh (tiling.edge sets "
-                        "the plate edge whatever the file's unit)")
+                        "its lengths, areas and volumes do not fit in floating point; rescale the mesh "
+                        "(tiling.edge sets the plate edge whatever the file's unit)")
     if 0.0 < mean < FLOAT_RESOLUTION * big:
         raise SpecError(f"{source}: the tiling mesh's mean edge is {mean:.3g} but it lies {big:.3g} from the origin: "
                         f"floating point does not resolve edges under {FLOAT_RESOLUTION:g} × that; move the mesh "

@@ -125,7 +125,8 @@ def catalog(path: str | Path | None = None, *, sides: int | None = 6, where: Seq
     :func:`~fabpat.catalog.rows.specific_stiffness`).
 
     ``sides``: the polygon (default 6, the hexagon; None: every polygon, whose energies do not compare), a
-    whole number in [3, 64]; other set-up keys filter too (finite numbers). ``where``: filters ``"FIELD OP NUMBER"`` that all hold (``OP`` one of
+    whole number in [3, 64]; other set-up keys filter too (finite numbers). ``where``: filters
+    ``"FIELD OP NUMBER"`` that all hold (``OP`` one of
     ``< <= > >= = !=``), ``sort``: ``"FIELD"`` ascending or ``"-FIELD"`` descending, ``top``: keep the
     first N (:func:`~fabpat.catalog.rows.find_rows`; ``sort="id"`` orders by pattern ID). The stiffest
     patterns per gram in the Dome scenario: ``fabpat.catalog(sort="-specific_stiffness_dome", top=5)``.
@@ -155,7 +156,7 @@ def catalog(path: str | Path | None = None, *, sides: int | None = 6, where: Seq
             raise CatalogError(no_match_message(cat, setup))
         fields = cat.number_columns()
         found = find_rows(rows, fields, where=where, sort=sort, top=top)
-        if rows and not found:  # as an empty polygon or set-up above: never an empty answer mistaken for an empty catalog
+        if rows and not found:  # as for a polygon or set-up above: no empty answer taken for an empty catalog
             raise CatalogError(no_filter_match_message(rows, fields, where))
         return CatalogRows(found, source=cat.path.name)
 

@@ -251,7 +251,8 @@ def find_rows(rows: Iterable[dict[str, object]], fields: Sequence[str], *, where
         name, descending = order
         key: Callable[[dict[str, object]], Any] = (lambda r: str(r[name])) if name == TEXT_SORT else (
             lambda r: float(r[name]))  # type: ignore[arg-type]
-        valued = sorted((r for r in out if r.get(name) is not None), key=key, reverse=descending)  # stable: ties keep the rows' order either way
+        # stable: ties keep the rows' order either way
+        valued = sorted((r for r in out if r.get(name) is not None), key=key, reverse=descending)
         out = valued + [r for r in out if r.get(name) is None]
     return out if top is None else out[:top]
 

@@ -151,7 +151,7 @@ class FabpatGroup(click.Group):
             _NOTICES.clear()
             with _sigterm_unwinds(), input_scope():  # no output of the command may replace its inputs
                 rv = super().main(*args, **kwargs)
-            from fabpat.io import check_stdout
+            from fabpat.stdout import check_stdout
 
             check_stdout()  # what was printed all arrived (a full disk, /dev/full, `ulimit -f`): else one line
             for note in _NOTICES:
@@ -164,7 +164,7 @@ class FabpatGroup(click.Group):
         except FabpatError as e:
             _fail(str(e))
         except OSError as e:  # a file system refusal no check foresaw: still one line, not a traceback
-            from fabpat.io import stdout_error
+            from fabpat.stdout import stdout_error
 
             named = stdout_error(e)  # no room, and no file named: the printed output (files name themselves)
             _fail(str(named) if named else f"{e.filename}: {e.strerror}" if e.filename and e.strerror else str(e))
