@@ -43,6 +43,7 @@ from __future__ import annotations
 import math
 import numbers
 import os
+import re
 import stat
 from collections.abc import Sequence
 from pathlib import Path
@@ -188,6 +189,7 @@ def _read_obj(p: Path) -> tuple[NDArray[np.float64], Faces]:
     verts: list[tuple[float, float, float]] = []
     faces: list[tuple[int, ...]] = []
     text = p.read_text(encoding="utf-8-sig", errors="replace")
+    check_face_count(len(re.findall(r"^[ \t]*f\s", text, re.MULTILINE)), str(p))  # counted before they are read
     for number, line in enumerate(text.splitlines(), 1):
         words = line.split("#", 1)[0].split()
         if not words:

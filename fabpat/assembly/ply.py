@@ -176,6 +176,9 @@ def read_ply(p: Path) -> tuple[NDArray[np.float64], Faces]:
     data = p.read_bytes()
     fmt, elements, start = _header(p, data)
     _check_elements(p, elements)
+    from fabpat.assembly.mesh_tiling import check_face_count
+
+    check_face_count(next(count for name, count, _ in elements if name == "face"), str(p))  # before reading them
     body = data[start:]
     rows = _rows(p, _Words(body) if fmt == "ascii" else _Bytes(body, FORMATS[fmt]), elements)
     props = {name: [q[0] for q in ps] for name, _, ps in elements}
