@@ -126,10 +126,10 @@ def catalog(path: str | Path | None = None, *, sides: int | None = 6, where: Seq
 
     ``sides``: the polygon (default 6, the hexagon; None: every polygon, whose energies do not compare), a
     whole number in [3, 64]; other set-up keys filter too (finite numbers). ``where``: filters
-    ``"FIELD OP NUMBER"`` that all hold (``OP`` one of
-    ``< <= > >= = !=``), ``sort``: ``"FIELD"`` ascending or ``"-FIELD"`` descending, ``top``: keep the
-    first N (:func:`~fabpat.catalog.rows.find_rows`; ``sort="id"`` orders by pattern ID). The stiffest
-    patterns per gram in the Dome scenario: ``fabpat.catalog(sort="-specific_stiffness_dome", top=5)``.
+    ``"FIELD OP NUMBER"`` that all hold (``OP`` one of ``< <= > >= = !=``), ``sort``: ``"FIELD"``
+    ascending or ``"-FIELD"`` descending, ``top``: keep the first N (:func:`~fabpat.catalog.rows.find_rows`;
+    ``sort="id"`` orders by pattern ID). The stiffest patterns per gram in the Dome scenario:
+    ``fabpat.catalog(sort="-specific_stiffness_dome", top=5)``.
     Raises :class:`CatalogError` for a bad argument, and rather than return no rows: a polygon the catalog
     lacks names the ``fabpat sweep`` command that adds it, a set-up it lacks the set-ups it holds, filters
     that keep no row the filter and its field's range (:func:`no_filter_match_message`).
