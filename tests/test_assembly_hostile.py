@@ -341,7 +341,7 @@ def test_a_mesh_of_too_many_faces_is_refused_before_its_checks(tmp_path: Path, s
         read_polygon_mesh(path)  # counted from the header or the face lines, before they are read
     with pytest.raises(SpecError, match=f"has {MAX_MESH_FACES + 1} faces"):
         mesh_tiling(np.zeros((3, 3)), ((0, 1, 2),) * (MAX_MESH_FACES + 1))
-    assert time.perf_counter() - start < 1.0
+    assert time.perf_counter() - start < 2.0  # 0.001–0.2 s idle; the checks of 160 000 faces took minutes
 
 
 V3 = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, 0.8660254037844386, 0.0]])

@@ -160,7 +160,7 @@ def test_sort_by_id_both_ways(db: Path) -> None:
 
 
 def test_a_bad_sort_is_one_short_line_naming_the_columns_compactly(db: Path) -> None:
-    # every column spelt out made a message of ~620 characters, wrapped over lines in a terminal
+    # every column spelt out made a message of 482 characters, wrapped over lines in a terminal
     err = one_line_error(("catalog", "--db", str(db), "--sort=RANDOM()"), "cannot sort by 'RANDOM()'", "id, sides",
                          "min_width", "energy_S, max_displacement_S, specific_stiffness_S (S: cylinder, dome)")
     assert len(err) < 350, len(err)

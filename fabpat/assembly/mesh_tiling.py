@@ -110,7 +110,10 @@ def read_polygon_mesh(path: str | os.PathLike[str]) -> tuple[NDArray[np.float64]
         raise SpecError(f"{p}: the tiling mesh is {st.st_size} bytes, more than {MAX_MESH_BYTES}: not a tiling")
     from fabpat.assembly.ply import read_ply
 
-    readers = {".off": _read_off, ".obj": _read_obj, ".ply": read_ply}
+    def ply(q: Path) -> tuple[NDArray[np.float64], Faces]:  # the face count of its header checked first
+        return read_ply(q, lambda count: check_face_count(count, str(q)))
+
+    readers = {".off": _read_off, ".obj": _read_obj, ".ply": ply}
     try:
         V, faces = readers[suffix](p)
     except SpecError:
@@ -208,17 +211,18 @@ def _read_obj(p: Path) -> tuple[NDArray[np.float64], Faces]:
 def _read_off(p: Path) -> tuple[NDArray[np.float64], Faces]:
     """OFF (Geomview): "OFF", then "nv nf ne", nv lines "x y z", nf lines "k i1 … ik" (0-based; '#'
     comments). Colour values after a face's indices are ignored."""
-    words = [ln.split("#", 1)[0].split() for ln in p.read_text(encoding="utf-8-sig", errors="replace").splitlines()]
-    lines = [w for w in words if w]
-    if not lines or not lines[0][0].upper().endswith("OFF"):
+    rows = (w for w in (ln.split("#", 1)[0].split() for ln in
+                        p.read_text(encoding="utf-8-sig", errors="replace").splitlines()) if w)
+    first = next(rows, None)
+    if first is None or not first[0].upper().endswith("OFF"):
         raise SpecError(f"{p}: not an OFF file (its first line must be OFF)")
     try:  # a file of only "OFF" has no counts line: broken, as a short one
-        head = lines[0][1:] or lines[1]
-        body = lines[1:] if lines[0][1:] else lines[2:]
+        head = first[1:] or next(rows, [])  # counts on the OFF line itself, or on the next
         nv, nf = int(head[0]), int(head[1])
         if nv < 0 or nf < 0:
             raise ValueError
-        check_face_count(nf, str(p))  # before reading them: the count stands in the header
+        check_face_count(nf, str(p))  # before the other lines are split: the count stands in the header
+        body = list(rows)
         V = np.array([[float(x) for x in body[i][:3]] for i in range(nv)])
         faces = tuple(tuple(int(x) for x in body[nv + j][1:1 + int(body[nv + j][0])]) for j in range(nf))
         if any(len(f) != int(body[nv + j][0]) for j, f in enumerate(faces)):
