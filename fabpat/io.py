@@ -236,13 +236,42 @@ def _through_link(p: Path) -> Path:
 
 
 def write_error(target: str | os.PathLike[str], e: OSError) -> ExportError:
-    """One-line :class:`ExportError` for an ``OSError`` while writing ``target`` (names a full disk)."""
+    """One-line :class:`ExportError` for an ``OSError`` while writing ``target`` (names a full disk and
+    the file size limit)."""
     if e.errno in _DISK_FULL:
         t = Path(target)
         folder = t if t.is_dir() else t.parent if str(t.parent) else Path(".")
         return ExportError(f"cannot write {target}: the disk is full ({e.strerror or e}); free space in "
                            f"{folder} and run again")
+    if e.errno == errno.EFBIG:  # explained once (writer_failed may have said it already)
+        why = e.strerror if e.strerror and "ulimit -f" in e.strerror else too_large_text(e.strerror)
+        return ExportError(f"cannot write {target}: {why}")
     return ExportError(f"cannot write {target}: {e.strerror or e}")
+
+
+def file_size_limit() -> int | None:
+    """Bytes a file this process writes may hold (``ulimit -f``, RLIMIT_FSIZE), None if unlimited."""
+    try:
+        import resource
+
+        limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+    except (ImportError, OSError, ValueError):
+        return None
+    return None if limit == resource.RLIM_INFINITY else int(limit)
+
+
+#: errors of a write that say where the data went cannot take it (a full disk or device, the size limit)
+NO_ROOM = (*_DISK_FULL, errno.EFBIG)
+
+
+def too_large_text(strerror: str | None) -> str:
+    """The text of EFBIG: the file reached the process's file size limit (the shell's ``ulimit -f``)."""
+    limit = file_size_limit()
+    cap = f" of {limit} bytes" if limit is not None else ""
+    return (f"{strerror or os.strerror(errno.EFBIG)}: it reached the file size limit{cap} (ulimit -f); raise "
+            "the limit or write elsewhere")
+
+
 
 
 #: bytes: a folder with less free space than this after a failed write is called full (a failed writer's
@@ -256,10 +285,16 @@ def writer_failed(path: str | os.PathLike[str], what: str, cause: OSError | None
     With ``cause`` (the writer's own ``OSError``), its ``errno`` and text. Without (OCCT's STEP and STL
     writers and rhino3dm return a failure status, no ``errno``): ``ENOSPC`` if the file system of
     ``path`` has less than :data:`FULL_BELOW` bytes free for the user (``os.statvfs``), so the message
-    says "the disk is full" only when it is; otherwise ``EIO`` with ``what`` as its text.
+    says "the disk is full" only when it is; ``EFBIG`` if the partial file reached the process's file size
+    limit (``ulimit -f``); otherwise ``EIO`` with ``what`` as its text.
     """
     if cause is not None:
-        return WriteFailed(cause.errno, cause.strerror or what, os.fspath(path))
+        why = too_large_text(cause.strerror) if cause.errno == errno.EFBIG else cause.strerror or what
+        return WriteFailed(cause.errno, why, os.fspath(path))
+    limit = file_size_limit()
+    with contextlib.suppress(OSError):
+        if limit is not None and os.path.getsize(path) >= limit:  # the writer stopped at `ulimit -f`
+            return WriteFailed(errno.EFBIG, f"{what}: {too_large_text(None)}", os.fspath(path))
     folder = os.path.dirname(os.fspath(path)) or "."
     try:
         st = os.statvfs(folder)
@@ -382,7 +417,7 @@ def atomic_outputs(*paths: str | os.PathLike[str]) -> Iterator[list[Path]]:
         except OSError as e:  # a writer's own OSError (a full disk): name the target, not the temp file
             by_temp = {os.fspath(x): t for x, t in zip(temps, targets, strict=True)}
             hit = by_temp.get(os.fspath(e.filename)) if isinstance(e.filename, str | os.PathLike) else None
-            if hit is None and e.errno in _DISK_FULL:
+            if hit is None and e.errno in NO_ROOM:  # a write's error names no file: the target it was for
                 hit = targets[0] if len(targets) == 1 else (targets[0].parent if str(targets[0].parent) else Path("."))
             if hit is None:
                 raise

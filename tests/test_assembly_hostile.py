@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 from xml.etree import ElementTree
 
+import numpy as np
 import pytest
 
 from fabpat.errors import ExportError, GeometryError, SolverError, SpecError
@@ -202,6 +203,25 @@ def test_memory_is_estimated_before_meshing(monkeypatch: pytest.MonkeyPatch) -> 
     assert 6.5 < need < 8.5  # ≈ 116 000 elements × 62 kB
 
 
+def test_memory_is_estimated_against_the_process_limit(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Under `ulimit -v 6000000` (RLIMIT_AS, 6 GB) the same strip died of a MemoryError traceback: free memory
+    was all the estimate knew."""
+    import resource
+
+    from fabpat.assembly import simulation, sizing
+
+    real = resource.getrlimit
+    monkeypatch.setattr(resource, "getrlimit", lambda which: (6_000_000_000, resource.RLIM_INFINITY)
+                        if which == resource.RLIMIT_AS else real(which))
+    room = sizing.available_memory()
+    assert room is not None and room < 6_000_000_000  # less what the process has mapped already
+    spec = parse({**STRIP, "tiling": {"kind": "honeycomb-strip", "edge": 36.0, "rows": 1, "columns": 1000},
+                  "patterns": {"pattern": "0x0488"}})
+    monkeypatch.setattr("fabpat.assembly.simulate.strip_setup", lambda *a, **k: pytest.fail("meshed"))
+    with pytest.raises(GeometryError, match=r"more than the [0-5]\.\d GB available to this process .*ulimit -v"):
+        simulation.simulate_assembly(spec, h=6.0)
+
+
 # -- library calls with the wrong types -----------------------------------------------------------------------
 
 
@@ -229,6 +249,16 @@ def test_library_calls_raise_one_line_errors(strip_run, tmp_path: Path) -> None:
             sim.to_png("/dev/null")
 
 
+def test_a_strip_png_takes_no_field(strip_run, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    with pytest.raises(SpecError, match=r"png field must be one of energy, .*, got 'bogus'"):
+        strip_run.to_png(tmp_path / "s.png", "bogus")  # was drawn as the profile, the field ignored
+    with pytest.raises(SpecError, match=r"png field 'strain' colours a closed assembly's bent shape; a strip's PNG"):
+        strip_run.to_png(tmp_path / "s.png", "strain")
+    with pytest.raises(SpecError, match="got 5"):
+        strip_run.to_png(tmp_path / "s.png", 5)
+    assert list(tmp_path.iterdir()) == []
+
+
 # -- reprs ----------------------------------------------------------------------------------------------------
 
 
@@ -243,3 +273,122 @@ def test_a_simulation_reprs_in_one_short_line(strip_run) -> None:  # type: ignor
     assert "<table>" in html and "peak_strain" in html and "plate_energies" not in html and len(html) < 5000
     png = sim._repr_png_()
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 10_000
+
+
+# -- hostile tiling meshes: every one refused by name, without a warning or a traceback -------------------
+
+HEX_MESH = {"patterns": {"pattern": "0x0488"}, "plates": {"thickness": 1.0}}
+
+
+def _mesh_spec(tmp_path: Path, kind: str, file: object) -> SpecError:
+    from fabpat.assembly.spec import parse_spec
+
+    with pytest.raises(SpecError) as e:
+        parse_spec({**HEX_MESH, "tiling": {"kind": kind, "file": file, "edge": 36.0}}, str(tmp_path / "s.toml"))
+    assert "\n" not in str(e.value)
+    return e.value
+
+
+@pytest.mark.parametrize("kind", ["mesh", "panel"])
+def test_an_off_file_of_only_its_keyword_is_broken_not_an_index_error(tmp_path: Path, kind: str) -> None:
+    (tmp_path / "only.off").write_text("OFF\n")
+    assert "only.off: broken OFF file" in str(_mesh_spec(tmp_path, kind, "only.off"))
+
+
+@pytest.mark.parametrize("kind", ["mesh", "panel"])
+def test_a_file_that_is_not_a_string_is_one_problem(tmp_path: Path, kind: str) -> None:
+    err = _mesh_spec(tmp_path, kind, 5)
+    assert str(err).endswith("tiling.file = 5 must be a string"), err  # not also "tiling.file is missing"
+
+
+@pytest.mark.parametrize("scale, words", [
+    (1e300, "has a coordinate of 1.5e+300: beyond 1e+100"),
+    (1e-300, "mean edge is 1e-300: below 1e-100"),
+])
+def test_non_representable_mesh_scales_are_refused_by_name_without_warnings(tmp_path: Path, scale: float,
+                                                                           words: str) -> None:
+    import warnings
+
+    tri = [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (0.5, 0.8660254037844386, 0.0), (1.5, 0.8660254037844386, 0.0)]
+    lines = [f"v {x * scale!r} {y * scale!r} {z!r}" for x, y, z in tri] + ["f 1 2 3", "f 2 4 3"]
+    (tmp_path / "m.obj").write_text("\n".join(lines) + "\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # numpy's overflow warnings came before the line
+        err = _mesh_spec(tmp_path, "mesh", "m.obj")
+    assert words in str(err) and "rescale the mesh" in str(err), err  # not "visits a vertex twice"
+
+
+SCAN = 160_000  # faces of a scan: a mesh of this many was still in its checks after 300 s
+SCANS = {
+    "off": f"OFF\n3 {SCAN} 0\n0 0 0\n1 0 0\n0 1 0\n" + "3 0 1 2\n" * SCAN,
+    "obj": "v 0 0 0\nv 1 0 0\nv 0 1 0\n" + "f 1 2 3\n" * SCAN,
+    "ply": ("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+            f"element face {SCAN}\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n"
+            + "3 0 1 2\n" * SCAN),
+}
+
+
+@pytest.mark.parametrize("suffix", sorted(SCANS))
+def test_a_mesh_of_too_many_faces_is_refused_before_its_checks(tmp_path: Path, suffix: str) -> None:
+    import time
+
+    from fabpat.assembly.mesh_tiling import MAX_MESH_FACES, mesh_tiling, read_polygon_mesh
+
+    path = tmp_path / f"scan.{suffix}"
+    path.write_text(SCANS[suffix])
+    start = time.perf_counter()
+    with pytest.raises(SpecError, match=f"has {SCAN} faces, more than the {MAX_MESH_FACES} plates"):
+        read_polygon_mesh(path)  # counted from the header or the face lines, before they are read
+    with pytest.raises(SpecError, match=f"has {MAX_MESH_FACES + 1} faces"):
+        mesh_tiling(np.zeros((3, 3)), ((0, 1, 2),) * (MAX_MESH_FACES + 1))
+    assert time.perf_counter() - start < 2.0  # 0.001–0.2 s idle; the checks of 160 000 faces took minutes
+
+
+V3 = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, 0.8660254037844386, 0.0]])
+
+
+@pytest.mark.parametrize("call, words", [
+    (lambda: read_polygon_mesh_(None),
+     "the tiling mesh must be a file name"),
+    (lambda: mesh_tiling_(None, ((0, 1, 2),)), "the vertices must be an (n, 3) array of finite numbers"),
+    (lambda: mesh_tiling_("abc", ((0, 1, 2),)), "the vertices must be an (n, 3) array"),
+    (lambda: mesh_tiling_(1.5, ((0, 1, 2),)), "the vertices must be an (n, 3) array"),
+    (lambda: mesh_tiling_(V3, None), "the faces must be a sequence of vertex loops, got NoneType"),
+    (lambda: mesh_tiling_(V3, "abc"), "the faces must be a sequence of vertex loops, got str"),
+    (lambda: mesh_tiling_(V3, (1.5,)), "face 1 must be a loop of vertex indices, got float"),
+    (lambda: mesh_tiling_(V3, ((0, 1.5, 2),)), "face 1 names vertex 1.5: a vertex index is an integer"),
+    (lambda: mesh_tiling_(V3, ((0, 1, 2.0),)), "face 1 names vertex 2.0: a vertex index is an integer"),
+    (lambda: mesh_tiling_(V3, ((0, 1, 2),), edge="abc"), "edge must be a finite number of mm (or None), got 'abc'"),
+    (lambda: mesh_tiling_(V3, ((0, 1, 2),), tolerance=float("nan")), "tolerance must be a finite number"),
+    (lambda: mesh_tiling_(V3, ((0, 1, 2),), fit=None), "fit = None: choose one of exact, best"),
+    (lambda: polyhedra_().goldberg(None, 0), "m must be an integer, got None"),
+    (lambda: polyhedra_().goldberg(2, "1"), "n must be an integer, got '1'"),
+    (lambda: polyhedra_().goldberg(1.5, 0), "m must be an integer, got 1.5"),
+    (lambda: polyhedra_().hex_tube(None, 2), "rows must be an integer, got None"),
+    (lambda: polyhedra_().hex_tube(3, 2.5), "columns must be an integer, got 2.5"),
+    (lambda: polyhedra_().hex_cap("2"), "rings must be an integer, got '2'"),
+    (lambda: polyhedra_().hex_cap(1.5), "rings must be an integer, got 1.5"),
+    (lambda: polyhedra_().hex_cap(1, None), "centre must be an integer, got None"),
+])
+def test_the_mesh_helpers_refuse_none_strings_and_floats_by_name(call, words: str) -> None:  # type: ignore[no-untyped-def]
+    with pytest.raises(SpecError) as e:
+        call()
+    assert words in str(e.value), e.value
+
+
+def mesh_tiling_(*args: object, **kw: object):  # type: ignore[no-untyped-def]
+    from fabpat.assembly.mesh_tiling import mesh_tiling
+
+    return mesh_tiling(*args, **kw)  # type: ignore[arg-type]
+
+
+def polyhedra_():  # type: ignore[no-untyped-def]
+    from fabpat.assembly import polyhedra
+
+    return polyhedra
+
+
+def read_polygon_mesh_(path: object):  # type: ignore[no-untyped-def]
+    from fabpat.assembly.mesh_tiling import read_polygon_mesh
+
+    return read_polygon_mesh(path)  # type: ignore[arg-type]

@@ -124,9 +124,9 @@ def test_rows_without_a_value_sort_last_and_fail_every_filter() -> None:
 
 
 @pytest.mark.parametrize("option, text, words", [
-    ("--where", "energy_dom<300", ["unknown field 'energy_dom'", "energy_dome", "specific_stiffness_dome",
-                                   "filleted_area"]),
-    ("--where", "id=0x0488", ["unknown field 'id'", "energy_dome"]),
+    ("--where", "energy_dom<300", ["unknown field 'energy_dom'", "energy_S", "specific_stiffness_S",
+                                   "(S: cylinder, dome)", "filleted_area"]),
+    ("--where", "id=0x0488", ["unknown field 'id'", "energy_S"]),
     ("--where", "svg_path<1", ["unknown field 'svg_path'"]),
     ("--where", "energy_dome==300", ["unknown operator '=='", "< <= > >= = !="]),
     ("--where", "energy_dome~300", ["unknown operator '~'", "< <= > >= = !="]),
@@ -136,8 +136,9 @@ def test_rows_without_a_value_sort_last_and_fail_every_filter() -> None:
     ("--where", "energy_dome<1; DROP TABLE results", ["is not a finite number"]),
     ("--where", "energy_dome<1_000", ["'1_000' is not a finite number in plain decimal notation"]),
     ("--where", "energy_dome<\uff13\uff10\uff10", ["is not a finite number in plain decimal notation"]),
-    ("--sort", "colour", ["cannot sort by 'colour'", "energy_dome", "-FIELD descending"]),
-    ("--sort", "-id", ["cannot sort by 'id'"]),
+    ("--sort", "colour", ["cannot sort by 'colour'", "energy_S", "-FIELD descending"]),
+    ("--sort", "energy_dome ", ["cannot sort by 'energy_dome '", "no spaces around the name"]),
+    ("--sort", " -energy_dome", ["cannot sort by ' -energy_dome'", "no spaces around the name"]),
     ("--top", "0", ["--top", "[1, 1000000]"]),
     ("--top", "x", ["--top", "not an integer"]),
 ])
@@ -148,6 +149,60 @@ def test_bad_finding_options_are_one_line(db: Path, option: str, text: str, word
     with sqlite3.connect(db) as c:
         assert c.execute("SELECT COUNT(*) FROM results").fetchone()[0] == 12
     c.close()
+
+
+def test_sort_by_id_both_ways(db: Path) -> None:
+    args = ("--db", str(db), "--sort")
+    assert [r["id"] for r in json_rows(*args, "id")] == ["0x0488", "0x0508", "0x0588", "0x0688"]
+    assert [r["id"] for r in json_rows(*args, "-id", "--top", "2")] == ["0x0688", "0x0588"]
+    assert "0x0688" in invoke("catalog", *args, "-id").stdout  # the table shows it too
+    assert [r["id"] for r in fabpat.catalog(db, sort="-id")] == ["0x0688", "0x0588", "0x0508", "0x0488"]
+
+
+def test_a_bad_sort_is_one_short_line_naming_the_columns_compactly(db: Path) -> None:
+    # every column spelt out made a message of 482 characters, wrapped over lines in a terminal
+    err = one_line_error(("catalog", "--db", str(db), "--sort=RANDOM()"), "cannot sort by 'RANDOM()'", "id, sides",
+                         "min_width", "energy_S, max_displacement_S, specific_stiffness_S (S: cylinder, dome)")
+    assert len(err) < 350, len(err)
+    long = one_line_error(("catalog", "--db", str(db), "--long", "--sort", "x" * 5000), "cannot sort by")
+    assert len(long) < 400, len(long)
+
+
+def test_filters_that_keep_no_row_raise_naming_the_filter(db: Path) -> None:
+    # the docs list "a filter that matches nothing" under CatalogError: never an empty list
+    with pytest.raises(CatalogError, match=r"no pattern meets the filter 'energy_dome<50': energy_dome spans 100 "
+                                           r"… 400 over the 4 patterns"):
+        fabpat.catalog(db, where="energy_dome<50")
+    with pytest.raises(CatalogError, match=r"all the filters 'energy_dome<150' and 'energy_cylinder<30' together"):
+        fabpat.catalog(db, where=["energy_dome<150", "energy_cylinder<30"])
+    assert [r["id"] for r in fabpat.catalog(db, where=["energy_dome<150"])] == ["0x0588"]
+    assert json_rows("--db", str(db), "--where", "energy_dome<50") == []  # the command: an empty table or CSV
+
+
+@pytest.mark.parametrize("kwargs, words", [
+    ({"sides": float("nan")}, "sides must be a finite number, got nan"),
+    ({"sides": float("inf")}, "sides must be a finite number"),
+    ({"sides": 6.5}, "sides must be an integer in [3, 64], got 6.5"),
+    ({"sides": 2}, "sides = 2 is out of range"),
+    ({"edge": float("nan")}, "edge must be a finite number"),
+    ({"where": 5}, "where must be a filter 'FIELD OP NUMBER' or a list of them, got 5"),
+    ({"where": None}, "where must be a filter"),
+])
+def test_hostile_catalog_arguments_are_catalog_errors(db: Path, kwargs: dict, words: str) -> None:
+    with pytest.raises(CatalogError) as err:
+        fabpat.catalog(db, **kwargs)
+    assert words in str(err.value) and "\n" not in str(err.value)
+    assert len(fabpat.catalog(db, sides=6.0)) == 4  # a whole float is still the polygon
+
+
+def test_match_energy_refuses_a_string_by_name(db: Path) -> None:
+    from fabpat.catalog.family import match_energy
+
+    for bad in ("x", None, float("nan"), -1.0, True):
+        with pytest.raises(CatalogError, match="energy must be a positive number of N·mm"):
+            match_energy("dome", bad, db=db)  # type: ignore[arg-type]
+    with pytest.raises(CatalogError, match="min_width must be a finite number"):
+        match_energy("dome", 100.0, db=db, min_width="wide")  # type: ignore[arg-type]
 
 
 def test_api_finding_errors_are_catalog_errors(db: Path) -> None:

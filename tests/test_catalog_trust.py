@@ -44,6 +44,10 @@ def readers(db: Path, tmp: Path) -> dict[str, tuple[str, ...]]:
     ("energy", float("inf"), "energy = inf"), ("energy", -5.0, "energy = -5.0"), ("energy", "abc", "energy = 'abc'"),
     ("energy", 0.0, "energy = 0.0"), ("energy", None, "energy = NULL in a converged row"),
     ("max_displacement", float("-inf"), "max_displacement = -inf"), ("converged", "yes", "converged = 'yes'"),
+    # plausibility: finite, positive and still no result (listed as one before)
+    ("energy", 1e308, "energy = 1e+308 (implausible: the scenarios' fixed loads store at most 1e+06 N·mm"),
+    ("max_displacement", 1e300, "max_displacement = 1e+300 (implausible: a solve moves a plate at most 2 × its "
+                                "diameter, 144 mm)"),
 ])
 def test_a_poisoned_result_is_one_line_everywhere(tmp_path: Path, column: str, bad: object, shown: str) -> None:
     db = fake_catalog(tmp_path / "c.sqlite", {6: HEX})
@@ -202,3 +206,19 @@ def test_processes_racing_to_create_one_catalog_keep_every_row(tmp_path: Path) -
             p.join(60)
         assert [p.exitcode for p in procs] == [0] * len(procs)
         assert sorted(energies(db, "dome")) == sorted(ids)
+
+
+def test_a_refused_foreign_wal_database_gets_no_side_files(tmp_path: Path) -> None:
+    db = tmp_path / "foreign.sqlite"
+    conn = sqlite3.connect(db)
+    conn.execute("PRAGMA journal_mode=WAL")
+    conn.execute("CREATE TABLE t(x)")
+    conn.commit()
+    conn.close()  # the last connection: SQLite removes -wal and -shm, the file stays in WAL mode
+    before = db.read_bytes()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["foreign.sqlite"]
+    for write in (False, True):
+        with pytest.raises(CatalogError, match="is not a fabpat catalog"):
+            open_catalog(db, write=write)
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["foreign.sqlite"]  # no -shm, no -wal
+    assert db.read_bytes() == before

@@ -141,3 +141,24 @@ def test_a_cache_that_cannot_be_written_warns_once(tmp_path: Path, reference: st
     assert err.count("\n") == 1 and "the library cache was not saved" in err and str(blocker) in err
     code, out, err = listing(env)  # the same process: no second warning
     assert (code, out, err) == (0, reference, "")
+
+
+def test_a_full_disk_leaves_no_empty_cache_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import errno
+    import io as stdio
+
+    import fabpat.io
+
+    def full(*paths: object) -> None:
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(fabpat.io, "atomic_outputs", full)  # the disk fills as the cache is written
+    kept = tmp_path / "kept"
+    kept.mkdir()
+    (kept / "other.json").write_text("someone else's")
+    for root in (tmp_path / "new" / "deeper" / "fabpat", kept / "fabpat"):
+        warnings = stdio.StringIO()
+        library_cache.write_cache(root / "library-x.json", JOBS, _good_rows(), warnings.write)
+        assert "No space left on device" in warnings.getvalue() or library_cache._warned
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["kept"]  # new/deeper/fabpat made and removed again
+    assert sorted(p.name for p in kept.iterdir()) == ["other.json"]  # an existing folder stays as it was

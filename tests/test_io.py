@@ -7,6 +7,7 @@ from __future__ import annotations
 import errno
 import os
 import shutil
+import subprocess
 from pathlib import Path
 
 import pytest
@@ -114,3 +115,47 @@ def test_remove_stale_temps_only_touches_dead_writers(tmp_path: Path) -> None:
     removed = remove_stale_temps(tmp_path)
     assert sorted(p.name for p in removed) == sorted([dead.name, dead_dir.name])
     assert alive.exists() and mine.exists() and not dead.exists() and not dead_dir.exists()
+
+
+# -- no room for the output: the file size limit (`ulimit -f`) and a full device name what they cut -----------
+
+def _limited(args: list[str], stdout: object, limit: int) -> subprocess.CompletedProcess[str]:
+    """``fabpat ARGS`` in a subprocess whose files may hold ``limit`` bytes (RLIMIT_FSIZE, as `ulimit -f`),
+    SIGXFSZ ignored so that a write past it fails with EFBIG instead of killing the process."""
+    import resource
+    import signal
+    import sys
+
+    def limited() -> None:
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+    env = dict(os.environ, FABPAT_CACHE="off")
+    return subprocess.run([sys.executable, "-m", "fabpat", *args], stdout=stdout, stderr=subprocess.PIPE, text=True,
+                          preexec_fn=limited, env=env, timeout=120)
+
+
+def test_a_file_past_the_size_limit_is_named(tmp_path: Path) -> None:
+    svg = tmp_path / "p.svg"
+    r = _limited(["show", "0x0488", "--svg", str(svg)], subprocess.DEVNULL, 1024)  # the SVG is ~2.6 kB
+    assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+    assert r.stderr.startswith(f"fabpat: error: cannot write {svg}: File too large: it reached the file size "
+                               "limit of 1024 bytes (ulimit -f)"), r.stderr  # was "[Errno 27] File too large"
+    assert list(tmp_path.iterdir()) == []  # no partial file, no temporary
+
+
+def test_printed_output_cut_by_the_size_limit_is_an_error(tmp_path: Path) -> None:
+    out = tmp_path / "rows.csv"
+    with out.open("wb") as f:
+        r = _limited(["catalog", "--format", "csv"], f, 4096)  # the CSV is ~190 kB
+    # Python's text layer dropped the rest of the short write: the command exited 0 with 4 kB of 190
+    assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+    assert r.stderr.startswith(f"fabpat: error: cannot write standard output ({out}): File too large"), r.stderr
+    assert "file size limit of 4096 bytes" in r.stderr
+
+
+def test_a_full_standard_output_is_named() -> None:
+    with open("/dev/full", "wb") as full:
+        r = _limited(["show", "0x0488"], full, 2**40)
+    assert r.returncode == 2 and r.stderr == ("fabpat: error: cannot write standard output (/dev/full): No space left "
+                                              "on device\n"), r.stderr  # was "[Errno 28] No space left on device"

@@ -520,3 +520,14 @@ def test_segment_estimate_is_close_to_the_flattening() -> None:
     for tol in (1e-3, 1e-4):
         actual = sum(len(loop) for loop in outline.flatten(tol))
         assert 0.67 < outline.estimate_segments(tol) / actual < 1.5
+
+
+def test_flatten_refuses_a_tolerance_floating_point_cannot_resolve() -> None:
+    import fabpat
+
+    outline = fabpat.pattern("0x0488").fillet(weight=0.2).outline
+    for tol in (1e-300, 1e-12):  # 1e-300 ran out of memory (MemoryError after GBs)
+        with pytest.raises(GeometryError, match=r"below what floating point resolves on a part 62.35 mm across: use "
+                                                r"≥ 6.2e-08 mm"):
+            outline.flatten(tol)
+    assert len(outline.flatten(1e-3)[0]) > 100  # an ordinary tolerance still flattens

@@ -193,6 +193,8 @@ def test_cli_variations_json_and_text() -> None:
     (["--variation", "bridge_weight=1_0"], "is not a number"),  # float() would read 10
     (["--variation", "bridge_weight=\u0660.\u0665"], "is not a number"),  # Arabic-Indic 0.5
     (["--variation", "bridge_weight=inf"], "is not a finite number"),
+    (["--variation", "bridge_weight= 1"], "no spaces around the name or the value"),  # was read as 1
+    (["--variation", "bridge_weight =1"], "no spaces around the name or the value"),
     (["--variation", "bridge_weight=1", "--variation", "bridge_weight=2"], "given twice"),
 ])
 @pytest.mark.parametrize("command", [["show", "0x0488"], ["export", "0x0488", "--step", "never.step"],

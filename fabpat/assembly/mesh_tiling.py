@@ -41,8 +41,11 @@ curved surface bulges to is its outside.
 from __future__ import annotations
 
 import math
+import numbers
 import os
+import re
 import stat
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -50,6 +53,7 @@ from numpy.typing import NDArray
 
 from fabpat.assembly.tiling import Tiling, weld
 from fabpat.errors import SpecError
+from fabpat.validate import FLOAT_RESOLUTION
 
 MESH_SUFFIXES = (".obj", ".ply", ".off")
 #: largest mesh file read (bytes): a tiling of plates a few cm across has at most thousands of faces
@@ -68,6 +72,14 @@ BEST_FIT_TOLERANCE = 0.2
 MIN_TOLERANCE, MAX_TOLERANCE = 1e-6, 0.5
 #: rad: a fold flatter than this is flat (round-off of a planar mesh), neither convex nor concave
 FLAT_FOLD = 1e-6
+#: most faces (plates) of a tiling mesh, counted before any check: the largest built-in surface (the
+#: 30 × 30 hexagon tube) has 900 plates, and at h = 3 mm a plate is ~500 elements of ~62 kB in the solve
+#: (fabpat.assembly.sizing), so 2 000 plates are ~60 GB; a 160 000-face scan was still in its checks
+#: after 300 s
+MAX_MESH_FACES = 2000
+#: largest coordinate magnitude (in the file's units) a mesh may hold, and the smallest mean edge:
+#: lengths, areas and volumes (cubes of coordinates) must stay inside float64 (1e±308) with room
+MAX_COORDINATE, MIN_MEAN_EDGE = 1e100, 1e-100
 
 Faces = tuple[tuple[int, ...], ...]
 
@@ -76,10 +88,14 @@ def read_polygon_mesh(path: str | os.PathLike[str]) -> tuple[NDArray[np.float64]
     """Vertices ``V`` (n, 3) float (the file's units, mm) and polygon faces (vertex loops, 0-based) of an
     OBJ, PLY or OFF file, faces in file order.
 
-    Raises :class:`SpecError` (one line naming the file) if it is missing, not a regular file (a
-    folder, FIFO or device), larger than :data:`MAX_MESH_BYTES`, of another suffix or unreadable.
+    Raises :class:`SpecError` (one line naming the file) if ``path`` is not a file name, the file is
+    missing, not a regular file (a folder, FIFO or device), larger than :data:`MAX_MESH_BYTES`, of another
+    suffix or unreadable, has more than :data:`MAX_MESH_FACES` faces or coordinates beyond
+    :data:`MAX_COORDINATE` (:func:`check_scale`).
     """
-    p = Path(path)
+    from fabpat.validate import check_path
+
+    p = Path(check_path(path, "the tiling mesh", error=SpecError))
     suffix = p.suffix.lower()
     if suffix not in MESH_SUFFIXES:
         raise SpecError(f"{p}: a tiling mesh must be an OBJ, PLY or OFF file ({', '.join(MESH_SUFFIXES)}), "
@@ -94,7 +110,10 @@ def read_polygon_mesh(path: str | os.PathLike[str]) -> tuple[NDArray[np.float64]
         raise SpecError(f"{p}: the tiling mesh is {st.st_size} bytes, more than {MAX_MESH_BYTES}: not a tiling")
     from fabpat.assembly.ply import read_ply
 
-    readers = {".off": _read_off, ".obj": _read_obj, ".ply": read_ply}
+    def ply(q: Path) -> tuple[NDArray[np.float64], Faces]:  # the face count of its header checked first
+        return read_ply(q, lambda count: check_face_count(count, str(q)))
+
+    readers = {".off": _read_off, ".obj": _read_obj, ".ply": ply}
     try:
         V, faces = readers[suffix](p)
     except SpecError:
@@ -104,9 +123,51 @@ def read_polygon_mesh(path: str | os.PathLike[str]) -> tuple[NDArray[np.float64]
         raise SpecError(f"{p}: cannot read the tiling mesh as {suffix[1:].upper()}: {why}") from None
     if not faces:
         raise SpecError(f"{p}: the tiling mesh has no faces")
+    check_face_count(len(faces), str(p))
     if V.ndim != 2 or V.shape[1] != 3 or not np.isfinite(V).all():
         raise SpecError(f"{p}: the tiling mesh's vertices must be finite 3-D points")
+    check_scale(V, faces, str(p))
     return _welded(V, faces)
+
+
+def check_face_count(count: int, source: str) -> None:
+    """Refuse (SpecError) a mesh of more than :data:`MAX_MESH_FACES` faces, before any check of them."""
+    if count > MAX_MESH_FACES:
+        raise SpecError(f"{source}: the tiling mesh has {count} faces, more than the {MAX_MESH_FACES} plates an "
+                        "assembly can solve (each face is a plate of ~500 mesh elements): give a coarser mesh")
+
+
+def check_scale(V: NDArray[np.float64], faces: Faces, source: str) -> None:
+    """Refuse (SpecError, one line) a mesh ``V`` (n, 3) whose used vertices' coordinates are beyond
+    :data:`MAX_COORDINATE` in magnitude, or whose faces' mean edge is below :data:`MIN_MEAN_EDGE` (0 is
+    refused later, by name): its lengths, areas and volumes would overflow or underflow float64, and every
+    check after it would report a wrong reason (vertices welded into one, "visits a vertex twice"); nor a
+    mean edge under :data:`~fabpat.validate.FLOAT_RESOLUTION` × the largest coordinate (unresolved).
+    Computed without a floating-point warning."""
+    used = sorted({int(i) for f in faces for i in f if isinstance(i, int | np.integer) and 0 <= i < len(V)})
+    if not used:
+        return
+    big = float(np.abs(V[used]).max())
+    if big > MAX_COORDINATE:
+        raise SpecError(f"{source}: the tiling mesh has a coordinate of {big:.3g}: beyond {MAX_COORDINATE:g} (in any "
+                        "unit) its lengths, areas and volumes do not fit in floating point; rescale the mesh "
+                        "(tiling.edge sets the plate edge whatever the file's unit)")
+    loops = [[int(i) for i in f] for f in faces if len(f) >= 2 and all(isinstance(i, int | np.integer)
+                                                                       and 0 <= i < len(V) for i in f)]
+    if not loops:
+        return
+    ends = np.array([(a, b) for f in loops for a, b in zip(f, f[1:] + f[:1], strict=True)])
+    d = V[ends[:, 1]] - V[ends[:, 0]]
+    top = float(np.abs(d).max())  # scaled by the largest difference: no square underflows or overflows
+    mean = float((np.linalg.norm(d / top, axis=1) * top).mean()) if top > 0 else 0.0
+    if 0.0 < mean < MIN_MEAN_EDGE:
+        raise SpecError(f"{source}: the tiling mesh's mean edge is {mean:.3g}: below {MIN_MEAN_EDGE:g} (in any unit) "
+                        "its lengths, areas and volumes do not fit in floating point; rescale the mesh "
+                        "(tiling.edge sets the plate edge whatever the file's unit)")
+    if 0.0 < mean < FLOAT_RESOLUTION * big:
+        raise SpecError(f"{source}: the tiling mesh's mean edge is {mean:.3g} but it lies {big:.3g} from the origin: "
+                        f"floating point does not resolve edges under {FLOAT_RESOLUTION:g} × that; move the mesh "
+                        "near the origin")
 
 
 #: coincident vertices: closer than this fraction of the mesh's bounding-box diagonal
@@ -131,6 +192,7 @@ def _read_obj(p: Path) -> tuple[NDArray[np.float64], Faces]:
     verts: list[tuple[float, float, float]] = []
     faces: list[tuple[int, ...]] = []
     text = p.read_text(encoding="utf-8-sig", errors="replace")
+    check_face_count(len(re.findall(r"^[ \t]*f\s", text, re.MULTILINE)), str(p))  # counted before they are read
     for number, line in enumerate(text.splitlines(), 1):
         words = line.split("#", 1)[0].split()
         if not words:
@@ -149,18 +211,24 @@ def _read_obj(p: Path) -> tuple[NDArray[np.float64], Faces]:
 def _read_off(p: Path) -> tuple[NDArray[np.float64], Faces]:
     """OFF (Geomview): "OFF", then "nv nf ne", nv lines "x y z", nf lines "k i1 … ik" (0-based; '#'
     comments). Colour values after a face's indices are ignored."""
-    words = [ln.split("#", 1)[0].split() for ln in p.read_text(encoding="utf-8-sig", errors="replace").splitlines()]
-    lines = [w for w in words if w]
-    if not lines or not lines[0][0].upper().endswith("OFF"):
+    rows = (w for w in (ln.split("#", 1)[0].split() for ln in
+                        p.read_text(encoding="utf-8-sig", errors="replace").splitlines()) if w)
+    first = next(rows, None)
+    if first is None or not first[0].upper().endswith("OFF"):
         raise SpecError(f"{p}: not an OFF file (its first line must be OFF)")
-    head = lines[0][1:] or lines[1]
-    body = lines[1:] if lines[0][1:] else lines[2:]
-    try:
+    try:  # a file of only "OFF" has no counts line: broken, as a short one
+        head = first[1:] or next(rows, [])  # counts on the OFF line itself, or on the next
         nv, nf = int(head[0]), int(head[1])
+        if nv < 0 or nf < 0:
+            raise ValueError
+        check_face_count(nf, str(p))  # before the other lines are split: the count stands in the header
+        body = list(rows)
         V = np.array([[float(x) for x in body[i][:3]] for i in range(nv)])
         faces = tuple(tuple(int(x) for x in body[nv + j][1:1 + int(body[nv + j][0])]) for j in range(nf))
         if any(len(f) != int(body[nv + j][0]) for j, f in enumerate(faces)):
             raise IndexError
+    except SpecError:
+        raise
     except (ValueError, IndexError):
         raise SpecError(f"{p}: broken OFF file (counts, vertex or face lines)") from None
     return V.reshape(-1, 3), faces
@@ -182,9 +250,11 @@ def mesh_tiling(V: NDArray[np.float64], faces: Faces, *, tolerance: float | None
     panel, :mod:`fabpat.assembly.panel_mesh`): after the faces' checks, every vertex must also lie within
     ``tolerance`` of the best-fit plane of all of them (:func:`check_flat`), instead of the folds being convex.
     """
-    if fit not in FITS:
+    if not isinstance(fit, str) or fit not in FITS:
         raise SpecError(f"{source}: fit = {fit!r}: choose one of {', '.join(FITS)}")
-    V = np.asarray(V, dtype=np.float64)
+    V, faces = _mesh_arrays(V, faces, source)
+    edge, tolerance = (_length(v, name, source) for v, name in ((edge, "edge"), (tolerance, "tolerance")))
+    check_scale(V, faces, source)
     loops = _check_faces(V, faces, source)
     edges = _check_edges(loops, source)
     ends = np.array(list(edges), dtype=np.int64)
@@ -216,6 +286,41 @@ def mesh_tiling(V: NDArray[np.float64], faces: Faces, *, tolerance: float | None
     tiling = _oriented(Tiling(name, V, loops, best_fit=fit == "best"), source)
     _check_convex(tiling, source)
     return tiling
+
+
+def _mesh_arrays(V: object, faces: object, source: str) -> tuple[NDArray[np.float64], Faces]:
+    """``V`` as an (n, 3) array of finite floats and ``faces`` as a tuple of index tuples (at most
+    :data:`MAX_MESH_FACES`), or SpecError naming what they are instead (None, a string, a number)."""
+    try:
+        A = np.asarray(V, dtype=np.float64)
+    except (TypeError, ValueError):
+        A = np.empty((0, 0))
+    if isinstance(V, str | bytes) or A.ndim != 2 or A.shape[1:] != (3,) or not np.isfinite(A).all():
+        raise SpecError(f"{source}: the vertices must be an (n, 3) array of finite numbers (mm), got "
+                        f"{type(V).__name__}{' of shape ' + str(A.shape) if A.ndim else ''}")
+    if isinstance(faces, str | bytes) or not isinstance(faces, Sequence | np.ndarray):
+        raise SpecError(f"{source}: the faces must be a sequence of vertex loops, got {type(faces).__name__}")
+    check_face_count(len(faces), source)
+    out = []
+    for f, loop in enumerate(faces):
+        if isinstance(loop, str | bytes) or not isinstance(loop, Sequence | np.ndarray):
+            raise SpecError(f"{source}: face {f + 1} must be a loop of vertex indices, got {type(loop).__name__}")
+        bad = [i for i in loop if isinstance(i, bool) or not isinstance(i, numbers.Integral)]
+        if bad:  # int(1.5) would quietly name vertex 1
+            raise SpecError(f"{source}: face {f + 1} names vertex {bad[0]!r}: a vertex index is an integer")
+        out.append(tuple(int(i) for i in loop))
+    return A, tuple(out)
+
+
+def _length(value: object, name: str, source: str) -> float | None:
+    """``edge`` or ``tolerance`` (mm) as a float, None as None; SpecError for what is not a finite number."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(float(value)):
+        raise SpecError(f"{source}: {name} must be a finite number of mm (or None), got {value!r}")
+    if name == "edge" and not float(value) > 0:
+        raise SpecError(f"{source}: edge must be a positive number of mm, got {value!r}")
+    return float(value)
 
 
 def check_flat(V: NDArray[np.float64], loops: Faces, tolerance: float, source: str) -> None:

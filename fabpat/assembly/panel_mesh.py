@@ -85,6 +85,8 @@ def panel_tiling_spec(source: str, t: Any) -> TilingSpec:
     name = t.string("file")
     edge = t.number("edge", None, "edge") if t.has("edge") else None
     tolerance = t.number("tolerance", DEFAULT_TOLERANCE, "sleeve_length")
+    if name is None:
+        t.settle()  # a file that is not a string is that one problem (tiling.file is there: checked above)
     if name is None or not name.strip():
         raise t.fail("file", "is empty: the flat polygon mesh (OBJ, PLY or OFF) whose faces are the panel's tiles")
     t.settle()

@@ -21,6 +21,7 @@ wrong and what is accepted.
 from __future__ import annotations
 
 import struct
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -169,13 +170,16 @@ def _rows(p: Path, body: _Words | _Bytes, elements: list[tuple[str, int, list[Pr
     return out
 
 
-def read_ply(p: Path) -> tuple[NDArray[np.float64], Faces]:
+def read_ply(p: Path, check_faces: Callable[[int], None] | None = None) -> tuple[NDArray[np.float64], Faces]:
     """Vertices ``V`` (n, 3) float (the file's units, mm) and faces (0-based vertex loops, in file order) of
-    PLY file ``p`` (module docstring). Raises :class:`SpecError`, one line naming the file, what is
-    wrong and what is accepted."""
+    PLY file ``p`` (module docstring). ``check_faces`` is called with the header's face count before any
+    row is read (to refuse a mesh too large to check). Raises :class:`SpecError`, one line naming the file,
+    what is wrong and what is accepted (or what ``check_faces`` raises)."""
     data = p.read_bytes()
     fmt, elements, start = _header(p, data)
     _check_elements(p, elements)
+    if check_faces is not None:  # before reading them: the count stands in the header
+        check_faces(next(count for name, count, _ in elements if name == "face"))
     body = data[start:]
     rows = _rows(p, _Words(body) if fmt == "ascii" else _Bytes(body, FORMATS[fmt]), elements)
     props = {name: [q[0] for q in ps] for name, _, ps in elements}

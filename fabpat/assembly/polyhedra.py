@@ -29,6 +29,7 @@ with ``fit="best"`` orients, checks and scales them like a mesh file.
 from __future__ import annotations
 
 import math
+import numbers
 
 import numpy as np
 from numpy.typing import NDArray
@@ -41,10 +42,20 @@ Faces = tuple[tuple[int, ...], ...]
 REALIZATIONS = ("dual", "planar")
 
 
+def _integers(what: str, **values: object) -> None:
+    """SpecError naming ``what`` unless every value is an integer (not a bool, a float such as 1.5, None or
+    a string): a count of faces is whole, and ``range(1.5)`` or ``None < 1`` raised bare TypeErrors."""
+    for name, v in values.items():
+        if isinstance(v, bool) or not isinstance(v, numbers.Integral):
+            raise SpecError(f"{what}: {name} must be an integer, got {v!r}")
+
+
 def geodesic(m: int, n: int) -> tuple[Arr, NDArray[np.int64]]:
-    """The geodesic sphere {3,5+}_(m,n): unit vertices (10 T + 2, 3), outward triangles (20 T, 3)."""
+    """The geodesic sphere {3,5+}_(m,n): unit vertices (10 T + 2, 3), outward triangles (20 T, 3).
+    Raises :class:`SpecError` unless m ≥ 1 and n ≥ 0 are integers."""
     from scipy.spatial import ConvexHull
 
+    _integers("a Goldberg polyhedron GP(m, n)", m=m, n=n)
     if m < 1 or n < 0:
         raise SpecError(f"a Goldberg polyhedron GP(m, n) needs m ≥ 1 and n ≥ 0, got ({m}, {n})")
     V, F = icosahedron()
@@ -75,8 +86,10 @@ def geodesic(m: int, n: int) -> tuple[Arr, NDArray[np.int64]]:
 
 def goldberg(m: int, n: int, realization: str = "dual") -> tuple[Arr, Faces]:
     """GP(m, n) as vertices (20 T, 3) and faces (12 pentagons, 10 (T − 1) hexagons, CCW from outside),
-    pentagons first; ``realization`` "dual" or "planar" (module docstring). Unit mean edge."""
-    if realization not in REALIZATIONS:
+    pentagons first; ``realization`` "dual" or "planar" (module docstring). Unit mean edge. Raises
+    :class:`SpecError` for another realization or m, n that are not integers m ≥ 1, n ≥ 0."""
+    _integers("a Goldberg polyhedron GP(m, n)", m=m, n=n)
+    if not isinstance(realization, str) or realization not in REALIZATIONS:
         raise SpecError(f"realization = {realization!r}: choose one of {', '.join(REALIZATIONS)}")
     P, tri = geodesic(m, n)
     if realization == "dual":
@@ -107,9 +120,11 @@ def _unit(V: Arr, faces: Faces) -> tuple[Arr, Faces]:
 
 
 def hex_tube(rows: int, columns: int) -> tuple[Arr, Faces]:
-    """``rows`` hexagons around × ``columns`` along a cylinder (axis x), unit edge before rolling."""
+    """``rows`` hexagons around × ``columns`` along a cylinder (axis x), unit edge before rolling. Raises
+    :class:`SpecError` unless they are integers, rows ≥ 3 and columns ≥ 1."""
     from fabpat.assembly.tiling import honeycomb_strip
 
+    _integers("a hexagon tube", rows=rows, columns=columns)
     if rows < 3 or columns < 1:
         raise SpecError(f"a hexagon tube needs rows ≥ 3 (around) and columns ≥ 1, got {rows} × {columns}")
     flat = honeycomb_strip(rows, columns, 1.0)
@@ -124,7 +139,9 @@ def hex_tube(rows: int, columns: int) -> tuple[Arr, Faces]:
 
 
 def hex_cap(rings: int, centre: int = 5) -> tuple[Arr, Faces]:
-    """A central hexagon (``centre`` 6, flat) or pentagon (5, a dome) and ``rings`` rings of hexagons."""
+    """A central hexagon (``centre`` 6, flat) or pentagon (5, a dome) and ``rings`` rings of hexagons.
+    Raises :class:`SpecError` unless ``rings`` ≥ 1 is an integer and ``centre`` 5 or 6."""
+    _integers("a hexagon cap", rings=rings, centre=centre)
     if rings < 1 or centre not in (5, 6):
         raise SpecError(f"a hexagon cap needs rings ≥ 1 and centre 5 or 6, got rings = {rings}, centre = {centre}")
     if centre == 6:

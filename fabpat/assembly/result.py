@@ -110,21 +110,25 @@ class AssemblySimulation:
                   point_data={"plate": m.plate_of_node[: len(m.X)].astype(np.int64), **self.curvature},
                   cell_data={"surface_strain": self.element_strain})
 
-    def to_png(self, path: str | os.PathLike[str], field: str = "energy") -> None:
+    def to_png(self, path: str | os.PathLike[str], field: str | None = None) -> None:
         """A strip: its deflection profile and reaction curve; a closed assembly: the bent shape
-        coloured by ``field`` (one of :data:`PNG_FIELDS`). Raises SpecError for another field, ExportError
-        for a path that is not one."""
+        coloured by ``field`` (one of :data:`PNG_FIELDS`, default ``"energy"``). Raises SpecError for
+        another field, or any field for a strip (whose picture is its profile: a field there was quietly
+        ignored, ``"bogus"`` too), ExportError for a path that is not one."""
         _check_path(path)
+        if field is not None and (not isinstance(field, str) or field not in PNG_FIELDS):
+            raise SpecError(f"png field must be one of {', '.join(PNG_FIELDS)}, got {field!r}")
         if not self.closed:
+            if field is not None:
+                raise SpecError(f"png field {field!r} colours a closed assembly's bent shape; a strip's PNG is its "
+                                "deflection profile: leave the field out")
             from fabpat.assembly.simulate import write_profiles_png
 
             write_profiles_png(path, [(self.name, self.run)])
             return
-        if field not in PNG_FIELDS:
-            raise SpecError(f"png field must be one of {', '.join(PNG_FIELDS)}, got {field!r}")
         from fabpat.assembly.preview import render_prediction_png
 
-        render_prediction_png(self, path, field)
+        render_prediction_png(self, path, field or "energy")
 
     def shell_result(self) -> Any:
         """The final state of the plates as a :class:`fabpat.shell.ShellResult`."""

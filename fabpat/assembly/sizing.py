@@ -18,12 +18,36 @@ ASSEMBLY_BYTES_PER_ELEMENT = 62_000
 ASSEMBLY_BASE_BYTES = 120_000_000
 
 
-def available_memory() -> int | None:
-    """Bytes of memory this process may still use: the kernel's MemAvailable (``/proc/meminfo``), or the
-    room left under a cgroup v2 memory limit if smaller (a container's); None where neither is known."""
+def _rlimit_room() -> list[int]:
+    """Bytes left under this process's own limits: the address space (``ulimit -v``, RLIMIT_AS) less its
+    VmSize, the data segment (RLIMIT_DATA) less its VmData (``/proc/self/status``); empty when unlimited."""
+    import resource
     from pathlib import Path
 
-    found: list[int] = []
+    used: dict[str, int] = {}
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            key, _, value = line.partition(":")
+            if key in ("VmSize", "VmData"):
+                used[key] = int(value.split()[0]) * 1024
+    except (OSError, ValueError, IndexError):
+        return []
+    room = []
+    for limit, key in ((resource.RLIMIT_AS, "VmSize"), (resource.RLIMIT_DATA, "VmData")):
+        soft = resource.getrlimit(limit)[0]
+        if soft != resource.RLIM_INFINITY and key in used:
+            room.append(max(0, int(soft) - used[key]))
+    return room
+
+
+def available_memory() -> int | None:
+    """Bytes of memory this process may still use: the kernel's MemAvailable (``/proc/meminfo``), or the
+    room left under a cgroup v2 memory limit or under the process's own limits (``ulimit -v``: a 1 × 1000
+    strip under a 6 GB limit died of a MemoryError; :func:`_rlimit_room`) if smaller; None where none is
+    known."""
+    from pathlib import Path
+
+    found: list[int] = list(_rlimit_room())
     try:
         for line in Path("/proc/meminfo").read_text().splitlines():
             if line.startswith("MemAvailable:"):
@@ -50,7 +74,8 @@ def check_assembly_memory(elements: float, what: str) -> float:
     if room is not None and need > room:
         raise GeometryError(f"{what}: the solve would need about {need / 1e9:.1f} GB of memory ({elements:.0f} "
                             f"elements × {ASSEMBLY_BYTES_PER_ELEMENT / 1e3:g} kB), more than the {room / 1e9:.1f} GB "
-                            "this machine has available: use a coarser h or a smaller assembly")
+                            "available to this process (free memory, a container's or `ulimit -v` limit): use a "
+                            "coarser h or a smaller assembly")
     return need
 
 

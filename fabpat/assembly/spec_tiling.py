@@ -130,6 +130,8 @@ def _mesh_tiling(source: str, t: _Table) -> TilingSpec:
     fit = t.choice("fit", FITS, "exact")
     # any positive length here; mesh_tiling bounds it by the edge (MAX_TOLERANCE × edge, as its default)
     tolerance = t.number("tolerance", DEFAULT_TOLERANCE, "sleeve_length") if t.has("tolerance") else None
+    if name is None and t.has("file"):
+        t.settle()  # a file that is not a string is that one problem, not also "missing"
     if name is None or not name.strip():
         raise t.fail("file", f"is {'missing' if name is None else 'empty'}: the polygon mesh (OBJ, PLY or OFF) "
                      "whose faces carry the plates")

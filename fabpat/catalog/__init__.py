@@ -53,6 +53,7 @@ from fabpat.catalog.read import (
     energies,
     held_setups,
     missing_polygon_message,
+    no_filter_match_message,
     no_match_message,
     polygon_energies,
     require_polygon,
@@ -80,8 +81,8 @@ __all__ = [
     "ADDED_COLUMNS", "BUILTIN_NAME", "DEFAULT_SETUP", "FAMILY_COLUMNS", "FAMILY_KEY", "KEY", "LOCK_TIMEOUT",
     "METRICS", "PATTERN_COLUMNS", "RESULT_COLUMNS", "SCHEMA_VERSION", "Catalog", "CatalogError", "CatalogRows",
     "builtin_path", "catalog", "check_row", "energies", "held_setups", "input_hash", "missing_polygon_message",
-    "no_match_message", "open_catalog", "pattern_problem", "pipeline_modules", "polygon_energies",
-    "require_polygon", "result_problem", "solver_version", "specific_stiffness",
+    "no_filter_match_message", "no_match_message", "open_catalog", "pattern_problem", "pipeline_modules",
+    "polygon_energies", "require_polygon", "result_problem", "solver_version", "specific_stiffness",
 ]
 
 make_callable(__name__, catalog)

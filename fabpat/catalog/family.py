@@ -17,6 +17,7 @@ outside it raises :class:`~fabpat.errors.CatalogError` naming the range that is 
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -160,17 +161,26 @@ def family_energy(pattern_id: str, scenario: str, bridge_weight: float, *, sides
     return curve.energy(bridge_weight)
 
 
+def _number(value: object) -> float:
+    """``value`` as a float if it is a real number (not a bool), else NaN: a string is no energy."""
+    ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
+    return float(value) if ok else math.nan  # type: ignore[arg-type]
+
+
 def match_energy(scenario: str, energy: float, *, sides: int = 6, db: str | Path | None = None,
                  min_width: float = 0.0, curves: dict[str, FamilyCurve] | None = None) -> list[FamilyMatch]:
     """Every (pattern, member) whose interpolated energy in ``scenario`` is ``energy`` (N·mm), with a
     narrowest feature of at least ``min_width`` mm, closest to the paper's member first (by |log w|).
 
     ``curves``: from :func:`family_curves` (to ask many energies without re-reading the catalog).
-    Raises :class:`CatalogError` for an energy that is not a positive finite number.
+    Raises :class:`CatalogError` for an energy that is not a positive finite number (a string, None,
+    NaN) or a ``min_width`` that is not a finite number ≥ 0.
     """
-    e = float(energy)
+    e = _number(energy)
     if not (math.isfinite(e) and e > 0):
         raise CatalogError(f"energy must be a positive number of N·mm, got {energy!r}")
+    if not (math.isfinite(_number(min_width)) and _number(min_width) >= 0):
+        raise CatalogError(f"min_width must be a finite number ≥ 0 of mm, got {min_width!r}")
     curves = family_curves(scenario, sides=sides, db=db) if curves is None else curves
     out: list[FamilyMatch] = []
     for pid, c in curves.items():

@@ -9,15 +9,17 @@ finding, :class:`~fabpat.catalog.rows.CatalogRows`); the top of the catalog modu
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 import shlex
 from collections.abc import Iterator, Mapping, Sequence
 from functools import cache
 from pathlib import Path
 
-from fabpat.catalog.rows import CatalogRows, check_row, find_rows, polygon_name
+from fabpat.catalog.rows import CatalogRows, check_row, find_rows, parse_condition, polygon_name
 from fabpat.catalog.schema import DEFAULT_SETUP, KEY, METRICS, CatalogError, builtin_path
 from fabpat.catalog.store import Catalog, open_catalog
+from fabpat.validate import check
 
 
 @cache
@@ -122,12 +124,15 @@ def catalog(path: str | Path | None = None, *, sides: int | None = 6, where: Seq
     (mm) and ``specific_stiffness_<scenario>`` (1/(N·mm³), stiffness per mass:
     :func:`~fabpat.catalog.rows.specific_stiffness`).
 
-    ``sides``: the polygon (default 6, the hexagon; None: every polygon, whose energies do not compare);
-    other set-up keys filter too. ``where``: filters ``"FIELD OP NUMBER"`` that all hold (``OP`` one of
-    ``< <= > >= = !=``), ``sort``: ``"FIELD"`` ascending or ``"-FIELD"`` descending, ``top``: keep the
-    first N (:func:`~fabpat.catalog.rows.find_rows`). The stiffest patterns per gram in the Dome
-    scenario: ``fabpat.catalog(sort="-specific_stiffness_dome", top=5)``. Raises :class:`CatalogError`
-    (a polygon the catalog lacks names the ``fabpat sweep`` command that adds it).
+    ``sides``: the polygon (default 6, the hexagon; None: every polygon, whose energies do not compare), a
+    whole number in [3, 64]; other set-up keys filter too (finite numbers). ``where``: filters
+    ``"FIELD OP NUMBER"`` that all hold (``OP`` one of ``< <= > >= = !=``), ``sort``: ``"FIELD"``
+    ascending or ``"-FIELD"`` descending, ``top``: keep the first N (:func:`~fabpat.catalog.rows.find_rows`;
+    ``sort="id"`` orders by pattern ID). The stiffest patterns per gram in the Dome scenario:
+    ``fabpat.catalog(sort="-specific_stiffness_dome", top=5)``.
+    Raises :class:`CatalogError` for a bad argument, and rather than return no rows: a polygon the catalog
+    lacks names the ``fabpat sweep`` command that adds it, a set-up it lacks the set-ups it holds, filters
+    that keep no row the filter and its field's range (:func:`no_filter_match_message`).
     """
     bad = sorted(set(setup) - set(KEY[1:]))
     if bad:
@@ -135,17 +140,41 @@ def catalog(path: str | Path | None = None, *, sides: int | None = 6, where: Seq
     if path is not None and not isinstance(path, str | os.PathLike):
         raise CatalogError(f"path must be a catalog file name or None (the built-in one), got {path!r}")
     for key, value in (("sides", sides), *setup.items()):
-        if value is not None and (isinstance(value, bool) or not isinstance(value, int | float)):
-            raise CatalogError(f"catalog filter {key} must be a number, got {value!r}")
+        if value is not None and (isinstance(value, bool) or not isinstance(value, int | float)
+                                  or not math.isfinite(value)):
+            raise CatalogError(f"catalog filter {key} must be a finite number, got {value!r}")
+    if sides is not None:  # a polygon is a whole number of sides (6.0 is 6; 6.5 and NaN are no polygon)
+        if isinstance(sides, float) and sides.is_integer():
+            sides = int(sides)
+        sides = int(check("sides", sides, "catalog filter sides", error=CatalogError))
     with open_catalog(path) as cat:
         if sides is not None:
-            require_polygon(cat, int(sides))
+            require_polygon(cat, sides)
             setup["sides"] = sides
         rows = cat.pattern_rows(**setup)
         if not rows and setup:
             raise CatalogError(no_match_message(cat, setup))
-        rows = find_rows(rows, cat.number_columns(), where=where, sort=sort, top=top)
-        return CatalogRows(rows, source=cat.path.name)
+        fields = cat.number_columns()
+        found = find_rows(rows, fields, where=where, sort=sort, top=top)
+        if rows and not found:  # as for a polygon or set-up above: no empty answer taken for an empty catalog
+            raise CatalogError(no_filter_match_message(rows, fields, where))
+        return CatalogRows(found, source=cat.path.name)
+
+
+def no_filter_match_message(rows: Sequence[Mapping[str, object]], fields: Sequence[str],
+                            where: Sequence[str] | str) -> str:
+    """Why the filters ``where`` (on the numeric ``fields``) kept none of ``rows``: the first filter that
+    keeps none on its own, with its field's range over the rows, or that they hold together for none."""
+    filters = [where] if isinstance(where, str) else list(where)
+    for text in filters:
+        cond = parse_condition(text, fields)
+        values = [float(r[cond.field]) for r in rows if r.get(cond.field) is not None]  # type: ignore[arg-type]
+        if not any(cond.holds(r) for r in rows):
+            span = f"{min(values):.6g} … {max(values):.6g}" if values else "no values"
+            return (f"no pattern meets the filter {text!r}: {cond.field} spans {span} over the {len(rows)} "
+                    f"patterns of this polygon and set-up")
+    return (f"no pattern meets all the filters {' and '.join(repr(t) for t in filters)} together (each alone "
+            f"keeps some of the {len(rows)} patterns of this polygon and set-up)")
 
 
 def require_polygon(cat: Catalog, sides: int) -> None:

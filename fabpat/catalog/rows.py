@@ -44,10 +44,30 @@ def _finite(value: object) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
 
 
+#: N·mm: the largest energy a stored result may hold. The scenarios' loads are fixed (a 1.5 N force,
+#: moments of 50 and 100 N·mm per interface) and a solve moves at most twice the plate's diameter
+#: (fabpat.simulation.scenarios.check_plausible), so even 64 interfaces turning ten full turns under
+#: 100 N·mm store 64 × 100 × 20π ≈ 4e5 N·mm; the built-in catalog's largest is 1 206 N·mm (a family member)
+MAX_ENERGY = 1e6
+#: a stored displacement may be at most this many times the polygon's diameter (edge / sin(π/n)): the
+#: solver's own bound for a nonlinear solve (fabpat.simulation.scenarios.check_plausible)
+MAX_DISPLACEMENT_PER_DIAMETER = 2.0
+
+
+def _diameter(r: Mapping[str, object]) -> float | None:
+    """The diameter (mm) of the row's polygon, edge / sin(π/n), or None if its key is not sound."""
+    n, edge = r.get("sides"), r.get("edge")
+    if not (isinstance(n, int) and not isinstance(n, bool) and n >= 3 and _finite(edge) and edge > 0):  # type: ignore[operator]
+        return None
+    return float(edge) / math.sin(math.pi / n)  # type: ignore[arg-type]
+
+
 def result_problem(r: Mapping[str, object]) -> str | None:
     """What is wrong with a stored ``results`` row, or None: ``converged`` must be 0 or 1, ``energy``
-    (N·mm) a finite, positive number (present in a converged row), ``max_displacement`` (mm) finite
-    and ≥ 0, the numbers of :data:`RESULT_NUMBERS` finite. (SQLite stores a NaN as NULL.)"""
+    (N·mm) a finite, positive number (present in a converged row) up to :data:`MAX_ENERGY`,
+    ``max_displacement`` (mm) finite, ≥ 0 and at most :data:`MAX_DISPLACEMENT_PER_DIAMETER` × the polygon's
+    diameter (plausibility: an energy of 1e308 or a displacement of 1e300 mm was listed as a result), the
+    numbers of :data:`RESULT_NUMBERS` finite. (SQLite stores a NaN as NULL.)"""
     conv, e, d = r.get("converged"), r.get("energy"), r.get("max_displacement")
     if conv not in (0, 1):
         return f"converged = {conv!r} (must be 0 or 1)"
@@ -56,8 +76,15 @@ def result_problem(r: Mapping[str, object]) -> str | None:
             return "energy = NULL in a converged row (must be a finite, positive number of N·mm)"
     elif not (_finite(e) and e > 0):  # type: ignore[operator]
         return f"energy = {e!r} (must be a finite, positive number of N·mm)"
+    elif e > MAX_ENERGY:  # type: ignore[operator]
+        return (f"energy = {e!r} (implausible: the scenarios' fixed loads store at most {MAX_ENERGY:g} N·mm in any "
+                "plate)")
     if d is not None and not (_finite(d) and d >= 0):  # type: ignore[operator]
         return f"max_displacement = {d!r} (must be a finite number ≥ 0 of mm)"
+    size = _diameter(r)
+    if d is not None and size is not None and d > MAX_DISPLACEMENT_PER_DIAMETER * size:  # type: ignore[operator]
+        return (f"max_displacement = {d!r} (implausible: a solve moves a plate at most "
+                f"{MAX_DISPLACEMENT_PER_DIAMETER:g} × its diameter, {MAX_DISPLACEMENT_PER_DIAMETER * size:.4g} mm)")
     for c in RESULT_NUMBERS:
         v = r.get(c)
         if v is not None and not _finite(v):
@@ -150,7 +177,7 @@ def parse_condition(text: str, fields: Sequence[str]) -> Condition:
         raise _error(f"filter {text!r} is not FIELD OP NUMBER (such as 'energy_dome<300'), OP one of {ops}")
     field, op, number = m.groups()
     if field not in fields:
-        raise _error(f"filter {text!r}: unknown field {field!r}; the numeric fields are {', '.join(fields)}")
+        raise _error(f"filter {text!r}: unknown field {field!r}; the numeric fields are {describe_fields(fields)}")
     if op not in OPERATORS:
         raise _error(f"filter {text!r}: unknown operator {op!r}; use one of {ops}")
     try:  # float() also takes "1_000" and non-ASCII digits; a filter is plain ASCII decimal notation
@@ -163,17 +190,43 @@ def parse_condition(text: str, fields: Sequence[str]) -> Condition:
     return Condition(field, op, value)
 
 
+#: per-scenario columns, ``PREFIX_SCENARIO``: listed once per prefix in a message (:func:`describe_fields`)
+SCENARIO_PREFIXES = ("energy", "max_displacement", "specific_stiffness")
+#: the text column rows can be sorted by (pattern IDs, as text): every row has one
+TEXT_SORT = "id"
+
+
+def describe_fields(fields: Sequence[str]) -> str:
+    """``fields`` for a one-line message, short: the per-scenario columns (``energy_dome``, …) as
+    ``energy_S, max_displacement_S, specific_stiffness_S (S: cantilever, cylinder, dome)``, the others
+    by name (23 names of ~400 characters made a message that wrapped over several lines)."""
+    scenarios: dict[str, None] = {}
+    plain = []
+    for f in fields:
+        prefix = next((p for p in SCENARIO_PREFIXES if f.startswith(p + "_")), None)
+        if prefix is None:
+            plain.append(f)
+        else:
+            scenarios[f.removeprefix(prefix + "_")] = None
+    if scenarios:
+        plain.append(", ".join(f"{p}_S" for p in SCENARIO_PREFIXES) + f" (S: {', '.join(scenarios)})")
+    return ", ".join(plain)
+
+
 def parse_sort(text: str, fields: Sequence[str]) -> tuple[str, bool]:
     """``"FIELD"`` → (FIELD, False) ascending, ``"-FIELD"`` → (FIELD, True) descending; FIELD one of
-    ``fields``, else :class:`~fabpat.catalog.CatalogError` listing them."""
+    ``fields`` or ``"id"`` (pattern IDs as text), spelt exactly (no spaces), else
+    :class:`~fabpat.catalog.CatalogError` listing them (:func:`describe_fields`)."""
     if not isinstance(text, str):
         raise _error(f"sort field must be a column name such as 'energy_dome' or '-energy_dome', got {text!r}")
-    name = text.strip()
-    descending = name.startswith("-")
-    name = name.removeprefix("-").strip()
-    if name not in fields:
-        raise _error(f"cannot sort by {name!r}: the numeric fields are {', '.join(fields)} "
-                     "(FIELD sorts ascending, -FIELD descending)")
+    descending = text.startswith("-")
+    name = text.removeprefix("-")
+    if name not in (TEXT_SORT, *fields):
+        shown = text if len(text) <= 40 else text[:40] + "…"
+        bare = text.strip().removeprefix("-").strip()
+        hint = "; no spaces around the name" if bare in (TEXT_SORT, *fields) else ""
+        raise _error(f"cannot sort by {shown!r}{hint}: FIELD sorts ascending, -FIELD descending, FIELD one of "
+                     f"{describe_fields([TEXT_SORT, *fields])}")
     return name, descending
 
 
@@ -187,6 +240,8 @@ def find_rows(rows: Iterable[dict[str, object]], fields: Sequence[str], *, where
     a value last, ties in the rows' order (by ID); ``top``: a positive integer. Raises
     :class:`~fabpat.catalog.CatalogError` for a bad filter, sort field or ``top``.
     """
+    if not isinstance(where, str | Iterable):
+        raise _error(f"where must be a filter 'FIELD OP NUMBER' or a list of them, got {where!r}")
     conditions = [parse_condition(w, fields) for w in ([where] if isinstance(where, str) else where)]
     order = parse_sort(sort, fields) if sort is not None else None
     if top is not None and (isinstance(top, bool) or not isinstance(top, int) or top < 1):
@@ -194,8 +249,10 @@ def find_rows(rows: Iterable[dict[str, object]], fields: Sequence[str], *, where
     out = [r for r in rows if all(c.holds(r) for c in conditions)]
     if order is not None:
         name, descending = order
-        valued = sorted((r for r in out if r.get(name) is not None), key=lambda r: float(r[name]),  # type: ignore[arg-type]
-                        reverse=descending)  # stable: ties keep the rows' order either way
+        key: Callable[[dict[str, object]], Any] = (lambda r: str(r[name])) if name == TEXT_SORT else (
+            lambda r: float(r[name]))  # type: ignore[arg-type]
+        # stable: ties keep the rows' order either way
+        valued = sorted((r for r in out if r.get(name) is not None), key=key, reverse=descending)
         out = valued + [r for r in out if r.get(name) is None]
     return out if top is None else out[:top]
 

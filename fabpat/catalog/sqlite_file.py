@@ -63,16 +63,35 @@ def _checked_connection(p: Path) -> sqlite3.Connection:
     if head != _SQLITE_HEADER:
         raise CatalogError(f"{p} is not a fabpat catalog: not an SQLite database (or its header is damaged; "
                            f"if it was a catalog, try `sqlite3 {p} .recover`); give another --db")
+    side = [p.with_name(p.name + s) for s in ("-wal", "-shm")]
+    had = [f.exists() for f in side]
     try:
-        conn = connect(p, "ro")  # a reader never creates or modifies the file
+        conn = connect(p, "ro")  # a reader never modifies the file (but SQLite makes a WAL file's -wal/-shm)
     except sqlite3.Error as e:
+        _remove_new_side_files(side, had)
         raise _cause(e, p, "open") from e
     try:
         _check_schema(conn, p)
     except BaseException:
         conn.close()
+        _remove_new_side_files(side, had)
         raise
     return conn
+
+
+def _remove_new_side_files(side: list[Path], had: list[bool]) -> None:
+    """Remove the ``-wal``/``-shm`` files (``side``) that opening a refused file made (``had``: which
+    existed before): a foreign database in WAL mode is refused unchanged, with nothing left next to it.
+    A ``-wal`` is removed only while empty (a read-only connection writes nothing into it)."""
+    for f, existed in zip(side, had, strict=True):
+        if existed:
+            continue
+        try:
+            if f.name.endswith("-wal") and f.stat().st_size:
+                continue
+            f.unlink()
+        except OSError:
+            pass
 
 
 def _check_schema(conn: sqlite3.Connection, p: Path) -> None:

@@ -151,6 +151,9 @@ class FabpatGroup(click.Group):
             _NOTICES.clear()
             with _sigterm_unwinds(), input_scope():  # no output of the command may replace its inputs
                 rv = super().main(*args, **kwargs)
+            from fabpat.stdout import check_stdout
+
+            check_stdout()  # what was printed all arrived (a full disk, /dev/full, `ulimit -f`): else one line
             for note in _NOTICES:
                 click.echo(f"fabpat: warning: {note}", err=True)
         except click.exceptions.NoArgsIsHelpError as e:  # `fabpat` alone: the help, not a one-line error
@@ -161,7 +164,13 @@ class FabpatGroup(click.Group):
         except FabpatError as e:
             _fail(str(e))
         except OSError as e:  # a file system refusal no check foresaw: still one line, not a traceback
-            _fail(f"{e.filename}: {e.strerror}" if e.filename and e.strerror else str(e))
+            from fabpat.stdout import stdout_error
+
+            named = stdout_error(e)  # no room, and no file named: the printed output (files name themselves)
+            _fail(str(named) if named else f"{e.filename}: {e.strerror}" if e.filename and e.strerror else str(e))
+        except MemoryError:  # past every size estimate (they are estimates): still one line, not a traceback
+            _fail("out of memory: the work asked for more memory than this process may use (free memory, a "
+                  "container's or `ulimit -v` limit); use a coarser --h, a smaller input or a machine with more memory")
         except _Interrupted:
             _interrupted()
         except click.exceptions.Abort as e:

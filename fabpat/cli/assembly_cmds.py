@@ -188,7 +188,7 @@ def _simulate_assembly(spec: str, end_shortening: float | None, h: float, steps:
         if vtu is not None:
             sim.to_vtu(tmp[vtu])
         if png is not None:
-            sim.to_png(tmp[png], png_field or "energy")
+            sim.to_png(tmp[png], png_field)  # None: the default (a strip takes none)
     row = sim.fields()
     if as_json:
         click.echo(json.dumps(row, indent=1))

@@ -84,18 +84,25 @@ def read_cache(path: Path | None, jobs: Sequence[Job]) -> list[dict[str, float]]
 
 def write_cache(path: Path | None, jobs: Sequence[Job], rows: Sequence[dict[str, float]],
                 warn: Callable[[str], None]) -> None:
-    """Store ``rows`` (the columns of ``jobs``) at ``path`` atomically; on failure call ``warn`` once per
-    process with one line naming the path and the reason, and go on."""
+    """Store ``rows`` (the columns of ``jobs``) at ``path`` atomically; on failure remove the folders it
+    made for ``path`` (if still empty), call ``warn`` once per process with one line naming the path and
+    the reason, and go on."""
     from fabpat.io import atomic_outputs
 
     if path is None:
         return
     data = [{"id": job[0], **{c: row[c] for c in COLUMNS}} for job, row in zip(jobs, rows, strict=True)]
+    missing = [d for d in (path.parent, *path.parent.parents) if not d.exists()]  # deepest first
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_outputs(path) as (tmp,):
             tmp.write_text(json.dumps(data, allow_nan=False), encoding="utf-8")
     except (FabpatError, OSError, ValueError) as e:
+        for folder in missing:  # the folders made for it go again (a full disk left an empty cache folder)
+            try:
+                folder.rmdir()  # only if empty: never what another process put there meanwhile
+            except OSError:
+                break
         if not _warned:
             _warned.append(str(path))
             # fabpat's own errors already say "cannot write <path>: why"

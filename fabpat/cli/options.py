@@ -101,23 +101,25 @@ def h_option(default: float, limit: str = "pattern") -> Any:
 def parse_variation(texts: Iterable[str]) -> Variation:
     """A :class:`~fabpat.patterns.variation.Variation` from ``NAME=VALUE`` strings (the repeatable ``--variation``).
 
-    Raises :class:`~fabpat.errors.GeometryError` for a string without ``=``, a value that is not a
-    finite number, a parameter given twice, an unknown name or a value outside its range.
+    Raises :class:`~fabpat.errors.GeometryError` for a string without ``=``, spaces around the name or
+    value, a value that is not a finite number, a parameter given twice, an unknown name or a value outside its range.
     """
     names = ", ".join(f.name for f in fields(Variation))
     values: dict[str, float] = {}
     for text in texts:
         name, sep, raw = str(text).partition("=")
-        name = name.strip()
         if not sep:
             raise GeometryError(f"{text!r} is not NAME=VALUE; valid names: {names}")
+        if name != name.strip() or raw != raw.strip():  # as the other options' names: spelt exactly
+            raise GeometryError(f"{text!r}: no spaces around the name or the value (NAME=VALUE, such as "
+                                f"bridge_weight=0.5); valid names: {names}")
         if name in values:
             raise GeometryError(f"{name} given twice")
         if name not in {f.name for f in fields(Variation)}:
             raise GeometryError(f"unknown variation {name!r}; valid: {names}")
         valid = f"a number in {RANGES[name].describe()}"
         # a plain decimal number: Python's float() would also take "1_0" (10) and non-ASCII digits
-        if not _DECIMAL.fullmatch(raw.strip()):
+        if not _DECIMAL.fullmatch(raw):
             raise GeometryError(f"{name}={raw!r} is not a number; {name} is {valid}")
         value = float(raw)
         if not math.isfinite(value):

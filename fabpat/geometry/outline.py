@@ -25,7 +25,7 @@ from fabpat.errors import GeometryError
 from fabpat.geometry import polyline
 from fabpat.geometry.segments import Line, Loop, Point, RationalQuad, Segment, _end_direction, _start_direction, _unit
 from fabpat.patterns.metrics import RegionMetrics
-from fabpat.validate import check
+from fabpat.validate import check, check_tolerance
 
 __all__ = ["SVG_FLATTEN_TOL", "Line", "Loop", "Outline", "OutlineReport", "Point", "PolygonFrame", "RationalQuad",
            "Segment", "flattening_tolerance"]
@@ -206,8 +206,12 @@ class Outline:
     def flatten(self, tol: float) -> list[NDArray[np.float64]]:
         """Closed polylines (k_i, 2) within tol mm of each loop, outer first, last point not repeated.
 
-        Raises :class:`GeometryError` if ``tol`` is not a positive number."""
+        Raises :class:`GeometryError` if ``tol`` is not a positive number, or finer than floating point
+        resolves on the outline (:func:`fabpat.validate.check_tolerance`: 1e-9 × its size; 1e-300 ran
+        out of memory)."""
         tol = flattening_tolerance(tol)
+        size = float(np.max(self.bbox[1] - self.bbox[0]))
+        check_tolerance(tol, size, "tol", error=GeometryError)
         return [loop.flatten(tol) for loop in self.loops]
 
     def estimate_segments(self, tol: float, reference: float = 0.01) -> float:
