@@ -162,7 +162,7 @@ def test_polyline_entities_enclose_the_outline_area(tmp_path: Path, name: str, c
     if curves == "lines":
         assert all(b == 0 for lp in loops for _, _, b in lp)
     areas = [bulge_area(lp) for lp in loops]
-    assert areas[0] > 0 and all(a < 0 for a in areas[1:])  # outer CCW, holes CW
+    assert areas[-1] > 0 and all(a < 0 for a in areas[:-1])  # holes CW first (cut order), then the outer CCW
     # Every point of the written curves lies within TOL of the outline: |ΔA| ≤ perimeter × TOL.
     assert abs(sum(areas) - area()) <= outline.perimeter * TOL
     (text,) = doc.modelspace().query("TEXT")
@@ -216,7 +216,7 @@ def test_spline_mode_writes_one_entity_per_segment(tmp_path: Path, name: str) ->
     assert sorted(e.weights[1] for e in splines) == pytest.approx(sorted(s.w for s in curved))
     # Pieces run head to tail; the area comes from the SPLINE data alone.
     areas = chain(entity_pieces(doc), directed=True)
-    assert len(areas) == len(outline.loops) and areas[0] > 0 and all(a < 0 for a in areas[1:])
+    assert len(areas) == len(outline.loops) and areas[-1] > 0 and all(a < 0 for a in areas[:-1])  # holes first
     assert solid_area(areas) == pytest.approx(area(), rel=1e-6)
 
 

@@ -77,7 +77,7 @@ def sheet_document(panel: Panel, nesting: Any, quarter: bool) -> Any:
     import ezdxf
 
     from fabpat.assembly.sheets import SHEET_COLOR, SHEET_LAYER, edge_label_spots
-    from fabpat.exchange.contours import bulge_loops, offset_bulge_loops
+    from fabpat.exchange.contours import bulge_loops, cut_order, offset_bulge_loops
     from fabpat.exchange.dxf import CUT_COLOR, CUT_LAYER, ENGRAVE_COLOR, ENGRAVE_LAYER, add_bulge_segments, set_extents
     from fabpat.exchange.labels import label_at
 
@@ -98,7 +98,7 @@ def sheet_document(panel: Panel, nesting: Any, quarter: bool) -> Any:
         return place.apply(quarter_turn(np.atleast_2d(P), quarter))
 
     loops = bulge_loops(panel.outline, spec.curve_tolerance)
-    for lp in offset_bulge_loops(loops, 0.5 * s.kerf) if s.kerf > 0 else loops:
+    for lp in cut_order(offset_bulge_loops(loops, 0.5 * s.kerf) if s.kerf > 0 else loops):
         V = where(lp.V)
         if s.dxf_entities == "segments":
             add_bulge_segments(msp, V, lp.bulges, {"layer": CUT_LAYER})

@@ -32,6 +32,9 @@ LINEs, circular joins become ARCs, and the offset of a rational arc, which is no
 any degree, becomes a cubic (degree-3) non-rational SPLINE within ``tolerance`` mm (OCCT's
 ``GeomConvert_ApproxCurve``; cubic is the highest degree LibreCAD and Inkscape read).
 
+Cut order: each part's holes are written before its outer loop (:func:`fabpat.exchange.contours.cut_order`):
+laser software cuts in file order, and a part cut free first can shift before its holes are cut.
+
 The label (:func:`fabpat.exchange.labels.place_label`) is a TEXT with its default alignment, so its
 first point is where the text starts, inside the part; a part with no room for a 1 mm label has none.
 
@@ -58,7 +61,7 @@ from numpy.typing import NDArray
 
 from fabpat.errors import ExportError, GeometryError
 from fabpat.exchange.cad import make_face
-from fabpat.exchange.contours import BulgeLoop, bulge_loops, offset_bulge_loops, offset_wires, ordered_edges
+from fabpat.exchange.contours import BulgeLoop, bulge_loops, cut_order, offset_bulge_loops, offset_wires, ordered_edges
 from fabpat.exchange.origin import DEFAULT_ORIGIN, check_origin, origin_shift, translated
 from fabpat.geometry.outline import Line, Loop, Outline
 from fabpat.io import atomic_outputs
@@ -335,12 +338,13 @@ def dxf_document(
 
     half = 0.5 * kerf
     if curves == "spline":
-        for pieces in spline_pieces(outline) if half == 0 else offset_spline_pieces(outline, half, tolerance):
+        exact = spline_pieces(outline) if half == 0 else offset_spline_pieces(outline, half, tolerance)
+        for pieces in cut_order(exact):
             for p in pieces:
                 _add_piece(msp, p, cut)
     elif curves == "arcs":
         loops = bulge_loops(outline, tolerance)
-        for lp in offset_bulge_loops(loops, half) if half > 0 else loops:
+        for lp in cut_order(offset_bulge_loops(loops, half) if half > 0 else loops):
             if mode == "polyline":
                 add_closed([(float(x), float(y), float(b)) for (x, y), b in zip(lp.V, lp.bulges, strict=True)])
             else:
@@ -352,7 +356,7 @@ def dxf_document(
             polys = [lp.flatten(0.5 * tolerance) for lp in grown]
         else:
             polys = [polyline(lp, tolerance) for lp in outline.loops]
-        for P in polys:
+        for P in cut_order(polys):
             if mode == "polyline":
                 add_closed([(float(x), float(y), 0.0) for x, y in P])
             else:
