@@ -241,15 +241,27 @@ def write_panel_files(panel: Panel, nesting: Any, quarter: bool, report: PanelRe
 
 
 def write_glb(panel: Panel, path: Path) -> None:
-    """The part as binary glTF 2.0 in metres (its mesh at the kit's check tolerance, one colour)."""
+    """The part as binary glTF 2.0 in metres, y-up (:func:`fabpat.assembly.export.glb_bytes`), as every kit GLB:
+    a root node named after the spec, one node ``panel`` with the part's mesh (at the kit's check tolerance)
+    and a PBR material in the first pattern colour of ``panel.png``."""
     import trimesh
+    from trimesh.visual.material import PBRMaterial
 
-    from fabpat.assembly.export import GLB_UNIT
+    from fabpat.assembly.export import GLB_METALLIC, GLB_ROUGHNESS, GLB_UNIT, PALETTE, glb_bytes, slug, srgb_to_linear
     from fabpat.assembly.parts import CHECK_TOLERANCE
     from fabpat.exchange.threemf import triangulate
 
     V, F = triangulate(panel.solid, CHECK_TOLERANCE)
-    path.write_bytes(trimesh.Trimesh(V * GLB_UNIT, F, process=False).export(file_type="glb", include_normals=False))
+    mesh = trimesh.Trimesh(V * GLB_UNIT, F, process=False)
+    mesh.visual = trimesh.visual.TextureVisuals(material=PBRMaterial(
+        name=slug(panel.name), baseColorFactor=[*srgb_to_linear(PALETTE[0]), 1.0],
+        metallicFactor=GLB_METALLIC, roughnessFactor=GLB_ROUGHNESS))
+    sc = trimesh.Scene()
+    root = panel.spec.name or "panel"
+    sc.graph.update(frame_from=sc.graph.base_frame, frame_to=root, matrix=np.eye(4))
+    sc.add_geometry(mesh, node_name="panel" if root != "panel" else "panel part", geom_name=slug(panel.name),
+                    parent_node_name=root)
+    path.write_bytes(glb_bytes(sc))
 
 
 def render_png(panel: Panel, path: Path) -> None:

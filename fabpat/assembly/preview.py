@@ -259,7 +259,9 @@ def write_predicted_glb(shape: PredictedShape, lib: Any, path: str | os.PathLike
     Raises :class:`fabpat.io.WriteFailed` if the file cannot be written."""
     from fabpat.io import writer_failed
 
-    data = predicted_scene(shape, lib, name, tolerance).export(file_type="glb", include_normals=False)
+    from fabpat.assembly.export import glb_bytes
+
+    data = glb_bytes(predicted_scene(shape, lib, name, tolerance))  # y-up, as every kit GLB
     try:
         Path(path).write_bytes(data)
     except OSError as exc:
