@@ -9,9 +9,13 @@ Curve modes (``curves``):
 
 * ``"arcs"`` (default): every rational arc fitted by circular arcs within ``tolerance`` mm (G1
   biarcs from :func:`fabpat.geometry.conics.fit_arcs`). Lines stay exact.
-* ``"spline"``: exact: one rational degree-2 SPLINE per curved segment (3 control points, weights
-  (1, w, 1), knots (0, 0, 0, 1, 1, 1)) and a LINE per straight segment, loops head to tail (outer
-  counter-clockwise, holes clockwise).
+* ``"spline"``: exact: rational degree-2 SPLINEs (3 control points, weights (1, w, 1), knots
+  (0, 0, 0, 1, 1, 1)) for the curved segments and a LINE per straight segment, loops head to tail
+  (outer counter-clockwise, holes clockwise). LibreCAD 2.2 and Inkscape 1.2 ignore SPLINE weights and
+  draw the parabola of the control points, so an arc that parabola leaves more than ``tolerance`` mm
+  away is written as its own halves, quarters, … (:func:`readable_arcs`): still exactly the arc for a
+  reader that honours weights, and within ``tolerance`` for one that does not. Parabolic arcs (w = 1)
+  are one non-rational SPLINE, as they were.
 * ``"lines"``: polylines within ``tolerance`` mm (exact chord test of
   :func:`fabpat.geometry.curves.flatten_quad`).
 
@@ -79,6 +83,8 @@ CUT_LAYER, ENGRAVE_LAYER = "CUT", "ENGRAVE"
 CUT_COLOR, ENGRAVE_COLOR = 1, 5  # ACI red / blue: the usual laser-software convention
 MAX_SPLINE_DEGREE = 3  # kerf-offset splines: LibreCAD 2.2 and Inkscape 1.2 read degree ≤ 3 only
 _APPROX_SEGMENTS = 256  # most Bézier spans OCCT may use for one offset segment
+_WEIGHT_SAMPLES = 65  # parameters at which a weightless reading is compared with the rational arc
+_MAX_SPLITS = 30  # split depth no arc reaches: a guard against a runaway recursion
 
 
 def entity_mode(curves: str, dxf_version: str, entities: str | None) -> str:
@@ -140,13 +146,57 @@ def _oriented(loop: Loop, ccw: bool) -> Loop:
     return loop if (loop.signed_area > 0) == ccw else loop.reversed()
 
 
-def spline_pieces(outline: Outline) -> list[list[Piece]]:
+def weightless_error(control: NDArray[np.float64], w: float) -> float:
+    """How far (mm) a reader that ignores SPLINE weights draws the rational arc with ``control`` (3, 2) mm and
+    middle weight ``w``: the largest distance between the arc and the quadratic Bézier of the same control
+    points (LibreCAD 2.2 and Inkscape 1.2 draw that), both at one parameter, sampled at 65 parameters. The
+    distance at one parameter bounds the distance between the curves from above."""
+    t = np.linspace(0.0, 1.0, _WEIGHT_SAMPLES)[:, None]
+    B = np.hstack([(1 - t) ** 2, 2 * t * (1 - t), t * t])  # Bernstein basis (m, 3)
+    Bw = B * np.array([1.0, w, 1.0])
+    exact = (Bw @ control) / Bw.sum(axis=1, keepdims=True)
+    return float(np.max(np.linalg.norm(exact - B @ control, axis=1)))
+
+
+def readable_arcs(control: NDArray[np.float64], w: float, tol: float) -> list[tuple[NDArray[np.float64], float]]:
+    """The rational arc (``control`` (3, 2) mm, middle weight ``w``) as consecutive rational arcs, each
+    ``(control (3, 2), w)``, whose :func:`weightless_error` is at most 0.8 × ``tol`` mm: the arc itself when it
+    already is, else its halves (de Casteljau at t = 1/2 in homogeneous coordinates, then each half in
+    standard form: middle weight √((1 + w)/2), which tends to 1), split again until each is.
+
+    The halves are exactly the arc, so a reader that honours weights still draws it exactly. Each split
+    halves the chord and moves the weight towards 1, so the weightless error falls about eightfold.
+    Raises :class:`GeometryError` if ``tol`` is not a positive number of mm."""
+    if not (tol > 0 and math.isfinite(tol)):
+        raise GeometryError(f"tolerance must be > 0 mm, got {tol:g}")
+    return _split_arc(np.asarray(control, dtype=np.float64), float(w), tol, 0)
+
+
+def _split_arc(control: NDArray[np.float64], w: float, tol: float,
+               depth: int) -> list[tuple[NDArray[np.float64], float]]:
+    P0, P1, P2 = control
+    if w == 1.0 or weightless_error(control, w) <= 0.8 * tol:
+        return [(control, w)]
+    if depth >= _MAX_SPLITS:  # pragma: no cover - the error falls eightfold per split
+        raise GeometryError(f"cannot split a rational arc (weight {w:g}) within {tol:g} mm")
+    M = (P0 + 2 * w * P1 + P2) / (2 * (1 + w))  # the arc's point at t = 1/2
+    half = math.sqrt(0.5 * (1 + w))
+    left = np.array([P0, (P0 + w * P1) / (1 + w), M])
+    right = np.array([M, (w * P1 + P2) / (1 + w), P2])
+    return _split_arc(left, half, tol, depth + 1) + _split_arc(right, half, tol, depth + 1)
+
+
+def spline_pieces(outline: Outline, tol: float | None = None) -> list[list[Piece]]:
     """Every loop (outer counter-clockwise, then holes clockwise) as exact pieces.
 
     A rational arc is the rational Bézier (control points P0, P1, P2, weights (1, w, 1)) written
     as a degree-2 NURBS on knots (0, 0, 0, 1, 1, 1) — the same curve (a Bézier curve is the
-    B-spline on a clamped knot vector without interior knots); a straight segment is a line.
+    B-spline on a clamped knot vector without interior knots); a straight segment is a line. With
+    ``tol`` (mm) an arc that a reader ignoring weights would draw more than ``tol`` off is written as
+    the consecutive pieces of :func:`readable_arcs` instead: still exact, and within ``tol`` for
+    LibreCAD and Inkscape, which ignore weights.
     """
+    knots = np.array([0.0, 0.0, 0.0, 1.0, 1.0, 1.0])
     out = []
     for i, lp in enumerate(outline.loops):
         pieces: list[Piece] = []
@@ -155,8 +205,9 @@ def spline_pieces(outline: Outline) -> list[list[Piece]]:
                 if np.linalg.norm(seg.end - seg.start) > SAME_POINT:
                     pieces.append(np.array([seg.start, seg.end]))
                 continue
-            pieces.append(SplinePiece(2, np.array(seg.control_points), seg.weights,
-                                      np.array([0.0, 0.0, 0.0, 1.0, 1.0, 1.0])))
+            control = np.array(seg.control_points, dtype=np.float64)
+            arcs = [(control, float(seg.w))] if tol is None else readable_arcs(control, float(seg.w), tol)
+            pieces += [SplinePiece(2, c, np.array([1.0, w, 1.0]), knots) for c, w in arcs]
         out.append(pieces)
     return out
 
@@ -338,7 +389,7 @@ def dxf_document(
 
     half = 0.5 * kerf
     if curves == "spline":
-        exact = spline_pieces(outline) if half == 0 else offset_spline_pieces(outline, half, tolerance)
+        exact = spline_pieces(outline, tolerance) if half == 0 else offset_spline_pieces(outline, half, tolerance)
         for pieces in cut_order(exact):
             for p in pieces:
                 _add_piece(msp, p, cut)
