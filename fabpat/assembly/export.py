@@ -279,8 +279,8 @@ def scene(lib: PartLibrary, tolerance: float = CHECK_TOLERANCE):  # type: ignore
 def write_glb(lib: PartLibrary, path: str | os.PathLike[str]) -> None:
     """The assembled object as binary glTF 2.0 in metres (see :func:`scene`).
 
-    Written by :func:`glb_bytes`: y-up (glTF's convention), no normals. Raises :class:`fabpat.io.WriteFailed` (an :class:`ExportError`) if
-    the file cannot be written.
+    Written by :func:`glb_bytes`: y-up (glTF's convention), no normals. Raises
+    :class:`fabpat.io.WriteFailed` (an :class:`ExportError`) if the file cannot be written.
     """
     from fabpat.io import writer_failed
 
