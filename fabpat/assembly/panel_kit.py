@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.assembly.panel import Panel, build_panel
-from fabpat.assembly.panel_sheet import nest_panel, quarter_turn
+from fabpat.assembly.panel_sheet import nest_panel, print_bed_report, quarter_turn
 from fabpat.errors import ExportError
 
 #: relative difference allowed between the fused solid's volume and the plates' volumes summed: both are
@@ -55,6 +55,8 @@ class PanelReport:
     #: interfaces between two different polygons and their largest (position mm, tangent rad) relink gap
     mixed: int = 0
     mixed_gap: tuple[float, float] = (0.0, 0.0)
+    #: a printed panel's size on its print bed (:func:`fabpat.assembly.panel_sheet.print_bed_report`)
+    bed: tuple[str, ...] = ()
 
     def lines(self) -> list[str]:
         """The report as ``fabpat assemble`` prints it and the manifest stores it."""
@@ -66,7 +68,8 @@ class PanelReport:
                 *mixed,
                 f"one solid, BRepCheck valid: volume {self.volume:.3f} mm³ = the plates' {self.plate_volume:.3f} mm³ "
                 f"(relative difference {rel:.1e})",
-                *([f"{self.sheets} sheet(s): the panel's hull within the sheet's margins"] if self.sheets else [])]
+                *([f"{self.sheets} sheet(s): the panel's hull within the sheet's margins"] if self.sheets else []),
+                *self.bed]
 
 
 def sheet_document(panel: Panel, nesting: Any, quarter: bool) -> Any:
@@ -168,8 +171,11 @@ def assemble_panel(spec: Any, out: Path, tell: Callable[[str], None], timestamp:
     check_nesting(nesting)
     tell("checks")
     v, plates = check_panel_part(panel)
+    lo, hi = panel.outline.bbox
+    bed, too_large = print_bed_report(spec, (float(hi[0] - lo[0]), float(hi[1] - lo[1])))
+    problems = [*problems, *too_large]
     report = PanelReport(len(panel.types), panel.fused.fused, len(panel.outline.holes), v, plates, nesting.n_sheets,
-                         panel.fused.mixed, panel.fused.mixed_gap)
+                         panel.fused.mixed, panel.fused.mixed_gap, tuple(bed))
     def write(tmp: Path) -> tuple[list[str], dict[str, object]]:
         files = write_panel_files(panel, nesting, quarter, report, tmp, tell, timestamp)
         return files, {"generator": GENERATOR, "spec": spec.name, "source": spec.source, "files": files,
