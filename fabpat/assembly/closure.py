@@ -26,8 +26,9 @@ Decisions (each measured on the shipped sphere, 0x0488/0x0508, h = 3):
   ``sphericity_rms``/``sphericity_max`` the radial deviations from it over r; all three None (JSON
   null) when no sphere describes the shape (:func:`shape_sphere`: a flat field, a plane as good, or
   over :data:`SPHERE_RMS_LIMIT`), ``sphere_note`` saying why. A tube (``ClosureSetup.tube``) is no sphere
-  whatever its fit: its read-out is the least-squares cylinder, ``cylinder_radius`` (mm) and
-  ``cylindricity_rms`` (:func:`shape_cylinder`), and its sphere fields are None; ``peak_strain`` the
+  whatever its fit: the run also holds its least-squares cylinder, ``cylinder_radius`` (mm) and
+  ``cylindricity_rms`` (:func:`shape_cylinder`), and every read-out (:func:`sphere_text`, the
+  ``simulate-assembly`` fields, the kit's picture and GLB) gives that and no sphere; ``peak_strain`` the
   largest principal strain on either plate surface (:func:`fabpat.shell.strain.surface_strains`);
   ``max_deflection`` the largest node displacement once the rigid motion that best superposes the
   flat start on the result is removed (Kabsch), so that it does not depend on the held sleeve.
@@ -296,7 +297,7 @@ class ClosureRun:
     the input surface; ``max_deflection`` is the same largest distance); ``radius``, ``sphericity_rms`` and
     ``sphericity_max`` None when no sphere describes the shape, ``sphere_note`` then says why
     (:func:`shape_sphere`); a tube's ``cylinder_radius`` (mm) and ``cylindricity_rms`` (:func:`shape_cylinder`;
-    None for every other shape, and then its sphere fields None). The other fields as the
+    None for every other shape), which its read-outs give instead of the sphere. The other fields as the
     ``simulate-assembly`` output (see :mod:`fabpat.assembly.closure`).
     """
 
@@ -373,10 +374,8 @@ def run_closure(setup: ClosureSetup, *, steps: int = CLOSURE_STEPS, strain_limit
                      "max_sleeve_moment": float(mom.max()) if mom.size else 0.0, "exact": pt.exact})
     P = x[:n]
     sphere = shape_sphere(P)
-    cylinder: tuple[float | None, float | None] = (None, None)
-    if setup.tube:  # a tube is no sphere, however well one fits a short one (6 × 2: 9.44 % RMS)
-        cylinder = shape_cylinder(P)
-        sphere = ShapeSphere(sphere.centre, None, None, None, "a tube: its cylinder is reported, not a sphere")
+    # a tube is no sphere, however well one fits a short one (6 × 2: 9.44 % RMS): its read-outs give the cylinder
+    cylinder = shape_cylinder(P) if setup.tube else (None, None)
     eps = surface_strains(m.X, m.F, m.material, P, expmap(fin.rotation[:n]))
     plate_peak = {lab: float(eps[m.element_offsets[i]:m.element_offsets[i + 1]].max()) for i, lab in enumerate(labels)}
     worst = max(plate_peak, key=lambda k: plate_peak[k])

@@ -136,7 +136,8 @@ def predicted_shape(run: Any, assembly: Any) -> PredictedShape:
     hi = max(float(pl.vertex_density.max()) for pl in plates) if plates else 0.0
     sleeves = tuple((s.label, ps.kind, T) for s, ps, T in zip(m.sleeves, assembly.sleeves, sleeve_poses(run),
                                                               strict=True))
-    closed = [getattr(run, k, None) for k in ("radius", "sphericity_rms", "sphericity_max")]
+    tube = getattr(run, "cylinder_radius", None) is not None  # its cylinder, never a sphere
+    closed = [None if tube else getattr(run, k, None) for k in ("radius", "sphericity_rms", "sphericity_max")]
     return PredictedShape(tuple(plates), sleeves, float(m.material.t), (0.0, hi),
                           *(None if v is None else float(v) for v in closed), hasattr(run, "sphere_note"),
                           getattr(run, "cylinder_radius", None), getattr(run, "cylindricity_rms", None))

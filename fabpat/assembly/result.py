@@ -159,6 +159,8 @@ def record(kind: str, model: AssemblyModel, run: Any, seconds: float, element_st
     assembly, the sphere's of a strip)."""
     closed = kind not in STRIP_KINDS
     r, m = run, model
+    cylinder = _cylinder(kind, model, run)
+    sphere = closed and cylinder["cylinder_radius"] is None  # a tube's read-out is its cylinder, never a sphere
     res = r.result
     peak = plate_peak_strain(model, element_strain)
     worst = max(peak, key=lambda k: peak[k])
@@ -170,12 +172,12 @@ def record(kind: str, model: AssemblyModel, run: Any, seconds: float, element_st
         "plate_energies": r.plate_energies, "sleeve_moments": r.sleeve_moments, "reaction": r.reaction,
         "max_deflection": r.max_deflection, "peak": None if flat else r.peak,
         "half_ratio": None if flat else r.half_ratio, "path": r.path,
-        "radius": r.radius if closed else None,
-        "sphericity_rms": r.sphericity_rms if closed else None,
-        "sphericity_max": r.sphericity_max if closed else None,
+        "radius": r.radius if sphere else None,
+        "sphericity_rms": r.sphericity_rms if sphere else None,
+        "sphericity_max": r.sphericity_max if sphere else None,
         "mesh_deviation_rms": r.mesh_deviation_rms if closed else None,
         "mesh_deviation_max": r.mesh_deviation_max if closed else None,
-        **_cylinder(kind, model, run),
+        **cylinder,
         "peak_strain": peak[worst], "peak_strain_plate": worst, "strain_limit": strain_limit,
         "over_limit": [k for k, v in peak.items() if v > strain_limit], "factorizations": res.factorizations,
         "h": h, "warm_start": res.warm,
