@@ -63,8 +63,9 @@ def check_panel_fits(spec: Any) -> None:
                         + ("fewer rows or columns" if t.file is None else "a smaller mesh"))
 
 
-#: (width, height) mm: a print bed most desktop printers hold (theirs run from 180 to 256 mm a side); a part
-#: off its bed stops PrusaSlicer's command line, so a printed panel larger than this is told
+#: (width, height) mm: a print bed most desktop printers hold (theirs run from 180 to 256 mm a side), and
+#: PrusaSlicer's own default bed: its command line without a printer profile stops on a larger part
+#: ("Objects could not fit on the bed", PrusaSlicer 2.5.0), so a printed panel larger than this is told
 COMMON_PRINT_BED = (200.0, 200.0)
 
 
