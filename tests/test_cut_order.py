@@ -57,8 +57,7 @@ def assert_holes_then_outline(flags: list[bool]) -> None:
     assert all(flags[first_outer:]) and not any(flags[:first_outer]), flags
 
 
-@pytest.mark.parametrize("options", [{}, {"entities": "segments"}, {"curves": "spline"}, {"curves": "lines"},
-                                     {"kerf": 0.2}])
+@pytest.mark.parametrize("options", [{}, {"entities": "segments"}, {"curves": "spline"}, {"curves": "lines"}])
 def test_dxf_cuts_the_hole_before_the_outline(outline, tmp_path: Path, options: dict) -> None:  # noqa: ANN001
     path = write_dxf(outline, tmp_path / "p.dxf", None, origin="centre", **options)
     assert_holes_then_outline([on_outer(outline, p) for p in dxf_starts(path)])
