@@ -105,6 +105,12 @@ def test_the_kit_holds_one_part_in_every_format(kit: Path) -> None:
     assert list(manifest["counts"].values()) == [1] and manifest["sheets"] == 1
     assert manifest["tiles"]["T01"] == f"hex {A}" and manifest["tiles"]["T02"] == f"hex {B}"  # per tile, face order
     assert any("BRepCheck valid" in line for line in manifest["checks"])
+    # printed (the default process), 217.9 × 218.2 mm: the kit says so against [sheet] and a common bed
+    (line,) = [c for c in manifest["checks"] if c.startswith("printed part")]
+    w, h = (float(v) for v in re.match(r"printed part ([\d.]+) × ([\d.]+) mm: on the print bed of \[sheet\], "
+                                        r"300 × 260 mm", line).groups())
+    assert 200 < w < 300 and 200 < h < 260
+    assert any("larger than a common 200 × 200 mm print bed" in m for m in manifest["warnings"])
     import csv
 
     bom = list(csv.DictReader((kit / "bom.csv").read_text().splitlines()))
@@ -281,6 +287,18 @@ def test_a_single_column_is_not_pushed(kind: str) -> None:
     data = {"tiling": {"kind": kind, "edge": 36.0, "rows": 3, "columns": 1}, "patterns": {"pattern": "0x0488"}}
     with pytest.raises(SpecError, match="tiling.columns = 1 has only one"):
         simulate_assembly(parse_spec(data, "one.toml"))
+
+
+def test_print_bed_report_tells_the_size_and_a_part_past_a_common_bed() -> None:
+    from fabpat.assembly.panel_sheet import print_bed_report
+
+    spec = parse()
+    line, warn = print_bed_report(spec, (150.0, 210.0))  # 210 mm > 200 mm whichever way it lies
+    assert line == ["printed part 150.0 × 210.0 mm: on the print bed of [sheet], 300 × 260 mm (sheet.margin = 5 mm)"]
+    assert len(warn) == 1 and "150.0 × 210.0 mm" in warn[0] and "fewer rows or columns" in warn[0]
+    assert print_bed_report(spec, (199.0, 120.0))[1] == []  # within the common bed: the line, no warning
+    laser = parse({**SPEC, "plates": {"thickness": 2.0, "process": "laser"}, "sheet": {**SPEC["sheet"], "kerf": 0.1}})
+    assert print_bed_report(laser, (250.0, 250.0)) == ([], [])
 
 
 def test_3mf_is_a_panel_format_only() -> None:

@@ -90,10 +90,33 @@ def test_pentagon_cap_closes_into_a_dome() -> None:
 def test_tube_closes_into_a_cylinder() -> None:
     data = spec("hex-tube", rows=6, columns=1)
     data["patterns"] = {"hexagon": "0x0488"}
-    f = simulate_assembly(parse_spec(data, "tube.toml"), h=H).fields()
+    sim = simulate_assembly(parse_spec(data, "tube.toml"), h=H)
+    f = sim.fields()
     circumference = 6 * math.sqrt(3.0) * 36.0
     assert f["plates"] == 6 and 0.8 < f["cylinder_radius"] / (circumference / (2 * math.pi)) < 1.3
     assert f["cylindricity_rms"] < 0.01
+    # every read-out names the cylinder, none a sphere (a 2.47 % "sphere" of radius 63.8 mm before)
+    assert f["radius"] is None and f["sphericity_rms"] is None and f["sphericity_max"] is None
+    assert f"cylinder_radius={f['cylinder_radius']:.2f} mm" in repr(sim) and "sphericity" not in repr(sim)
+    _tube_pictures_and_glb_say_cylinder(sim, data)
+
+
+def _tube_pictures_and_glb_say_cylinder(sim, data: dict) -> None:  # noqa: ANN001
+    """The kit's picture title, prediction.json record and predicted GLB metadata of the tube's run."""
+    import dataclasses
+
+    from fabpat.assembly.placement import place
+    from fabpat.assembly.preview import predicted_scene, predicted_shape, prediction_title
+    from fabpat.assembly.result import prediction_record
+
+    run, radius = sim.run, sim.fields()["cylinder_radius"]
+    title = prediction_title("tube", run, H)
+    assert f"cylinder radius {radius:.2f} mm" in title and "sphericity" not in title
+    rec = prediction_record(run, 1.0, H, "hex-tube")
+    assert rec["radius"] is None and rec["cylinder_radius"] == radius
+    shape = predicted_shape(run, place(parse_spec(data, "tube.toml"), ["0x0488"] * 6))
+    meta = predicted_scene(dataclasses.replace(shape, plates=shape.plates[:1], sleeves=()), None, "tube", 0.5).metadata
+    assert meta["cylinder_radius_mm"] == radius and "radius_mm" not in meta and "sphericity_rms" not in meta
 
 
 @pytest.mark.parametrize("keys, message", [

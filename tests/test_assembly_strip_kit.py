@@ -56,7 +56,7 @@ def test_the_predicted_files_are_the_bent_strip(kit: Path) -> None:
     rec = json.loads((kit / "prediction.json").read_text())
     height = float(stl.bounds[1, 2] - stl.bounds[0, 2])
     assert height > rec["max_deflection"]  # the arch, plus the plates' thickness and the sleeves
-    assert float(flat.bounds[1, 2] - flat.bounds[0, 2]) * 1000 < 10.0  # the flat strip (GLB in metres)
+    assert float(flat.bounds[1, 1] - flat.bounds[0, 1]) * 1000 < 10.0  # the flat strip (GLB in metres, y up)
     scene = trimesh.load(kit / "predicted.glb")
     assert {"T1", "T2", "T3", "E1", "E2"} <= set(scene.graph.nodes)
 

@@ -347,10 +347,7 @@ def prediction_notes(prediction: Prediction) -> list[str]:
     """The check lines of a kit's prediction: its shape (a closure's radius and sphericity, a strip's arch),
     peak strain and largest sleeve moment, then how well the printed sleeves grip the deformed plates."""
     run, h, fit = prediction.run, prediction.h, prediction.fit
-    if prediction.record.get("cylinder_radius") is not None:  # a tube: its cylinder, not a sphere
-        shape = (f"cylinder radius {prediction.record['cylinder_radius']:.2f} mm, cylindricity rms "
-                 f"{100 * prediction.record['cylindricity_rms']:.2f} %")
-    elif hasattr(run, "sphere_note"):  # a ClosureRun
+    if hasattr(run, "sphere_note"):  # a ClosureRun: a sphere's radius, a tube's cylinder or why neither
         from fabpat.assembly.closure import sphere_text
 
         shape = sphere_text(run)

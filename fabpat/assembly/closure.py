@@ -25,7 +25,10 @@ Decisions (each measured on the shipped sphere, 0x0488/0x0508, h = 3):
   (the mid-surface), geometric fit ``min Σ (|p − c| − r)²`` started from the algebraic one;
   ``sphericity_rms``/``sphericity_max`` the radial deviations from it over r; all three None (JSON
   null) when no sphere describes the shape (:func:`shape_sphere`: a flat field, a plane as good, or
-  over :data:`SPHERE_RMS_LIMIT`), ``sphere_note`` saying why; ``peak_strain`` the
+  over :data:`SPHERE_RMS_LIMIT`), ``sphere_note`` saying why. A tube (``ClosureSetup.tube``) is no sphere
+  whatever its fit: the run also holds its least-squares cylinder, ``cylinder_radius`` (mm) and
+  ``cylindricity_rms`` (:func:`shape_cylinder`), and every read-out (:func:`sphere_text`, the
+  ``simulate-assembly`` fields, the kit's picture and GLB) gives that and no sphere; ``peak_strain`` the
   largest principal strain on either plate surface (:func:`fabpat.shell.strain.surface_strains`);
   ``max_deflection`` the largest node displacement once the rigid motion that best superposes the
   flat start on the result is removed (Kabsch), so that it does not depend on the held sleeve.
@@ -144,7 +147,11 @@ def shape_sphere(P: Arr) -> ShapeSphere:
 
 def sphere_text(run: object) -> str:
     """The shape read-out of a closure (a :class:`ClosureRun`): "radius R mm, sphericity rms S % (max M %)",
-    or its ``sphere_note`` when no sphere describes the shape."""
+    a tube's "cylinder radius R mm, cylindricity rms C %", or its ``sphere_note`` when no sphere describes
+    the shape."""
+    if getattr(run, "cylinder_radius", None) is not None:  # a tube: its cylinder
+        return (f"cylinder radius {run.cylinder_radius:.2f} mm, "  # type: ignore[attr-defined]
+                f"cylindricity rms {100 * run.cylindricity_rms:.2f} %")  # type: ignore[attr-defined]
     if getattr(run, "radius", None) is None:
         return str(getattr(run, "sphere_note", "") or "no sphere")
     return (f"radius {run.radius:.2f} mm, sphericity rms {100 * run.sphericity_rms:.2f} % "  # type: ignore[attr-defined]
@@ -173,6 +180,16 @@ def fit_cylinder(P: Arr, axis: Arr) -> tuple[Arr, Arr, float]:
     return q[:3], q[3:6] / np.linalg.norm(q[3:6]), float(q[6])
 
 
+def shape_cylinder(P: Arr) -> tuple[float, float]:
+    """A tube's least-squares cylinder through its plate nodes P (n, 3) mm (:func:`fit_cylinder`, started on
+    the tube's axis x, :func:`fabpat.assembly.polyhedra.hex_tube`): its radius (mm) and the RMS radial
+    deviation from it over the radius (``cylindricity_rms``)."""
+    c, d, radius = fit_cylinder(P, np.array([1.0, 0.0, 0.0]))
+    w = P - c
+    dev = (np.linalg.norm(w - np.outer(w @ d, d), axis=1) - radius) / radius
+    return radius, float(np.sqrt(np.mean(dev * dev)))
+
+
 def rigid_residual(X: Arr, Y: Arr) -> Arr:
     """(n,) distances |Y_i − (R X_i + t)| after the rotation R and translation t that best superpose X
     on Y (n, 3) in the least-squares sense (Kabsch, Acta Cryst. A32 (1976) 922)."""
@@ -187,10 +204,12 @@ def rigid_residual(X: Arr, Y: Arr) -> Arr:
 @dataclass(frozen=True, eq=False)
 class ClosureSetup:
     """A closed assembly ready to be bent: ``model`` (plates flat on the polyhedron, each sleeve's
-    ``angle`` the change φ − ψ, rad) and ``held`` the sleeve held against rigid-body motion."""
+    ``angle`` the change φ − ψ, rad), ``held`` the sleeve held against rigid-body motion and ``tube`` True
+    for a ``hex-tube`` (its read-out is a cylinder, not a sphere)."""
 
     model: AssemblyModel
     held: int = 0
+    tube: bool = False
 
 
 def closure_model(plates: list[ModelPlate], sleeves: list[ModelSleeve], material: Material) -> ClosureSetup:
@@ -261,7 +280,8 @@ def closure_setup(spec: object, face_patterns: list[str], *, h: float = 3.0, E: 
     sleeves = [ModelSleeve(s.label, s.transform, s.plates, float(s.dihedral - s.angle), slot_motions(asm, s, plates))
                for s in asm.sleeves]
     material = Material(mat.youngs_modulus if E is None else E, mat.poisson if nu is None else nu, t)
-    return closure_model(plates, sleeves, material)
+    setup = closure_model(plates, sleeves, material)
+    return ClosureSetup(setup.model, setup.held, tube=spec.tiling.kind == "hex-tube")  # type: ignore[attr-defined]
 
 
 @dataclass(frozen=True, eq=False)
@@ -276,7 +296,8 @@ class ClosureRun:
     placed on the tiling, once the best rigid motion is removed (Kabsch: the closed shape against
     the input surface; ``max_deflection`` is the same largest distance); ``radius``, ``sphericity_rms`` and
     ``sphericity_max`` None when no sphere describes the shape, ``sphere_note`` then says why
-    (:func:`shape_sphere`). The other fields as the
+    (:func:`shape_sphere`); a tube's ``cylinder_radius`` (mm) and ``cylindricity_rms`` (:func:`shape_cylinder`;
+    None for every other shape), which its read-outs give instead of the sphere. The other fields as the
     ``simulate-assembly`` output (see :mod:`fabpat.assembly.closure`).
     """
 
@@ -302,6 +323,8 @@ class ClosureRun:
     mesh_deviation_rms: float = 0.0
     mesh_deviation_max: float = 0.0
     sphere_note: str = ""
+    cylinder_radius: float | None = None
+    cylindricity_rms: float | None = None
 
 
 def warm_start(previous: ClosureRun, setup: ClosureSetup) -> tuple[Arr, Arr]:
@@ -351,6 +374,8 @@ def run_closure(setup: ClosureSetup, *, steps: int = CLOSURE_STEPS, strain_limit
                      "max_sleeve_moment": float(mom.max()) if mom.size else 0.0, "exact": pt.exact})
     P = x[:n]
     sphere = shape_sphere(P)
+    # a tube is no sphere, however well one fits a short one (6 × 2: 9.44 % RMS): its read-outs give the cylinder
+    cylinder = shape_cylinder(P) if setup.tube else (None, None)
     eps = surface_strains(m.X, m.F, m.material, P, expmap(fin.rotation[:n]))
     plate_peak = {lab: float(eps[m.element_offsets[i]:m.element_offsets[i + 1]].max()) for i, lab in enumerate(labels)}
     worst = max(plate_peak, key=lambda k: plate_peak[k])
@@ -360,4 +385,4 @@ def run_closure(setup: ClosureSetup, *, steps: int = CLOSURE_STEPS, strain_limit
                       float(np.linalg.norm(fin.reactions)), float(moved.max()), sphere.radius, sphere.centre,
                       sphere.sphericity_rms, sphere.sphericity_max, plate_peak[worst], worst, plate_peak,
                       float(strain_limit), [k for k, v in plate_peak.items() if v > strain_limit], path, x, eps, r,
-                      float(np.sqrt(np.mean(moved * moved))), float(moved.max()), sphere.note)
+                      float(np.sqrt(np.mean(moved * moved))), float(moved.max()), sphere.note, *cylinder)

@@ -216,6 +216,23 @@ GLB_METALLIC = 0.0  # printed and cut polymer: a dielectric
 GLB_ROUGHNESS = 0.6  # matte plastic
 
 
+# glTF is y-up (glTF 2.0 §3.4: "+Y is up"); fabpat's models are z-up (plates flat in xy). Every GLB's
+# root node carries this turn, (x, y, z) → (x, z, −y), −90° about x, so Blender and other viewers show
+# a panel lying flat and a dome's apex up, with the vertices left in the model's own frame.
+Y_UP = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
+
+
+def glb_bytes(sc) -> bytes:  # type: ignore[no-untyped-def]
+    """Binary glTF 2.0 of the ``trimesh.Scene`` ``sc`` (metres, z up) that has one top node: that node gets
+    the z-up → y-up turn :data:`Y_UP` (4 × 4) and no normals are written (viewers then shade every
+    triangle flat, glTF 2.0 §3.7.2.1, which keeps the parts' sharp edges sharp). Every kit GLB is written
+    here."""
+    (root,) = sc.graph.transforms.children[sc.graph.base_frame]
+    sc.graph.update(frame_from=sc.graph.base_frame, frame_to=root, matrix=Y_UP)
+    data: bytes = sc.export(file_type="glb", include_normals=False)
+    return data
+
+
 def srgb_to_linear(hex_colour: str) -> list[float]:
     """``"#rrggbb"`` → linear RGB in [0, 1], as glTF's ``baseColorFactor`` wants it.
 
@@ -228,7 +245,8 @@ def srgb_to_linear(hex_colour: str) -> list[float]:
 
 
 def scene(lib: PartLibrary, tolerance: float = CHECK_TOLERANCE):  # type: ignore[no-untyped-def]
-    """A ``trimesh.Scene`` of the assembled object in metres: one mesh per distinct part, instanced.
+    """A ``trimesh.Scene`` of the assembled object in metres (z up, as the model; :func:`glb_bytes` turns it
+    y-up when it is written): one mesh per distinct part, instanced.
 
     Each part key's mesh is stored once (vertices in m) with a PBR material in the part's colour of
     :func:`colours` (``assembly.png``); every placed part is a node named by its label ("H07",
@@ -261,13 +279,12 @@ def scene(lib: PartLibrary, tolerance: float = CHECK_TOLERANCE):  # type: ignore
 def write_glb(lib: PartLibrary, path: str | os.PathLike[str]) -> None:
     """The assembled object as binary glTF 2.0 in metres (see :func:`scene`).
 
-    No normals are written: glTF viewers then shade every triangle flat (spec §3.7.2.1), which keeps
-    the parts' sharp edges sharp. Raises :class:`fabpat.io.WriteFailed` (an :class:`ExportError`) if
-    the file cannot be written.
+    Written by :func:`glb_bytes`: y-up (glTF's convention), no normals. Raises
+    :class:`fabpat.io.WriteFailed` (an :class:`ExportError`) if the file cannot be written.
     """
     from fabpat.io import writer_failed
 
-    data = scene(lib).export(file_type="glb", include_normals=False)
+    data = glb_bytes(scene(lib))
     try:
         Path(path).write_bytes(data)
     except OSError as exc:

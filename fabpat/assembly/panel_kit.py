@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.assembly.panel import Panel, build_panel
-from fabpat.assembly.panel_sheet import nest_panel, quarter_turn
+from fabpat.assembly.panel_sheet import nest_panel, print_bed_report, quarter_turn
 from fabpat.errors import ExportError
 
 #: relative difference allowed between the fused solid's volume and the plates' volumes summed: both are
@@ -55,6 +55,8 @@ class PanelReport:
     #: interfaces between two different polygons and their largest (position mm, tangent rad) relink gap
     mixed: int = 0
     mixed_gap: tuple[float, float] = (0.0, 0.0)
+    #: a printed panel's size on its print bed (:func:`fabpat.assembly.panel_sheet.print_bed_report`)
+    bed: tuple[str, ...] = ()
 
     def lines(self) -> list[str]:
         """The report as ``fabpat assemble`` prints it and the manifest stores it."""
@@ -66,7 +68,8 @@ class PanelReport:
                 *mixed,
                 f"one solid, BRepCheck valid: volume {self.volume:.3f} mm³ = the plates' {self.plate_volume:.3f} mm³ "
                 f"(relative difference {rel:.1e})",
-                *([f"{self.sheets} sheet(s): the panel's hull within the sheet's margins"] if self.sheets else [])]
+                *([f"{self.sheets} sheet(s): the panel's hull within the sheet's margins"] if self.sheets else []),
+                *self.bed]
 
 
 def sheet_document(panel: Panel, nesting: Any, quarter: bool) -> Any:
@@ -77,7 +80,7 @@ def sheet_document(panel: Panel, nesting: Any, quarter: bool) -> Any:
     import ezdxf
 
     from fabpat.assembly.sheets import SHEET_COLOR, SHEET_LAYER, edge_label_spots
-    from fabpat.exchange.contours import bulge_loops, offset_bulge_loops
+    from fabpat.exchange.contours import bulge_loops, cut_order, offset_bulge_loops
     from fabpat.exchange.dxf import CUT_COLOR, CUT_LAYER, ENGRAVE_COLOR, ENGRAVE_LAYER, add_bulge_segments, set_extents
     from fabpat.exchange.labels import label_at
 
@@ -98,7 +101,7 @@ def sheet_document(panel: Panel, nesting: Any, quarter: bool) -> Any:
         return place.apply(quarter_turn(np.atleast_2d(P), quarter))
 
     loops = bulge_loops(panel.outline, spec.curve_tolerance)
-    for lp in offset_bulge_loops(loops, 0.5 * s.kerf) if s.kerf > 0 else loops:
+    for lp in cut_order(offset_bulge_loops(loops, 0.5 * s.kerf) if s.kerf > 0 else loops):
         V = where(lp.V)
         if s.dxf_entities == "segments":
             add_bulge_segments(msp, V, lp.bulges, {"layer": CUT_LAYER})
@@ -168,8 +171,11 @@ def assemble_panel(spec: Any, out: Path, tell: Callable[[str], None], timestamp:
     check_nesting(nesting)
     tell("checks")
     v, plates = check_panel_part(panel)
+    lo, hi = panel.outline.bbox
+    bed, too_large = print_bed_report(spec, (float(hi[0] - lo[0]), float(hi[1] - lo[1])))
+    problems = [*problems, *too_large]
     report = PanelReport(len(panel.types), panel.fused.fused, len(panel.outline.holes), v, plates, nesting.n_sheets,
-                         panel.fused.mixed, panel.fused.mixed_gap)
+                         panel.fused.mixed, panel.fused.mixed_gap, tuple(bed))
     def write(tmp: Path) -> tuple[list[str], dict[str, object]]:
         files = write_panel_files(panel, nesting, quarter, report, tmp, tell, timestamp)
         return files, {"generator": GENERATOR, "spec": spec.name, "source": spec.source, "files": files,
@@ -241,15 +247,27 @@ def write_panel_files(panel: Panel, nesting: Any, quarter: bool, report: PanelRe
 
 
 def write_glb(panel: Panel, path: Path) -> None:
-    """The part as binary glTF 2.0 in metres (its mesh at the kit's check tolerance, one colour)."""
+    """The part as binary glTF 2.0 in metres, y-up (:func:`fabpat.assembly.export.glb_bytes`), as every kit GLB:
+    a root node named after the spec, one node ``panel`` with the part's mesh (at the kit's check tolerance)
+    and a PBR material in the first pattern colour of ``panel.png``."""
     import trimesh
+    from trimesh.visual.material import PBRMaterial
 
-    from fabpat.assembly.export import GLB_UNIT
+    from fabpat.assembly.export import GLB_METALLIC, GLB_ROUGHNESS, GLB_UNIT, PALETTE, glb_bytes, slug, srgb_to_linear
     from fabpat.assembly.parts import CHECK_TOLERANCE
     from fabpat.exchange.threemf import triangulate
 
     V, F = triangulate(panel.solid, CHECK_TOLERANCE)
-    path.write_bytes(trimesh.Trimesh(V * GLB_UNIT, F, process=False).export(file_type="glb", include_normals=False))
+    mesh = trimesh.Trimesh(V * GLB_UNIT, F, process=False)
+    mesh.visual = trimesh.visual.TextureVisuals(material=PBRMaterial(
+        name=slug(panel.name), baseColorFactor=[*srgb_to_linear(PALETTE[0]), 1.0],
+        metallicFactor=GLB_METALLIC, roughnessFactor=GLB_ROUGHNESS))
+    sc = trimesh.Scene()
+    root = panel.spec.name or "panel"
+    sc.graph.update(frame_from=sc.graph.base_frame, frame_to=root, matrix=np.eye(4))
+    sc.add_geometry(mesh, node_name="panel" if root != "panel" else "panel part", geom_name=slug(panel.name),
+                    parent_node_name=root)
+    path.write_bytes(glb_bytes(sc))
 
 
 def render_png(panel: Panel, path: Path) -> None:

@@ -1,6 +1,7 @@
 """Where a one-piece panel goes on its sheet: the hull of its polygons, grown by half the kerf, checked
 against the sheet when the spec is read (:func:`fabpat.assembly.spec.check_sheet_fits`) and nested on it
-by the panel's kit (:mod:`fabpat.assembly.panel_kit`). Only the tiling's geometry: no pattern, no part."""
+by the panel's kit (:mod:`fabpat.assembly.panel_kit`). Only the tiling's geometry: no pattern, no part;
+:func:`print_bed_report` takes the part's size from the kit."""
 
 from __future__ import annotations
 
@@ -60,6 +61,31 @@ def check_panel_fits(spec: Any) -> None:
                         f"round, plus sheet.margin = {s.margin:g} mm on each side and the nesting grid's "
                         f"{DEFAULT_RESOLUTION:g} mm step): use a larger sheet or "
                         + ("fewer rows or columns" if t.file is None else "a smaller mesh"))
+
+
+#: (width, height) mm: a print bed most desktop printers hold (theirs run from 180 to 256 mm a side), and
+#: PrusaSlicer's own default bed: its command line without a printer profile stops on a larger part
+#: ("Objects could not fit on the bed", PrusaSlicer 2.5.0), so a printed panel larger than this is told
+COMMON_PRINT_BED = (200.0, 200.0)
+
+
+def print_bed_report(spec: Any, size: tuple[float, float]) -> tuple[list[str], list[str]]:
+    """For a printed panel (``plates.process = "print"``; else nothing) of footprint ``size`` (width, height) mm:
+    the kit's check line (the part on the ``[sheet]`` bed, which the spec's check already holds it to) and a
+    warning when the part fits :data:`COMMON_PRINT_BED` neither way round."""
+    if spec.plates.process != "print":
+        return [], []
+    s = spec.sheet
+    w, h = size
+    line = (f"printed part {w:.1f} × {h:.1f} mm: on the print bed of [sheet], {s.width:g} × {s.height:g} mm "
+            f"(sheet.margin = {s.margin:g} mm)")
+    bw, bh = COMMON_PRINT_BED
+    if (w <= bw and h <= bh) or (h <= bw and w <= bh):
+        return [line], []
+    return [line], [f"the printed panel is {w:.1f} × {h:.1f} mm, larger than a common {bw:g} × {bh:g} mm print bed "
+                     f"either way round (PrusaSlicer's command line stops on a part outside its bed); it was checked "
+                     f"against [sheet], {s.width:g} × {s.height:g} mm: give sheet.width and sheet.height of your "
+                     "printer's bed, or " + ("fewer rows or columns" if spec.tiling.file is None else "a smaller mesh")]
 
 
 def nest_panel(spec: Any) -> tuple[Any, bool]:

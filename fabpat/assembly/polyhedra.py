@@ -139,7 +139,8 @@ def hex_tube(rows: int, columns: int) -> tuple[Arr, Faces]:
 
 
 def hex_cap(rings: int, centre: int = 5) -> tuple[Arr, Faces]:
-    """A central hexagon (``centre`` 6, flat) or pentagon (5, a dome) and ``rings`` rings of hexagons.
+    """A central hexagon (``centre`` 6, flat) or pentagon (5, a dome) and ``rings`` rings of hexagons, the
+    centre face's outward normal along +z: the dome's apex is up (the GLB turns +z to glTF's up, +y).
     Raises :class:`SpecError` unless ``rings`` ≥ 1 is an integer and ``centre`` 5 or 6."""
     _integers("a hexagon cap", rings=rings, centre=centre)
     if rings < 1 or centre not in (5, 6):
@@ -157,10 +158,23 @@ def hex_cap(rings: int, centre: int = 5) -> tuple[Arr, Faces]:
     else:
         V, faces = goldberg(rings + 1, 0, "dual")
         start = 0  # a pentagon (pentagons come first)
+        V = V @ _turn_to_z(V[list(faces[start])].mean(axis=0)).T
     keep = _rings(faces, start, rings)
     used = sorted({v for f in keep for v in faces[f]})
     new = {v: i for i, v in enumerate(used)}
     return _unit(V[used], tuple(tuple(new[v] for v in faces[f]) for f in keep))
+
+
+def _turn_to_z(d: Arr) -> Arr:
+    """(3, 3) rotation taking the direction ``d`` (3,) to +z (Rodrigues' formula about d × z)."""
+    d = d / np.linalg.norm(d)
+    z = np.array([0.0, 0.0, 1.0])
+    k = np.cross(d, z)
+    s, c = float(np.linalg.norm(k)), float(d @ z)
+    if s < 1e-15:  # already along ±z: the identity, or half a turn about x
+        return np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
+    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]]) / s
+    return np.eye(3) + s * K + (1.0 - c) * (K @ K)
 
 
 def _rings(faces: Faces, start: int, rings: int) -> list[int]:

@@ -60,7 +60,8 @@ class PredictedShape:
     """The assembled object as predicted: ``plates``; ``sleeves`` one (label, part key, pose (4, 4))
     per sleeve; ``thickness`` (mm); ``density_range`` (lo, hi) of the colour map (N·mm/mm²); and a
     closure's ``radius`` (mm), ``sphericity_rms``/``sphericity_max`` (fractions of the radius; None for
-    a strip, which is not closed, and for a closure no sphere describes: ``closed`` tells them apart)."""
+    a strip, which is not closed, and for a closure no sphere describes: ``closed`` tells them apart); a tube's
+    ``cylinder_radius`` (mm) and ``cylindricity_rms`` (None for every other shape)."""
 
     plates: tuple[PredictedPlate, ...]
     sleeves: tuple[tuple[str, str, Arr], ...]
@@ -71,6 +72,8 @@ class PredictedShape:
     sphericity_max: float | None
     #: a closure (False: a strip); its radius and sphericity are None when no sphere describes it
     closed: bool = False
+    cylinder_radius: float | None = None
+    cylindricity_rms: float | None = None
 
 
 def _areas(P: Arr, F: NDArray[np.int64]) -> Arr:
@@ -133,9 +136,11 @@ def predicted_shape(run: Any, assembly: Any) -> PredictedShape:
     hi = max(float(pl.vertex_density.max()) for pl in plates) if plates else 0.0
     sleeves = tuple((s.label, ps.kind, T) for s, ps, T in zip(m.sleeves, assembly.sleeves, sleeve_poses(run),
                                                               strict=True))
-    closed = [getattr(run, k, None) for k in ("radius", "sphericity_rms", "sphericity_max")]
+    tube = getattr(run, "cylinder_radius", None) is not None  # its cylinder, never a sphere
+    closed = [None if tube else getattr(run, k, None) for k in ("radius", "sphericity_rms", "sphericity_max")]
     return PredictedShape(tuple(plates), sleeves, float(m.material.t), (0.0, hi),
-                          *(None if v is None else float(v) for v in closed), hasattr(run, "sphere_note"))
+                          *(None if v is None else float(v) for v in closed), hasattr(run, "sphere_note"),
+                          getattr(run, "cylinder_radius", None), getattr(run, "cylindricity_rms", None))
 
 
 def joint_fit(run: Any, sleeve_types: dict[str, Any], kinds: list[str]) -> tuple[float, float]:
@@ -249,6 +254,8 @@ def predicted_scene(shape: PredictedShape, lib: Any, name: str, tolerance: float
     if shape.radius is not None:  # a closed object's roundness
         sc.metadata.update({"radius_mm": shape.radius, "sphericity_rms": shape.sphericity_rms,
                             "sphericity_max": shape.sphericity_max})
+    if shape.cylinder_radius is not None:  # a tube's roundness: its cylinder
+        sc.metadata.update({"cylinder_radius_mm": shape.cylinder_radius, "cylindricity_rms": shape.cylindricity_rms})
     return sc
 
 
@@ -257,9 +264,10 @@ def write_predicted_glb(shape: PredictedShape, lib: Any, path: str | os.PathLike
     """The predicted object as binary glTF 2.0 (metres), see :func:`predicted_scene`. Plates are closed
     shells ±t/2 about the deformed mid-surface (so a viewer shows their thickness from both sides).
     Raises :class:`fabpat.io.WriteFailed` if the file cannot be written."""
+    from fabpat.assembly.export import glb_bytes
     from fabpat.io import writer_failed
 
-    data = predicted_scene(shape, lib, name, tolerance).export(file_type="glb", include_normals=False)
+    data = glb_bytes(predicted_scene(shape, lib, name, tolerance))  # y-up, as every kit GLB
     try:
         Path(path).write_bytes(data)
     except OSError as exc:

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.assembly.closure import fit_cylinder
+from fabpat.assembly.closure import shape_cylinder
 from fabpat.assembly.model import AssemblyModel
 from fabpat.assembly.spec_types import STRIP_KINDS
 from fabpat.errors import SpecError
@@ -64,10 +64,15 @@ class AssemblySimulation:
 
     def __repr__(self) -> str:
         """One line: kind, name, size, energy, peak strain and the shape's read-out (radius and
-        sphericity of a closed assembly, the arch's peak and height of a strip); no arrays."""
+        sphericity of a closed assembly, a tube's cylinder, the arch's peak and height of a strip); no arrays."""
         f = self.fields()
-        shape = ((f"radius={f['radius']:.2f} mm, sphericity_rms={100 * f['sphericity_rms']:.3f} %"
-                  if f["radius"] is not None else f"radius=None ({self.run.sphere_note})") if self.closed else
+        if f.get("cylinder_radius") is not None:  # a tube: its cylinder, no sphere
+            round_ = (f"cylinder_radius={f['cylinder_radius']:.2f} mm, "
+                      f"cylindricity_rms={100 * f['cylindricity_rms']:.3f} %")
+        else:
+            round_ = (f"radius={f['radius']:.2f} mm, sphericity_rms={100 * f['sphericity_rms']:.3f} %"
+                      if f["radius"] is not None else f"radius=None ({getattr(self.run, 'sphere_note', '')})")
+        shape = (round_ if self.closed else
                  f"peak={'None' if f['peak'] is None else format(f['peak'], '.3f')}, "
                  f"max_deflection={f['max_deflection']:.2f} mm")
         return (f"AssemblySimulation(kind={self.kind!r}, name={self.name!r}, plates={f['plates']}, "
@@ -158,6 +163,8 @@ def record(kind: str, model: AssemblyModel, run: Any, seconds: float, element_st
     assembly, the sphere's of a strip)."""
     closed = kind not in STRIP_KINDS
     r, m = run, model
+    cylinder = _cylinder(kind, model, run)
+    sphere = closed and cylinder["cylinder_radius"] is None  # a tube's read-out is its cylinder, never a sphere
     res = r.result
     peak = plate_peak_strain(model, element_strain)
     worst = max(peak, key=lambda k: peak[k])
@@ -169,12 +176,12 @@ def record(kind: str, model: AssemblyModel, run: Any, seconds: float, element_st
         "plate_energies": r.plate_energies, "sleeve_moments": r.sleeve_moments, "reaction": r.reaction,
         "max_deflection": r.max_deflection, "peak": None if flat else r.peak,
         "half_ratio": None if flat else r.half_ratio, "path": r.path,
-        "radius": r.radius if closed else None,
-        "sphericity_rms": r.sphericity_rms if closed else None,
-        "sphericity_max": r.sphericity_max if closed else None,
+        "radius": r.radius if sphere else None,
+        "sphericity_rms": r.sphericity_rms if sphere else None,
+        "sphericity_max": r.sphericity_max if sphere else None,
         "mesh_deviation_rms": r.mesh_deviation_rms if closed else None,
         "mesh_deviation_max": r.mesh_deviation_max if closed else None,
-        **_cylinder(kind, model, run),
+        **cylinder,
         "peak_strain": peak[worst], "peak_strain_plate": worst, "strain_limit": strain_limit,
         "over_limit": [k for k, v in peak.items() if v > strain_limit], "factorizations": res.factorizations,
         "h": h, "warm_start": res.warm,
@@ -183,16 +190,15 @@ def record(kind: str, model: AssemblyModel, run: Any, seconds: float, element_st
 
 
 def _cylinder(kind: str, model: AssemblyModel, run: Any) -> dict[str, float | None]:
-    """A tube's least-squares cylinder (:func:`fabpat.assembly.closure.fit_cylinder`, started on the
-    tube's axis x): ``cylinder_radius`` (mm) and ``cylindricity_rms`` (RMS radial deviation over the
-    radius); None for other kinds."""
+    """A tube's least-squares cylinder: ``cylinder_radius`` (mm) and ``cylindricity_rms`` (RMS radial
+    deviation over the radius), the run's own (:func:`fabpat.assembly.closure.shape_cylinder`) or, for a run
+    of a tube made without its ``ClosureSetup.tube``, fitted here; None for other kinds."""
     if kind != "hex-tube":
         return {"cylinder_radius": None, "cylindricity_rms": None}
-    P = model.X + run.result.final.displacement[: len(model.X)]
-    c, d, radius = fit_cylinder(P, np.array([1.0, 0.0, 0.0]))
-    w = P - c
-    dev = (np.linalg.norm(w - np.outer(w @ d, d), axis=1) - radius) / radius
-    return {"cylinder_radius": radius, "cylindricity_rms": float(np.sqrt(np.mean(dev * dev)))}
+    if getattr(run, "cylinder_radius", None) is not None:
+        return {"cylinder_radius": run.cylinder_radius, "cylindricity_rms": run.cylindricity_rms}
+    radius, rms = shape_cylinder(model.X + run.result.final.displacement[: len(model.X)])
+    return {"cylinder_radius": radius, "cylindricity_rms": rms}
 
 
 def _cell(value: object) -> str:

@@ -98,7 +98,7 @@ def sheet_document(assembly: Assembly, nesting: Nesting, sheet: int, filleted: d
     """The ezdxf drawing of one sheet (mm; layers CUT, ENGRAVE, SHEET)."""
     import ezdxf
 
-    from fabpat.exchange.contours import bulge_loops, offset_bulge_loops
+    from fabpat.exchange.contours import bulge_loops, cut_order, offset_bulge_loops
     from fabpat.exchange.dxf import CUT_COLOR, CUT_LAYER, ENGRAVE_COLOR, ENGRAVE_LAYER, add_bulge_segments, set_extents
     from fabpat.exchange.labels import label_at
 
@@ -120,7 +120,7 @@ def sheet_document(assembly: Assembly, nesting: Nesting, sheet: int, filleted: d
         pt = plate.type
         if pt not in loops_of:
             loops = bulge_loops(filleted[pt].outline, assembly.spec.curve_tolerance)
-            loops_of[pt] = offset_bulge_loops(loops, 0.5 * kerf) if kerf > 0 else loops
+            loops_of[pt] = cut_order(offset_bulge_loops(loops, 0.5 * kerf) if kerf > 0 else loops)
         place = nesting.placements[item]
         for lp in loops_of[pt]:
             V = place.apply(lp.V)

@@ -66,7 +66,7 @@ def choose(db: str | Path, sides: int, pool: Sequence[str], count: int) -> list[
     candidates = [i for i in pool if i not in held]
     if not candidates:
         return []
-    pred = model.predict(candidates)
+    pred = model.predict(candidates, extrapolate=True)  # a depth-2 model still orders the first picks
     ok = np.nonzero(pred.values["min_width"] >= printable_floor(sides))[0]
     low = pred.intervals[SCENARIO][ok, 0]
     high = pred.intervals[SCENARIO][ok, 1]

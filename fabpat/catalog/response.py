@@ -224,16 +224,26 @@ class Response:
     solver_version: str
     rows: Mapping[int, int]
 
-    def predict(self, ids: Sequence[str]) -> Prediction:
-        """Predict every target for pattern IDs (checked by :func:`check_ids`; raises PatternError)."""
+    def predict(self, ids: Sequence[str], *, extrapolate: bool = False) -> Prediction:
+        """Predict every target for pattern IDs (checked by :func:`check_ids`; raises PatternError).
+
+        A depth the model was fitted to no pattern of is refused (PatternError) unless ``extrapolate``: a
+        depth-2 model ranks depth-3 patterns poorly (docs/learned-response.md), and its intervals would
+        claim a coverage they do not have. With ``extrapolate`` such a depth gets the widest spread known."""
         ids = check_ids(ids, self.sides)
         X = cell_features(ids)
         depth = X[:, 75].astype(np.int64)
+        unseen = sorted(set(depth.tolist()) - set(self.rows))
+        if unseen and not extrapolate:
+            raise PatternError(f"the learned response of the {self.sides}-gon was fitted to depth "
+                               f"{', '.join(map(str, sorted(self.rows)))} patterns only, not depth "
+                               f"{', '.join(map(str, unseen))} (fabpat sweep --depth 3 --learn N adds such rows "
+                               "and refits it)")
         values, intervals = {}, {}
         for t in TARGETS:
             log = self.models[t].predict(X)
             known = self.spread[t]
-            fallback = max(known.values())  # a depth it never saw: the widest spread it knows
+            fallback = max(known.values())
             q = np.array([known.get(int(d), fallback) for d in depth])
             values[t] = np.exp(log)
             intervals[t] = np.column_stack([np.exp(log - q), np.exp(log + q)])

@@ -240,8 +240,11 @@ _sides_help = "Polygon whose patterns and energies to use (each polygon has its 
               help="Sort by a numeric column, ascending; -FIELD (e.g. --sort=-specific_stiffness_dome) descending. "
                    "Rows without a value come last.")
 @number_option("--top", range_name="sample", default=None, help="Print only the first N rows (after --sort).")
+@number_option("--depth", range_name="depth", default=None,
+               help="Only the patterns of this subdivision depth (2: the paper's library; 3: the deeper patterns a "
+                    "`sweep --depth 3` stored) [default: every depth].")
 def catalog_cmd(db: str | None, fmt: str, long_: bool, sides: int, where: tuple[str, ...], sort: str | None,
-                top: int | None) -> None:
+                top: int | None, depth: int | None) -> None:
     """Print a catalog: one row per pattern with its metrics and energies (N·mm) per scenario.
 
     Columns: area (mm²), perimeter (mm), ratio, polar_moment (mm⁴), the filleted ones, min_width (mm),
@@ -266,9 +269,9 @@ def catalog_cmd(db: str | None, fmt: str, long_: bool, sides: int, where: tuple[
         require_polygon(cat, sides)
         fields = cat.number_columns(long=long_)
         if long_:
-            rows = cat.results(sides=sides)
+            rows = cat.results(sides=sides, **({} if depth is None else {"depth": depth}))
         else:
-            rows = cat.pattern_rows(sides=sides)
+            rows = cat.pattern_rows(sides=sides, **({} if depth is None else {"depth": depth}))
             for r in rows:
                 for k in [k for k in r if k.startswith("converged_")]:
                     del r[k]
@@ -289,7 +292,7 @@ def catalog_cmd(db: str | None, fmt: str, long_: bool, sides: int, where: tuple[
             keep += [f for f in dict.fromkeys(asked) if f not in keep]
             rows = [{k: "" if r[k] is None else r[k] for k in keep} for r in rows]
     if not rows and fmt == "table":
-        click.echo(f"{title} (no rows)" if where else f"{title} (empty catalog)")
+        click.echo(f"{title} (no rows)" if where or depth is not None else f"{title} (empty catalog)")
         return
     _print_rows(rows, fmt, title, header)
 

@@ -12,8 +12,9 @@ All OCP imports are inside the functions, so importing this module costs nothing
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -175,6 +176,16 @@ def ordered_edges(wire: Any) -> list[tuple[Any, NDArray[np.float64], NDArray[np.
         out.append((e, np.array([a.X(), a.Y()]), np.array([b.X(), b.Y()])))
         explorer.Next()
     return out
+
+
+_L = TypeVar("_L")
+
+
+def cut_order(loops: Sequence[_L]) -> list[_L]:
+    """One part's loops, given outer loop first (as every loop list in fabpat is), in the order a
+    laser cuts them: the holes, then the outer loop. Laser software cuts in file order, and a part
+    whose outline is cut first is free in the sheet and can shift before its holes are cut."""
+    return [*loops[1:], *loops[:1]]
 
 
 def outer_first(loops: list[Any], area: list[float]) -> list[Any]:

@@ -9,9 +9,13 @@ Curve modes (``curves``):
 
 * ``"arcs"`` (default): every rational arc fitted by circular arcs within ``tolerance`` mm (G1
   biarcs from :func:`fabpat.geometry.conics.fit_arcs`). Lines stay exact.
-* ``"spline"``: exact: one rational degree-2 SPLINE per curved segment (3 control points, weights
-  (1, w, 1), knots (0, 0, 0, 1, 1, 1)) and a LINE per straight segment, loops head to tail (outer
-  counter-clockwise, holes clockwise).
+* ``"spline"``: exact: rational degree-2 SPLINEs (3 control points, weights (1, w, 1), knots
+  (0, 0, 0, 1, 1, 1)) for the curved segments and a LINE per straight segment, loops head to tail
+  (outer counter-clockwise, holes clockwise). LibreCAD 2.2 and Inkscape 1.2 ignore SPLINE weights and
+  draw the parabola of the control points, so an arc that parabola leaves more than ``tolerance`` mm
+  away is written as its own halves, quarters, … (:func:`fabpat.exchange.dxf_splines.readable_arcs`):
+  still exactly the arc for a reader that honours weights, and within ``tolerance`` for one that does
+  not. Parabolic arcs (w = 1) are one non-rational SPLINE, as they were.
 * ``"lines"``: polylines within ``tolerance`` mm (exact chord test of
   :func:`fabpat.geometry.curves.flatten_quad`).
 
@@ -32,6 +36,9 @@ LINEs, circular joins become ARCs, and the offset of a rational arc, which is no
 any degree, becomes a cubic (degree-3) non-rational SPLINE within ``tolerance`` mm (OCCT's
 ``GeomConvert_ApproxCurve``; cubic is the highest degree LibreCAD and Inkscape read).
 
+Cut order: each part's holes are written before its outer loop (:func:`fabpat.exchange.contours.cut_order`):
+laser software cuts in file order, and a part cut free first can shift before its holes are cut.
+
 The label (:func:`fabpat.exchange.labels.place_label`) is a TEXT with its default alignment, so its
 first point is where the text starts, inside the part; a part with no room for a 1 mm label has none.
 
@@ -49,20 +56,26 @@ from __future__ import annotations
 import logging
 import math
 import os
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.errors import ExportError, GeometryError
-from fabpat.exchange.cad import make_face
-from fabpat.exchange.contours import BulgeLoop, bulge_loops, offset_bulge_loops, offset_wires, ordered_edges
+from fabpat.errors import ExportError
+from fabpat.exchange.contours import BulgeLoop, bulge_loops, cut_order, offset_bulge_loops
+from fabpat.exchange.dxf_splines import (  # noqa: F401 - the spline pieces, also importable from here
+    MAX_SPLINE_DEGREE,
+    Piece,
+    SplinePiece,
+    offset_spline_pieces,
+    readable_arcs,
+    spline_pieces,
+    weightless_error,
+)
 from fabpat.exchange.origin import DEFAULT_ORIGIN, check_origin, origin_shift, translated
 from fabpat.geometry.outline import Line, Loop, Outline
 from fabpat.io import atomic_outputs
-from fabpat.validate import SAME_POINT
 
 if TYPE_CHECKING:  # pragma: no cover
     from fabpat.exchange.part import ExportSettings, Part
@@ -74,8 +87,6 @@ DEFAULT_VERSION = "R2010"
 DEFAULT_TOLERANCE = 0.01  # mm: largest distance between the written curves and the exact outline
 CUT_LAYER, ENGRAVE_LAYER = "CUT", "ENGRAVE"
 CUT_COLOR, ENGRAVE_COLOR = 1, 5  # ACI red / blue: the usual laser-software convention
-MAX_SPLINE_DEGREE = 3  # kerf-offset splines: LibreCAD 2.2 and Inkscape 1.2 read degree ≤ 3 only
-_APPROX_SEGMENTS = 256  # most Bézier spans OCCT may use for one offset segment
 
 
 def entity_mode(curves: str, dxf_version: str, entities: str | None) -> str:
@@ -105,131 +116,6 @@ def check_options(curves: str, tolerance: float, kerf: float, dxf_version: str, 
     if not (kerf >= 0 and math.isfinite(kerf)):
         raise ExportError(f"kerf must be ≥ 0 mm, got {kerf:g}")
     check_origin(origin)
-
-
-@dataclass(frozen=True, eq=False)
-class SplinePiece:
-    """One segment as a clamped NURBS curve (DXF SPLINE): ``degree``, ``control`` (n, 2) mm,
-    ``weights`` (n,), ``knots`` (n + degree + 1,)."""
-
-    degree: int
-    control: NDArray[np.float64]
-    weights: NDArray[np.float64]
-    knots: NDArray[np.float64]
-
-    @property
-    def start(self) -> NDArray[np.float64]:
-        """(2,) mm: the first control point, where a clamped spline starts."""
-        return self.control[0]
-
-    def reversed(self) -> SplinePiece:
-        """The same curve traversed the other way (control points and weights reversed, knots mirrored)."""
-        k = self.knots
-        return SplinePiece(self.degree, self.control[::-1].copy(), self.weights[::-1].copy(), (k[0] + k[-1] - k)[::-1])
-
-
-# A loop as written in "spline" mode: pieces head to tail; a LINE piece is a (2, 2) array, an ARC
-# piece a BulgeLoop-style (start, end, bulge) triple, a SPLINE piece a SplinePiece.
-Piece = NDArray[np.float64] | tuple[NDArray[np.float64], NDArray[np.float64], float] | SplinePiece
-
-
-def _oriented(loop: Loop, ccw: bool) -> Loop:
-    return loop if (loop.signed_area > 0) == ccw else loop.reversed()
-
-
-def spline_pieces(outline: Outline) -> list[list[Piece]]:
-    """Every loop (outer counter-clockwise, then holes clockwise) as exact pieces.
-
-    A rational arc is the rational Bézier (control points P0, P1, P2, weights (1, w, 1)) written
-    as a degree-2 NURBS on knots (0, 0, 0, 1, 1, 1) — the same curve (a Bézier curve is the
-    B-spline on a clamped knot vector without interior knots); a straight segment is a line.
-    """
-    out = []
-    for i, lp in enumerate(outline.loops):
-        pieces: list[Piece] = []
-        for seg in _oriented(lp, i == 0).segments:
-            if isinstance(seg, Line) or seg.is_straight:
-                if np.linalg.norm(seg.end - seg.start) > SAME_POINT:
-                    pieces.append(np.array([seg.start, seg.end]))
-                continue
-            pieces.append(SplinePiece(2, np.array(seg.control_points), seg.weights,
-                                      np.array([0.0, 0.0, 0.0, 1.0, 1.0, 1.0])))
-        out.append(pieces)
-    return out
-
-
-def _reverse_pieces(pieces: list[Piece]) -> list[Piece]:
-    out: list[Piece] = []
-    for p in reversed(pieces):
-        if isinstance(p, SplinePiece):
-            out.append(p.reversed())
-        elif isinstance(p, tuple):
-            out.append((p[1], p[0], -p[2]))
-        else:
-            out.append(p[::-1].copy())
-    return out
-
-
-def offset_spline_pieces(outline: Outline, distance: float, tol: float) -> list[list[Piece]]:
-    """The exact face's loops offset by ``distance`` mm into the void, one piece per offset edge.
-
-    Lines stay lines and circles (the arc joins) become arcs, exactly; the offset of a rational
-    arc (an OCCT offset curve) becomes a C1 cubic B-spline (C2 would need degree 5 in OCCT) within ``tol`` mm. Raises
-    :class:`GeometryError` when OCCT cannot approximate within ``tol``.
-    """
-    from OCP.BRep import BRep_Tool
-    from OCP.BRepAdaptor import BRepAdaptor_Curve
-    from OCP.Geom import Geom_TrimmedCurve
-    from OCP.GeomAbs import GeomAbs_CurveType, GeomAbs_Shape
-    from OCP.GeomConvert import GeomConvert, GeomConvert_ApproxCurve
-    from OCP.TopAbs import TopAbs_REVERSED
-
-    loops: list[list[Piece]] = []
-    areas: list[float] = []
-    for wire in offset_wires(make_face(outline), distance):
-        pieces: list[Piece] = []
-        starts = []
-        for e, a, b in ordered_edges(wire):
-            chord = b - a
-            if float(chord @ chord) <= SAME_POINT**2:
-                continue
-            starts.append(a)
-            kind = BRepAdaptor_Curve(e).GetType()
-            if kind == GeomAbs_CurveType.GeomAbs_Line:
-                pieces.append(np.array([a, b]))
-                continue
-            if kind == GeomAbs_CurveType.GeomAbs_Circle:
-                c = BRepAdaptor_Curve(e)
-                m = c.Value(0.5 * (c.FirstParameter() + c.LastParameter()))
-                rel = np.array([m.X(), m.Y()]) - a
-                # bulge = sagitta / half chord, positive when the arc's middle is right of the chord.
-                pieces.append((a, b, -2.0 * float(chord[0] * rel[1] - chord[1] * rel[0]) / float(chord @ chord)))
-                continue
-            curve = BRep_Tool.Curve_s(e, 0.0, 0.0)
-            lo, hi = BRep_Tool.Range_s(e)
-            approx = GeomConvert_ApproxCurve(Geom_TrimmedCurve(curve, lo, hi), 0.5 * tol, GeomAbs_Shape.GeomAbs_C1,
-                                             _APPROX_SEGMENTS, MAX_SPLINE_DEGREE)
-            if not approx.HasResult() or approx.MaxError() > tol:
-                raise GeometryError(f"cannot approximate the kerf offset within {tol:g} mm by cubic splines")
-            bs = GeomConvert.CurveToBSplineCurve_s(approx.Curve())
-            if e.Orientation() == TopAbs_REVERSED:
-                bs.Reverse()
-            n = bs.NbPoles()
-            pieces.append(SplinePiece(
-                bs.Degree(),
-                np.array([[bs.Pole(i).X(), bs.Pole(i).Y()] for i in range(1, n + 1)]),
-                np.array([bs.Weight(i) for i in range(1, n + 1)]),
-                np.array([bs.Knot(i) for i in range(1, bs.NbKnots() + 1) for _ in range(bs.Multiplicity(i))]),
-            ))
-        if not pieces:
-            continue
-        P = np.array(starts)
-        areas.append(0.5 * float(np.sum(P[:, 0] * np.roll(P[:, 1], -1) - P[:, 1] * np.roll(P[:, 0], -1))))
-        loops.append(pieces)
-    out = []
-    for k, i in enumerate(np.argsort(-np.abs(np.array(areas)))):  # outer loop first, counter-clockwise
-        out.append(loops[i] if (areas[i] > 0) == (k == 0) else _reverse_pieces(loops[i]))
-    return out
 
 
 def polyline(loop: Loop, tol: float) -> NDArray[np.float64]:
@@ -335,12 +221,13 @@ def dxf_document(
 
     half = 0.5 * kerf
     if curves == "spline":
-        for pieces in spline_pieces(outline) if half == 0 else offset_spline_pieces(outline, half, tolerance):
+        exact = spline_pieces(outline, tolerance) if half == 0 else offset_spline_pieces(outline, half, tolerance)
+        for pieces in cut_order(exact):
             for p in pieces:
                 _add_piece(msp, p, cut)
     elif curves == "arcs":
         loops = bulge_loops(outline, tolerance)
-        for lp in offset_bulge_loops(loops, half) if half > 0 else loops:
+        for lp in cut_order(offset_bulge_loops(loops, half) if half > 0 else loops):
             if mode == "polyline":
                 add_closed([(float(x), float(y), float(b)) for (x, y), b in zip(lp.V, lp.bulges, strict=True)])
             else:
@@ -352,7 +239,7 @@ def dxf_document(
             polys = [lp.flatten(0.5 * tolerance) for lp in grown]
         else:
             polys = [polyline(lp, tolerance) for lp in outline.loops]
-        for P in polys:
+        for P in cut_order(polys):
             if mode == "polyline":
                 add_closed([(float(x), float(y), 0.0) for x, y in P])
             else:

@@ -36,9 +36,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import ExportError
-from fabpat.exchange.contours import BulgeLoop, bulge_loops, offset_bulge_loops
+from fabpat.exchange.contours import BulgeLoop, bulge_loops, cut_order, offset_bulge_loops
 from fabpat.exchange.origin import DEFAULT_ORIGIN, ORIGIN_MARGIN, origin_shift, transformed
-from fabpat.geometry.outline import Line, Outline
+from fabpat.geometry.outline import Line, Outline, loop_svg_path
 from fabpat.io import atomic_outputs
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -103,7 +103,7 @@ def cubic_path(outline: Outline, tol: float) -> str:
     from fabpat.exchange.cubic import quad_to_cubics
 
     out: list[str] = []
-    for loop in outline.loops:
+    for loop in cut_order(outline.loops):
         out.append(f"M {_pt(loop.segments[0].start)}")
         for s in loop.segments:
             if isinstance(s, Line) or s.is_straight:
@@ -152,10 +152,10 @@ def svg_document(
         fit = 0.5 * tolerance if cubic else tolerance
         moved = transformed(outline, shift)
         loops = _flipped(offset_bulge_loops(bulge_loops(moved, fit), 0.5 * kerf), top)
-        d = bulge_path(loops, 0.5 * tolerance if cubic else None)
+        d = bulge_path(cut_order(loops), 0.5 * tolerance if cubic else None)
     else:
         page = transformed(outline, shift, flip_y=top)
-        d = cubic_path(page, tolerance) if cubic else page.to_svg_path()
+        d = cubic_path(page, tolerance) if cubic else " ".join(loop_svg_path(lp) for lp in cut_order(page.loops))
     parts: list[str] = []
     placed = place_label(transformed(outline, shift), label) if label else None
     if placed is not None:

@@ -413,14 +413,13 @@ class Outline:
         arcs (w = 1) are exactly SVG's quadratic Bézier ``Q``; hyperbolic arcs (w > 1), which SVG
         cannot express, are flattened to ``L`` commands within ``SVG_FLATTEN_TOL`` = 0.001 mm.
         """
-        out: list[str] = []
-        for loop in self.loops:
-            p = loop.segments[0].start
-            out.append(f"M {_fmt(p[0])} {_fmt(p[1])}")
-            for s in loop.segments:
-                out.append(_svg_segment(s))
-            out.append("Z")
-        return " ".join(out)
+        return " ".join(loop_svg_path(loop) for loop in self.loops)
+
+
+def loop_svg_path(loop: Loop) -> str:
+    """One loop as an SVG subpath (``M … Z``), written as :meth:`Outline.to_svg_path` writes each loop."""
+    p = loop.segments[0].start
+    return " ".join([f"M {_fmt(p[0])} {_fmt(p[1])}", *(_svg_segment(s) for s in loop.segments), "Z"])
 
 
 def _svg_segment(s: Segment) -> str:
