@@ -170,3 +170,13 @@ def test_command_refusals_are_one_line(tmp_path: Path, monkeypatch: pytest.Monke
         r = CliRunner().invoke(cli, ["design", *args, "--out", str(out), "--no-progress"])
         one_line_error(r, words)
         assert not out.exists()
+
+
+@pytest.mark.parametrize("x, z", [(None, [0, 1, 0]), ("abc", [0, 1, 0]), ([0, 1, 2], "xyz"), (1.5, 2.5),
+                                  ([0, 1, 2], [0, 1]), ([[0, 1, 2]], [[0, 1, 0]])])
+def test_check_strip_refuses_what_is_not_two_sequences_of_numbers(x: object, z: object) -> None:
+    from fabpat.design.target import check_strip
+    from fabpat.errors import FabpatError
+
+    with pytest.raises(FabpatError, match="target t"):
+        check_strip("t", x, z)  # type: ignore[arg-type]

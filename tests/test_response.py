@@ -16,7 +16,7 @@ import fabpat
 from fabpat.catalog import response as R
 from fabpat.errors import CatalogError, PatternError
 from fabpat.patterns.lattice import bits_to_id, id_to_bits
-from fabpat.patterns.library import _all_bits, is_connected, is_tileable
+from fabpat.patterns.library import is_connected, is_tileable
 
 ENERGIES = ("energy_cantilever", "energy_cylinder", "energy_dome")
 
@@ -38,7 +38,7 @@ def test_a_depth_2_pattern_and_its_depth_3_refinement_have_the_same_cells() -> N
 
 @pytest.mark.parametrize("sides", [5, 6])
 def test_the_compiled_connectivity_check_agrees_with_the_library_on_every_depth_2_slice(sides: int) -> None:
-    bits = _all_bits(2)
+    bits = ((np.arange(1, 2**16)[:, None] >> np.arange(15, -1, -1)) & 1).astype(bool)  # every depth-2 slice
     bits = bits[is_tileable(bits, 2)]
     ids = [bits_to_id(b) for b in bits]
     want = is_connected(bits, sides, 2)
@@ -101,6 +101,10 @@ def test_a_stored_response_predicts_the_same_and_a_stale_one_is_refused(
         assert np.all(b.intervals[t][:, 0] <= b.values[t]) and np.all(b.values[t] <= b.intervals[t][:, 1])
     with pytest.raises(CatalogError, match="no learned response for the 5-gon"):
         R.predict(ids, 5, db)
+    deeper = bits_to_id(id_to_bits(ids[0], 2)[R._refinement(2)])  # a depth-3 ID: a depth the model never saw
+    with pytest.raises(PatternError, match="fitted to depth 2 patterns only, not depth 3"):
+        R.predict([deeper], 6, db)
+    assert fresh.predict([deeper], extrapolate=True).values["energy_dome"].shape == (1,)
     R.save_responses([dataclasses.replace(fresh, solver_version="fabpat 0.0.1+000000000000")], R.response_path(db))
     with pytest.raises(CatalogError, match="stale"):
         R.predict(ids, 6, db)
@@ -143,7 +147,7 @@ def test_learning_picks_the_pools_printable_extremes(tmp_path, monkeypatch) -> N
 
     assert 0.5 < learn.printable_floor(6) < 3.0  # mm: the depth-2 hexagons' narrowest neck
     pool = list(sample_library(6, 3, 300, seed=4).ids)
-    p = fabpat.predict(pool)
+    p = learn.model_for(tmp_path / "none.sqlite", 6).predict(pool, extrapolate=True)
     floor = float(np.median(p.values["min_width"]))  # a floor that half the pool misses
     monkeypatch.setattr(learn, "printable_floor", lambda sides: floor)
     chosen = choose(tmp_path / "none.sqlite", 6, pool, 6)

@@ -263,9 +263,17 @@ def _read_csv(path: Path) -> StripTarget:
 def check_strip(source: str, x: Arr, z: Arr) -> StripTarget:
     """A :class:`StripTarget` of points (x, z) mm, or :class:`TargetError`: fewer than 3 points, a value
     that is not finite, x not strictly increasing, or an end farther than :data:`END_TOLERANCE` × span
-    from z = 0. x is shifted so that the first point is at 0."""
-    x = np.asarray(x, dtype=np.float64)
-    z = np.asarray(z, dtype=np.float64)
+    from z = 0. x is shifted so that the first point is at 0. ``x`` and ``z`` are (n,) sequences of numbers
+    (anything else, a string or None, is a TargetError too)."""
+    try:
+        x = np.asarray(x, dtype=np.float64)
+        z = np.asarray(z, dtype=np.float64)
+    except (TypeError, ValueError) as e:
+        raise TargetError(f"target {source}: x and z must be sequences of numbers (mm), got {type(x).__name__} and "
+                          f"{type(z).__name__}") from e
+    if x.ndim != 1 or z.shape != x.shape:
+        raise TargetError(f"target {source}: x and z must be two sequences of the same length, got shapes "
+                          f"{x.shape} and {z.shape}")
     if len(x) < 3:
         raise TargetError(f"target {source} has {len(x)} point(s): a strip target needs at least 3 (x, z) points")
     bad = ~(np.isfinite(x) & np.isfinite(z))
