@@ -270,3 +270,17 @@ def test_html_table_escapes_and_handles_few_rows() -> None:
     assert page.count("<tr>") == 2 and "first" not in page
     assert "1 patterns from a&b.sqlite" in repr(rows)
     assert repr(CatalogRows()).startswith("<CatalogRows: 0 patterns")
+
+
+def test_catalog_depth_keeps_one_depth() -> None:
+    import json
+
+    from tests.helpers import invoke, one_line_error
+
+    r = invoke("catalog", "--depth", "2", "--format", "json")
+    assert r.returncode == 0, r.stderr
+    rows = json.loads(r.stdout)
+    assert len(rows) == 430 and {row["depth"] for row in rows} == {2}
+    r = invoke("catalog", "--depth", "4", "--format", "json")  # the built-in catalog holds no depth-4 pattern
+    assert r.returncode == 0 and json.loads(r.stdout) == []
+    one_line_error(invoke("catalog", "--depth", "0"), "--depth")
