@@ -6,6 +6,8 @@
   takes about a minute on 2 cores: 1000 is a long night, beyond that the budget is a typo).
 * ``design_tolerance``: reachable when the rms error is at most this fraction of the span, in (0, 0.5]
   (above half the span any arch would count as reached).
+* ``max_minutes``: the design run's time budget in minutes, (0, 10080] (a week; the best design so far is
+  written when it runs out).
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ DESIGN_RANGES = (
           "strip solve is about a minute on 2 cores"),
     Range("design_tolerance", 0.0, 0.5, low_open=True, why="rms error over the span that counts as reached: above "
           "half the span any arch would"),
+    Range("max_minutes", 0.0, 10080.0, low_open=True, why="time budget of a design run, minutes: a week at most"),
 )
 for _r in DESIGN_RANGES:
     RANGES.setdefault(_r.name, _r)
