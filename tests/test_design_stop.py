@@ -29,8 +29,11 @@ CALLS: list[tuple[str, ...]] = []
 
 def fake_solve(spec: Any, patterns: tuple[str, ...], h: float, travel: float, start: Any = None) -> dict[str, Any]:
     """A strip 'solve': an arch that gets closer to the target with every call (so each is the best so far)."""
+    from fabpat.shell import news
+
     n = len(CALLS)
     CALLS.append(patterns)
+    news.tell(f"increment 3, λ = 0.500, {7 + n} factorizations")  # as a path tells its listeners
     if n in SCRIPT:
         raise SCRIPT[n]
     x = np.linspace(0.0, 400.0, 81)
@@ -93,6 +96,16 @@ def test_a_finished_run_says_it_was_not_interrupted(strip: dict[str, Path]) -> N
     assert r.returncode == 0, r.stderr
     rec = json.loads((strip["out"] / "design.json").read_text())
     assert rec["interrupted"] is False and "stopped_by" not in rec and rec["abandoned"] == []
+
+
+def test_the_progress_line_shows_the_solve_in_progress(strip: dict[str, Path],
+                                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("FABPAT_PROGRESS_INTERVAL", "0")  # a plain line for every update
+    r = invoke("design", str(strip["target"]), "--spec", str(strip["spec"]), "--out", str(strip["out"]),
+               "--h", "6", "--scale-target", "--max-solves", "1")
+    assert r.returncode == 0, r.stderr
+    assert "fabpat: design: 0 solves done; solve 1: increment 3, λ = 0.500, 7 factorizations, " in r.stderr
+    assert "fabpat: design: 1 solves done; solve 2: increment 3, λ = 0.500, 8 factorizations, " in r.stderr
 
 
 def test_a_spent_budget_before_the_first_solve_is_one_line_and_writes_nothing(strip: dict[str, Path],
