@@ -302,8 +302,11 @@ def test_a_path_tells_its_increments_and_a_stalled_one_is_abandoned_with_its_rea
     heard: list[str] = []
     with news.listening(heard.append):
         out = solve_path(prob, steps=2, first_step=1.0 / 64)
-    assert len(heard) == out.increments + out.cuts and heard[-1].startswith(f"increment {len(heard)}, λ = 1.000, ")
-    assert heard[-1].endswith(f" {out.factorizations} factorizations")
+    done = [h for h in heard if "iteration" not in h]  # one line per increment, and one per factorization
+    assert len(done) == out.increments + out.cuts and done[-1].startswith(f"increment {len(done)}, λ = 1.000, ")
+    assert done[-1].endswith(f" {out.factorizations} factorizations")
+    assert sum("iteration" in h for h in heard) == out.factorizations
+    assert heard[0].startswith("increment 1, λ = 0.000 → 0.016, iteration 1, 1 factorizations")
     # from a first step of 1/64 the increments double: 2 or 3 factorizations never move λ by half the path
     with pytest.raises(SolverError, match=r"stalled: abandoned at load fraction λ = 0\.0\d+, which [23] factoriz"):
         solve_path(prob, steps=2, first_step=1.0 / 64, stall=(2, 0.5))

@@ -70,6 +70,7 @@ def design_cmd(target: str, spec: str, out: str, h: float, max_solves: int | Non
         click.echo(json.dumps(plan(target, spec, out=out, h=h, scale_target=scale_target), indent=1))
         return
     with Progress("design", enabled=progress) as bar:
+        bar.update("reading the target, the spec and the catalog")
         done = [0]
 
         def solves(n: int, seconds: float) -> None:

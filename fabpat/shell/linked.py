@@ -136,6 +136,7 @@ class _Newton:
     t_res: float = 0.0
     residual: float = np.inf
     state: tuple[Arr, Arr, Arr, Arr] | None = None  # (g, fe, U, d) of the last evaluated iterate
+    label: str = ""  # the increment under way, for the solver's news
 
     def targets(self, target: float, xs: Arr, Rs: Arr) -> Arr:
         """(N, 6) increments still missing at the prescribed dofs (spins for rotations)."""
@@ -204,6 +205,8 @@ class _Newton:
                 if not reuse:
                     lu = self.fz.factor(K)
                     self.factorizations += 1
+                    if news.listened():  # a long increment (a warm start's one to λ = 1) is not silent
+                        news.tell(f"{self.label}, iteration {its}, {self.factorizations} factorizations")
                 du[red.asm.free] = lu.solve(rhs[red.asm.free])  # type: ignore[union-attr] (reuse implies lu)
             except SolverError:
                 break
@@ -282,8 +285,8 @@ def solve_path(
     ``stall``: (factorizations n, advance a): abandon the path (SolverError, "stalled") when n
     factorizations have moved λ by less than a (defaults :data:`STALL_FACTORIZATIONS`,
     :data:`STALL_ADVANCE`); None follows a crawling path however long it takes.
-    After every increment the solver's listeners (:mod:`fabpat.shell.news`) are told the increment, λ
-    and the factorizations so far.
+    The solver's listeners (:mod:`fabpat.shell.news`) are told the increment, λ and the factorizations
+    so far after every increment, and the increment's target and iteration after every factorization.
 
     Convergence of an increment: ‖r‖ ≤ max(rtol · max(‖λ f‖, ‖reactions‖), floor) over the dofs that
     are neither prescribed nor slaves, with the round-off floor of :mod:`fabpat.shell.solve`. Each
@@ -337,6 +340,7 @@ def solve_path(
             else:
                 red.place_slaves(p, xt, Rt, target)
             f0 = nw.factorizations
+            nw.label = f"increment {incs + cuts + 1}, λ = {lam:.3f} → {target:.3f}"
             ok, its, xt, Rt, lu = nw.run(xt, Rt, target, kept if guess is None else None)
             if ok and not _on_branch(X, xt, Rt, direction):
                 ok, unstable = False, True  # the other branch (see ``direction``)
