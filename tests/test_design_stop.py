@@ -144,3 +144,14 @@ def test_worker_processes_progress_reaches_the_parent() -> None:
     said = [h for h in heard if "increment 7, λ = 0.625, 19 factorizations" in h]
     assert said and all(h.startswith("solves 1–2: worker ") for h in said), heard
     assert {h.split("worker ")[1].split(":")[0] for h in said} <= pids
+
+
+def test_from_python_a_ctrl_c_returns_the_best_design_so_far(strip: dict[str, Path]) -> None:
+    from fabpat.design import design
+
+    SCRIPT[1] = KeyboardInterrupt()
+    heard: list[str] = []
+    res = design(strip["target"], strip["spec"], h=6.0, scale_target=True, status=heard.append)
+    assert res.record["interrupted"] is True and res.record["stopped_by"] == "SIGINT" and res.record["solves"] == 1
+    assert res.warning is not None and res.warning.startswith("stopped by Ctrl-C (SIGINT) after 1 solves")
+    assert "solve 1: increment 3, λ = 0.500, 7 factorizations" in heard
