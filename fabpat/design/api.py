@@ -21,7 +21,7 @@ import numpy as np
 from fabpat.design.base import DesignBase, base_faces, load_base
 from fabpat.design.beam import Elastica
 from fabpat.design.mapping import space_mapping
-from fabpat.design.search import Evaluated, Runner, Search, solve_news
+from fabpat.design.search import Evaluated, Runner, Search
 from fabpat.design.stop import nothing_solved, stop_phrase, until_stopped
 from fabpat.design.strip import column_needs, column_turning, errors, pin_length
 from fabpat.design.target import ClosedTarget, StripTarget, TargetError, read_target, require_match
@@ -167,10 +167,6 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
         raise SpecError("scale_target applies to strip targets (a closed target has no size: the plates fix it)")
     deadline = None if max_minutes is None else t0 + 60.0 * max_minutes
     runner = Runner(base.spec, h, (), workers, dask, progress, status=status, deadline=deadline)
-    with solve_news(status, lambda: "before the first solve", False):
-        from fabpat.shell.compiled import ensure_kernels
-
-        ensure_kernels()  # here, before the worker processes fork: they inherit the kernels (module doc of stop)
     if isinstance(tgt, ClosedTarget):
         from fabpat.design.closed_api import design_closed
 

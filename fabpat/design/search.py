@@ -131,6 +131,10 @@ class Runner:
         first = self.solves + 1
         with solve_news(self.status, lambda: f"solve {first}" if len(batch) == 1 else
                         f"solves {first}–{first + len(batch) - 1}", self.workers > 1 and not self.dask):
+            if self.workers > 1 and len(batch) > 1 and not self.dask:
+                from fabpat.shell.compiled import ensure_kernels
+
+                ensure_kernels()  # before the workers fork: they inherit the kernels rather than each compile them
             if self.dask:
                 stream = _run_dask(self.solve, jobs, _dask_client(self.dask, 10.0))
             else:
