@@ -29,7 +29,7 @@ from fabpat.cli.options import h_option, number_option
 @click.option("--dask", "dask_address", metavar="ADDRESS", default=None,
               help="Send the solves to this dask.distributed scheduler (e.g. tcp://host:8786) instead.")
 @number_option("--max-minutes", range_name="max_minutes", default=None,
-               help="Time budget: when it runs out the solves stop and the best design so far is written "
+               help="Time budget in minutes: when it runs out the solves stop and the best design so far is written "
                     "(design.json: \"interrupted\": true), as on Ctrl-C or SIGTERM [default: none].")
 @click.option("--kit", is_flag=True, help="Also run `fabpat assemble` on design.toml into DIR/kit.")
 @click.option("--dry-run", is_flag=True,
