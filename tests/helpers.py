@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -21,6 +22,22 @@ SPHERE_H = 6.0
 #: equilibrium as the default 4 (radius, sphericity_rms and energy agree to 1e-11 relative, measured) with
 #: 10 factorizations instead of 19. Not for a best-fit placement (GP(1, 1) needs the path: 94 against 44).
 SPHERE_STEPS = 1
+
+
+def default_sigint() -> None:
+    """``preexec_fn`` of a child that a test sends Ctrl-C: SIGINT's default action, so Python installs its
+    KeyboardInterrupt handler. A shell starts a background job (``pytest -n 2 tests &``) with SIGINT ignored,
+    its children inherit that, and Python leaves an ignored SIGINT ignored: the Ctrl-C would do nothing."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+@pytest.fixture
+def sigint_raises() -> Any:
+    """This test process raises KeyboardInterrupt on SIGINT for the test's duration (see
+    :func:`default_sigint`: in a background job SIGINT starts out ignored), the earlier handling restored."""
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, before)
 
 
 @functools.cache

@@ -286,3 +286,28 @@ def test_a_ramped_sleeve_angle_turns_the_free_plate_rigidly() -> None:
     assert out.final.energy < 1e-8
     expected = o + (model.X[b] - o) @ expmap(alpha * a).T
     assert np.abs(model.X[b] + out.final.displacement[b] - expected).max() < 1e-6
+
+
+def test_a_path_tells_its_increments_and_a_stalled_one_is_abandoned_with_its_reason() -> None:
+    """Listeners hear every increment (its λ and the factorizations so far); a path whose factorizations
+    stop moving λ is abandoned with a SolverError that says so, where without the limit it would go on."""
+    from fabpat.errors import SolverError
+    from fabpat.shell import news
+    from fabpat.simulation.scenarios import build_problem
+
+    mesh = plate_mesh(PATTERN, 6, 36.0, 0.2, 6.0)
+    p = build_problem(mesh, "cantilever", sides=6)
+    prob = LinkedProblem(p.X, p.F, p.material, np.zeros((0, 3)), [], [], np.zeros((0, 3)), p.fixed,
+                         np.zeros((mesh.n_nodes, 6)), p.loads)
+    heard: list[str] = []
+    with news.listening(heard.append):
+        out = solve_path(prob, steps=2, first_step=1.0 / 64)
+    done = [h for h in heard if "iteration" not in h]  # one line per increment, and one per factorization
+    assert len(done) == out.increments + out.cuts and done[-1].startswith(f"increment {len(done)}, λ = 1.000, ")
+    assert done[-1].endswith(f" {out.factorizations} factorizations")
+    assert sum("iteration" in h for h in heard) == out.factorizations
+    assert heard[0].startswith("increment 1, λ = 0.000 → 0.016, iteration 1, 1 factorizations")
+    # from a first step of 1/64 the increments double: 2 or 3 factorizations never move λ by half the path
+    with pytest.raises(SolverError, match=r"stalled: abandoned at load fraction λ = 0\.0\d+, which [23] factoriz"):
+        solve_path(prob, steps=2, first_step=1.0 / 64, stall=(2, 0.5))
+    assert not news.listened()

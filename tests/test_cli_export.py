@@ -14,7 +14,7 @@ import pytest
 
 from fabpat.io import temp_prefix
 from tests.conftest import FABPAT, run_cli
-from tests.helpers import in_small_tmpfs, needs_unshare, one_line_error, parts
+from tests.helpers import default_sigint, in_small_tmpfs, needs_unshare, one_line_error, parts
 from tests.helpers import invoke_result as invoke
 from tests.test_cad import curve_weights, edge_curves
 from tests.test_exchange_dxf import bulge_area, chain, cut_loops, entity_pieces, read, solid_area
@@ -235,7 +235,8 @@ def test_export_all_with_no_formats_is_an_error(tmp_path: Path) -> None:
 def _export_all(out: Path) -> subprocess.Popen[str]:
     env = dict(os.environ, FABPAT_CACHE="off")
     return subprocess.Popen([*FABPAT, "export", "--all", "--out", str(out), "--formats", "svg,dxf"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+                            preexec_fn=default_sigint)  # SIGINT is ignored in a background job's children
 
 
 def _wait_for_parts(proc: subprocess.Popen[str], out: Path) -> None:

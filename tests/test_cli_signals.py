@@ -16,6 +16,7 @@ import pytest
 from click.testing import CliRunner
 
 from tests.conftest import FABPAT
+from tests.helpers import default_sigint, sigint_raises  # noqa: F401 - a fixture
 
 ROOT = Path(__file__).resolve().parents[1]
 ENV = dict(os.environ, PYTHONPATH=str(ROOT), FABPAT_CACHE="off")
@@ -99,6 +100,7 @@ def test_the_deprecated_alias_fails_in_one_line(tmp_path: Path) -> None:
     assert r.exit_code == 2 and "is deprecated" not in r.stderr  # the notice belongs to the alias only
 
 
+@pytest.mark.usefixtures("sigint_raises")
 def test_ctrl_c_during_the_last_part_stops_before_the_commit(tmp_path: Path) -> None:
     """An interrupt held while a part is written (deferred_interrupts, one part at a time) is raised when
     that part is done, still inside the atomic block: even during the last part no file is committed."""
@@ -130,12 +132,15 @@ def test_deferred_interrupts_keep_an_ignored_sigint_and_surface_a_held_one() -> 
             os.kill(os.getpid(), signal.SIGINT)
         assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
     finally:
+        signal.signal(signal.SIGINT, signal.default_int_handler)  # as in a foreground run (even in a background job)
+    try:
+        with pytest.raises(KeyboardInterrupt) as info, deferred_interrupts():  # held, then another error
+            os.kill(os.getpid(), signal.SIGINT)
+            raise ValueError("a writer failed")
+        assert isinstance(info.value.__context__, ValueError)
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
         signal.signal(signal.SIGINT, before)
-    with pytest.raises(KeyboardInterrupt) as info, deferred_interrupts():  # held, then another error
-        os.kill(os.getpid(), signal.SIGINT)
-        raise ValueError("a writer failed")
-    assert isinstance(info.value.__context__, ValueError)
-    assert signal.getsignal(signal.SIGINT) is before
 
 
 #: Runs fabpat with a Ctrl-C the moment module argv[1] is first imported: the hook raises what
@@ -203,7 +208,8 @@ def test_ctrl_c_from_outside_is_one_line_exit_130(tmp_path: Path, cpu: float) ->
     files = [tmp_path / f"a.{s}" for s in ("step", "stl", "3mf", "dxf", "svg", "3dm")]
     options = [a for f in files for a in (f"--{f.suffix[1:]}", str(f))]
     p = subprocess.Popen([*FABPAT, "export", "0x2d88", "--sides", "12", *options],
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path)
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path,
+                         preexec_fn=default_sigint)  # SIGINT is ignored in a background job's children
     _wait_for_cpu(p, cpu)
     p.send_signal(signal.SIGINT)
     out, err = p.communicate(timeout=60)

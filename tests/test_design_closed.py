@@ -126,12 +126,15 @@ class _FakeRunner:
             out.append(offset + within * np.tile([1.0, -1.0], 5))
         return np.concatenate(out)
 
-    def run(self, batch: list[tuple[str, ...]], extra: tuple[Any, ...] | None = None) -> list[dict[str, Any]]:
+    def run(self, batch: list[tuple[str, ...]], extra: tuple[Any, ...] | None = None,
+            on_result: Any = None) -> list[dict[str, Any]]:
         out = []
-        for faces in batch:
+        for i, faces in enumerate(batch):
             self.solves += 1
             out.append({"P": self.signed(faces)[:, None], "peak_strain": 0.01, "faces": list(faces),
                         "sphericity_rms": 0.0, "offsets": np.arange(0, 10 * len(faces) + 1, 10)})
+            if on_result is not None:
+                on_result(i, out[-1])
         return out
 
 

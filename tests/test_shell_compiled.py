@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -121,3 +124,53 @@ def test_linear_diagonal_is_the_element_matrices_diagonal() -> None:
     comp = CompiledTriangles(X, F, Material(E=1000.0, nu=0.3, t=1.5), threads=1)
     want = np.einsum("mii->mi", comp.linear_element_matrices())
     assert np.allclose(comp.linear_diagonal(), want, rtol=1e-13, atol=1e-12 * np.abs(want).max())
+
+
+def test_the_kernels_are_cached_in_the_users_cache_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """numba's cache goes to $XDG_CACHE_HOME/fabpat/numba (created), a user's NUMBA_CACHE_DIR is kept, and a
+    folder that cannot be made leaves numba its own choice (no variable set)."""
+    import numba
+
+    from fabpat.shell import kernel_cache
+
+    monkeypatch.setattr(numba.config, "CACHE_DIR", numba.config.CACHE_DIR)  # restored after the test
+    monkeypatch.delenv("FABPAT_CACHE", raising=False)
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    assert kernel_cache.choose_cache_dir() == str(tmp_path / "cache" / "fabpat" / "numba")
+    assert (tmp_path / "cache" / "fabpat" / "numba").is_dir() and numba.config.CACHE_DIR == str(
+        tmp_path / "cache" / "fabpat" / "numba")
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "mine"))
+    assert kernel_cache.choose_cache_dir() == str(tmp_path / "mine")
+    monkeypatch.delenv("NUMBA_CACHE_DIR")
+    (tmp_path / "file").write_text("")  # a file where the folder should be: cannot be created (even as root)
+    monkeypatch.setenv("FABPAT_CACHE", str(tmp_path / "file"))
+    assert kernel_cache.choose_cache_dir() is None and "NUMBA_CACHE_DIR" not in os.environ
+    monkeypatch.setenv("FABPAT_CACHE", "off")
+    assert kernel_cache.choose_cache_dir() is None
+
+
+def test_a_first_compilation_is_announced_and_a_cached_load_is_not(monkeypatch: pytest.MonkeyPatch) -> None:
+    from fabpat.shell import compiled, news
+
+    loads: list[int] = []
+    monkeypatch.setattr(compiled, "_READY", [])
+    monkeypatch.setattr(compiled, "load_kernels", lambda: loads.append(1) or compiled._READY.append(True) or 0.0)
+    heard: list[str] = []
+    for cached in (False, True):
+        monkeypatch.setattr(compiled, "_READY", [])
+        monkeypatch.setattr(compiled, "kernels_cached", lambda c=cached: c)
+        with news.listening(heard.append):
+            compiled.ensure_kernels()
+            compiled.ensure_kernels()  # once per process
+    assert len(loads) == 2 and len(heard) == 1 and heard[0].startswith("compiling the solver's kernels")
+
+
+def test_the_cache_check_reads_numbas_index_files() -> None:
+    """kernels_cached reads numba's index file of every kernel (a numba without them would leave the
+    first compilation unannounced), and once the kernels are loaded the files are there."""
+    from fabpat.shell import compiled
+
+    assert all(isinstance(f._cache._cache_file._index_path, str) for f in compiled._CACHED)
+    compiled.load_kernels()
+    assert compiled.kernels_cached()

@@ -23,6 +23,7 @@ from fabpat.catalog.sweep import SweepSetup, run_sweep, simulate_pattern
 from fabpat.errors import FabpatError
 from fabpat.simulation.convergence import converged_h
 from tests.conftest import run_cli
+from tests.helpers import default_sigint
 from tests.helpers import invoke_result as invoke
 from tests.helpers import refusal_in as one_line_error
 
@@ -150,7 +151,8 @@ def test_sigkill_mid_run_loses_nothing_finished_and_resumes(tmp_path: Path) -> N
 def test_ctrl_c_stops_workers_promptly(tmp_path: Path) -> None:
     db, pids = tmp_path / "c.sqlite", tmp_path / "pids.txt"
     env = dict(os.environ, FAKE_SLEEP="10", FAKE_PID_FILE=str(pids), PYTHONPATH=str(Path(__file__).parents[1]))
-    proc = subprocess.Popen([sys.executable, "-c", _KILL_SCRIPT, str(db)], env=env, stderr=subprocess.PIPE)
+    proc = subprocess.Popen([sys.executable, "-c", _KILL_SCRIPT, str(db)], env=env, stderr=subprocess.PIPE,
+                            preexec_fn=default_sigint)  # SIGINT is ignored in a background job's children
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline and not (pids.exists() and len(pids.read_text().split()) >= 2):
         time.sleep(0.05)
@@ -362,7 +364,8 @@ def test_a_signal_to_the_sweep_command_exits_128_plus_it(tmp_path: Path, sig: in
     db = tmp_path / "c.sqlite"
     env = dict(os.environ, FABPAT_CACHE="off")
     proc = subprocess.Popen([sys.executable, "-m", "fabpat", "sweep", "--sample", "6", "--h", "8", "--workers", "1",
-                             "--db", str(db)], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                             "--db", str(db)], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=default_sigint)  # SIGINT is ignored in a background job's children
     try:
         deadline = time.monotonic() + 120
         while time.monotonic() < deadline and proc.poll() is None:  # a pattern committed: the sweep is under way

@@ -71,6 +71,7 @@ def assemble_cmd(spec: str, out: str, progress: bool, timestamp: str | None, for
     from fabpat.exchange.step import check_timestamp
     from fabpat.io import check_distinct
     from fabpat.progress import Progress
+    from fabpat.shell.news import listening
 
     timestamp = check_timestamp(timestamp)
     check_distinct([out], inputs={"SPEC": spec})  # the kit (its folder, any file) may not replace the spec …
@@ -79,17 +80,23 @@ def assemble_cmd(spec: str, out: str, progress: bool, timestamp: str | None, for
     names = steps(parsed, predict)
     done = 0
     what = _path_words(parsed)
+    head = ""  # the line's words before the solver's news
     with Progress("assemble", total=len(names), enabled=progress) as bar:
         def tell(step: str) -> None:
-            nonlocal done
+            nonlocal done, head
             done += 1
-            bar.update(f"step {done} of {len(names)}: {step}", done - 1)
+            head = f"step {done} of {len(names)}: {step}"
+            bar.update(head, done - 1)
 
         def solving(f: float) -> None:  # within the "prediction" step: the fraction of its path
-            bar.update(f"step {done} of {len(names)}: prediction, {100 * f:.0f} % of {what}", done - 1 + f)
+            nonlocal head
+            head = f"step {done} of {len(names)}: prediction, {100 * f:.0f} % of {what}"
+            bar.update(head, done - 1 + f)
 
-        result = assemble(parsed, out, tell, timestamp, force=force, predict=predict, predict_h=predict_h,
-                          predict_progress=solving)
+        # the solver's own news (each increment; the kernels' first compilation, ~40 s once after an install)
+        with listening(lambda text: bar.update(f"{head}; {text}")):
+            result = assemble(parsed, out, tell, timestamp, force=force, predict=predict, predict_h=predict_h,
+                              predict_progress=solving)
     for line in (*result.report.lines(), *result.notes):
         click.echo(f"check: {line}", err=True)
     for line in result.warnings:
@@ -161,6 +168,7 @@ def _simulate_assembly(spec: str, end_shortening: float | None, h: float, steps:
     from fabpat.assembly.simulation import simulate_assembly
     from fabpat.io import atomic_outputs, check_distinct, check_suffix
     from fabpat.progress import Progress
+    from fabpat.shell.news import listening
     from fabpat.simulation.scenarios import PNG_SUFFIXES, VTU_SUFFIXES
 
     outputs = [p for p in (vtu, png) if p is not None]
@@ -179,10 +187,18 @@ def _simulate_assembly(spec: str, end_shortening: float | None, h: float, steps:
         click.echo(f"fabpat: tiling.radius = {parsed.tiling.radius:g} mm: plate edge {parsed.tiling.edge:.4f} mm",
                    err=True)
     with atomic_outputs(*outputs) as temps, Progress("simulate-assembly", total=1.0, enabled=progress) as bar:
-        bar.update("meshing and joining the plates", 0.0)
-        sim = simulate_assembly(parsed, h=h, steps=steps, end_shortening=end_shortening, imperfection=imperfection,
-                                youngs_modulus=E, poisson=nu, max_elements=max_elements,
-                                progress=lambda f: bar.update(f"{100 * f:.0f} % of {what}", f))
+        head = ["meshing and joining the plates"]  # the line's words before the solver's news
+        bar.update(head[0], 0.0)
+
+        def reached(f: float) -> None:
+            head[0] = f"{100 * f:.0f} % of {what}"
+            bar.update(head[0], f)
+
+        # each increment; the kernels' first compilation (~40 s once after an install)
+        with listening(lambda text: bar.update(f"{head[0]}; {text}")):
+            sim = simulate_assembly(parsed, h=h, steps=steps, end_shortening=end_shortening,
+                                    imperfection=imperfection, youngs_modulus=E, poisson=nu,
+                                    max_elements=max_elements, progress=reached)
         bar.update("writing the files")
         tmp = dict(zip(outputs, temps, strict=True))
         if vtu is not None:

@@ -28,10 +28,18 @@ from fabpat.cli.options import h_option, number_option
 @number_option("--workers", range_name="workers", default=None, help="Local worker processes [default: 1].")
 @click.option("--dask", "dask_address", metavar="ADDRESS", default=None,
               help="Send the solves to this dask.distributed scheduler (e.g. tcp://host:8786) instead.")
+@number_option("--max-minutes", range_name="max_minutes", default=None,
+               help="Time budget in minutes: when it runs out the solves stop and the best design so far is written "
+                    "(design.json: \"interrupted\": true), as on Ctrl-C or SIGTERM [default: none].")
 @click.option("--kit", is_flag=True, help="Also run `fabpat assemble` on design.toml into DIR/kit.")
-@click.option("--progress/--no-progress", default=True, show_default=True, help="Progress on stderr.")
+@click.option("--dry-run", is_flag=True,
+              help="Check the inputs and print the plan as JSON (strip: pin length, end shortening, scale, the "
+                   "elastica's peak strain; closed: the target's fitted scale) in seconds: no solve, no file.")
+@click.option("--progress/--no-progress", default=True, show_default=True,
+              help="Progress on stderr (solves done; in a solve its increment, λ and factorizations).")
 def design_cmd(target: str, spec: str, out: str, h: float, max_solves: int | None, tolerance: float, scale_target: bool,
-               workers: int | None, dask_address: str | None, kit: bool, progress: bool) -> None:
+               workers: int | None, dask_address: str | None, max_minutes: float | None, kit: bool,
+               dry_run: bool, progress: bool) -> None:
     """Choose one pattern per tile so that the assembled strip or closed tiling matches TARGET.
 
     For a honeycomb-strip spec, TARGET is a CSV of the arch's mid-line (header x,z, mm; x from column 0's
@@ -41,23 +49,39 @@ def design_cmd(target: str, spec: str, out: str, h: float, max_solves: int | Non
     Writes DIR/design.toml (a spec for `fabpat assemble` and `fabpat simulate-assembly`, with every
     tile's pattern and, for a strip, [load] end_shortening), DIR/design.json and DIR/design.png.
 
+    Ctrl-C, SIGTERM or --max-minutes stop the solves and write the best design so far, with
+    "interrupted": true in design.json (a signal still exits 130 or 143). --dry-run checks the inputs and
+    prints the plan without solving.
+
     Examples: fabpat design arch.csv --spec assemblies/graded-strip.toml --out arch-design;
     fabpat design sphere --spec assemblies/truncated-icosahedron.toml --out sphere-design
     """
     from fabpat.design import design
     from fabpat.design.target import target_file
     from fabpat.io import check_distinct
+    from fabpat.progress import Progress
 
     if dask_address and workers:
         raise click.UsageError("--workers is for local processes; the dask cluster decides with --dask")
     check_distinct([out], inputs={"TARGET": target_file(target), "--spec": spec})
-    tell = _progress(max_solves) if progress else None
-    try:
+    if dry_run:
+        import json
+
+        from fabpat.design.dry_run import dry_run as plan
+
+        click.echo(json.dumps(plan(target, spec, out=out, h=h, scale_target=scale_target), indent=1))
+        return
+    with Progress("design", enabled=progress) as bar:
+        bar.update("reading the target, the spec and the catalog")
+        done = [0]
+
+        def solves(n: int, seconds: float) -> None:
+            done[0] = n
+            bar.update(f"{n} solves done")
+
         res = design(target, spec, out=out, h=h, max_solves=max_solves, tolerance=tolerance,
-                     scale_target=scale_target, workers=workers or 1, dask=dask_address, kit=kit, progress=tell)
-    finally:
-        if tell is not None:
-            tell.close()
+                     scale_target=scale_target, workers=workers or 1, dask=dask_address, kit=kit, progress=solves,
+                     max_minutes=max_minutes, status=lambda text: bar.update(f"{done[0]} solves done; {text}"))
     rec = res.record
     click.echo(f"rms_error={rec['rms_error']:.4g} mm relative_rms={rec['relative_rms']:.4g} solves={rec['solves']} "
                f"reachable={str(rec['reachable']).lower()}", err=True)
@@ -65,34 +89,8 @@ def design_cmd(target: str, spec: str, out: str, h: float, max_solves: int | Non
         click.echo(f"fabpat: warning: {res.warning}", err=True)
     for f in ("design.toml", "design.json", "design.png", *(["kit/"] if kit else [])):
         click.echo(f"{out.rstrip('/')}/{f}")
-
-
-class _progress:  # noqa: N801 - used like a function
-    """A rich bar on a terminal, else a plain line at most every few seconds: one tick per solve."""
-
-    def __init__(self, budget: int | None) -> None:
-        import sys
-
-        self.budget, self.last = budget, 0.0
-        self.bar = None
-        if sys.stderr.isatty():
-            from rich.progress import Progress
-
-            self.bar = Progress(transient=True)
-            self.bar.start()
-            self.task = self.bar.add_task("design solves", total=None if budget is None else budget + 2)
-
-    def __call__(self, solves: int, seconds: float) -> None:
-        if self.bar is not None:
-            self.bar.update(self.task, completed=solves)
-        elif seconds - self.last >= 5.0 or solves == 1:
-            self.last = seconds
-            click.echo(f"design: {solves} solves, {seconds:.0f} s", err=True)
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.stop()
-
+    if rec.get("stopped_by") in ("SIGINT", "SIGTERM"):  # the files are written; the exit still says why it ended
+        raise KeyboardInterrupt
 
 
 COMMANDS = [design_cmd]

@@ -13,7 +13,7 @@ import math
 import os
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -22,6 +22,7 @@ from fabpat.design.base import DesignBase, base_faces, load_base
 from fabpat.design.beam import Elastica
 from fabpat.design.mapping import space_mapping
 from fabpat.design.search import Evaluated, Runner, Search
+from fabpat.design.stop import nothing_solved, stop_phrase, until_stopped
 from fabpat.design.strip import column_needs, column_turning, errors, pin_length
 from fabpat.design.target import ClosedTarget, StripTarget, TargetError, read_target, require_match
 
@@ -97,7 +98,8 @@ def _check_arc(target: StripTarget, length: float, scale_target: bool) -> tuple[
 def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[str] | None = None,
            h: float = 3.0, max_solves: int | None = None, tolerance: float = TOLERANCE, scale_target: bool = False,
            workers: int = 1, dask: str | None = None, kit: bool = False,
-           progress: Callable[[int, float], None] | None = None) -> DesignResult:
+           progress: Callable[[int, float], None] | None = None, max_minutes: float | None = None,
+           status: Callable[[str], None] | None = None) -> DesignResult:
     """Design an assembly whose predicted shape matches ``target``: one pattern per tile.
 
     ``target``: for a honeycomb-strip spec a CSV path (header x,z, mm) or an (n, 2) array of (x, z) mm; for a
@@ -109,10 +111,21 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
     ``tolerance``: reachable when relative_rms (rms over the span, or over the radius) ≤ it; ``scale_target``
     scales a strip target whose arc length is off by > 2 % to the strip's length; ``workers`` local processes
     or ``dask`` a scheduler address for the parallel solves; ``out`` writes the outputs there (``kit``: also
-    ``fabpat assemble`` into out/kit); ``progress(solves, seconds)`` after every solve. Raises TargetError,
-    SpecError (bad input, one line, before the first solve: a target or spec that is a FIFO or device, too
-    large, or of a tiling kind a design does not take), SolverError (no candidate converged), ExportError
-    (outputs).
+    ``fabpat assemble`` into out/kit); ``progress(solves, seconds)`` after every solve; ``status(text)`` hears
+    what the solves are doing (increment, λ, factorizations; the kernels' first compilation; an abandoned
+    solve and why).
+
+    Stopping early (:mod:`fabpat.design.stop`): a Ctrl-C (KeyboardInterrupt; SIGTERM under the CLI) or the
+    time budget ``max_minutes`` (minutes from the call) ends the search, and the best design of the
+    solves finished so far is returned (and written to ``out``) with ``record["interrupted"]`` True,
+    ``record["stopped_by"]`` ("SIGINT", "SIGTERM" or "max_minutes") and the reason in ``warning``; a
+    stop before any solve finished re-raises the KeyboardInterrupt, or raises SolverError for the budget.
+    ``record["interrupted"]`` is False for a finished run; ``record["abandoned"]`` lists the solves that
+    failed (their distinct patterns and the solver's reason, e.g. a path that stalled).
+
+    Raises TargetError, SpecError (bad input, one line, before the first solve: a target or spec that is a FIFO
+    or device, too large, or of a tiling kind a design does not take), SolverError (no candidate converged, or the
+    budget ran out before any did), ExportError (outputs).
     """
     from fabpat.errors import SpecError
 
@@ -122,6 +135,8 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
 
     if max_solves is not None:
         max_solves = int(check("max_solves", max_solves, "max_solves", error=SpecError))
+    if max_minutes is not None:
+        max_minutes = check("max_minutes", max_minutes, "max_minutes", error=SpecError)
     workers = int(check("workers", workers, "workers", error=SpecError))
     tolerance = check("design_tolerance", tolerance, "tolerance", error=SpecError)
     h = check("h", h, "h", error=SpecError)
@@ -133,8 +148,9 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
     if dask is not None and not isinstance(dask, str):
         raise SpecError(f"dask must be a scheduler address such as 'tcp://host:8786' or None, "
                         f"got {type(dask).__name__}")
-    if progress is not None and not callable(progress):
-        raise SpecError(f"progress must be a callable or None, got {type(progress).__name__}")
+    for name, fn in (("progress", progress), ("status", status)):
+        if fn is not None and not callable(fn):
+            raise SpecError(f"{name} must be a callable or None, got {type(fn).__name__}")
     if not isinstance(spec, str | os.PathLike):
         raise SpecError(f"spec must be the path of a TOML spec file, got {type(spec).__name__}")
     if out is not None:
@@ -149,16 +165,24 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
     tgt = read_target(target)
     base = load_base(spec)
     require_match(tgt, base.spec.source, base.spec.tiling.kind)
+    if isinstance(tgt, ClosedTarget) and scale_target:
+        raise SpecError("scale_target applies to strip targets (a closed target has no size: the plates fix it)")
+    deadline = None if max_minutes is None else t0 + 60.0 * max_minutes
+    runner = Runner(base.spec, h, (), workers, dask, progress, status=status, deadline=deadline)
     if isinstance(tgt, ClosedTarget):
         from fabpat.design.closed_api import design_closed
 
-        if scale_target:
-            raise SpecError("scale_target applies to strip targets (a closed target has no size: the plates fix it)")
         res = design_closed(tgt, base, h, MAX_SOLVES_CLOSED if max_solves is None else max_solves, tolerance,
-                            workers, dask, progress, t0, DesignResult)
+                            runner, t0, DesignResult)
     else:
         res = _design_strip(tgt, base, h, MAX_SOLVES if max_solves is None else max_solves, tolerance,
-                            scale_target, workers, dask, progress, t0)
+                            scale_target, runner, t0)
+    stopped = res.record.get("stopped_by")
+    res.record["interrupted"] = stopped is not None
+    res.record["abandoned"] = list(runner.failures)
+    if stopped is not None:
+        phrase = stop_phrase(stopped, runner.solves, max_minutes)
+        res = replace(res, warning=phrase if res.warning is None else f"{phrase}; {res.warning}")
     res.record["h"] = h  # every solve's mesh edge (mm): the kit's prediction (--kit) uses it too
     if out is not None:
         res.write(out, kit)
@@ -166,11 +190,8 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
 
 
 def _design_strip(strip: StripTarget, base: DesignBase, h: float, max_solves: int, tolerance: float,
-                  scale_target: bool, workers: int, dask: str | None,
-                  progress: Callable[[int, float], None] | None, t0: float) -> DesignResult:
-    """The strip design (module doc)."""
-    from fabpat.errors import SolverError
-
+                  scale_target: bool, runner: Runner, t0: float) -> DesignResult:
+    """The strip design (module doc), stopped early by a signal or the runner's deadline (:mod:`fabpat.design.stop`)."""
     tgt = strip
     ids = sorted(base.energies, key=lambda k: (-base.energies[k], k))  # ascending stiffness 1/U
     log_s = -np.log([base.energies[k] for k in ids])
@@ -181,36 +202,41 @@ def _design_strip(strip: StripTarget, base: DesignBase, h: float, max_solves: in
         raise TargetError(f"target {strip.source}: its span {strip.span:.1f} mm is not shorter than the strip's "
                           f"pin-to-pin length {length:.1f} mm: the pins must move together to bend it")
     columns = max(face_col) + 1
-    runner = Runner(base.spec, h, (travel,), workers, dask, progress)
+    runner.extra = (travel,)
     search = Search(strip.x, strip.z, ids, log_s, columns, face_col, base.max_distinct, runner)
     needs = column_needs(strip.x, strip.z, columns)
     single = (len(ids) // 2,) * columns  # a uniform elastica's shape does not depend on its stiffness
-    evs = search.evaluate([single])
     baselines: dict[str, Any] = {}
     runs: dict[str, Evaluated] = {}
-    if evs[0] is not None:
-        runs["single"] = evs[0]
-        baselines["single"] = _summary(evs[0], strip.span, {"pattern": ids[single[0]]})
     way = base_faces(base)
-    rule_faces = None
-    if way is not None:
-        name, rule_faces = way
-        rule = _solve_faces(runner, rule_faces, strip)
-        if rule is not None:
-            runs["rule"] = rule
-            baselines[name] = _summary(rule, strip.span, dict(zip(labels, rule_faces, strict=True)))
-    extra = runner.solves  # the baselines' solves come on top of the budget (as --max-solves' help says)
-    if evs[0] is not None:
-        space_mapping(search, Elastica(length, edges), evs[0], strip.span, max_solves + extra)
-    search.refine(column_turning(strip.x, strip.z, columns), max_solves + extra, max(2, workers))
+
+    def work() -> None:  # the solves: every one finished is kept in runs and search.seen, stopped or not
+        ev = search.evaluate([single])[0]
+        if ev is not None:
+            runs["single"] = ev
+            baselines["single"] = _summary(ev, strip.span, {"pattern": ids[single[0]]})
+        if way is not None:
+            rule = _solve_faces(runner, way[1], strip)
+            if rule is not None:
+                runs["rule"] = rule
+                baselines[way[0]] = _summary(rule, strip.span, dict(zip(labels, way[1], strict=True)))
+        extra = runner.solves  # the baselines' solves come on top of the budget (as --max-solves' help says)
+        if ev is not None:
+            space_mapping(search, Elastica(length, edges), ev, strip.span, max_solves + extra)
+        search.refine(column_turning(strip.x, strip.z, columns), max_solves + extra, max(2, runner.workers))
+
+    stopped = until_stopped(work, runner.deadline)
     best = search.best
-    if best is None:
-        raise SolverError(f"no candidate design converged in {runner.solves} solves (h = {h:g} mm)")
-    faces = [ids[best.key[face_col[f]]] for f in range(len(labels))]
-    if "rule" in runs and runs["rule"].rms < best.rms and rule_faces is not None:  # the best of every solve
-        best, faces = runs["rule"], list(rule_faces)
+    if best is None and "rule" not in runs:
+        nothing_solved(stopped, runner.solves, runner.failures, h)
+    faces = [] if best is None else [ids[best.key[face_col[f]]] for f in range(len(labels))]
+    if "rule" in runs and (best is None or runs["rule"].rms < best.rms) and way is not None:  # the best of every solve
+        best, faces = runs["rule"], list(way[1])
+    assert best is not None
     rec = _record(strip, tgt, base, best, labels, faces, runner.solves, time.perf_counter() - t0,
                   tolerance, scale, length, baselines)
+    if stopped is not None:
+        rec["stopped_by"] = stopped
     warning = None if rec["reachable"] else _unreachable(rec, needs, log_s, base, tolerance, max_solves)
     return DesignResult(rec, base, strip, best, labels, face_col, warning, runs)
 

@@ -29,6 +29,8 @@ mapping: the state of the art*, IEEE Trans. MTT 52(1), 2004).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -168,6 +170,21 @@ def _energy_hessian(c: Arr, k_end: Arr) -> Arr:
     return H
 
 
+@contextmanager
+def one_blas_thread() -> Iterator[None]:
+    """One BLAS thread inside the block: the fits solve hundreds of small systems (the 2 × 15 strip's KKT
+    system is 182 × 182), which several threads only slow down. Measured on the loaded 2-core machine
+    (load average 9), a fit to the 2 × 15 strip took 79 s with the default threads (65 ms per solve) and
+    under 2 s with one; no effect without threadpoolctl."""
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:
+        yield
+        return
+    with threadpool_limits(1):
+        yield
+
+
 def fit_spring(beam: Elastica, u: Arr, span: float, x: Arr, z: Arr) -> Elastica:
     """``beam`` with the end spring k that best reproduces the mid-line (x, z) mm of a strip of
     log-stiffnesses ``u`` (least squares over log k in [−5, 12]: from a pin to a clamp)."""
@@ -180,7 +197,8 @@ def fit_spring(beam: Elastica, u: Arr, span: float, x: Arr, z: Arr) -> Elastica:
         except SolverError:
             return math.inf
 
-    best = minimize_scalar(cost, bounds=(-5.0, 12.0), method="bounded", options={"xatol": 1e-3})
+    with one_blas_thread():
+        best = minimize_scalar(cost, bounds=(-5.0, 12.0), method="bounded", options={"xatol": 1e-3})
     return Elastica(beam.length, beam.edges, math.exp(float(best.x)))
 
 
@@ -208,7 +226,8 @@ def fit_stiffness(beam: Elastica, span: float, x: Arr, z: Arr, prior: Arr, lower
         u[free] = v
         return residual(u)
 
-    sol = least_squares(sub, p0[free], bounds=(lo[free], hi[free]), diff_step=1e-4, xtol=1e-8, ftol=1e-10)
+    with one_blas_thread():
+        sol = least_squares(sub, p0[free], bounds=(lo[free], hi[free]), diff_step=1e-4, xtol=1e-8, ftol=1e-10)
     out = fixed.copy()
     out[free] = sol.x
     return out

@@ -261,8 +261,11 @@ class ClosedSearch:
         new = list(dict.fromkeys(k for k in keys if k not in self.seen))
         state = None if self.best is None or not WARM_START else self.best.data.get("state")
         warm = None if state is None else (state,)
-        for k, res in zip(new, self.runner.run([self.faces(k) for k in new], warm), strict=True):
-            self.seen[k] = None if isinstance(res, BaseException) else self.record(k, res)
+
+        def finished(i: int, res: dict[str, Any] | BaseException) -> None:  # as it comes: a stop keeps it
+            self.seen[new[i]] = None if isinstance(res, BaseException) else self.record(new[i], res)
+
+        self.runner.run([self.faces(k) for k in new], warm, finished)
         return [self.seen[k] for k in keys]
 
     def record(self, key: tuple[int, ...], res: dict[str, Any]) -> ClosedEvaluated:

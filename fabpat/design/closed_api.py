@@ -25,6 +25,7 @@ from fabpat.design.closed import (
     solve_closed,
 )
 from fabpat.design.search import Runner
+from fabpat.design.stop import nothing_solved, until_stopped
 from fabpat.design.target import ClosedTarget
 
 
@@ -44,35 +45,38 @@ def _single_key(search: ClosedSearch) -> tuple[int, ...] | None:
     return tuple(ids.index(pid) for ids, _ in search.pools)
 
 
-def design_closed(tgt: ClosedTarget, base: DesignBase, h: float, max_solves: int, tolerance: float, workers: int,
-                  dask: str | None, progress: Callable[[int, float], None] | None, t0: float,
-                  result: Callable[..., Any]) -> Any:
-    """Design a closed tiling for ``tgt`` (module doc); ``result`` builds the DesignResult."""
+def design_closed(tgt: ClosedTarget, base: DesignBase, h: float, max_solves: int, tolerance: float, runner: Runner,
+                  t0: float, result: Callable[..., Any]) -> Any:
+    """Design a closed tiling for ``tgt`` (module doc) with ``runner`` (its deadline and a signal stop the
+    search early, :mod:`fabpat.design.stop`); ``result`` builds the DesignResult."""
     from fabpat.assembly.placement import build_tiling
-    from fabpat.errors import SolverError
 
     assert base.rows is not None
     skel = build_tiling(base.spec)
     groups, sides = face_groups(skel.V, skel.faces, tgt.bands)
     pools = [pattern_features(base.rows[s]) for s in sides]
-    runner = Runner(base.spec, h, (), workers, dask, progress, solve=solve_closed)
+    runner.solve = solve_closed
     search = ClosedSearch(pools, groups, sides, tgt, design_axis(skel.V, skel.faces),
                           base.spec.material.strain_limit, base.max_distinct, runner)
     labels = list(skel.labels)
-    runs = _baselines(search, base, runner, tgt)
-    budget = max_solves + runner.solves
-    members = search.has_members()
-    if members:  # the paper's members first, then the best design's own families (closed module doc)
-        search.papers_only()
-    search.evaluate([k for k in search.start()][: max(0, budget - runner.solves)])
-    search.refine(budget - (int(max_solves * MEMBER_SHARE) if members else 0), max(2, workers))
-    if members and search.best is not None:
-        search.around_best()
-        search.refine(budget, max(2, workers))
-    best = search.best
-    candidates = [ev for ev in (best, *runs.values()) if ev is not None]
+    runs: dict[str, ClosedEvaluated] = {}
+
+    def work() -> None:  # every solve finished is kept in runs and search.seen, stopped or not
+        _baselines(search, base, runner, tgt, runs)
+        budget = max_solves + runner.solves
+        members = search.has_members()
+        if members:  # the paper's members first, then the best design's own families (closed module doc)
+            search.papers_only()
+        search.evaluate([k for k in search.start()][: max(0, budget - runner.solves)])
+        search.refine(budget - (int(max_solves * MEMBER_SHARE) if members else 0), max(2, runner.workers))
+        if members and search.best is not None:
+            search.around_best()
+            search.refine(budget, max(2, runner.workers))
+
+    stopped = until_stopped(work, runner.deadline)
+    candidates = [ev for ev in (search.best, *runs.values()) if ev is not None]
     if not candidates:
-        raise SolverError(f"no candidate design converged in {runner.solves} solves (h = {h:g} mm)")
+        nothing_solved(stopped, runner.solves, runner.failures, h)
     best = min(candidates, key=lambda ev: ev.score)
     faces = list(best.data["faces"])
     rec = _record(tgt, base, best, labels, faces, runner.solves, time.perf_counter() - t0, tolerance, runs)
@@ -81,6 +85,8 @@ def design_closed(tgt: ClosedTarget, base: DesignBase, h: float, max_solves: int
                          for n in sorted(base.rows, reverse=True)}
     if base.notes:
         rec["notes"] = list(base.notes)
+    if stopped is not None:
+        rec["stopped_by"] = stopped
     warning = None if rec["reachable"] else _unreachable(rec, tolerance, max_solves, best)
     return result(rec, base, tgt, best, labels, groups, warning, runs)
 
@@ -96,10 +102,10 @@ def _pool_counts(rows: list[dict[str, Any]]) -> dict[str, int]:
     return {"patterns": len(rows) - members, "members": members}
 
 
-def _baselines(search: ClosedSearch, base: DesignBase, runner: Runner, tgt: ClosedTarget
-               ) -> dict[str, ClosedEvaluated]:
-    """Solve the baselines in one batch: the base spec's own patterns (``spec`` or ``rule``) and the
-    ``single`` pattern; a base choice that is not one pattern per group (per-face tiles) is solved as given."""
+def _baselines(search: ClosedSearch, base: DesignBase, runner: Runner, tgt: ClosedTarget,
+               runs: dict[str, ClosedEvaluated]) -> None:
+    """Solve the baselines in one batch into ``runs``: the base spec's own patterns (``spec`` or ``rule``) and
+    the ``single`` pattern; a base choice that is not one pattern per group (per-face tiles) is solved as given."""
     keyed: dict[str, tuple[int, ...]] = {}
     given: dict[str, tuple[str, ...]] = {}
     way = base_faces(base)
@@ -112,14 +118,15 @@ def _baselines(search: ClosedSearch, base: DesignBase, runner: Runner, tgt: Clos
     single = _single_key(search)
     if single is not None:
         keyed["single"] = single
-    search.evaluate(list(keyed.values()))
-    runs = {name: ev for name, k in keyed.items() if (ev := search.seen.get(k)) is not None}
+    try:
+        search.evaluate(list(keyed.values()))
+    finally:  # a stop in the batch keeps the baselines that finished
+        runs.update({name: ev for name, k in keyed.items() if (ev := search.seen.get(k)) is not None})
     for name, faces in given.items():
         res = runner.run([faces])[0]
         if not isinstance(res, BaseException):
             runs[name] = ClosedEvaluated((), tgt.fit(res["P"], search.axis), res,
                                          res["peak_strain"] > search.strain_limit)
-    return runs
 
 
 def _group_ids(faces: list[str], labels: list[str]) -> dict[str, str]:

@@ -9,6 +9,8 @@
 * ``axis_ratio``: each of an ``ellipsoid:A,B,C`` target's axis ratios, 0.1 … 10 (a hundredfold spread between two
   axes at most: no tiling of plates of one size closes into a needle or a disc, and a ratio like 1e300 or
   1e-320 overflowed the fit after the solves instead of being refused before them).
+* ``max_minutes``: the design run's time budget in minutes, (0, 10080] (a week; the best design so far is
+  written when it runs out).
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ DESIGN_RANGES = (
           "half the span any arch would"),
     Range("axis_ratio", 0.1, 10.0, why="an ellipsoid target's axis ratio, as in ellipsoid:1,1,1.15: a closed tiling "
           "of plates of one size cannot close into a needle or a disc"),
+    Range("max_minutes", 0.0, 10080.0, low_open=True, why="time budget of a design run, minutes: a week at most"),
 )
 for _r in DESIGN_RANGES:
     RANGES.setdefault(_r.name, _r)

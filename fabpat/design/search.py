@@ -22,9 +22,14 @@ nothing new.
 
 from __future__ import annotations
 
+import contextlib
 import math
+import os
+import select
+import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -90,7 +95,11 @@ class Evaluated:
 class Runner:
     """Runs batches of candidate solves ``solve(spec, patterns, h, *extra)`` (default the strip's
     :func:`solve_candidate` with ``extra`` = (travel,)): ``workers`` local processes, or ``dask`` (a scheduler
-    address); counts every solve and tells ``progress(solves done, elapsed s)`` after each."""
+    address); counts every solve and tells ``progress(solves done, elapsed s)`` after each. ``status(text)``
+    hears what the solves are doing (each increment's λ and factorizations, :mod:`fabpat.shell.news`; from
+    local worker processes through a pipe; a dask worker's solves say nothing) and which solves were
+    abandoned. ``deadline`` (a ``time.perf_counter()`` time): no batch starts after it
+    (:class:`fabpat.design.stop.OutOfTime`). ``failures``: every failed solve, its face patterns and reason."""
 
     spec: Any
     h: float
@@ -101,26 +110,114 @@ class Runner:
     solve: Callable[..., dict[str, Any]] = solve_candidate
     solves: int = 0
     t0: float = field(default_factory=time.perf_counter)
+    status: Callable[[str], None] | None = None
+    deadline: float | None = None
+    failures: list[dict[str, Any]] = field(default_factory=list)
 
-    def run(self, batch: list[tuple[str, ...]], extra: tuple[Any, ...] | None = None
+    def run(self, batch: list[tuple[str, ...]], extra: tuple[Any, ...] | None = None,
+            on_result: Callable[[int, dict[str, Any] | BaseException], None] | None = None
             ) -> list[dict[str, Any] | BaseException]:
         """Solve every face-pattern tuple of ``batch`` (``extra`` replaces the runner's own extra arguments
-        for this batch); a failed solve comes back as its exception."""
+        for this batch); a failed solve comes back as its exception. ``on_result(i, result)`` hears each
+        solve as it finishes, so a run stopped in the middle of a batch keeps the solves it finished."""
         from fabpat.catalog.sweep import _dask_client, _run_dask, _run_local
+        from fabpat.design.stop import OutOfTime
 
+        if self.deadline is not None and time.perf_counter() >= self.deadline:
+            raise OutOfTime
         more = self.extra if extra is None else extra
         jobs = [((self.spec, pats, self.h, *more), str(i)) for i, pats in enumerate(batch)]
-        if self.dask:
-            stream = _run_dask(self.solve, jobs, _dask_client(self.dask, 10.0))
-        else:
-            stream = _run_local(self.solve, jobs, min(self.workers, len(jobs)))
         out: list[Any] = [None] * len(batch)
-        for key, res in stream:
-            out[int(key)] = res
-            self.solves += 1
-            if self.progress is not None:
-                self.progress(self.solves, time.perf_counter() - self.t0)
+        first = self.solves + 1
+        with solve_news(self.status, lambda: f"solve {first}" if len(batch) == 1 else
+                        f"solves {first}–{first + len(batch) - 1}", self.workers > 1 and not self.dask):
+            if self.workers > 1 and len(batch) > 1 and not self.dask:
+                from fabpat.shell.compiled import ensure_kernels
+
+                ensure_kernels()  # before the workers fork: they inherit the kernels rather than each compile them
+            if self.dask:
+                stream = _run_dask(self.solve, jobs, _dask_client(self.dask, 10.0))
+            else:
+                stream = _run_local(self.solve, jobs, min(self.workers, len(jobs)))
+            for key, res in stream:
+                i = int(key)
+                out[i] = res
+                self.solves += 1
+                if isinstance(res, BaseException):
+                    self._failed(batch[i], res)
+                if on_result is not None:
+                    on_result(i, res)
+                if self.progress is not None:
+                    self.progress(self.solves, time.perf_counter() - self.t0)
         return out
+
+    def _failed(self, faces: tuple[str, ...], error: BaseException) -> None:
+        from fabpat.errors import FabpatError
+
+        reason = str(error) if isinstance(error, FabpatError) else f"{type(error).__name__}: {error}"
+        self.failures.append({"patterns": sorted(set(faces)), "reason": reason})
+        if self.status is not None:
+            self.status(f"a solve was abandoned: {reason}")
+
+
+@contextmanager
+def solve_news(status: Callable[[str], None] | None, which: Callable[[], str], workers: bool) -> Iterator[None]:
+    """Inside the block, the solver's news (:mod:`fabpat.shell.news`) goes to ``status`` as
+    ``"<which()>: <news>"``; with ``workers`` (local worker processes, forked inside the block) their
+    news comes through a pipe: each writes one short line at a time (atomic below PIPE_BUF) without ever
+    waiting (a full pipe drops the line), and a thread here reads them."""
+    from fabpat.shell import news
+
+    if status is None:
+        yield
+        return
+    if not workers:
+        with news.listening(lambda text: status(f"{which()}: {text}")):
+            yield
+        return
+    r, w = os.pipe()
+    os.set_blocking(w, False)
+    home = os.getpid()
+
+    def forward(text: str) -> None:
+        if os.getpid() == home:  # the parent's own news (the kernels' compilation before the pool forks)
+            status(f"{which()}: {text}")
+            return
+        with contextlib.suppress(OSError):  # a full pipe (BlockingIOError) or a parent gone
+            os.write(w, (f"{os.getpid()}\t{text}"[:500] + "\n").encode())
+
+    stop = threading.Event()
+    reader = threading.Thread(target=_read_news, args=(r, stop, status, which), daemon=True,
+                              name="fabpat design: solver news")
+    reader.start()
+    try:
+        with news.listening(forward):
+            yield
+    finally:
+        stop.set()
+        reader.join(timeout=1.0)
+        os.close(w)
+        if not reader.is_alive():
+            os.close(r)
+
+
+def _read_news(r: int, stop: threading.Event, status: Callable[[str], None], which: Callable[[], str]) -> None:
+    """The pipe's reading end (:func:`solve_news`): the latest line of each read, as status."""
+    buf = b""
+    while not stop.is_set():
+        ready, _, _ = select.select([r], [], [], 0.2)
+        if not ready:
+            continue
+        try:
+            chunk = os.read(r, 4096)
+        except OSError:
+            return
+        if not chunk:
+            return
+        *lines, buf = (buf + chunk).split(b"\n")
+        if lines:
+            pid, _, text = lines[-1].decode("utf-8", "replace").partition("\t")
+            status(f"{which()}: worker {pid}: {text}")
 
 
 @dataclass
@@ -148,17 +245,20 @@ class Search:
         the 1 × 3 test strip, 11 factorizations instead of 147); None for a failed solve."""
         new = list(dict.fromkeys(k for k in keys if k not in self.seen))
         warm = None if self.best is None else (self.runner.extra + (self.best.data["state"],))
-        for k, res in zip(new, self.runner.run([self.faces(k) for k in new], warm), strict=True):
-            if isinstance(res, BaseException):
-                self.seen[k] = None
-                continue
-            rms, mx, e = errors(res["x"], res["z"], self.target_x, self.target_z)
-            ev = Evaluated(k, rms, mx, column_errors(self.target_x, e, self.columns),
-                           column_turning(res["x"], res["z"], self.columns), res)
-            self.seen[k] = ev
-            if self.best is None or ev.rms < self.best.rms:
-                self.best = ev
+        self.runner.run([self.faces(k) for k in new], warm, lambda i, res: self._record(new[i], res))
         return [self.seen[k] for k in keys]
+
+    def _record(self, k: tuple[int, ...], res: dict[str, Any] | BaseException) -> None:
+        """One finished solve of candidate ``k`` (None for a failed one); updates ``best``."""
+        if isinstance(res, BaseException):
+            self.seen[k] = None
+            return
+        rms, mx, e = errors(res["x"], res["z"], self.target_x, self.target_z)
+        ev = Evaluated(k, rms, mx, column_errors(self.target_x, e, self.columns),
+                       column_turning(res["x"], res["z"], self.columns), res)
+        self.seen[k] = ev
+        if self.best is None or ev.rms < self.best.rms:
+            self.best = ev
 
     def corrected(self, ev: Evaluated, target_turning: Arr) -> tuple[tuple[int, ...], Arr]:
         """The curvature update of ``ev`` (step 1 of the module doc): the candidate assigned to the

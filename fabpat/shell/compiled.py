@@ -22,11 +22,13 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
+import fabpat.shell.kernel_cache  # noqa: F401 - numba's cache folder, chosen before the kernels are defined
 from fabpat.shell.assembly import Assembler
 from fabpat.shell.corotational import CorotationalTriangles
 from fabpat.shell.element import Material
 from fabpat.shell.kernels import counting_order, element_kernels, gather_sum, link_transform
 from fabpat.shell.linalg import mkl
+from fabpat.shell.news import tell
 
 Arr = NDArray[np.float64]
 
@@ -55,11 +57,39 @@ def cores() -> int:
         return os.cpu_count() or 1
 
 
+#: the kernels of this process are compiled or loaded (:func:`ensure_kernels`)
+_READY: list[bool] = []
+#: the kernels numba compiles and caches (their cache index files tell whether a run compiles them)
+_CACHED = (element_kernels, gather_sum, counting_order, link_transform)
+
+
+def kernels_cached() -> bool:
+    """Whether numba's cache holds every kernel (an index file each), so this process loads them in a
+    fraction of a second rather than compiling them (about 40 s). An unreadable cache counts as absent."""
+    try:
+        return all(os.path.exists(f._cache._cache_file._index_path) for f in _CACHED)  # numba's cache layout
+    except AttributeError:  # another numba's layout: say nothing rather than guess
+        return True
+
+
+def ensure_kernels() -> None:
+    """Compile or load the kernels once per process (:func:`load_kernels`), first telling the solver's
+    listeners (:mod:`fabpat.shell.news`) when they are being compiled, which takes about 40 s once after
+    an install (or a numba upgrade) and is otherwise silent."""
+    if _READY:
+        return
+    if not kernels_cached():
+        where = fabpat.shell.kernel_cache.CACHE_DIR
+        tell("compiling the solver's kernels (once after an install: about 40 s"
+             + (f"; kept in {where})" if where else ")"))
+    load_kernels()
+
+
 def load_kernels() -> float:
-    """Compile the kernels (or load them from numba's cache, next to :mod:`fabpat.shell.kernels`) by
-    calling them once on one triangle; returns the seconds it took (8 s the first time on the 2-core
-    machine, 0.2 s from the cache). A solve does this on its first call anyway; benchmarks call it
-    first so that their timings are of the solver alone."""
+    """Compile the kernels (or load them from numba's cache, :mod:`fabpat.shell.kernel_cache`) by
+    calling them once on one triangle; returns the seconds it took (about 40 s the first time on the
+    2-core machine, 0.2 s from the cache). A solve does this on its first call anyway
+    (:func:`ensure_kernels`); benchmarks call it first so that their timings are of the solver alone."""
     import time
 
     t = time.perf_counter()
@@ -70,6 +100,7 @@ def load_kernels() -> float:
     asm = Assembler(tri.edofs, np.ones(18, dtype=bool))
     CompiledAssembler(asm, threads=1).matrix(np.zeros((1, 18, 18)))
     transform_elements(np.zeros((1, 18, 18)), np.zeros(1, dtype=np.int64), np.zeros((1, 3, 3)), threads=1)
+    _READY.append(True)
     return time.perf_counter() - t
 
 

@@ -19,8 +19,10 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
-# numba compiles these on first use (8 s on the 2-core machine) and keeps the machine code next to
-# this file (cache=True)
+import fabpat.shell.kernel_cache  # noqa: F401 - sets numba.config.CACHE_DIR, read by the decorators below
+
+# numba compiles these on first use (about 40 s on the 2-core machine, measured in a first
+# `fabpat assemble`) and keeps the machine code in the user's cache (cache=True, fabpat.shell.kernel_cache)
 
 Arr = NDArray[np.float64]
 

@@ -27,7 +27,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import SolverError
-from fabpat.shell.compiled import pardiso_threads
+from fabpat.shell import news
+from fabpat.shell.compiled import ensure_kernels, pardiso_threads
 from fabpat.shell.linalg import Factor, Pardiso, SuperLUFactorizer, factorizer
 from fabpat.shell.rigid_links import LinkedProblem, _Reduced
 from fabpat.shell.rotations import expmap, logmap
@@ -48,6 +49,12 @@ EASY_ITERATIONS = 6
 #: doubling after them took the graded strip from the knee to 10 % in 93 factorizations, not 105 (h = 6);
 #: 4 rather than 3 lets the knee's increments (3–4 factorizations each) double: 69 → 64 at h = 3
 EASY_FACTORIZATIONS = 4
+#: a path that stops converging is abandoned (SolverError naming why) once this many factorizations have
+#: advanced λ by less than :data:`STALL_ADVANCE` of the path: a whole strip path takes 54–105 (h = 3 … 6,
+#: the knee included), a closure 9–11, so 300 with no real progress is a crawl of tiny increments that
+#: would otherwise run for hours (an 18-minute design solve was seen), not a hard stretch of the path
+STALL_FACTORIZATIONS = 300
+STALL_ADVANCE = 0.01
 
 
 @dataclass(frozen=True, eq=False)
@@ -129,6 +136,7 @@ class _Newton:
     t_res: float = 0.0
     residual: float = np.inf
     state: tuple[Arr, Arr, Arr, Arr] | None = None  # (g, fe, U, d) of the last evaluated iterate
+    label: str = ""  # the increment under way, for the solver's news
 
     def targets(self, target: float, xs: Arr, Rs: Arr) -> Arr:
         """(N, 6) increments still missing at the prescribed dofs (spins for rotations)."""
@@ -197,6 +205,8 @@ class _Newton:
                 if not reuse:
                     lu = self.fz.factor(K)
                     self.factorizations += 1
+                    if news.listened():  # a long increment (a warm start's one to λ = 1) is not silent
+                        news.tell(f"{self.label}, iteration {its}, {self.factorizations} factorizations")
                 du[red.asm.free] = lu.solve(rhs[red.asm.free])  # type: ignore[union-attr] (reuse implies lu)
             except SolverError:
                 break
@@ -240,6 +250,7 @@ def solve_path(
     start: tuple[Arr, Arr] | None = None,
     threads: int | None = None,
     max_step: float | None = None,
+    stall: tuple[int, float] | None = (STALL_FACTORIZATIONS, STALL_ADVANCE),
 ) -> PathResult:
     """Follow λ = 0 → 1 (loads λ·loads, prescribed dofs λ·prescribed, joint angles λ·φ); see module doc.
 
@@ -271,6 +282,11 @@ def solve_path(
     states around it (``PathPoint.exact`` False), and λ = 1 is always an equilibrium.
     ``threads``: threads for the element kernels, the matrix sums and the factorisations (default: the
     cores this process may use, :func:`fabpat.shell.compiled.cores`).
+    ``stall``: (factorizations n, advance a): abandon the path (SolverError, "stalled") when n
+    factorizations have moved λ by less than a (defaults :data:`STALL_FACTORIZATIONS`,
+    :data:`STALL_ADVANCE`); None follows a crawling path however long it takes.
+    The solver's listeners (:mod:`fabpat.shell.news`) are told the increment, λ and the factorizations
+    so far after every increment, and the increment's target and iteration after every factorization.
 
     Convergence of an increment: ‖r‖ ≤ max(rtol · max(‖λ f‖, ‖reactions‖), floor) over the dofs that
     are neither prescribed nor slaves, with the round-off floor of :mod:`fabpat.shell.solve`. Each
@@ -281,7 +297,8 @@ def solve_path(
     ≤ ``EASY_FACTORIZATIONS`` factorizations. (A secant predictor, extrapolating the last increment,
     was dropped: on the graded strip it took 593 factorizations against 93, as a straight-line
     extrapolation of a rising arch stretches it.)
-    Raises SolverError (naming the λ reached) when an increment falls below ``min_step``.
+    Raises SolverError (naming the λ reached) when an increment falls below ``min_step`` or the path
+    stalls (``stall``).
 
     One function: the report intervals, the Newton increments (halved after a failure, doubled after
     easy ones) and the warm start share the state of one path (module doc: path following).
@@ -289,6 +306,7 @@ def solve_path(
     if steps < 1:
         raise ValueError(f"steps must be ≥ 1, got {steps}")
     t0 = time.perf_counter()
+    ensure_kernels()  # compiled once per process (and said so: the first run after an install takes ~40 s)
     red = _Reduced(p, threads)
     N, n = red.N, red.n
     X = np.vstack([p.X, p.masters])
@@ -306,6 +324,7 @@ def solve_path(
     unstable = warm = False
     guess, kept = start, None
     here = PathPoint(0.0, np.zeros((N, 3)), np.zeros((N, 3)), np.zeros((N, 6)), 0.0, np.zeros((len(p.link_slave), 6)))
+    anchor = (0, 0.0)  # (factorizations, λ) when λ last advanced by stall[1]
     with _PATH_LOCK, pardiso_threads(red.model.threads):  # one large matrix: its factorisations may use every core
         while lam < 1.0 - 1e-12:
             if guess is not None:
@@ -321,6 +340,7 @@ def solve_path(
             else:
                 red.place_slaves(p, xt, Rt, target)
             f0 = nw.factorizations
+            nw.label = f"increment {incs + cuts + 1}, λ = {lam:.3f} → {target:.3f}"
             ok, its, xt, Rt, lu = nw.run(xt, Rt, target, kept if guess is None else None)
             if ok and not _on_branch(X, xt, Rt, direction):
                 ok, unstable = False, True  # the other branch (see ``direction``)
@@ -358,6 +378,18 @@ def solve_path(
                         f"cuts (residual {nw.residual:.3e}"
                         + ("; it converges only onto a branch against ``direction``" if unstable else "")
                         + "); the path may snap back or the mesh may be too coarse")
+            if news.listened():
+                news.tell(f"increment {incs + cuts}, λ = {lam:.3f}, {nw.factorizations} factorizations"
+                          + (f", {cuts} step cuts" if cuts else ""))
+            if stall is not None:
+                if lam - anchor[1] >= stall[1]:
+                    anchor = (nw.factorizations, lam)
+                elif nw.factorizations - anchor[0] >= stall[0]:
+                    raise SolverError(
+                        f"path following stalled: abandoned at load fraction λ = {lam:.4f}, which "
+                        f"{nw.factorizations - anchor[0]} factorizations advanced by only {lam - anchor[1]:.2g} "
+                        f"({incs} increments, {cuts} step cuts); the path may be near a snap-back or the mesh "
+                        "too coarse")
     assert nw.state is not None
     ee = red.model.energy_split(nw.state[3])
     seconds = {"tangent": nw.t_tan, "factor_solve": nw.t_lu, "residual": nw.t_res, "total": time.perf_counter() - t0}
