@@ -51,7 +51,7 @@ def printable_floor(sides: int) -> float:
     w = rows[0]["w"] if rows else None
     if w is None:
         raise CatalogError(f"the built-in catalog has no depth-2 patterns of the {sides}-gon to judge printability by")
-    return float(w)
+    return float(str(w))
 
 
 def choose(db: str | Path, sides: int, pool: Sequence[str], count: int) -> list[str]:

@@ -34,10 +34,11 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -46,6 +47,9 @@ from fabpat.catalog.schema import builtin_path
 from fabpat.catalog.version import solver_version
 from fabpat.errors import CatalogError, PatternError
 from fabpat.patterns.lattice import check_sides, depth_of_id, slice_lattice
+
+if TYPE_CHECKING:
+    from sklearn.ensemble import GradientBoostingRegressor
 
 #: the catalog columns a response predicts, in this order
 TARGETS = ("energy_cantilever", "energy_cylinder", "energy_dome", "min_width", "area")
@@ -59,6 +63,7 @@ FOLDS = 5
 #: boosting settings, measured on the hexagon catalog by 5-fold cross-validation (docs/learned-response.md)
 TREES, TREE_DEPTH, LEARNING_RATE, SUBSAMPLE = 300, 3, 0.05, 0.8
 _LATTICE = 3
+_TREE_ARRAYS = ("feature", "threshold", "left", "right", "value")  # a Trees' arrays, as stored
 
 
 @cache
@@ -114,7 +119,7 @@ def cell_features(ids: Sequence[str]) -> NDArray[np.float64]:
     for d in DEPTHS:
         sel = np.nonzero(depths == d)[0]
         if sel.size:
-            X[sel, :64] = _bits([ids[s] for s in sel], d)[:, _refinement(d)]
+            X[sel, :64] = _bits([ids[int(s)] for s in sel], d)[:, _refinement(d)]
     cells = X[:, :64]
     row = np.floor(np.sqrt(np.arange(64))).astype(np.int64)
     for r in range(8):
@@ -250,9 +255,9 @@ class Response:
         return Prediction(tuple(ids), self.sides, values, intervals)
 
 
-def _trees(model: object) -> Trees:
+def _trees(model: GradientBoostingRegressor) -> Trees:
     """A fitted GradientBoostingRegressor's trees as padded arrays."""
-    est = [e[0].tree_ for e in model.estimators_]  # type: ignore[attr-defined]
+    est = [e[0].tree_ for e in model.estimators_]
     n = max(t.node_count for t in est)
 
     def pad(get: str, fill: float, dtype: type) -> NDArray:
@@ -262,13 +267,13 @@ def _trees(model: object) -> Trees:
             out[k, : t.node_count] = a.reshape(t.node_count, -1)[:, 0] if a.ndim > 1 else a
         return out
 
-    init = float(np.ravel(model.init_.predict(np.zeros((1, model.n_features_in_))))[0])  # type: ignore[attr-defined]
+    init = float(np.ravel(model.init_.predict(np.zeros((1, model.n_features_in_))))[0])
     return Trees(pad("feature", 0, np.int64), pad("threshold", 0.0, np.float64), pad("children_left", -1, np.int64),
                  pad("children_right", -1, np.int64), pad("value", 0.0, np.float64), init,
-                 float(model.learning_rate))  # type: ignore[attr-defined]
+                 float(model.learning_rate))
 
 
-def _regressor(seed: int, trees: int = TREES) -> object:
+def _regressor(seed: int, trees: int = TREES) -> GradientBoostingRegressor:
     try:
         from sklearn.ensemble import GradientBoostingRegressor
     except ImportError as exc:  # a core dependency; an odd install may still lack it
@@ -305,8 +310,8 @@ def out_of_fold(X: NDArray[np.float64], Y: NDArray[np.float64], seed: int = 0, t
     pred = np.zeros_like(Y)
     for train, test in KFold(FOLDS, shuffle=True, random_state=seed).split(X):
         for j in range(Y.shape[1]):
-            m = _regressor(seed, trees).fit(X[train], np.log(Y[train, j]))  # type: ignore[attr-defined]
-            pred[test, j] = m.predict(X[test])  # type: ignore[attr-defined]
+            m = _regressor(seed, trees).fit(X[train], np.log(Y[train, j]))
+            pred[test, j] = m.predict(X[test])
     return pred
 
 
@@ -327,7 +332,7 @@ def fit_response(rows: Sequence[Mapping[str, object]], sides: int, version: str,
     resid = out_of_fold(X, Y, seed, trees) - np.log(Y)
     models, spread = {}, {}
     for j, t in enumerate(TARGETS):
-        models[t] = _trees(_regressor(seed, trees).fit(X, np.log(Y[:, j])))  # type: ignore[attr-defined]
+        models[t] = _trees(_regressor(seed, trees).fit(X, np.log(Y[:, j])))
         spread[t] = {int(d): conformal_quantile(resid[depth == d, j]) for d in np.unique(depth)}
     counts = {int(d): int((depth == d).sum()) for d in np.unique(depth)}
     return Response(sides, models, spread, version, counts)
@@ -347,22 +352,24 @@ def save_responses(responses: Sequence[Response], path: str | Path) -> Path:
     from fabpat.io import atomic_outputs
 
     arrays: dict[str, NDArray] = {}
+    entries: list[dict[str, object]] = []
     meta: dict[str, object] = {"features_version": FEATURES_VERSION, "level": LEVEL, "targets": list(TARGETS),
-                               "responses": []}
+                               "responses": entries}
     for r in responses:
         entry = {"sides": r.sides, "solver_version": r.solver_version, "rows": {str(d): n for d, n in r.rows.items()},
                  "spread": {t: {str(d): q for d, q in r.spread[t].items()} for t in TARGETS},
                  "init": {t: r.models[t].init for t in TARGETS}, "rate": {t: r.models[t].rate for t in TARGETS}}
-        meta["responses"].append(entry)  # type: ignore[attr-defined]
+        entries.append(entry)
         for t in TARGETS:
             m = r.models[t]
-            for field in ("feature", "threshold", "left", "right", "value"):
+            for field in _TREE_ARRAYS:
                 arrays[f"{r.sides}/{t}/{field}"] = getattr(m, field)
     arrays["meta"] = np.array(json.dumps(meta))
     path = Path(path)
+    savez: Callable[..., None] = np.savez_compressed  # numpy's stubs read **arrays as its keyword options
     with atomic_outputs(path) as (tmp,):
         with open(tmp, "wb") as fh:
-            np.savez_compressed(fh, **arrays)
+            savez(fh, **arrays)
     return path
 
 
@@ -380,9 +387,8 @@ def load_responses(path: str | Path) -> dict[int, Response]:
             out = {}
             for e in meta["responses"]:
                 s = int(e["sides"])
-                models = {t: Trees(*(np.asarray(z[f"{s}/{t}/{f}"]) for f in ("feature", "threshold", "left", "right",
-                                                                               "value")),
-                                   float(e["init"][t]), float(e["rate"][t])) for t in TARGETS}
+                models = {t: Trees(**{f: np.asarray(z[f"{s}/{t}/{f}"]) for f in _TREE_ARRAYS},
+                                   init=float(e["init"][t]), rate=float(e["rate"][t])) for t in TARGETS}
                 spread = {t: {int(d): float(q) for d, q in e["spread"][t].items()} for t in TARGETS}
                 out[s] = Response(s, models, spread, str(e["solver_version"]),
                                   {int(d): int(n) for d, n in e["rows"].items()})
@@ -442,17 +448,18 @@ def refit_responses(catalog: str | Path | None, *, min_rows: int = MIN_ROWS, see
     from fabpat.catalog.store import open_catalog
 
     with open_catalog(catalog) as cat:
-        polygons = [int(r["sides"]) for r in cat.query("SELECT DISTINCT sides FROM patterns ORDER BY sides")]
+        polygons = [int(str(r["sides"])) for r in cat.query("SELECT DISTINCT sides FROM patterns ORDER BY sides")]
         versions = {str(r["solver_version"]) for r in cat.query("SELECT DISTINCT solver_version FROM results")}
     current = solver_version()
     if versions - {current}:
         other = ", ".join(sorted(versions - {current}))
         raise CatalogError(f"{catalog or 'the built-in catalog'} holds rows of {other}, "
                            f"not {current}: run fabpat sweep on it before fitting a learned response")
-    setup = {k: DEFAULT_SETUP[k] for k in ("edge", "thickness", "weight")}
     fitted = []
     for s in polygons:
-        rows = [r for r in read_catalog(catalog, sides=s, **setup) if r["depth"] in DEPTHS]
+        rows = [r for r in read_catalog(catalog, sides=s, edge=DEFAULT_SETUP["edge"],
+                                        thickness=DEFAULT_SETUP["thickness"], weight=DEFAULT_SETUP["weight"])
+                if r["depth"] in DEPTHS]
         if len(training_arrays(rows)[0]) >= min_rows:
             fitted.append(fit_response(rows, s, current, seed=seed))
     return save_responses(fitted, response_path(catalog)) if fitted else None

@@ -23,15 +23,14 @@ def predict_cmd(ids: tuple[str, ...], sides: int, db: str | None, as_json: bool)
 
     from fabpat.catalog.response import TARGETS, predict
 
-    records = predict(list(ids), sides, db).records()
+    p = predict(list(ids), sides, db)
     if as_json:
-        click.echo(json.dumps(records, indent=1))
+        click.echo(json.dumps(p.records(), indent=1))
         return
     click.echo("id  " + "  ".join(f"{t} [90 %]" for t in TARGETS))
-    for r in records:
-        cells = [f"{r[t]:.4g} [{r[t + '_interval'][0]:.4g}, {r[t + '_interval'][1]:.4g}]"  # type: ignore[index]
-                 for t in TARGETS]
-        click.echo(f"{r['id']}  " + "  ".join(cells))
+    for k, i in enumerate(p.ids):
+        cells = [f"{p.values[t][k]:.4g} [{p.intervals[t][k, 0]:.4g}, {p.intervals[t][k, 1]:.4g}]" for t in TARGETS]
+        click.echo(f"{i}  " + "  ".join(cells))
 
 
 COMMANDS = [predict_cmd]
