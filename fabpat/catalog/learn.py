@@ -5,13 +5,12 @@ mostly repeats the middle of the stiffness range that depth 2 already covers. :f
 pool of uniformly drawn patterns with the learned response (:mod:`fabpat.catalog.response`) and picks the
 ones that may widen the catalog's Cylinder-energy range at a printable width:
 
-* printable: a predicted ``min_width`` at least the depth-2 catalog's smallest (the narrowest neck already
-  judged printable);
-* not yet in the catalog;
-* then alternately the pattern whose interval reaches lowest (may be stiffer than any so far) and the one
+* not among the patterns the model was fitted to;
+* alternately the pattern whose interval reaches lowest (may be stiffer than any so far) and the one
   whose interval reaches highest (may be softer): optimism under uncertainty, so a pattern the model knows
   little about is tried before one it confidently places in the middle (the upper-confidence-bound rule of
-  Auer, Cesa-Bianchi and Fischer, Machine Learning 47, 2002).
+  Auer, Cesa-Bianchi and Fischer, Machine Learning 47, 2002);
+* printable: its exact ``min_width`` (a fillet, no solve) at least the print limit, 0.8 mm.
 
 The choice depends only on the pool's seed and the model, so an interrupted ``--learn`` run chooses the
 same patterns again and the sweep resumes; the sweep refits the model once all are stored.
@@ -25,65 +24,69 @@ from pathlib import Path
 import numpy as np
 
 from fabpat.catalog.response import Response, load_responses, response, response_path
-from fabpat.catalog.store import open_catalog
 from fabpat.catalog.version import solver_version
-from fabpat.errors import CatalogError
 
 #: the scenario whose range the learning widens (the strip designs' stiffness: docs/design.md)
 SCENARIO = "energy_cylinder"
 
 
 def model_for(db: str | Path, sides: int) -> Response:
-    """The catalog's own learned response for the polygon if it has a current one, else the built-in one."""
-    try:
-        own = load_responses(response_path(db)).get(sides)
-    except CatalogError:
-        own = None
+    """The catalog's own learned response for the polygon if it has a current one, else the built-in one.
+    A damaged response file beside the catalog is a CatalogError (not silently passed over)."""
+    path = response_path(db)
+    own = load_responses(path).get(sides) if path.exists() else None
     if own is not None and own.solver_version == solver_version():
         return own
     return response(sides)
 
 
-def printable_floor(sides: int) -> float:
-    """The built-in depth-2 catalog's smallest ``min_width`` of the polygon (mm)."""
-    with open_catalog(None) as cat:
-        rows = cat.query("SELECT MIN(min_width) AS w FROM patterns WHERE sides = ? AND depth = 2", (sides,))
-    w = rows[0]["w"] if rows else None
-    if w is None:
-        raise CatalogError(f"the built-in catalog has no depth-2 patterns of the {sides}-gon to judge printability by")
-    return float(str(w))
+def printable_floor() -> float:
+    """The narrowest feature counted as printable (mm): the exporters' print limit, two perimeters of a 0.4 mm
+    nozzle (:data:`fabpat.exchange.registry.PRINT_MIN_WIDTH`). Not the depth-2 catalog's narrowest neck
+    (1.95 mm for hexagons of 36 mm): every depth-3 pattern with a bridged joint has necks of half that (0.98 mm),
+    as its sub-triangles are half the size (docs/learned-response.md)."""
+    from fabpat.exchange.registry import PRINT_MIN_WIDTH
+
+    return float(PRINT_MIN_WIDTH)
+
+
+def exact_min_width(pattern_id: str, sides: int) -> float:
+    """The filleted outline's narrowest feature (mm) at the catalog's default set-up: a fillet, no solve
+    (about 0.05 s for a depth-3 pattern)."""
+    from fabpat.catalog.schema import DEFAULT_SETUP
+    from fabpat.geometry.fillet import fillet_pattern
+    from fabpat.patterns.lattice import depth_of_id
+    from fabpat.patterns.library import get_pattern
+
+    p = get_pattern(pattern_id, sides, depth_of_id(pattern_id), float(str(DEFAULT_SETUP["edge"])))
+    return float(str(fillet_pattern(p, float(str(DEFAULT_SETUP["weight"]))).catalog_columns()["min_width"]))
+
+
+#: how many candidates per pattern chosen :func:`choose` may fillet to find printable ones
+FILLETS_PER_CHOICE = 20
 
 
 def choose(db: str | Path, sides: int, pool: Sequence[str], count: int) -> list[str]:
     """Up to ``count`` IDs of ``pool`` to simulate next (see the module doc), in the order chosen.
 
-    Raises :class:`~fabpat.errors.CatalogError` if no learned response can rank them."""
+    The candidates are the pool's patterns the model was not fitted to, ranked by the model; each in turn is
+    filleted and kept if its exact ``min_width`` is at least :func:`printable_floor` (at most
+    :data:`FILLETS_PER_CHOICE` × ``count`` fillets). The catalog's rows are not consulted, so a run that was
+    interrupted chooses the same patterns again and the sweep skips those already stored. Raises
+    :class:`~fabpat.errors.CatalogError` if no learned response can rank them."""
     model = model_for(db, sides)
-    held: set[str] = set()
-    if Path(db).exists():
-        with open_catalog(db) as cat:
-            held = {str(r["id"]) for r in cat.query("SELECT id FROM patterns WHERE sides = ?", (sides,))}
-    candidates = [i for i in pool if i not in held]
-    if not candidates:
+    candidates = [i for i in dict.fromkeys(pool) if i not in model.ids]
+    if not candidates or count < 1:
         return []
     pred = model.predict(candidates, extrapolate=True)  # a depth-2 model still orders the first picks
-    ok = np.nonzero(pred.values["min_width"] >= printable_floor(sides))[0]
-    low = pred.intervals[SCENARIO][ok, 0]
-    high = pred.intervals[SCENARIO][ok, 1]
-    by_low, by_high = ok[np.argsort(low, kind="stable")], ok[np.argsort(-high, kind="stable")]
+    by_low = np.argsort(pred.intervals[SCENARIO][:, 0], kind="stable")
+    by_high = np.argsort(-pred.intervals[SCENARIO][:, 1], kind="stable")
+    order = list(dict.fromkeys(int(k) for pair in zip(by_low, by_high, strict=True) for k in pair))
+    floor = printable_floor()
     out: list[str] = []
-    seen: set[int] = set()
-    a = b = 0
-    while len(out) < count and (a < len(by_low) or b < len(by_high)):
-        for order, k in ((by_low, a), (by_high, b)):
-            while k < len(order) and int(order[k]) in seen:
-                k += 1
-            if k < len(order) and len(out) < count:
-                seen.add(int(order[k]))
-                out.append(pred.ids[int(order[k])])
-                k += 1
-            if order is by_low:
-                a = k
-            else:
-                b = k
+    for k in order[: FILLETS_PER_CHOICE * count]:
+        if exact_min_width(pred.ids[k], sides) >= floor:
+            out.append(pred.ids[k])
+            if len(out) == count:
+                break
     return out

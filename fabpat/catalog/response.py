@@ -3,8 +3,9 @@
 The paper proposes "learned responses replacing computationally-intensive, physically-based simulations of the
 generic patterned surfaces" (§6). A :class:`Response` is that model for one polygon: fitted to a catalog's
 simulated rows, it maps a pattern ID to the catalog's columns :data:`TARGETS` — ``energy_cantilever``,
-``energy_cylinder``, ``energy_dome`` (N·mm), ``min_width`` (mm) and ``area`` (mm²) — each with an interval that
-holds the truth with probability :data:`LEVEL` (90 %).
+``energy_cylinder``, ``energy_dome`` (N·mm) and ``min_width`` (mm), learned, each with an interval that holds the
+truth with probability :data:`LEVEL` (90 %), and ``area`` (mm²), the lattice area, which is a sum over the cells
+and computed exactly (:func:`lattice_area`; its interval is that one value).
 
 What it reads (:func:`cell_features`, cheap: no filleting, no mesh): the slice's cells drawn on the depth-3
 lattice (a depth-2 cell is its four depth-3 children, so one model serves both depths), the number of solid
@@ -32,8 +33,10 @@ solver version is not :func:`fabpat.catalog.solver_version` is refused, like a s
 
 from __future__ import annotations
 
+import io
 import json
 import math
+import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from functools import cache
@@ -45,7 +48,7 @@ from numpy.typing import NDArray
 
 from fabpat.catalog.schema import builtin_path
 from fabpat.catalog.version import solver_version
-from fabpat.errors import CatalogError, PatternError
+from fabpat.errors import CatalogError, FabpatError, PatternError
 from fabpat.patterns.lattice import check_sides, depth_of_id, slice_lattice
 
 if TYPE_CHECKING:
@@ -53,12 +56,16 @@ if TYPE_CHECKING:
 
 #: the catalog columns a response predicts, in this order
 TARGETS = ("energy_cantilever", "energy_cylinder", "energy_dome", "min_width", "area")
+#: the targets a response learns; ``area`` (the lattice area) is a sum over the cells, computed exactly
+LEARNED = TARGETS[:4]
 #: the probability that an interval holds the truth
 LEVEL = 0.90
 #: the depths a response reads (its features are drawn on the depth-3 lattice)
 DEPTHS = (2, 3)
 #: the layout of :func:`cell_features`; a stored model of another layout is refused
-FEATURES_VERSION = 1
+FEATURES_VERSION = 2
+#: columns of :func:`cell_features`
+N_FEATURES = 82
 FOLDS = 5
 #: boosting settings, measured on the hexagon catalog by 5-fold cross-validation (docs/learned-response.md)
 TREES, TREE_DEPTH, LEARNING_RATE, SUBSAMPLE = 300, 3, 0.05, 0.8
@@ -114,7 +121,7 @@ def cell_features(ids: Sequence[str]) -> NDArray[np.float64]:
     Columns: the 64 depth-3 cells (1 solid), solid cells per row from the centre (8), solid pairs sharing
     an edge, sharing only a vertex, solid cells, the depth; and 6 zero columns kept for later features."""
     k = len(ids)
-    X = np.zeros((k, 82))
+    X = np.zeros((k, N_FEATURES))
     depths = np.array([depth_of_id(i) for i in ids], dtype=np.int64)
     for d in DEPTHS:
         sel = np.nonzero(depths == d)[0]
@@ -130,6 +137,15 @@ def cell_features(ids: Sequence[str]) -> NDArray[np.float64]:
     X[:, 74] = cells.sum(axis=1)
     X[:, 75] = depths
     return X
+
+
+def lattice_area(X: NDArray[np.float64], sides: int, edge: float | None = None) -> NDArray[np.float64]:
+    """(k,) lattice area in mm² (the catalog's ``area``) of :func:`cell_features` rows, exactly: the solid share
+    of the 64 depth-3 cells times the ``sides``-gon's area, n·e²/(4·tan(π/n)), at the catalog's default edge."""
+    from fabpat.catalog.schema import DEFAULT_SETUP
+
+    e = float(str(DEFAULT_SETUP["edge"])) if edge is None else float(edge)
+    return X[:, 74] / 64.0 * sides * e * e / (4.0 * math.tan(math.pi / sides))
 
 
 def check_ids(ids: Sequence[str], sides: int) -> list[str]:
@@ -221,13 +237,15 @@ class Response:
     """A learned response for one polygon: a :class:`Trees` per target (of its logarithm) and the residual
     quantiles ``spread[target][depth]`` (log units) that make the :data:`LEVEL` intervals.
 
-    ``solver_version``: the rows' (see module doc); ``rows``: how many patterns it was fitted to, per depth."""
+    ``solver_version``: the rows' (see module doc); ``rows``: how many patterns it was fitted to, per depth;
+    ``ids``: those patterns."""
 
     sides: int
     models: Mapping[str, Trees]
     spread: Mapping[str, Mapping[int, float]]
     solver_version: str
     rows: Mapping[int, int]
+    ids: frozenset[str] = frozenset()
 
     def predict(self, ids: Sequence[str], *, extrapolate: bool = False) -> Prediction:
         """Predict every target for pattern IDs (checked by :func:`check_ids`; raises PatternError).
@@ -245,13 +263,15 @@ class Response:
                                f"{', '.join(map(str, unseen))} (fabpat sweep --depth 3 --learn N adds such rows "
                                "and refits it)")
         values, intervals = {}, {}
-        for t in TARGETS:
+        for t in LEARNED:
             log = self.models[t].predict(X)
             known = self.spread[t]
             fallback = max(known.values())
             q = np.array([known.get(int(d), fallback) for d in depth])
             values[t] = np.exp(log)
             intervals[t] = np.column_stack([np.exp(log - q), np.exp(log + q)])
+        values["area"] = lattice_area(X, self.sides)
+        intervals["area"] = np.column_stack([values["area"], values["area"]])  # exact: no interval
         return Prediction(tuple(ids), self.sides, values, intervals)
 
 
@@ -329,20 +349,24 @@ def fit_response(rows: Sequence[Mapping[str, object]], sides: int, version: str,
     ids = check_ids(ids, sides)
     X = cell_features(ids)
     depth = X[:, 75].astype(np.int64)
-    resid = out_of_fold(X, Y, seed, trees) - np.log(Y)
+    resid = out_of_fold(X, Y[:, : len(LEARNED)], seed, trees) - np.log(Y[:, : len(LEARNED)])
     models, spread = {}, {}
-    for j, t in enumerate(TARGETS):
+    for j, t in enumerate(LEARNED):
         models[t] = _trees(_regressor(seed, trees).fit(X, np.log(Y[:, j])))
         spread[t] = {int(d): conformal_quantile(resid[depth == d, j]) for d in np.unique(depth)}
     counts = {int(d): int((depth == d).sum()) for d in np.unique(depth)}
-    return Response(sides, models, spread, version, counts)
+    return Response(sides, models, spread, version, counts, frozenset(ids))
 
 
 # --- stored beside the catalog ----------------------------------------------------------------------------
 
 
 def response_path(catalog: str | Path | None) -> Path:
-    """Where the responses of a catalog live: ``<catalog>.response.npz`` beside it (``None``: the built-in)."""
+    """Where the responses of a catalog live: ``<catalog>.response.npz`` beside it (``None``: the built-in).
+    Raises :class:`~fabpat.errors.CatalogError` for a catalog that is not a file name."""
+    if catalog is not None and (not isinstance(catalog, str | os.PathLike) or not os.fspath(catalog)
+                                or not Path(catalog).name):
+        raise CatalogError(f"a catalog is a file name or None (the built-in one), got {catalog!r}")
     p = builtin_path() if catalog is None else Path(catalog)
     return p.with_name(p.name + ".response.npz")
 
@@ -353,17 +377,18 @@ def save_responses(responses: Sequence[Response], path: str | Path) -> Path:
 
     arrays: dict[str, NDArray] = {}
     entries: list[dict[str, object]] = []
-    meta: dict[str, object] = {"features_version": FEATURES_VERSION, "level": LEVEL, "targets": list(TARGETS),
+    meta: dict[str, object] = {"features_version": FEATURES_VERSION, "level": LEVEL, "targets": list(LEARNED),
                                "responses": entries}
     for r in responses:
         entry = {"sides": r.sides, "solver_version": r.solver_version, "rows": {str(d): n for d, n in r.rows.items()},
-                 "spread": {t: {str(d): q for d, q in r.spread[t].items()} for t in TARGETS},
-                 "init": {t: r.models[t].init for t in TARGETS}, "rate": {t: r.models[t].rate for t in TARGETS}}
+                 "spread": {t: {str(d): q for d, q in r.spread[t].items()} for t in LEARNED},
+                 "init": {t: r.models[t].init for t in LEARNED}, "rate": {t: r.models[t].rate for t in LEARNED}}
         entries.append(entry)
-        for t in TARGETS:
+        for t in LEARNED:
             m = r.models[t]
             for field in _TREE_ARRAYS:
                 arrays[f"{r.sides}/{t}/{field}"] = getattr(m, field)
+        arrays[f"{r.sides}/ids"] = np.array(sorted(r.ids), dtype="<U16")
     arrays["meta"] = np.array(json.dumps(meta))
     path = Path(path)
     savez: Callable[..., None] = np.savez_compressed  # numpy's stubs read **arrays as its keyword options
@@ -373,33 +398,77 @@ def save_responses(responses: Sequence[Response], path: str | Path) -> Path:
     return path
 
 
+#: the largest response file read (the built-in one is 0.4 MB)
+MAX_RESPONSE_BYTES = 64 * 2**20
+
+
+def _checked_trees(path: Path, where: str, arrays: dict[str, NDArray], init: float, rate: float) -> Trees:
+    """A :class:`Trees` from stored arrays, or CatalogError: the dtypes and shapes a walk relies on, feature
+    indices in range, children after their parent (so every walk ends: sklearn numbers nodes depth first)."""
+    want = {"feature": np.int64, "left": np.int64, "right": np.int64, "threshold": np.float64, "value": np.float64}
+    for name, dtype in want.items():
+        a = arrays[name]
+        if a.dtype != dtype or a.ndim != 2 or a.shape != arrays["feature"].shape or a.size == 0:
+            raise CatalogError(f"{path}: {where} {name} is not a (trees, nodes) {np.dtype(dtype).name} array like "
+                               "the rest")
+    feature, left, right = arrays["feature"], arrays["left"], arrays["right"]
+    nodes = np.arange(feature.shape[1])
+    inner = left >= 0
+    if (np.any((left >= 0) != (right >= 0)) or np.any(inner & ((left <= nodes) | (right <= nodes)))
+            or np.any(left >= feature.shape[1]) or np.any(right >= feature.shape[1])
+            or np.any(inner & ((feature < 0) | (feature >= N_FEATURES)))):
+        raise CatalogError(f"{path}: {where} is not a tree (a child before its parent, out of range, or a "
+                           "feature the response does not read)")
+    if not (np.isfinite(arrays["threshold"]).all() and np.isfinite(arrays["value"]).all() and math.isfinite(init)
+            and math.isfinite(rate)):
+        raise CatalogError(f"{path}: {where} holds a value that is not finite")
+    return Trees(feature, arrays["threshold"], left, right, arrays["value"], init, rate)
+
+
+def _responses_from(path: Path, z: Mapping[str, NDArray]) -> dict[int, Response]:
+    meta = json.loads(str(z["meta"]))
+    if not isinstance(meta, dict) or meta.get("features_version") != FEATURES_VERSION or meta.get("level") != LEVEL \
+            or meta.get("targets") != list(LEARNED):
+        raise CatalogError(f"{path}: not a learned response of this layout (features {FEATURES_VERSION}, level "
+                           f"{LEVEL}); refit it with fabpat sweep")
+    out = {}
+    for e in meta["responses"]:
+        s = int(e["sides"])
+        models = {t: _checked_trees(path, f"the {s}-gon's {t}",
+                                    {f: np.asarray(z[f"{s}/{t}/{f}"]) for f in _TREE_ARRAYS},
+                                    float(e["init"][t]), float(e["rate"][t])) for t in LEARNED}
+        spread = {t: {int(d): float(q) for d, q in e["spread"][t].items()} for t in LEARNED}
+        if any(not spread[t] or not all(math.isfinite(q) and q >= 0 for q in spread[t].values()) for t in LEARNED):
+            raise CatalogError(f"{path}: the {s}-gon's interval widths are missing, negative or not finite")
+        ids = tuple(str(i) for i in np.asarray(z[f"{s}/ids"])) if f"{s}/ids" in z else ()
+        out[s] = Response(s, models, spread, str(e["solver_version"]), {int(d): int(n) for d, n in e["rows"].items()},
+                          frozenset(ids))
+    return out
+
+
 def load_responses(path: str | Path) -> dict[int, Response]:
-    """Read :func:`save_responses`' file: ``{sides: Response}``. Raises CatalogError if it is missing,
-    unreadable, of another feature layout or level."""
+    """Read :func:`save_responses`' file: ``{sides: Response}``. Raises CatalogError if it is missing, not a
+    regular file (a FIFO is not opened), larger than :data:`MAX_RESPONSE_BYTES`, unreadable, of another layout,
+    or holds trees that a walk could not finish (every array is checked before it is used)."""
+    from fabpat.io import read_input
+
     path = Path(path)
     try:
-        with np.load(path, allow_pickle=False) as z:
-            meta = json.loads(str(z["meta"]))
-            if meta.get("features_version") != FEATURES_VERSION or meta.get("level") != LEVEL \
-                    or meta.get("targets") != list(TARGETS):
-                raise CatalogError(f"{path}: a learned response of another layout (features "
-                                   f"{meta.get('features_version')}); refit it with fabpat sweep")
-            out = {}
-            for e in meta["responses"]:
-                s = int(e["sides"])
-                models = {t: Trees(**{f: np.asarray(z[f"{s}/{t}/{f}"]) for f in _TREE_ARRAYS},
-                                   init=float(e["init"][t]), rate=float(e["rate"][t])) for t in TARGETS}
-                spread = {t: {int(d): float(q) for d, q in e["spread"][t].items()} for t in TARGETS}
-                out[s] = Response(s, models, spread, str(e["solver_version"]),
-                                  {int(d): int(n) for d, n in e["rows"].items()})
-            return out
-    except CatalogError:
-        raise
+        data = read_input(path, "learned response", MAX_RESPONSE_BYTES)
     except FileNotFoundError as exc:
         raise CatalogError(f"{path}: no learned response beside this catalog (fabpat sweep fits one "
                            f"once it holds {MIN_ROWS} simulated patterns of a polygon)") from exc
-    except (OSError, ValueError, KeyError, TypeError) as exc:
-        raise CatalogError(f"{path}: not a learned response ({exc})") from exc
+    except OSError as exc:
+        raise CatalogError(f"{path}: cannot read the learned response ({exc.strerror or exc})") from exc
+    except FabpatError as exc:
+        raise CatalogError(str(exc)) from exc
+    try:
+        with np.load(io.BytesIO(data), allow_pickle=False) as z:
+            return _responses_from(path, {k: z[k] for k in z.files})
+    except CatalogError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - any damage (zip, JSON, keys, types) is one refusal naming the file
+        raise CatalogError(f"{path}: not a learned response fabpat wrote ({type(exc).__name__}: {exc})") from exc
 
 
 def response(sides: int = 6, catalog: str | Path | None = None) -> Response:

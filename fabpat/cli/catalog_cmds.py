@@ -116,6 +116,9 @@ def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, wo
                            option="fixed for sweeps")
     if dask_address and workers:
         raise click.UsageError("--workers is for local processes; the dask cluster decides with --dask")
+    if learn and (family or not variation.is_paper):
+        raise click.UsageError("--learn chooses patterns for the learned response, which knows the paper's fillets "
+                               "only: give it without --family and --variation")
     ids = _learn_ids(db, sides, depth, sample, seed, learn) if learn else load_library(sides, depth, sample, seed).ids
     console = Console(stderr=True)
     columns = (TextColumn("simulating"), BarColumn(), MofNCompleteColumn(), TextColumn("pattern-scenarios"),
@@ -167,8 +170,9 @@ def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, wo
         f", bridge_weight = {setup.bridge_weight:g}" if setup.bridge_weight != 1.0 else "")
     click.echo(f"{db}: {report.computed} pattern-scenarios computed ({report.failed_rows} did not converge), "
                f"{report.skipped} already up to date, {len(ids)} patterns{members_text}, {report.seconds:.1f} s")
-    _warn_mixed(db, setup)
-    _refit(db)
+    mixed = _warn_mixed(db, setup)
+    if report.computed and not mixed:  # nothing new, or rows that do not rank together: the model stands
+        _refit(db, tell_why=bool(learn))
     if report.crashed:
         click.echo(f"fabpat: warning: {len(report.crashed)} patterns raised and were not stored (re-run to retry): "
                    f"{report.crashed[0]}", err=True)
@@ -191,7 +195,7 @@ def _learn_ids(db: str, sides: int, depth: int, sample: int | None, seed: int, l
     return tuple(chosen)
 
 
-def _refit(db: str) -> None:
+def _refit(db: str, tell_why: bool) -> None:
     """Refit the catalog's learned response after a sweep (one stderr line; a failure is a warning: the rows
     are stored whatever the model does)."""
     from fabpat.catalog.response import refit_responses
@@ -204,11 +208,16 @@ def _refit(db: str) -> None:
         return
     if path is not None:
         click.echo(f"learned response refitted: {path}", err=True)
+    elif tell_why:
+        from fabpat.catalog.response import MIN_ROWS
+
+        click.echo(f"learned response not fitted: it needs {MIN_ROWS} simulated patterns of a polygon", err=True)
 
 
-def _warn_mixed(db: str, setup: SweepSetup) -> None:
+def _warn_mixed(db: str, setup: SweepSetup) -> bool:
     """One stderr line if the catalog now mixes extrapolated and one-mesh energies for this set-up:
-    they are not comparable (docs/accuracy.md), and a sample sweep into a full catalog makes such a mix."""
+    they are not comparable (docs/accuracy.md), and a sample sweep into a full catalog makes such a mix.
+    Returns whether it does (the learned response is then not refitted)."""
     from fabpat.catalog import open_catalog
 
     with open_catalog(db) as cat:
@@ -220,7 +229,8 @@ def _warn_mixed(db: str, setup: SweepSetup) -> None:
     if one and two:
         click.echo(f"fabpat: warning: {db} now holds {two} extrapolated and {one} one-mesh energies for this "
                    "set-up, which do not rank together (one-mesh energies are 1.5–11 % low); sweep the whole "
-                   "library the same way to make them one kind", err=True)
+                   "library the same way to make them one kind; the learned response was not refitted", err=True)
+    return bool(one and two)
 
 
 _TABLE_COLUMNS = ("id", "area", "perimeter", "polar_moment", "min_width")
