@@ -266,3 +266,18 @@ def test_a_strip_that_never_leaves_its_plane_has_no_peak() -> None:
                           imperfection=0.0).fields()
     assert f["max_deflection"] == pytest.approx(0.0, abs=1e-9)
     assert f["peak"] is None and f["half_ratio"] is None and f["reaction"] > 0
+
+
+def test_a_best_fit_closure_is_one_increment() -> None:
+    """A pentagon cap of one ring (6 plates at their faces' best fit, so every sleeve also closes a
+    placement mismatch) converges in its one increment: its Newton iteration needs 27 iterations, and
+    cutting it at the path's default 25 halved the whole path and walked it again in quarters
+    (80 factorizations at h = 7.5 instead of 22)."""
+    from fabpat.assembly.spec import parse_spec
+
+    cap = parse_spec({"name": "cap", "tiling": {"kind": "hex-cap", "rings": 1, "edge": 36.0},
+                      "patterns": {"hexagon": "0x0488", "pentagon": "0x0508"},
+                      "plates": {"thickness": 1.0}, "sleeve": {"angle": "flat"}}, "cap.toml")
+    run = simulate_assembly(cap, h=7.5).run
+    assert run.result.cuts == 0 and run.result.increments == 1
+    assert run.result.factorizations <= 30

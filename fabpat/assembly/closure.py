@@ -65,6 +65,15 @@ CLOSURE_STEPS = 4
 #: (shell.linked.solve_path, ``max_step``): the shipped sphere at h = 3 in 9 factorizations, not 16,
 #: with the same equilibrium (sphericity within 1e-8 relative)
 CLOSURE_FIRST_STEP = 1.0
+#: Newton iterations the closure's increment may take before it is halved (the path's default is 25). A
+#: closure from a best-fit placement (Goldberg spheres, caps) converges in its one increment in 27–57
+#: iterations: the far plates swing slowly into place about the held sleeve (a residual of 0.02 N still
+#: asks for a 21 mm correction on GP(3, 0)), and from the flat start GP(2, 0)'s first 32 Newton steps ask
+#: for rotations of 1–300 rad and are cut to 0.5. Cut at 25, within a factor 10³ of convergence, the whole
+#: path was halved and walked again in quarters: at h = 3 GP(3, 0) took 87 factorizations instead of 20,
+#: GP(2, 0) 87 instead of 50; the one-ring cap 80 instead of 22 (h = 7.5); the shipped sphere needs 12
+#: iterations and is unchanged (docs/assembly-solver.md, Solver speed)
+CLOSURE_MAX_ITER = 60
 
 
 def fit_sphere(P: Arr) -> tuple[Arr, float]:
@@ -334,7 +343,7 @@ def run_closure(setup: ClosureSetup, *, steps: int = CLOSURE_STEPS, strain_limit
     zero = np.zeros((N, 6))
     prob = m.problem(fixed, zero, zero)
     r = solve_path(prob, steps=steps, rtol=CLOSURE_RTOL, link_reference=True, progress=progress,
-                   first_step=CLOSURE_FIRST_STEP, max_step=CLOSURE_FIRST_STEP,
+                   first_step=CLOSURE_FIRST_STEP, max_step=CLOSURE_FIRST_STEP, max_iter=CLOSURE_MAX_ITER,
                    start=start)
     X = np.vstack([m.X, prob.masters])
     fin = r.final
