@@ -272,7 +272,7 @@ def test_a_best_fit_closure_is_one_increment() -> None:
     """A pentagon cap of one ring (6 plates at their faces' best fit, so every sleeve also closes a
     placement mismatch) converges in its one increment: its Newton iteration needs 27 iterations, and
     cutting it at the path's default 25 halved the whole path and walked it again in quarters
-    (80 factorizations at h = 7.5 instead of 22)."""
+    (80 factorizations at h = 7.5 instead of 24)."""
     from fabpat.assembly.spec import parse_spec
 
     cap = parse_spec({"name": "cap", "tiling": {"kind": "hex-cap", "rings": 1, "edge": 36.0},

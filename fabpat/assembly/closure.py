@@ -71,7 +71,7 @@ CLOSURE_FIRST_STEP = 1.0
 #: asks for a 21 mm correction on GP(3, 0)), and from the flat start GP(2, 0)'s first 32 Newton steps ask
 #: for rotations of 1–300 rad and are cut to 0.5. Cut at 25, within a factor 10³ of convergence, the whole
 #: path was halved and walked again in quarters: at h = 3 GP(3, 0) took 87 factorizations instead of 20,
-#: GP(2, 0) 87 instead of 50; the one-ring cap 80 instead of 22 (h = 7.5); the shipped sphere needs 12
+#: GP(2, 0) 87 instead of 50; the one-ring cap 80 instead of 24 (h = 7.5); the shipped sphere needs 12
 #: iterations and is unchanged (docs/assembly-solver.md, Solver speed)
 CLOSURE_MAX_ITER = 60
 
