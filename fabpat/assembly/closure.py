@@ -71,13 +71,12 @@ CLOSURE_STEPS = 4
 #: with the same equilibrium (sphericity within 1e-8 relative)
 CLOSURE_FIRST_STEP = 1.0
 #: Newton iterations the closure's increment may take before it is halved (the path's default is 25). A
-#: closure from a best-fit placement (Goldberg spheres, caps) converges in its one increment in 27–57
-#: iterations: the far plates swing slowly into place about the held sleeve (a residual of 0.02 N still
-#: asks for a 21 mm correction on GP(3, 0)), and from the flat start GP(2, 0)'s first 32 Newton steps ask
-#: for rotations of 1–300 rad and are cut to 0.5. Cut at 25, within a factor 10³ of convergence, the whole
-#: path was halved and walked again in quarters: at h = 3 GP(3, 0) took 87 factorizations instead of 20,
-#: GP(2, 0) 87 instead of 50; the one-ring cap 80 instead of 24 (h = 7.5); the shipped sphere needs 12
-#: iterations and is unchanged (docs/assembly-solver.md, Solver speed)
+#: closure from a best-fit placement (Goldberg spheres, caps) converged in its one increment in 27–57
+#: iterations when it hung from one sleeve (the far plates swing slowly into place about it), 16–35 held
+#: at three (:func:`determinate_supports`); cut at 25, within a factor 10³ of convergence, the whole path
+#: was halved and walked again in quarters: at h = 3 GP(3, 0) took 87 factorizations instead of 20 (15 on
+#: three sleeves), the one-ring cap 80 instead of 24 (h = 7.5); the shipped sphere needs 12 iterations
+#: (docs/assembly-solver.md, Solver speed)
 CLOSURE_MAX_ITER = 60
 
 
