@@ -14,6 +14,9 @@ and the shipped sphere closure: nodes, dofs, Newton iterations, factorizations, 
 read-outs outside the path, and the answers (peak, reaction, radius, sphericity). The compiled kernels
 are loaded first (their seconds printed apart). ``--save`` keeps the rows as JSON; ``--before`` adds
 the saved rows of an earlier version beside them and the relative change of every answer.
+``--goldberg M N`` (with ``--solve``) adds the Goldberg sphere GP(M, N) at its best-fit placement, of the shipped
+sphere's plates (0x0488 hexagons, 0x0508 pentagons, 1 mm, straight sleeves, edge 36 mm); ``--only-goldberg``
+solves it alone.
 """
 
 from __future__ import annotations
@@ -25,7 +28,7 @@ import time
 from pathlib import Path
 
 from fabpat.assembly.build import assemble
-from fabpat.assembly.spec import load_spec
+from fabpat.assembly.spec import load_spec, parse_spec
 
 ROOT = Path(__file__).resolve().parents[1]
 SPECS = ("test-small.toml", "truncated-icosahedron.toml", "truncated-icosahedron-rigid.toml")
@@ -53,11 +56,24 @@ SOLVE_SPECS = ("graded-strip", "truncated-icosahedron")
 ANSWERS = ("peak", "reaction", "radius", "sphericity_rms", "energy")
 
 
+def goldberg_spec(m: int, n: int) -> object:
+    """GP(m, n) of the shipped sphere's plates and straight sleeves (edge 36 mm, 1 mm plates)."""
+    data = {"name": f"goldberg-{m}-{n}", "tiling": {"kind": "goldberg", "m": m, "n": n, "edge": 36.0},
+            "patterns": {"hexagon": "0x0488", "pentagon": "0x0508"},
+            "plates": {"thickness": 1.0}, "sleeve": {"angle": "flat"}}
+    return parse_spec(data, f"goldberg-{m}-{n}.toml")
+
+
 def solve_row(name: str, h: float) -> dict[str, object]:
-    """One assembly solve at mesh edge h (mm): counts, seconds by phase and the answers."""
+    """One assembly solve at mesh edge h (mm): counts, seconds by phase and the answers. ``name``: a shipped
+    spec's file stem, or ``goldberg-M-N``."""
     from fabpat.assembly.simulation import simulate_assembly
 
-    spec = load_spec(ROOT / "assemblies" / f"{name}.toml")
+    if name.startswith("goldberg-"):
+        m, n = (int(v) for v in name.split("-")[1:])
+        spec = goldberg_spec(m, n)
+    else:
+        spec = load_spec(ROOT / "assemblies" / f"{name}.toml")
     t = time.perf_counter()
     sim = simulate_assembly(spec, h=h)
     wall = time.perf_counter() - t
@@ -71,13 +87,14 @@ def solve_row(name: str, h: float) -> dict[str, object]:
             "total_s": wall, "plate_energies": f["plate_energies"], **{k: f.get(k) for k in ANSWERS}}
 
 
-def solve_table(hs: list[float], save: Path | None, before: Path | None, rows_file: Path | None = None) -> None:
-    """Solve (or read ``rows_file``, rows of an earlier ``--save``) and print the tables."""
+def solve_table(hs: list[float], save: Path | None, before: Path | None, rows_file: Path | None = None,
+                names: tuple[str, ...] = SOLVE_SPECS) -> None:
+    """Solve ``names`` (or read ``rows_file``, rows of an earlier ``--save``) and print the tables."""
     if rows_file is None:
         from fabpat.shell.compiled import load_kernels
 
         print(f"compiled kernels loaded in {load_kernels():.1f} s (not in the rows below)\n")
-    rows = json.loads(rows_file.read_text()) if rows_file else [solve_row(name, h) for h in hs for name in SOLVE_SPECS]
+    rows = json.loads(rows_file.read_text()) if rows_file else [solve_row(name, h) for h in hs for name in names]
     if save is not None:
         save.write_text(json.dumps(rows, indent=1))
     old = {(r["spec"], r["h"]): r for r in json.loads(before.read_text())} if before else {}
@@ -118,9 +135,12 @@ def main() -> None:
     ap.add_argument("--save", type=Path, help="write the --solve rows to this JSON file")
     ap.add_argument("--before", type=Path, help="JSON rows of an earlier --save to compare with")
     ap.add_argument("--rows", type=Path, help="print the tables of saved --solve rows instead of solving")
+    ap.add_argument("--goldberg", type=int, nargs=2, metavar=("M", "N"), help="also solve GP(M, N) (with --solve)")
+    ap.add_argument("--only-goldberg", action="store_true", help="solve GP(M, N) alone (with --goldberg)")
     args = ap.parse_args()
     if args.solve or args.rows:
-        solve_table(args.h, args.save, args.before, args.rows)
+        gp = (f"goldberg-{args.goldberg[0]}-{args.goldberg[1]}",) if args.goldberg else ()
+        solve_table(args.h, args.save, args.before, args.rows, gp if args.only_goldberg else SOLVE_SPECS + gp)
         return
     results = {}
     with tempfile.TemporaryDirectory(prefix="bench-assembly-") as tmp:

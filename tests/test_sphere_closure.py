@@ -266,3 +266,47 @@ def test_a_strip_that_never_leaves_its_plane_has_no_peak() -> None:
                           imperfection=0.0).fields()
     assert f["max_deflection"] == pytest.approx(0.0, abs=1e-9)
     assert f["peak"] is None and f["half_ratio"] is None and f["reaction"] > 0
+
+
+def test_a_best_fit_closure_is_one_increment() -> None:
+    """A pentagon cap of one ring (6 plates at their faces' best fit, so every sleeve also closes a
+    placement mismatch) converges in its one increment: hung from one sleeve its Newton iteration needed
+    27–32 iterations, and cutting it at the path's default 25 halved the whole path and walked it again
+    in quarters (80 factorizations at h = 7.5; 18 now, held at three sleeves)."""
+    from fabpat.assembly.spec import parse_spec
+
+    cap = parse_spec({"name": "cap", "tiling": {"kind": "hex-cap", "rings": 1, "edge": 36.0},
+                      "patterns": {"hexagon": "0x0488", "pentagon": "0x0508"},
+                      "plates": {"thickness": 1.0}, "sleeve": {"angle": "flat"}}, "cap.toml")
+    run = simulate_assembly(cap, h=7.5).run
+    assert run.result.cuts == 0 and run.result.increments == 1
+    assert run.result.factorizations <= 30
+
+
+def test_determinate_supports_stop_every_rigid_motion_and_no_more() -> None:
+    """Six held translations on three sleeves: the small rigid motions u = t + ω × (p − p_A) they allow
+    are only t = ω = 0 (rank 6), with no rotation held; one or two sleeves: the first in all six dofs."""
+    from fabpat.assembly.closure import determinate_supports
+
+    M = np.random.default_rng(3).normal(size=(12, 3)) * 80.0
+    fixed = determinate_supports(M, 4)
+    assert fixed.sum() == 6 and fixed[4, :3].all() and not fixed[:, 3:].any()
+    held = np.argwhere(fixed)
+    rows = [np.concatenate([np.eye(3)[k], np.cross(M[i] - M[4], np.eye(3)[k])]) for i, k in held]
+    assert np.linalg.matrix_rank(np.array(rows)) == 6
+    assert determinate_supports(M[:2], 1).tolist() == [[False] * 6, [True] * 6]
+
+
+def test_a_warm_start_is_turned_onto_the_supports() -> None:
+    """A guess that is the reference turned rigidly (0.3 rad) about the held sleeve is turned back onto
+    the supports: nothing left to move."""
+    from fabpat.assembly.closure import _onto_supports, determinate_supports
+    from fabpat.shell.rotations import expmap
+
+    X = np.random.default_rng(5).normal(size=(30, 3)) * 60.0
+    fixed = np.zeros((30, 6), dtype=bool)
+    fixed[20:] = determinate_supports(X[20:], 0)
+    Q = expmap(np.array([[0.1, -0.2, 0.2]]))[0]
+    moved = (X - X[20]) @ Q.T + X[20]
+    d, r = _onto_supports((moved - X, np.tile([0.1, -0.2, 0.2], (30, 1))), X, fixed, 20)
+    assert np.abs(d).max() < 1e-9 and np.abs(r).max() < 1e-12

@@ -14,9 +14,13 @@ that offset is round-off and the ramp is the joint angle's.
 
 Decisions (each measured on the shipped sphere, 0x0488/0x0508, h = 3):
 
-* **Rigid-body motion**: the closure is self-equilibrated (no loads), so the assembly floats; one
-  sleeve (the first, ``E01``) is held in all six dofs. Its reaction is the equilibrium check: it is
-  round-off (the ``reaction`` field, N).
+* **Rigid-body motion**: the closure is self-equilibrated (no loads), so the assembly floats; the
+  result is given with one sleeve (the first, ``E01``) where it was placed. The solve holds it
+  statically determinately at three far-apart sleeves instead (:func:`determinate_supports`), whose
+  reactions vanish at equilibrium as a single held sleeve's do, and moves the result rigidly onto the
+  first sleeve afterwards: hung from one sleeve, the far plates swing about that sleeve's necks and Newton
+  needed 20–57 iterations for the swing where the shape had converged (docs/assembly-solver.md, Solver
+  speed). The reactions are the equilibrium check: round-off (the ``reaction`` field, N).
 * **Sign of the angle change**: the model's sleeve angle turns slot B by +α/2 about the sleeve's
   axis; opening a joint from its dihedral φ to the sleeve angle ψ > φ is α = φ − ψ (derived from
   :meth:`fabpat.assembly.sleeve.Sleeve.direction`, and checked: the opposite sign folds the joints
@@ -36,6 +40,7 @@ Decisions (each measured on the shipped sphere, 0x0488/0x0508, h = 3):
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -68,6 +73,84 @@ CLOSURE_STEPS = 4
 #: (shell.linked.solve_path, ``max_step``): the shipped sphere at h = 3 in 9 factorizations, not 16,
 #: with the same equilibrium (sphericity within 1e-8 relative)
 CLOSURE_FIRST_STEP = 1.0
+#: Newton iterations the closure's increment may take before it is halved (the path's default is 25). A
+#: closure from a best-fit placement (Goldberg spheres, caps) converged in its one increment in 27–57
+#: iterations when it hung from one sleeve (the far plates swing slowly into place about it), 16–35 held
+#: at three (:func:`determinate_supports`); cut at 25, within a factor 10³ of convergence, the whole path
+#: was halved and walked again in quarters: at h = 3 GP(3, 0) took 87 factorizations instead of 20 (15 on
+#: three sleeves), the one-ring cap 80 instead of 24 (h = 7.5); the shipped sphere needs 12 iterations
+#: (docs/assembly-solver.md, Solver speed)
+CLOSURE_MAX_ITER = 60
+
+
+def determinate_supports(M: Arr, held: int = 0) -> NDArray[np.bool_]:
+    """(s, 6) dofs of s sleeves at M (s, 3) mm that hold a floating assembly statically determinately:
+    sleeve ``held`` (A) in its three translations, the sleeve farthest from it (B) in two, and the one
+    farthest from the line AB (C) in one, the global axes chosen so that the six constraints stop every
+    rigid motion best (largest determinant). A self-equilibrated assembly puts no force on them at
+    equilibrium, so its shape is that of any other rigid hold. Fewer than three sleeves, or three in a
+    line: ``held`` in all six dofs."""
+    M = np.asarray(M, dtype=np.float64).reshape(-1, 3)
+    fixed = np.zeros((len(M), 6), dtype=bool)
+    if len(M) < 3:
+        fixed[held] = True
+        return fixed
+    d = M - M[held]
+    b = int(np.argmax(np.linalg.norm(d, axis=1)))
+    u = d[b] / max(float(np.linalg.norm(d[b])), 1e-300)
+    c = int(np.argmax(np.linalg.norm(d - np.outer(d @ u, u), axis=1)))
+    E = np.eye(3)
+
+    def det(i: int, j: int, k: int) -> float:  # the constraints' rows against a small turn ω: (p × e)·ω
+        return abs(float(np.linalg.det(np.array([np.cross(d[b], E[i]), np.cross(d[b], E[j]), np.cross(d[c], E[k])]))))
+
+    best = max(((det(i, j, k), i, j, k) for i in range(3) for j in range(i + 1, 3) for k in range(3)),
+               key=lambda t: t[0])
+    if best[0] <= 1e-6 * float(np.linalg.norm(d[b])) ** 2 * float(np.linalg.norm(d[c])):
+        fixed[held] = True
+        return fixed
+    fixed[held, :3] = True
+    fixed[b, best[1]] = fixed[b, best[2]] = True
+    fixed[c, best[3]] = True
+    return fixed
+
+
+def _held_frame(points: list[Any], X: Arr, node: int) -> list[Any]:
+    """The path points moved rigidly so that ``node`` is at its reference X[node] with its reference
+    orientation (displacements, rotations, reactions and link forces; energies are unchanged)."""
+    from fabpat.shell.linked import PathPoint
+    from fabpat.shell.rotations import expmap, logmap
+
+    out = []
+    for pt in points:
+        Q = expmap(pt.rotation[node][None])[0].T  # undoes the node's rotation
+        x = (X + pt.displacement - X[node] - pt.displacement[node]) @ Q.T + X[node]
+        R = np.einsum("ij,njk->nik", Q, expmap(pt.rotation))
+        react = np.concatenate([pt.reactions[:, :3] @ Q.T, pt.reactions[:, 3:] @ Q.T], axis=1)
+        links = np.concatenate([pt.link_forces[:, :3] @ Q.T, pt.link_forces[:, 3:] @ Q.T], axis=1)
+        out.append(PathPoint(pt.lam, x - X, logmap(R), react, pt.energy, links, pt.exact))
+    return out
+
+
+def _onto_supports(start: tuple[Arr, Arr], X: Arr, fixed: NDArray[np.bool_], node: int) -> tuple[Arr, Arr]:
+    """A warm start (displacement (N, 3) mm, rotation vectors (N, 3) rad) with ``node`` in place, turned
+    rigidly about it so that the other held translations (``fixed``) are at their references too."""
+    from fabpat.shell.rotations import expmap, logmap, skew
+
+    x = X + np.asarray(start[0], dtype=np.float64)
+    R = expmap(np.asarray(start[1], dtype=np.float64))
+    x = x - x[node] + X[node]
+    rows = [(i, k) for i in np.flatnonzero(fixed[:, :3].any(axis=1)) if i != node for k in np.flatnonzero(fixed[i, :3])]
+    Q = np.eye(3)
+    for _ in range(30):  # Newton on the turn about the node: 3 equations, 3 unknowns
+        r = (x - X[node]) @ Q.T
+        f = np.array([r[i, k] + X[node, k] - X[i, k] for i, k in rows])
+        if float(np.abs(f).max(initial=0.0)) <= 1e-12 * (1.0 + float(np.abs(X).max())):
+            break
+        J = np.array([-skew(r[i][None])[0][k] for i, k in rows])
+        Q = expmap(np.linalg.lstsq(J, -f, rcond=None)[0][None])[0] @ Q
+    x = (x - X[node]) @ Q.T + X[node]
+    return x - X, logmap(np.einsum("ij,njk->nik", Q, R))
 
 
 def fit_sphere(P: Arr) -> tuple[Arr, float]:
@@ -352,14 +435,19 @@ def run_closure(setup: ClosureSetup, *, steps: int = CLOSURE_STEPS, strain_limit
     m = setup.model
     N, n = m.n_nodes, len(m.X)
     fixed = np.zeros((N, 6), dtype=bool)
-    if m.sleeves:
-        fixed[n + setup.held, :] = True
     zero = np.zeros((N, 6))
+    masters = m.problem(fixed, zero, zero).masters
+    if m.sleeves:
+        fixed[n:] = determinate_supports(masters, setup.held)
     prob = m.problem(fixed, zero, zero)
-    r = solve_path(prob, steps=steps, rtol=CLOSURE_RTOL, link_reference=True, progress=progress,
-                   first_step=CLOSURE_FIRST_STEP, max_step=CLOSURE_FIRST_STEP,
-                   start=start)
     X = np.vstack([m.X, prob.masters])
+    if start is not None and m.sleeves:
+        start = _onto_supports(start, X, fixed, n + setup.held)
+    r = solve_path(prob, steps=steps, rtol=CLOSURE_RTOL, link_reference=True, progress=progress,
+                   first_step=CLOSURE_FIRST_STEP, max_step=CLOSURE_FIRST_STEP, max_iter=CLOSURE_MAX_ITER,
+                   start=start)
+    if m.sleeves:  # the result with the held sleeve where it was placed (module doc, rigid-body motion)
+        r = dataclasses.replace(r, points=_held_frame(r.points, X, n + setup.held))
     fin = r.final
     x = X + fin.displacement
     ee = r.element_energy.sum(axis=1)

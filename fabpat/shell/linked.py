@@ -55,6 +55,10 @@ EASY_FACTORIZATIONS = 4
 #: would otherwise run for hours (an 18-minute design solve was seen), not a hard stretch of the path
 STALL_FACTORIZATIONS = 300
 STALL_ADVANCE = 0.01
+#: a warm start (``start`` of :func:`solve_path`) is given up after at most this many iterations, however
+#: many an increment of the path may take: a guess near the equilibrium converges in 5–10, and a longer
+#: try only adds to the cold path that follows it
+WARM_ITERATIONS = 25
 
 
 @dataclass(frozen=True, eq=False)
@@ -273,9 +277,10 @@ def solve_path(
     ``progress``: called with λ after every report point.
     ``start``: a warm start, (displacement (N, 3) mm, rotation vectors (N, 3) rad) guessed for λ = 1 (e.g.
     the equilibrium of a similar problem, :func:`fabpat.assembly.model.warm_guess`): Newton first tries
-    λ = 1 from there in one increment; if that converges (``warm`` in the result) the only report point
-    is λ = 1, else the path is followed from λ = 0 as without it (its iterations and factorizations
-    counted). A warm start reaches the same equilibrium only where the problem has one near the guess.
+    λ = 1 from there in one increment (of at most :data:`WARM_ITERATIONS` iterations); if that converges
+    (``warm`` in the result) the only report point is λ = 1, else the path is followed from λ = 0 as
+    without it (its iterations and factorizations counted). A warm start reaches the same equilibrium
+    only where the problem has one near the guess.
     ``max_step``: the largest increment (fraction of the path; default, and at least, one report
     interval 1/steps). Larger ones let the increments run past report points where the path is easy;
     a report point an increment jumps over is then interpolated linearly between the two converged
@@ -341,6 +346,7 @@ def solve_path(
                 red.place_slaves(p, xt, Rt, target)
             f0 = nw.factorizations
             nw.label = f"increment {incs + cuts + 1}, λ = {lam:.3f} → {target:.3f}"
+            nw.max_iter = max_iter if guess is None else min(max_iter, WARM_ITERATIONS)
             ok, its, xt, Rt, lu = nw.run(xt, Rt, target, kept if guess is None else None)
             if ok and not _on_branch(X, xt, Rt, direction):
                 ok, unstable = False, True  # the other branch (see ``direction``)
