@@ -43,6 +43,7 @@ BASE_ARGS: dict[str, list[str]] = {
     "simulate-strip": [STRIP_SPEC, "--png", "out.png"],
     "simulate-assembly": [STRIP_SPEC, "--png", "out.png"],
     "design": ["target.csv", "--spec", STRIP_SPEC, "--out", "design"],
+    "predict": ["0x0488"],
 }
 
 

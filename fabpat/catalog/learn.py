@@ -25,9 +25,15 @@ import numpy as np
 
 from fabpat.catalog.response import Response, load_responses, response, response_path
 from fabpat.catalog.version import solver_version
+from fabpat.validate import RANGES, Range
 
 #: the scenario whose range the learning widens (the strip designs' stiffness: docs/design.md)
 SCENARIO = "energy_cylinder"
+
+#: ``fabpat sweep --learn N``: 1 … 100 000 patterns (a depth-3 pattern's three scenarios take 5–15 s on 2 cores:
+#: 100 000 is a fortnight; beyond that the count is a typo), checked by :func:`fabpat.validate.check`
+RANGES.setdefault("learn", Range("learn", 1, 100_000, integer=True,
+                                 why="depth-3 patterns a --learn sweep simulates; each takes 5–15 s on 2 cores"))
 
 
 def model_for(db: str | Path, sides: int) -> Response:

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 import click
 
+import fabpat.catalog.learn  # noqa: F401 - registers the range of --learn (fabpat.validate.RANGES)
 from fabpat.catalog.sweep import FAMILY_SAMPLES
 from fabpat.cli.options import (
     depth_option,
@@ -63,8 +64,8 @@ _db_help = "Catalog file (SQLite) [default: the built-in catalog of the default 
                    "(into the catalog's family table, after the paper's own results), then the midpoints of the "
                    "intervals where a pattern's energy bends or buckles (up to two rounds): what fabpat.catalog.family "
                    "interpolates.")
-@click.option("--learn", type=click.IntRange(min=1), default=None, metavar="N",
-              help="Depth 3: simulate the N patterns of a --sample pool (default 20000) that most widen the "
+@number_option("--learn", range_name="learn", default=None,
+               help="Depth 3: simulate the N patterns of a --sample pool (default 20000) that most widen the "
                    "catalog's Cylinder-energy range at a printable min width, as the learned response ranks them "
                    "(docs/learned-response.md); the response is refitted afterwards.")
 def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, workers: int | None,
