@@ -417,7 +417,7 @@ def atomic_outputs(*paths: str | os.PathLike[str]) -> Iterator[list[Path]]:
         except OSError as e:  # a writer's own OSError (a full disk): name the target, not the temp file
             by_temp = {os.fspath(x): t for x, t in zip(temps, targets, strict=True)}
             hit = by_temp.get(os.fspath(e.filename)) if isinstance(e.filename, str | os.PathLike) else None
-            if hit is None and e.errno in NO_ROOM:  # a write's error names no file: the target it was for
+            if hit is None and e.errno in NO_ROOM and targets:  # a write's error names no file: its target
                 hit = targets[0] if len(targets) == 1 else (targets[0].parent if str(targets[0].parent) else Path("."))
             if hit is None:
                 raise

@@ -180,3 +180,19 @@ def test_check_strip_refuses_what_is_not_two_sequences_of_numbers(x: object, z: 
 
     with pytest.raises(FabpatError, match="target t"):
         check_strip("t", x, z)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("scale, says", [(1e300, r"coordinate of 1e\+300"), (1e150, r"coordinate of 1e\+150"),
+                                         (1e-300, "mean edge")])
+def test_a_mesh_target_at_a_scale_floating_point_cannot_hold_is_refused_by_name(scale: float, says: str,
+                                                                                 tmp_path: Path) -> None:
+    import warnings
+
+    corners = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)]
+    path = tmp_path / "t.obj"
+    path.write_text("".join(f"v {a * scale} {b * scale} {c * scale}\n" for a, b, c in corners)
+                    + "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # numpy's overflow warnings came before the wrong reason
+        with pytest.raises(TargetError, match=says):
+            read_target(str(path))

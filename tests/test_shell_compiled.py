@@ -13,6 +13,7 @@ from fabpat.shell.compiled import CompiledAssembler, CompiledTriangles, transfor
 from fabpat.shell.corotational import CorotationalTriangles
 from fabpat.shell.element import Material
 from fabpat.shell.rotations import expmap, skew
+from tests.helpers import SMALL_SPEC, in_small_tmpfs, needs_unshare, one_line_error, tmpfs_error
 
 
 def _mesh(nx: int = 9, ny: int = 7) -> tuple[np.ndarray, np.ndarray]:
@@ -174,3 +175,13 @@ def test_the_cache_check_reads_numbas_index_files() -> None:
     assert all(isinstance(f._cache._cache_file._index_path, str) for f in compiled._CACHED)
     compiled.load_kernels()
     assert compiled.kernels_cached()
+
+
+@needs_unshare
+def test_kernels_that_cannot_be_kept_on_a_full_disk_are_one_line(tmp_path: Path) -> None:
+    """The kernels' cache folder on a full disk: one line naming it and the way out (was: three tracebacks, and
+    the full disk blamed on standard output)."""
+    cache = tmp_path / "cache"
+    res = in_small_tmpfs(cache, f"unset NUMBA_CACHE_DIR; FABPAT_CACHE={cache}/fabpat $FAB simulate-assembly "
+                                f"{SMALL_SPEC} --h 7.5 --no-progress", size="8k")
+    one_line_error(tmpfs_error(res), "cannot keep the solver's compiled kernels", "FABPAT_CACHE=off")

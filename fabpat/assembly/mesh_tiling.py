@@ -52,7 +52,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.assembly.tiling import Tiling, weld
-from fabpat.errors import SpecError
+from fabpat.errors import FabpatError, SpecError
 from fabpat.validate import FLOAT_RESOLUTION
 
 MESH_SUFFIXES = (".obj", ".ply", ".off")
@@ -137,21 +137,23 @@ def check_face_count(count: int, source: str) -> None:
                         "assembly can solve (each face is a plate of ~500 mesh elements): give a coarser mesh")
 
 
-def check_scale(V: NDArray[np.float64], faces: Faces, source: str) -> None:
-    """Refuse (SpecError, one line) a mesh ``V`` (n, 3) whose used vertices' coordinates are beyond
-    :data:`MAX_COORDINATE` in magnitude, or whose faces' mean edge is below :data:`MIN_MEAN_EDGE` (0 is
-    refused later, by name): its lengths, areas and volumes would overflow or underflow float64, and every
-    check after it would report a wrong reason (vertices welded into one, "visits a vertex twice"); nor a
-    mean edge under :data:`~fabpat.validate.FLOAT_RESOLUTION` × the largest coordinate (unresolved).
-    Computed without a floating-point warning."""
+def check_scale(V: NDArray[np.float64], faces: Faces, source: str, *, what: str = "the tiling mesh",
+                hint: str = " (tiling.edge sets the plate edge whatever the file's unit)",
+                error: type[FabpatError] = SpecError) -> None:
+    """Refuse (``error``, SpecError by default, one line) a mesh ``V`` (n, 3) whose used vertices' coordinates
+    are beyond :data:`MAX_COORDINATE` in magnitude, or whose faces' mean edge is below :data:`MIN_MEAN_EDGE`
+    (0 is refused later, by name): its lengths, areas and volumes would overflow or underflow float64, and
+    every check after it would report a wrong reason (vertices welded into one, "visits a vertex twice"); nor
+    a mean edge under :data:`~fabpat.validate.FLOAT_RESOLUTION` × the largest coordinate (unresolved).
+    Computed without a floating-point warning. ``what`` and ``hint`` word the message (a design's target mesh
+    is checked too)."""
     used = sorted({int(i) for f in faces for i in f if isinstance(i, int | np.integer) and 0 <= i < len(V)})
     if not used:
         return
     big = float(np.abs(V[used]).max())
     if big > MAX_COORDINATE:
-        raise SpecError(f"{source}: the tiling mesh has a coordinate of {big:.3g}: beyond {MAX_COORDINATE:g} (in any "
-                        "unit) its lengths, areas and volumes do not fit in floating point; rescale the mesh "
-                        "(tiling.edge sets the plate edge whatever the file's unit)")
+        raise error(f"{source}: {what} has a coordinate of {big:.3g}: beyond {MAX_COORDINATE:g} (in any "
+                    f"unit) its lengths, areas and volumes do not fit in floating point; rescale the mesh{hint}")
     loops = [[int(i) for i in f] for f in faces if len(f) >= 2 and all(isinstance(i, int | np.integer)
                                                                        and 0 <= i < len(V) for i in f)]
     if not loops:
@@ -161,11 +163,10 @@ def check_scale(V: NDArray[np.float64], faces: Faces, source: str) -> None:
     top = float(np.abs(d).max())  # scaled by the largest difference: no square underflows or overflows
     mean = float((np.linalg.norm(d / top, axis=1) * top).mean()) if top > 0 else 0.0
     if 0.0 < mean < MIN_MEAN_EDGE:
-        raise SpecError(f"{source}: the tiling mesh's mean edge is {mean:.3g}: below {MIN_MEAN_EDGE:g} (in any unit) "
-                        "its lengths, areas and volumes do not fit in floating point; rescale the mesh "
-                        "(tiling.edge sets the plate edge whatever the file's unit)")
+        raise error(f"{source}: {what}'s mean edge is {mean:.3g}: below {MIN_MEAN_EDGE:g} (in any unit) "
+                    f"its lengths, areas and volumes do not fit in floating point; rescale the mesh{hint}")
     if 0.0 < mean < FLOAT_RESOLUTION * big:
-        raise SpecError(f"{source}: the tiling mesh's mean edge is {mean:.3g} but it lies {big:.3g} from the origin: "
+        raise error(f"{source}: {what}'s mean edge is {mean:.3g} but it lies {big:.3g} from the origin: "
                         f"floating point does not resolve edges under {FLOAT_RESOLUTION:g} × that; move the mesh "
                         "near the origin")
 

@@ -194,7 +194,7 @@ def _read_mesh(path: str) -> Any:
     """The surface of a mesh file (trimesh), or TargetError: unreadable, no faces, or degenerate."""
     import io
 
-    from fabpat.assembly.mesh_tiling import MAX_MESH_BYTES
+    from fabpat.assembly.mesh_tiling import MAX_MESH_BYTES, check_scale
 
     data = _read_file(path, MAX_MESH_BYTES)  # first: refusing a FIFO or a device needs no trimesh
     import trimesh
@@ -203,9 +203,14 @@ def _read_mesh(path: str) -> Any:
     try:
         # read as written (trimesh's processing would drop a non-finite vertex and its faces unseen)
         m = trimesh.load(io.BytesIO(data), file_type=Path(path).suffix.lower()[1:], force="mesh", process=False)
-        finite = bool(np.isfinite(np.asarray(getattr(m, "vertices", np.zeros((0, 3))), dtype=np.float64)).all())
-        if finite:
+        raw = np.asarray(getattr(m, "vertices", np.zeros((0, 3))), dtype=np.float64)
+        finite = bool(np.isfinite(raw).all())
+        if finite:  # a scale floating point cannot hold is refused by name before anything is computed from it
+            check_scale(raw, np.asarray(getattr(m, "faces", np.zeros((0, 3), dtype=np.int64))).tolist(),
+                        f"target {path}", what="the mesh", hint="", error=TargetError)
             m.process()
+    except TargetError:
+        raise
     except Exception as e:  # noqa: BLE001 - trimesh raises many kinds for a file that is no mesh
         raise TargetError(f"target {path} is not {what}: {str(e).splitlines()[0][:80] if str(e) else type(e).__name__}"
                           ) from None

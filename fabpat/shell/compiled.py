@@ -93,13 +93,22 @@ def load_kernels() -> float:
     import time
 
     t = time.perf_counter()
-    X = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
-    tri = CompiledTriangles(X, np.array([[0, 1, 2]]), Material(), threads=1)
-    xe, Re = tri.gather(X, np.broadcast_to(np.eye(3), (3, 3, 3)).copy())
-    tri.element_tangents(xe, Re, tri.element_forces(xe, Re)[2])
-    asm = Assembler(tri.edofs, np.ones(18, dtype=bool))
-    CompiledAssembler(asm, threads=1).matrix(np.zeros((1, 18, 18)))
-    transform_elements(np.zeros((1, 18, 18)), np.zeros(1, dtype=np.int64), np.zeros((1, 3, 3)), threads=1)
+    try:
+        X = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+        tri = CompiledTriangles(X, np.array([[0, 1, 2]]), Material(), threads=1)
+        xe, Re = tri.gather(X, np.broadcast_to(np.eye(3), (3, 3, 3)).copy())
+        tri.element_tangents(xe, Re, tri.element_forces(xe, Re)[2])
+        asm = Assembler(tri.edofs, np.ones(18, dtype=bool))
+        CompiledAssembler(asm, threads=1).matrix(np.zeros((1, 18, 18)))
+        transform_elements(np.zeros((1, 18, 18)), np.zeros(1, dtype=np.int64), np.zeros((1, 3, 3)), threads=1)
+    except OSError as e:  # numba saving the compiled kernels: a full disk, a quota, a folder made read-only
+        from fabpat.errors import SolverError
+        from fabpat.shell.kernel_cache import remove_empty_folders
+
+        folder = numba.config.CACHE_DIR or "numba's cache folder"
+        remove_empty_folders()
+        raise SolverError(f"cannot keep the solver's compiled kernels in {folder}: {e.strerror or e}; free space "
+                          "there, or set FABPAT_CACHE=off (they are then compiled again by every process)") from e
     _READY.append(True)
     return time.perf_counter() - t
 

@@ -60,4 +60,17 @@ def choose_cache_dir() -> str | None:
     return chosen
 
 
+def remove_empty_folders() -> None:
+    """Remove the folders under the chosen cache folder (and it) that hold nothing: what a kernel save that
+    failed (a full disk) leaves behind."""
+    chosen = os.environ.get(NUMBA_VARIABLE)
+    if not chosen or chosen != CACHE_DIR:  # only a folder fabpat chose, never the user's own
+        return
+    for folder, _, _ in sorted(os.walk(chosen), key=lambda w: -len(w[0])):
+        try:
+            os.rmdir(folder)  # fails, as wanted, on a folder that still holds anything
+        except OSError:
+            pass
+
+
 CACHE_DIR = choose_cache_dir()
