@@ -50,7 +50,8 @@ def cross_validation() -> None:
 
 
 def held_out(db: str) -> None:
-    rows = [r for r in fabpat.catalog(db, sides=6) if r["depth"] == 3]
+    trained = R.response(6).ids  # a held-out pattern the model was fitted to would not be held out
+    rows = [r for r in fabpat.catalog(db, sides=6) if r["depth"] == 3 and r["id"] not in trained]
     ids, Y = R.training_arrays(rows)
     p = fabpat.predict(ids, 6)
     print(f"\n| held-out depth-3 hexagons ({db}), scenario | patterns | Spearman | median error "

@@ -505,10 +505,13 @@ def predict(ids: Sequence[str] | str, sides: int = 6, catalog: str | Path | None
 MIN_ROWS = 50
 
 
-def refit_responses(catalog: str | Path | None, *, min_rows: int = MIN_ROWS, seed: int = 0) -> Path | None:
+def refit_responses(catalog: str | Path | None, *, also: Sequence[str | Path] = (), min_rows: int = MIN_ROWS,
+                    seed: int = 0) -> Path | None:
     """Fit a response per polygon that the catalog holds ≥ ``min_rows`` usable patterns of, at the default
     set-up (:data:`fabpat.catalog.schema.DEFAULT_SETUP`'s edge, thickness and weight; depths 2 and 3 together),
-    and write them beside it (:func:`response_path`). Returns the path, or None if no polygon had enough rows.
+    and write them beside it (:func:`response_path`). ``also``: more catalogs whose rows of the same set-up join
+    the training (the built-in response also learns from the depth-3 rows in ``benchmarks/data``). Returns the
+    path, or None if no polygon had enough rows.
 
     Raises :class:`~fabpat.errors.CatalogError` if the rows come from another solver version than this
     fabpat's (a model of stale rows would be stale itself)."""
@@ -519,16 +522,25 @@ def refit_responses(catalog: str | Path | None, *, min_rows: int = MIN_ROWS, see
     with open_catalog(catalog) as cat:
         polygons = [int(str(r["sides"])) for r in cat.query("SELECT DISTINCT sides FROM patterns ORDER BY sides")]
         versions = {str(r["solver_version"]) for r in cat.query("SELECT DISTINCT solver_version FROM results")}
+    for extra in also:
+        with open_catalog(extra) as cat:
+            versions |= {str(r["solver_version"]) for r in cat.query("SELECT DISTINCT solver_version FROM results")}
     current = solver_version()
     if versions - {current}:
         other = ", ".join(sorted(versions - {current}))
         raise CatalogError(f"{catalog or 'the built-in catalog'} holds rows of {other}, "
                            f"not {current}: run fabpat sweep on it before fitting a learned response")
     fitted = []
+    def rows_of(path: str | Path | None, sides: int) -> list[dict[str, object]]:
+        try:
+            found = read_catalog(path, sides=sides, edge=DEFAULT_SETUP["edge"], thickness=DEFAULT_SETUP["thickness"],
+                                 weight=DEFAULT_SETUP["weight"])
+        except CatalogError:  # another catalog without this polygon or set-up adds nothing
+            return []
+        return [r for r in found if r["depth"] in DEPTHS]
+
     for s in polygons:
-        rows = [r for r in read_catalog(catalog, sides=s, edge=DEFAULT_SETUP["edge"],
-                                        thickness=DEFAULT_SETUP["thickness"], weight=DEFAULT_SETUP["weight"])
-                if r["depth"] in DEPTHS]
+        rows = rows_of(catalog, s) + [r for extra in also for r in rows_of(extra, s)]
         if len(training_arrays(rows)[0]) >= min_rows:
             fitted.append(fit_response(rows, s, current, seed=seed))
     return save_responses(fitted, response_path(catalog)) if fitted else None

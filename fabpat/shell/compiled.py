@@ -105,7 +105,7 @@ def load_kernels() -> float:
         from fabpat.errors import SolverError
         from fabpat.shell.kernel_cache import remove_empty_folders
 
-        folder = numba.config.CACHE_DIR or "numba's cache folder"
+        folder = fabpat.shell.kernel_cache.CACHE_DIR or "numba's cache folder"
         remove_empty_folders()
         raise SolverError(f"cannot keep the solver's compiled kernels in {folder}: {e.strerror or e}; free space "
                           "there, or set FABPAT_CACHE=off (they are then compiled again by every process)") from e
