@@ -196,3 +196,33 @@ def test_a_mesh_target_at_a_scale_floating_point_cannot_hold_is_refused_by_name(
         warnings.simplefilter("error")  # numpy's overflow warnings came before the wrong reason
         with pytest.raises(TargetError, match=says):
             read_target(str(path))
+
+
+def _strip_base(folder: Path, patterns: str) -> Path:
+    text = (Path(__file__).resolve().parents[1] / "assemblies" / "test-small.toml").read_text(encoding="utf-8")
+    head, _, rest = text.partition("[patterns]")
+    p = folder / "base.toml"
+    p.write_text(head + "[patterns]\n" + patterns + "\n\n" + rest[rest.index("[plates]"):], encoding="utf-8")
+    return p
+
+
+def test_depth_3_adds_the_catalogs_depth_3_patterns_to_a_strips_candidates(tmp_path: Path) -> None:
+    from fabpat.catalog import open_catalog
+    from fabpat.design.base import load_base
+    from tests.test_catalog import fake_rows
+
+    deep = {"0xfffef677a0778080": 13.25, "0xc9eb400a41358080": 72.3}  # depth-3 IDs, Cylinder energies (N·mm)
+    db = tmp_path / "deep.sqlite"
+    with open_catalog(db, write=True) as cat:
+        for pid, e in deep.items():
+            cat.write_rows([dict(r, depth=3) for r in fake_rows(pid, 6, {"cylinder": e})])
+        cat.finish()
+    base = load_base(_strip_base(tmp_path, f'depth = 3\ncatalog = "{db}"\nvariations = false'))
+    assert {k: base.energies[k] for k in deep} == deep
+    assert sum(len(k) == 6 for k in base.energies) == 430  # the built-in depth-2 candidates stay
+    plain = load_base(_strip_base(tmp_path, "variations = false"))
+    assert not set(deep) & set(plain.energies)
+    with pytest.raises(SpecError, match="built-in catalog has none"):
+        load_base(_strip_base(tmp_path, "depth = 3"))
+    with pytest.raises(SpecError, match="must be 2"):
+        load_base(_strip_base(tmp_path, "depth = 4"))

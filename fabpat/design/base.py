@@ -12,6 +12,9 @@ and its tiling must be a honeycomb strip or one of :data:`CLOSED_KINDS` (:func:`
 * ``variations``: ``true`` (default) or ``false``: whether the candidates include the family members
   (:mod:`fabpat.patterns.variation`) the catalog's ``family`` table holds (``fabpat sweep --family``), a strip's
   and a closed tiling's alike (:mod:`fabpat.assembly.members`).
+* ``depth``: ``2`` (default) or ``3``: a strip's candidates also include the depth-3 patterns the catalog
+  (``catalog`` key) has simulated — ``fabpat sweep --depth 3 --learn N --db mine.sqlite`` makes such rows; the
+  depth-2 candidates then come from that catalog if it has them, else from the built-in one.
 
 Candidates of a strip are the hexagon patterns with a converged Cylinder energy in the catalog
 (``catalog`` key or the built-in one), at the base's plate set-up when the catalog has it, else at the
@@ -46,7 +49,7 @@ from fabpat.errors import FabpatError, SpecError
 __all__ = ["DesignBase", "load_base", "closed_rows", "candidates", "base_faces", "member_token", "split_member"]
 
 #: the [patterns] keys that only ``fabpat design`` reads
-DESIGN_KEYS = ("allowed", "min_width", "max_distinct", "variations")
+DESIGN_KEYS = ("allowed", "min_width", "max_distinct", "variations", "depth")
 #: the ways of choosing patterns an assembly spec has (fabpat.assembly.spec)
 _WAYS = ("pattern", "groups", "tiles", "hexagon", "pentagon", "rule")
 #: the scenario whose energy gives a pattern's bending stiffness (two end moments bend the plate)
@@ -120,6 +123,9 @@ def load_base(path: str | Path) -> DesignBase:
     if k is not None and (isinstance(k, bool) or not isinstance(k, int) or k < 1):
         raise SpecError(f"{source}: patterns.max_distinct = {k!r} must be an integer ≥ 1 (distinct patterns allowed)")
     if spec.tiling.kind != STRIP_KIND:
+        if keys.get("depth", 2) != 2:
+            raise SpecError(f"{source}: patterns.depth = {keys['depth']!r}: depth-3 candidates are for strip designs "
+                            "(the closed tilings' pentagons have no depth-3 rows yet); leave it out")
         notes: list[str] = []
         rows = closed_rows(spec, source, catalog, keys, notes)
         return DesignBase(spec, clean, {}, k, spec.patterns.rule is not None, way, rows, tuple(notes))
@@ -136,16 +142,36 @@ def check_kind(source: str, kind: str) -> None:
                         f"(a target arch) or a closed tiling of kind {closed} (a target surface)")
 
 
-def _catalog_energies(spec: AssemblySpec, catalog: str | None) -> dict[str, float]:
+def _catalog_energies(spec: AssemblySpec, catalog: str | None, depth: int = 2) -> dict[str, float]:
     from fabpat import catalog as cat
 
     pl = spec.plates
     try:
-        found = cat.energies(catalog, SCENARIO, sides=6, edge=spec.tiling.edge, thickness=pl.thickness,
+        found = cat.energies(catalog, SCENARIO, sides=6, depth=depth, edge=spec.tiling.edge, thickness=pl.thickness,
                              weight=pl.weight)
-        return found or cat.energies(catalog, SCENARIO, sides=6)
+        found = found or cat.energies(catalog, SCENARIO, sides=6, depth=depth)
+        if depth == 2 and not found and catalog is not None:  # a catalog of deeper patterns only
+            return _catalog_energies(spec, None)
+        return found
     except FabpatError as e:
         raise SpecError(f"{spec.source}: the design needs the catalog's {SCENARIO} energies, but {e}") from e
+
+
+def _depth3_energies(spec: AssemblySpec, source: str, catalog: str | None, keys: dict[str, Any]) -> dict[str, float]:
+    """The depth-3 candidates ``[patterns] depth = 3`` adds (module doc): {ID: Cylinder energy}; SpecError for
+    another depth or a catalog without depth-3 rows."""
+    depth = keys.get("depth", 2)
+    if isinstance(depth, bool) or depth not in (2, 3):
+        raise SpecError(f"{source}: patterns.depth = {depth!r} must be 2 (the paper's library) or 3 (adds the "
+                        "catalog's depth-3 patterns)")
+    if depth == 2:
+        return {}
+    found = _catalog_energies(spec, catalog, 3) if catalog is not None else {}
+    if not found:
+        raise SpecError(f"{source}: patterns.depth = 3 adds the depth-3 patterns a catalog has simulated, but "
+                        f"{'the built-in catalog has' if catalog is None else catalog + ' has'} none: run fabpat "
+                        "sweep --depth 3 --learn N --db mine.sqlite and give patterns.catalog = \"mine.sqlite\"")
+    return found
 
 
 def closed_rows(spec: AssemblySpec, source: str, catalog: str | None, keys: dict[str, Any],
@@ -207,11 +233,17 @@ def _min_widths(spec: AssemblySpec, catalog: str | None) -> dict[str, float]:
     from fabpat import catalog as cat
 
     pl = spec.plates
-    try:
-        rows = cat.catalog(catalog, sides=6, edge=spec.tiling.edge, thickness=pl.thickness, weight=pl.weight)
-    except FabpatError:
-        rows = cat.catalog(catalog, sides=6)
-    return {str(r["id"]): float(r["min_width"]) for r in rows if r.get("min_width") is not None}  # type: ignore[arg-type]
+    widths: dict[str, float] = {}
+    for where in dict.fromkeys([None, catalog]):  # the built-in's depth-2 rows, then the catalog's own
+        try:
+            rows = cat.catalog(where, sides=6, edge=spec.tiling.edge, thickness=pl.thickness, weight=pl.weight)
+        except FabpatError:
+            try:
+                rows = cat.catalog(where, sides=6)
+            except FabpatError:
+                continue
+        widths.update({str(r["id"]): float(str(r["min_width"])) for r in rows if r.get("min_width") is not None})
+    return widths
 
 
 def candidates(spec: AssemblySpec, source: str, catalog: str | None, keys: dict[str, Any]) -> dict[str, float]:
@@ -219,7 +251,8 @@ def candidates(spec: AssemblySpec, source: str, catalog: str | None, keys: dict[
     family members unless ``variations = false`` (module doc); SpecError if none."""
     from fabpat.assembly.spec_patterns import pattern_id_of
 
-    energies = {k: v for k, v in _catalog_energies(spec, catalog).items() if math.isfinite(v) and v > 0}
+    deeper = _depth3_energies(spec, source, catalog, keys)
+    energies = {k: v for k, v in {**_catalog_energies(spec, catalog), **deeper}.items() if math.isfinite(v) and v > 0}
     why = [f"the catalog's {len(energies)} hexagon patterns with a {SCENARIO} energy"]
     if "allowed" in keys:
         allowed = keys["allowed"]
