@@ -247,13 +247,14 @@ class Response:
     rows: Mapping[int, int]
     ids: frozenset[str] = frozenset()
 
-    def predict(self, ids: Sequence[str], *, extrapolate: bool = False) -> Prediction:
+    def predict(self, ids: Sequence[str], *, extrapolate: bool = False, checked: bool = False) -> Prediction:
         """Predict every target for pattern IDs (checked by :func:`check_ids`; raises PatternError).
 
         A depth the model was fitted to no pattern of is refused (PatternError) unless ``extrapolate``: a
         depth-2 model ranks depth-3 patterns poorly (docs/learned-response.md), and its intervals would
-        claim a coverage they do not have. With ``extrapolate`` such a depth gets the widest spread known."""
-        ids = check_ids(ids, self.sides)
+        claim a coverage they do not have. With ``extrapolate`` such a depth gets the widest spread known.
+        ``checked``: the IDs are :func:`check_ids`' answer already (not checked twice)."""
+        ids = list(ids) if checked else check_ids(ids, self.sides)
         X = cell_features(ids)
         depth = X[:, 75].astype(np.int64)
         unseen = sorted(set(depth.tolist()) - set(self.rows))
@@ -498,7 +499,7 @@ def predict(ids: Sequence[str] | str, sides: int = 6, catalog: str | Path | None
     "energy_dome_interval": [low, high], …}]``. Raises :class:`~fabpat.errors.PatternError` for an invalid,
     untileable or disconnected ID and :class:`~fabpat.errors.CatalogError` for a missing or stale model."""
     checked = check_ids([ids] if isinstance(ids, str) else ids, sides)  # a bad ID is named before any file is read
-    return response(sides, catalog).predict(checked)
+    return response(sides, catalog).predict(checked, checked=True)
 
 
 #: the fewest usable patterns of a polygon that ``fabpat sweep`` refits a response to (fewer: left alone)
