@@ -286,9 +286,10 @@ def test_cli_catalog_formats(tmp_path: Path) -> None:
     assert res.exit_code == 2 and res.stderr.startswith("fabpat: error:") and res.stderr.count("\n") == 1
 
 
-def _stamped_catalog(path: Path, version: str) -> Path:
+def _stamped_catalog(path: Path, version: str, every_neck_narrow: bool = False) -> Path:
     """A catalog of one pattern's rows with the input hashes a sweep under ``version`` stores: set-up mesh
-    2.5 mm (extrapolated with 1.25 mm); the Dome row used 2.14 mm, as a narrow neck makes it."""
+    2.5 mm (extrapolated with 1.25 mm); the Dome row used 2.14 mm, as a narrow neck makes it (every row,
+    as in a depth-3 sample, with ``every_neck_narrow``)."""
     from fabpat.catalog.sweep import pattern_hash, result_hash
 
     rows = fake_rows("0x0488", 6, {"dome": 430.0, "cylinder": 40.0})
@@ -299,7 +300,7 @@ def _stamped_catalog(path: Path, version: str) -> Path:
         else:
             r.update(solver_version=version, h_fine=1.25, input_hash=result_hash(
                 *key, 1000.0, 0.35, 2.5, r["scenario"], version, 1.25))  # type: ignore[arg-type]
-            if r["scenario"] == "dome":
+            if r["scenario"] == "dome" or every_neck_narrow:
                 r.update(h=2.14, h_fine=1.07)
     with open_catalog(path, write=True) as cat:
         cat.write_rows(rows)
@@ -323,6 +324,13 @@ def test_restamp_rewrites_every_hash_for_the_new_version(tmp_path: Path) -> None
     assert got == {s: result_hash(*key, 1000.0, 0.35, 2.5, s, "fabpat new", 1.25) for s in ("dome", "cylinder")}
     assert con.execute("SELECT DISTINCT solver_version FROM results").fetchall() == [("fabpat new",)]
     assert con.execute("SELECT energy FROM results WHERE scenario = 'dome'").fetchall() == [(430.0,)]
+
+
+def test_restamp_finds_the_set_up_mesh_when_no_row_stores_it(tmp_path: Path) -> None:
+    from fabpat.catalog.restamp import restamp
+
+    db = _stamped_catalog(tmp_path / "c.sqlite", "fabpat old", every_neck_narrow=True)  # no row at h = 2.5
+    assert restamp(db, "fabpat old", "fabpat new").rows == {"patterns": 1, "results": 2, "family": 0}
 
 
 def test_restamp_refuses_rows_stored_under_another_version_and_writes_nothing(tmp_path: Path) -> None:

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from fabpat.catalog import CatalogError, solver_version
-from fabpat.catalog.sweep import fine_mesh, pattern_hash, result_hash
+from fabpat.catalog.sweep import SweepSetup, fine_mesh, pattern_hash, result_hash
 
 _KEY = ("id", "sides", "depth", "edge", "thickness", "weight")
 
@@ -73,7 +73,10 @@ def _rewrite(con: sqlite3.Connection, old: str, new: str) -> dict[str, int]:
         if table not in tables:
             continue
         rows = con.execute(f"SELECT rowid, * FROM {table}").fetchall()  # noqa: S608 - a fixed table name
-        setups = sorted({float(r["h"]) for r in rows if "h" in r.keys() and r["h"] is not None}, reverse=True)
+        # the meshes rows store, and the sweep's default set-ups: rows whose every neck lowered the mesh
+        # (a depth-3 sample) store none of the set-up's own h, which their hash keeps
+        setups = sorted({float(r["h"]) for r in rows if "h" in r.keys() and r["h"] is not None}
+                        | {float(SweepSetup().h or 0.0), float(SweepSetup(extrapolate=False).h or 0.0)}, reverse=True)
         updates = []
         for r in rows:
             where = f"{table} row {dict(zip(_KEY, (r[k] for k in _KEY), strict=True))}"
