@@ -23,6 +23,7 @@ from scipy.stats import spearmanr
 
 import fabpat
 from fabpat.catalog import response as R
+from fabpat.catalog import response_file as RF
 from fabpat.patterns.library import sample_library
 
 ENERGIES = ("energy_cantilever", "energy_cylinder", "energy_dome")
@@ -50,7 +51,7 @@ def cross_validation() -> None:
 
 
 def held_out(db: str) -> None:
-    trained = R.response(6).ids  # a held-out pattern the model was fitted to would not be held out
+    trained = RF.response(6).ids  # a held-out pattern the model was fitted to would not be held out
     rows = [r for r in fabpat.catalog(db, sides=6) if r["depth"] == 3 and r["id"] not in trained]
     ids, Y = R.training_arrays(rows)
     p = fabpat.predict(ids, 6)
@@ -64,7 +65,7 @@ def held_out(db: str) -> None:
 
 def speed(count: int) -> None:
     ids = list(sample_library(6, 3, count, seed=1).ids) + [r["id"] for r in fabpat.catalog(sides=6)]
-    model = R.response(6)  # the stored trees, read once
+    model = RF.response(6)  # the stored trees, read once
     model.predict(ids[:10], extrapolate=True)  # loads the compiled loops (numba cache)
     best, cpu = float("inf"), float("inf")
     for _ in range(3):

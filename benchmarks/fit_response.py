@@ -19,6 +19,7 @@ from scipy.stats import spearmanr
 
 import fabpat
 from fabpat.catalog import response as R
+from fabpat.catalog import response_file as RF
 
 DEPTH3 = Path(__file__).parent / "data" / "depth3-hexagons.sqlite"
 
@@ -45,7 +46,7 @@ def main() -> None:
             print(f"| {name} | {d} | {len(sel)} | {rho:.3f} | {100 * np.median(np.abs(pred / y - 1)):.1f} % | "
                   f"{100 * odd.mean():.0f} % |")
     if a.write:
-        print(R.refit_responses(None, also=[DEPTH3]))
+        print(RF.refit_responses(None, also=[DEPTH3]))
 
 
 if __name__ == "__main__":

@@ -44,7 +44,7 @@ _LAZY = {
     "simulate_assembly": "fabpat.assembly.simulation:simulate_assembly",
     "assemble": "fabpat.assembly.build:assemble",
     "design": "fabpat.design",
-    "predict": "fabpat.catalog.response:predict",
+    "predict": "fabpat.catalog.response_file:predict",
     "variations": "fabpat.patterns.variation:variations",
     "Variation": "fabpat.patterns.variation:Variation",
     "Library": "fabpat.patterns.library:Library",

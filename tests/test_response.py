@@ -1,4 +1,4 @@
-"""The learned response (fabpat.catalog.response, ``fabpat predict``): its features, its trees against
+"""The learned response (fabpat.catalog.response and response_file, ``fabpat predict``): its features, its trees against
 scikit-learn's, its accuracy on patterns it never saw, its stored file, and what it refuses."""
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ from scipy.stats import spearmanr
 
 import fabpat
 from fabpat.catalog import response as R
+from fabpat.catalog import response_file as RF
 from fabpat.errors import CatalogError, PatternError
 from fabpat.patterns.lattice import bits_to_id, id_to_bits
 from fabpat.patterns.library import is_connected, is_tileable
@@ -92,22 +93,22 @@ def test_a_stored_response_predicts_the_same_and_a_stale_one_is_refused(
         hexagons: tuple[list[str], np.ndarray], tmp_path) -> None:  # noqa: ANN001
     db = tmp_path / "mine.sqlite"
     fresh = _small_response(hexagons, fabpat.catalog.solver_version())
-    path = R.save_responses([fresh], R.response_path(db))
+    path = RF.save_responses([fresh], RF.response_path(db))
     assert path.name == "mine.sqlite.response.npz"
     ids = hexagons[0][100:110]
-    a, b = fresh.predict(ids), R.predict(ids, 6, db)
+    a, b = fresh.predict(ids), RF.predict(ids, 6, db)
     for t in R.TARGETS:
         assert np.array_equal(a.values[t], b.values[t]) and np.array_equal(a.intervals[t], b.intervals[t])
         assert np.all(b.intervals[t][:, 0] <= b.values[t]) and np.all(b.values[t] <= b.intervals[t][:, 1])
     with pytest.raises(CatalogError, match="no learned response for the 5-gon"):
-        R.predict(ids, 5, db)
+        RF.predict(ids, 5, db)
     deeper = bits_to_id(id_to_bits(ids[0], 2)[R._refinement(2)])  # a depth-3 ID: a depth the model never saw
     with pytest.raises(PatternError, match="fitted to depth 2 patterns only, not depth 3"):
-        R.predict([deeper], 6, db)
+        RF.predict([deeper], 6, db)
     assert fresh.predict([deeper], extrapolate=True).values["energy_dome"].shape == (1,)
-    R.save_responses([dataclasses.replace(fresh, solver_version="fabpat 0.0.1+000000000000")], R.response_path(db))
+    RF.save_responses([dataclasses.replace(fresh, solver_version="fabpat 0.0.1+000000000000")], RF.response_path(db))
     with pytest.raises(CatalogError, match="stale"):
-        R.predict(ids, 6, db)
+        RF.predict(ids, 6, db)
     r = subprocess.run([sys.executable, "-m", "fabpat", "predict", ids[0], "--db", str(db)], capture_output=True,
                        text=True)
     assert r.returncode == 2 and r.stdout == ""
@@ -186,7 +187,7 @@ def test_bad_learn_options(args: list[str], says: str, tmp_path) -> None:  # noq
 def test_a_damaged_response_file_is_refused_by_name(damage: str, hexagons: tuple[list[str], np.ndarray],
                                                     tmp_path) -> None:  # noqa: ANN001
     db = tmp_path / "c.sqlite"
-    path = R.save_responses([_small_response(hexagons, fabpat.catalog.solver_version())], R.response_path(db))
+    path = RF.save_responses([_small_response(hexagons, fabpat.catalog.solver_version())], RF.response_path(db))
     with np.load(path, allow_pickle=False) as z:
         arrays = {k: z[k] for k in z.files}
     key = "6/energy_dome/"

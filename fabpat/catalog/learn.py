@@ -23,7 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-from fabpat.catalog.response import Response, load_responses, response, response_path
+from fabpat.catalog.response import Response
+from fabpat.catalog.response_file import load_responses, response, response_path
 from fabpat.catalog.version import solver_version
 from fabpat.validate import RANGES, Range
 

@@ -199,7 +199,7 @@ def _learn_ids(db: str, sides: int, depth: int, sample: int | None, seed: int, l
 def _refit(db: str, tell_why: bool) -> None:
     """Refit the catalog's learned response after a sweep (one stderr line; a failure is a warning: the rows
     are stored whatever the model does)."""
-    from fabpat.catalog.response import refit_responses
+    from fabpat.catalog.response_file import refit_responses
     from fabpat.errors import FabpatError
 
     try:
@@ -210,7 +210,7 @@ def _refit(db: str, tell_why: bool) -> None:
     if path is not None:
         click.echo(f"learned response refitted: {path}", err=True)
     elif tell_why:
-        from fabpat.catalog.response import MIN_ROWS
+        from fabpat.catalog.response_file import MIN_ROWS
 
         click.echo(f"learned response not fitted: it needs {MIN_ROWS} simulated patterns of a polygon", err=True)
 

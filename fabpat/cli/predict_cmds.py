@@ -30,7 +30,8 @@ def predict_cmd(ids: tuple[str, ...], sides: int, db: str | None, as_json: bool)
     """
     import json
 
-    from fabpat.catalog.response import TARGETS, predict
+    from fabpat.catalog.response import TARGETS
+    from fabpat.catalog.response_file import predict
 
     wanted = [i for token in ids for i in (sys.stdin.read().split() if token == "-" else [token])]
     p = predict(wanted, sides, db)
