@@ -256,6 +256,8 @@ def test_a_strip_png_takes_no_field(strip_run, tmp_path: Path) -> None:  # type:
         strip_run.to_png(tmp_path / "s.png", "strain")
     with pytest.raises(SpecError, match="got 5"):
         strip_run.to_png(tmp_path / "s.png", 5)
+    with pytest.raises(ExportError, match=r"must end in \.png"):
+        strip_run.to_png(tmp_path / "s.jpg")  # PNG bytes under a .jpg name opened as a broken image
     assert list(tmp_path.iterdir()) == []
 
 

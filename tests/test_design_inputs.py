@@ -226,3 +226,11 @@ def test_depth_3_adds_the_catalogs_depth_3_patterns_to_a_strips_candidates(tmp_p
         load_base(_strip_base(tmp_path, "depth = 3"))
     with pytest.raises(SpecError, match="must be 2"):
         load_base(_strip_base(tmp_path, "depth = 4"))
+
+
+def test_an_empty_ply_target_is_refused_without_pythons_words(tmp_path: Path) -> None:
+    path = tmp_path / "e.ply"
+    path.write_text("ply\n")
+    with pytest.raises(TargetError) as e:
+        read_target(str(path))
+    assert "is not a surface mesh" in str(e.value) and "index" not in str(e.value)

@@ -119,8 +119,12 @@ class AssemblySimulation:
         """A strip: its deflection profile and reaction curve; a closed assembly: the bent shape
         coloured by ``field`` (one of :data:`PNG_FIELDS`, default ``"energy"``). Raises SpecError for
         another field, or any field for a strip (whose picture is its profile: a field there was quietly
-        ignored, ``"bogus"`` too), ExportError for a path that is not one."""
+        ignored, ``"bogus"`` too), ExportError for a path that is not one or does not end in ``.png`` (PNG bytes
+        under a ``.jpg`` name open as a broken image, as the CLI's ``--png`` refuses)."""
         _check_path(path)
+        from fabpat.io import check_suffix
+
+        check_suffix(path, [".png"], "a PNG picture's file name")
         if field is not None and (not isinstance(field, str) or field not in PNG_FIELDS):
             raise SpecError(f"png field must be one of {', '.join(PNG_FIELDS)}, got {field!r}")
         if not self.closed:

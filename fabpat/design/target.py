@@ -212,8 +212,10 @@ def _read_mesh(path: str) -> Any:
     except TargetError:
         raise
     except Exception as e:  # noqa: BLE001 - trimesh raises many kinds for a file that is no mesh
-        raise TargetError(f"target {path} is not {what}: {str(e).splitlines()[0][:80] if str(e) else type(e).__name__}"
-                          ) from None
+        # a reader's own message says what is wrong; Python's ("list index out of range") says nothing to a user
+        internal = isinstance(e, IndexError | KeyError | TypeError | AttributeError) or not str(e)
+        why = "the file holds no mesh that can be read" if internal else str(e).splitlines()[0][:80]
+        raise TargetError(f"target {path} is not {what}: {why}") from None
     if not finite:
         raise TargetError(f"target {path}: a vertex is not finite (NaN or infinite coordinates)")
     faces = getattr(m, "faces", None)
