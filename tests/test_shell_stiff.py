@@ -1,4 +1,4 @@
-"""Stiff plates converge like soft ones: the residual test has a round-off floor (solve.ROUNDOFF_FACTOR).
+"""Stiff plates converge like soft ones: the residual test has a round-off floor (newton.ROUNDOFF_FACTOR).
 
 A plate stiffer than the default PLA plate moves less, so its nonlinear answer must be close to the
 linear one: that is the independent check of each converged run here (a stiff plate barely leaves
@@ -14,6 +14,7 @@ import pytest
 from fabpat.errors import SolverError
 from fabpat.geometry.fillet import fillet_pattern
 from fabpat.patterns.library import get_pattern
+from fabpat.shell import newton
 from fabpat.shell import solve as shell_solve
 from fabpat.simulation.mesh import ShellMesh, mesh_outline
 from fabpat.simulation.scenarios import SCENARIOS, build_problem
@@ -46,7 +47,7 @@ def test_stiff_plates_converge_in_every_scenario(mesh: ShellMesh, E: float, nu: 
 
 def test_stalled_residual_is_not_blamed_on_buckling(mesh: ShellMesh, monkeypatch: pytest.MonkeyPatch) -> None:
     # without the round-off floor the aluminium Cantilever stalls at round-off: the message must say so
-    monkeypatch.setattr(shell_solve, "ROUNDOFF_FACTOR", 0.0)
+    monkeypatch.setattr(newton, "ROUNDOFF_FACTOR", 0.0)
     p = build_problem(mesh, "cantilever", sides=6, thickness=2.0, E=7e4, nu=0.33)
     with pytest.raises(SolverError) as err:
         shell_solve.solve_nonlinear(p, min_step=1.0 / 16)

@@ -21,18 +21,19 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
+import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from fabpat.errors import SolverError
 from fabpat.shell import news
 from fabpat.shell.compiled import ensure_kernels, pardiso_threads
 from fabpat.shell.linalg import Factor, Pardiso, SuperLUFactorizer, factorizer
+from fabpat.shell.newton import Convergence, Residual, Rules, iterate, roundoff_noise
 from fabpat.shell.rigid_links import LinkedProblem, _Reduced
 from fabpat.shell.rotations import expmap, logmap
-from fabpat.shell.solve import ROUNDOFF_FACTOR
 
 Arr = NDArray[np.float64]
 
@@ -118,7 +119,8 @@ class PathResult:
 
 @dataclass
 class _Newton:
-    """One increment's Newton iteration at a fixed target λ (see :func:`solve_path`), with the counters the
+    """One increment of :func:`solve_path` as a :class:`fabpat.shell.newton.NewtonSystem` (the reduced,
+    slave-free system at a fixed target λ, prescribed dofs as scaled identity rows), with the counters the
     path keeps across increments."""
 
     p: LinkedProblem
@@ -126,11 +128,8 @@ class _Newton:
     X: Arr
     all_rot: NDArray[np.bool_]
     dscale: float
-    floor: float
-    rtol: float
-    max_iter: int
-    max_rotation_step: float
-    reuse_ratio: float
+    test: Convergence
+    rules: Rules
     link_reference: bool
     fz: Pardiso | SuperLUFactorizer
     iterations: int = 0
@@ -141,6 +140,19 @@ class _Newton:
     residual: float = np.inf
     state: tuple[Arr, Arr, Arr, Arr] | None = None  # (g, fe, U, d) of the last evaluated iterate
     label: str = ""  # the increment under way, for the solver's news
+    target: float = 0.0
+    _gr: Arr = field(default_factory=lambda: np.zeros(0))  # reduced net force of the last evaluated iterate
+    _inc: Arr = field(default_factory=lambda: np.zeros(0))  # its increments still missing at prescribed dofs
+
+    @property
+    def dofs(self) -> NDArray[np.int64]:
+        """The global dof of each row of the reduced tangent."""
+        return self.red.asm.free
+
+    @property
+    def n_dofs(self) -> int:
+        """6 × nodes (masters included)."""
+        return 6 * self.red.N
 
     def targets(self, target: float, xs: Arr, Rs: Arr) -> Arr:
         """(N, 6) increments still missing at the prescribed dofs (spins for rotations)."""
@@ -161,73 +173,61 @@ class _Newton:
         self.red.place_slaves(p, xt, Rt, target)
         return xt, Rt
 
-    def run(self, xt: Arr, Rt: Arr, target: float, lu: Factor | None) -> tuple[bool, int, Arr, Arr, Factor | None]:
-        """Iterate from (xt, Rt) at λ = target; ``lu``: a factorization to take the first (predictor)
-        iteration with, or None. Returns (converged, iterations, x, R, last factorization)."""
+    def evaluate(self, xt: Arr, Rt: Arr) -> Residual:
+        """The residual over the dofs that are neither prescribed nor slaves, measured against the
+        largest of the load, the reactions and (``link_reference``) the link forces."""
         p, red = self.p, self.red
-        fixed_flat = p.fixed.ravel()
-        N = red.N
-        ok, its, last, res0, growth, first = False, 0, np.inf, np.inf, 0, lu
-        for its in range(1, self.max_iter + 1):  # noqa: B007 (its used after the loop)
-            t_r = time.perf_counter()
-            g, fe, U, d = red.forces(p, xt, Rt, target)
-            self.t_res += time.perf_counter() - t_r
-            self.state = (g, fe, U, d)
-            gr = red.reduce(p, g, xt)
-            res = float(np.linalg.norm(gr.ravel()[red.test]))
-            inc = self.targets(target, xt, Rt)
-            ref = max(float(np.linalg.norm(p.load_at(target).ravel()[red.test])),
-                      float(np.linalg.norm(gr.ravel()[fixed_flat])),
-                      float(np.linalg.norm(g[p.link_slave])) if self.link_reference else 0.0)
-            pending = float(np.abs(inc).max())
-            if pending <= 1e-12 * (1.0 + float(np.abs(self.X).max())):
-                pending = 0.0
-            if not np.isfinite(res):
-                break
-            if res <= max(self.rtol * ref, self.floor) and pending == 0.0:
-                ok = True
-                break
-            if its == 2:
-                res0 = res
-            growth = growth + 1 if res > last and pending == 0.0 else 0
-            if growth >= 3 or (its >= 10 and res > 100.0 * res0):
-                break
-            # keep the factorization while the residual falls fast; the predictor (first iteration)
-            # takes the one the previous increment converged with: the tangent of a state a Newton
-            # correction away from the converged one, one factorization per increment saved
-            reuse = lu is not None and ((pending == 0.0 and res < self.reuse_ratio * last)
-                                        or (its == 1 and lu is first))
-            last = self.residual = res
-            ta = time.perf_counter()
-            if not reuse:
-                K = red.matrix(p, xt, Rt, d, g, self.dscale)
-            tb = time.perf_counter()
-            rhs = -gr.ravel()
-            rhs[red.moving] = self.dscale * inc.ravel()[red.moving]
-            du = np.zeros(6 * N)
-            try:
-                if not reuse:
-                    lu = self.fz.factor(K)
-                    self.factorizations += 1
-                    if news.listened():  # a long increment (a warm start's one to λ = 1) is not silent
-                        news.tell(f"{self.label}, iteration {its}, {self.factorizations} factorizations")
-                du[red.asm.free] = lu.solve(rhs[red.asm.free])  # type: ignore[union-attr] (reuse implies lu)
-            except SolverError:
-                break
-            self.t_tan += tb - ta
-            self.t_lu += time.perf_counter() - tb
-            if not np.all(np.isfinite(du)):
-                break
-            D = du.reshape(-1, 6)
-            if pending == 0.0:  # (the predictor must take the prescribed dofs to their targets in full)
-                rot = float(np.max(np.linalg.norm(D[:, 3:], axis=1)))
-                if rot > self.max_rotation_step:
-                    D = D * (self.max_rotation_step / rot)
-            xt = xt + D[:, :3]
-            Rt = np.einsum("nij,njk->nik", expmap(D[:, 3:]), Rt)
-            xt, Rt = self.pin(xt, Rt, target)
-        self.iterations += its
-        return ok, its, xt, Rt, lu
+        t_r = time.perf_counter()
+        g, fe, U, d = red.forces(p, xt, Rt, self.target)
+        self.t_res += time.perf_counter() - t_r
+        self.state = (g, fe, U, d)
+        self._gr = red.reduce(p, g, xt)
+        self._inc = self.targets(self.target, xt, Rt)
+        ref = max(float(np.linalg.norm(p.load_at(self.target).ravel()[red.test])),
+                  float(np.linalg.norm(self._gr.ravel()[p.fixed.ravel()])),
+                  float(np.linalg.norm(g[p.link_slave])) if self.link_reference else 0.0)
+        pending = float(np.abs(self._inc).max())
+        if pending <= 1e-12 * (1.0 + float(np.abs(self.X).max())):
+            pending = 0.0
+        return Residual(float(np.linalg.norm(self._gr.ravel()[red.test])), ref, pending != 0.0)
+
+    def tangent(self, x: Arr, R: Arr, iteration: int) -> sp.csc_matrix:
+        """The reduced tangent of the last evaluated iterate, prescribed rows scaled by ``dscale``."""
+        assert self.state is not None  # evaluated before
+        g, _, _, d = self.state
+        return self.red.matrix(self.p, x, R, d, g, self.dscale)
+
+    def rhs(self) -> Arr:
+        """−(reduced net force); at the prescribed rows the increment still missing (× ``dscale``)."""
+        red = self.red
+        rhs = -self._gr.ravel()
+        rhs[red.moving] = self.dscale * self._inc.ravel()[red.moving]
+        return rhs[red.asm.free]
+
+    def factored(self, iteration: int) -> None:
+        """Counts the factorization and tells the solver's listeners."""
+        self.factorizations += 1
+        if news.listened():  # a long increment (a warm start's one to λ = 1) is not silent
+            news.tell(f"{self.label}, iteration {iteration}, {self.factorizations} factorizations")
+
+    def place(self, x: Arr, R: Arr, D: Arr) -> tuple[Arr, Arr]:
+        """The corrected iterate pinned (:meth:`pin`)."""
+        return self.pin(x, R, self.target)
+
+    def run(self, xt: Arr, Rt: Arr, target: float, lu: Factor | None, max_iter: int) -> tuple[bool, int, Arr, Arr,
+                                                                                               Factor | None]:
+        """Iterate from (xt, Rt) at λ = target (:func:`fabpat.shell.newton.iterate`, at most ``max_iter``
+        iterations); ``lu``: the factorization the previous increment converged with, for the first
+        (predictor) iteration — the tangent of a state a Newton correction away from the converged one, one
+        factorization per increment saved — or None. Returns (converged, iterations, x, R, last factorization)."""
+        self.target = target
+        out = iterate(self, xt, Rt, self.test, replace(self.rules, max_iter=max_iter), self.fz, lu)
+        self.iterations += out.iterations
+        self.t_tan += out.seconds_tangent
+        self.t_lu += out.seconds_solve
+        if out.residual != np.inf:
+            self.residual = out.residual
+        return out.converged, out.iterations, out.x, out.R, out.factor
 
 
 def _on_branch(X: Arr, xt: Arr, Rt: Arr, direction: Arr | None) -> bool:
@@ -315,11 +315,13 @@ def solve_path(
     red = _Reduced(p, threads)
     N, n = red.N, red.n
     X = np.vstack([p.X, p.masters])
-    diagK = np.bincount(red.model.edofs.ravel(), weights=red.model.linear_diagonal().ravel(), minlength=6 * n)
+    diagK: Arr = np.asarray(np.bincount(red.model.edofs.ravel(), weights=red.model.linear_diagonal().ravel(),
+                                        minlength=6 * n), dtype=np.float64)  # (float already: typed as such)
     dscale = float(np.mean(diagK[diagK > 0])) if np.any(diagK > 0) else 1.0
-    noise = np.finfo(np.float64).eps * float(np.abs(X).max()) * float(np.linalg.norm(diagK))
-    nw = _Newton(p, red, X, p.fixed[:, 3:].all(axis=1), dscale, ROUNDOFF_FACTOR * noise, rtol, max_iter,
-                 max_rotation_step, reuse_ratio, link_reference, factorizer())
+    # the first iteration of an increment is its predictor (prescribed dofs moved, the last increment's
+    # factorization): the increment's baseline residual is the second's
+    nw = _Newton(p, red, X, p.fixed[:, 3:].all(axis=1), dscale, Convergence.at_roundoff(rtol, roundoff_noise(X, diagK)),
+                 Rules(max_iter, reuse_ratio, max_rotation_step, baseline=2), link_reference, factorizer())
     x, R = X.copy(), np.broadcast_to(np.eye(3), (N, 3, 3)).copy()
     largest = 1.0 / steps if max_step is None else max(float(max_step), 1.0 / steps)
     lam, dlam = 0.0, min(first_step, largest) if first_step else 1.0 / steps
@@ -346,8 +348,8 @@ def solve_path(
                 red.place_slaves(p, xt, Rt, target)
             f0 = nw.factorizations
             nw.label = f"increment {incs + cuts + 1}, λ = {lam:.3f} → {target:.3f}"
-            nw.max_iter = max_iter if guess is None else min(max_iter, WARM_ITERATIONS)
-            ok, its, xt, Rt, lu = nw.run(xt, Rt, target, kept if guess is None else None)
+            ok, its, xt, Rt, lu = nw.run(xt, Rt, target, kept if guess is None else None,
+                                         max_iter if guess is None else min(max_iter, WARM_ITERATIONS))
             if ok and not _on_branch(X, xt, Rt, direction):
                 ok, unstable = False, True  # the other branch (see ``direction``)
             if guess is not None:

@@ -29,6 +29,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from fabpat.shell.assembly import Assembler
@@ -200,7 +201,7 @@ class _Reduced:
             gr[sl] = 0.0
         return gr
 
-    def matrix(self, p: LinkedProblem, x: Arr, R: Arr, d: Arr, g: Arr, scale: float) -> object:
+    def matrix(self, p: LinkedProblem, x: Arr, R: Arr, d: Arr, g: Arr, scale: float) -> sp.csc_matrix:
         """Reduced tangent (CSC) with identity rows (× scale) at the prescribed dofs."""
         n = self.n
         Ke = self.model.tangents_at(x, R)

@@ -15,6 +15,7 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from fabpat.errors import SolverError
@@ -22,6 +23,7 @@ from fabpat.shell.assembly import Assembler, SupportedAssembler
 from fabpat.shell.corotational import CorotationalTriangles
 from fabpat.shell.element import Material
 from fabpat.shell.linalg import BACKENDS, Pardiso, SuperLUFactorizer, factorizer, superlu
+from fabpat.shell.newton import Convergence, Residual, Rules, iterate, roundoff_noise
 from fabpat.shell.results import ShellResult
 from fabpat.shell.rotations import expmap, logmap
 
@@ -51,15 +53,6 @@ class ShellProblem:
         object.__setattr__(self, "F", np.asarray(self.F, dtype=np.int64))
         object.__setattr__(self, "fixed", np.asarray(self.fixed, dtype=bool).reshape(-1, 6))
         object.__setattr__(self, "loads", np.asarray(self.loads, dtype=np.float64).reshape(-1, 6))
-
-
-#: Round-off floor of the residual test, as a multiple of ε·L·‖diag K‖ (ε machine epsilon, L the
-#: largest node coordinate, K the linear stiffness on the free dofs). The corotational internal
-#: forces subtract positions of size L, so their round-off is about ε·L·K: measured on 0x2d88
-#: (Cantilever, E = 1000…2e5 N/mm², t = 0.5…10 mm) Newton stalls at 0.007–0.11 × ε·L·‖diag K‖.
-#: Half of it keeps stiff plates converging and stays below 1e-8·‖f‖ for the default PLA plate at
-#: full load, so the default results do not change.
-ROUNDOFF_FACTOR = 0.5
 
 
 class _MeshSetup:
@@ -132,6 +125,47 @@ def solve_linear(p: ShellProblem) -> ShellResult:
                        {"assemble": t1 - t0, "solve": t2 - t1, "total": time.perf_counter() - t0})
 
 
+class _LoadStep:
+    """One load step of :func:`solve_nonlinear` as a :class:`fabpat.shell.newton.NewtonSystem`: the
+    residual λ f − f_int(x, R) over the free dofs, the corotational tangent (the linear stiffness at the
+    unstressed start) with the supports as unit rows, and the step's displacement for the external work."""
+
+    def __init__(self, model: CorotationalTriangles, asm: SupportedAssembler, f: Arr, fnorm: float, K0e: Arr) -> None:
+        self.model, self.asm, self.f, self.fnorm, self.K0e = model, asm, f, fnorm, K0e
+        self.dofs, self.n_dofs = asm.order, asm.n_dofs
+        self.target, self.unstressed = 0.0, False
+        self.step = np.zeros(asm.n_dofs)
+        self.evaluations = self.factorizations = 0
+        self.r = self.fe = self.d = np.zeros(0)
+
+    def start(self, target: float, unstressed: bool) -> None:
+        """Aim at λ = target; ``unstressed``: the first iterate is the unloaded plate."""
+        self.target, self.unstressed = target, unstressed
+        self.step = np.zeros(self.asm.n_dofs)
+
+    def evaluate(self, x: Arr, R: Arr) -> Residual:
+        self.evaluations += 1
+        self.fe, _, self.d = self.model.element_forces(*self.model.gather(x, R))
+        self.r = self.target * self.f - self.asm.vector(self.fe)
+        return Residual(float(np.linalg.norm(self.r[self.asm.free])), self.target * self.fnorm)
+
+    def tangent(self, x: Arr, R: Arr, iteration: int) -> sp.csc_matrix:
+        # at the unstressed start the tangent is exactly the linear stiffness
+        Ke = self.K0e if self.unstressed and iteration == 1 else \
+            self.model.element_tangents(*self.model.gather(x, R), self.d)
+        return self.asm.matrix(Ke)
+
+    def rhs(self) -> Arr:
+        return self.asm.rhs(self.r)
+
+    def factored(self, iteration: int) -> None:
+        self.factorizations += 1
+
+    def place(self, x: Arr, R: Arr, D: Arr) -> tuple[Arr, Arr]:
+        self.step += D.ravel()
+        return x, R
+
+
 def solve_nonlinear(
     p: ShellProblem,
     *,
@@ -146,138 +180,74 @@ def solve_nonlinear(
 ) -> ShellResult:
     """Geometrically nonlinear (corotational) solution under the loads ``p.loads`` at λ = 1.
 
-    Convergence: ‖r_free‖ ≤ max(rtol·‖λ f_free‖, floor) (forces and moments in one norm), where the
-    floor is the round-off level of the internal forces, ``ROUNDOFF_FACTOR``·ε·L·‖diag K‖: without it a
-    stiff plate (E·t ≳ 1e5 N/mm) asks for a residual below what floating point resolves. A Newton correction whose
+    Each load step is a Newton iteration of :func:`fabpat.shell.newton.iterate` (the one the assembly
+    solver runs too). Convergence: ‖r_free‖ ≤ max(rtol·‖λ f_free‖, floor) (forces and moments in one
+    norm), where the floor is the round-off level of the internal forces,
+    ``ROUNDOFF_FACTOR``·ε·L·‖diag K‖ (:class:`fabpat.shell.newton.Convergence`). A Newton correction whose
     largest nodal rotation exceeds ``max_rotation_step`` (rad) is scaled down (keeps the iteration
     inside the basin where rotations are resolved). The tangent and its LU are reused while the
     residual drops by at least ``reuse_ratio`` per iteration (0 → full Newton).
     A step that fails (no convergence in ``max_iter``, growing residual, still 100× its first residual
-    after 10 iterations, or non-finite values) is halved; below ``min_step`` of the load a
-    SolverError is raised. Steps double after ≤ 4 iterations. ``linear_solver``: "auto", "pardiso" or
-    "superlu" (:func:`fabpat.shell.linalg.factorizer`; the results agree to the Newton tolerance).
-
-    One function: the load stepping, the Newton loop, the step cuts and the error that says what was reached
-    share the solver state; its stages are commented in order.
+    after 10 iterations, 1e6 × the load, or non-finite values) is halved; below ``min_step`` of the load a
+    SolverError is raised. Steps double after ≤ 4 iterations. ``predictor``: start each step from the last
+    converged increment extrapolated (secant). ``linear_solver``: "auto", "pardiso" or "superlu"
+    (:func:`fabpat.shell.linalg.factorizer`; the results agree to the Newton tolerance).
     """
     t0 = time.perf_counter()
     if linear_solver not in BACKENDS:
         factorizer(linear_solver)  # raises, naming the choices
     ms = _mesh_setup(p)  # hashes the mesh: once per solve
     model, (asm, f), fz = ms.model, _supported(ms, p), ms.factorizer(linear_solver)
-    free = asm.free
-    fnorm = float(np.linalg.norm(f[free]))
+    fnorm = float(np.linalg.norm(f[asm.free]))
     if fnorm == 0.0:
         raise SolverError("no load applied to free dofs")
-    n = p.X.shape[0]
     K0e = model.linear_element_matrices()
-    diagK = asm.vector(np.einsum("mii->mi", K0e))[free]
-    noise = np.finfo(np.float64).eps * float(np.abs(p.X).max()) * float(np.linalg.norm(diagK))
-    floor = ROUNDOFF_FACTOR * noise
-    x, R = p.X.copy(), np.broadcast_to(np.eye(3), (n, 3, 3)).copy()
+    noise = roundoff_noise(p.X, asm.vector(np.einsum("mii->mi", K0e))[asm.free])
+    test = Convergence.at_roundoff(rtol, noise)
+    rules = Rules(max_iter, reuse_ratio, max_rotation_step, blowup=1e6 * fnorm)
+    load = _LoadStep(model, asm, f, fnorm, K0e)
+    x, R = p.X.copy(), np.broadcast_to(np.eye(3), (p.X.shape[0], 3, 3)).copy()
     lam, dlam = 0.0, float(initial_step)
-    its_total, steps, cuts, n_eval = 0, 0, 0, 0
-    work, t_tan, t_lu = 0.0, 0.0, 0.0
-    n_fact = 0
-    fe = d = None
+    its_total, steps, cuts, work, t_tan, t_lu = 0, 0, 0, 0.0, 0.0, 0.0
     prev: tuple[Arr, Arr, float] | None = None  # last converged (Δx, spin, Δλ)
-
-    def state(x0: Arr, R0: Arr, D: Arr) -> tuple[Arr, Arr]:
-        return x0 + D[:, :3], np.einsum("nij,njk->nik", expmap(D[:, 3:]), R0)
-
-    def residual(xs: Arr, Rs: Arr, target: float) -> tuple[Arr, Arr, Arr]:
-        nonlocal n_eval
-        n_eval += 1
-        fe_, _, d_ = model.element_forces(*model.gather(xs, Rs))
-        return target * f - asm.vector(fe_), fe_, d_
-
     while lam < 1.0 - 1e-12:
         target = min(1.0, lam + dlam)
         x_try, R_try = x.copy(), R.copy()
-        step_disp = np.zeros(asm.n_dofs)
+        load.start(target, unstressed=steps == 0 and not predictor)
         if predictor and prev is not None:  # secant predictor: extrapolate the last converged increment
             s_ = (target - lam) / prev[2]
             x_try += s_ * prev[0]
             R_try = np.einsum("nij,njk->nik", expmap(s_ * prev[1]), R_try)
-            step_disp[:] = s_ * np.concatenate([prev[0], prev[1]], axis=1).ravel()
-        ok, its, last_res = False, 0, np.inf
-        lu = None
-        growth = 0
-        r, fe, d = residual(x_try, R_try, target)
-        for its in range(1, max_iter + 1):  # noqa: B007 (its used after the loop)
-            res = float(np.linalg.norm(r[free]))
-            if not np.isfinite(res):
-                break
-            if res <= max(rtol * target * fnorm, floor):
-                ok = True
-                break
-            if its == 1:
-                res0 = res
-            growth = growth + 1 if res > last_res else 0
-            # give up on a step early when it is clearly lost: three rises in a row, a blow-up, or
-            # still far above the step's first residual after 10 iterations (Newton then wanders
-            # between membrane-stretch spikes; a halved step is cheaper than 15 more tries)
-            if growth >= 3 or res > 1e6 * fnorm or (its >= 10 and res > 100.0 * res0):
-                break
-            # keep the factorization while the residual falls fast (≥ reuse_ratio per iteration):
-            # one back-substitution is ~50× cheaper than a new tangent + LU
-            reuse = lu is not None and res < reuse_ratio * last_res
-            last_res = res
-            ta = time.perf_counter()
-            if not reuse:  # at the unstressed start the tangent is exactly the linear stiffness
-                Ke = K0e if steps == 0 and its == 1 and not predictor else \
-                    model.element_tangents(*model.gather(x_try, R_try), d)
-                K = asm.matrix(Ke)
-            tb = time.perf_counter()
-            try:
-                if not reuse:
-                    lu = fz.factor(K)
-                    n_fact += 1
-                du = asm.scatter(lu.solve(asm.rhs(r)))
-            except SolverError:
-                break
-            t_tan += tb - ta
-            t_lu += time.perf_counter() - tb
-            if not np.all(np.isfinite(du)):
-                break
-            D = du.reshape(-1, 6)
-            rot = float(np.max(np.linalg.norm(D[:, 3:], axis=1)))
-            if rot > max_rotation_step:
-                D *= max_rotation_step / rot
-            x_try, R_try = state(x_try, R_try, D)
-            r, fe, d = residual(x_try, R_try, target)
-            step_disp += D.ravel()
-        its_total += its
-        if ok:
-            work += 0.5 * (lam + target) * float(f @ step_disp)
-            spin = logmap(np.einsum("nij,nkj->nik", R_try, R))
-            prev = (x_try - x, spin, target - lam)
-            x, R, lam = x_try, R_try, target
+            load.step[:] = s_ * np.concatenate([prev[0], prev[1]], axis=1).ravel()
+        run = iterate(load, x_try, R_try, test, rules, fz)
+        its_total += run.iterations
+        t_tan, t_lu = t_tan + run.seconds_tangent, t_lu + run.seconds_solve
+        if run.converged:
+            work += 0.5 * (lam + target) * float(f @ load.step)
+            prev = (run.x - x, logmap(np.einsum("nij,nkj->nik", run.R, R)), target - lam)
+            x, R, lam = run.x, run.R, target
             steps += 1
-            if its <= 4:
+            if run.iterations <= 4:
                 dlam *= 2.0
-            elif its >= 10:
+            elif run.iterations >= 10:
                 dlam *= 0.5
-        else:
-            cuts += 1
-            dlam *= 0.5
-            prev = None  # the extrapolation may be what failed
-            if dlam < min_step:
-                tol = max(rtol * target * fnorm, floor)
-                why = (f"the residual stalled near the round-off level of the internal forces (about "
-                       f"{noise:.1e}): the model is ill-conditioned (very stiff or very thin?)"
-                       if last_res <= 10.0 * noise else
-                       "the structure may buckle or snap, or the loads may be too large for a load-controlled "
-                       "analysis")
-                raise SolverError(
-                    f"Newton–Raphson did not converge: load step fell below {min_step:g} of the load at "
-                    f"load fraction λ = {lam:.4f} after {its_total} iterations and {cuts} step cuts (residual "
-                    f"{last_res:.3e} vs tolerance {tol:.3e}); {why}")
-    assert fe is not None and d is not None
-    fint = asm.vector(fe)
-    react = np.where(p.fixed.ravel(), fint - f, 0.0).reshape(-1, 6)
-    ee = model.energy_split(d)
-    seconds = {"tangent": t_tan, "factor_solve": t_lu, "factorizations": float(n_fact),
-               "residuals": float(n_eval), "total": time.perf_counter() - t0}
+            continue
+        cuts += 1
+        dlam *= 0.5
+        prev = None  # the extrapolation may be what failed
+        if dlam < min_step:
+            why = (f"the residual stalled near the round-off level of the internal forces (about "
+                   f"{noise:.1e}): the model is ill-conditioned (very stiff or very thin?)"
+                   if run.residual <= 10.0 * noise else
+                   "the structure may buckle or snap, or the loads may be too large for a load-controlled "
+                   "analysis")
+            raise SolverError(
+                f"Newton–Raphson did not converge: load step fell below {min_step:g} of the load at "
+                f"load fraction λ = {lam:.4f} after {its_total} iterations and {cuts} step cuts (residual "
+                f"{run.residual:.3e} vs tolerance {test.tolerance(target * fnorm):.3e}); {why}")
+    react = np.where(p.fixed.ravel(), asm.vector(load.fe) - f, 0.0).reshape(-1, 6)
+    ee = model.energy_split(load.d)
+    seconds = {"tangent": t_tan, "factor_solve": t_lu, "factorizations": float(load.factorizations),
+               "residuals": float(load.evaluations), "total": time.perf_counter() - t0}
     return ShellResult(x - p.X, logmap(R), float(ee.sum()), ee, react, work, its_total, steps, cuts, True, True,
                        seconds)
