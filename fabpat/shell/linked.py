@@ -8,7 +8,8 @@ identity rows whose right-hand side is the increment still missing, so the first
 is the tangent predictor K_ff Δu_f = r_f − K_fp Δu_p and later ones keep them in place.
 
 **Path following** (:func:`solve_path`): λ goes 0 → 1 in ``steps`` equal report intervals, each
-crossed by as many Newton increments as needed (halved after a failure, doubled after easy ones).
+crossed by as many Newton increments as needed (halved after a failure, doubled after easy ones),
+each one run of the engine's Newton iteration (:func:`fabpat.shell.newton.iterate`).
 With loads scaled by λ this is load control; with prescribed motion it is displacement control,
 which follows a structure through buckling and along a post-buckling plateau (a limit point in the
 *prescribed* variable, a snap-back, would still stop it). A symmetric bifurcation is only left if
@@ -294,7 +295,7 @@ def solve_path(
     so far after every increment, and the increment's target and iteration after every factorization.
 
     Convergence of an increment: ‖r‖ ≤ max(rtol · max(‖λ f‖, ‖reactions‖), floor) over the dofs that
-    are neither prescribed nor slaves, with the round-off floor of :mod:`fabpat.shell.solve`. Each
+    are neither prescribed nor slaves, with the round-off floor of :mod:`fabpat.shell.newton`. Each
     increment starts from the last converged state with the prescribed increment applied through the
     tangent the last increment converged with (no new factorization); the LU is then reused while the
     residual falls by ``reuse_ratio`` per iteration. Increments start at the last successful size (at

@@ -4,7 +4,9 @@ Loads are nodal forces (N) and moments (N·mm) in global axes that keep their di
 follower loads; this is also what Abaqus/CalculiX ``*CLOAD`` does). Supports fix global dofs.
 The nonlinear solve is load-controlled Newton–Raphson on the proportional load λ·F (λ: 0 → 1) with
 the corotational tangent, automatic step growth after easy steps and step halving after a failed
-one; a run that cannot reach λ = 1 raises :class:`fabpat.errors.SolverError`.
+one; a run that cannot reach λ = 1 raises :class:`fabpat.errors.SolverError`. Each load step is one
+run of the engine's Newton iteration (:func:`fabpat.shell.newton.iterate`), as the increments of
+:func:`fabpat.shell.linked.solve_path` are.
 """
 
 from __future__ import annotations
