@@ -184,14 +184,15 @@ def panel_tiling_spec(source: str, t: _Table) -> TilingSpec:
         skel = read_panel_mesh(path, edge=edge, tolerance=tolerance, source=str(path))
     except SpecError as e:
         raise SpecError(f"{source}: tiling.file: {e}") from None
-    e = skel.edge_length()
+    mean_edge = skel.edge_length()
     try:
-        check("edge", e, "the mesh's mean edge (tiling.edge)" if edge is None else "tiling.edge", error=SpecError)
+        check("edge", mean_edge, "the mesh's mean edge (tiling.edge)" if edge is None else "tiling.edge",
+              error=SpecError)
     except SpecError as err:
         raise SpecError(f"{source}: tiling.file: {err}; give tiling.edge to scale the mesh") from None
     if len(skel.faces) > MAX_PANEL_ROWS * MAX_PANEL_COLUMNS:
         raise SpecError(f"{source}: tiling.file has {len(skel.faces)} faces: a panel has at most "
                         f"{MAX_PANEL_ROWS * MAX_PANEL_COLUMNS} tiles (checking its fused solid grows faster than its "
                         "tiles)")
-    return TilingSpec("panel", e if edge is None else edge, file=str(path), tolerance=tolerance,
+    return TilingSpec("panel", mean_edge if edge is None else edge, file=str(path), tolerance=tolerance,
                       vertices=tuple((float(x), float(y), float(z)) for x, y, z in skel.V), faces=skel.faces)
