@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 
 from fabpat.assembly.spec.sheet import DEFAULT_RESOLUTION
 from fabpat.errors import GeometryError
+from fabpat.geometry.polygons import signed_area
 from fabpat.validate import check_size
 
 #: Raster nodes of one sheet: each open sheet keeps a bool grid and the FFT correlation needs a few
@@ -80,12 +81,8 @@ class Nesting:
 
     def utilisation(self, sheet: int) -> float:
         """Fraction of the sheet's area covered by the polygons on it."""
-        area = sum(abs(_area(self.polygons[i])) for i in self.on_sheet(sheet))
+        area = sum(abs(signed_area(self.polygons[i])) for i in self.on_sheet(sheet))
         return area / (self.width * self.height)
-
-
-def _area(P: NDArray[np.float64]) -> float:
-    return 0.5 * float(np.sum(P[:, 0] * np.roll(P[:, 1], -1) - P[:, 1] * np.roll(P[:, 0], -1)))
 
 
 def _rotate(P: NDArray[np.float64], angle: float) -> NDArray[np.float64]:
@@ -104,7 +101,7 @@ def _cover(P: NDArray[np.float64], radius: float, h: float) -> tuple[NDArray[np.
     a = int(max(-lo.min(), hi.max()))
     g = np.arange(-a, a + 1) * h
     X, Y = np.meshgrid(g, g)
-    if _area(P) < 0:
+    if signed_area(P) < 0:
         P = P[::-1]
     E = np.roll(P, -1, axis=0) - P
     N = np.stack([E[:, 1], -E[:, 0]], axis=1) / np.linalg.norm(E, axis=1)[:, None]  # outward normals
@@ -157,7 +154,7 @@ def _fill(polygons: list[NDArray[np.float64]], width: float, height: float, marg
     full: set[tuple[int, int, int]] = set()  # (sheet, shape, turn) known not to fit: occupancy only grows
     shapes: dict[bytes, int] = {}
     placements: list[Placement | None] = [None] * len(polygons)
-    order = sorted(range(len(polygons)), key=lambda i: (-abs(_area(polygons[i])), i))
+    order = sorted(range(len(polygons)), key=lambda i: (-abs(signed_area(polygons[i])), i))
     stencils: dict[tuple[int, int], tuple[NDArray[np.bool_], NDArray[np.float64], float]] = {}
     spectra: dict[tuple[int, int], NDArray[np.complex64]] = {}
     xs, ys = np.arange(nx) * h, np.arange(ny) * h

@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 
 from fabpat.assembly.surface.joints import joint_direction, joint_normal, required_setback
 from fabpat.errors import GeometryError
+from fabpat.geometry.polygons import signed_area
 
 SLOT_OVERSHOOT = 1.0  # mm: the slot cutter runs past the arm's end so the mouth is cleanly open
 
@@ -119,7 +120,7 @@ class Sleeve:
     def section_area(self) -> float:
         """Area of the body's cross-section (mm²), slots not removed."""
         P = self.section
-        return 0.5 * float(np.sum(P[:, 0] * np.roll(P[:, 1], -1) - P[:, 1] * np.roll(P[:, 0], -1)))
+        return signed_area(P)
 
     def volume(self) -> float:
         """Exact volume (mm³): hull prism minus the two slot pockets (each lies inside its arm)."""

@@ -32,6 +32,7 @@ from numpy.typing import NDArray
 
 from fabpat.errors import GeometryError
 from fabpat.geometry.fillet import interface_half_length
+from fabpat.geometry.polygons import triangle_areas
 from fabpat.shell.element import Material
 from fabpat.shell.rigid_links import LinkedProblem
 from fabpat.shell.rotations import logmap
@@ -145,8 +146,7 @@ class AssemblyModel:
 
     def lumped_area(self) -> Arr:
         """(n,) nodal share of the plates' area (mm²), a third of each triangle's area."""
-        P = self.X[self.F]
-        tri = 0.5 * np.linalg.norm(np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]), axis=1)
+        tri = triangle_areas(self.X, self.F)
         return np.bincount(self.F.ravel(), np.repeat(tri / 3.0, 3), minlength=len(self.X))
 
 

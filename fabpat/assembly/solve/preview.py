@@ -33,6 +33,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from fabpat.geometry.polygons import boundary_edges, triangle_areas
+
 Arr = NDArray[np.float64]
 
 #: matplotlib colour map of the strain-energy density (perceptually uniform, readable in grey)
@@ -76,11 +78,6 @@ class PredictedShape:
     cylindricity_rms: float | None = None
 
 
-def _areas(P: Arr, F: NDArray[np.int64]) -> Arr:
-    A = P[F]
-    return 0.5 * np.linalg.norm(np.cross(A[:, 1] - A[:, 0], A[:, 2] - A[:, 0]), axis=1)
-
-
 def positions(run: Any) -> Arr:
     """(n + s, 3) deformed positions (mm) of every node of a ClosureRun or StripRun at λ = 1: the plates'
     nodes, then one per sleeve (its centre)."""
@@ -118,7 +115,7 @@ def predicted_shape(run: Any, assembly: Any) -> PredictedShape:
     n = len(m.X)
     x = positions(run)
     energy = np.asarray(run.result.element_energy, dtype=np.float64).sum(axis=1)
-    area0 = _areas(m.X, m.F)
+    area0 = triangle_areas(m.X, m.F)
     dens = energy / np.maximum(area0, 1e-300)
     R = expmap(run.result.final.rotation[:n])
     plates = []
@@ -170,14 +167,6 @@ def joint_fit(run: Any, sleeve_types: dict[str, Any], kinds: list[str]) -> tuple
 
 
 # -- meshes -------------------------------------------------------------------------------------------
-
-
-def boundary_edges(F: NDArray[np.int64]) -> NDArray[np.int64]:
-    """(k, 2) directed edges used by exactly one triangle, in that triangle's orientation."""
-    E = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
-    key = np.sort(E, axis=1)
-    _, inv, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-    return E[counts[inv.reshape(-1)] == 1]
 
 
 def thickened(V: Arr, F: NDArray[np.int64], N: Arr, thickness: float) -> tuple[Arr, NDArray[np.int64]]:
@@ -376,8 +365,8 @@ def render_prediction_png(sim: Any, path: str | os.PathLike[str], field: str = "
     n = len(m.X)
     x = positions(run)[:n]
     if field == "energy":
-        cell = np.asarray(run.result.element_energy, dtype=np.float64).sum(axis=1) / np.maximum(_areas(m.X, m.F),
-                                                                                                1e-300)
+        energy = np.asarray(run.result.element_energy, dtype=np.float64).sum(axis=1)
+        cell = energy / np.maximum(triangle_areas(m.X, m.F), 1e-300)
     elif field == "strain":
         cell = 100.0 * np.asarray(sim.element_strain, dtype=np.float64)
     else:

@@ -53,6 +53,7 @@ from numpy.typing import NDArray
 
 from fabpat.assembly.surface.tiling import Tiling, weld
 from fabpat.errors import FabpatError, SpecError
+from fabpat.geometry.polygons import newell_normal
 from fabpat.validate import FLOAT_RESOLUTION
 
 MESH_SUFFIXES = (".obj", ".ply", ".off")
@@ -404,7 +405,7 @@ def regular_deviation(P: NDArray[np.float64], edge: float) -> tuple[float, int, 
     corner), mm. Raises :class:`SpecError` ("has no area") for a face of zero area."""
     n = len(P)
     c = P.mean(axis=0)
-    normal = np.cross(P - c, np.roll(P - c, -1, axis=0)).sum(axis=0)  # Newell: the loop's turning sense
+    normal = newell_normal(P - c)  # the loop's turning sense
     size = float(np.linalg.norm(normal))
     if size <= 0.0:
         raise SpecError("has no area")

@@ -43,6 +43,7 @@ from numpy.typing import NDArray
 
 from fabpat.assembly.surface.tiling import Tiling
 from fabpat.errors import SpecError
+from fabpat.geometry.polygons import newell_normal
 
 Arr = NDArray[np.float64]
 #: mm: two placements of one corner must agree this closely for the plates' interfaces to fuse
@@ -72,7 +73,7 @@ def plane_axes(t: Tiling) -> tuple[Arr, Arr, Arr]:
     normal = np.zeros(3)
     for loop in t.faces:
         P = t.V[list(loop)] - c
-        normal += np.cross(P, np.roll(P, -1, axis=0)).sum(axis=0)
+        normal += newell_normal(P)
     normal /= np.linalg.norm(normal)
     axis = np.eye(3)[0] if abs(normal[0]) < 0.9 else np.eye(3)[1]
     u = axis - (axis @ normal) * normal

@@ -23,6 +23,7 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import NDArray
 
+from fabpat.geometry.polygons import newell_normal
 from fabpat.patterns.lattice import polygon_vertices
 from fabpat.validate import SAME_POINT
 
@@ -117,7 +118,7 @@ class Tiling:
         out = []
         for loop, c in zip(self.faces, self.centroids, strict=True):
             P = self.V[list(loop)] - c
-            n = np.cross(P, np.roll(P, -1, axis=0)).sum(axis=0)
+            n = newell_normal(P)
             out.append(n / np.linalg.norm(n))
         return np.array(out)
 
