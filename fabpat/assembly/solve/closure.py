@@ -64,6 +64,7 @@ from fabpat.shell.linked import PathResult, solve_path
 
 if TYPE_CHECKING:
     from fabpat.assembly.place.placement import Assembly, PlacedSleeve
+    from fabpat.assembly.spec.types import AssemblySpec
 
 Arr = NDArray[np.float64]
 
@@ -231,17 +232,16 @@ def shape_sphere(P: Arr) -> ShapeSphere:
     return ShapeSphere(centre, radius, rel, float(np.abs(d).max()) / radius)
 
 
-def sphere_text(run: object) -> str:
+def sphere_text(run: ClosureRun) -> str:
     """The shape read-out of a closure (a :class:`ClosureRun`): "radius R mm, sphericity rms S % (max M %)",
     a tube's "cylinder radius R mm, cylindricity rms C %", or its ``sphere_note`` when no sphere describes
     the shape."""
-    if getattr(run, "cylinder_radius", None) is not None:  # a tube: its cylinder
-        return (f"cylinder radius {run.cylinder_radius:.2f} mm, "  # type: ignore[attr-defined]
-                f"cylindricity rms {100 * run.cylindricity_rms:.2f} %")  # type: ignore[attr-defined]
-    if getattr(run, "radius", None) is None:
-        return str(getattr(run, "sphere_note", "") or "no sphere")
-    return (f"radius {run.radius:.2f} mm, sphericity rms {100 * run.sphericity_rms:.2f} % "  # type: ignore[attr-defined]
-            f"(max {100 * run.sphericity_max:.2f} %)")  # type: ignore[attr-defined]
+    if run.cylinder_radius is not None and run.cylindricity_rms is not None:  # a tube: its cylinder
+        return f"cylinder radius {run.cylinder_radius:.2f} mm, cylindricity rms {100 * run.cylindricity_rms:.2f} %"
+    if run.radius is None or run.sphericity_rms is None or run.sphericity_max is None:
+        return str(run.sphere_note or "no sphere")
+    return (f"radius {run.radius:.2f} mm, sphericity rms {100 * run.sphericity_rms:.2f} % "
+            f"(max {100 * run.sphericity_max:.2f} %)")
 
 
 def fit_cylinder(P: Arr, axis: Arr) -> tuple[Arr, Arr, float]:
@@ -345,8 +345,9 @@ def slot_motions(asm: Assembly, s: PlacedSleeve, plates: list[ModelPlate]) -> tu
     return out[0], out[1]
 
 
-def closure_setup(spec: object, face_patterns: list[str], *, h: float = 3.0, E: float | None = None,
-                  nu: float | None = None, placed: Any = None, filleted: dict[Any, Any] | None = None) -> ClosureSetup:
+def closure_setup(spec: AssemblySpec, face_patterns: list[str], *, h: float = 3.0, E: float | None = None,
+                  nu: float | None = None, placed: Assembly | None = None,
+                  filleted: dict[Any, Any] | None = None) -> ClosureSetup:
     """Mesh, place and join the plates of a closed spec (an AssemblySpec), sleeves turning from each
     joint's dihedral to the spec's sleeve angle. ``E`` (N/mm²) and ``nu`` default to ``[material]``.
     ``placed`` and ``filleted``: the kit's Assembly and outlines, if already made
@@ -356,15 +357,15 @@ def closure_setup(spec: object, face_patterns: list[str], *, h: float = 3.0, E: 
     """
     from fabpat.assembly.place.placement import place
 
-    asm = place(spec, face_patterns) if placed is None else placed  # type: ignore[arg-type]
-    t = spec.plates.thickness  # type: ignore[attr-defined]
-    w = spec.plates.weight  # type: ignore[attr-defined]
+    asm = place(spec, face_patterns) if placed is None else placed
+    t = spec.plates.thickness
+    w = spec.plates.weight
     check_h(h, asm.plate_edge, w)
     plates = model_plates(asm, h, t, w, filleted)
     sleeves = [ModelSleeve(s.label, s.transform, s.plates, float(s.dihedral - s.angle), slot_motions(asm, s, plates))
                for s in asm.sleeves]
     setup = closure_model(plates, sleeves, plate_material(spec, E, nu))
-    return ClosureSetup(setup.model, setup.held, tube=spec.tiling.kind == "hex-tube")  # type: ignore[attr-defined]
+    return ClosureSetup(setup.model, setup.held, tube=spec.tiling.kind == "hex-tube")
 
 
 @dataclass(frozen=True, eq=False)

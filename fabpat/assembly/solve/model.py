@@ -25,7 +25,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -37,6 +37,10 @@ from fabpat.shell.element import Material
 from fabpat.shell.rigid_links import LinkedProblem
 from fabpat.shell.rotations import logmap
 from fabpat.simulation.mesh import ShellMesh
+
+if TYPE_CHECKING:  # pragma: no cover
+    from fabpat.assembly.place.placement import Assembly
+    from fabpat.assembly.spec.types import AssemblySpec
 
 Arr = NDArray[np.float64]
 
@@ -182,7 +186,7 @@ def check_h(h: float, plate_edge: float, weight: float) -> None:
                             f"long; use h ≤ {math.floor(MAX_H_PER_INTERFACE * seg * 1000) / 1000:g} mm")
 
 
-def model_plates(asm: object, h: float, thickness: float, weight: float,
+def model_plates(asm: Assembly, h: float, thickness: float, weight: float,
                  filleted: dict[Any, Any] | None = None) -> list[ModelPlate]:
     """The placed plates of a kit's Assembly as model plates: each type meshed once (target edge h, mm),
     its mid-surface placed at half the thickness (mm) of the solid the placement maps. ``filleted``:
@@ -192,14 +196,14 @@ def model_plates(asm: object, h: float, thickness: float, weight: float,
 
     plates = []
     own: dict[Any, Any] = {}
-    for pl in asm.plates:  # type: ignore[attr-defined]
+    for pl in asm.plates:
         if filleted is not None and pl.type in filleted:
             if pl.type not in own:
                 own[pl.type] = mesh_outline(filleted[pl.type].outline, h, pl.type.sides,
-                                            asm.plate_edge, weight=weight)  # type: ignore[attr-defined]
+                                            asm.plate_edge, weight=weight)
             mesh = own[pl.type]
         else:
-            mesh = plate_mesh(pl.type.pattern_id, pl.type.sides, asm.plate_edge, weight, h,  # type: ignore[attr-defined]
+            mesh = plate_mesh(pl.type.pattern_id, pl.type.sides, asm.plate_edge, weight, h,
                               pl.type.bridge_weight)
         T = pl.transform.copy()
         T[:3, 3] += T[:3, 2] * (0.5 * thickness)  # the transform maps the solid z ∈ [0, t]: mid-surface at t/2
@@ -207,14 +211,14 @@ def model_plates(asm: object, h: float, thickness: float, weight: float,
     return plates
 
 
-def plate_material(spec: object, E: float | None = None, nu: float | None = None) -> Material:
+def plate_material(spec: AssemblySpec, E: float | None = None, nu: float | None = None) -> Material:
     """The plates' :class:`~fabpat.shell.element.Material` for every kind of assembly: Young's modulus ``E``
     (N/mm²) and Poisson's ratio ``nu``, each defaulting to the spec's ``[material]``
     (:class:`fabpat.assembly.spec.types.MaterialSpec`: 1000 N/mm² and 0.35, the scenarios' own), and the spec's
     plate thickness (mm)."""
-    m = spec.material  # type: ignore[attr-defined]
+    m = spec.material
     return Material(m.youngs_modulus if E is None else E, m.poisson if nu is None else nu,
-                    spec.plates.thickness)  # type: ignore[attr-defined]
+                    spec.plates.thickness)
 
 
 def assembly_model(plates: list[ModelPlate], sleeves: list[ModelSleeve], material: Material) -> AssemblyModel:

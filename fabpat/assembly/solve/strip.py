@@ -31,7 +31,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -48,6 +48,10 @@ from fabpat.assembly.solve.model import (
 )
 from fabpat.errors import GeometryError
 from fabpat.shell.linked import PathResult, solve_path
+
+if TYPE_CHECKING:  # pragma: no cover
+    from fabpat.assembly.place.placement import Assembly
+    from fabpat.assembly.spec.types import AssemblySpec
 
 Arr = NDArray[np.float64]
 
@@ -97,8 +101,9 @@ class StripSetup:
     x0: float
 
 
-def strip_setup(spec: object, face_patterns: list[str], *, h: float = 3.0, E: float | None = None,
-                nu: float | None = None, placed: Any = None, filleted: dict[Any, Any] | None = None) -> StripSetup:
+def strip_setup(spec: AssemblySpec, face_patterns: list[str], *, h: float = 3.0, E: float | None = None,
+                nu: float | None = None, placed: Assembly | None = None,
+                filleted: dict[Any, Any] | None = None) -> StripSetup:
     """Mesh, place and join the plates of a ``honeycomb-strip`` spec (an AssemblySpec). ``placed``: the
     kit's Assembly of these patterns, if already placed, and ``filleted`` its outlines per plate type
     (:func:`~fabpat.assembly.solve.model.model_plates`): nothing is placed or filleted again. ``E`` (N/mm²) and
@@ -108,9 +113,9 @@ def strip_setup(spec: object, face_patterns: list[str], *, h: float = 3.0, E: fl
     """
     from fabpat.assembly.place.placement import place
 
-    asm = place(spec, face_patterns) if placed is None else placed  # type: ignore[arg-type]
-    t = spec.plates.thickness  # type: ignore[attr-defined]
-    w = spec.plates.weight  # type: ignore[attr-defined]
+    asm = place(spec, face_patterns) if placed is None else placed
+    t = spec.plates.thickness
+    w = spec.plates.weight
     check_h(h, asm.plate_edge, w)
     plates = model_plates(asm, h, t, w, filleted)
     sleeves = [ModelSleeve(s.label, s.transform, s.plates) for s in asm.sleeves]
