@@ -2,7 +2,7 @@
 
 The paper shows by printing that a graded strip, pinned at both ends and pushed together, bends
 asymmetrically with its stiff end flatter. fabpat's assembly solver does that past buckling, plates
-joined by sleeves under end shortening (``fabpat.assembly.simulate``, ``fabpat simulate-assembly``). This
+joined by sleeves under end shortening (``fabpat.assembly.solve.strip``, ``fabpat simulate-assembly``). This
 older model welds the tiles and stays below buckling under a controlled load; the study keeps it because
 its amplification reading (Southwell) estimates the buckling load, which the displacement-controlled
 solver does not report.
@@ -14,7 +14,7 @@ Model (the decisions, in one place):
   modelled. Tiles joined by a sleeve share the nodes of their common interface segment, i.e. the
   sleeve's "full restraint" is a welded joint over the segment (:func:`strip_model` checks that the two
   tiles' segment nodes coincide).
-* Pins at both ends (the kit's pins, :func:`fabpat.assembly.placement.end_interfaces`): the nodes of the
+* Pins at both ends (the kit's pins, :func:`fabpat.assembly.place.placement.end_interfaces`): the nodes of the
   first column's end interfaces hold ux, uy, uz; those of the last column hold uy, uz and carry the
   compression P, a uniform line load along −x over their segments. Rotations are free: hinges.
 * A perturbation selects the upward buckle: a uniform out-of-plane force, ``imperfection`` × P in
@@ -36,8 +36,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.assembly.placement import end_interfaces
-from fabpat.assembly.tiling import Tiling
+from fabpat.assembly.place.placement import end_interfaces
+from fabpat.assembly.surface.tiling import Tiling
 from fabpat.errors import GeometryError
 from fabpat.shell import ShellProblem, ShellResult, solve_linear
 from fabpat.shell.element import Material

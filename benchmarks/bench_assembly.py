@@ -27,8 +27,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from fabpat.assembly.build import assemble
-from fabpat.assembly.spec import load_spec, parse_spec
+from fabpat.assembly.kit.build import assemble
+from fabpat.assembly.spec.load import load_spec, parse_spec
 
 ROOT = Path(__file__).resolve().parents[1]
 SPECS = ("test-small.toml", "truncated-icosahedron.toml", "truncated-icosahedron-rigid.toml")
@@ -67,7 +67,7 @@ def goldberg_spec(m: int, n: int) -> object:
 def solve_row(name: str, h: float) -> dict[str, object]:
     """One assembly solve at mesh edge h (mm): counts, seconds by phase and the answers. ``name``: a shipped
     spec's file stem, or ``goldberg-M-N``."""
-    from fabpat.assembly.simulation import simulate_assembly
+    from fabpat.assembly.solve.simulation import simulate_assembly
 
     if name.startswith("goldberg-"):
         m, n = (int(v) for v in name.split("-")[1:])
@@ -146,7 +146,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory(prefix="bench-assembly-") as tmp:
         for name in SPECS:
             results[name] = run(ROOT / "assemblies" / name, Path(tmp) / name.removesuffix(".toml"))
-        from fabpat.assembly.export import read_step_solids
+        from fabpat.assembly.show.export import read_step_solids
 
         t = time.perf_counter()
         solids, names = read_step_solids(Path(tmp) / "truncated-icosahedron-rigid" / "assembly.step")

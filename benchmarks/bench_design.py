@@ -82,7 +82,7 @@ def shape_target(kind: str, length: float, out: Path) -> Path:
 
 def resimulate(folder: Path, target: Path, h: float) -> float:
     """rms error (mm) of ``simulate_assembly(design.toml)`` (its [load] end_shortening) against the target."""
-    from fabpat.assembly.simulation import simulate_assembly
+    from fabpat.assembly.solve.simulation import simulate_assembly
 
     sim = simulate_assembly(folder / "design.toml", h=h)
     x, z = midline(sim.run.setup, sim.run.result.final.displacement)
@@ -109,7 +109,7 @@ def main() -> None:
 def closed(a: argparse.Namespace) -> None:
     """The shipped sphere spec against each closed target: the design and its baselines (relative rms over
     the radius), re-simulated with ``simulate_assembly(design.toml)``."""
-    from fabpat.assembly.simulation import simulate_assembly
+    from fabpat.assembly.solve.simulation import simulate_assembly
 
     spec = ROOT / "assemblies" / "truncated-icosahedron.toml"
     print(f"\nh = {a.h:g} mm, --max-solves {a.closed_solves}, --workers {a.workers}\n")

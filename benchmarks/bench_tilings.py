@@ -25,8 +25,8 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
-from fabpat.assembly.simulation import simulate_assembly
-from fabpat.assembly.spec import load_spec, parse_spec
+from fabpat.assembly.solve.simulation import simulate_assembly
+from fabpat.assembly.spec.load import load_spec, parse_spec
 
 ROOT = Path(__file__).resolve().parents[1]
 

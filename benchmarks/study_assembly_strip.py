@@ -21,9 +21,9 @@ import time
 
 import numpy as np
 
-from fabpat.assembly.choice import face_patterns
-from fabpat.assembly.simulate import run_strip, strip_setup, write_profiles_png
-from fabpat.assembly.spec import load_spec
+from fabpat.assembly.choose.choice import face_patterns
+from fabpat.assembly.solve.strip import run_strip, strip_setup, write_profiles_png
+from fabpat.assembly.spec.load import load_spec
 
 SPEC = "assemblies/graded-strip.toml"
 

@@ -17,9 +17,9 @@ from pathlib import Path
 
 from _strip_load import critical_load, simulate_strip, strip_model  # benchmarks/ is sys.path[0] when a study runs
 
-from fabpat.assembly.choice import face_patterns
-from fabpat.assembly.spec import load_spec
-from fabpat.assembly.tiling import honeycomb_strip
+from fabpat.assembly.choose.choice import face_patterns
+from fabpat.assembly.spec.load import load_spec
+from fabpat.assembly.surface.tiling import honeycomb_strip
 
 SPEC = Path(__file__).resolve().parents[1] / "assemblies" / "graded-strip.toml"
 

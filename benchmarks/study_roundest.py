@@ -4,7 +4,7 @@
     python benchmarks/study_roundest.py --candidates 4 --h 4 --only members
 
 For each way (``patterns``: the spec's rule alone; ``members``: with ``bridge_weight = "rule"``, the
-catalog's swept family members join the candidates, :mod:`fabpat.assembly.members`) it prints the candidate
+catalog's swept family members join the candidates, :mod:`fabpat.assembly.choose.members`) it prints the candidate
 pairs in the rule's order with the closed sphere's radius (mm), sphericity_rms and sphericity_max
 (radial deviation over the radius, %), peak surface strain (%) and seconds, the kept pair marked, and
 any note on a polygon without family rows. The number the rule minimises is sphericity_rms (under the
@@ -18,10 +18,10 @@ import time
 import tomllib
 from pathlib import Path
 
-from fabpat.assembly.choice import candidate_pairs
-from fabpat.assembly.placement import build_tiling
-from fabpat.assembly.predict import choose_roundest
-from fabpat.assembly.spec import parse_spec
+from fabpat.assembly.choose.choice import candidate_pairs
+from fabpat.assembly.place.placement import build_tiling
+from fabpat.assembly.solve.predict import choose_roundest
+from fabpat.assembly.spec.load import parse_spec
 
 SPEC = Path(__file__).resolve().parents[1] / "assemblies" / "truncated-icosahedron.toml"
 

@@ -19,8 +19,8 @@ import dataclasses
 import time
 from pathlib import Path
 
-from fabpat.assembly.simulation import simulate_assembly
-from fabpat.assembly.spec import load_spec
+from fabpat.assembly.solve.simulation import simulate_assembly
+from fabpat.assembly.spec.load import load_spec
 
 SPEC = "assemblies/truncated-icosahedron.toml"
 

@@ -279,7 +279,7 @@ def library_families(catalog: Path | None, rows: list[dict]) -> None:
 
 def rule_mismatch(catalog: Path | None) -> None:
     """Table 6: how far the rules' patterns are from their targets, discrete and with members."""
-    from fabpat.assembly import rules
+    from fabpat.assembly.choose import rules
     from fabpat.catalog import polygon_energies
     from fabpat.catalog.family import family_curves
 

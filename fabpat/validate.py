@@ -1,7 +1,7 @@
 """One check for every number a user gives fabpat: finite, and inside its physical range.
 
 The command line (through :class:`fabpat.cli.options.NumberType`), the assembly specs
-(:mod:`fabpat.assembly.spec`) and the public functions (``get_pattern``, ``fillet_pattern``,
+(:mod:`fabpat.assembly.spec.load`) and the public functions (``get_pattern``, ``fillet_pattern``,
 ``mesh_outline``, ``run_scenario``, the exporters) all call :func:`check` with a name from
 :data:`RANGES`, so a value is accepted or refused the same way everywhere and the message says the
 range. The table, with the reasons for each bound, is in docs/reliability.md.

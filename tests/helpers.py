@@ -45,8 +45,8 @@ def flat_sphere() -> Any:
     """The shipped sphere (``assemblies/truncated-icosahedron.toml``: the paper's pair, straight sleeves)
     closed by ``simulate_assembly`` at :data:`SPHERE_H` in :data:`SPHERE_STEPS`, once per test process: the
     sphere-closure, warm-start and prediction tests read this one closure. Callers must not modify it."""
-    from fabpat.assembly.simulation import simulate_assembly
-    from fabpat.assembly.spec import load_spec
+    from fabpat.assembly.solve.simulation import simulate_assembly
+    from fabpat.assembly.spec.load import load_spec
 
     return simulate_assembly(load_spec(FLAT_SPHERE), h=SPHERE_H, steps=SPHERE_STEPS)
 

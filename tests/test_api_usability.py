@@ -125,7 +125,7 @@ def test_design_is_the_call_whichever_import_comes_first() -> None:
     run = subprocess.run([sys.executable, "-c", _FRONT_DOOR], capture_output=True, text=True, env=env, timeout=60)
     assert run.stdout.split() == ["attribute-first", "True", "TargetError", "submodule-first", "True", "TargetError"], \
         run.stderr.strip().splitlines()[-1:]
-    from fabpat.assembly.build import assemble
+    from fabpat.assembly.kit.build import assemble
 
     assert fabpat.assemble is assemble and "assemble" in dir(fabpat)
 

@@ -155,3 +155,25 @@ def test_escapes_from_the_type_checker_do_not_grow() -> None:
     assert ignores <= TYPE_IGNORES, f"{ignores} `type: ignore` in fabpat/, at most {TYPE_IGNORES}"
     assert anys <= ANY_ANNOTATIONS, f"{anys} `: Any` in fabpat/, at most {ANY_ANNOTATIONS}"
     assert ignores > 50 and anys > 50  # the walk finds the package (a wrong path would pass vacuously)
+
+
+def test_the_assembly_is_rooms_behind_a_face() -> None:
+    """``fabpat/assembly`` holds its face and at most 8 entries, each a sub-package of at most 12 modules, in
+    the module map in import order (so no room imports a later one: the test above) and no two rooms importing
+    each other; its face is the five names."""
+    root = PACKAGE / "assembly"
+    entries = sorted(p.name for p in root.iterdir() if p.name != "__pycache__" and p.name != "__init__.py")
+    assert len(entries) + 1 <= 8, entries
+    assert all((root / e).is_dir() for e in entries), "every job of the assembly is a sub-package"
+    for e in entries:
+        count = len(list((root / e).glob("*.py")))
+        assert 2 <= count <= 12, f"assembly/{e} has {count} modules"
+    known = modules()
+    room = {m: m.split(".")[1] for m in known if m.startswith("assembly.")}
+    arrows = {(room[m], room[i]) for m in room for i in imports(known[m], known) if i in room and room[i] != room[m]}
+    both = sorted((a, b) for a, b in arrows if (b, a) in arrows and a < b)
+    assert both == [], f"rooms importing each other: {both}"
+    import fabpat.assembly as face
+
+    assert sorted(face.__all__) == ["AssemblySimulation", "AssemblySpec", "assemble", "load_spec",
+                                    "simulate_assembly"]

@@ -42,7 +42,7 @@ def test_lists_the_files_written(kit: tuple[Path, list[str]]) -> None:
 
 
 def test_step_assembly_reimports(kit: tuple[Path, list[str]]) -> None:
-    from fabpat.assembly.export import read_step_solids
+    from fabpat.assembly.show.export import read_step_solids
 
     count, names = read_step_solids(kit[0] / "assembly.step")
     assert count == 5  # 3 plates + 2 sleeves
@@ -101,7 +101,7 @@ def test_glb_preview(kit: tuple[Path, list[str]]) -> None:
 def test_sheets_reread_without_overlaps(kit: tuple[Path, list[str]]) -> None:
     import manifold3d
 
-    from fabpat.assembly.sheets import read_sheet
+    from fabpat.assembly.kit.sheets import read_sheet
 
     sheets = sorted((kit[0] / "sheets").glob("*.dxf"))
     assert len(sheets) == 2
@@ -199,14 +199,14 @@ def test_bad_specs_fail_cleanly(case: str, tmp_path: Path) -> None:
 
 
 def test_failure_after_start_leaves_nothing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    from fabpat.assembly import build
-    from fabpat.assembly.spec import load_spec
+    from fabpat.assembly.kit import build
+    from fabpat.assembly.spec.load import load_spec
     from fabpat.errors import ExportError
 
     def broken(*args: object, **kwargs: object) -> None:
         raise ExportError("disk full (simulated)")
 
-    monkeypatch.setattr("fabpat.assembly.export.write_glb", broken)
+    monkeypatch.setattr("fabpat.assembly.show.export.write_glb", broken)
     with pytest.raises(ExportError, match="simulated"):
         build.assemble(load_spec(SMALL), tmp_path / "kit")
     assert os.listdir(tmp_path) == []
@@ -258,8 +258,8 @@ def test_assemble_places_the_sphere_and_fillets_its_plates_once(tmp_path: Path, 
                                                                  ) -> None:
     """A default ``assemble`` of the shipped sphere (its prediction included) places the assembly once and
     fillets each of its two plate types once: the prediction solves the kit's own placement and outlines."""
-    import fabpat.assembly.build as build
-    import fabpat.assembly.placement as placement
+    import fabpat.assembly.kit.build as build
+    import fabpat.assembly.place.placement as placement
     import fabpat.geometry.fillet as fillet
 
     calls = {"place": 0, "fillet": 0}

@@ -23,13 +23,13 @@ SPEC = {"tiling": {"kind": "honeycomb-strip", "edge": 36.0, "rows": 1, "columns"
 
 
 def small():  # type: ignore[no-untyped-def]
-    from fabpat.assembly.spec import parse_spec
+    from fabpat.assembly.spec.load import parse_spec
 
     return parse_spec(SPEC, "two.toml")
 
 
 def build(out: Path):  # type: ignore[no-untyped-def]
-    from fabpat.assembly.build import assemble
+    from fabpat.assembly.kit.build import assemble
 
     return assemble(small(), out, predict=False)
 
@@ -105,7 +105,7 @@ def test_a_manifest_that_is_not_a_json_object_is_one_line(tmp_path: Path, text: 
 
 
 def test_out_dot_is_refused_without_a_part_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    from fabpat.assembly.build import assemble
+    from fabpat.assembly.kit.build import assemble
     from fabpat.errors import ExportError
 
     work = tmp_path / "work"
@@ -119,7 +119,7 @@ def test_out_dot_is_refused_without_a_part_folder(tmp_path: Path, monkeypatch: p
 
 def test_a_failed_swap_keeps_the_earlier_kit_and_leaves_no_part_folder(tmp_path: Path,
                                                                        monkeypatch: pytest.MonkeyPatch) -> None:
-    from fabpat.assembly import kit_folder
+    from fabpat.assembly.kit import folder as kit_folder
     from fabpat.errors import ExportError
 
     out = tmp_path / "kit"

@@ -23,7 +23,7 @@ SHEET = {"width": 170.0, "height": 90.0}
 
 
 def parse(data: dict, **kw: object):  # type: ignore[no-untyped-def, type-arg]
-    from fabpat.assembly.spec import parse_spec
+    from fabpat.assembly.spec.load import parse_spec
 
     return parse_spec(data, "s.toml", **kw)  # type: ignore[arg-type]
 
@@ -31,7 +31,7 @@ def parse(data: dict, **kw: object):  # type: ignore[no-untyped-def, type-arg]
 @pytest.fixture(scope="module")
 def strip_run():  # type: ignore[no-untyped-def]
     """STRIP (no [sheet]) simulated at h = 6 mm, once for the tests that read a finished simulation."""
-    from fabpat.assembly.simulation import simulate_assembly
+    from fabpat.assembly.solve.simulation import simulate_assembly
 
     return simulate_assembly(parse(STRIP), h=6.0)
 
@@ -70,7 +70,7 @@ def test_every_problem_of_a_spec_is_one_line_in_one_run(tmp_path: Path) -> None:
 
 
 def test_the_library_lists_the_problems() -> None:
-    from fabpat.assembly.spec import SpecProblems
+    from fabpat.assembly.spec.load import SpecProblems
 
     with pytest.raises(SpecProblems) as e:
         parse({**STRIP, "tiling": {"kind": "honeycomb-strip", "edge": 0, "rows": 0, "columns": 2},
@@ -152,8 +152,8 @@ def test_names_must_be_printable_and_short(name: str, words: str) -> None:
 
 @pytest.mark.slow
 def test_a_mathtext_name_draws_and_a_unicode_name_is_valid_xml(tmp_path: Path) -> None:
-    from fabpat.assembly.build import assemble
-    from fabpat.assembly.render import picture_size
+    from fabpat.assembly.kit.build import assemble
+    from fabpat.assembly.show.render import picture_size
 
     for k, name in enumerate(["$\\frac{ $", "Kuppel – Ø 90 mm <&> ✓"]):
         spec = parse({**STRIP, "name": name, "sheet": SHEET, "output": {"formats": ["png", "svg"]}})
@@ -169,7 +169,7 @@ def test_a_mathtext_name_draws_and_a_unicode_name_is_valid_xml(tmp_path: Path) -
 
 
 def test_an_absurd_strain_is_not_converged() -> None:
-    from fabpat.assembly.simulation import simulate_assembly
+    from fabpat.assembly.solve.simulation import simulate_assembly
 
     with pytest.raises(SolverError, match="small-strain shell model") as e:
         # h = 7.5 mm: the strain is about 100 % at any mesh (104 % at h = 3, 98 % at 7.5, measured)
@@ -178,7 +178,7 @@ def test_an_absurd_strain_is_not_converged() -> None:
 
 
 def test_candidates_are_bounded() -> None:
-    from fabpat.assembly.spec import MAX_CANDIDATES
+    from fabpat.assembly.spec.load import MAX_CANDIDATES
 
     sphere = {"tiling": {"kind": "truncated-icosahedron", "edge": 36.0}, "sleeve": {"angle": "flat"}}
     assert parse({**sphere, "patterns": {"rule": "roundest", "candidates": MAX_CANDIDATES}}).patterns.candidates == 20
@@ -189,12 +189,12 @@ def test_candidates_are_bounded() -> None:
 def test_memory_is_estimated_before_meshing(monkeypatch: pytest.MonkeyPatch) -> None:
     """A 1 × 1000 strip at h = 6 is inside the 200 000-element limit but needs about 7 GB: on a machine
     with 4 GB free it is refused with one line naming both, before anything is meshed."""
-    from fabpat.assembly import simulation, sizing
+    from fabpat.assembly.solve import simulation, sizing
 
     spec = parse({**STRIP, "tiling": {"kind": "honeycomb-strip", "edge": 36.0, "rows": 1, "columns": 1000},
                   "patterns": {"pattern": "0x0488"}})
     monkeypatch.setattr(sizing, "available_memory", lambda: 4_000_000_000)
-    monkeypatch.setattr("fabpat.assembly.simulate.strip_setup", lambda *a, **k: pytest.fail("meshed"))
+    monkeypatch.setattr("fabpat.assembly.solve.strip.strip_setup", lambda *a, **k: pytest.fail("meshed"))
     with pytest.raises(GeometryError) as e:
         simulation.simulate_assembly(spec, h=6.0)
     line = str(e.value)
@@ -208,7 +208,7 @@ def test_memory_is_estimated_against_the_process_limit(monkeypatch: pytest.Monke
     was all the estimate knew."""
     import resource
 
-    from fabpat.assembly import simulation, sizing
+    from fabpat.assembly.solve import simulation, sizing
 
     real = resource.getrlimit
     monkeypatch.setattr(resource, "getrlimit", lambda which: (6_000_000_000, resource.RLIM_INFINITY)
@@ -217,7 +217,7 @@ def test_memory_is_estimated_against_the_process_limit(monkeypatch: pytest.Monke
     assert room is not None and room < 6_000_000_000  # less what the process has mapped already
     spec = parse({**STRIP, "tiling": {"kind": "honeycomb-strip", "edge": 36.0, "rows": 1, "columns": 1000},
                   "patterns": {"pattern": "0x0488"}})
-    monkeypatch.setattr("fabpat.assembly.simulate.strip_setup", lambda *a, **k: pytest.fail("meshed"))
+    monkeypatch.setattr("fabpat.assembly.solve.strip.strip_setup", lambda *a, **k: pytest.fail("meshed"))
     with pytest.raises(GeometryError, match=r"more than the [0-5]\.\d GB available to this process .*ulimit -v"):
         simulation.simulate_assembly(spec, h=6.0)
 
@@ -226,8 +226,8 @@ def test_memory_is_estimated_against_the_process_limit(monkeypatch: pytest.Monke
 
 
 def test_library_calls_raise_one_line_errors(strip_run, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
-    from fabpat.assembly.build import assemble
-    from fabpat.assembly.spec import load_spec, parse_spec
+    from fabpat.assembly.kit.build import assemble
+    from fabpat.assembly.spec.load import load_spec, parse_spec
 
     with pytest.raises(SpecError, match="must be a table"):
         parse_spec(None)  # type: ignore[arg-type]
@@ -283,7 +283,7 @@ HEX_MESH = {"patterns": {"pattern": "0x0488"}, "plates": {"thickness": 1.0}}
 
 
 def _mesh_spec(tmp_path: Path, kind: str, file: object) -> SpecError:
-    from fabpat.assembly.spec import parse_spec
+    from fabpat.assembly.spec.load import parse_spec
 
     with pytest.raises(SpecError) as e:
         parse_spec({**HEX_MESH, "tiling": {"kind": kind, "file": file, "edge": 36.0}}, str(tmp_path / "s.toml"))
@@ -334,7 +334,7 @@ SCANS = {
 def test_a_mesh_of_too_many_faces_is_refused_before_its_checks(tmp_path: Path, suffix: str) -> None:
     import time
 
-    from fabpat.assembly.mesh_tiling import MAX_MESH_FACES, mesh_tiling, read_polygon_mesh
+    from fabpat.assembly.surface.mesh_tiling import MAX_MESH_FACES, mesh_tiling, read_polygon_mesh
 
     path = tmp_path / f"scan.{suffix}"
     path.write_text(SCANS[suffix])
@@ -379,18 +379,18 @@ def test_the_mesh_helpers_refuse_none_strings_and_floats_by_name(call, words: st
 
 
 def mesh_tiling_(*args: object, **kw: object):  # type: ignore[no-untyped-def]
-    from fabpat.assembly.mesh_tiling import mesh_tiling
+    from fabpat.assembly.surface.mesh_tiling import mesh_tiling
 
     return mesh_tiling(*args, **kw)  # type: ignore[arg-type]
 
 
 def polyhedra_():  # type: ignore[no-untyped-def]
-    from fabpat.assembly import polyhedra
+    from fabpat.assembly.surface import polyhedra
 
     return polyhedra
 
 
 def read_polygon_mesh_(path: object):  # type: ignore[no-untyped-def]
-    from fabpat.assembly.mesh_tiling import read_polygon_mesh
+    from fabpat.assembly.surface.mesh_tiling import read_polygon_mesh
 
     return read_polygon_mesh(path)  # type: ignore[arg-type]

@@ -1,7 +1,7 @@
 """Mesh tilings (``[tiling] kind = "mesh"``): a polygon-mesh file whose faces carry the plates.
 
 The references are outside the code under test: the truncated icosahedron built in
-:mod:`fabpat.assembly.tiling` (written as OBJ, PLY and OFF, it must come back as the same tiling and the
+:mod:`fabpat.assembly.surface.tiling` (written as OBJ, PLY and OFF, it must come back as the same tiling and the
 same kit), a cube of edge 36 mm typed in by hand (12 joints at 90°), and hand-made broken meshes, each
 refused with one line that names the face or edge.
 """
@@ -16,10 +16,10 @@ import meshio
 import numpy as np
 import pytest
 
-from fabpat.assembly.mesh_tiling import mesh_tiling, read_polygon_mesh, write_obj
-from fabpat.assembly.placement import place
-from fabpat.assembly.spec import load_spec, parse_spec
-from fabpat.assembly.tiling import truncated_icosahedron
+from fabpat.assembly.place.placement import place
+from fabpat.assembly.spec.load import load_spec, parse_spec
+from fabpat.assembly.surface.mesh_tiling import mesh_tiling, read_polygon_mesh, write_obj
+from fabpat.assembly.surface.tiling import truncated_icosahedron
 from fabpat.errors import SpecError
 from tests.helpers import invoke
 
@@ -96,7 +96,7 @@ def test_mesh_spec_places_the_plates_as_the_built_in_sphere(ti_files: Path) -> N
 @pytest.mark.slow
 def test_mesh_kit_is_the_built_in_sphere_kit(ti_files: Path, tmp_path: Path) -> None:
     """The same kit file for file (no prediction: the closure is compared in test_sphere_closure)."""
-    from fabpat.assembly.build import assemble
+    from fabpat.assembly.kit.build import assemble
 
     outs = []
     for name, spec in (("built", SPHERE), ("mesh", ti_files / "ti-mesh.toml")):

@@ -17,13 +17,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fabpat.assembly.closure import SPHERE_RMS_LIMIT, shape_sphere
-from fabpat.assembly.mesh_tiling import read_polygon_mesh
-from fabpat.assembly.necks import neck_extent, neck_half_width
-from fabpat.assembly.placement import place
-from fabpat.assembly.simulation import simulate_assembly
-from fabpat.assembly.sleeve import required_setback
-from fabpat.assembly.spec import load_spec, parse_spec
+from fabpat.assembly.place.necks import neck_extent, neck_half_width
+from fabpat.assembly.place.placement import place
+from fabpat.assembly.solve.closure import SPHERE_RMS_LIMIT, shape_sphere
+from fabpat.assembly.solve.simulation import simulate_assembly
+from fabpat.assembly.spec.load import load_spec, parse_spec
+from fabpat.assembly.surface.joints import required_setback
+from fabpat.assembly.surface.mesh_tiling import read_polygon_mesh
 from fabpat.errors import SpecError
 from tests.helpers import invoke
 

@@ -8,9 +8,9 @@ from xml.etree import ElementTree
 import numpy as np
 import pytest
 
-from fabpat.assembly.nesting import Nesting, Placement, check_nesting, convex_distance, nest
-from fabpat.assembly.net import net_svg, unfold
-from fabpat.assembly.tiling import honeycomb_strip, truncated_icosahedron
+from fabpat.assembly.kit.net import net_svg, unfold
+from fabpat.assembly.place.nesting import Nesting, Placement, check_nesting, convex_distance, nest
+from fabpat.assembly.surface.tiling import honeycomb_strip, truncated_icosahedron
 from fabpat.errors import GeometryError
 from fabpat.patterns.lattice import polygon_vertices
 
@@ -113,7 +113,7 @@ def test_nesting_packs_the_sphere_and_the_strip_tighter() -> None:
 
 
 def test_nesting_raster_is_bounded() -> None:
-    from fabpat.assembly.nesting import nest
+    from fabpat.assembly.place.nesting import nest
     from fabpat.patterns.lattice import polygon_vertices
 
     with pytest.raises(GeometryError, match="raster nodes of a 9000 × 9000 mm sheet"):

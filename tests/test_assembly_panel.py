@@ -28,22 +28,29 @@ SPEC = {"name": "panel test", "tiling": {"kind": "panel", "edge": 36.0, "rows": 
         "output": {"mesh_tolerance": 0.05}}
 
 
+
+def chosen_panel(spec):  # noqa: ANN001, ANN201 - a test's shorthand
+    """The panel of ``spec`` with the patterns its ``[patterns]`` choose."""
+    from fabpat.assembly.choose.choice import face_patterns
+    from fabpat.assembly.place.panel import build_panel
+
+    return build_panel(spec, face_patterns(spec))
+
 def parse(data: dict = SPEC):  # noqa: ANN201 - AssemblySpec
-    from fabpat.assembly.spec import parse_spec
+    from fabpat.assembly.spec.load import parse_spec
 
     return parse_spec(data, "panel.toml")
 
 
 @pytest.fixture(scope="module")
 def panel():  # noqa: ANN201 - Panel
-    from fabpat.assembly.panel import build_panel
 
-    return build_panel(parse())
+    return chosen_panel(parse())
 
 
 @pytest.fixture(scope="module")
 def kit(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    from fabpat.assembly.build import assemble
+    from fabpat.assembly.kit.build import assemble
 
     out = tmp_path_factory.mktemp("panel") / "kit"
     assemble(parse(), out, timestamp="2025-01-01T00:00:00Z")
@@ -63,7 +70,7 @@ def tile_ids() -> list[str]:
 
 
 def test_the_fused_outline_is_the_plates_with_one_hole_per_inner_vertex(panel) -> None:  # noqa: ANN001
-    from fabpat.assembly.tiling import honeycomb_strip
+    from fabpat.assembly.surface.tiling import honeycomb_strip
 
     ids = tile_ids()
     assert [pt.pattern_id for pt in panel.types] == ids
@@ -79,7 +86,7 @@ def test_the_fused_outline_is_the_plates_with_one_hole_per_inner_vertex(panel) -
 
 
 def test_the_plates_meet_tangentially_where_the_boundary_is_relinked(panel) -> None:  # noqa: ANN001
-    from fabpat.assembly.panel import joints, relink_angles
+    from fabpat.assembly.place.panel import joints, relink_angles
 
     angles = relink_angles(panel.plates, joints(panel.tiling))
     assert len(angles) == 46 and angles.max() < 1e-9  # G1: no cusp for OCCT or Triangle
@@ -244,7 +251,7 @@ def test_the_3dm_holds_the_exact_outline(kit: Path, panel) -> None:  # noqa: ANN
 def test_simulate_assembly_pushes_a_panel_into_an_arch() -> None:
     import math
 
-    from fabpat.assembly.simulation import simulate_assembly
+    from fabpat.assembly.solve.simulation import simulate_assembly
 
     data = {"tiling": {"kind": "panel", "edge": 36.0, "rows": 1, "columns": 3}, "patterns": {"pattern": A},
             "plates": {"thickness": 0.8}}
@@ -280,8 +287,8 @@ def test_bad_panel_specs_are_one_line(tmp_path: Path, change, words: str) -> Non
 @pytest.mark.parametrize("kind", ["panel", "honeycomb-strip"])
 def test_a_single_column_is_not_pushed(kind: str) -> None:
     """Its first and last columns are one: an 'end shortening' of nothing once reported converged."""
-    from fabpat.assembly.simulation import simulate_assembly
-    from fabpat.assembly.spec import parse_spec
+    from fabpat.assembly.solve.simulation import simulate_assembly
+    from fabpat.assembly.spec.load import parse_spec
     from fabpat.errors import SpecError
 
     data = {"tiling": {"kind": kind, "edge": 36.0, "rows": 3, "columns": 1}, "patterns": {"pattern": "0x0488"}}
@@ -290,7 +297,7 @@ def test_a_single_column_is_not_pushed(kind: str) -> None:
 
 
 def test_print_bed_report_tells_the_size_and_a_part_past_a_common_bed() -> None:
-    from fabpat.assembly.panel_sheet import print_bed_report
+    from fabpat.assembly.kit.panel import print_bed_report
 
     spec = parse()
     line, warn = print_bed_report(spec, (150.0, 210.0))  # 210 mm > 200 mm whichever way it lies
@@ -312,7 +319,7 @@ def test_3mf_is_a_panel_format_only() -> None:
 
 
 def test_the_shipped_panel_spec_parses() -> None:
-    from fabpat.assembly.spec import load_spec
+    from fabpat.assembly.spec.load import load_spec
 
     spec = load_spec(ROOT / "assemblies" / "panel.toml", need_sheet=True)
     assert spec.tiling.panel and spec.tiling.strip and (spec.tiling.rows, spec.tiling.columns) == (3, 4)
@@ -338,8 +345,7 @@ def toml_text(data: dict) -> str:
 
 
 def test_rules_and_tile_tables_choose_each_tiles_pattern() -> None:
-    from fabpat.assembly.choice import face_patterns
-    from fabpat.assembly.panel import build_panel
+    from fabpat.assembly.choose.choice import face_patterns
 
     graded = parse({"tiling": {"kind": "panel", "edge": 36.0, "rows": 2, "columns": 4},
                     "patterns": {"rule": "graded", "count": 2}})
@@ -347,7 +353,7 @@ def test_rules_and_tile_tables_choose_each_tiles_pattern() -> None:
     assert len(set(ids)) == 2 and ids[:4] == [ids[0]] * 4 and ids[4:] == [ids[4]] * 4  # two groups of 2 columns
     table = parse({"tiling": {"kind": "panel", "edge": 36.0, "rows": 1, "columns": 3},
                    "patterns": {"tiles": {"T1": A, "T2": B, "T3": A}, "bridge_weight": {"T2": 0.5}}})
-    panel = build_panel(table)
+    panel = chosen_panel(table)
     assert [pt.label for pt in panel.types] == [f"hex {A}", f"hex {B} b0.5", f"hex {A}"]
     assert panel.fused.fused == 2 and len(panel.outline.holes) == sum(
         len(panel.filleted[pt].outline.holes) for pt in panel.types)  # a single row: no gap is closed

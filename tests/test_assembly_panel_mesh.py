@@ -22,6 +22,14 @@ E = 36.0  # mm
 A, B = "0x0488", "0x0588"
 
 
+
+def chosen_panel(spec):  # noqa: ANN001, ANN201 - a test's shorthand
+    """The panel of ``spec`` with the patterns its ``[patterns]`` choose."""
+    from fabpat.assembly.choose.choice import face_patterns
+    from fabpat.assembly.place.panel import build_panel
+
+    return build_panel(spec, face_patterns(spec))
+
 def write_obj(path: Path, V: np.ndarray, faces: list[tuple[int, ...]]) -> Path:
     lines = [f"v {x!r} {y!r} {z!r}" for x, y, z in np.asarray(V).tolist()]
     lines += ["f " + " ".join(str(i + 1) for i in f) for f in faces]
@@ -111,7 +119,7 @@ def squares_under_triangles(cols: int) -> tuple[np.ndarray, list[tuple[int, ...]
 
 
 def spec_of(tmp: Path, mesh: str, patterns: dict, **tiling: object):  # noqa: ANN201 - AssemblySpec
-    from fabpat.assembly.spec import parse_spec
+    from fabpat.assembly.spec.load import parse_spec
 
     data = {"name": "mesh panel", "tiling": {"kind": "panel", "file": mesh, **tiling}, "patterns": patterns,
             "plates": {"thickness": 2.0}, "sheet": {"width": 300.0, "height": 260.0, "border": False},
@@ -146,14 +154,13 @@ def square_spec(tmp_path_factory: pytest.TempPathFactory):  # noqa: ANN201 - Ass
 
 @pytest.fixture(scope="module")
 def square_panel(square_spec):  # noqa: ANN001, ANN201 - Panel
-    from fabpat.assembly.panel import build_panel
 
-    return build_panel(square_spec)
+    return chosen_panel(square_spec)
 
 
 @pytest.fixture(scope="module")
 def square_kit(square_spec, tmp_path_factory: pytest.TempPathFactory) -> Path:  # noqa: ANN001
-    from fabpat.assembly.build import assemble
+    from fabpat.assembly.kit.build import assemble
 
     out = tmp_path_factory.mktemp("square-kit") / "kit"
     assemble(square_spec, out, timestamp="2025-01-01T00:00:00Z")
@@ -208,8 +215,8 @@ def test_the_square_kit_is_one_watertight_part_with_one_outer_loop(square_kit: P
 
 
 def test_a_panel_bom_names_the_sheet_file_only_when_the_kit_writes_it(square_panel) -> None:  # noqa: ANN001
-    from fabpat.assembly.panel_bom import bom_rows
-    from fabpat.assembly.panel_sheet import nest_panel
+    from fabpat.assembly.kit.panel import nest_panel
+    from fabpat.assembly.kit.panel_bom import bom_rows
 
     nesting, _ = nest_panel(square_panel.spec)
     with_dxf = bom_rows(square_panel, nesting, ["panel.stl", "panel.dxf", "sheets/sheet-01.dxf"])
@@ -221,13 +228,12 @@ def test_a_panel_bom_names_the_sheet_file_only_when_the_kit_writes_it(square_pan
 
 
 def test_a_hexagon_patch_from_a_file_is_the_rows_by_columns_panel(tmp_path: Path) -> None:
-    from fabpat.assembly.panel import build_panel
-    from fabpat.assembly.spec import parse_spec
+    from fabpat.assembly.spec.load import parse_spec
     from fabpat.exchange.cad import volume
 
     write_obj(tmp_path / "hex.obj", *hexagons(2, 3))
-    mesh = build_panel(spec_of(tmp_path, "hex.obj", {"hexagon": A}))
-    grid = build_panel(parse_spec({"tiling": {"kind": "panel", "edge": E, "rows": 2, "columns": 3},
+    mesh = chosen_panel(spec_of(tmp_path, "hex.obj", {"hexagon": A}))
+    grid = chosen_panel(parse_spec({"tiling": {"kind": "panel", "edge": E, "rows": 2, "columns": 3},
                                    "patterns": {"pattern": A}}, "grid.toml"))
     assert mesh.labels == tuple(f"H{f}" for f in range(1, 7))
     assert mesh.outline.area == pytest.approx(grid.outline.area, rel=1e-9)
@@ -238,11 +244,11 @@ def test_a_hexagon_patch_from_a_file_is_the_rows_by_columns_panel(tmp_path: Path
 
 
 def test_a_triangle_grid_from_an_off_file(tmp_path: Path) -> None:
-    from fabpat.assembly.panel import build_panel, joints, relink_angles
+    from fabpat.assembly.place.panel import joints, relink_angles
 
     V, faces = triangles(2, 3)
     write_off(tmp_path / "tri.off", V, faces)
-    p = build_panel(spec_of(tmp_path, "tri.off", {"triangle": B}))
+    p = chosen_panel(spec_of(tmp_path, "tri.off", {"triangle": B}))
     assert len(p.types) == 12 and p.labels[0] == "T01" and p.fused.fused == 13
     assert p.outline.area == pytest.approx(12 * plate(B, 3).outline.area, rel=1e-12)
     degree = np.bincount(np.concatenate(faces))
@@ -257,12 +263,12 @@ def test_a_triangle_grid_from_an_off_file(tmp_path: Path) -> None:
 ])
 def test_different_polygons_meet_g1_and_fuse(tmp_path: Path, build, pats: dict, sides: dict,  # noqa: ANN001
                                              mixed: int) -> None:
-    from fabpat.assembly.panel import build_panel, joints, relink_angles
-    from fabpat.assembly.spec_types import POLYGON_KEYS
+    from fabpat.assembly.place.panel import joints, relink_angles
+    from fabpat.assembly.spec.types import POLYGON_KEYS
     from fabpat.exchange.cad import check_valid, volume
 
     write_ply(tmp_path / "mixed.ply", *build())
-    p = build_panel(spec_of(tmp_path, "mixed.ply", pats))
+    p = chosen_panel(spec_of(tmp_path, "mixed.ply", pats))
     assert {n: sum(pt.sides == n for pt in p.types) for n in sides} == sides
     # the two bow-tie halves of different polygons meet at one point with one tangent: kept as two arcs
     assert p.fused.mixed == mixed and p.fused.mixed_gap[0] < 1e-12 and p.fused.mixed_gap[1] < 1e-12
@@ -273,7 +279,7 @@ def test_different_polygons_meet_g1_and_fuse(tmp_path: Path, build, pats: dict, 
 
 
 def test_the_ends_of_a_mesh_panel_along_its_longer_side(square_panel, tmp_path: Path) -> None:  # noqa: ANN001
-    from fabpat.assembly.simulation import simulate_assembly
+    from fabpat.assembly.solve.simulation import simulate_assembly
 
     x = [float(a[0]) for _, _, a, b in square_panel.pins()]
     fixed = len(square_panel.ends()[0])
@@ -290,7 +296,7 @@ def test_the_ends_of_a_mesh_panel_along_its_longer_side(square_panel, tmp_path: 
 
 
 def test_a_mesh_panel_without_two_ends_is_not_pushed(tmp_path: Path) -> None:
-    from fabpat.assembly.simulation import simulate_assembly
+    from fabpat.assembly.solve.simulation import simulate_assembly
     from fabpat.errors import SpecError
 
     write_obj(tmp_path / "one.obj", *squares(1, 1))  # one square is at both ends: nothing to push
@@ -349,7 +355,7 @@ def test_the_mesh_checks_name_the_face_or_edge(tmp_path: Path, mesh, words: str)
 
 
 def test_the_patterns_of_a_mesh_panel_are_chosen_by_polygon(tmp_path: Path) -> None:
-    from fabpat.assembly.spec import parse_spec
+    from fabpat.assembly.spec.load import parse_spec
     from fabpat.errors import SpecError
 
     write_obj(tmp_path / "sq.obj", *squares(1, 2))
@@ -365,7 +371,7 @@ def test_the_patterns_of_a_mesh_panel_are_chosen_by_polygon(tmp_path: Path) -> N
 
 
 def test_the_shipped_square_panel_spec_parses() -> None:
-    from fabpat.assembly.spec import load_spec
+    from fabpat.assembly.spec.load import load_spec
 
     root = Path(__file__).resolve().parents[1]
     spec = load_spec(root / "assemblies" / "panel-squares.toml", need_sheet=True)

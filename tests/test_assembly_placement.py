@@ -1,4 +1,4 @@
-"""``fabpat.assembly.placement.check_geometry``: the geometric bounds a spec's keys must meet (sleeve depth,
+"""``fabpat.assembly.place.placement.check_geometry``: the geometric bounds a spec's keys must meet (sleeve depth,
 edge, plate weight), named up front with the keys they come from, before any plate is built."""
 
 from __future__ import annotations
@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from fabpat.assembly.placement import check_geometry
-from fabpat.assembly.spec import load_spec, parse_spec
+from fabpat.assembly.place.placement import check_geometry
+from fabpat.assembly.spec.load import load_spec, parse_spec
 from fabpat.errors import SpecError
 from tests.helpers import FLAT_SPHERE as SPHERE
 from tests.helpers import ROOT, edited, one_line_error, strip

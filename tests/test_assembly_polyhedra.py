@@ -18,9 +18,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fabpat.assembly.polyhedra import goldberg, hex_cap, hex_tube
-from fabpat.assembly.simulation import simulate_assembly
-from fabpat.assembly.spec import load_spec, parse_spec
+from fabpat.assembly.solve.simulation import simulate_assembly
+from fabpat.assembly.spec.load import load_spec, parse_spec
+from fabpat.assembly.surface.polyhedra import goldberg, hex_cap, hex_tube
 from fabpat.errors import SpecError
 from tests.helpers import invoke
 
@@ -105,9 +105,9 @@ def _tube_pictures_and_glb_say_cylinder(sim, data: dict) -> None:  # noqa: ANN00
     """The kit's picture title, prediction.json record and predicted GLB metadata of the tube's run."""
     import dataclasses
 
-    from fabpat.assembly.placement import place
-    from fabpat.assembly.preview import predicted_scene, predicted_shape, prediction_title
-    from fabpat.assembly.result import prediction_record
+    from fabpat.assembly.place.placement import place
+    from fabpat.assembly.solve.preview import predicted_scene, predicted_shape, prediction_title
+    from fabpat.assembly.solve.result import prediction_record
 
     run, radius = sim.run, sim.fields()["cylinder_radius"]
     title = prediction_title("tube", run, H)
@@ -135,11 +135,11 @@ def _interface_in_slot_frames(spec: object) -> tuple[float, float, float]:
     """(largest distance mm of a plate's interface ends from where its slot holds them, in the frame the
     kit's checks seat the sleeve in; largest distance mm of an interface midpoint from its slot as placed;
     largest deviation of a sleeve frame from a rotation), computed from the placed transforms alone."""
-    from fabpat.assembly.build import plan
-    from fabpat.assembly.checks import slot_frame
-    from fabpat.assembly.parts import PartLibrary, apply
-    from fabpat.assembly.placement import setback
-    from fabpat.assembly.sleeve import joint_direction
+    from fabpat.assembly.kit.build import plan
+    from fabpat.assembly.place.checks import slot_frame
+    from fabpat.assembly.place.parts import PartLibrary, apply
+    from fabpat.assembly.place.placement import setback
+    from fabpat.assembly.surface.joints import joint_direction
 
     asm, filleted = plan(spec)
     lib = PartLibrary(asm, filleted)
@@ -176,7 +176,7 @@ def test_a_best_fit_kit_is_checked_with_each_sleeve_seated_on_its_plates() -> No
 
 
 def test_grip_problems_refuse_plates_the_prediction_puts_off_their_slots() -> None:
-    from fabpat.assembly.predict import grip_problems
+    from fabpat.assembly.solve.predict import grip_problems
     from fabpat.errors import ExportError
 
     sphere = load_spec(ROOT / "assemblies" / "truncated-icosahedron.toml")  # clearance 0.2 mm: 0.1 mm a side

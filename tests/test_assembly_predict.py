@@ -69,8 +69,8 @@ def closed():  # type: ignore[no-untyped-def]
     """The shipped sphere's plan and its closure at PREDICT_H, in-process: the ClosureRun of the shared
     simulate_assembly closure (closure_setup and run_closure of the plan's face patterns, in one report step: the
     read-outs here are of the final state)."""
-    from fabpat.assembly.build import plan
-    from fabpat.assembly.spec import load_spec
+    from fabpat.assembly.kit.build import plan
+    from fabpat.assembly.spec.load import load_spec
 
     spec = load_spec(SPHERE)
     asm, filleted = plan(spec)  # the shipped strain limit: the read-outs here do not depend on it
@@ -81,8 +81,8 @@ def closed():  # type: ignore[no-untyped-def]
 
 @pytest.mark.slow
 def test_prediction_json(kit: Path) -> None:
-    from fabpat.assembly.build import plan
-    from fabpat.assembly.spec import load_spec
+    from fabpat.assembly.kit.build import plan
+    from fabpat.assembly.spec.load import load_spec
 
     rec = json.loads((kit / "prediction.json").read_text())
     assert set(FIELDS) <= set(rec) and rec["peak"] is None and rec["half_ratio"] is None  # simulate-assembly's
@@ -118,7 +118,7 @@ def test_glb_shows_the_predicted_sphere(kit: Path) -> None:
     rec = json.loads((kit / "prediction.json").read_text())
     # the plates' vertices (metres) lie on the predicted sphere within its largest radial deviation (+ t/2)
     P = np.vstack([sc.dump()[i].vertices for i, n in enumerate(nodes) if n in plates]) * 1000.0
-    from fabpat.assembly.closure import fit_sphere
+    from fabpat.assembly.solve.closure import fit_sphere
 
     _, r = fit_sphere(P)
     assert r == pytest.approx(rec["radius"], rel=0.02)
@@ -148,7 +148,7 @@ def test_predicted_stl_is_closed(kit: Path) -> None:
 
 
 def test_parts_step_holds_the_flat_parts(kit: Path) -> None:
-    from fabpat.assembly.export import read_step_tree
+    from fabpat.assembly.show.export import read_step_tree
 
     _, rows, solids = read_step_tree(kit / "parts.step")
     assert solids == len(rows) == len(json.loads((kit / "manifest.json").read_text())["counts"])
@@ -179,7 +179,7 @@ def test_bom_lists_the_straight_sleeves(kit: Path) -> None:
 def test_sleeves_sit_on_the_deformed_joints(closed) -> None:  # type: ignore[no-untyped-def]
     """The printed (straight) sleeve placed by its master node's pose holds both plates' deformed
     interface nodes on its slots' mid-planes; the sleeve at the joint's dihedral does not."""
-    from fabpat.assembly.preview import joint_fit, sleeve_poses
+    from fabpat.assembly.solve.preview import joint_fit, sleeve_poses
 
     spec, asm, _, run = closed
     kinds = [s.kind for s in asm.sleeves]
@@ -187,7 +187,7 @@ def test_sleeves_sit_on_the_deformed_joints(closed) -> None:  # type: ignore[no-
     plane, outside = joint_fit(run, asm.sleeve_types, kinds)
     assert plane < 1e-9 and outside == 0.0
     # control: a sleeve printed at each joint's dihedral angle does not fit the bent joint
-    from fabpat.assembly.sleeve import required_setback
+    from fabpat.assembly.surface.joints import required_setback
 
     flat = asm.sleeve_types[kinds[0]]
     need = max(required_setback(s.dihedral, flat.thickness, flat.clearance, flat.wall) for s in asm.sleeves)
@@ -203,7 +203,7 @@ def test_sleeves_sit_on_the_deformed_joints(closed) -> None:  # type: ignore[no-
 
 
 def test_energy_density_colours(closed) -> None:  # type: ignore[no-untyped-def]
-    from fabpat.assembly.preview import predicted_shape
+    from fabpat.assembly.solve.preview import predicted_shape
 
     _, asm, _, run = closed
     shape = predicted_shape(run, asm)
@@ -220,7 +220,7 @@ def test_energy_density_colours(closed) -> None:  # type: ignore[no-untyped-def]
 def test_thickened_mid_surface_is_a_closed_solid() -> None:
     import trimesh
 
-    from fabpat.assembly.preview import thickened
+    from fabpat.assembly.solve.preview import thickened
 
     V = np.array([[0, 0, 0], [2, 0, 0], [2, 1, 0], [0, 1, 0], [1, 0.5, 0]], dtype=float)
     F = np.array([[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]])
@@ -261,7 +261,7 @@ def test_refuses_a_kit_over_the_strain_limit(tmp_path: Path) -> None:
 def test_no_predict(tmp_path: Path) -> None:
     """predict = False (--no-predict): no shape file, and the kit says the strain limit was not checked
     (in-process: the option's logic; the flag itself is given in the CLI kits of test_assembly_mesh and others)."""
-    from fabpat.assembly.build import assemble
+    from fabpat.assembly.kit.build import assemble
 
     spec = variant(tmp_path, "quick.toml", formats=["step", "glb", "png", "bom"])
     out = tmp_path / "kit"
@@ -277,7 +277,7 @@ def test_no_predict(tmp_path: Path) -> None:
 
 
 def test_rigid_spec_needs_no_prediction(tmp_path: Path) -> None:
-    from fabpat.assembly.build import assemble
+    from fabpat.assembly.kit.build import assemble
 
     out = tmp_path / "kit"
     text = re.sub(r"(?m)^formats = .*$", 'formats = ["glb", "bom"]', RIGID.read_text())
@@ -291,8 +291,8 @@ def test_rigid_spec_needs_no_prediction(tmp_path: Path) -> None:
 
 
 def test_steps_name_the_prediction() -> None:
-    from fabpat.assembly.build import steps
-    from fabpat.assembly.spec import load_spec
+    from fabpat.assembly.kit.build import steps
+    from fabpat.assembly.spec.load import load_spec
 
     assert "prediction" in steps(load_spec(SPHERE))
     assert "prediction" not in steps(load_spec(SPHERE), predict=False)
@@ -309,7 +309,7 @@ ENERGIES = {6: {"0x0488": 1.0, "0x0508": 1.2, "0x0588": 5.0}, 5: {"0x0508": 1.05
 def roundest_spec(strain_limit: float, angle: str = "flat"):  # type: ignore[no-untyped-def]
     import tomllib
 
-    from fabpat.assembly.spec import parse_spec
+    from fabpat.assembly.spec.load import parse_spec
 
     data = tomllib.loads(SPHERE.read_text())
     data["patterns"] = {"rule": "roundest", "candidates": 2}
@@ -324,7 +324,7 @@ def roundest_spec(strain_limit: float, angle: str = "flat"):  # type: ignore[no-
 def test_roundest_keeps_the_roundest_pair_under_the_strain_limit(tmp_path: Path) -> None:
     """Two candidate pairs closed; the limit (2.7 %) lies between their peak strains (≈ 2.4 % and ≈ 3.0 % at
     this h), so the rounder pair is refused for its strain and the other one is built."""
-    from fabpat.assembly.build import assemble, steps
+    from fabpat.assembly.kit.build import assemble, steps
 
     spec = roundest_spec(0.027)
     seen: list[str] = []
@@ -346,7 +346,7 @@ def test_roundest_keeps_the_roundest_pair_under_the_strain_limit(tmp_path: Path)
 
 @pytest.mark.parametrize("case", ["no-predict", "dihedral"])
 def test_roundest_needs_the_prediction(case: str, tmp_path: Path) -> None:
-    from fabpat.assembly.build import assemble
+    from fabpat.assembly.kit.build import assemble
     from fabpat.errors import SpecError
 
     spec = roundest_spec(0.05, "dihedral" if case == "dihedral" else "flat")
@@ -360,7 +360,7 @@ def test_simulation_png_fields(closed, tmp_path: Path) -> None:  # type: ignore[
     and an unknown one is refused."""
     import matplotlib.image as mpimg
 
-    from fabpat.assembly.simulation import PNG_FIELDS, AssemblySimulation
+    from fabpat.assembly.solve.simulation import PNG_FIELDS, AssemblySimulation
     from fabpat.errors import SpecError
     from fabpat.shell.curvature import curvature_fields
 
@@ -392,8 +392,8 @@ def test_too_coarse_predict_h_is_refused_up_front(tmp_path: Path) -> None:
 def test_default_predict_h_fits_the_interfaces() -> None:
     """3 mm on the shipped 36 mm plates; on 12 mm plates the interface segment is 2·12/16/1.2 = 1.25 mm, so
     the default drops to the largest h the mesher allows there, 2 × 1.25 mm."""
-    from fabpat.assembly.build import default_predict_h
-    from fabpat.assembly.spec import load_spec
+    from fabpat.assembly.kit.build import default_predict_h
+    from fabpat.assembly.spec.load import load_spec
 
     spec = load_spec(SPHERE)
     assert default_predict_h(spec) == 3.0
@@ -406,7 +406,7 @@ def test_default_predict_h_fits_the_interfaces() -> None:
 @pytest.mark.parametrize("kwargs", [{"predict": "yes"}, {"predict": None}, {"force": "no"}, {"force": 1},
                                     {"predict": False, "predict_h": 2.0}, {"predict_h": float("nan")}])
 def test_assemble_arguments_are_checked_first(kwargs: dict, tmp_path: Path) -> None:
-    from fabpat.assembly.build import assemble
+    from fabpat.assembly.kit.build import assemble
     from fabpat.errors import FabpatError
 
     spec = Path(__file__).resolve().parents[1] / "assemblies" / "truncated-icosahedron.toml"
@@ -417,7 +417,7 @@ def test_assemble_arguments_are_checked_first(kwargs: dict, tmp_path: Path) -> N
 
 @pytest.mark.parametrize("spec, out", [(123, "kit"), (None, "kit"), ("SPEC", None), ("SPEC", 123)])
 def test_assemble_spec_and_out_types(spec: object, out: object, tmp_path: Path) -> None:
-    from fabpat.assembly.build import assemble
+    from fabpat.assembly.kit.build import assemble
     from fabpat.errors import SpecError
 
     path = str(Path(__file__).resolve().parents[1] / "assemblies" / "truncated-icosahedron.toml")
@@ -437,7 +437,7 @@ def test_a_fine_prediction_mesh_is_refused_before_it_fills_memory(tmp_path: Path
 
 def test_a_closed_simulation_reprs_in_one_line(closed) -> None:  # type: ignore[no-untyped-def]
     """The sphere's AssemblySimulation printed over 25 000 lines (every array); now one short line."""
-    from fabpat.assembly.simulation import AssemblySimulation
+    from fabpat.assembly.solve.simulation import AssemblySimulation
 
     spec, _, _, run = closed
     sim = AssemblySimulation("truncated-icosahedron", spec.name, run.setup.model, run, 1.0, run.element_strain, {},

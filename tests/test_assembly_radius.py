@@ -1,6 +1,6 @@
 """``tiling.radius``: a closed tiling sized by the radius its plates should lie at, not by their edge.
 
-The checks are independent of the sizing code: the placed plates (:func:`fabpat.assembly.placement.place`)
+The checks are independent of the sizing code: the placed plates (:func:`fabpat.assembly.place.placement.place`)
 are sampled at random, area-weighted, and their mean distance from the centre (or the tube's axis) is
 compared with the radius asked; a truncated icosahedron's skeleton is compared with its closed form.
 """
@@ -12,8 +12,8 @@ import math
 import numpy as np
 import pytest
 
-from fabpat.assembly.placement import place, radius_line
-from fabpat.assembly.spec import parse_spec
+from fabpat.assembly.place.placement import place, radius_line
+from fabpat.assembly.spec.load import parse_spec
 from fabpat.errors import SpecError
 from fabpat.patterns.lattice import polygon_vertices
 

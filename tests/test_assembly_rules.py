@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from fabpat.assembly import rules
-from fabpat.assembly.choice import candidate_pairs, face_patterns
-from fabpat.assembly.spec import parse_spec
+from fabpat.assembly.choose import rules
+from fabpat.assembly.choose.choice import candidate_pairs, face_patterns
+from fabpat.assembly.spec.load import parse_spec
 from fabpat.errors import SpecError
 from fabpat.patterns.library import enumerate_library
 from tests.test_catalog import fake_catalog

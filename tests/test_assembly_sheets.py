@@ -14,10 +14,10 @@ import math
 import numpy as np
 import pytest
 
-from fabpat.assembly.build import plan
-from fabpat.assembly.parts import PartLibrary
-from fabpat.assembly.sheets import nest_plates, sheet_document
-from fabpat.assembly.spec import parse_spec
+from fabpat.assembly.kit.build import plan
+from fabpat.assembly.kit.sheets import nest_plates, sheet_document
+from fabpat.assembly.place.parts import PartLibrary
+from fabpat.assembly.spec.load import parse_spec
 
 SPHERE = {
     "tiling": {"kind": "truncated-icosahedron", "edge": 36.0},

@@ -7,8 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from fabpat.assembly.sleeve import Sleeve, required_setback
-from fabpat.assembly.tiling import HEX_HEX_DIHEDRAL, HEX_PENT_DIHEDRAL
+from fabpat.assembly.place.sleeve import Sleeve
+from fabpat.assembly.surface.joints import required_setback
+from fabpat.assembly.surface.tiling import HEX_HEX_DIHEDRAL, HEX_PENT_DIHEDRAL
 from fabpat.errors import GeometryError
 
 ANGLES = [math.pi, HEX_HEX_DIHEDRAL, HEX_PENT_DIHEDRAL]
@@ -41,7 +42,7 @@ def test_slot_geometry_and_angle(phi: float) -> None:
 
 
 def test_sleeve_prints_on_a_flat_face() -> None:
-    from fabpat.assembly.parts import triangulate
+    from fabpat.assembly.place.parts import triangulate
 
     s = Sleeve(HEX_PENT_DIHEDRAL, required_setback(HEX_PENT_DIHEDRAL, 2.0, 0.2, 1.2))
     V, F = triangulate(s.solid(), 0.01)

@@ -7,9 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fabpat.assembly.model import ModelPlate, ModelSleeve, assembly_model
-from fabpat.assembly.simulate import plate_mesh
-from fabpat.assembly.tiling import honeycomb_strip
+from fabpat.assembly.solve.model import ModelPlate, ModelSleeve, assembly_model, plate_mesh
+from fabpat.assembly.surface.tiling import honeycomb_strip
 from fabpat.shell.element import Material
 from fabpat.shell.linked import solve_path
 from fabpat.shell.rigid_links import LinkedProblem
@@ -199,8 +198,8 @@ STRIP_H = 5.0
 def _strip(patterns: list[str]):  # noqa: ANN202
     import dataclasses
 
-    from fabpat.assembly.simulate import strip_setup
-    from fabpat.assembly.spec import load_spec
+    from fabpat.assembly.solve.strip import strip_setup
+    from fabpat.assembly.spec.load import load_spec
 
     spec = load_spec(Path(__file__).resolve().parents[1] / "assemblies" / "test-small.toml")
     spec = dataclasses.replace(spec, tiling=dataclasses.replace(spec.tiling, rows=1, columns=len(patterns)))
@@ -209,13 +208,13 @@ def _strip(patterns: list[str]):  # noqa: ANN202
 
 @pytest.fixture(scope="module")
 def uniform_strip():  # noqa: ANN201
-    from fabpat.assembly.simulate import run_strip
+    from fabpat.assembly.solve.strip import run_strip
 
     return run_strip(_strip([SOFT] * 4), 0.1, steps=5)
 
 
 def test_straight_strip_stays_flat_then_buckles_into_a_symmetric_arch(uniform_strip) -> None:  # noqa: ANN001
-    from fabpat.assembly.simulate import run_strip
+    from fabpat.assembly.solve.strip import run_strip
 
     # below the buckling load, without an imperfection, the strip only shortens in its plane
     flat = run_strip(_strip([SOFT] * 4), 0.004, steps=1, imperfection=0.0)
@@ -235,7 +234,7 @@ def test_a_dead_imperfection_reaches_the_equilibrium_of_a_ramped_one(uniform_str
     """The strip's imperfection load reaches its full size early on the path and is held (which rounds off
     the knee of the path); an elastic equilibrium does not depend on the path to it, so the same load
     ramped with the shortening over the whole path must reach the same state at λ = 1."""
-    from fabpat.assembly.simulate import FIRST_STEP, MIN_STEP, STRIP_RTOL
+    from fabpat.assembly.solve.strip import FIRST_STEP, MIN_STEP, STRIP_RTOL
 
     setup = uniform_strip.setup
     m = setup.model
@@ -257,7 +256,7 @@ def test_a_dead_imperfection_reaches_the_equilibrium_of_a_ramped_one(uniform_str
 
 @pytest.mark.slow
 def test_graded_strip_peaks_towards_its_soft_end_and_mirrors(uniform_strip) -> None:  # noqa: ANN001
-    from fabpat.assembly.simulate import run_strip
+    from fabpat.assembly.solve.strip import run_strip
 
     graded = run_strip(_strip([STIFF] * 2 + [SOFT] * 2), 0.1, steps=5)
     mirrored = run_strip(_strip([SOFT] * 2 + [STIFF] * 2), 0.1, steps=5)

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from fabpat.assembly.spec import load_spec, parse_spec
+from fabpat.assembly.spec.load import load_spec, parse_spec
 from fabpat.errors import SpecError
 from tests.helpers import SPECS, strip
 
@@ -232,7 +232,7 @@ def _spec_numeric_keys() -> list[tuple[str, tuple]]:
 
 @pytest.mark.parametrize(("spec", "key"), _spec_numeric_keys())
 def test_spec_numbers_use_the_same_ranges(spec: str, key: tuple) -> None:
-    from fabpat.assembly.spec import parse_spec
+    from fabpat.assembly.spec.load import parse_spec
 
     data = GRADED if spec == "graded" else SPHERE
     refused = 0
@@ -251,7 +251,7 @@ def test_spec_numbers_use_the_same_ranges(spec: str, key: tuple) -> None:
     (("tiling", "columns"), 10**12, ["tiling.columns", "[1, 1000]"]),
 ])
 def test_spec_sizes(key: tuple, value: float, words: list[str]) -> None:
-    from fabpat.assembly.spec import parse_spec
+    from fabpat.assembly.spec.load import parse_spec
 
     with pytest.raises(SpecError) as e:
         parse_spec(_with(GRADED, key, value), "s.toml")
@@ -261,7 +261,7 @@ def test_spec_sizes(key: tuple, value: float, words: list[str]) -> None:
 
 @pytest.mark.parametrize("cell", [["0x0488"], {"id": "0x0488"}])
 def test_spec_cell_that_is_a_list_or_table(cell: object) -> None:
-    from fabpat.assembly.spec import parse_spec
+    from fabpat.assembly.spec.load import parse_spec
 
     data = copy.deepcopy(GRADED)
     data["patterns"] = {"tiles": [[cell] * data["tiling"]["columns"]] * data["tiling"]["rows"]}
@@ -271,7 +271,7 @@ def test_spec_cell_that_is_a_list_or_table(cell: object) -> None:
 
 @pytest.mark.parametrize("cell", [[1], {"a": 1}])
 def test_every_spec_value_as_list_or_table(cell: object) -> None:
-    from fabpat.assembly.spec import parse_spec
+    from fabpat.assembly.spec.load import parse_spec
 
     for key in _leaf_keys(SPHERE):
         with pytest.raises(SpecError):

@@ -10,11 +10,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fabpat.assembly.placement import build_tiling, check_geometry, place, setback
-from fabpat.assembly.rules import similar_pair, similar_pairs
-from fabpat.assembly.sleeve import Sleeve, joint_direction, required_setback
-from fabpat.assembly.spec import MaterialSpec, load_spec, parse_spec, sleeve_angle
-from fabpat.assembly.tiling import HEX_HEX_DIHEDRAL, HEX_PENT_DIHEDRAL
+from fabpat.assembly.choose.rules import similar_pair, similar_pairs
+from fabpat.assembly.place.placement import build_tiling, check_geometry, place, setback
+from fabpat.assembly.place.sleeve import Sleeve
+from fabpat.assembly.spec.load import MaterialSpec, load_spec, parse_spec, sleeve_angle
+from fabpat.assembly.surface.joints import joint_direction, required_setback
+from fabpat.assembly.surface.tiling import HEX_HEX_DIHEDRAL, HEX_PENT_DIHEDRAL
 from fabpat.errors import SpecError
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -267,7 +268,7 @@ def test_depth_bound_spans_the_joints_of_one_part() -> None:
 
 
 def test_bent_sleeve_transform_turns_each_slot_onto_its_plate() -> None:
-    from fabpat.assembly.checks import bent_sleeve_transform
+    from fabpat.assembly.place.checks import bent_sleeve_transform
 
     asm = placed(sphere(sleeve={"angle": "flat"}))
     for s in asm.sleeves[:5]:
@@ -295,9 +296,9 @@ def test_shipped_sphere_specs() -> None:
 
 
 def test_the_flat_kit_passes_the_checks_only_with_the_sleeves_turned(monkeypatch: pytest.MonkeyPatch) -> None:
-    from fabpat.assembly import checks
-    from fabpat.assembly.build import plan
-    from fabpat.assembly.parts import PartLibrary
+    from fabpat.assembly.kit.build import plan
+    from fabpat.assembly.place import checks
+    from fabpat.assembly.place.parts import PartLibrary
     from fabpat.errors import GeometryError
 
     lib = PartLibrary(*plan(parse_spec(sphere(sleeve={"angle": "flat"}))))
@@ -314,7 +315,7 @@ def test_the_flat_kit_passes_the_checks_only_with_the_sleeves_turned(monkeypatch
 def test_assemble_writes_the_flat_sphere_kit(tmp_path: Path) -> None:
     import dataclasses
 
-    from fabpat.assembly.build import assemble
+    from fabpat.assembly.kit.build import assemble
 
     out = tmp_path / "kit"
     # predict=False: the kit's parts without the closure (tests/test_assembly_predict.py has the prediction and

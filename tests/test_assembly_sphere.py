@@ -7,12 +7,12 @@ import math
 import numpy as np
 import pytest
 
-from fabpat.assembly.build import plan
-from fabpat.assembly.checks import check_assembly, interface_midpoints, intersections
-from fabpat.assembly.parts import PartLibrary
-from fabpat.assembly.placement import setback
-from fabpat.assembly.spec import parse_spec
-from fabpat.assembly.tiling import HEX_HEX_DIHEDRAL, HEX_PENT_DIHEDRAL
+from fabpat.assembly.kit.build import plan
+from fabpat.assembly.place.checks import check_assembly, interface_midpoints, intersections
+from fabpat.assembly.place.parts import PartLibrary
+from fabpat.assembly.place.placement import setback
+from fabpat.assembly.spec.load import parse_spec
+from fabpat.assembly.surface.tiling import HEX_HEX_DIHEDRAL, HEX_PENT_DIHEDRAL
 from fabpat.errors import GeometryError, SpecError
 
 SPHERE = {
@@ -88,7 +88,7 @@ def test_interference_is_detected(sphere: PartLibrary) -> None:
 
 
 def test_step_assembly_of_the_sphere_reimports(sphere: PartLibrary, tmp_path) -> None:
-    from fabpat.assembly.export import read_step_solids, write_step_assembly
+    from fabpat.assembly.show.export import read_step_solids, write_step_assembly
 
     path = tmp_path / "sphere.step"
     write_step_assembly(sphere, path, "sphere")
@@ -101,7 +101,7 @@ def test_step_names_read_back_as_written(sphere: PartLibrary, tmp_path) -> None:
     """Every placed part: an instance named by its label, of a product "H01 hex 0x0488" (unique, so
     FreeCAD's label renumbering never touches it), holding the shared part product named with its
     parameters — read back with OCCT's XDE reader (STEPCAFControl_Reader), as FreeCAD reads STEP."""
-    from fabpat.assembly.export import read_step_tree, write_step_assembly
+    from fabpat.assembly.show.export import read_step_tree, write_step_assembly
 
     path = tmp_path / "sphere.step"
     write_step_assembly(sphere, path, "truncated-icosahedron")
@@ -134,8 +134,8 @@ def test_glb_of_the_sphere_in_metres_with_shared_meshes(sphere: PartLibrary, tmp
     bounding cube has half-side 3φ/2 · E (vertices (0, ±1, ±3φ) · E/2), the sleeve adds its profile."""
     import trimesh
 
-    from fabpat.assembly.export import PALETTE, SLEEVE_COLOUR, write_glb
-    from fabpat.assembly.parts import apply
+    from fabpat.assembly.place.parts import apply
+    from fabpat.assembly.show.export import PALETTE, SLEEVE_COLOUR, write_glb
 
     path = tmp_path / "sphere.glb"
     write_glb(sphere, path)

@@ -102,8 +102,8 @@ def test_bom_and_manifest_record_the_patterns(kit: Path) -> None:
 
 
 def test_a_rule_is_named_as_the_chooser(tmp_path: Path) -> None:
-    from fabpat.assembly.build import assemble
-    from fabpat.assembly.spec import parse_spec
+    from fabpat.assembly.kit.build import assemble
+    from fabpat.assembly.spec.load import parse_spec
 
     spec = parse_spec({"tiling": {"kind": "honeycomb-strip", "edge": 36.0, "rows": 1, "columns": 4},
                        "patterns": {"rule": "graded", "count": 2}, "plates": {"thickness": 0.8},

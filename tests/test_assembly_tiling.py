@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from fabpat.assembly.tiling import (
+from fabpat.assembly.surface.tiling import (
     HEX_HEX_DIHEDRAL,
     HEX_PENT_DIHEDRAL,
     honeycomb_strip,

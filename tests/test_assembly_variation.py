@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from fabpat.assembly.build import plan
-from fabpat.assembly.spec import load_spec
+from fabpat.assembly.kit.build import plan
+from fabpat.assembly.spec.load import load_spec
 from fabpat.errors import SpecError
 from fabpat.patterns.library import get_pattern
 from tests.helpers import invoke
@@ -99,7 +99,7 @@ class PowerCurve:
 
 
 def test_nearest_member_hits_the_target_or_stops_at_the_family_end() -> None:
-    from fabpat.assembly.rules import nearest_member
+    from fabpat.assembly.choose.rules import nearest_member
 
     c = PowerCurve(20.0, 0.5)
     assert nearest_member(c, 25.0) == pytest.approx(1.5625)  # (25/20)^2
@@ -107,7 +107,7 @@ def test_nearest_member_hits_the_target_or_stops_at_the_family_end() -> None:
 
 
 def test_graded_targets_are_log_spaced_between_the_trimmed_extremes() -> None:
-    from fabpat.assembly.rules import graded, graded_targets
+    from fabpat.assembly.choose.rules import graded, graded_targets
 
     energies = {f"0x{k:04x}": 10.0 * 1.1**k for k in range(40)}  # 40 patterns: 2 trimmed at each end
     t = graded_targets(energies, 5)
@@ -126,8 +126,8 @@ def _rule_spec(tmp_path: Path, extra: str) -> Path:
 
 
 def test_graded_rule_with_members_hits_every_target(tmp_path: Path) -> None:
-    from fabpat.assembly.choice import face_patterns, with_members
-    from fabpat.assembly.rules import graded_targets
+    from fabpat.assembly.choose.choice import face_patterns, with_members
+    from fabpat.assembly.choose.rules import graded_targets
 
     spec = load_spec(_rule_spec(tmp_path, 'bridge_weight = "rule"'))
     assert spec.patterns.member_rule and spec.patterns.bridge_weights == ()
@@ -147,7 +147,7 @@ def test_graded_rule_with_members_hits_every_target(tmp_path: Path) -> None:
 def test_similar_energy_tunes_the_pentagon_to_the_hexagon() -> None:
     import dataclasses
 
-    from fabpat.assembly.choice import face_patterns, with_members
+    from fabpat.assembly.choose.choice import face_patterns, with_members
 
     base = load_spec(Path(__file__).parent.parent / "assemblies" / "truncated-icosahedron.toml")
     spec = dataclasses.replace(base, patterns=dataclasses.replace(base.patterns, rule="similar-energy",
@@ -169,7 +169,7 @@ def test_similar_energy_tunes_the_pentagon_to_the_hexagon() -> None:
 
 
 def base_sides(spec: object) -> list[int]:
-    from fabpat.assembly.placement import build_tiling
+    from fabpat.assembly.place.placement import build_tiling
 
     return [len(f) for f in build_tiling(spec).faces]  # type: ignore[arg-type]
 

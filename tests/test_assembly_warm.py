@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fabpat.assembly.simulation import simulate_assembly
-from fabpat.assembly.spec import PatternSpec, load_spec
+from fabpat.assembly.solve.simulation import simulate_assembly
+from fabpat.assembly.spec.load import PatternSpec, load_spec
 from fabpat.errors import SpecError
 from tests.helpers import SPHERE_H, flat_sphere
 

@@ -73,10 +73,10 @@ def test_svg_cuts_the_hole_before_the_outline(outline, options: dict) -> None:  
 
 
 def test_kit_sheet_cuts_each_plates_holes_before_its_outline() -> None:
-    from fabpat.assembly.build import plan
-    from fabpat.assembly.parts import PartLibrary
-    from fabpat.assembly.sheets import nest_plates, sheet_document
-    from fabpat.assembly.spec import parse_spec
+    from fabpat.assembly.kit.build import plan
+    from fabpat.assembly.kit.sheets import nest_plates, sheet_document
+    from fabpat.assembly.place.parts import PartLibrary
+    from fabpat.assembly.spec.load import parse_spec
 
     spec = parse_spec({"tiling": {"kind": "honeycomb-strip", "columns": 2, "rows": 1, "edge": 36.0},
                        "patterns": {"groups": ["0x0488"], "group_columns": 2}, "plates": {"process": "laser"},

@@ -70,9 +70,9 @@ def test_round_trip_matches_the_target(setup: dict) -> None:
     """A target made by the solver is designed back within 0.5 % of the span, verified by simulate-assembly.
     A budget of 1 solve (with the uniform baseline, 2): the design is found by the first search solve (0.34 %
     of the span, the same design with budgets 1, 2, 3 and 6, measured), so 6 only spent time."""
-    from fabpat.assembly.choice import face_patterns
-    from fabpat.assembly.simulation import simulate_assembly
-    from fabpat.assembly.spec import load_spec
+    from fabpat.assembly.choose.choice import face_patterns
+    from fabpat.assembly.solve.simulation import simulate_assembly
+    from fabpat.assembly.spec.load import load_spec
     from fabpat.design.strip import errors, midline
 
     out = setup["folder"] / "round"
@@ -97,8 +97,8 @@ def test_round_trip_matches_the_target(setup: dict) -> None:
 
 def test_design_spec_is_a_kit_plan(setup: dict, tmp_path: Path) -> None:
     """A tiles table by plate label places as the kit (labels and patterns), as `fabpat assemble` plans it."""
-    from fabpat.assembly.build import plan
-    from fabpat.assembly.spec import load_spec
+    from fabpat.assembly.kit.build import plan
+    from fabpat.assembly.spec.load import load_spec
 
     ids = setup["cols"]
     table = ", ".join(f'{lab} = "{ids[i]}"' for i, lab in enumerate(setup["labels"]))
@@ -110,14 +110,14 @@ def test_design_spec_is_a_kit_plan(setup: dict, tmp_path: Path) -> None:
 @pytest.mark.parametrize("table, word", [("T1 = \"0x0488\"", "no pattern for plate T2"),
                                          ("T9 = \"0x0488\"", "not a plate of this strip")])
 def test_tiles_table_refuses_wrong_labels(tmp_path: Path, table: str, word: str) -> None:
-    from fabpat.assembly.spec import load_spec
+    from fabpat.assembly.spec.load import load_spec
 
     with pytest.raises(SpecError, match=word):
         load_spec(_base(tmp_path, f"tiles = {{{table}}}"))
 
 
 def test_load_end_shortening_is_refused_on_a_closed_tiling(tmp_path: Path) -> None:
-    from fabpat.assembly.spec import load_spec
+    from fabpat.assembly.spec.load import load_spec
 
     text = (ROOT / "assemblies" / "truncated-icosahedron.toml").read_text() + "\n[load]\nend_shortening = 0.1\n"
     (tmp_path / "s.toml").write_text(text)

@@ -94,7 +94,7 @@ def test_bad_mesh_targets_are_one_line(tmp_path: Path) -> None:
 
 
 def test_face_groups_follow_polygon_and_latitude() -> None:
-    from fabpat.assembly.tiling import truncated_icosahedron
+    from fabpat.assembly.surface.tiling import truncated_icosahedron
     from fabpat.design.closed import face_groups
 
     sk = truncated_icosahedron()
@@ -188,9 +188,9 @@ def _sphere_data() -> dict[str, Any]:
 
 
 def test_sphere_tiles_name_every_face() -> None:
-    from fabpat.assembly.choice import face_patterns
-    from fabpat.assembly.spec import parse_spec
-    from fabpat.assembly.tiling import truncated_icosahedron
+    from fabpat.assembly.choose.choice import face_patterns
+    from fabpat.assembly.spec.load import parse_spec
+    from fabpat.assembly.surface.tiling import truncated_icosahedron
 
     sk = truncated_icosahedron()
     data = _sphere_data()
@@ -229,7 +229,7 @@ def small_sphere(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
 
 @pytest.mark.slow
 def test_sphere_design_writes_a_spec_the_solver_agrees_with(small_sphere: dict[str, Any]) -> None:
-    from fabpat.assembly.simulation import simulate_assembly
+    from fabpat.assembly.solve.simulation import simulate_assembly
 
     r, out = small_sphere["r"], small_sphere["out"]
     assert r.returncode == 0, r.stderr

@@ -1,4 +1,4 @@
-"""Family members as closed-tiling design candidates (the strip's way: fabpat.assembly.members): the pools, a
+"""Family members as closed-tiling design candidates (the strip's way: fabpat.assembly.choose.members): the pools, a
 target only a member reaches, the note for a polygon without family rows, and the written spec. The
 closure is replaced by a synthetic one (no solve): each plate's within-face error is set by the pattern
 and member it is given, zero only for the hexagon member 0x0508 b0.4 and the pentagon 0x0588."""
@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from fabpat.assembly.spec import load_spec
+from fabpat.assembly.spec.load import load_spec
 from fabpat.catalog import open_catalog
 from tests.test_catalog import fake_rows
 from tests.test_family import family_rows
@@ -52,9 +52,9 @@ def closure(monkeypatch: pytest.MonkeyPatch) -> list[tuple[str, ...]]:
     """A synthetic closure instead of the solver: NODES points per plate on a sphere of 90 mm, each plate's
     points alternately BUMP in and out, from the pattern ids and the spec's bridge_weights (as the real
     closure reads them). Returns the list of (ID bW per face) it was asked to close."""
-    import fabpat.assembly.closure as real
+    import fabpat.assembly.solve.closure as real
     import fabpat.design.closed as closed
-    from fabpat.assembly.tiling import truncated_icosahedron
+    from fabpat.assembly.surface.tiling import truncated_icosahedron
 
     sk = truncated_icosahedron()
     centre = sk.V.mean(axis=0)

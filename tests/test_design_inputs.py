@@ -63,7 +63,7 @@ def test_kinds_a_design_does_not_take_are_refused_before_any_solve(tmp_path: Pat
 def _fake_closure(spec: Any, patterns: tuple[str, ...], h: float, start: Any = None) -> dict[str, Any]:
     """A closure without the solver: every face's corners and centre on a sphere of 100 mm, each face pushed
     out by 0 … 4 ‰ by its pattern's name, so that designs differ as real ones do (by face group)."""
-    from fabpat.assembly.placement import build_tiling
+    from fabpat.assembly.place.placement import build_tiling
 
     skel = build_tiling(spec)
     V = np.asarray(skel.V) - np.asarray(skel.V).mean(axis=0)

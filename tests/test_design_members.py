@@ -7,7 +7,7 @@ from types import SimpleNamespace
 
 import pytest
 
-from fabpat.assembly.spec import load_spec
+from fabpat.assembly.spec.load import load_spec
 from fabpat.catalog import open_catalog
 from fabpat.design.base import load_base, member_token, split_member
 from fabpat.design.outputs import design_spec_data, spec_toml

@@ -68,7 +68,7 @@ def test_every_public_name_has_a_docstring() -> None:
 def test_the_check_sees_public_names() -> None:
     # guard against a walk that finds nothing (and so passes vacuously)
     names = {m.__name__ for m in _public_modules()}
-    assert {"fabpat.geometry.outline", "fabpat.exchange.rhino", "fabpat.shell", "fabpat.assembly.build"} <= names
+    assert {"fabpat.geometry.outline", "fabpat.exchange.rhino", "fabpat.shell", "fabpat.assembly.kit.build"} <= names
     assert _member_function(vars(fabpat.geometry.outline.RationalQuad)["control_points"]) is not None
 
 

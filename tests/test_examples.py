@@ -120,7 +120,7 @@ def test_rank_depth3(tmp_path: Path) -> None:
 
 def test_build_kit(tmp_path: Path) -> None:
     import fabpat
-    from fabpat.assembly.sheets import read_sheet
+    from fabpat.assembly.kit.sheets import read_sheet
 
     out = run_example("build_kit.py", tmp_path)
     head, parts = out[0], out[1:4]

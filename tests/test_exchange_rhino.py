@@ -123,8 +123,8 @@ def test_bad_path_leaves_nothing(tmp_path: Path) -> None:
 
 
 def test_assembly_layers_blocks_and_instances(tmp_path: Path) -> None:
-    from fabpat.assembly.build import assemble, plan
-    from fabpat.assembly.spec import load_spec
+    from fabpat.assembly.kit.build import assemble, plan
+    from fabpat.assembly.spec.load import load_spec
 
     spec_text = (ROOT / "assemblies" / "test-small.toml").read_text() + '\n[output]\nformats = ["3dm"]\n'
     spec_path = tmp_path / "small-3dm.toml"

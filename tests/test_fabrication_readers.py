@@ -93,10 +93,10 @@ def test_openscad_extrudes_line_and_arc_dxf_to_the_exact_volume(tmp_path: Path, 
 
 
 def test_openscad_imports_a_borderless_kit_sheet_as_its_plates(tmp_path: Path) -> None:
-    from fabpat.assembly.build import plan
-    from fabpat.assembly.parts import PartLibrary
-    from fabpat.assembly.sheets import nest_plates, sheet_document
-    from fabpat.assembly.spec import parse_spec
+    from fabpat.assembly.kit.build import plan
+    from fabpat.assembly.kit.sheets import nest_plates, sheet_document
+    from fabpat.assembly.place.parts import PartLibrary
+    from fabpat.assembly.spec.load import parse_spec
 
     needs("openscad", "openscad")
     spec = {"tiling": {"kind": "honeycomb-strip", "edge": 36.0, "rows": 1, "columns": 2},
@@ -118,10 +118,10 @@ def test_openscad_imports_a_borderless_kit_sheet_as_its_plates(tmp_path: Path) -
 
 
 def test_openscad_extrudes_a_segment_kit_sheet_to_the_exact_volume(tmp_path: Path) -> None:
-    from fabpat.assembly.build import plan
-    from fabpat.assembly.parts import PartLibrary
-    from fabpat.assembly.sheets import nest_plates, sheet_document
-    from fabpat.assembly.spec import parse_spec
+    from fabpat.assembly.kit.build import plan
+    from fabpat.assembly.kit.sheets import nest_plates, sheet_document
+    from fabpat.assembly.place.parts import PartLibrary
+    from fabpat.assembly.spec.load import parse_spec
 
     needs("openscad", "openscad")
     spec = {"tiling": {"kind": "honeycomb-strip", "edge": 36.0, "rows": 1, "columns": 2},

@@ -19,6 +19,14 @@ import pytest
 trimesh = pytest.importorskip("trimesh")
 
 
+
+def chosen_panel(spec):  # noqa: ANN001, ANN201 - a test's shorthand
+    """The panel of ``spec`` with the patterns its ``[patterns]`` choose."""
+    from fabpat.assembly.choose.choice import face_patterns
+    from fabpat.assembly.place.panel import build_panel
+
+    return build_panel(spec, face_patterns(spec))
+
 def glb_json(data: bytes) -> dict:
     """The JSON chunk of a binary glTF 2.0 file (§4.4: 12-byte header, then chunks)."""
     magic, version, _ = struct.unpack_from("<4sII", data, 0)
@@ -43,16 +51,15 @@ def assert_z_goes_up(gltf: dict) -> None:
 
 
 def test_panel_glb_lies_flat_with_a_named_node_and_a_material(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    from fabpat.assembly.panel import build_panel
-    from fabpat.assembly.panel_kit import write_glb
-    from fabpat.assembly.spec import parse_spec
+    from fabpat.assembly.kit.panel import write_glb
+    from fabpat.assembly.spec.load import parse_spec
 
     spec = parse_spec({"name": "little panel", "tiling": {"kind": "panel", "edge": 36.0, "rows": 1, "columns": 1},
                        "patterns": {"tiles": [["0x0488"]]}, "plates": {"thickness": 2.0},
                        "sheet": {"width": 300.0, "height": 200.0}}, "panel.toml")
     path = tmp_path / "panel.glb"
-    monkeypatch.setattr("fabpat.assembly.parts.CHECK_TOLERANCE", 0.5)  # a coarse mesh: the same file, faster
-    panel = build_panel(spec)
+    monkeypatch.setattr("fabpat.assembly.place.parts.CHECK_TOLERANCE", 0.5)  # a coarse mesh: the same file, faster
+    panel = chosen_panel(spec)
     write_glb(panel, path)
     data = path.read_bytes()
     gltf = glb_json(data)
@@ -70,10 +77,10 @@ def test_panel_glb_lies_flat_with_a_named_node_and_a_material(tmp_path: Path, mo
 
 
 def test_cap_glb_opens_apex_up(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    from fabpat.assembly import export
-    from fabpat.assembly.build import plan
-    from fabpat.assembly.parts import PartLibrary
-    from fabpat.assembly.spec import parse_spec
+    from fabpat.assembly.kit.build import plan
+    from fabpat.assembly.place.parts import PartLibrary
+    from fabpat.assembly.show import export
+    from fabpat.assembly.spec.load import parse_spec
 
     spec = parse_spec({"name": "cap", "tiling": {"kind": "hex-cap", "rings": 1, "centre": 5, "edge": 36.0},
                        "patterns": {"hexagon": "0x0488", "pentagon": "0x0508"}, "plates": {"thickness": 1.0},

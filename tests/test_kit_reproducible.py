@@ -297,8 +297,8 @@ def test_assemble_with_a_timestamp_gives_byte_identical_kits(kind: str, tmp_path
     ezdxf's CLASSES). The strip predicts (``prediction.json``, ``predicted.*``); the sphere and the panel
     run without the prediction (``--no-predict``; a panel has none). A third run of the strip without a time
     stamp and with DXF only shows that the comparison can fail: its sheets' header dates and GUIDs differ."""
-    from fabpat.assembly.build import assemble
-    from fabpat.assembly.spec import load_spec
+    from fabpat.assembly.kit.build import assemble
+    from fabpat.assembly.spec.load import load_spec
 
     name, predict, expected = KITS[kind]
     spec = ROOT / "assemblies" / name

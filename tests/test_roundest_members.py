@@ -1,5 +1,6 @@
 """rule = "roundest" with bridge_weight = "rule": the catalog's swept family members join the candidate
-pairs (fabpat.assembly.members, as in fabpat design), a pair is always two patterns, a polygon without family rows
+pairs (fabpat.assembly.choose.members, as in fabpat design), a pair is always two patterns, a polygon without family
+rows
 is named, and the closure is given the member itself. No solve: the closure is replaced where it is used."""
 
 from __future__ import annotations
@@ -11,8 +12,8 @@ from typing import Any
 
 import pytest
 
-from fabpat.assembly.choice import candidate_pairs, with_members
-from fabpat.assembly.spec import parse_spec
+from fabpat.assembly.choose.choice import candidate_pairs, with_members
+from fabpat.assembly.spec.load import parse_spec
 from fabpat.catalog import open_catalog
 from fabpat.errors import SpecError
 from tests.test_catalog import fake_rows
@@ -68,8 +69,8 @@ def test_pentagon_members_are_used_when_the_catalog_has_them(tmp_path: Path) -> 
 
 def test_roundest_keeps_the_rounder_member_pair_and_closes_the_member_itself(tmp_path: Path,
                                                                              monkeypatch: pytest.MonkeyPatch) -> None:
-    import fabpat.assembly.predict as predict
-    from fabpat.assembly.placement import build_tiling
+    import fabpat.assembly.solve.predict as predict
+    from fabpat.assembly.place.placement import build_tiling
 
     spec = _spec(tmp_path)
     faces = [len(f) for f in build_tiling(spec).faces]

@@ -24,8 +24,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fabpat.assembly.simulation import simulate_assembly
-from fabpat.assembly.spec import load_spec
+from fabpat.assembly.solve.simulation import simulate_assembly
+from fabpat.assembly.spec.load import load_spec
 from tests.helpers import SPHERE_H, SPHERE_STEPS, flat_sphere, invoke
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -127,8 +127,8 @@ def test_solid_and_lacy_pairs_close(pair: tuple[str, str]) -> None:
 def test_the_sphere_read_from_an_obj_closes_as_the_built_in_one(shipped, tmp_path: Path) -> None:  # noqa: ANN001
     """``kind = "mesh"`` on the truncated icosahedron written as OBJ: the same closure (the tilings issue's
     bound: radius within 0.01 mm, plate energies within 0.1 %)."""
-    from fabpat.assembly.mesh_tiling import write_obj
-    from fabpat.assembly.tiling import truncated_icosahedron
+    from fabpat.assembly.surface.mesh_tiling import write_obj
+    from fabpat.assembly.surface.tiling import truncated_icosahedron
 
     (tmp_path / "ti.obj").write_bytes(write_obj(truncated_icosahedron(36.0)))
     text = FLAT.read_text(encoding="utf-8").replace('kind = "truncated-icosahedron"', 'kind = "mesh"\nfile = "ti.obj"')
@@ -199,7 +199,7 @@ def test_a_roundest_spec_simulates_the_pair_the_kit_builds(tmp_path: Path) -> No
     each of which is also closed here on its own, by name. On the shipped spec's plates and sleeves as a
     pentagon cap (hex-cap, 1 ring: 6 plates closed into a dome) rather than the 32-plate sphere: the rule's
     path is the same for every closed tiling, and the cap's four closures take a fifth of the sphere's."""
-    from fabpat.assembly.choice import candidate_pairs
+    from fabpat.assembly.choose.choice import candidate_pairs
 
     cap = FLAT.read_text(encoding="utf-8").replace('kind = "truncated-icosahedron"', 'kind = "hex-cap"\nrings = 1')
     (tmp_path / "cap.toml").write_text(cap, encoding="utf-8")
@@ -273,7 +273,7 @@ def test_a_best_fit_closure_is_one_increment() -> None:
     placement mismatch) converges in its one increment: hung from one sleeve its Newton iteration needed
     27–32 iterations, and cutting it at the path's default 25 halved the whole path and walked it again
     in quarters (80 factorizations at h = 7.5; 18 now, held at three sleeves)."""
-    from fabpat.assembly.spec import parse_spec
+    from fabpat.assembly.spec.load import parse_spec
 
     cap = parse_spec({"name": "cap", "tiling": {"kind": "hex-cap", "rings": 1, "edge": 36.0},
                       "patterns": {"hexagon": "0x0488", "pentagon": "0x0508"},
@@ -286,7 +286,7 @@ def test_a_best_fit_closure_is_one_increment() -> None:
 def test_determinate_supports_stop_every_rigid_motion_and_no_more() -> None:
     """Six held translations on three sleeves: the small rigid motions u = t + ω × (p − p_A) they allow
     are only t = ω = 0 (rank 6), with no rotation held; one or two sleeves: the first in all six dofs."""
-    from fabpat.assembly.closure import determinate_supports
+    from fabpat.assembly.solve.closure import determinate_supports
 
     M = np.random.default_rng(3).normal(size=(12, 3)) * 80.0
     fixed = determinate_supports(M, 4)
@@ -300,7 +300,7 @@ def test_determinate_supports_stop_every_rigid_motion_and_no_more() -> None:
 def test_a_warm_start_is_turned_onto_the_supports() -> None:
     """A guess that is the reference turned rigidly (0.3 rad) about the held sleeve is turned back onto
     the supports: nothing left to move."""
-    from fabpat.assembly.closure import _onto_supports, determinate_supports
+    from fabpat.assembly.solve.closure import _onto_supports, determinate_supports
     from fabpat.shell.rotations import expmap
 
     X = np.random.default_rng(5).normal(size=(30, 3)) * 60.0

@@ -156,7 +156,7 @@ def test_tags_never_name_another_member(w: float, tag: str) -> None:
     assert (v.label() == "") == (tag == "")
     if tag:  # the tag reads back as the very member
         assert float(tag.removeprefix("b")) == w and float(v.label().partition("=")[2]) == w
-    from fabpat.assembly.placement import PlateType
+    from fabpat.assembly.place.placement import PlateType
     from fabpat.design.base import member_token, split_member
 
     assert split_member(member_token("0x0488", w)) == ("0x0488", w)

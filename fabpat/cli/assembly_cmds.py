@@ -1,5 +1,5 @@
-"""``fabpat assemble SPEC --out DIR``: the complete kit of an assembly spec (see fabpat.assembly.build);
-``fabpat simulate-assembly SPEC``: the assembly as one shell model (see fabpat.assembly.simulate), and
+"""``fabpat assemble SPEC --out DIR``: the complete kit of an assembly spec (see fabpat.assembly.kit.build);
+``fabpat simulate-assembly SPEC``: the assembly as one shell model (see fabpat.assembly.solve.strip), and
 its deprecated alias ``simulate-strip``.
 
 The command only parses its options, shows progress on stderr (:mod:`fabpat.progress`: a bar on a
@@ -26,7 +26,7 @@ PROGRESS_HELP = ("Progress on stderr: a bar on a terminal, else a line every few
 
 def _load(spec: str, need_sheet: bool = False):  # type: ignore[no-untyped-def]  # -> AssemblySpec
     """The parsed spec; a spec with several problems is told one line each (``fabpat: error: …``), exit 2."""
-    from fabpat.assembly.spec import SpecProblems, load_spec
+    from fabpat.assembly.spec.load import SpecProblems, load_spec
 
     try:
         return load_spec(spec, need_sheet=need_sheet)
@@ -67,7 +67,7 @@ def assemble_cmd(spec: str, out: str, progress: bool, timestamp: str | None, for
 
     Example: fabpat assemble assemblies/truncated-icosahedron.toml --out sphere-kit
     """
-    from fabpat.assembly.build import assemble, steps
+    from fabpat.assembly.kit.build import assemble, steps
     from fabpat.exchange.step import check_timestamp
     from fabpat.io import check_distinct
     from fabpat.progress import Progress
@@ -165,7 +165,7 @@ def _simulate_assembly(spec: str, end_shortening: float | None, h: float, steps:
                        max_elements: int = ASSEMBLY_MAX_ELEMENTS, progress: bool = True) -> None:
     import json
 
-    from fabpat.assembly.simulation import simulate_assembly
+    from fabpat.assembly.solve.simulation import simulate_assembly
     from fabpat.io import atomic_outputs, check_distinct, check_suffix
     from fabpat.progress import Progress
     from fabpat.shell.news import listening

@@ -86,7 +86,7 @@ modulus_option = number_option("--youngs-modulus", "E", range_name="youngs_modul
 
 
 #: what bounds ``--h`` for one pattern (fabpat.simulation.mesh_size.MAX_H_PER_MIN_WIDTH) and for an assembly
-#: (fabpat.assembly.simulate.MAX_H_PER_INTERFACE × the interface segment)
+#: (fabpat.assembly.solve.model.MAX_H_PER_INTERFACE × the interface segment)
 H_LIMITS = {"pattern": "at most twice the pattern's min_width",
             "assembly": "at most twice the interface segment, 7.5 mm for 36 mm plates at weight 0.2"}
 

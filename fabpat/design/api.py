@@ -64,8 +64,8 @@ def _geometry(base: DesignBase, pattern: str, h: float) -> tuple[float, list[str
     """Pin-to-pin length (mm), plate labels, the column of each face and the columns' edges in arc length
     from the fixed pin (mm: 0, the midpoints between neighbouring columns' centres, the length), from one
     placement."""
-    from fabpat.assembly.placement import build_tiling
-    from fabpat.assembly.simulate import strip_setup
+    from fabpat.assembly.place.placement import build_tiling
+    from fabpat.assembly.solve.strip import strip_setup
     from fabpat.design.search import with_candidates
 
     n = len(build_tiling(base.spec).faces)

@@ -11,7 +11,7 @@ and its tiling must be a honeycomb strip or one of :data:`CLOSED_KINDS` (:func:`
 * ``max_distinct``: the largest number of distinct patterns in the design (each is one more part type).
 * ``variations``: ``true`` (default) or ``false``: whether the candidates include the family members
   (:mod:`fabpat.patterns.variation`) the catalog's ``family`` table holds (``fabpat sweep --family``), a strip's
-  and a closed tiling's alike (:mod:`fabpat.assembly.members`).
+  and a closed tiling's alike (:mod:`fabpat.assembly.choose.members`).
 * ``depth``: ``2`` (default) or ``3``: a strip's candidates also include the depth-3 patterns the catalog
   (``catalog`` key) has simulated — ``fabpat sweep --depth 3 --learn N --db mine.sqlite`` makes such rows; the
   depth-2 candidates then come from that catalog if it has them, else from the built-in one.
@@ -23,10 +23,10 @@ are, per polygon of its faces, the catalog rows of that polygon with all three e
 (:func:`closed_rows`), narrowed alike.
 
 A candidate that is a family member is written ``"ID bW"`` (``"0x0488 b0.63"``: pattern 0x0488 at
-``bridge_weight`` 0.63, as the kit labels it; :func:`fabpat.assembly.members.member_token`,
-:func:`~fabpat.assembly.members.split_member`): the swept members themselves, whose energies are solves,
+``bridge_weight`` 0.63, as the kit labels it; :func:`fabpat.assembly.choose.members.member_token`,
+:func:`~fabpat.assembly.choose.members.split_member`): the swept members themselves, whose energies are solves,
 not interpolations. A closed tiling's member is a row like its pattern's
-(:func:`fabpat.assembly.members.member_rows`); a polygon the catalog has no family rows for keeps the
+(:func:`fabpat.assembly.choose.members.member_rows`); a polygon the catalog has no family rows for keeps the
 paper's members, and :attr:`DesignBase.notes` says so (design.json ``notes``). design.toml gives such a
 plate its pattern in ``tiles`` and its member in ``[patterns] bridge_weight``.
 
@@ -42,15 +42,15 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from fabpat.assembly.members import member_energies, member_rows, member_token, split_member
-from fabpat.assembly.spec import TILINGS, AssemblySpec, parse_spec
+from fabpat.assembly.choose.members import member_energies, member_rows, member_token, split_member
+from fabpat.assembly.spec.load import TILINGS, AssemblySpec, parse_spec
 from fabpat.errors import FabpatError, SpecError
 
 __all__ = ["DesignBase", "load_base", "closed_rows", "candidates", "base_faces", "member_token", "split_member"]
 
 #: the [patterns] keys that only ``fabpat design`` reads
 DESIGN_KEYS = ("allowed", "min_width", "max_distinct", "variations", "depth")
-#: the ways of choosing patterns an assembly spec has (fabpat.assembly.spec)
+#: the ways of choosing patterns an assembly spec has (fabpat.assembly.spec.load)
 _WAYS = ("pattern", "groups", "tiles", "hexagon", "pentagon", "rule")
 #: the scenario whose energy gives a pattern's bending stiffness (two end moments bend the plate)
 SCENARIO = "cylinder"
@@ -82,9 +82,9 @@ class DesignBase:
 
 def _read_toml(path: str | Path) -> dict[str, Any]:
     """The decoded TOML of the base spec file, read as every spec is
-    (:func:`fabpat.assembly.spec_tables.read_spec_file`: a regular file of at most
-    :data:`~fabpat.assembly.spec_tables.MAX_SPEC_BYTES`, a FIFO or device refused unread)."""
-    from fabpat.assembly.spec_tables import read_spec_file
+    (:func:`fabpat.assembly.spec.tables.read_spec_file`: a regular file of at most
+    :data:`~fabpat.assembly.spec.tables.MAX_SPEC_BYTES`, a FIFO or device refused unread)."""
+    from fabpat.assembly.spec.tables import read_spec_file
 
     return read_spec_file(path)[1]
 
@@ -178,11 +178,12 @@ def closed_rows(spec: AssemblySpec, source: str, catalog: str | None, keys: dict
                 notes: list[str] | None = None) -> dict[int, list[dict[str, Any]]]:
     """{polygon sides: catalog rows} of a closed tiling's candidates (module doc), at the base's plate
     set-up when the catalog has it, with the family members of its patterns unless ``variations = false``
-    (:func:`fabpat.assembly.members.member_rows`, all three energies converged); SpecError (one line) if a polygon
+    (:func:`fabpat.assembly.choose.members.member_rows`, all three energies converged); SpecError (one line) if a
+    polygon
     has none left. A polygon without family rows in the catalog appends a line to ``notes``."""
     from fabpat import catalog as cat
-    from fabpat.assembly.placement import build_tiling
-    from fabpat.assembly.spec_patterns import pattern_id_of
+    from fabpat.assembly.place.placement import build_tiling
+    from fabpat.assembly.spec.patterns import pattern_id_of
 
     pl = spec.plates
     allowed = None
@@ -249,7 +250,7 @@ def _min_widths(spec: AssemblySpec, catalog: str | None) -> dict[str, float]:
 def candidates(spec: AssemblySpec, source: str, catalog: str | None, keys: dict[str, Any]) -> dict[str, float]:
     """{candidate: Cylinder energy} of the candidates that ``allowed`` and ``min_width`` leave, with their
     family members unless ``variations = false`` (module doc); SpecError if none."""
-    from fabpat.assembly.spec_patterns import pattern_id_of
+    from fabpat.assembly.spec.patterns import pattern_id_of
 
     deeper = _depth3_energies(spec, source, catalog, keys)
     energies = {k: v for k, v in {**_catalog_energies(spec, catalog), **deeper}.items() if math.isfinite(v) and v > 0}
@@ -278,7 +279,7 @@ def candidates(spec: AssemblySpec, source: str, catalog: str | None, keys: dict[
 def _member_candidates(spec: AssemblySpec, catalog: str | None, energies: dict[str, float],
                        min_width: float) -> dict[str, float]:
     """{member name: Cylinder energy} of the catalog's converged family rows of the candidate patterns
-    (:func:`fabpat.assembly.members.member_rows`: at the base's set-up, else the default one), each member's own
+    (:func:`fabpat.assembly.choose.members.member_rows`: at the base's set-up, else the default one), each member's own
     min_width at least ``min_width``."""
     rows, _ = _members(spec, catalog, 6, energies, min_width)
     return member_energies(rows, SCENARIO)
@@ -286,7 +287,7 @@ def _member_candidates(spec: AssemblySpec, catalog: str | None, energies: dict[s
 
 def _members(spec: AssemblySpec, catalog: str | None, sides: int, ids: Any,
              min_width: float) -> tuple[list[dict[str, Any]], str | None]:
-    """:func:`fabpat.assembly.members.member_rows` of the candidate patterns ``ids`` at the base's plate set-up;
+    """:func:`fabpat.assembly.choose.members.member_rows` of the candidate patterns ``ids`` at the base's plate set-up;
     SpecError (one line) for a catalog that cannot be read."""
     pl = spec.plates
     try:
@@ -301,6 +302,6 @@ def base_faces(base: DesignBase) -> tuple[str, list[str]] | None:
     patterns it names), or None when the base leaves the choice open."""
     if base.way is None:
         return None
-    from fabpat.assembly.choice import face_patterns
+    from fabpat.assembly.choose.choice import face_patterns
 
     return ("rule" if base.has_rule else "spec"), face_patterns(base.spec)

@@ -5,7 +5,7 @@ pentagons) and, for a target that is not round, by latitude band about the desig
 polyhedron's 5-fold axis through face P01's centre: :data:`fabpat.design.target.BANDS` bands of equal
 height in cos θ), so that an ellipsoid's poles and equator can differ. Every face of a group takes one
 pattern from its polygon's catalog, or one of their family members the catalog holds (a candidate like
-any other, named ``"ID bW"``: :mod:`fabpat.assembly.members`, unless ``variations = false``); with
+any other, named ``"ID bW"``: :mod:`fabpat.assembly.choose.members`, unless ``variations = false``); with
 ``max_distinct`` K the groups share at most K patterns (a member counts as its own).
 
 **No reduced model.** Unlike a strip (an elastica), the closed shape depends on how each pattern bends
@@ -67,7 +67,7 @@ MEMBER_SHARE = 1 / 3
 def pattern_features(rows: list[dict[str, Any]]) -> tuple[list[str], Arr]:
     """IDs and (n, 5) standardised features of catalog rows: log Dome, Cylinder and Cantilever energies,
     filleted area ratio, log min width (the rows' columns of :func:`fabpat.catalog.catalog`; a family
-    member's row, :func:`fabpat.assembly.members.member_rows`, has the same columns and a
+    member's row, :func:`fabpat.assembly.choose.members.member_rows`, has the same columns and a
     ``bridge_weight``). Standardised by the mean and standard deviation of the paper's members (rows
     without ``bridge_weight``) when there are any, so that adding members moves no pattern's features."""
     keep = [r for r in rows if all(r.get(f"converged_{s}") for s in ("dome", "cylinder", "cantilever"))
@@ -111,16 +111,17 @@ def face_groups(V: Arr, faces: tuple[tuple[int, ...], ...], bands: int) -> tuple
 def solve_closed(spec: Any, patterns: tuple[str, ...], h: float,
                  start: tuple[Arr, Arr, Arr, Arr] | None = None) -> dict[str, Any]:
     """One full closure (the ``simulate-assembly`` path of a closed spec) with face patterns ``patterns``
-    (candidate names: a family member is ``"ID bW"``, :func:`fabpat.assembly.members.with_candidates`), warm-started
+    (candidate names: a family member is ``"ID bW"``, :func:`fabpat.assembly.choose.members.with_candidates`),
+    warm-started
     from ``start`` = the ``state`` of an earlier solve of the same tiling if given.
     Returns plain data: ``faces`` the patterns, ``P`` (n, 3) the deformed plate nodes (mm),
     ``peak_strain``, ``seconds``, ``radius`` and ``sphericity_rms`` of the least-squares sphere,
     ``plate_energies`` (N·mm), ``offsets`` (plates + 1,) each face's first node in P (faces in the tiling's
     order), ``state`` (reference nodes, offsets, displacement, rotation: a later solve's warm start),
     ``factorizations``, ``warm`` (the warm start converged). Raises SolverError, GeometryError."""
-    from fabpat.assembly.closure import closure_setup, run_closure
-    from fabpat.assembly.members import with_candidates
-    from fabpat.assembly.model import warm_guess
+    from fabpat.assembly.choose.members import with_candidates
+    from fabpat.assembly.solve.closure import closure_setup, run_closure
+    from fabpat.assembly.solve.model import warm_guess
 
     t0 = time.perf_counter()
     spec, ids = with_candidates(spec, patterns)

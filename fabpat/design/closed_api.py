@@ -49,7 +49,7 @@ def design_closed(tgt: ClosedTarget, base: DesignBase, h: float, max_solves: int
                   t0: float, result: Callable[..., Any]) -> Any:
     """Design a closed tiling for ``tgt`` (module doc) with ``runner`` (its deadline and a signal stop the
     search early, :mod:`fabpat.design.stop`); ``result`` builds the DesignResult."""
-    from fabpat.assembly.placement import build_tiling
+    from fabpat.assembly.place.placement import build_tiling
 
     assert base.rows is not None
     skel = build_tiling(base.spec)
@@ -97,7 +97,7 @@ POLYGONS = {6: "hexagon", 5: "pentagon"}
 
 def _pool_counts(rows: list[dict[str, Any]]) -> dict[str, int]:
     """How many candidates a polygon had: ``patterns`` (the paper's members) and ``members`` (family
-    members, :mod:`fabpat.assembly.members`)."""
+    members, :mod:`fabpat.assembly.choose.members`)."""
     members = sum(1 for r in rows if "bridge_weight" in r)
     return {"patterns": len(rows) - members, "members": members}
 

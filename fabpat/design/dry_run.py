@@ -98,8 +98,8 @@ def _elastica_curvature(beam: Any, strip: StripTarget, base: DesignBase, ids: li
 
 
 def _closed_plan(tgt: ClosedTarget, base: DesignBase) -> dict[str, Any]:
-    from fabpat.assembly.placement import build_tiling, printed_angles
-    from fabpat.assembly.sleeve import skeleton_edge
+    from fabpat.assembly.place.placement import build_tiling, printed_angles
+    from fabpat.assembly.surface.joints import skeleton_edge
     from fabpat.design.closed import design_axis, face_groups
     from fabpat.design.closed_api import POLYGONS, _pool_counts
 

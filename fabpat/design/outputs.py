@@ -27,9 +27,9 @@ FILES = ("design.toml", "design.json", "design.png")
 def design_in_the_way(p: Path) -> str | None:
     """Why folder ``p`` may not be replaced by a design output (one phrase), or None: it is missing, empty,
     or holds only an earlier `fabpat design` output (its design.json says so, no other file beside
-    :data:`FILES`, and a ``kit/`` that :func:`fabpat.assembly.kit_folder.foreign_entries` accepts). A
+    :data:`FILES`, and a ``kit/`` that :func:`fabpat.assembly.kit.folder.foreign_entries` accepts). A
     user's file in the folder is never deleted."""
-    from fabpat.assembly.kit_folder import foreign_entries
+    from fabpat.assembly.kit.folder import foreign_entries
 
     if not p.exists() and not p.is_symlink():
         return None
@@ -187,7 +187,7 @@ def write_png(res: Any, path: Path) -> None:
 
 def write_design(res: Any, out: str | os.PathLike[str], kit: bool = False) -> list[str]:
     """Write the design's files into ``out`` atomically (module doc); returns their names in ``out``."""
-    from fabpat.assembly.kit_folder import write_folder
+    from fabpat.assembly.kit.folder import write_folder
 
     p = check_design_out(out)
 
@@ -198,7 +198,7 @@ def write_design(res: Any, out: str | os.PathLike[str], kit: bool = False) -> li
         (write_png if "end_shortening" in res.record else write_closed_png)(res, tmp / "design.png")
         files = list(FILES)
         if kit:
-            from fabpat.assembly.build import assemble
+            from fabpat.assembly.kit.build import assemble
 
             # predicted at the design's own mesh edge, so kit/prediction.json and design.json agree
             made = assemble(str(tmp / "design.toml"), tmp / "kit", predict_h=res.record.get("h"))

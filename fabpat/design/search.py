@@ -1,7 +1,7 @@
 """The design search: full assembly solves of candidate strips, in parallel, refined from the reduced model.
 
 Each candidate is one pattern per column. A solve (:func:`solve_candidate`) is the ``simulate-assembly``
-strip path (:func:`fabpat.assembly.simulate.strip_setup` and :func:`~fabpat.assembly.simulate.run_strip`
+strip path (:func:`fabpat.assembly.solve.strip.strip_setup` and :func:`~fabpat.assembly.solve.strip.run_strip`
 with the spec's material, the default steps and imperfection), with the pins moved by the travel that
 makes the target's span. Batches of independent candidates run on the sweep's engine (local worker
 processes, or a dask.distributed scheduler).
@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.assembly.members import with_candidates
+from fabpat.assembly.choose.members import with_candidates
 from fabpat.design.strip import assign, column_errors, column_turning, curvature_update, errors
 
 __all__ = ["Evaluated", "Runner", "Search", "solve_candidate", "with_candidates"]
@@ -50,20 +50,20 @@ FIRST_STEP = 0.25
 def solve_candidate(spec: Any, patterns: tuple[str, ...], h: float, travel: float,
                     start: tuple[Any, ...] | None = None) -> dict[str, Any]:
     """One full strip solve: the face patterns ``patterns`` (candidate names: a family member is
-    ``"ID bW"``, :func:`fabpat.assembly.members.with_candidates`), mesh edge ``h`` mm, pins moved together by
+    ``"ID bW"``, :func:`fabpat.assembly.choose.members.with_candidates`), mesh edge ``h`` mm, pins moved together by
     ``travel`` mm, warm-started from ``start`` (the ``state`` of an earlier solve of the same strip) if
     given. Returns plain data (it crosses process boundaries): ``x``, ``z`` the mid-line (mm,
     :func:`fabpat.design.strip.midline`), ``end_shortening`` (travel over the strip length, as
     ``simulate-assembly`` reads it), ``length`` (mm), ``seconds``, ``peak_strain`` (the largest principal
     surface strain), ``state`` (reference nodes, offsets, displacement, rotation), ``factorizations``,
     ``warm``. Raises SolverError, GeometryError."""
-    from fabpat.assembly.simulate import IMPERFECTION, run_strip, strip_setup
-    from fabpat.assembly.simulation import DEFAULT_STEPS
+    from fabpat.assembly.solve.simulation import DEFAULT_STEPS
+    from fabpat.assembly.solve.strip import IMPERFECTION, run_strip, strip_setup
     from fabpat.design.strip import midline
 
     t0 = time.perf_counter()
     mat = spec.material
-    from fabpat.assembly.model import warm_guess
+    from fabpat.assembly.solve.model import warm_guess
 
     spec, ids = with_candidates(spec, patterns)
     setup = strip_setup(spec, ids, h=h, E=mat.youngs_modulus, nu=mat.poisson)

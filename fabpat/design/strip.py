@@ -8,7 +8,7 @@ is ∝ 1 / U_cylinder (two end moments bend the plate: U = M²·L / (2·EI)), so
 need and a pattern's stiffness differ by one constant, chosen by least squares (:func:`assign`).
 
 **Read-outs** (:func:`midline`): the width-averaged mid-line of a solved strip, the area-weighted mean
-deformed x and uz of the plate nodes in the bins of :func:`fabpat.assembly.simulate.profile`; the
+deformed x and uz of the plate nodes in the bins of :func:`fabpat.assembly.solve.strip.profile`; the
 error is its vertical distance from the target at the target's x (:func:`errors`).
 """
 
@@ -30,7 +30,7 @@ def midline(setup: object, displacement: Arr) -> tuple[Arr, Arr]:
     """The solved strip's width-averaged mid-line from pin to pin: (x, z) mm, x from column 0's pin
     (which is fixed), z the mean uz, one point per profile bin between the pins plus the two pins at
     z = 0. ``setup`` a StripSetup, ``displacement`` (N, 3+) nodal displacements."""
-    from fabpat.assembly.simulate import profile
+    from fabpat.assembly.solve.strip import profile
 
     m = setup.model  # type: ignore[attr-defined]
     n = len(m.X)

@@ -4,7 +4,7 @@ The predicted shape is the plates' deformed mid-surface nodes P (n, 3), mm. The 
 without a size (:class:`fabpat.design.target.ClosedTarget`): the plates' size fixes it, so the target
 is moved, turned and scaled onto P (a similarity transform) and the distances are measured in mm:
 
-* ``sphere``: the least-squares sphere (:func:`fabpat.assembly.closure.fit_sphere`); distance
+* ``sphere``: the least-squares sphere (:func:`fabpat.assembly.solve.closure.fit_sphere`); distance
   ||p − c| − r|, so ``rms / radius`` is the closure's ``sphericity_rms``. ``scale`` = r (mm per unit
   radius).
 * ``ellipsoid:A,B,C``: semi-axes s·(A, B, C), centre c and rotation R fitted by nonlinear least squares
@@ -82,7 +82,7 @@ def _rms_radius(P: Arr) -> float:
 
 def fit_to_sphere(P: Arr) -> SurfaceFit:
     """The least-squares sphere through P (n, 3) mm."""
-    from fabpat.assembly.closure import fit_sphere
+    from fabpat.assembly.solve.closure import fit_sphere
 
     c, r = fit_sphere(P)
     return SurfaceFit(np.linalg.norm(P - c, axis=1) - r, r, r)

@@ -10,7 +10,7 @@
 A path that exists is a file, whatever its name (a CSV called ``sphere`` or ``ellipsoid-arch.csv`` is a
 strip target); a folder is not (a folder ``sphere`` left by ``--out sphere`` leaves the keyword alone). A
 file is read only if it is a regular file (a FIFO or a device is refused unopened) of at most
-:data:`MAX_CSV_BYTES` (a CSV) or :data:`fabpat.assembly.mesh_tiling.MAX_MESH_BYTES` (a mesh, the bound of a
+:data:`MAX_CSV_BYTES` (a CSV) or :data:`fabpat.assembly.surface.mesh_tiling.MAX_MESH_BYTES` (a mesh, the bound of a
 tiling's mesh file), through :func:`fabpat.io.read_input`. Every problem is a :class:`TargetError` whose one
 line names the target and what is expected, before any solve.
 """
@@ -194,7 +194,7 @@ def _read_mesh(path: str) -> Any:
     """The surface of a mesh file (trimesh), or TargetError: unreadable, no faces, or degenerate."""
     import io
 
-    from fabpat.assembly.mesh_tiling import MAX_MESH_BYTES, check_scale
+    from fabpat.assembly.surface.mesh_tiling import MAX_MESH_BYTES, check_scale
 
     data = _read_file(path, MAX_MESH_BYTES)  # first: refusing a FIFO or a device needs no trimesh
     import trimesh

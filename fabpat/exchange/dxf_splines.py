@@ -20,6 +20,7 @@ from fabpat.errors import GeometryError
 from fabpat.exchange.cad import make_face
 from fabpat.exchange.contours import offset_wires, ordered_edges
 from fabpat.geometry.outline import Line, Loop, Outline
+from fabpat.geometry.polygons import signed_area
 from fabpat.validate import SAME_POINT
 
 MAX_SPLINE_DEGREE = 3  # kerf-offset splines: LibreCAD 2.2 and Inkscape 1.2 read degree ≤ 3 only
@@ -190,7 +191,7 @@ def offset_spline_pieces(outline: Outline, distance: float, tol: float) -> list[
         if not pieces:
             continue
         P = np.array(starts)
-        areas.append(0.5 * float(np.sum(P[:, 0] * np.roll(P[:, 1], -1) - P[:, 1] * np.roll(P[:, 0], -1))))
+        areas.append(signed_area(P))
         loops.append(pieces)
     out = []
     for k, i in enumerate(np.argsort(-np.abs(np.array(areas)))):  # outer loop first, counter-clockwise

@@ -13,7 +13,7 @@ One pattern (:func:`write`) gives a file with three layers:
   arcs on ``CUT`` are in standard form, with middle weight √((1 + w)/2) (see :mod:`fabpat.geometry.fillet`).
 
 Placed parts (:func:`write_assembly`, which an assembly kit calls with its parts,
-:func:`fabpat.assembly.export.write_3dm`) give one file with a layer per part type (plate types by
+:func:`fabpat.assembly.show.export.write_3dm`) give one file with a layer per part type (plate types by
 their label, e.g. ``hex 0x0488``, and sleeve kinds, e.g. ``S-HH``), one block (instance definition)
 per distinct part (:class:`Block`) and every placed part as a block instance named by its label (``H07``,
 ``SE42``) with its rigid transform. Plates are the exact extrusions above; sleeves, which fabpat models

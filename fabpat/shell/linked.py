@@ -277,7 +277,7 @@ def solve_path(
     slaves): a problem driven only by joint angles has no loads and no reactions to compare with.
     ``progress``: called with λ after every report point.
     ``start``: a warm start, (displacement (N, 3) mm, rotation vectors (N, 3) rad) guessed for λ = 1 (e.g.
-    the equilibrium of a similar problem, :func:`fabpat.assembly.model.warm_guess`): Newton first tries
+    the equilibrium of a similar problem, :func:`fabpat.assembly.solve.model.warm_guess`): Newton first tries
     λ = 1 from there in one increment (of at most :data:`WARM_ITERATIONS` iterations); if that converges
     (``warm`` in the result) the only report point is λ = 1, else the path is followed from λ = 0 as
     without it (its iterations and factorizations counted). A warm start reaches the same equilibrium

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from fabpat.errors import ExportError
+from fabpat.geometry.polygons import triangle_areas
 from fabpat.shell.results import ShellResult
 
 #: fields write_vtu always writes; extra fields may not reuse these names
@@ -60,8 +61,7 @@ def write_vtu(path: str | Path, V: np.ndarray, F: np.ndarray, result: ShellResul
     F = np.asarray(F, dtype=np.int64)
     extra_points = _extra(point_data, len(X), "point", POINT_FIELDS)
     extra_cells = {k: [v] for k, v in _extra(cell_data, len(F), "cell", CELL_FIELDS).items()}
-    P = X[F]
-    area = 0.5 * np.linalg.norm(np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]), axis=1)
+    area = triangle_areas(X, F)
     ee = result.element_energy
     mesh = meshio.Mesh(
         X, [("triangle", F)],
