@@ -1,6 +1,7 @@
 """Base tilings mapped onto non-spherical targets and relaxed into flat, nearly regular faces.
 
-Run: ``python benchmarks/bench_remesh.py [--bases ti,gp3,gp4] [--no-fit]`` — prints one Markdown table, a row
+Run: ``python benchmarks/bench_remesh.py [--bases ti,gp3,gp4] [--target T …] [--target-weight 10] [--no-fit]``
+— prints one Markdown table, a row
 per base tiling and target: the truncated icosahedron, GP(3, 0) and GP(4, 0) (edge 36 mm) onto ``sphere``
 (the floor: a regular or nearly regular base on its own shape), ``ellipsoid:1,1,1.15``,
 ``ellipsoid:1.04,1,0.97`` and an egg (a surface of revolution, :func:`egg`, written as OBJ in a temporary
@@ -9,7 +10,8 @@ edge deviation and angle deviation (:class:`fabpat.design.remesh.Measures`), the
 target (rms, max, % of the size), then the polyhedral approximation error after the design's best similarity
 (:func:`fabpat.design.remesh.approximation_error`: the corners, and the points of the planar faces), the
 steps and the seconds of the relaxation. ``--no-fit`` leaves out the similarity fits (the egg's ICP takes
-half a minute to a minute each).
+half a minute to a minute each); ``--target-weight`` sets :class:`fabpat.design.remesh.Weights`' ``target``
+(the trade-off between regular faces and corners on the target), ``--target`` (repeated) a subset.
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ from scipy.spatial.transform import Rotation
 
 from fabpat.assembly.polyhedra import goldberg
 from fabpat.assembly.tiling import truncated_icosahedron
-from fabpat.design.remesh import approximation_error, map_tiling, relax
+from fabpat.design.remesh import TARGET_WEIGHT, Weights, approximation_error, map_tiling, relax
 from fabpat.design.remesh_target import place_target
 
 TARGETS = ("sphere", "ellipsoid:1,1,1.15", "ellipsoid:1.04,1,0.97", "egg")
@@ -70,6 +72,8 @@ def bases(names: list[str]) -> list[tuple[str, np.ndarray, tuple[tuple[int, ...]
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--bases", default="ti,gp3,gp4")
+    ap.add_argument("--target", action="append", help="one target (repeat the option); default all four")
+    ap.add_argument("--target-weight", type=float, default=TARGET_WEIGHT)
     ap.add_argument("--no-fit", action="store_true")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as d:
@@ -78,11 +82,11 @@ def main() -> None:
               "corners (fit) % | face points (fit) % | steps | s |")
         print("|---|---|---|---|---|---|---|---|---|---|---|---|")
         for name, V, F in bases(args.bases.split(",")):
-            for target in TARGETS:
+            for target in args.target or TARGETS:
                 t = egg_path if target == "egg" else target
                 surface, _ = place_target(V, F, t)
                 start = time.perf_counter()
-                r = relax(map_tiling(V, F, t), F, surface)
+                r = relax(map_tiling(V, F, t), F, surface, weights=Weights(target=args.target_weight))
                 seconds = time.perf_counter() - start  # the mapping and the relaxation
                 m = r.measures
                 fits = ("–", "–") if args.no_fit else (f"{100 * approximation_error(r.V, F, t, corners=True):.3f}",

@@ -93,7 +93,7 @@ def test_a_sphere_leaves_the_regular_truncated_icosahedron_as_it_is() -> None:
 
 def test_an_ellipsoid_relaxes_to_flat_faces_near_the_surface() -> None:
     surface, _ = place_target(TI.V, TI.faces, "ellipsoid:1,1,1.15")
-    Vm = map_tiling(TI.V, TI.faces, surface)
+    Vm = map_tiling(TI.V, TI.faces, "ellipsoid:1,1,1.15")
     before = measure(Vm, TI.faces, surface)
     r = relax(Vm, TI.faces, surface)
     m = r.measures
@@ -111,7 +111,7 @@ def test_an_ellipsoid_relaxes_to_flat_faces_near_the_surface() -> None:
 
 def test_the_jacobian_is_the_central_difference_of_the_residuals() -> None:
     surface, _ = place_target(TI.V, TI.faces, "ellipsoid:1.04,1,0.97")
-    Vm = map_tiling(TI.V, TI.faces, surface)
+    Vm = map_tiling(TI.V, TI.faces, "ellipsoid:1.04,1,0.97")
     lay = remesh._layout(len(Vm), TI.faces)
     rng = np.random.default_rng(0)
     x = np.concatenate([(Vm + rng.normal(scale=0.5, size=Vm.shape)).ravel(), rng.normal(size=3 * len(TI.faces)),
@@ -135,7 +135,7 @@ def test_the_jacobian_is_the_central_difference_of_the_residuals() -> None:
 def test_an_egg_mesh_relaxes_onto_its_surface(tmp_path: Path) -> None:
     path = str(_egg(tmp_path / "egg.obj"))
     surface, _ = place_target(TI.V, TI.faces, path)
-    Vm = map_tiling(TI.V, TI.faces, surface)
+    Vm = map_tiling(TI.V, TI.faces, path)
     assert measure(Vm, TI.faces, surface).distance_max <= 1e-9  # the rays end on the mesh
     r = relax(Vm, TI.faces, surface)
     assert r.measures.planarity.max() <= 1e-6 * r.measures.size

@@ -22,7 +22,7 @@ distance d = N · (x − p), positive outside, has the unit normal N at p as its
 surface within its reach). On a mesh the closest point is trimesh's (:func:`trimesh.proximity.closest_point`)
 and N the vertex normals interpolated at it (Phong's), the mesh read as the smooth surface it samples: the
 Euclidean distance to a faceted surface has kinks at the triangles' edges, where its gradient jumps, and a
-relaxation onto a 6 400-triangle egg then crept 480 steps where with the interpolated normal it took 28
+relaxation onto a 6 240-triangle egg then crept 480 steps where with the interpolated normal it took 28
 (measured); d = N · (x − p) differs from |x − p| by the factor cos α, α the angle between N and the
 triangle's own normal (a few degrees on such a mesh).
 """
