@@ -322,7 +322,7 @@ def relax(V: Arr, faces: Faces, target: Target, *, weights: Weights | None = Non
     within ``max_iterations`` steps, :class:`TargetError` or :class:`RemeshError` for bad input."""
     start = time.perf_counter()
     A, loops = _check(V, faces)
-    surface, _ = place_target(A, loops, target) if not isinstance(target, TargetSurface) else (target, None)
+    surface, _ = place_target(A, loops, target)
     w = weights or Weights()
     lay = _layout(len(A), loops)
     normals = np.zeros((len(loops), 3))
