@@ -23,28 +23,27 @@ import time
 from pathlib import Path
 
 from fabpat.catalog.sweep import SweepSetup, fine_mesh, run_sweep
-from fabpat.geometry.fillet import fillet_pattern
 from fabpat.patterns.library import enumerate_library, sample_library
-from fabpat.simulation.mesh import mesh_outline
-from fabpat.simulation.scenarios import SCENARIOS, run_scenario
+from fabpat.simulation.energies import scenario_energies
+from fabpat.simulation.scenarios import SCENARIOS
 
 
 def sequential(ids: list[str], h: float) -> list[dict[str, float | str]]:
-    """One dict per pattern-scenario with the seconds of each phase (meshing split over the scenarios)."""
+    """One dict per pattern-scenario with the seconds of each phase (meshing split over the scenarios): the
+    sweep's pipeline (:func:`fabpat.simulation.energies.scenario_energies`) on one mesh of h."""
     lib = enumerate_library(6, 2)
     rows: list[dict[str, float | str]] = []
     for pid in ids:
-        t0 = time.perf_counter()
-        fp = fillet_pattern(lib.pattern(pid), 0.2)
-        fp.validate(1e-2)  # the sweep stores min_width: part of the per-pattern geometry cost
-        mesh = mesh_outline(fp.outline, h, 6, 36.0)
-        t_mesh = time.perf_counter() - t0
-        for sc in SCENARIOS:
-            r = run_scenario(mesh, sc, sides=6)
+        # fillet + validate (the sweep stores min_width: part of the per-pattern geometry cost) + mesh
+        got = scenario_energies(lib.pattern(pid), SCENARIOS, h=h, extrapolate=False)
+        assert got.mesh is not None
+        for run in got.runs:
+            assert run.result is not None
+            r = run.result.fine
             s = r.result.seconds
             tangent, solve = s.get("tangent", 0.0), s.get("factor_solve", 0.0)
-            rows.append({"id": pid, "scenario": sc, "nodes": mesh.n_nodes, "iterations": r.iterations,
-                         "mesh": t_mesh / len(SCENARIOS), "tangent": tangent, "solve": solve,
+            rows.append({"id": pid, "scenario": run.scenario, "nodes": got.mesh.n_nodes, "iterations": r.iterations,
+                         "mesh": got.geometry_seconds / len(SCENARIOS), "tangent": tangent, "solve": solve,
                          "residual": max(r.seconds - tangent - solve, 0.0), "energy": r.energy})
     return rows
 

@@ -261,13 +261,13 @@ def test_cli_simulate_json_carries_the_variation() -> None:
 
 def test_cli_simulate_nonconvergence_names_the_scenario_and_the_member(monkeypatch: pytest.MonkeyPatch) -> None:
     """A scenario the solver cannot finish is one error line that says which scenario of which member."""
-    import fabpat.simulation.convergence as convergence
+    import fabpat.simulation.energies as energies
     from fabpat.errors import SolverError
 
     def lost(*args: object, **kwargs: object) -> None:
         raise SolverError("Newton–Raphson did not converge at load fraction λ = 0.8604")
 
-    monkeypatch.setattr(convergence, "run_converged", lost)  # the command imports it when it runs
+    monkeypatch.setattr(energies, "run_converged", lost)  # the command's pipeline solves through it
     r = CliRunner().invoke(cli, ["simulate", "0x0488", "--scenario", "dome", "--h", "2.5", "--no-progress",
                                  "--variation", "bridge_weight=1.6"])
     assert r.exit_code == 2

@@ -149,14 +149,12 @@ def simulate_pattern(pattern_id: str, sides: int, depth: int, edge: float, thick
     Hashes use the solver version of the process that computes (a dask worker with other code gets
     a different hash, and a later sweep recomputes its rows).
 
-    Long because it is the sweep's one task, done in a worker process: fillet, mesh, every scenario and the
-    row, each failure turned into a stored reason.
+    The work is :func:`fabpat.simulation.energies.scenario_energies` (as ``fabpat simulate``); this turns
+    it into rows.
     """
-    from fabpat.geometry.fillet import fillet_pattern
     from fabpat.patterns.library import get_pattern
     from fabpat.patterns.variation import Variation
-    from fabpat.simulation.convergence import converged_h, nested_meshes, run_converged
-    from fabpat.simulation.mesh import ShellMesh, check_resolves, mesh_outline
+    from fabpat.simulation.energies import ScenarioEnergies, scenario_energies
 
     version = solver_version()
     member = bridge_weight != 1.0
@@ -166,51 +164,45 @@ def simulate_pattern(pattern_id: str, sides: int, depth: int, edge: float, thick
     prow: dict[str, object] = {"table": "patterns", **key,
                                "input_hash": pattern_hash(pattern_id, sides, depth, edge, thickness, weight,
                                                           version)}
-    rows: list[dict[str, object]] = [prow]
-    meshes: list[tuple[float, ShellMesh]] = []
-    geometry_error: str | None = None
+    got: ScenarioEnergies | None = None
     try:
         pattern = get_pattern(pattern_id, sides, depth, edge)
         m = pattern.metrics
         prow.update(area=m.area, perimeter=m.perimeter, ratio=m.ratio, polar_moment=m.polar_moment)
-        filleted = fillet_pattern(pattern, weight, Variation(bridge_weight))
-        prow.update(filleted.catalog_columns())  # as `fabpat library`; an invalid outline raises GeometryError
-        prow["svg_path"] = filleted.outline.to_svg_path()
-        if h_fine is None:
-            check_resolves(h, float(prow["min_width"]), f"pattern {pattern_id}")  # as `fabpat simulate --h`
-            meshes = [(h, mesh_outline(filleted.outline, h, sides, edge, weight=weight))]
-        else:  # h is an upper bound: converged_h lowers it where a neck would be unresolved (row h says so)
-            coarse = converged_h(float(prow["min_width"]), h)
-            meshes = nested_meshes(filleted.outline, coarse, sides, edge, weight=weight)
     except FabpatError as e:
-        geometry_error = f"{type(e).__name__}: {e}"
-        prow["error"] = geometry_error
-    for scenario in scenarios:
+        prow["error"] = f"{type(e).__name__}: {e}"
+    else:
+        # h is an upper bound when extrapolating: converged_h lowers it where a neck would be unresolved
+        # (the row's h says so); a sweep has no --max-elements (checked up front for the whole polygon)
+        got = scenario_energies(pattern, scenarios, weight=weight, variation=Variation(bridge_weight), h=h,
+                                extrapolate=extrapolate, h_is_bound=True, thickness=thickness, E=E, nu=nu,
+                                option="fixed for sweeps", keep_errors=True)
+        prow.update(got.columns)  # as `fabpat library`
+        if got.columns and got.filleted is not None:
+            prow["svg_path"] = got.filleted.outline.to_svg_path()
+        if got.error is not None:
+            prow["error"] = got.error
+    rows: list[dict[str, object]] = [prow]
+    for k, scenario in enumerate(scenarios):
         row: dict[str, object] = {"table": "family" if member else "results", **key, "scenario": scenario,
                                   "E": float(E), "nu": float(nu), "h": float(h), "h_fine": h_fine, "nonlinear": 1,
                                   "converged": 0, "solver_version": version,
                                   "input_hash": result_hash(pattern_id, sides, depth, edge, thickness, weight, E,
                                                             nu, h, scenario, version, h_fine, bridge_weight),
-                                  "error": geometry_error}
+                                  "error": prow.get("error")}
         if member:
             row.update(bridge_weight=float(bridge_weight), min_width=prow.get("min_width"),
                        filleted_area=prow.get("filleted_area"))
-        if meshes:
-            t0 = time.perf_counter()
-            fine = meshes[-1][1]
+        if got is not None and got.mesh is not None:
+            run = got.runs[k]
             # the meshes used (a narrow pattern's coarse h may be below the set-up's; the hash keeps the set-up)
-            row.update(nodes=fine.n_nodes, elements=fine.n_elements, h=float(meshes[0][0]),
-                       h_fine=float(meshes[-1][0]) if len(meshes) > 1 else None)
-            try:
-                c = run_converged(meshes, scenario, sides=sides, edge=edge, thickness=thickness, E=E, nu=nu,
-                                  nonlinear=True)
-                r = c.fine
-                row.update(energy=float(c.energy), max_displacement=float(r.max_displacement),
-                           converged=int(all(x.converged for x in c.runs)),
-                           iterations=int(r.iterations),
-                           seconds=float(sum(x.seconds for x in c.runs)))
-            except FabpatError as e:
-                row.update(error=f"{type(e).__name__}: {e}", seconds=time.perf_counter() - t0)
+            row.update(nodes=got.mesh.n_nodes, elements=got.mesh.n_elements, h=float(got.meshes[0][0]),
+                       h_fine=float(got.meshes[-1][0]) if len(got.meshes) > 1 else None, seconds=run.seconds)
+            if run.result is not None:
+                row.update(energy=run.energy, max_displacement=float(run.result.fine.max_displacement),
+                           converged=int(run.converged), iterations=int(run.result.fine.iterations))
+            else:
+                row["error"] = run.error
         row["computed_at"] = datetime.now(UTC).isoformat(timespec="seconds")
         rows.append(row)
     return rows[1:] if member else rows
@@ -400,6 +392,7 @@ def run_sweep(db: str | Path, ids: Sequence[str], setup: SweepSetup = SweepSetup
         # even if a source file is edited while the sweep runs
         import fabpat.geometry.fillet  # noqa: F401
         import fabpat.simulation.convergence  # noqa: F401
+        import fabpat.simulation.energies  # noqa: F401
         import fabpat.simulation.mesh  # noqa: F401
         import fabpat.simulation.scenarios  # noqa: F401
     # connect first: an unreachable scheduler must not leave a new, empty catalog behind

@@ -3,8 +3,10 @@ catalog, print it, browse it as linked scatter plots, draw its static figures.""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import time
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -26,7 +28,7 @@ from fabpat.cli.options import (
 from fabpat.patterns.variation import Variation
 
 if TYPE_CHECKING:
-    from fabpat.catalog.sweep import SweepSetup
+    from fabpat.catalog.sweep import SweepReport, SweepSetup
 
 DEFAULT_DB = "catalog.sqlite"
 _db_help = "Catalog file (SQLite) [default: the built-in catalog of the default library]."
@@ -86,9 +88,60 @@ def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, wo
       fabpat sweep --db catalog.sqlite --workers 2
       fabpat sweep --db catalog.sqlite --family
 
-    Long because most of it is the command's options checked and passed on; the work is
-    :func:`fabpat.catalog.sweep.run_sweep`'s.
+    The work is :func:`fabpat.catalog.sweep_members.sweep_members`'s.
     """
+    from fabpat.catalog.sweep import SweepSetup
+    from fabpat.catalog.sweep_members import member_setups, sweep_members
+    from fabpat.cli.library_cmds import load_library
+    from fabpat.io import check_distinct
+
+    check_distinct([], inputs={"--db": db})  # the library cache, say, may never replace the catalog
+    if family and not variation.is_paper:
+        raise click.UsageError("--family sweeps every standard member; --variation one member: give one of them")
+    setup = SweepSetup(sides, depth, edge, thickness, weight, modulus, poisson, h, extrapolate=extrapolate,
+                       bridge_weight=1.0 if family else variation.bridge_weight)
+    setups = member_setups(setup, family)
+    if dask_address and workers:
+        raise click.UsageError("--workers is for local processes; the dask cluster decides with --dask")
+    if learn and (family or not variation.is_paper):
+        raise click.UsageError("--learn chooses patterns for the learned response, which knows the paper's fillets "
+                               "only: give it without --family and --variation")
+    ids = _learn_ids(db, sides, depth, sample, seed, learn) if learn else load_library(sides, depth, sample, seed).ids
+    with _sweep_progress() as progress:
+        try:
+            report, sweeps = sweep_members(db, ids, setups, family=family, workers=workers, dask=dask_address,
+                                           force=force, progress=progress, tell=lambda line: click.echo(line, err=True))
+        except KeyboardInterrupt:
+            from fabpat.cli import _TERMINATED  # the CLI's SIGTERM handler records the signal there
+
+            how, code = ("terminated", 128 + _TERMINATED[0]) if _TERMINATED else ("interrupted", 130)
+            click.echo(f"fabpat: {how}; every finished pattern is stored in {db}: run the same command "
+                       "again to resume", err=True)
+            return code
+    members_text = f", {sweeps} family members and refinements" if len(setups) > 1 else (
+        f", bridge_weight = {setup.bridge_weight:g}" if setup.bridge_weight != 1.0 else "")
+    return _finish(db, report, setup, f"{len(ids)} patterns{members_text}", learn=bool(learn))
+
+
+def _finish(db: str, report: SweepReport, setup: SweepSetup, what: str, learn: bool) -> int:
+    """The sweep's summary line, its warnings and the learned response's refit; the exit code (1 if a
+    pattern's task raised and was not stored)."""
+    click.echo(f"{db}: {report.computed} pattern-scenarios computed ({report.failed_rows} did not converge), "
+               f"{report.skipped} already up to date, {what}, {report.seconds:.1f} s")
+    mixed = _warn_mixed(db, setup)
+    if report.computed and not mixed:  # nothing new, or rows that do not rank together: the model stands
+        _refit(db, tell_why=learn)
+    if report.crashed:
+        click.echo(f"fabpat: warning: {len(report.crashed)} patterns raised and were not stored (re-run to retry): "
+                   f"{report.crashed[0]}", err=True)
+        return 1
+    return 0
+
+
+@contextlib.contextmanager
+def _sweep_progress() -> Iterator[Callable[[int, int], None]]:
+    """A progress callback (rows done, rows total) for the sweep: a bar on a terminal, else a plain line every
+    few seconds (FABPAT_PROGRESS_INTERVAL, as every command's plain progress lines) on stderr."""
     from rich.console import Console
     from rich.progress import (
         BarColumn,
@@ -99,38 +152,15 @@ def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, wo
         TimeRemainingColumn,
     )
 
-    from fabpat.catalog.sweep import SweepSetup, run_sweep
-    from fabpat.cli.library_cmds import load_library
-    from fabpat.io import check_distinct
-    from fabpat.simulation.mesh import DEFAULT_MAX_ELEMENTS, check_polygon_elements
+    from fabpat.progress import progress_interval
 
-    check_distinct([], inputs={"--db": db})  # the library cache, say, may never replace the catalog
-    if family and not variation.is_paper:
-        raise click.UsageError("--family sweeps every standard member; --variation one member: give one of them")
-    members = (1.0, *FAMILY_SAMPLES) if family else (variation.bridge_weight,)
-    setups = [SweepSetup(sides, depth, edge, thickness, weight, modulus, poisson, h, extrapolate=extrapolate,
-                         bridge_weight=w) for w in members]
-    setup = setups[0]
-    # a sweep has no --max-elements: the limit protects every worker's memory
-    h = float(setup.h)  # type: ignore[arg-type]  # resolved by SweepSetup
-    check_polygon_elements(sides, edge, h, DEFAULT_MAX_ELEMENTS, fine_ratio=(setup.h_fine or h) / h,
-                           option="fixed for sweeps")
-    if dask_address and workers:
-        raise click.UsageError("--workers is for local processes; the dask cluster decides with --dask")
-    if learn and (family or not variation.is_paper):
-        raise click.UsageError("--learn chooses patterns for the learned response, which knows the paper's fillets "
-                               "only: give it without --family and --variation")
-    ids = _learn_ids(db, sides, depth, sample, seed, learn) if learn else load_library(sides, depth, sample, seed).ids
     console = Console(stderr=True)
     columns = (TextColumn("simulating"), BarColumn(), MofNCompleteColumn(), TextColumn("pattern-scenarios"),
                TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn())
+    interval = progress_interval()
     with Progress(*columns, console=console, transient=True, disable=not console.is_terminal) as bar:
         task = bar.add_task("sweep", total=None)
-
         last = [time.monotonic()]
-        from fabpat.progress import progress_interval
-
-        interval = progress_interval()  # FABPAT_PROGRESS_INTERVAL, as every command's plain progress lines
 
         def progress(done: int, total: int) -> None:
             bar.update(task, completed=done, total=total)
@@ -141,44 +171,7 @@ def sweep_cmd(sides: int, depth: int, sample: int | None, seed: int, db: str, wo
                 click.echo(f"simulated {done}/{total} pattern-scenarios"
                            + (f", ETA {eta / 60:.1f} min" if eta else ""), err=True)
 
-        try:
-            reports = []
-            for k, member in enumerate(setups):
-                if len(setups) > 1:
-                    click.echo(f"bridge_weight = {member.bridge_weight:g} ({k + 1} of {len(setups)})", err=True)
-                reports.append(run_sweep(db, ids, member, workers=workers, dask=dask_address, force=force,
-                                         progress=progress))
-            if family:
-                from fabpat.catalog.sweep import refine_family
-
-                reports += refine_family(db, ids, setup, workers=workers, dask=dask_address, force=force,
-                                         progress=progress, tell=lambda line: click.echo(line, err=True))
-        except KeyboardInterrupt:
-            from fabpat.cli import _TERMINATED  # the CLI's SIGTERM handler records the signal there
-
-            how, code = ("terminated", 128 + _TERMINATED[0]) if _TERMINATED else ("interrupted", 130)
-            click.echo(f"fabpat: {how}; every finished pattern is stored in {db}: run the same command "
-                       "again to resume", err=True)
-            return code
-    report = reports[0]
-    for other in reports[1:]:
-        report.computed += other.computed
-        report.failed_rows += other.failed_rows
-        report.skipped += other.skipped
-        report.crashed += other.crashed
-        report.seconds += other.seconds
-    members_text = f", {len(reports)} family members and refinements" if len(setups) > 1 else (
-        f", bridge_weight = {setup.bridge_weight:g}" if setup.bridge_weight != 1.0 else "")
-    click.echo(f"{db}: {report.computed} pattern-scenarios computed ({report.failed_rows} did not converge), "
-               f"{report.skipped} already up to date, {len(ids)} patterns{members_text}, {report.seconds:.1f} s")
-    mixed = _warn_mixed(db, setup)
-    if report.computed and not mixed:  # nothing new, or rows that do not rank together: the model stands
-        _refit(db, tell_why=bool(learn))
-    if report.crashed:
-        click.echo(f"fabpat: warning: {len(report.crashed)} patterns raised and were not stored (re-run to retry): "
-                   f"{report.crashed[0]}", err=True)
-        return 1
-    return 0
+        yield progress
 
 
 def _learn_ids(db: str, sides: int, depth: int, sample: int | None, seed: int, learn: int) -> tuple[str, ...]:
@@ -216,17 +209,12 @@ def _refit(db: str, tell_why: bool) -> None:
 
 
 def _warn_mixed(db: str, setup: SweepSetup) -> bool:
-    """One stderr line if the catalog now mixes extrapolated and one-mesh energies for this set-up:
-    they are not comparable (docs/accuracy.md), and a sample sweep into a full catalog makes such a mix.
-    Returns whether it does (the learned response is then not refitted)."""
-    from fabpat.catalog import open_catalog
+    """One stderr line if the catalog now mixes extrapolated and one-mesh energies for this set-up
+    (:func:`fabpat.catalog.sweep_members.mixed_energies`). Returns whether it does (the learned response is
+    then not refitted)."""
+    from fabpat.catalog.sweep_members import mixed_energies
 
-    with open_catalog(db) as cat:
-        (row,) = cat.query("SELECT SUM(h_fine IS NULL) AS one, SUM(h_fine IS NOT NULL) AS two FROM results WHERE "
-                           "sides = ? AND depth = ? AND edge = ? AND thickness = ? AND weight = ?",
-                           (setup.sides, setup.depth, float(setup.edge), float(setup.thickness),
-                            float(setup.weight)))
-    one, two = int(row["one"] or 0), int(row["two"] or 0)
+    one, two = mixed_energies(db, setup)
     if one and two:
         click.echo(f"fabpat: warning: {db} now holds {two} extrapolated and {one} one-mesh energies for this "
                    "set-up, which do not rank together (one-mesh energies are 1.5–11 % low); sweep the whole "

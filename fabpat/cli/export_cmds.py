@@ -182,8 +182,9 @@ def export_cmd(pattern_id: str | None, sides: int, depth: int | None, edge: floa
     from fabpat.patterns.library import get_pattern
 
     pattern = get_pattern(pattern_id, sides, depth, edge)  # depth None: from the ID's length
-    warn_inert_variation(variation, fillet_pattern(pattern, weight, variation).variation, pattern.id)
-    jobs = [(lambda: make_part(pattern, thickness, weight, variation), targets)]
+    filleted = fillet_pattern(pattern, weight, variation)  # once: the warning's member is the part's
+    warn_inert_variation(variation, filleted.variation, pattern.id)
+    jobs = [(lambda: filleted_part(filleted, thickness), targets)]
     for path in _write_all(jobs, settings, progress=False):
         click.echo(f"wrote {path}")
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
@@ -22,10 +23,13 @@ from fabpat.cli.options import (
     warn_inert_variation,
     weight_option,
 )
-from fabpat.errors import FabpatError, SolverError
+from fabpat.errors import FabpatError
 from fabpat.io import atomic_outputs, check_distinct, check_suffix
 from fabpat.patterns.variation import Variation
 from fabpat.simulation.mesh import DEFAULT_MAX_ELEMENTS
+
+if TYPE_CHECKING:  # pragma: no cover
+    from fabpat.simulation.energies import ScenarioEnergies, ScenarioRun
 
 SCENARIO_CHOICES = ("cantilever", "cylinder", "dome", "all")
 
@@ -93,86 +97,95 @@ def simulate_cmd(
 
     Example: fabpat simulate 0x2d88 --scenario dome --vtu dome.vtu --png dome.png --json
 
-    Long because most of it is the command's options checked and passed on, and its outputs written; the work
-    is the library's.
+    The work is :func:`fabpat.simulation.energies.scenario_energies`'s (as ``fabpat sweep``).
     """
     from fabpat.geometry.fillet import fillet_pattern
     from fabpat.patterns.library import get_pattern
     from fabpat.progress import Progress
-    from fabpat.simulation.convergence import ONE_MESH_H, mesh_converged, run_converged
-    from fabpat.simulation.inp import write_inp
-    from fabpat.simulation.png_result import write_png
-    from fabpat.simulation.scenarios import PNG_SUFFIXES, SCENARIOS, VTU_SUFFIXES, mesh_filleted
-    from fabpat.simulation.vtu import write_vtu
+    from fabpat.simulation.energies import scenario_energies
+    from fabpat.simulation.scenarios import SCENARIOS
 
-    if extrapolate is None:  # converged by default; a mesh size given means that mesh
-        extrapolate = h is None
-    if h is None and not extrapolate:
-        h = ONE_MESH_H
     scenarios = SCENARIOS if scenario == "all" else (scenario,)
     many = len(scenarios) > 1
-    outputs = {
-        (kind, sc): _per_scenario(path, sc, many)
-        for kind, path in (("vtu", vtu), ("png", png), ("inp", inp))
-        for sc in scenarios
-        if path is not None
-    }
-    check_distinct(outputs.values())  # before the work: --vtu x --png x would overwrite one with the other
-    for option, path, valid in (("--vtu", vtu, VTU_SUFFIXES), ("--png", png, PNG_SUFFIXES),
-                                ("--export-inp", inp, (".inp",))):
-        if path is not None:
-            check_suffix(path, valid, option)
+    outputs = _outputs(vtu, png, inp, scenarios)
     pattern = get_pattern(pattern_id, sides, depth, edge)
     filleted = fillet_pattern(pattern, weight, variation)  # its outline carries its polygon
     warn_inert_variation(variation, filleted.variation, pattern.id)
     given = variation_given()
     member = "".join(f" {k}={v:g}" for k, v in variation.items().items() if k in given or v != 1.0)
-    rows = []
     # a heartbeat line while each scenario's solves block (the solver has no progress callback)
     with atomic_outputs(*outputs.values()) as temps, Progress("simulate", total=len(scenarios),
                                                               enabled=progress) as bar:
-        bar.update("meshing", 0)
-        # by default the converged run's coarse h (2.5 mm; 1.1 × min_width for necks under 2.27 mm)
-        meshes = mesh_converged(filleted, h, max_elements=max_elements) if extrapolate else \
-            [(float(h), mesh_filleted(filleted, float(h), max_elements=max_elements))]  # type: ignore[arg-type]
-        mesh = meshes[-1][1]  # fields, files and node counts come from the finest mesh
-        sizes = " and ".join(f"{m.n_elements} elements" for _, m in meshes)
-        tmp_of = dict(zip(outputs, temps, strict=True))
-        for k, sc in enumerate(scenarios):
-            bar.update(f"{sc} ({k + 1} of {len(scenarios)}) on {sizes}", k)
-            try:
-                c = run_converged(meshes, sc, sides=sides, edge=edge, thickness=thickness, E=E, nu=nu,
-                                  nonlinear=not linear)
-            except SolverError as e:  # say which of the scenarios and which family member
-                raise SolverError(f"{sc} scenario of {pattern.id}{member}: {e}") from None
-            row = c.summary()
-            bar.item(f"{sc} finished ({k + 1} of {len(scenarios)}), energy {row['energy']:.6g} N·mm")
-            if not row["converged"]:  # run_scenario raises on nonconvergence; this guards the contract
-                raise FabpatError(f"{sc}: the solver did not converge")
-            rows.append({"id": pattern.id, "sides": sides, **variation.items(), **row})
-            if ("vtu", sc) in tmp_of:
-                write_vtu(tmp_of["vtu", sc], mesh.V, mesh.F, c.fine.result)
-            if ("png", sc) in tmp_of:
-                caption = dataclasses.replace(c.as_result(), pattern_id=pattern.id,
-                                              member=filleted.variation.tag()).caption()  # the API's energy
-                write_png(tmp_of["png", sc], mesh.V, mesh.F, c.fine.result, title=caption)
-            if ("inp", sc) in tmp_of:
-                write_inp(tmp_of["inp", sc], mesh, sc, sides=sides, thickness=thickness, E=E, nu=nu,
-                          nonlinear=not linear, element=inp_element.upper(), pattern=filleted.label)
+        got = scenario_energies(filleted, scenarios, h=h, extrapolate=extrapolate, thickness=thickness, E=E, nu=nu,
+                                nonlinear=not linear, max_elements=max_elements, name=f"{pattern.id}{member}",
+                                progress=bar)
+        rows = [{"id": pattern.id, "sides": sides, **variation.items(), **_summary(run)} for run in got.runs]
+        _write_files(got, dict(zip(outputs, temps, strict=True)), thickness=thickness, E=E, nu=nu, linear=linear,
+                     inp_element=inp_element)
     if as_json:
         click.echo(json.dumps(rows if many else rows[0], indent=1))
     else:
         for row in rows:
-            # the JSON field names, units in --help: a line splits on spaces, then on "="
-            click.echo(
-                f"id={row['id']} scenario={row['scenario']} energy={row['energy']:.6g} "
-                f"max_displacement={row['max_displacement']:.4g} converged={str(bool(row['converged'])).lower()} "
-                f"iterations={row['iterations']} seconds={row['seconds']:.2f} nodes={row['nodes']} "
-                f"elements={row['elements']} h={','.join(f'{x:g}' for x in row['h'])}"
-                + member
-            )
+            click.echo(_text_line(row) + member)
     for path in outputs.values():
         click.echo(f"wrote {path}", err=True)  # stdout is data (key=value lines or JSON)
+
+
+def _outputs(vtu: str | None, png: str | None, inp: str | None,
+             scenarios: tuple[str, ...]) -> dict[tuple[str, str], str]:
+    """{(kind, scenario): file name} of the result files asked for, checked before any work: distinct
+    names (--vtu x --png x would overwrite one with the other) with the right suffixes."""
+    from fabpat.simulation.scenarios import PNG_SUFFIXES, VTU_SUFFIXES
+
+    many = len(scenarios) > 1
+    outputs = {(kind, sc): str(_per_scenario(path, sc, many))
+               for kind, path in (("vtu", vtu), ("png", png), ("inp", inp)) for sc in scenarios if path is not None}
+    check_distinct(outputs.values())
+    for option, path, valid in (("--vtu", vtu, VTU_SUFFIXES), ("--png", png, PNG_SUFFIXES),
+                                ("--export-inp", inp, (".inp",))):
+        if path is not None:
+            check_suffix(path, valid, option)
+    return outputs
+
+
+def _summary(run: ScenarioRun) -> dict[str, object]:
+    """A scenario's JSON fields (:meth:`fabpat.simulation.convergence.ConvergedResult.summary`)."""
+    if run.result is None or not run.converged:  # scenario_energies raises on nonconvergence; this guards it
+        raise FabpatError(f"{run.scenario}: the solver did not converge")
+    return run.result.summary()
+
+
+def _text_line(row: dict) -> str:
+    """One scenario as plain key=value fields: the JSON field names, units in --help; a line splits on
+    spaces, then on "="."""
+    return (f"id={row['id']} scenario={row['scenario']} energy={row['energy']:.6g} "
+            f"max_displacement={row['max_displacement']:.4g} converged={str(bool(row['converged'])).lower()} "
+            f"iterations={row['iterations']} seconds={row['seconds']:.2f} nodes={row['nodes']} "
+            f"elements={row['elements']} h={','.join(f'{x:g}' for x in row['h'])}")
+
+
+def _write_files(got: ScenarioEnergies, tmp_of: dict[tuple[str, str], Path], *, thickness: float, E: float,
+                 nu: float, linear: bool, inp_element: str) -> None:
+    """The asked result files of each scenario, into their temporary names: fields and mesh of the finest
+    mesh, the picture captioned with the API's (extrapolated) energy."""
+    from fabpat.simulation.inp import write_inp
+    from fabpat.simulation.png_result import write_png
+    from fabpat.simulation.vtu import write_vtu
+
+    mesh, filleted = got.mesh, got.filleted
+    assert mesh is not None and filleted is not None  # scenario_energies raised otherwise
+    for run in got.runs:
+        sc, c = run.scenario, run.result
+        assert c is not None
+        if ("vtu", sc) in tmp_of:
+            write_vtu(tmp_of["vtu", sc], mesh.V, mesh.F, c.fine.result)
+        if ("png", sc) in tmp_of:
+            caption = dataclasses.replace(c.as_result(), pattern_id=filleted.pattern.id,
+                                          member=filleted.variation.tag()).caption()
+            write_png(tmp_of["png", sc], mesh.V, mesh.F, c.fine.result, title=caption)
+        if ("inp", sc) in tmp_of:
+            write_inp(tmp_of["inp", sc], mesh, sc, sides=filleted.sides, thickness=thickness, E=E, nu=nu,
+                      nonlinear=not linear, element=inp_element.upper(), pattern=filleted.label)
 
 
 COMMANDS = [simulate_cmd]
