@@ -239,6 +239,14 @@ def test_a_too_irregular_polygon_is_refused_naming_the_deviation_and_the_limit()
         shape_pattern(pattern("0x0488"), long, W, tolerance=(1.0, math.radians(10)))
 
 
+def test_a_polygon_whose_centroid_falls_beside_an_edge_is_refused() -> None:
+    # A regular octagon stretched 60 % along x: the foot of its centre on a slanted edge next to a flat
+    # one falls outside that edge (its obtuse corners), and that is refused whatever the tolerance.
+    octagon = polygon_vertices(8, 36.0) * np.array([1.6, 1.0])
+    with pytest.raises(GeometryError, match=r"foot on edge \d lies outside the edge \(at -?[01]\.\d{3} of it"):
+        shape_pattern(pattern("0x0488", sides=8), octagon, W, tolerance=(1.0, math.pi))
+
+
 @pytest.mark.parametrize("polygon, words", [
     (polygon_vertices(6, 36.0)[::-1], "counter-clockwise"),
     (polygon_vertices(5, 36.0), "polygon has 5 corners"),

@@ -39,7 +39,9 @@ What changes:
   (:attr:`ShapedPattern.interface_half_lengths`, one sleeve per edge). At depth ≥ 2 the moved points
   stay on their row's line and move less than half a lattice step, so the triangles stay valid for
   any convex polygon (at depth 1 the fillet checks them like any triangulation). The triangulation is
-  still straight-edged, so the outline is still exact.
+  still straight-edged, so the outline is still exact. Where c''s foot falls outside an edge (σ < 0
+  or > 1: a stretched octagon, 20.7 % / 15.6°) the slide exceeds half a lattice step and the outline
+  crossed itself for every pattern tried: such a polygon is refused.
 
 The centre c' is the polygon's vertex centroid. It commutes with affine maps: for a polygon that is an
 affine image of the regular one (a stretched or sheared face), every slice's map is that one affine
@@ -260,6 +262,11 @@ def shape_pattern(pattern: Pattern, polygon: ArrayLike, weight: float = DEFAULT_
     E = np.roll(P, -1, axis=0) - P
     L = np.linalg.norm(E, axis=1)
     T = E / L[:, None]
+    sigma = np.einsum("ij,ij->i", c - P, T) / L
+    if not ((sigma > 0) & (sigma < 1)).all():  # measured: the slides then break the fillet (module docstring)
+        e = int(np.argmax(np.abs(sigma - 0.5)))
+        raise GeometryError(f"the polygon is too irregular for a shaped plate: its centroid's foot on edge {e} lies "
+                            f"outside the edge (at {sigma[e]:.3f} of it; limit 0 to 1)")
     mean_edge = float(L.mean())
     regular = Pattern(pattern.slice, n, mean_edge)
     iface = _interface_vertices(regular)
