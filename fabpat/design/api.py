@@ -51,6 +51,8 @@ class DesignResult:
     face_col: list[int]  # strip: each face's column; closed: each face's group
     warning: str | None
     baseline_runs: dict[str, Evaluated] = field(default_factory=dict)
+    #: extra files written beside design.toml, by name (a mapped tiling's mesh)
+    files: dict[str, bytes] = field(default_factory=dict)
 
     def write(self, out: str | os.PathLike[str], kit: bool = False) -> list[str]:
         """Write design.toml, design.json, design.png (and with ``kit`` the kit in out/kit) atomically;
@@ -99,7 +101,8 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
            h: float = 3.0, max_solves: int | None = None, tolerance: float = TOLERANCE, scale_target: bool = False,
            workers: int = 1, dask: str | None = None, kit: bool = False,
            progress: Callable[[int, float], None] | None = None, max_minutes: float | None = None,
-           status: Callable[[str], None] | None = None) -> DesignResult:
+           status: Callable[[str], None] | None = None, per: str = "face",
+           vary: str | list[str] | tuple[str, ...] | None = None) -> DesignResult:
     """Design an assembly whose predicted shape matches ``target``: one pattern per tile.
 
     ``target``: for a honeycomb-strip spec a CSV path (header x,z, mm) or an (n, 2) array of (x, z) mm; for a
@@ -114,6 +117,13 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
     ``fabpat assemble`` into out/kit); ``progress(solves, seconds)`` after every solve; ``status(text)`` hears
     what the solves are doing (increment, λ, factorizations; the kernels' first compilation; an abandoned
     solve and why).
+
+    ``per`` ("face" or "group"): a closed design's pattern per face, or per face group (polygon and latitude
+    band, :func:`fabpat.design.closed.face_groups`); ``vary``: the design variables, words of
+    :data:`fabpat.design.mapped.VARY` (a comma-separated string or a list; default ``shapes,patterns`` for a closed
+    target, ``patterns,angles`` for a strip). With ``shapes`` a closed design's tiling is the base's mapped onto the
+    target and relaxed into flat, nearly regular faces, its plates shaped to them (:mod:`fabpat.design.mapped`);
+    a strip's shapes are its target's and take no ``shapes``.
 
     Stopping early (:mod:`fabpat.design.stop`): a Ctrl-C (KeyboardInterrupt; SIGTERM under the CLI) or the
     time budget ``max_minutes`` (minutes from the call) ends the search, and the best design of the
@@ -162,9 +172,16 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
         from fabpat.design.outputs import check_design_out
 
         check_design_out(out)
+    from fabpat.design.mapped import read_per, read_vary
+
+    per = read_per(per)
     tgt = read_target(target)
+    vary_words = read_vary(vary, isinstance(tgt, ClosedTarget))
     base = load_base(spec)
     require_match(tgt, base.spec.source, base.spec.tiling.kind)
+    if not isinstance(tgt, ClosedTarget) and "shapes" in vary_words:
+        raise SpecError("--vary shapes maps a closed tiling onto its target; a strip's plates are its own "
+                        "(leave shapes out)")
     if isinstance(tgt, ClosedTarget) and scale_target:
         raise SpecError("scale_target applies to strip targets (a closed target has no size: the plates fix it)")
     deadline = None if max_minutes is None else t0 + 60.0 * max_minutes
@@ -172,11 +189,25 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
     if isinstance(tgt, ClosedTarget):
         from fabpat.design.closed_api import design_closed
 
+        mapped = None
+        if "shapes" in vary_words:
+            from fabpat.design.mapped import mapped_base
+
+            base, mapped = mapped_base(tgt, base)
+            runner = Runner(base.spec, h, (), workers, dask, progress, status=status, deadline=deadline)
         res = design_closed(tgt, base, h, MAX_SOLVES_CLOSED if max_solves is None else max_solves, tolerance,
-                            runner, t0, DesignResult)
+                            runner, t0, DesignResult, per=per)
+        res.record["per"] = per
+        res.record["vary"] = list(vary_words)
+        if mapped is not None:
+            res.record["face_irregularity"] = mapped.face_irregularity
+            res.record["mapped"] = {"file": "mapped.obj", "planarity": mapped.planarity,
+                                    "distance_rms": mapped.distance_rms, "seconds": mapped.seconds}
+            res = replace(res, files={"mapped.obj": mapped.obj})
     else:
         res = _design_strip(tgt, base, h, MAX_SOLVES if max_solves is None else max_solves, tolerance,
                             scale_target, runner, t0)
+    res.record["variables"] = _variables(res, vary_words)
     stopped = res.record.get("stopped_by")
     res.record["interrupted"] = stopped is not None
     res.record["abandoned"] = list(runner.failures)
@@ -187,6 +218,16 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
     if out is not None:
         res.write(out, kit)
     return res
+
+
+def _variables(res: DesignResult, vary: tuple[str, ...]) -> dict[str, int]:
+    """design.json ``variables``: how many of each kind the design chose — ``patterns`` (distinct pattern slots:
+    faces or face groups, a strip's faces), ``shapes`` (the mapped tiling's free vertex coordinates), ``angles``
+    and ``thickness`` (sleeves and plates given their own; 0 when not varied)."""
+    out = {"patterns": len(set(res.face_col)) if "patterns" in vary else 0,
+           "shapes": 3 * len(res.files and res.base.spec.tiling.vertices or ()) if "shapes" in vary else 0,
+           "angles": 0, "thickness": 0}
+    return out
 
 
 def _design_strip(strip: StripTarget, base: DesignBase, h: float, max_solves: int, tolerance: float,

@@ -46,14 +46,17 @@ def _single_key(search: ClosedSearch) -> tuple[int, ...] | None:
 
 
 def design_closed(tgt: ClosedTarget, base: DesignBase, h: float, max_solves: int, tolerance: float, runner: Runner,
-                  t0: float, result: Callable[..., Any]) -> Any:
+                  t0: float, result: Callable[..., Any], per: str = "group") -> Any:
     """Design a closed tiling for ``tgt`` (module doc) with ``runner`` (its deadline and a signal stop the
-    search early, :mod:`fabpat.design.stop`); ``result`` builds the DesignResult."""
+    search early, :mod:`fabpat.design.stop`); ``result`` builds the DesignResult. ``per``: a pattern per face
+    group (polygon and latitude band: :func:`fabpat.design.closed.face_groups`) or per ``"face"``."""
     from fabpat.assembly.place.placement import build_tiling
 
     assert base.rows is not None
     skel = build_tiling(base.spec)
     groups, sides = face_groups(skel.V, skel.faces, tgt.bands)
+    if per == "face":  # every face its own group: the search's variables are the faces
+        groups, sides = list(range(len(skel.faces))), [len(loop) for loop in skel.faces]
     pools = [pattern_features(base.rows[s]) for s in sides]
     runner.solve = solve_closed
     search = ClosedSearch(pools, groups, sides, tgt, design_axis(skel.V, skel.faces),
