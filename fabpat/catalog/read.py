@@ -16,10 +16,10 @@ from collections.abc import Iterator, Mapping, Sequence
 from functools import cache
 from pathlib import Path
 
-from fabpat.catalog.rows import CatalogRows, check_row, find_rows, number, parse_condition, polygon_name
+from fabpat.catalog.rows import CatalogRows, check_row, find_rows, parse_condition, polygon_name
 from fabpat.catalog.schema import DEFAULT_SETUP, KEY, METRICS, CatalogError, builtin_path
 from fabpat.catalog.store import Catalog, open_catalog
-from fabpat.validate import check
+from fabpat.validate import as_float, check
 
 
 @cache
@@ -35,7 +35,7 @@ def _energy_items(cat: Catalog, scenario: str, sides: int, depth: int, edge: flo
                        "thickness = ? AND weight = ? ORDER BY id", (scenario, sides, depth, edge, thickness, weight)):
         check_row(cat.path, r, METRICS)  # a bad stored energy is an error, never a silently used (or dropped) number
         if r["converged"]:
-            yield str(r["id"]), number(r["energy"])
+            yield str(r["id"]), as_float(r["energy"])
 
 
 @contextlib.contextmanager
@@ -170,7 +170,7 @@ def no_filter_match_message(rows: Sequence[Mapping[str, object]], fields: Sequen
     filters = [where] if isinstance(where, str) else list(where)
     for text in filters:
         cond = parse_condition(text, fields)
-        values = [number(v) for r in rows if (v := r.get(cond.field)) is not None]
+        values = [as_float(v) for r in rows if (v := r.get(cond.field)) is not None]
         if not any(cond.holds(r) for r in rows):
             span = f"{min(values):.6g} … {max(values):.6g}" if values else "no values"
             return (f"no pattern meets the filter {text!r}: {cond.field} spans {span} over the {len(rows)} "

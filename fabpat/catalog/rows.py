@@ -15,9 +15,10 @@ import operator
 import re
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, SupportsFloat, SupportsIndex, TypeGuard
+from typing import Any, TypeGuard
 
 from fabpat.catalog.schema import CatalogError
+from fabpat.validate import as_float
 
 _POLYGONS = {3: "triangles", 4: "squares", 5: "pentagons", 6: "hexagons", 7: "heptagons", 8: "octagons",
              9: "nonagons", 10: "decagons", 12: "dodecagons"}
@@ -126,18 +127,10 @@ def check_row(path: object, r: Mapping[str, object], columns: Iterable[str] = ()
         raise stored_error(path, r, problem)
 
 
-def number(value: object) -> float:
-    """``float(value)`` for a value of a catalog row (its values are typed ``object``: SQLite hands back
-    int, float, str, bytes or None): the same number, or the TypeError (None, a list, …) or ValueError
-    (text that is no number) that ``float`` raises."""
-    if isinstance(value, str | bytes | bytearray | SupportsFloat | SupportsIndex):
-        return float(value)
-    raise TypeError(f"float() argument must be a string or a real number, not '{type(value).__name__}'")
-
-
 def stored_float(value: object) -> float | None:
-    """A stored number (a row checked by :func:`check_row`) as a float (:func:`number`); NULL stays None."""
-    return None if value is None else number(value)
+    """A stored number (a row checked by :func:`check_row`) as a float
+    (:func:`fabpat.validate.as_float`); NULL stays None."""
+    return None if value is None else as_float(value)
 
 
 def specific_stiffness(energy: float | None, filleted_area: float | None) -> float | None:
@@ -175,7 +168,7 @@ class Condition:
     def holds(self, row: Mapping[str, object]) -> bool:
         """Whether ``row`` meets it; a row without a value in ``field`` never does."""
         v = row.get(self.field)
-        return v is not None and OPERATORS[self.op](number(v), self.value)
+        return v is not None and OPERATORS[self.op](as_float(v), self.value)
 
 
 _NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?", re.ASCII)
@@ -268,7 +261,7 @@ def find_rows(rows: Iterable[dict[str, object]], fields: Sequence[str], *, where
         if name == TEXT_SORT:
             valued.sort(key=lambda vr: str(vr[0]), reverse=descending)
         else:
-            valued.sort(key=lambda vr: number(vr[0]), reverse=descending)
+            valued.sort(key=lambda vr: as_float(vr[0]), reverse=descending)
         out = [r for _, r in valued] + [r for r in out if r.get(name) is None]
     return out if top is None else out[:top]
 

@@ -24,8 +24,9 @@ from typing import TypedDict
 import numpy as np
 
 from fabpat.catalog import DEFAULT_SETUP, Catalog, CatalogError, missing_polygon_message
-from fabpat.catalog.rows import number, specific_stiffness, stored_float
+from fabpat.catalog.rows import specific_stiffness, stored_float
 from fabpat.catalog.schema import Setup
+from fabpat.validate import as_float
 
 _LABELS = {
     "area": ("area", "mm²"), "perimeter": ("perimeter", "mm"), "ratio": ("ratio 4πA/P²", ""),
@@ -71,8 +72,8 @@ def metric_info(key: str) -> dict[str, object]:
 
 def _setup(row: Mapping[str, object]) -> Setup:
     """The set-up of a row of :meth:`Catalog.setups` (checked there: whole sides and depth, numbers)."""
-    return Setup(sides=int(number(row["sides"])), depth=int(number(row["depth"])), edge=number(row["edge"]),
-                 thickness=number(row["thickness"]), weight=number(row["weight"]))
+    return Setup(sides=int(as_float(row["sides"])), depth=int(as_float(row["depth"])),
+                 edge=as_float(row["edge"]), thickness=as_float(row["thickness"]), weight=as_float(row["weight"]))
 
 
 def choose_setup(cat: Catalog, sides: int | None = None) -> Setup:
@@ -87,7 +88,7 @@ def choose_setup(cat: Catalog, sides: int | None = None) -> Setup:
     for s in setups:
         if all(s[k] == v for k, v in DEFAULT_SETUP.items()):
             return _setup(s)
-    return _setup(max(setups, key=lambda s: number(s["patterns"])))
+    return _setup(max(setups, key=lambda s: as_float(s["patterns"])))
 
 
 def _short_path(d: str) -> str:
@@ -150,7 +151,7 @@ def family_data(cat: Catalog, setup: Setup, rows: list[dict[str, object]]) -> di
     fam = cat.family(**setup)
     if not fam:
         return None
-    weights = sorted({1.0, *(number(r["bridge_weight"]) for r in fam)})
+    weights = sorted({1.0, *(as_float(r["bridge_weight"]) for r in fam)})
     col = {w: k for k, w in enumerate(weights)}
     row_of = {str(r["id"]): i for i, r in enumerate(rows)}
     scen = sorted({str(r["scenario"]) for r in fam})
@@ -166,7 +167,7 @@ def family_data(cat: Catalog, setup: Setup, rows: list[dict[str, object]]) -> di
         at = row_of.get(str(f["id"]))
         if at is None:
             continue
-        i, j, s = at, col[number(f["bridge_weight"])], str(f["scenario"])
+        i, j, s = at, col[as_float(f["bridge_weight"])], str(f["scenario"])
         for k in (f"energy_{s}", f"specific_stiffness_{s}", "min_width", "filleted_area"):
             swept[k].add((i, j))
         e = stored_float(f["energy"]) if f["converged"] else None
