@@ -47,7 +47,7 @@ import math
 import os
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, TypeGuard
+from typing import TYPE_CHECKING, TypeGuard, Unpack
 
 import numpy as np
 from numpy.typing import NDArray
@@ -75,6 +75,8 @@ from fabpat.validate import check, check_path
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
+
+    from fabpat.exchange.registry import ExportOptions
 
 __all__ = ["DEFAULT_WEIGHT", "HEXAGON_STAR_TABLE", "FilletedPattern", "StarRun", "VertexStar", "classify",
            "fillet_pattern", "fillet_solid", "interface_half_length", "star_actions", "star_runs", "star_table",
@@ -193,7 +195,7 @@ class FilletedPattern:
         seg = self.interface_segments
         return float(np.linalg.norm(seg[0, 1] - seg[0, 0]) / 2)
 
-    def export(self, path: str | os.PathLike[str], **options: Any) -> Path:
+    def export(self, path: str | os.PathLike[str], **options: Unpack[ExportOptions]) -> Path:
         """Write a fabrication file, the format chosen by the suffix (.step .stl .3mf .dxf .svg .3dm, and
         any format registered in :mod:`fabpat.exchange.registry`), by the same code as ``fabpat export``.
 
