@@ -26,14 +26,14 @@ from typing import Any
 class CallableModule(types.ModuleType):
     """A module whose call runs its ``__call_target__`` (a function, or ``"module:function"``)."""
 
-    def __call__(self, *args: Any, **kwargs: Any) -> Any:
+    def __call__(self, *args: object, **kwargs: object) -> Any:
         return _target(self)(*args, **kwargs)
 
     @property
     def __signature__(self) -> inspect.Signature:
         return inspect.signature(_target(self))
 
-    @property  # type: ignore[override]
+    @property
     def __doc__(self) -> str | None:  # noqa: D105
         own = self.__dict__.get("__doc__")
         call = inspect.getdoc(_target(self)) or ""
@@ -49,11 +49,12 @@ def _target(module: types.ModuleType) -> Callable[..., Any]:
     if isinstance(target, str):  # resolved on first call: the function may live in a later module
         name, _, attr = target.partition(":")
         target = getattr(importlib.import_module(name), attr)
-    return target  # type: ignore[no-any-return]
+    function: Callable[..., Any] = target  # make_callable's target
+    return function
 
 
 def make_callable(module_name: str, target: Callable[..., Any] | str) -> None:
     """Make ``sys.modules[module_name]`` callable: calling it calls ``target``."""
     module = sys.modules[module_name]
-    module.__call_target__ = target  # type: ignore[attr-defined]
+    module.__dict__["__call_target__"] = target  # what _target reads
     module.__class__ = CallableModule

@@ -26,9 +26,13 @@ import sys
 import threading
 import time
 from types import TracebackType
-from typing import IO, Any
+from typing import IO, TYPE_CHECKING
 
 from fabpat.errors import RangeError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from rich.progress import Progress as Bar
+    from rich.progress import TaskID
 
 #: environment variable: seconds between two plain progress lines (a number ≥ 0)
 INTERVAL_VARIABLE = "FABPAT_PROGRESS_INTERVAL"
@@ -79,8 +83,8 @@ class Progress:
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
-        self._bar: Any = None
-        self._task: Any = None
+        self._bar: Bar | None = None
+        self._task: TaskID | None = None  # set with _bar
         self._t0 = 0.0
         self._printed = 0
         self._last = -math.inf
@@ -95,9 +99,9 @@ class Progress:
             return
         with self._lock:
             self._text = text
-        if self._bar is not None:
-            self._bar.update(self._task, description=text,
-                             **({"completed": done} if done is not None and self.total else {}))
+        if self._bar is not None and self._task is not None:
+            self._bar.update(self._task, description=text,  # completed None: left as it is
+                             completed=done if done is not None and self.total else None)
         elif self.interval == 0:
             self._line()
 
@@ -146,10 +150,17 @@ class Progress:
 
     def _start_bar(self) -> None:
         from rich.console import Console
-        from rich.progress import BarColumn, SpinnerColumn, TaskProgressColumn, TextColumn, TimeElapsedColumn
+        from rich.progress import (
+            BarColumn,
+            ProgressColumn,
+            SpinnerColumn,
+            TaskProgressColumn,
+            TextColumn,
+            TimeElapsedColumn,
+        )
         from rich.progress import Progress as Bar
 
-        columns: list[Any] = [SpinnerColumn(), TextColumn(f"{self.command}: {{task.description}}")]
+        columns: list[ProgressColumn] = [SpinnerColumn(), TextColumn(f"{self.command}: {{task.description}}")]
         if self.total:
             columns += [BarColumn(), TaskProgressColumn()]
         self._bar = Bar(*columns, TimeElapsedColumn(), console=Console(file=self._stream, stderr=True),

@@ -22,6 +22,7 @@ import os
 from dataclasses import dataclass
 from decimal import Decimal
 from pathlib import Path
+from typing import SupportsFloat, SupportsIndex
 
 from fabpat.errors import FabpatError, RangeError
 
@@ -143,20 +144,30 @@ def check(name: str, value: object, label: str | None = None, error: type[Fabpat
     # JSON parser with parse_float=Decimal hands over: a number all the same.
     if isinstance(value, bool) or not isinstance(value, numbers.Real | Decimal):
         raise error(f"{what} must be {kind} {_range_text(r).removeprefix('an integer ')}, got {value!r}")
-    if r.integer and not isinstance(value, numbers.Integral):
-        raise error(f"{what} must be {r.describe()}, got {value!r}")
-    if not r.integer:
-        try:
-            number = float(value)
-        except OverflowError:  # an integer beyond float64 (a TOML literal with 400 digits)
-            number = math.inf if value > 0 else -math.inf  # type: ignore[operator]
-        if not math.isfinite(number):
-            raise error(f"{what} must be a finite number in {r.describe()}, got {number!r}")
-        value = number
-    if not r.contains(value):
-        shown = f"{value}" if r.integer else f"{float(value):g}"
-        raise error(f"{what} = {shown} is out of range: must be {_range_text(r)}")
-    return int(value) if r.integer else float(value)
+    if r.integer:
+        if not isinstance(value, numbers.Integral):
+            raise error(f"{what} must be {r.describe()}, got {value!r}")
+        whole = int(value)
+        if not r.contains(whole):
+            raise error(f"{what} = {value} is out of range: must be {_range_text(r)}")
+        return whole
+    try:
+        number = float(value)
+    except OverflowError:  # an integer beyond float64 (a TOML literal with 400 digits)
+        number = -math.inf if value < 0 else math.inf
+    if not math.isfinite(number):
+        raise error(f"{what} must be a finite number in {r.describe()}, got {number!r}")
+    if not r.contains(number):
+        raise error(f"{what} = {number:g} is out of range: must be {_range_text(r)}")
+    return number
+
+
+def as_float(value: object) -> float:
+    """``float(value)``, typed for a value of unknown type (a stored or parsed one): the same number, or
+    the TypeError (None, a list, …) or ValueError (text that is no number) that ``float`` raises."""
+    if isinstance(value, str | bytes | bytearray | SupportsFloat | SupportsIndex):
+        return float(value)
+    raise TypeError(f"float() argument must be a string or a real number, not '{type(value).__name__}'")
 
 
 def _range_text(r: Range) -> str:

@@ -19,7 +19,7 @@ from pathlib import Path
 from fabpat.catalog.rows import CatalogRows, check_row, find_rows, parse_condition, polygon_name
 from fabpat.catalog.schema import DEFAULT_SETUP, KEY, METRICS, CatalogError, builtin_path
 from fabpat.catalog.store import Catalog, open_catalog
-from fabpat.validate import check
+from fabpat.validate import as_float, check
 
 
 @cache
@@ -35,7 +35,7 @@ def _energy_items(cat: Catalog, scenario: str, sides: int, depth: int, edge: flo
                        "thickness = ? AND weight = ? ORDER BY id", (scenario, sides, depth, edge, thickness, weight)):
         check_row(cat.path, r, METRICS)  # a bad stored energy is an error, never a silently used (or dropped) number
         if r["converged"]:
-            yield str(r["id"]), float(r["energy"])  # type: ignore[arg-type]
+            yield str(r["id"]), as_float(r["energy"])
 
 
 @contextlib.contextmanager
@@ -87,7 +87,9 @@ def polygon_energies(catalog: Catalog | str | Path | None, scenario: str, sides:
         held = cat.query("SELECT 1 FROM results WHERE scenario = ? AND depth = ? AND edge = ? AND thickness = ? "
                          "AND weight = ? AND converged = 1 LIMIT 1", (scenario, *asked.values()))
         setup = asked if held else {k: DEFAULT_SETUP[k] for k in asked}
-        found = energies(cat if catalog is not None else None, scenario, sides, **setup)  # type: ignore[arg-type]
+        found = energies(cat if catalog is not None else None, scenario, sides,
+                         depth=depth if held else int(DEFAULT_SETUP["depth"]), edge=setup["edge"],
+                         thickness=setup["thickness"], weight=setup["weight"])
         if not found:
             raise CatalogError(missing_polygon_message(cat, sides, setup))
         return found
@@ -114,7 +116,7 @@ def held_setups(cat: Catalog) -> str:
                      f"weight={s['weight']:g} ({s['patterns']} patterns)" for s in cat.setups()) or "nothing"
 
 
-def catalog(path: str | Path | None = None, *, sides: int | None = 6, where: Sequence[str] | str = (),
+def catalog(path: str | Path | None = None, *, sides: int | float | None = 6, where: Sequence[str] | str = (),
             sort: str | None = None, top: int | None = None, **setup: object) -> CatalogRows:
     """The rows of a catalog (``None``: the built-in one) — ``fabpat.catalog()``.
 
@@ -151,7 +153,7 @@ def catalog(path: str | Path | None = None, *, sides: int | None = 6, where: Seq
         if sides is not None:
             require_polygon(cat, sides)
             setup["sides"] = sides
-        rows = cat.pattern_rows(**setup)
+        rows = cat.pattern_rows(pictures=False, **setup)  # setup: checked keys of KEY above
         if not rows and setup:
             raise CatalogError(no_match_message(cat, setup))
         fields = cat.number_columns()
@@ -168,7 +170,7 @@ def no_filter_match_message(rows: Sequence[Mapping[str, object]], fields: Sequen
     filters = [where] if isinstance(where, str) else list(where)
     for text in filters:
         cond = parse_condition(text, fields)
-        values = [float(r[cond.field]) for r in rows if r.get(cond.field) is not None]  # type: ignore[arg-type]
+        values = [as_float(v) for r in rows if (v := r.get(cond.field)) is not None]
         if not any(cond.holds(r) for r in rows):
             span = f"{min(values):.6g} … {max(values):.6g}" if values else "no values"
             return (f"no pattern meets the filter {text!r}: {cond.field} spans {span} over the {len(rows)} "

@@ -15,9 +15,10 @@ import operator
 import re
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeGuard
 
 from fabpat.catalog.schema import CatalogError
+from fabpat.validate import as_float
 
 _POLYGONS = {3: "triangles", 4: "squares", 5: "pentagons", 6: "hexagons", 7: "heptagons", 8: "octagons",
              9: "nonagons", 10: "decagons", 12: "dodecagons"}
@@ -40,7 +41,7 @@ def polygon_name(sides: int) -> str:
 RESULT_NUMBERS = ("E", "nu", "h", "h_fine", "seconds", "iterations", "nodes", "elements")
 
 
-def _finite(value: object) -> bool:
+def _finite(value: object) -> TypeGuard[int | float]:
     return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
 
 
@@ -57,9 +58,9 @@ MAX_DISPLACEMENT_PER_DIAMETER = 2.0
 def _diameter(r: Mapping[str, object]) -> float | None:
     """The diameter (mm) of the row's polygon, edge / sin(π/n), or None if its key is not sound."""
     n, edge = r.get("sides"), r.get("edge")
-    if not (isinstance(n, int) and not isinstance(n, bool) and n >= 3 and _finite(edge) and edge > 0):  # type: ignore[operator]
+    if not (isinstance(n, int) and not isinstance(n, bool) and n >= 3 and _finite(edge) and edge > 0):
         return None
-    return float(edge) / math.sin(math.pi / n)  # type: ignore[arg-type]
+    return float(edge) / math.sin(math.pi / n)
 
 
 def result_problem(r: Mapping[str, object]) -> str | None:
@@ -74,15 +75,15 @@ def result_problem(r: Mapping[str, object]) -> str | None:
     if e is None:
         if conv == 1:
             return "energy = NULL in a converged row (must be a finite, positive number of N·mm)"
-    elif not (_finite(e) and e > 0):  # type: ignore[operator]
+    elif not (_finite(e) and e > 0):
         return f"energy = {e!r} (must be a finite, positive number of N·mm)"
-    elif e > MAX_ENERGY:  # type: ignore[operator]
+    elif e > MAX_ENERGY:
         return (f"energy = {e!r} (implausible: the scenarios' fixed loads store at most {MAX_ENERGY:g} N·mm in any "
                 "plate)")
-    if d is not None and not (_finite(d) and d >= 0):  # type: ignore[operator]
+    if d is not None and not (_finite(d) and d >= 0):
         return f"max_displacement = {d!r} (must be a finite number ≥ 0 of mm)"
     size = _diameter(r)
-    if d is not None and size is not None and d > MAX_DISPLACEMENT_PER_DIAMETER * size:  # type: ignore[operator]
+    if _finite(d) and size is not None and d > MAX_DISPLACEMENT_PER_DIAMETER * size:  # d: None or finite here
         return (f"max_displacement = {d!r} (implausible: a solve moves a plate at most "
                 f"{MAX_DISPLACEMENT_PER_DIAMETER:g} × its diameter, {MAX_DISPLACEMENT_PER_DIAMETER * size:.4g} mm)")
     for c in RESULT_NUMBERS:
@@ -102,7 +103,7 @@ def pattern_problem(r: Mapping[str, object], columns: Iterable[str] = ()) -> str
             return f"{c} = {v!r} (must be an integer ≥ {low})"
     for c in ("edge", "thickness", "weight", *columns):
         v = r.get(c)
-        if v is not None and not (_finite(v) and v > 0):  # type: ignore[operator]
+        if v is not None and not (_finite(v) and v > 0):
             return f"{c} = {v!r} (must be a finite, positive number)"
     return None
 
@@ -124,6 +125,12 @@ def check_row(path: object, r: Mapping[str, object], columns: Iterable[str] = ()
     problem = (result_problem(r) if "scenario" in r else None) or pattern_problem(r, columns)
     if problem:
         raise stored_error(path, r, problem)
+
+
+def stored_float(value: object) -> float | None:
+    """A stored number (a row checked by :func:`check_row`) as a float
+    (:func:`fabpat.validate.as_float`); NULL stays None."""
+    return None if value is None else as_float(value)
 
 
 def specific_stiffness(energy: float | None, filleted_area: float | None) -> float | None:
@@ -161,7 +168,7 @@ class Condition:
     def holds(self, row: Mapping[str, object]) -> bool:
         """Whether ``row`` meets it; a row without a value in ``field`` never does."""
         v = row.get(self.field)
-        return v is not None and OPERATORS[self.op](float(v), self.value)  # type: ignore[arg-type]
+        return v is not None and OPERATORS[self.op](as_float(v), self.value)
 
 
 _NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?", re.ASCII)
@@ -249,11 +256,13 @@ def find_rows(rows: Iterable[dict[str, object]], fields: Sequence[str], *, where
     out = [r for r in rows if all(c.holds(r) for c in conditions)]
     if order is not None:
         name, descending = order
-        key: Callable[[dict[str, object]], Any] = (lambda r: str(r[name])) if name == TEXT_SORT else (
-            lambda r: float(r[name]))  # type: ignore[arg-type]
+        valued = [(v, r) for r in out if (v := r.get(name)) is not None]
         # stable: ties keep the rows' order either way
-        valued = sorted((r for r in out if r.get(name) is not None), key=key, reverse=descending)
-        out = valued + [r for r in out if r.get(name) is None]
+        if name == TEXT_SORT:
+            valued.sort(key=lambda vr: str(vr[0]), reverse=descending)
+        else:
+            valued.sort(key=lambda vr: as_float(vr[0]), reverse=descending)
+        out = [r for _, r in valued] + [r for r in out if r.get(name) is None]
     return out if top is None else out[:top]
 
 
@@ -280,7 +289,7 @@ class CatalogRows(list[dict[str, object]]):
     def setups(self) -> list[str]:
         """The distinct set-ups of the rows, as ``"sides=6 depth=2 edge=36 mm thickness=2 mm weight=0.2"``."""
         keys = dict.fromkeys(tuple(r.get(k) for k in ("sides", "depth", "edge", "thickness", "weight")) for r in self)
-        return [f"sides={s} depth={d} edge={_cell(e)} mm thickness={_cell(t)} mm weight={_cell(w)}"
+        return [f"sides={s!s} depth={d!s} edge={_cell(e)} mm thickness={_cell(t)} mm weight={_cell(w)}"
                 for s, d, e, t, w in keys]
 
     def __repr__(self) -> str:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from importlib import resources
 from pathlib import Path
+from typing import TypedDict
 
 from fabpat.errors import CatalogError  # noqa: F401 - the catalog modules import it from here
 
@@ -19,6 +20,19 @@ BUILTIN_NAME = "catalog.sqlite"
 
 #: the default set-up of the built-in catalog (paper §4.1: hexagon of 36 mm edge, 2 mm PLA)
 DEFAULT_SETUP = {"sides": 6, "depth": 2, "edge": 36.0, "thickness": 2.0, "weight": 0.2}
+
+
+
+class Setup(TypedDict):
+    """One set-up of a catalog (the key of its rows but the pattern ID): the polygon's ``sides``, the
+    lattice ``depth``, ``edge`` (mm), plate ``thickness`` (mm) and bridge ``weight``."""
+
+    sides: int
+    depth: int
+    edge: float
+    thickness: float
+    weight: float
+
 
 KEY = ("id", "sides", "depth", "edge", "thickness", "weight")
 

@@ -15,7 +15,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from fabpat.catalog.rows import check_row, pattern_problem, result_problem, specific_stiffness
+from fabpat.catalog.rows import check_row, pattern_problem, result_problem, specific_stiffness, stored_float
 from fabpat.catalog.schema import (
     ADDED_COLUMNS,
     FAMILY_COLUMNS,
@@ -114,16 +114,17 @@ class Catalog:
         res = self.query(f"SELECT {', '.join(KEY)}, scenario, energy, max_displacement, converged FROM results"
                          f"{where}", params)
         for q in res:
-            r = by_key.get(tuple(q[k] for k in KEY))
-            if r is not None:
+            wide = by_key.get(tuple(q[k] for k in KEY))
+            if wide is not None:
                 check_row(self.path, q, METRICS)
-                s = q["scenario"]
-                r[f"energy_{s}"] = q["energy"] if q["converged"] else None
-                r[f"max_displacement_{s}"] = q["max_displacement"] if q["converged"] else None
-                r[f"converged_{s}"] = bool(q["converged"])
+                sc = str(q["scenario"])
+                wide[f"energy_{sc}"] = q["energy"] if q["converged"] else None
+                wide[f"max_displacement_{sc}"] = q["max_displacement"] if q["converged"] else None
+                wide[f"converged_{sc}"] = bool(q["converged"])
         for r in rows:
             for s in scen:
-                r[f"specific_stiffness_{s}"] = specific_stiffness(r[f"energy_{s}"], r["filleted_area"])  # type: ignore[arg-type]
+                r[f"specific_stiffness_{s}"] = specific_stiffness(stored_float(r[f"energy_{s}"]),
+                                                                  stored_float(r["filleted_area"]))
         return rows
 
     def number_columns(self, long: bool = False) -> list[str]:

@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import copy
 import math
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -45,6 +46,7 @@ from typing import Any
 from fabpat.assembly.choose.members import member_energies, member_rows, member_token, split_member
 from fabpat.assembly.spec.load import TILINGS, AssemblySpec, parse_spec
 from fabpat.errors import FabpatError, SpecError
+from fabpat.validate import as_float
 
 __all__ = ["DesignBase", "load_base", "closed_rows", "candidates", "base_faces", "member_token", "split_member"]
 
@@ -80,7 +82,7 @@ class DesignBase:
     notes: tuple[str, ...] = ()
 
 
-def _read_toml(path: str | Path) -> dict[str, Any]:
+def _read_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
     """The decoded TOML of the base spec file, read as every spec is
     (:func:`fabpat.assembly.spec.tables.read_spec_file`: a regular file of at most
     :data:`~fabpat.assembly.spec.tables.MAX_SPEC_BYTES`, a FIFO or device refused unread)."""
@@ -89,7 +91,7 @@ def _read_toml(path: str | Path) -> dict[str, Any]:
     return read_spec_file(path)[1]
 
 
-def load_base(path: str | Path) -> DesignBase:
+def load_base(path: str | os.PathLike[str]) -> DesignBase:
     """Read the base spec and its candidate patterns. Raises SpecError (one line): a bad spec, a bad
     design key, or no candidate left."""
     source = str(path)
@@ -197,6 +199,7 @@ def closed_rows(spec: AssemblySpec, source: str, catalog: str | None, keys: dict
         raise SpecError(f"{source}: patterns.min_width = {w!r} must be a number of mm ≥ 0")
     out: dict[int, list[dict[str, Any]]] = {}
     for sides in sorted({len(f) for f in build_tiling(spec).faces}, reverse=True):
+        rows: list[dict[str, object]]
         try:
             try:
                 rows = cat.catalog(catalog, sides=sides, edge=spec.tiling.edge, thickness=pl.thickness,
@@ -208,7 +211,7 @@ def closed_rows(spec: AssemblySpec, source: str, catalog: str | None, keys: dict
             raise SpecError(f"{source}: the design needs the catalog of {sides}-sided plates, but {e}") from e
         rows = [dict(r) for r in rows if all(r.get(f"converged_{s}") for s in ("dome", "cylinder", "cantilever"))]
         n = len(rows)
-        rows = [r for r in rows if (allowed is None or r["id"] in allowed) and (r.get("min_width") or 0.0) >= w]
+        rows = [r for r in rows if (allowed is None or r["id"] in allowed) and as_float(r.get("min_width") or 0.0) >= w]
         if not rows:
             raise SpecError(f"{source}: no candidate pattern is left for the {sides}-sided faces after the catalog's "
                             f"{n} converged patterns, patterns.allowed and patterns.min_width: widen the choice")

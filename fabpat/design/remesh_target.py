@@ -206,7 +206,7 @@ def place_target(V: Arr, faces: Faces, target: ClosedTarget | str | TargetSurfac
 
     t = closed_target(target)
     axis = design_axis(V, faces)
-    if t.kind == "mesh":
+    if t.kind == "mesh" and t.mesh is not None:  # a mesh target always carries its mesh (read_target)
         Vm = np.asarray(t.mesh.vertices, dtype=np.float64)
         Fm = np.asarray(t.mesh.faces, dtype=np.int64)
         tri = Vm[Fm]

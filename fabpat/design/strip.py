@@ -15,9 +15,13 @@ error is its vertical distance from the target at the target's x (:func:`errors`
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
+
+if TYPE_CHECKING:  # pragma: no cover
+    from fabpat.assembly.solve.strip import StripSetup
 
 Arr = NDArray[np.float64]
 Idx = NDArray[np.int64]
@@ -26,29 +30,29 @@ Idx = NDArray[np.int64]
 _SAMPLES = 64
 
 
-def midline(setup: object, displacement: Arr) -> tuple[Arr, Arr]:
+def midline(setup: StripSetup, displacement: Arr) -> tuple[Arr, Arr]:
     """The solved strip's width-averaged mid-line from pin to pin: (x, z) mm, x from column 0's pin
     (which is fixed), z the mean uz, one point per profile bin between the pins plus the two pins at
     z = 0. ``setup`` a StripSetup, ``displacement`` (N, 3+) nodal displacements."""
     from fabpat.assembly.solve.strip import profile
 
-    m = setup.model  # type: ignore[attr-defined]
+    m = setup.model
     n = len(m.X)
     d = np.asarray(displacement)[:n]
-    _, xd = profile(setup, m.X[:, 0] + d[:, 0])  # type: ignore[arg-type]
-    _, zd = profile(setup, d[:, 2])  # type: ignore[arg-type]
-    left = float(m.X[setup.left, 0].mean())  # type: ignore[attr-defined]
-    right = float((m.X[setup.right, 0] + d[setup.right, 0]).mean()) - left  # type: ignore[attr-defined]
+    _, xd = profile(setup, m.X[:, 0] + d[:, 0])
+    _, zd = profile(setup, d[:, 2])
+    left = float(m.X[setup.left, 0].mean())
+    right = float((m.X[setup.right, 0] + d[setup.right, 0]).mean()) - left
     xd = xd - left
     # the pins are on the mid-line at z = 0 by construction; the bins next to them are a few mm inside
     inner = (xd > 0) & (xd < right)
     return np.concatenate([[0.0], xd[inner], [right]]), np.concatenate([[0.0], zd[inner], [0.0]])
 
 
-def pin_length(setup: object) -> float:
+def pin_length(setup: StripSetup) -> float:
     """Pin-to-pin distance (mm) of the flat strip: mean x of the moving pins minus that of the fixed ones."""
-    m = setup.model  # type: ignore[attr-defined]
-    return float(m.X[setup.right, 0].mean() - m.X[setup.left, 0].mean())  # type: ignore[attr-defined]
+    m = setup.model
+    return float(m.X[setup.right, 0].mean() - m.X[setup.left, 0].mean())
 
 
 def predicted_at(x_mid: Arr, z_mid: Arr, x: Arr) -> Arr:

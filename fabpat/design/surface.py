@@ -29,9 +29,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
+
+if TYPE_CHECKING:  # pragma: no cover
+    import trimesh
 
 Arr = NDArray[np.float64]
 
@@ -148,11 +152,11 @@ def fit_to_ellipsoid(P: Arr, axes: tuple[float, float, float], axis: Arr) -> Sur
     return SurfaceFit(dist(sol.x, P), s, _rms_radius(P))
 
 
-def fit_to_mesh(P: Arr, mesh: object) -> SurfaceFit:
+def fit_to_mesh(P: Arr, mesh: trimesh.Trimesh) -> SurfaceFit:
     """The surface ``mesh`` (a trimesh.Trimesh) moved onto P (n, 3) mm by the best similarity (module doc)."""
     import trimesh
 
-    m: trimesh.Trimesh = mesh  # type: ignore[assignment]
+    m = mesh
     pts = np.asarray(m.sample(4000, seed=1), dtype=np.float64)  # for the start: centroid, axes, size
 
     def axes_of(X: Arr) -> tuple[Arr, Arr]:

@@ -20,12 +20,17 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import FabpatError
+
+if TYPE_CHECKING:  # pragma: no cover
+    import trimesh
+
+    from fabpat.design.surface import SurfaceFit
 
 Arr = NDArray[np.float64]
 
@@ -85,7 +90,7 @@ class ClosedTarget:
     kind: str
     axes: tuple[float, float, float] | None = None
     path: str | None = None
-    mesh: Any = None
+    mesh: trimesh.Trimesh | None = None
 
     @property
     def bands(self) -> int:
@@ -95,7 +100,7 @@ class ClosedTarget:
             return 1
         return BANDS
 
-    def fit(self, P: Arr, axis: Arr) -> Any:
+    def fit(self, P: Arr, axis: Arr) -> SurfaceFit:
         """The :class:`fabpat.design.surface.SurfaceFit` of nodes P (n, 3) mm; ``axis`` (3,) the design
         axis, where an ellipsoid's distinct axis starts."""
         from fabpat.design.surface import fit_to_ellipsoid, fit_to_mesh, fit_to_sphere
@@ -105,10 +110,11 @@ class ClosedTarget:
         if self.kind == "ellipsoid":
             assert self.axes is not None
             return fit_to_ellipsoid(P, self.axes, axis)
+        assert self.mesh is not None
         return fit_to_mesh(P, self.mesh)
 
 
-def target_file(target: Any) -> str | None:
+def target_file(target: object) -> str | None:
     """The path of the file ``target`` names, or None for a name (``sphere``, ``ellipsoid:A,B,C``) or an
     array: what :func:`read_target` reads, and what a command declares as its TARGET input file (an output
     must not replace it). A path that exists and is not a folder is a file, whatever its name."""
@@ -127,7 +133,7 @@ def _named(text: str) -> bool:
     return low in ("sphere", "ellipsoid") or low.startswith("ellipsoid:")
 
 
-def read_target(target: Any) -> StripTarget | ClosedTarget:
+def read_target(target: object) -> StripTarget | ClosedTarget:
     """The target named by ``target``: "sphere", "ellipsoid:A,B,C", a mesh file path, a CSV path, or an
     (n, 2) array of (x, z) points in mm. Raises :class:`TargetError` (one line)."""
     if isinstance(target, str | os.PathLike) and not isinstance(target, bytes):
@@ -182,7 +188,7 @@ def _axes(text: str, spec: str) -> tuple[float, float, float]:
             check("axis_ratio", a, f"axis ratio {name}", error=TargetError)
         except TargetError as e:
             raise TargetError(f"target {text!r}: {e} (ellipsoid:A,B,C, e.g. ellipsoid:1,1,1.15)") from None
-    return axes  # type: ignore[return-value]
+    return axes[0], axes[1], axes[2]
 
 
 #: a mesh target whose thinnest principal extent (singular value of its centred vertices) is at most this
@@ -190,7 +196,7 @@ def _axes(text: str, spec: str) -> tuple[float, float, float]:
 FLAT_TARGET = 0.01
 
 
-def _read_mesh(path: str) -> Any:
+def _read_mesh(path: str) -> trimesh.Trimesh:
     """The surface of a mesh file (trimesh), or TargetError: unreadable, no faces, or degenerate."""
     import io
 
@@ -221,6 +227,8 @@ def _read_mesh(path: str) -> Any:
     faces = getattr(m, "faces", None)
     if faces is None or len(faces) < 4 or not float(getattr(m, "area", 0.0)) > 0:
         raise TargetError(f"target {path} is not {what}: it has {0 if faces is None else len(faces)} face(s)")
+    if not isinstance(m, trimesh.Trimesh):  # force="mesh" makes one; anything else holds no surface
+        raise TargetError(f"target {path} is not {what}: the file holds no mesh that can be read")
     V = np.asarray(m.vertices, dtype=np.float64)
     spread = np.linalg.svd(V - V.mean(axis=0), compute_uv=False)
     if spread[2] <= FLAT_TARGET * spread[0]:  # a closed tiling's shape cannot be fitted to a plane

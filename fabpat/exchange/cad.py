@@ -22,7 +22,7 @@ from __future__ import annotations
 import contextlib
 import math
 from collections.abc import Iterator, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, TypeAlias
 
 import numpy as np
 from numpy.typing import NDArray
@@ -31,8 +31,14 @@ from fabpat.errors import GeometryError
 from fabpat.geometry.outline import Line, Loop, Outline, RationalQuad
 from fabpat.validate import SAME_POINT
 
-if TYPE_CHECKING:  # pragma: no cover - typing only
-    from build123d import Face, Solid
+if TYPE_CHECKING:  # pragma: no cover - typing only (OCP has no stubs: mypy sees its classes as unchecked)
+    from build123d import Face, Shape, Solid
+    from OCP.Geom import Geom_BezierCurve, Geom_Curve
+    from OCP.gp import gp_Pnt
+    from OCP.TopoDS import TopoDS_Face, TopoDS_Shape, TopoDS_Solid, TopoDS_Wire
+
+#: an OCCT shape or a build123d one around it (its ``wrapped`` OCCT shape is what the writers use)
+ShapeLike: TypeAlias = "TopoDS_Shape | Shape"
 
 DEFAULT_THICKNESS = 2.0  # mm: the paper's plate thickness (§4.1)
 DEFAULT_ANGULAR = 0.5  # rad: BRepMesh angular deflection; the chord tolerance in mm is what matters
@@ -57,13 +63,13 @@ def part_name(pattern_id: str, sides: int, edge: float, thickness: float, weight
 # -- raw OCP construction ---------------------------------------------------------------------------
 
 
-def _pnt(p: NDArray[np.float64]) -> Any:
+def _pnt(p: NDArray[np.float64]) -> gp_Pnt:
     from OCP.gp import gp_Pnt
 
     return gp_Pnt(float(p[0]), float(p[1]), 0.0)
 
 
-def _wire_from(starts: list[NDArray[np.float64]], curves: list[Any]) -> Any:
+def _wire_from(starts: list[NDArray[np.float64]], curves: list[Piece]) -> TopoDS_Wire:
     """A closed ``TopoDS_Wire``: piece i runs from starts[i] to starts[i+1] (cyclic) along curves[i].
 
     ``curves[i]`` is None for a straight piece, a ``Geom_Curve`` whose ends are those points, or
@@ -96,7 +102,7 @@ def _wire_from(starts: list[NDArray[np.float64]], curves: list[Any]) -> Any:
     return maker.Wire()
 
 
-def _bezier(seg: RationalQuad) -> Any:
+def _bezier(seg: RationalQuad) -> Geom_BezierCurve:
     """Same construction as build123d's ``Edge.make_bezier(P0, P1, P2, weights=[1, w, 1])``."""
     from OCP.collections import Array1_double, Array1_gp_Pnt
     from OCP.Geom import Geom_BezierCurve
@@ -108,7 +114,9 @@ def _bezier(seg: RationalQuad) -> Any:
     return Geom_BezierCurve(poles, weights)
 
 
-Support = tuple[tuple[NDArray[np.float64], float, Any, float, float], ...]
+Support = tuple[tuple[NDArray[np.float64], float, "Geom_BezierCurve", float, float], ...]
+#: one piece of a wire (:func:`_wire_from`): None (straight), a whole curve, or (curve, first, last, reversed)
+Piece: TypeAlias = "Geom_Curve | tuple[Geom_Curve, float, float, bool] | None"
 
 
 def _support(arcs: Sequence[RationalQuad]) -> Support:
@@ -123,7 +131,7 @@ def _support(arcs: Sequence[RationalQuad]) -> Support:
     return tuple(out)
 
 
-def _on_support(seg: RationalQuad, support: Support) -> Any:
+def _on_support(seg: RationalQuad, support: Support) -> tuple[Geom_BezierCurve, float, float, bool] | None:
     """``(curve, first, last, reversed)`` if ``seg`` is a half of a support arc, else None."""
     for P, w, geom, lo, hi in support:
         if abs(w - seg.w) > 1e-9:
@@ -134,7 +142,7 @@ def _on_support(seg: RationalQuad, support: Support) -> Any:
     return None
 
 
-def _wire(loop: Loop, support: Support = ()) -> Any:
+def _wire(loop: Loop, support: Support = ()) -> TopoDS_Wire:
     """The loop as a wire of line edges and rational Bézier edges with weights (1, w, 1).
 
     A segment that is one half of a ``support`` arc is built on that whole arc, trimmed to
@@ -143,7 +151,7 @@ def _wire(loop: Loop, support: Support = ()) -> Any:
     segs = [s for s in loop.segments if isinstance(s, RationalQuad) or np.linalg.norm(s.end - s.start) > SAME_POINT]
     if len(segs) < 2:
         raise GeometryError(f"a loop needs at least 2 segments, got {len(segs)}")
-    curves: list[Any] = []
+    curves: list[Piece] = []
     for i, s in enumerate(segs):
         gap = float(np.linalg.norm(s.end - segs[(i + 1) % len(segs)].start))
         if gap > SAME_POINT:
@@ -177,7 +185,7 @@ def occt_errors(what: str) -> Iterator[None]:
                             ) from e
 
 
-def make_face(outline: Outline, support: Sequence[RationalQuad] = (), check: bool = True) -> Any:
+def make_face(outline: Outline, support: Sequence[RationalQuad] = (), check: bool = True) -> TopoDS_Face:
     """The outline as a planar ``TopoDS_Face`` on z = 0 with normal +z (outer CCW, holes CW).
 
     ``support``: whole arcs of which the outline keeps halves — the interface bow-ties
@@ -202,7 +210,8 @@ def make_face(outline: Outline, support: Sequence[RationalQuad] = (), check: boo
     return face
 
 
-def make_solid(outline: Outline, thickness: float = DEFAULT_THICKNESS, support: Sequence[RationalQuad] = ()) -> Any:
+def make_solid(outline: Outline, thickness: float = DEFAULT_THICKNESS,
+               support: Sequence[RationalQuad] = ()) -> TopoDS_Solid:
     """The face extruded along +z by ``thickness`` mm: a valid ``TopoDS_Solid`` (z from 0 to t).
 
     ``support`` as for :func:`make_face`.
@@ -222,7 +231,7 @@ def make_solid(outline: Outline, thickness: float = DEFAULT_THICKNESS, support: 
     return solid
 
 
-def check_valid(shape: Any, what: str = "shape") -> None:
+def check_valid(shape: TopoDS_Shape, what: str = "shape") -> None:
     """Raise :class:`GeometryError` unless ``BRepCheck_Analyzer`` finds the shape valid."""
     from OCP.BRepCheck import BRepCheck_Analyzer
 
@@ -230,7 +239,7 @@ def check_valid(shape: Any, what: str = "shape") -> None:
         raise GeometryError(f"{what} is not a valid B-rep (self-intersecting or mis-oriented outline?)")
 
 
-def volume(shape: Any) -> float:
+def volume(shape: ShapeLike) -> float:
     """Volume of a solid in mm³ (adaptive Gauss–Kronrod on the exact surfaces, rel. 1e-10)."""
     from OCP.BRepGProp import BRepGProp
     from OCP.GProp import GProp_GProps
@@ -242,7 +251,7 @@ def volume(shape: Any) -> float:
     return float(props.Mass())
 
 
-def mesh(shape: Any, tolerance: float, angular: float = DEFAULT_ANGULAR) -> None:
+def mesh(shape: TopoDS_Shape, tolerance: float, angular: float = DEFAULT_ANGULAR) -> None:
     """Triangulate ``shape`` in place with a chord tolerance in **mm** (not relative to its size).
 
     ``BRepMesh_IncrementalMesh(shape, tolerance, isRelative=False, angular, parallel=False)``:

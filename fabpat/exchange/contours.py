@@ -14,13 +14,16 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import GeometryError
 from fabpat.exchange.cad import _pnt, _wire_from
+
+if TYPE_CHECKING:  # pragma: no cover - OCP has no stubs: mypy sees its classes as unchecked
+    from OCP.TopoDS import TopoDS_Edge, TopoDS_Face, TopoDS_Wire
 from fabpat.geometry.outline import Line, Outline, RationalQuad
 from fabpat.validate import SAME_POINT
 
@@ -125,7 +128,7 @@ def bulge_loops(outline: Outline, tol: float) -> list[BulgeLoop]:
     return loops
 
 
-def _bulge_wire(loop: BulgeLoop) -> Any:
+def _bulge_wire(loop: BulgeLoop) -> TopoDS_Wire:
     from OCP.GC import GC_MakeArcOfCircle
 
     from fabpat.geometry.conics import arc_points
@@ -138,7 +141,7 @@ def _bulge_wire(loop: BulgeLoop) -> Any:
     return _wire_from(list(loop.V), curves)
 
 
-def offset_wires(face: Any, distance: float) -> list[Any]:
+def offset_wires(face: TopoDS_Face, distance: float) -> list[TopoDS_Wire]:
     """Wires of the face's boundary offset by ``distance`` mm away from the material (arc joins)."""
     from OCP.BRepOffsetAPI import BRepOffsetAPI_MakeOffset
     from OCP.GeomAbs import GeomAbs_JoinType
@@ -161,7 +164,7 @@ def offset_wires(face: Any, distance: float) -> list[Any]:
     return wires
 
 
-def ordered_edges(wire: Any) -> list[tuple[Any, NDArray[np.float64], NDArray[np.float64]]]:
+def ordered_edges(wire: TopoDS_Wire) -> list[tuple[TopoDS_Edge, NDArray[np.float64], NDArray[np.float64]]]:
     """(edge, start (2,), end (2,)) along the wire, with edge orientation taken into account."""
     from OCP.BRep import BRep_Tool
     from OCP.BRepTools import BRepTools_WireExplorer
@@ -188,7 +191,7 @@ def cut_order(loops: Sequence[_L]) -> list[_L]:
     return [*loops[1:], *loops[:1]]
 
 
-def outer_first(loops: list[Any], area: list[float]) -> list[Any]:
+def outer_first(loops: Sequence[_L], area: Sequence[float]) -> list[_L]:
     """The loops sorted by decreasing |area|: the outer loop of a face comes first."""
     order = np.argsort(-np.abs(np.array(area)))
     return [loops[i] for i in order]

@@ -56,8 +56,9 @@ from __future__ import annotations
 import logging
 import math
 import os
+from collections.abc import Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, TypedDict, Unpack
 
 import numpy as np
 from numpy.typing import NDArray
@@ -78,7 +79,24 @@ from fabpat.geometry.outline import Line, Loop, Outline
 from fabpat.io import atomic_outputs
 
 if TYPE_CHECKING:  # pragma: no cover
+    import uuid
+
+    from ezdxf.document import Drawing
+    from ezdxf.layouts import BaseLayout
+
     from fabpat.exchange.part import ExportSettings, Part
+
+
+class DxfOptions(TypedDict, total=False):
+    """The drawing options of :func:`dxf_document` (module docstring; mm), as keywords of
+    :func:`dump_dxf` and :func:`write_dxf`."""
+
+    curves: str
+    tolerance: float
+    kerf: float
+    dxf_version: str
+    entities: str | None
+    origin: str
 
 CURVE_MODES = ("arcs", "spline", "lines")
 ENTITY_MODES = ("polyline", "segments")
@@ -131,7 +149,7 @@ def polyline(loop: Loop, tol: float) -> NDArray[np.float64]:
     return np.vstack(pts)
 
 
-def set_extents(doc: Any) -> None:
+def set_extents(doc: Drawing) -> None:
     """$EXTMIN/$EXTMAX and the active viewport from the model space's extents (ezdxf's bbox module).
 
     ezdxf's :func:`ezdxf.appsettings.update_extents` uses the fast (control-point) bounds; the exact
@@ -149,7 +167,7 @@ def set_extents(doc: Any) -> None:
     zoom.center(msp, ext.center, ext.size)
 
 
-def _add_piece(msp: Any, p: Piece, attribs: dict[str, Any]) -> None:
+def _add_piece(msp: BaseLayout, p: Piece, attribs: Mapping[str, object]) -> None:
     from ezdxf.math import bulge_to_arc
 
     if isinstance(p, SplinePiece):
@@ -174,7 +192,8 @@ def _bulge_pieces(lp: BulgeLoop) -> list[Piece]:
     return [(s, e, float(b)) for s, e, b in zip(lp.V, E, lp.bulges, strict=True)]
 
 
-def add_bulge_segments(msp: Any, V: NDArray[np.float64], bulges: NDArray[np.float64], attribs: dict[str, Any]) -> None:
+def add_bulge_segments(msp: BaseLayout, V: NDArray[np.float64], bulges: NDArray[np.float64],
+                       attribs: Mapping[str, object]) -> None:
     """Add the closed bulge loop (vertices ``V`` (n, 2) mm, ``bulges`` (n,)) as one LINE or ARC per piece."""
     E = np.roll(V, -1, axis=0)
     for s, e, b in zip(V, E, bulges, strict=True):
@@ -191,7 +210,7 @@ def dxf_document(
     dxf_version: str = DEFAULT_VERSION,
     entities: str | None = None,
     origin: str = DEFAULT_ORIGIN,
-) -> Any:
+) -> Drawing:
     """The ezdxf ``Drawing`` of the outline (see the module docstring for the options, all mm)."""
     import ezdxf
 
@@ -253,7 +272,7 @@ def dxf_document(
     return doc
 
 
-def stamp_document(doc: Any, timestamp: str, name: str) -> None:
+def stamp_document(doc: Drawing, timestamp: str, name: str) -> None:
     """Give the ezdxf drawing ``doc`` the dates and identifiers of ``timestamp`` (ISO 8601) and ``name`` (what the
     drawing is, e.g. its file name: two drawings of one stamp get different GUIDs when their names differ), now
     and when it is saved, so that saving it gives the same bytes in every run (module docstring).
@@ -303,15 +322,15 @@ def stamp_document(doc: Any, timestamp: str, name: str) -> None:
 
     stamp()
     doc.ezdxf_metadata()[CREATED_BY_EZDXF] = marker
-    doc._update_metadata = update_then_stamp  # this drawing only: see the docstring
+    object.__setattr__(doc, "_update_metadata", update_then_stamp)  # this drawing only: see the docstring
 
 
-def _dxf_guid(u: Any) -> str:
+def _dxf_guid(u: uuid.UUID) -> str:
     """A GUID as DXF writes it (``$FINGERPRINTGUID``): upper case in braces."""
     return "{" + str(u).upper() + "}"
 
 
-def save_document(doc: Any, path: str | os.PathLike[str], timestamp: str | None = None, name: str = "") -> None:
+def save_document(doc: Drawing, path: str | os.PathLike[str], timestamp: str | None = None, name: str = "") -> None:
     """Save the ezdxf drawing ``doc`` to ``path`` (not atomic); with ``timestamp`` (ISO 8601) first
     :func:`stamp_document` with ``name``, so the file is byte-reproducible. Raises :class:`ExportError`
     (a bad ``timestamp``, or :func:`fabpat.io.writer_failed` naming ``path`` for an OSError)."""
@@ -326,7 +345,7 @@ def save_document(doc: Any, path: str | os.PathLike[str], timestamp: str | None 
 
 
 def dump_dxf(outline: Outline, path: str | os.PathLike[str], label: str | None = None, *,
-             timestamp: str | None = None, name: str | None = None, **options: Any) -> None:
+             timestamp: str | None = None, name: str | None = None, **options: Unpack[DxfOptions]) -> None:
     """Write :func:`dxf_document` to ``path`` (not atomic; see :func:`write_dxf`). ``timestamp`` (ISO 8601)
     makes the file byte-reproducible; ``name`` (default ``label``) goes into its GUIDs (:func:`stamp_document`).
     Raises :class:`ExportError`, :class:`GeometryError`."""
@@ -356,7 +375,7 @@ def write(part: Part, path: Path, settings: ExportSettings) -> None:
 
 
 def write_dxf(outline: Outline, path: str | os.PathLike[str], label: str | None = None, *,
-              timestamp: str | None = None, name: str | None = None, **options: Any) -> Path:
+              timestamp: str | None = None, name: str | None = None, **options: Unpack[DxfOptions]) -> Path:
     """Write the outline as DXF atomically; ``options`` as for :func:`dxf_document`, ``timestamp`` and
     ``name`` as for :func:`dump_dxf`. Returns the path. Raises :class:`ExportError`, :class:`GeometryError`."""
     from fabpat.exchange.part import check_timestamp

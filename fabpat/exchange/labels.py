@@ -20,11 +20,15 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.geometry.outline import Outline
+
+if TYPE_CHECKING:  # pragma: no cover
+    from scipy.spatial import cKDTree
 
 MAX_TEXT_HEIGHT = 3.0  # mm
 MIN_TEXT_HEIGHT = 1.0  # mm: smaller engraved text is unreadable
@@ -62,7 +66,7 @@ def label_at(text: str, centre: NDArray[np.float64], angle: float, height: float
     return Label(text, (float(s[0]), float(s[1])), float(angle), float(height), w)
 
 
-def _material(outline: Outline) -> tuple[list[NDArray[np.float64]], object]:
+def _material(outline: Outline) -> tuple[list[NDArray[np.float64]], cKDTree]:
     """Flattened loops and a KD-tree of boundary points ≤ _FLAT apart."""
     from scipy.spatial import cKDTree
 
@@ -77,7 +81,7 @@ def _material(outline: Outline) -> tuple[list[NDArray[np.float64]], object]:
     return polys, cKDTree(np.vstack(pts))
 
 
-def _clearance(X: NDArray[np.float64], polys: list[NDArray[np.float64]], tree: object) -> NDArray[np.float64]:
+def _clearance(X: NDArray[np.float64], polys: list[NDArray[np.float64]], tree: cKDTree) -> NDArray[np.float64]:
     """A lower bound of the distance to the boundary of points on the material, −1 elsewhere."""
     from matplotlib.path import Path as MPath
 
@@ -86,7 +90,7 @@ def _clearance(X: NDArray[np.float64], polys: list[NDArray[np.float64]], tree: o
         inside &= ~MPath(hole).contains_points(X)
     out = np.full(len(X), -1.0)
     # Clearance beyond what the largest label needs is not looked for (it would only cost time).
-    d, _ = tree.query(X[inside], distance_upper_bound=MAX_TEXT_HEIGHT)  # type: ignore[attr-defined]
+    d, _ = tree.query(X[inside], distance_upper_bound=MAX_TEXT_HEIGHT)
     # Boundary points are ≤ _FLAT apart on a polyline within _FLAT of the curve.
     out[inside] = np.minimum(d, MAX_TEXT_HEIGHT) - 1.5 * _FLAT
     return out
@@ -119,7 +123,7 @@ def place_label(outline: Outline, text: str, grid: int = 160) -> Label | None:
         rel, start=(rel.start[0] + float(lo[0]), rel.start[1] + float(lo[1])))
 
 
-def _search(outline: Outline, polys: list[NDArray[np.float64]], tree: object, text: str, grid: int) -> Label | None:
+def _search(outline: Outline, polys: list[NDArray[np.float64]], tree: cKDTree, text: str, grid: int) -> Label | None:
     from scipy.ndimage import minimum_filter1d
 
     lo, hi = outline.bbox

@@ -20,7 +20,7 @@ import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, TypedDict, Unpack
 
 from fabpat.errors import ExportError
 from fabpat.exchange.cad import DEFAULT_THICKNESS, occt_errors
@@ -32,6 +32,9 @@ from fabpat.exchange.part import (  # noqa: F401 - Part, ExportSettings and thei
     flatten_arcs,
 )
 from fabpat.geometry.outline import Outline
+
+if TYPE_CHECKING:  # pragma: no cover
+    from fabpat.geometry.fillet import FilletedPattern
 from fabpat.io import atomic_outputs, check_distinct, check_file_name
 from fabpat.validate import check
 
@@ -61,7 +64,9 @@ class Format:
     @property
     def write(self) -> Callable[[Part, Path, ExportSettings], None]:
         """The format module's ``write(part, path, settings)``, imported on first use."""
-        return importlib.import_module(f"fabpat.exchange.{self.module}").write  # type: ignore[no-any-return]
+        write: Callable[[Part, Path, ExportSettings], None] = importlib.import_module(
+            f"fabpat.exchange.{self.module}").write
+        return write
 
 
 FORMATS: dict[str, Format] = {}
@@ -225,7 +230,7 @@ def export_part(
     return export_parts([(part, targets)], settings)
 
 
-def filleted_part(filleted: Any, thickness: float = DEFAULT_THICKNESS) -> Part:
+def filleted_part(filleted: FilletedPattern, thickness: float = DEFAULT_THICKNESS) -> Part:
     """The part of a :class:`~fabpat.geometry.fillet.FilletedPattern`: named by its ID and parameters (and its
     variation, :func:`fabpat.exchange.cad.part_name`), labelled with its ID (``"0x0488 b0.5"`` for a
     ``bridge_weight`` of 0.5, so two members of one family are told apart on the sheet), its interface
@@ -237,11 +242,33 @@ def filleted_part(filleted: Any, thickness: float = DEFAULT_THICKNESS) -> Part:
     return Part(filleted.outline, thickness, name, label=filleted.label, support=filleted.support_arcs)
 
 
+class SettingsOptions(TypedDict, total=False):
+    """The :class:`ExportSettings` fields as keywords (mm, rad; see there)."""
+
+    mesh_tolerance: float
+    angular_tolerance: float
+    curves: str
+    curve_tolerance: float
+    kerf: float
+    dxf_version: str
+    dxf_entities: str | None
+    svg_curves: str
+    origin: str
+    timestamp: str | None
+    max_elements: int
+
+
+class ExportOptions(SettingsOptions, total=False):
+    """The keywords of :func:`export_filleted`: the plate ``thickness`` (mm) and the :class:`ExportSettings` fields."""
+
+    thickness: float
+
+
 _SETTINGS_FIELDS = tuple(ExportSettings.__dataclass_fields__)
 _NUMERIC_OPTIONS = ("thickness", "mesh_tolerance", "angular_tolerance", "curve_tolerance", "kerf")
 
 
-def export_filleted(filleted: Any, path: str | os.PathLike[str], **options: Any) -> Path:
+def export_filleted(filleted: FilletedPattern, path: str | os.PathLike[str], **options: Unpack[ExportOptions]) -> Path:
     """Write ``filleted`` to ``path`` in the format of its suffix (:func:`format_of`), atomically.
 
     ``options``: ``thickness`` (mm) and any :class:`ExportSettings` field. The same part and writers
@@ -257,5 +284,6 @@ def export_filleted(filleted: Any, path: str | os.PathLike[str], **options: Any)
     for key, value in (("thickness", thickness), *options.items()):
         if key in _NUMERIC_OPTIONS and (isinstance(value, bool) or not isinstance(value, int | float)):
             raise ExportError(f"{key} must be a number (mm), got {value!r}")
-    settings = ExportSettings(**options)
+    fields: SettingsOptions = options  # "thickness" popped: the rest are ExportSettings fields
+    settings = ExportSettings(**fields)
     return export_part(filleted_part(filleted, thickness), {name: path}, settings)[0]

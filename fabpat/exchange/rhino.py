@@ -38,7 +38,8 @@ import uuid
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from types import ModuleType
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -47,6 +48,8 @@ from fabpat.errors import ExportError
 from fabpat.geometry.outline import Line, Loop, Outline, RationalQuad
 
 if TYPE_CHECKING:  # pragma: no cover
+    import rhino3dm
+
     from fabpat.exchange.part import ExportSettings, Part
 
 CUT_LAYER = "CUT"
@@ -55,7 +58,7 @@ INTERFACE_LAYER = "INTERFACE"
 FILE_VERSION = 7  # Rhino 7 file format: Rhino 7 and later open it
 
 
-def _rhino() -> Any:
+def _rhino() -> ModuleType:
     try:
         import rhino3dm
     except ImportError as e:  # pragma: no cover - rhino3dm is a dependency
@@ -63,7 +66,7 @@ def _rhino() -> Any:
     return rhino3dm
 
 
-def loop_curve(loop: Loop | Sequence[Line | RationalQuad], z: float = 0.0) -> Any:
+def loop_curve(loop: Loop | Sequence[Line | RationalQuad], z: float = 0.0) -> rhino3dm.NurbsCurve:
     """One closed degree-2 rational ``rhino3dm.NurbsCurve`` through the loop's segments, exactly.
 
     Segment k is the Bézier span on knots [k, k + 1]; its control points are (start, middle, end)
@@ -98,7 +101,7 @@ def loop_curve(loop: Loop | Sequence[Line | RationalQuad], z: float = 0.0) -> An
     return curve
 
 
-def arc_curve(arc: RationalQuad) -> Any:
+def arc_curve(arc: RationalQuad) -> rhino3dm.NurbsCurve:
     """One open degree-2 rational ``rhino3dm.NurbsCurve`` of a single arc (weights (1, w, 1))."""
     r3 = _rhino()
     curve = r3.NurbsCurve(3, True, 3, 3)
@@ -109,7 +112,7 @@ def arc_curve(arc: RationalQuad) -> Any:
     return curve
 
 
-def plate_extrusion(outline: Outline, thickness: float) -> Any:
+def plate_extrusion(outline: Outline, thickness: float) -> rhino3dm.Extrusion:
     """The plate as a capped ``rhino3dm.Extrusion`` of the exact outline, z from 0 to ``thickness`` mm."""
     r3 = _rhino()
     plane = r3.Plane.WorldXY()  # profile coordinates = model x, y: holes can be added as they are
@@ -124,7 +127,7 @@ def plate_extrusion(outline: Outline, thickness: float) -> Any:
     return ext
 
 
-def _new_file() -> Any:
+def _new_file() -> rhino3dm.File3dm:
     r3 = _rhino()
     model = r3.File3dm()
     model.Settings.ModelUnitSystem = r3.UnitSystem.Millimeters
@@ -153,7 +156,7 @@ class _Ids:
         return stamp_uuid(self.timestamp, "3dm", kind, str(self.count), name)
 
 
-def _layer(model: Any, name: str, colour: tuple[int, int, int], visible: bool = True,
+def _layer(model: rhino3dm.File3dm, name: str, colour: tuple[int, int, int], visible: bool = True,
            ids: _Ids | None = None) -> int:
     r3 = _rhino()
     layer = r3.Layer()
@@ -165,7 +168,7 @@ def _layer(model: Any, name: str, colour: tuple[int, int, int], visible: bool = 
     return int(model.Layers.Add(layer))
 
 
-def _attributes(layer: int, name: str | None = None, ids: _Ids | None = None) -> Any:
+def _attributes(layer: int, name: str | None = None, ids: _Ids | None = None) -> rhino3dm.ObjectAttributes:
     att = _rhino().ObjectAttributes()
     att.LayerIndex = layer
     if name:
@@ -175,7 +178,8 @@ def _attributes(layer: int, name: str | None = None, ids: _Ids | None = None) ->
     return att
 
 
-def encode(model: Any, timestamp: str | None = None, ids: dict[uuid.UUID, uuid.UUID] | None = None) -> bytes:
+def encode(model: rhino3dm.File3dm, timestamp: str | None = None,
+           ids: dict[uuid.UUID, uuid.UUID] | None = None) -> bytes:
     """The ``rhino3dm.File3dm`` as the bytes of a Rhino 7 ``.3dm`` file; with ``timestamp`` (ISO 8601)
     :func:`fabpat.exchange.rhino_stamp.reproducible` (``ids``: random ids to replace). Raises :class:`ExportError`."""
     import base64
@@ -193,7 +197,7 @@ def encode(model: Any, timestamp: str | None = None, ids: dict[uuid.UUID, uuid.U
     return reproducible(data, timestamp, ids)
 
 
-def _save(model: Any, path: str | os.PathLike[str], timestamp: str | None = None,
+def _save(model: rhino3dm.File3dm, path: str | os.PathLike[str], timestamp: str | None = None,
           ids: dict[uuid.UUID, uuid.UUID] | None = None) -> None:
     data = encode(model, timestamp, ids)
     try:
@@ -204,7 +208,7 @@ def _save(model: Any, path: str | os.PathLike[str], timestamp: str | None = None
         raise writer_failed(path, "cannot write the .3dm file", e) from e
 
 
-def part_model(part: Part, *, timestamp: str | None = None) -> Any:
+def part_model(part: Part, *, timestamp: str | None = None) -> rhino3dm.File3dm:
     """A ``rhino3dm.File3dm`` of one part: ``CUT`` curves, ``PLATE`` extrusion, ``INTERFACE`` arcs. With
     ``timestamp`` (ISO 8601) the layers and objects get fixed ids (module docstring). Raises :class:`ExportError`."""
     ids = _Ids(timestamp)
@@ -228,7 +232,7 @@ def write(part: Part, path: Path, settings: ExportSettings) -> None:
     _save(part_model(part, timestamp=settings.timestamp), path, settings.timestamp)
 
 
-def _mesh(V: NDArray[np.float64], F: NDArray[np.int64]) -> Any:
+def _mesh(V: NDArray[np.float64], F: NDArray[np.int64]) -> rhino3dm.Mesh:
     r3 = _rhino()
     mesh = r3.Mesh()
     for x, y, z in V:
@@ -240,7 +244,7 @@ def _mesh(V: NDArray[np.float64], F: NDArray[np.int64]) -> Any:
     return mesh
 
 
-def _transform(T: NDArray[np.float64]) -> Any:
+def _transform(T: NDArray[np.float64]) -> rhino3dm.Transform:
     xf = _rhino().Transform(1.0)
     for i in range(4):
         for j in range(4):
@@ -275,7 +279,7 @@ def write_assembly(blocks: Sequence[Block], placed: Sequence[tuple[str, str, NDA
     ids = _Ids(timestamp)
     fixed: dict[uuid.UUID, uuid.UUID] = {}  # the ids rhino3dm drew for blocks and their geometry → fixed ones
     model = _new_file()
-    ref: dict[str, Any] = {}
+    ref: dict[str, uuid.UUID] = {}
     layers: dict[str, int] = {}
     for b in blocks:
         layers[b.key] = _layer(model, b.key, b.colour, ids=ids)

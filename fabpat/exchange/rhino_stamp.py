@@ -21,7 +21,7 @@ from __future__ import annotations
 import struct
 import uuid
 import zlib
-from typing import Any
+from datetime import datetime
 
 from fabpat.errors import ExportError
 
@@ -147,7 +147,7 @@ class Chunks:
         return None
 
 
-def _tm(t: Any) -> bytes:
+def _tm(t: datetime) -> bytes:
     """openNURBS' time (a C ``struct tm`` without ``tm_isdst``): 8 little-endian ints, sec … year − 1900,
     weekday from Sunday = 0, day of the year from 0."""
     return struct.pack("<8i", t.second, t.minute, t.hour, t.day, t.month - 1, t.year - 1900,

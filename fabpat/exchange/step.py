@@ -20,14 +20,18 @@ import contextlib
 import os
 from collections.abc import Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from fabpat.errors import ExportError
 from fabpat.exchange.part import check_printable, check_timestamp  # noqa: F401 - also this module's API
 from fabpat.exchange.step_order import renumber_occurrences, sort_trailing_styles
 from fabpat.io import atomic_outputs
 
-if TYPE_CHECKING:  # pragma: no cover
+if TYPE_CHECKING:  # pragma: no cover - OCP has no stubs: mypy sees its classes as unchecked
+    from OCP.TCollection import TCollection_ExtendedString
+    from OCP.TDocStd import TDocStd_Document
+
+    from fabpat.exchange.cad import ShapeLike
     from fabpat.exchange.part import ExportSettings, Part
 
 SCHEMA = "AP214IS"  # OCCT's name for the AP214 international standard schema
@@ -81,7 +85,7 @@ def _quiet_occt() -> None:
         printer.SetTraceLevel(Message_Gravity.Message_Fail)
 
 
-def dump_step(shape: Any, path: str | os.PathLike[str], name: str, timestamp: str | None = None) -> None:
+def dump_step(shape: ShapeLike, path: str | os.PathLike[str], name: str, timestamp: str | None = None) -> None:
     """Write ``shape`` (a ``TopoDS_Shape`` or anything with ``.wrapped``) to ``path`` as-is.
 
     ``name`` is the product name (and the header's file name); ``timestamp`` (ISO 8601) fixes the
@@ -105,7 +109,7 @@ def dump_step(shape: Any, path: str | os.PathLike[str], name: str, timestamp: st
     write_document(doc, path, name, timestamp)
 
 
-def _text(name: Any) -> str:
+def _text(name: TCollection_ExtendedString) -> str:
     """The text of a ``TCollection_ExtendedString``. One made from a Python str without the multi-byte
     flag holds the str's UTF-8 bytes one per character (``"ü"`` → ``"Ã¼"``); such a string is decoded
     back, so a name reaches the file as the caller wrote it, whichever way it was stored."""
@@ -119,7 +123,7 @@ def _text(name: Any) -> str:
 
 
 @contextlib.contextmanager
-def _names_encoded(doc: Any) -> Iterator[None]:
+def _names_encoded(doc: TDocStd_Document) -> Iterator[None]:
     """Every ``TDataStd_Name`` in the document as its :func:`step_string` for the block (the transfer and
     the write), then as it was: the caller's document is left unchanged."""
     from OCP.TCollection import TCollection_ExtendedString
@@ -143,7 +147,8 @@ def _names_encoded(doc: Any) -> Iterator[None]:
             TDataStd_Name.Set_s(label, before)
 
 
-def write_document(doc: Any, path: str | os.PathLike[str], name: str, timestamp: str | None = None) -> None:
+def write_document(doc: TDocStd_Document, path: str | os.PathLike[str], name: str,
+                   timestamp: str | None = None) -> None:
     """Write an XDE document (a part or an assembly) to ``path`` as STEP AP214 in mm. Not atomic.
 
     Every name in the document and ``name`` (the header's file name) are written as ISO 10303-21
@@ -188,7 +193,7 @@ def write(part: Part, path: Path, settings: ExportSettings) -> None:
     dump_step(part.solid, path, part.name, settings.timestamp)
 
 
-def write_step(shape: Any, path: str | os.PathLike[str], name: str, timestamp: str | None = None) -> Path:
+def write_step(shape: ShapeLike, path: str | os.PathLike[str], name: str, timestamp: str | None = None) -> Path:
     """Write a solid to a STEP AP214 file (mm) atomically; returns the path written."""
     with atomic_outputs(path) as (tmp,):
         dump_step(shape, tmp, name, timestamp)

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import os
 import re
+from collections.abc import Callable, Sequence
 
 _ENTITY = re.compile(rb"^#(\d+) = ", re.MULTILINE)
 _REF = re.compile(rb"#(\d+)")
@@ -107,6 +108,11 @@ def _canonical(block: list[tuple[int, bytes]], text_of: dict[int, bytes], shared
     return out
 
 
+def _placeholder_numbers(numbers: Sequence[int]) -> Callable[[re.Match[bytes]], bytes]:
+    """The replacement of a block's placeholder ``#@k``: the number ``#n`` its entity k gets."""
+    return lambda m: b"#%d" % numbers[int(m[1])]
+
+
 def sort_trailing_styles(path: str | os.PathLike[str]) -> bool:
     """Rewrite the STEP file ``path`` with its trailing colour blocks in a fixed order (see the module
     docstring). Returns whether the file was rewritten; a file of another shape is left as it is.
@@ -162,16 +168,16 @@ def sort_trailing_styles(path: str | os.PathLike[str]) -> bool:
             number += 1
         for text, n, new in zip(canon, numbers, fresh, strict=True):
             if new:
-                body = re.sub(rb"#@(\d+)", lambda m, numbers=numbers: b"#%d" % numbers[int(m[1])], text)  # type: ignore[misc]
+                body = re.sub(rb"#@(\d+)", _placeholder_numbers(numbers), text)
                 out.append(b"#%d = " % n + body)
     if number != base + len(ents) - first:
         return False  # the blocks would not fill the same numbers
     out.append(tail)
-    new = b"".join(out)
-    if new == data:
+    rewritten = b"".join(out)
+    if rewritten == data:
         return False
     with open(path, "wb") as f:
-        f.write(new)
+        f.write(rewritten)
     return True
 
 

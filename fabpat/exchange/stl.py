@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
-from fabpat.exchange.cad import DEFAULT_ANGULAR, DEFAULT_CHORD, mesh
+from fabpat.exchange.cad import DEFAULT_ANGULAR, DEFAULT_CHORD, ShapeLike, mesh
 from fabpat.io import atomic_outputs, writer_failed
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -22,7 +22,8 @@ DEFAULT_TOLERANCE = DEFAULT_CHORD  # mm: max distance between a facet and the ex
 
 
 def dump_stl(
-    shape: Any, path: str | os.PathLike[str], tolerance: float = DEFAULT_TOLERANCE, angular: float = DEFAULT_ANGULAR
+    shape: ShapeLike, path: str | os.PathLike[str], tolerance: float = DEFAULT_TOLERANCE,
+    angular: float = DEFAULT_ANGULAR,
 ) -> None:
     """Mesh ``shape`` (``TopoDS_Shape`` or build123d shape) within ``tolerance`` mm and write it.
 
@@ -45,7 +46,8 @@ def write(part: Part, path: Path, settings: ExportSettings) -> None:
 
 
 def write_stl(
-    shape: Any, path: str | os.PathLike[str], tolerance: float = DEFAULT_TOLERANCE, angular: float = DEFAULT_ANGULAR
+    shape: ShapeLike, path: str | os.PathLike[str], tolerance: float = DEFAULT_TOLERANCE,
+    angular: float = DEFAULT_ANGULAR,
 ) -> Path:
     """Write a solid to a binary STL file (mm) atomically; returns the path written."""
     with atomic_outputs(path) as (tmp,):

@@ -29,7 +29,7 @@ from __future__ import annotations
 import math
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypedDict, Unpack
 from xml.sax.saxutils import escape, quoteattr
 
 import numpy as np
@@ -43,6 +43,17 @@ from fabpat.io import atomic_outputs
 
 if TYPE_CHECKING:  # pragma: no cover
     from fabpat.exchange.part import ExportSettings, Part
+
+
+class SvgOptions(TypedDict, total=False):
+    """The drawing options of :func:`svg_document` (mm), as keywords of :func:`write_svg`."""
+
+    kerf: float
+    tolerance: float
+    curves: str
+    origin: str
+    filled: bool
+    title: str | None
 
 SVG_CURVES = ("exact", "cubic")
 DEFAULT_SVG_CURVES = "cubic"
@@ -185,9 +196,10 @@ def write(part: Part, path: Path, settings: ExportSettings) -> None:
     Path(path).write_text(text, encoding="utf-8")
 
 
-def write_svg(outline: Outline, path: str | os.PathLike[str], label: str | None = None, **options: object) -> Path:
+def write_svg(outline: Outline, path: str | os.PathLike[str], label: str | None = None,
+              **options: Unpack[SvgOptions]) -> Path:
     """Write :func:`svg_document` atomically; returns the path written."""
-    text = svg_document(outline, label, **options)  # type: ignore[arg-type]
+    text = svg_document(outline, label, **options)
     with atomic_outputs(path) as (tmp,):
         tmp.write_text(text, encoding="utf-8")
     return Path(path)

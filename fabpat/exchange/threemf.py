@@ -17,17 +17,19 @@ import io
 import os
 import zipfile
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 from xml.sax.saxutils import escape, quoteattr
 
 import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import ExportError, GeometryError
-from fabpat.exchange.cad import DEFAULT_ANGULAR, DEFAULT_CHORD, mesh
+from fabpat.exchange.cad import DEFAULT_ANGULAR, DEFAULT_CHORD, ShapeLike, mesh
 from fabpat.io import atomic_outputs
 
 if TYPE_CHECKING:  # pragma: no cover
+    from OCP.TopoDS import TopoDS_Shape
+
     from fabpat.exchange.part import ExportSettings, Part
 
 _CONTENT_TYPES = (
@@ -47,7 +49,7 @@ _RELS = (
 
 
 def triangulate(
-    shape: Any, tolerance: float, angular: float = DEFAULT_ANGULAR
+    shape: TopoDS_Shape, tolerance: float, angular: float = DEFAULT_ANGULAR
 ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
     """Mesh the shape and return ``V`` (n, 3) float mm, ``F`` (m, 3) int, outward CCW, welded.
 
@@ -148,7 +150,7 @@ def write(part: Part, path: Path, settings: ExportSettings) -> None:
 
 
 def write_3mf(
-    shape: Any,
+    shape: ShapeLike,
     path: str | os.PathLike[str],
     name: str,
     tolerance: float = DEFAULT_CHORD,

@@ -113,11 +113,12 @@ def quad_to_conic(P: ArrayLike, w: float, *, parabola_atol: float = 1e-12) -> Co
     Q = L.T @ Qb @ L
     coef = np.array([Q[0, 0], 2 * Q[0, 1], Q[1, 1], 2 * Q[0, 2], 2 * Q[1, 2], Q[2, 2]])
     coef /= np.linalg.norm(coef)
-    coefs = tuple(float(c) for c in coef)
+    k0, k1, k2, k3, k4, k5 = (float(c) for c in coef)
+    coefs = (k0, k1, k2, k3, k4, k5)
     if abs(w - 1.0) <= parabola_atol:
-        return Conic("parabola", coefs)  # type: ignore[arg-type]
+        return Conic("parabola", coefs)
     if w > 1.0:
-        return Conic("hyperbola", coefs)  # type: ignore[arg-type]
+        return Conic("hyperbola", coefs)
 
     M = 0.5 * (P[0] + P[2])
     c = (M - w * w * P[1]) / (1.0 - w * w)
@@ -145,7 +146,7 @@ def quad_to_conic(P: ArrayLike, w: float, *, parabola_atol: float = 1e-12) -> Co
         end_param=float(end),
         reversed=not ccw,
     )
-    return Conic("ellipse", coefs, arc)  # type: ignore[arg-type]
+    return Conic("ellipse", coefs, arc)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -201,6 +202,11 @@ def point_arc_distance(X: ArrayLike, start: ArrayLike, end: ArrayLike, bulge: fl
     return np.where(inside, radial, ends)
 
 
+def _xy(p: FloatArray) -> tuple[float, float]:
+    """A point (2,) as Python floats (x, y), mm."""
+    return float(p[0]), float(p[1])
+
+
 def biarc(p1: ArrayLike, t1: ArrayLike, p2: ArrayLike, t2: ArrayLike) -> list[ArcTriple]:
     """Two circular arcs from p1 (unit tangent t1) to p2 (unit tangent t2), G1 at the joint.
 
@@ -218,8 +224,8 @@ def biarc(p1: ArrayLike, t1: ArrayLike, p2: ArrayLike, t2: ArrayLike) -> list[Ar
     c1, c2 = pm - p1, p2 - pm
     th1 = 2.0 * math.atan2(float(cross2d(t1, c1)), float(t1 @ c1))
     th2 = 2.0 * math.atan2(float(cross2d(c2, t2)), float(c2 @ t2))
-    P1, PM, P2 = (tuple(float(x) for x in p) for p in (p1, pm, p2))
-    return [(P1, PM, math.tan(th1 / 4.0)), (PM, P2, math.tan(th2 / 4.0))]  # type: ignore[list-item]
+    P1, PM, P2 = (_xy(p) for p in (p1, pm, p2))
+    return [(P1, PM, math.tan(th1 / 4.0)), (PM, P2, math.tan(th2 / 4.0))]
 
 
 def _arcs_deviation(arcs: list[ArcTriple], curve: FloatArray) -> float:
@@ -256,13 +262,13 @@ def fit_arcs(P: ArrayLike, w: float, tol: float, *, samples: int = 65) -> list[A
     P = np.asarray(P, dtype=np.float64)
     W = np.array([1.0, w, 1.0])
     l0, l1, chord = (float(np.hypot(*v)) for v in (P[1] - P[0], P[2] - P[1], P[2] - P[0]))
-    start, end = tuple(P[0].tolist()), tuple(P[2].tolist())
+    start, end = _xy(P[0]), _xy(P[2])
     if abs(float(cross2d(P[1] - P[0], P[2] - P[0]))) <= 1e-14 * max(l0, l1, chord) ** 2:
-        return [(start, end, 0.0)]  # type: ignore[list-item]
+        return [(start, end, 0.0)]
     beta = math.acos(max(-1.0, min(1.0, float((P[1] - P[0]) @ (P[2] - P[0])) / (l0 * chord))))
     if abs(l0 - l1) <= 1e-12 * l0 and abs(w - math.cos(beta)) <= 1e-12:
         sign = 1.0 if cross2d(P[1] - P[0], P[2] - P[1]) > 0 else -1.0
-        return [(start, end, sign * math.tan(beta / 2.0))]  # type: ignore[list-item]
+        return [(start, end, sign * math.tan(beta / 2.0))]
 
     def unit_tangent(t: float) -> FloatArray:
         d = derivative(P, W, t)
@@ -278,6 +284,6 @@ def fit_arcs(P: ArrayLike, w: float, tol: float, *, samples: int = 65) -> list[A
         return fit(a, m, depth + 1) + fit(m, b, depth + 1)
 
     out = fit(0.0, 1.0, 0)
-    out[0] = (start, out[0][1], out[0][2])  # type: ignore[assignment]
-    out[-1] = (out[-1][0], end, out[-1][2])  # type: ignore[assignment]
+    out[0] = (start, out[0][1], out[0][2])
+    out[-1] = (out[-1][0], end, out[-1][2])
     return out

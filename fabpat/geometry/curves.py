@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 from functools import lru_cache
+from typing import Literal, overload
 
 import numpy as np
 from numpy.polynomial import polynomial as npoly
@@ -165,6 +166,21 @@ def split_quad(P: ArrayLike, w: float, t: float = 0.5) -> tuple[tuple[FloatArray
 # --------------------------------------------------------------------------------------------------
 
 
+@overload
+def flatten_quad(P: ArrayLike, w: float, tol: float, *, return_params: Literal[False] = False) -> FloatArray: ...
+
+
+@overload
+def flatten_quad(P: ArrayLike, w: float, tol: float, *, return_params: Literal[True]) -> tuple[FloatArray, FloatArray]:
+    ...
+
+
+@overload
+def flatten_quad(
+    P: ArrayLike, w: float, tol: float, *, return_params: bool = False
+) -> FloatArray | tuple[FloatArray, FloatArray]: ...
+
+
 def flatten_quad(
     P: ArrayLike, w: float, tol: float, *, return_params: bool = False
 ) -> FloatArray | tuple[FloatArray, FloatArray]:
@@ -240,7 +256,7 @@ def flatten(P: ArrayLike, W: ArrayLike, tol: float) -> FloatArray:
     W = np.asarray(W, dtype=np.float64)
     if P.shape[0] == 3 and P.shape[1] == 2:
         Ps, ws = standardize_quad(P, W)
-        return flatten_quad(Ps, ws, tol)  # type: ignore[return-value]
+        return flatten_quad(Ps, ws, tol)
     if not tol > 0:
         raise ValueError(f"tolerance must be positive, got {tol}")
 

@@ -47,7 +47,7 @@ import math
 import os
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, TypeGuard, Unpack
 
 import numpy as np
 from numpy.typing import NDArray
@@ -72,6 +72,11 @@ from fabpat.patterns.metrics import RegionMetrics
 from fabpat.patterns.pattern import Pattern
 from fabpat.patterns.variation import PAPER_VARIATION, Variation
 from fabpat.validate import check, check_path
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+
+    from fabpat.exchange.registry import ExportOptions
 
 __all__ = ["DEFAULT_WEIGHT", "HEXAGON_STAR_TABLE", "FilletedPattern", "StarRun", "VertexStar", "classify",
            "fillet_pattern", "fillet_solid", "interface_half_length", "star_actions", "star_runs", "star_table",
@@ -190,7 +195,7 @@ class FilletedPattern:
         seg = self.interface_segments
         return float(np.linalg.norm(seg[0, 1] - seg[0, 0]) / 2)
 
-    def export(self, path: str | os.PathLike[str], **options: Any) -> Path:
+    def export(self, path: str | os.PathLike[str], **options: Unpack[ExportOptions]) -> Path:
         """Write a fabrication file, the format chosen by the suffix (.step .stl .3mf .dxf .svg .3dm, and
         any format registered in :mod:`fabpat.exchange.registry`), by the same code as ``fabpat export``.
 
@@ -205,9 +210,9 @@ class FilletedPattern:
 
         return export_filleted(self, check_path(path, "the export path", error=ExportError), **options)
 
-    def plot(self, ax: Any = None, **kwargs: Any) -> Any:
+    def plot(self, ax: Axes | None = None, *, tol: float = 0.01, color: str = "black", **kwargs: object) -> Axes:
         """:meth:`Outline.plot` of the outline (matplotlib; returns the axes)."""
-        return self.outline.plot(ax, **kwargs)
+        return self.outline.plot(ax, tol=tol, color=color, **kwargs)
 
     def __repr__(self) -> str:
         family = f", {self.variation.label()}" if not self.variation.is_paper else ""
@@ -260,20 +265,23 @@ def _halves(arc: RationalQuad) -> tuple[RationalQuad, RationalQuad]:
 def _merge_collinear(segs: list[Segment]) -> list[Segment]:
     """Join consecutive collinear lines (the boundary passing straight through a vertex)."""
 
-    def joinable(a: Segment, b: Segment) -> bool:
+    def joinable(a: Segment, b: Segment) -> TypeGuard[Line]:
+        """Whether ``a`` and ``b`` are both lines that continue each other (``a`` narrowed to a Line)."""
         if not (isinstance(a, Line) and isinstance(b, Line)):
             return False
         u, v = a.p1 - a.p0, b.p1 - b.p0
-        return abs(u[0] * v[1] - u[1] * v[0]) < 1e-12 * max(1.0, u @ u) * max(1.0, v @ v) ** 0.5 and u @ v > 0
+        return bool(abs(u[0] * v[1] - u[1] * v[0]) < 1e-12 * max(1.0, float(u @ u)) * max(1.0, float(v @ v)) ** 0.5
+                    and u @ v > 0)
 
     out: list[Segment] = []
     for s in segs:
-        if out and joinable(out[-1], s):
-            out[-1] = Line(out[-1].p0, s.p1)
+        last = out[-1] if out else None
+        if last is not None and joinable(last, s):
+            out[-1] = Line(last.p0, s.end)
         else:
             out.append(s)
-    while len(out) > 1 and joinable(out[-1], out[0]):
-        out[0] = Line(out[-1].p0, out[0].p1)
+    while len(out) > 1 and joinable(last := out[-1], out[0]):
+        out[0] = Line(last.p0, out[0].end)
         out.pop()
     return out
 

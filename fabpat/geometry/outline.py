@@ -16,7 +16,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -25,7 +25,10 @@ from fabpat.errors import GeometryError
 from fabpat.geometry import polyline
 from fabpat.geometry.segments import Line, Loop, Point, RationalQuad, Segment, _end_direction, _start_direction, _unit
 from fabpat.patterns.metrics import RegionMetrics
-from fabpat.validate import check, check_tolerance
+from fabpat.validate import as_float, check, check_tolerance
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
 
 __all__ = ["SVG_FLATTEN_TOL", "Line", "Loop", "Outline", "OutlineReport", "Point", "PolygonFrame", "RationalQuad",
            "Segment", "flattening_tolerance"]
@@ -76,7 +79,7 @@ def flattening_tolerance(tol: object) -> float:
     """``tol`` as a float in mm, or :class:`GeometryError` if it is not a positive number: the
     flattening routines of :mod:`fabpat.geometry.curves` need tol > 0 (they raise a bare ValueError)."""
     try:
-        value = float(tol)  # type: ignore[arg-type]
+        value = as_float(tol)
     except (TypeError, ValueError):
         raise GeometryError(f"tol must be a positive number of mm, got {tol!r}") from None
     if not 0 < value < math.inf:  # inf would flatten every curve to its chord
@@ -142,7 +145,7 @@ class Outline:
 
         return outline_svg(self)
 
-    def plot(self, ax: Any = None, *, tol: float = 0.01, color: str = "black", **kwargs: Any) -> Any:
+    def plot(self, ax: Axes | None = None, *, tol: float = 0.01, color: str = "black", **kwargs: object) -> Axes:
         """Draw the outline filled (holes empty) on a matplotlib ``ax`` (a new figure if None), equal
         axes in mm; curves flattened within ``tol`` mm. ``kwargs`` go to the ``PathPatch``. Returns ax."""
         import matplotlib.pyplot as plt
@@ -314,10 +317,8 @@ class Outline:
         worst, worst_at, exempt = self._worst_g1(g1_exempt_lines)
         g1_ok = worst < g1_tol
         if not g1_ok:
-            problems.append(
-                f"not G1: tangents differ by {math.degrees(worst):.4g}° at an arc joint near "
-                f"({worst_at[0]:.4f}, {worst_at[1]:.4f})"  # type: ignore[index]
-            )
+            near = "" if worst_at is None else f" near ({worst_at[0]:.4f}, {worst_at[1]:.4f})"  # None: no joints
+            problems.append(f"not G1: tangents differ by {math.degrees(worst):.4g}° at an arc joint{near}")
 
         if symmetry < 1:
             raise ValueError(f"symmetry must be a positive integer, got {symmetry}")

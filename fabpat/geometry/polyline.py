@@ -8,6 +8,7 @@ an outline flattened within a tolerance; they are pure numpy plus scipy's k-d tr
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -44,7 +45,7 @@ def _closed_edges(loops: list[FloatArray]) -> tuple[FloatArray, FloatArray, NDAr
     return A, B, lid, eid
 
 
-def polyline_intersections(loops: list[ArrayLike], eps: float = 1e-9) -> NDArray[np.int64]:
+def polyline_intersections(loops: Sequence[ArrayLike], eps: float = 1e-9) -> NDArray[np.int64]:
     """Pairs of edges of closed polylines that touch or cross: (p, 4) int (loop_i, edge_i, loop_j, edge_j).
 
     loops: closed polylines (k_l, 2) without a repeated last point; edge e joins vertex e to e + 1.
@@ -151,7 +152,7 @@ def _in_sector(P: FloatArray, symmetry: int) -> NDArray[np.bool_]:
 
 
 def ray_min_width(
-    loops: list[ArrayLike], spacing: float, *, symmetry: int = 1
+    loops: Sequence[ArrayLike], spacing: float, *, symmetry: int = 1
 ) -> tuple[float, FloatArray, FloatArray]:
     """Narrowest bar or neck of a region bounded by closed polylines, mm.
 

@@ -175,8 +175,8 @@ class RationalQuad:
         """Unit tangent in the direction of travel: (2,) or (m, 2)."""
         # At the ends a Bézier curve is tangent to its control polygon (w > 0): no evaluation needed,
         # and the G1 check asks only for end tangents.
-        if np.ndim(t) == 0 and float(t) in (0.0, 1.0):  # type: ignore[arg-type]
-            d = self.P1 - self.P0 if float(t) == 0.0 else self.P2 - self.P1  # type: ignore[arg-type]
+        if np.ndim(t) == 0 and (t0 := float(np.asarray(t, dtype=np.float64))) in (0.0, 1.0):
+            d = self.P1 - self.P0 if t0 == 0.0 else self.P2 - self.P1
             if np.any(d):
                 return _unit(d)
         return _unit(self.derivative(t))
@@ -215,7 +215,7 @@ class RationalQuad:
     def split(self, t: float = 0.5) -> tuple[RationalQuad, RationalQuad]:
         """Exact split at t into two standard-form arcs (each re-normalised to weights (1, w', 1))."""
         (PL, wL), (PR, wR) = curves.split_quad(self.control_points, self.w, t)
-        return RationalQuad(*PL, w=wL), RationalQuad(*PR, w=wR)
+        return RationalQuad(PL[0], PL[1], PL[2], w=wL), RationalQuad(PR[0], PR[1], PR[2], w=wR)
 
     def to_conic(self) -> conics.Conic:
         """The conic carrying the arc (ellipse with DXF parameters, or implicit coefficients)."""

@@ -174,7 +174,7 @@ def star_table(k: int = 6) -> list[tuple[str, str, tuple[str, ...]]]:
     For the hexagon lattice (k = 6) this lists the 14 labelings up to rotation: 2 trivial (all solid,
     all void), 1 straight, the 4 sharp and the 7 non-manifold configurations of the paper's Figs 9–10.
     """
-    rows = []
+    rows: list[tuple[str, str, tuple[str, ...]]] = []
     for labels in _necklaces(k):
         if all(labels) or not any(labels):
             rows.append(("".join("S" if x else "V" for x in labels), "interior" if all(labels) else "empty", ()))

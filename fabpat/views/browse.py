@@ -17,11 +17,16 @@ from __future__ import annotations
 import json
 import math
 import re
+from collections.abc import Mapping
 from importlib import resources
+from typing import TypedDict
 
 import numpy as np
 
 from fabpat.catalog import DEFAULT_SETUP, Catalog, CatalogError, missing_polygon_message
+from fabpat.catalog.rows import specific_stiffness, stored_float
+from fabpat.catalog.schema import Setup
+from fabpat.validate import as_float
 
 _LABELS = {
     "area": ("area", "mm²"), "perimeter": ("perimeter", "mm"), "ratio": ("ratio 4πA/P²", ""),
@@ -33,6 +38,24 @@ _LABELS = {
 DEFAULT_PLOTS = (("area", "perimeter"), ("polar_moment", "energy_cantilever"), ("polar_moment", "energy_cylinder"),
                  ("polar_moment", "energy_dome"))
 _NUMBER = re.compile(r"-?\d+\.\d+(?:e-?\d+)?")
+
+
+class PageData(TypedDict):
+    """The page's JSON document (:func:`page_data`): the set-up shown, per pattern (one entry each, in
+    ``ids``' order) its picture's path data (mm) and its ``values`` per metric (None: not computed), the
+    metrics' labels (:func:`metric_info`), the plots' axes, the slider data (:func:`family_data`), the
+    polygon's outline and view box (mm) and where the numbers come from."""
+
+    setup: Setup
+    ids: list[str]
+    paths: list[str]
+    values: dict[str, list[float | None]]
+    metrics: list[dict[str, object]]
+    plots: list[dict[str, str]]
+    family: dict[str, object] | None
+    polygon: str
+    viewbox: list[float]
+    source: dict[str, object]
 
 
 def metric_info(key: str) -> dict[str, object]:
@@ -47,7 +70,13 @@ def metric_info(key: str) -> dict[str, object]:
     return {"key": key, "label": key, "unit": "", "log": False}
 
 
-def choose_setup(cat: Catalog, sides: int | None = None) -> dict[str, object]:
+def _setup(row: Mapping[str, object]) -> Setup:
+    """The set-up of a row of :meth:`Catalog.setups` (checked there: whole sides and depth, numbers)."""
+    return Setup(sides=int(as_float(row["sides"])), depth=int(as_float(row["depth"])),
+                 edge=as_float(row["edge"]), thickness=as_float(row["thickness"]), weight=as_float(row["weight"]))
+
+
+def choose_setup(cat: Catalog, sides: int | None = None) -> Setup:
     """The set-up to show: the default one if present (and matching ``sides``), else the largest of
     that polygon. :class:`CatalogError` if the catalog has no patterns (of that polygon: the message
     names the ``fabpat sweep --sides`` command that adds them)."""
@@ -58,9 +87,8 @@ def choose_setup(cat: Catalog, sides: int | None = None) -> dict[str, object]:
         raise CatalogError(f"catalog {cat.path} has no patterns; fill it with `fabpat sweep --db {cat.path}`")
     for s in setups:
         if all(s[k] == v for k, v in DEFAULT_SETUP.items()):
-            return {k: s[k] for k in DEFAULT_SETUP}
-    best = max(setups, key=lambda s: s["patterns"])  # type: ignore[arg-type, return-value]
-    return {k: best[k] for k in DEFAULT_SETUP}
+            return _setup(s)
+    return _setup(max(setups, key=lambda s: as_float(s["patterns"])))
 
 
 def _short_path(d: str) -> str:
@@ -80,7 +108,7 @@ def _lattice_path(pattern_id: str, sides: int, depth: int, edge: float) -> str:
     return " ".join("M " + " L ".join(f"{x:.2f} {y:.2f}" for x, y in t) + " Z" for t in tris)
 
 
-def page_data(cat: Catalog, sides: int | None = None) -> dict[str, object]:
+def page_data(cat: Catalog, sides: int | None = None) -> PageData:
     """Everything the page shows, as one JSON-ready dict (columnar values, one entry per pattern)."""
     from fabpat.patterns.lattice import polygon_vertices
 
@@ -89,8 +117,8 @@ def page_data(cat: Catalog, sides: int | None = None) -> dict[str, object]:
     keys = [k for k in rows[0] if k not in ("id", "sides", "depth", "edge", "thickness", "weight", "svg_path")
             and not k.startswith("converged_")] if rows else []
     keys = [k for k in keys if any(isinstance(r[k], int | float) for r in rows)]  # drop never-computed ones
-    values = {k: [None if r[k] is None else float(r[k]) for r in rows] for k in keys}  # type: ignore[arg-type]
-    n, d, edge = int(setup["sides"]), int(setup["depth"]), float(setup["edge"])  # type: ignore[arg-type]
+    values = {k: [stored_float(r[k]) for r in rows] for k in keys}
+    n, d, edge = setup["sides"], setup["depth"], setup["edge"]
     paths = [_short_path(str(r["svg_path"])) if r["svg_path"] else _lattice_path(str(r["id"]), n, d, edge)
              for r in rows]
     plots = []
@@ -112,7 +140,7 @@ def page_data(cat: Catalog, sides: int | None = None) -> dict[str, object]:
     }
 
 
-def family_data(cat: Catalog, setup: dict[str, object], rows: list[dict[str, object]]) -> dict[str, object] | None:
+def family_data(cat: Catalog, setup: Setup, rows: list[dict[str, object]]) -> dict[str, object] | None:
     """The page's slider data: the swept members of ``bridge_weight`` (the paper's 1 among them) and, per
     metric that changes with it (``energy_<s>``, ``specific_stiffness_<s>``, ``min_width``,
     ``filleted_area``), one list per pattern of its value at each member (None: not converged, or outside
@@ -120,12 +148,10 @@ def family_data(cat: Catalog, setup: dict[str, object], rows: list[dict[str, obj
     sweep's adaptive midpoints, :func:`fabpat.catalog.sweep.run_sweep`) is filled in for the others linearly in
     log–log between their own neighbouring swept members (:func:`_fill`), as the page interpolates, so a
     dot does not vanish there. None when the catalog holds no family rows for this set-up."""
-    from fabpat.catalog.rows import specific_stiffness
-
     fam = cat.family(**setup)
     if not fam:
         return None
-    weights = sorted({1.0, *(float(r["bridge_weight"]) for r in fam)})  # type: ignore[arg-type]
+    weights = sorted({1.0, *(as_float(r["bridge_weight"]) for r in fam)})
     col = {w: k for k, w in enumerate(weights)}
     row_of = {str(r["id"]): i for i, r in enumerate(rows)}
     scen = sorted({str(r["scenario"]) for r in fam})
@@ -135,20 +161,20 @@ def family_data(cat: Catalog, setup: dict[str, object], rows: list[dict[str, obj
     for i, r in enumerate(rows):  # the paper's member: the catalog's own row
         for k in keys:
             v = r.get(k)
-            table[k][i][col[1.0]] = None if v is None else float(v)  # type: ignore[arg-type]
+            table[k][i][col[1.0]] = stored_float(v)
             swept[k].add((i, col[1.0]))
     for f in fam:
-        i = row_of.get(str(f["id"]))
-        if i is None:
+        at = row_of.get(str(f["id"]))
+        if at is None:
             continue
-        j, s = col[float(f["bridge_weight"])], str(f["scenario"])  # type: ignore[arg-type]
+        i, j, s = at, col[as_float(f["bridge_weight"])], str(f["scenario"])
         for k in (f"energy_{s}", f"specific_stiffness_{s}", "min_width", "filleted_area"):
             swept[k].add((i, j))
-        e = float(f["energy"]) if f["converged"] and f["energy"] is not None else None  # type: ignore[arg-type]
+        e = stored_float(f["energy"]) if f["converged"] else None
         table[f"energy_{s}"][i][j] = e
-        table[f"specific_stiffness_{s}"][i][j] = specific_stiffness(e, f["filleted_area"])  # type: ignore[arg-type]
-        table["min_width"][i][j] = None if f["min_width"] is None else float(f["min_width"])  # type: ignore[arg-type]
-        table["filleted_area"][i][j] = None if f["filleted_area"] is None else float(f["filleted_area"])  # type: ignore[arg-type]
+        table[f"specific_stiffness_{s}"][i][j] = specific_stiffness(e, stored_float(f["filleted_area"]))
+        table["min_width"][i][j] = stored_float(f["min_width"])
+        table["filleted_area"][i][j] = stored_float(f["filleted_area"])
     logw = [math.log(w) for w in weights]
     for k in keys:
         for i, values in enumerate(table[k]):
@@ -170,7 +196,7 @@ def _fill(values: list[float | None], swept: list[bool], logw: list[float]) -> N
             values[j] = math.exp(math.log(va) + t * (math.log(vb) - math.log(va)))
 
 
-def render_page(data: dict[str, object]) -> str:
+def render_page(data: PageData) -> str:
     """The HTML document: the template with plotly.js and the data inlined."""
     from plotly.offline import get_plotlyjs  # the exact script that include_plotlyjs=True embeds
 
@@ -179,8 +205,8 @@ def render_page(data: dict[str, object]) -> str:
     blob = json.dumps(data, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
     from fabpat.catalog.rows import polygon_name
 
-    sides = int(data["setup"]["sides"])  # type: ignore[index]
-    title = f"fabpat library: {len(data['ids'])} {polygon_name(sides)}"  # type: ignore[arg-type]
+    sides = int(data["setup"]["sides"])
+    title = f"fabpat library: {len(data['ids'])} {polygon_name(sides)}"
     return (template.replace("{{TITLE}}", title)
             .replace("{{DATA}}", blob)
             .replace("{{PLOTLYJS}}", get_plotlyjs()))
@@ -196,4 +222,4 @@ def write_page(cat: Catalog, out: str, sides: int | None = None) -> int:
     html = render_page(data)
     with atomic_outputs(out) as (tmp,):
         tmp.write_text(html, encoding="utf-8")
-    return len(data["ids"])  # type: ignore[arg-type]
+    return len(data["ids"])

@@ -159,7 +159,8 @@ def contact_sheet_png(patterns: Sequence[Pattern], path: str | Path, dpi: int = 
     inch = 1.1  # inches per cell: IDs stay legible
     fig = plt.figure(figsize=(cols * inch, rows * inch * cell_h / cell_w))
     ax = fig.add_axes((0, 0, 1, 1))
-    ax.add_collection(PolyCollection(np.concatenate(tris), facecolors="black", edgecolors="black", linewidths=0.1))
+    solid = list(np.concatenate(tris))  # one (3, 2) array per triangle
+    ax.add_collection(PolyCollection(solid, facecolors="black", edgecolors="black", linewidths=0.1))
     ax.add_collection(PolyCollection(outlines, facecolors="none", edgecolors="#888888", linewidths=0.4))
     for p, off in zip(patterns, offsets, strict=True):
         ax.text(off[0], off[1] - r * 1.12, p.id, ha="center", va="center", fontsize=6, family="monospace")
