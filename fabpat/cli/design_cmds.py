@@ -35,11 +35,17 @@ from fabpat.cli.options import h_option, number_option
 @click.option("--dry-run", is_flag=True,
               help="Check the inputs and print the plan as JSON (strip: pin length, end shortening, scale, the "
                    "elastica's peak strain; closed: the target's fitted scale) in seconds: no solve, no file.")
+@click.option("--per", type=click.Choice(["face", "group"]), default="face", show_default=True,
+              help="Closed tilings: a pattern per face, or per face group (polygon and latitude band).")
+@click.option("--vary", metavar="WORDS", default=None,
+              help="Design variables, comma-separated: shapes, patterns, angles, thickness [default: shapes,patterns "
+                   "for a closed target (shapes: the base tiling mapped onto the target, plates shaped to its faces, "
+                   "its mesh written as DIR/mapped.obj), patterns,angles for a strip].")
 @click.option("--progress/--no-progress", default=True, show_default=True,
               help="Progress on stderr (solves done; in a solve its increment, λ and factorizations).")
 def design_cmd(target: str, spec: str, out: str, h: float, max_solves: int | None, tolerance: float, scale_target: bool,
                workers: int | None, dask_address: str | None, max_minutes: float | None, kit: bool,
-               dry_run: bool, progress: bool) -> None:
+               dry_run: bool, per: str, vary: str | None, progress: bool) -> None:
     """Choose one pattern per tile so that the assembled strip or closed tiling matches TARGET.
 
     For a honeycomb-strip spec, TARGET is a CSV of the arch's mid-line (header x,z, mm; x from column 0's
@@ -49,9 +55,8 @@ def design_cmd(target: str, spec: str, out: str, h: float, max_solves: int | Non
     Writes DIR/design.toml (a spec for `fabpat assemble` and `fabpat simulate-assembly`, with every
     tile's pattern and, for a strip, [load] end_shortening), DIR/design.json and DIR/design.png.
 
-    Ctrl-C, SIGTERM or --max-minutes stop the solves and write the best design so far, with
-    "interrupted": true in design.json (a signal still exits 130 or 143). --dry-run checks the inputs and
-    prints the plan without solving.
+    Ctrl-C, SIGTERM or --max-minutes stop the solves and write the best design so far ("interrupted": true in
+    design.json; a signal still exits 130 or 143). --dry-run checks the inputs and prints the plan, no solve.
 
     Examples: fabpat design arch.csv --spec assemblies/graded-strip.toml --out arch-design;
     fabpat design sphere --spec assemblies/truncated-icosahedron.toml --out sphere-design
@@ -81,13 +86,14 @@ def design_cmd(target: str, spec: str, out: str, h: float, max_solves: int | Non
 
         res = design(target, spec, out=out, h=h, max_solves=max_solves, tolerance=tolerance,
                      scale_target=scale_target, workers=workers or 1, dask=dask_address, kit=kit, progress=solves,
-                     max_minutes=max_minutes, status=lambda text: bar.update(f"{done[0]} solves done; {text}"))
+                     max_minutes=max_minutes, status=lambda text: bar.update(f"{done[0]} solves done; {text}"),
+                     per=per, vary=vary)
     rec = res.record
     click.echo(f"rms_error={rec['rms_error']:.4g} mm relative_rms={rec['relative_rms']:.4g} solves={rec['solves']} "
                f"reachable={str(rec['reachable']).lower()}", err=True)
     if res.warning:
         click.echo(f"fabpat: warning: {res.warning}", err=True)
-    for f in ("design.toml", "design.json", "design.png", *(["kit/"] if kit else [])):
+    for f in ("design.toml", "design.json", "design.png", *sorted(res.files), *(["kit/"] if kit else [])):
         click.echo(f"{out.rstrip('/')}/{f}")
     if rec.get("stopped_by") in ("SIGINT", "SIGTERM"):  # the files are written; the exit still says why it ended
         raise KeyboardInterrupt

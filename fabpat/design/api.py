@@ -175,6 +175,7 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
     from fabpat.design.mapped import read_per, read_vary
 
     per = read_per(per)
+    read_vary(vary, True)  # its words checked before the target is read
     tgt = read_target(target)
     vary_words = read_vary(vary, isinstance(tgt, ClosedTarget))
     base = load_base(spec)
@@ -208,6 +209,11 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
         res = _design_strip(tgt, base, h, MAX_SOLVES if max_solves is None else max_solves, tolerance,
                             scale_target, runner, t0)
     res.record["variables"] = _variables(res, vary_words)
+    fixed = [w for w in ("angles", "thickness") if w in vary_words]
+    if fixed:  # said, not silently dropped: the search's variables are the patterns (and a closed target's shapes)
+        res.record.setdefault("notes", []).append(
+            f"{' and '.join(fixed)}: not varied by this search; the sleeves keep [sleeve] angle and the plates "
+            "[plates] thickness of the base (give [sleeve] angles or [plates] thicknesses in the spec to set them)")
     stopped = res.record.get("stopped_by")
     res.record["interrupted"] = stopped is not None
     res.record["abandoned"] = list(runner.failures)

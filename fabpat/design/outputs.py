@@ -193,10 +193,12 @@ def write_design(res: Any, out: str | os.PathLike[str], kit: bool = False) -> li
 
     def write(tmp: Path) -> list[str]:
         (tmp / "design.toml").write_text(spec_toml(design_spec_data(res)), encoding="utf-8")
+        for name, data in getattr(res, "files", {}).items():  # a mapped tiling's mesh, which design.toml names
+            (tmp / name).write_bytes(data)
         record = {**res.record, "generator": GENERATOR}
         (tmp / "design.json").write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
         (write_png if "end_shortening" in res.record else write_closed_png)(res, tmp / "design.png")
-        files = list(FILES)
+        files = list(FILES) + sorted(getattr(res, "files", {}))
         if kit:
             from fabpat.assembly.kit.build import assemble
 

@@ -1,0 +1,89 @@
+"""``fabpat design --per / --vary``: the words checked before any solve, and a closed target's tiling mapped onto
+it (shapes) with its faces' irregularity measured."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from fabpat.design.mapped import map_base, read_per, read_vary
+from fabpat.errors import SpecError
+from tests.helpers import one_line_error
+
+ROOT = Path(__file__).resolve().parents[1]
+SPHERE = ROOT / "assemblies" / "truncated-icosahedron.toml"
+STRIP = ROOT / "assemblies" / "graded-strip.toml"
+
+
+@pytest.fixture
+def no_solve(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every design solve goes through Runner.run: reaching it fails the test (the refusal came too late)."""
+    from fabpat.design.search import Runner
+
+    def solved(*_args: Any, **_kw: Any) -> None:
+        raise AssertionError("a solve was started before the refusal")
+
+    monkeypatch.setattr(Runner, "run", solved)
+
+
+def test_vary_words_and_their_defaults() -> None:
+    assert read_vary(None, True) == ("shapes", "patterns")
+    assert read_vary(None, False) == ("patterns", "angles")
+    assert read_vary("angles, shapes", True) == ("shapes", "angles")  # in the documented order
+    assert read_vary(["thickness"], False) == ("thickness",)
+    for bad in ("shape", "patterns,colour", "", 3):
+        with pytest.raises(SpecError, match="vary"):
+            read_vary(bad, True)
+    assert read_per("group") == "group"
+    with pytest.raises(SpecError, match="face, group"):
+        read_per("plate")
+
+
+@pytest.mark.parametrize(("args", "words"), [
+    (["sphere", "--spec", str(SPHERE), "--vary", "shapes,colour"], ("unknown word 'colour'", "thickness")),
+    (["sphere", "--spec", str(SPHERE), "--per", "plate"], ("--per",)),
+    ([str(ROOT / "tests" / "data" / "missing.csv"), "--spec", str(STRIP), "--vary", "bogus"], ("--vary",)),
+])
+def test_bad_per_and_vary_are_one_line_and_write_nothing(tmp_path: Path, no_solve: None, args: list[str],
+                                                         words: tuple[str, ...]) -> None:
+    from click.testing import CliRunner
+
+    from fabpat.cli import cli
+
+    out = tmp_path / "out"
+    r = CliRunner().invoke(cli, ["design", *args, "--out", str(out), "--no-progress"])
+    one_line_error(r, *words)
+    assert not out.exists()
+
+
+def test_shapes_are_refused_for_a_strip_before_any_solve(tmp_path: Path, no_solve: None) -> None:
+    from fabpat.design import design
+
+    arch = tmp_path / "arch.csv"
+    arch.write_text("x,z\n0,0\n100,20\n200,0\n", encoding="utf-8")
+    with pytest.raises(SpecError, match="leave shapes out"):
+        design(str(arch), STRIP, vary="shapes,patterns")
+
+
+def test_the_truncated_icosahedron_mapped_onto_an_ellipsoid_has_flat_nearly_regular_faces() -> None:
+    """The mapped faces are planar and within the shaped plates' limit; on a sphere nothing moves."""
+    from fabpat.design.base import load_base
+    from fabpat.design.target import read_target
+    from fabpat.geometry.shaped import MAX_IRREGULARITY
+
+    base = load_base(SPHERE)
+    m = map_base(read_target("ellipsoid:1,1,1.15"), base)
+    assert m.planarity < 1e-6
+    assert 0.005 < m.face_irregularity["edge"] < MAX_IRREGULARITY[0]  # stretched, but within the limit
+    assert 1.0 < m.face_irregularity["angle_deg"] < math.degrees(MAX_IRREGULARITY[1])
+    text = m.obj.decode()
+    assert text.count("\nf ") + text.startswith("f ") == 32 and text.count("\nv ") + text.startswith("v ") == 60
+    round_ = map_base(read_target("sphere"), base)
+    assert round_.face_irregularity["edge"] < 1e-9 and round_.face_irregularity["angle_deg"] < 1e-9
+    # the sphere's mapped corners are one sphere's: every corner at the same distance from their centre
+    r = np.linalg.norm(round_.V - round_.V.mean(axis=0), axis=1)
+    assert np.ptp(r) < 1e-9 * r.mean()
