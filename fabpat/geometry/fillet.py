@@ -374,6 +374,21 @@ def fillet_solid(
     return Outline(loops[outer[0]], holes), bowties
 
 
+
+def checked_inputs(caller: str, pattern: object, weight: object,
+                   variation: object) -> tuple[float, Variation]:
+    """The interface ``weight`` in its range and the family member (None: the paper's) of a filleting call named
+    ``caller``; GeometryError, one line, for a ``pattern`` that is no :class:`Pattern`, a weight out of range or a
+    ``variation`` that is no :class:`~fabpat.patterns.variation.Variation`."""
+    if not isinstance(pattern, Pattern):
+        raise GeometryError(f"{caller} needs a Pattern (fabpat.pattern('0x0488')), got {type(pattern).__name__}")
+    w = check("weight", weight, "interface weight", error=GeometryError)
+    if variation is None:
+        return w, PAPER_VARIATION
+    if not isinstance(variation, Variation):
+        raise GeometryError(f"variation must be a fabpat.Variation, got {type(variation).__name__}")
+    return w, variation
+
 def fillet_pattern(pattern: Pattern, weight: float = DEFAULT_WEIGHT,
                    variation: Variation | None = None) -> FilletedPattern:
     """The exact outline of a library pattern: lines and quadratic rational Bézier arcs.
@@ -385,13 +400,7 @@ def fillet_pattern(pattern: Pattern, weight: float = DEFAULT_WEIGHT,
     ``variation`` it records, are the paper's.
     Raises :class:`GeometryError` if the pattern cannot be filleted (not expected for library patterns).
     """
-    if not isinstance(pattern, Pattern):
-        raise GeometryError(f"fillet_pattern needs a Pattern (fabpat.pattern('0x0488')), got {type(pattern).__name__}")
-    weight = check("weight", weight, "interface weight", error=GeometryError)
-    if variation is None:
-        variation = PAPER_VARIATION
-    elif not isinstance(variation, Variation):
-        raise GeometryError(f"variation must be a fabpat.Variation, got {type(variation).__name__}")
+    weight, variation = checked_inputs("fillet_pattern", pattern, weight, variation)
     corners = polygon_vertices(pattern.sides, pattern.edge)
     tangents = np.roll(corners, -1, axis=0) - corners
     tangents /= np.linalg.norm(tangents, axis=1)[:, None]

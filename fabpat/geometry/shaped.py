@@ -70,12 +70,18 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fabpat.errors import GeometryError
-from fabpat.geometry.fillet import DEFAULT_WEIGHT, FilletedPattern, _midpoint, fillet_solid, interface_half_length
+from fabpat.geometry.fillet import (
+    DEFAULT_WEIGHT,
+    FilletedPattern,
+    _midpoint,
+    checked_inputs,
+    fillet_solid,
+    interface_half_length,
+)
 from fabpat.geometry.outline import OutlineReport, PolygonFrame
 from fabpat.geometry.stars import _interface_vertices, vertex_stars
 from fabpat.patterns.pattern import Pattern, pattern_topology
 from fabpat.patterns.variation import PAPER_VARIATION, Variation
-from fabpat.validate import check
 
 __all__ = ["MAX_IRREGULARITY", "ShapedPattern", "irregularity", "shape_pattern"]
 
@@ -248,13 +254,7 @@ def shape_pattern(pattern: Pattern, polygon: ArrayLike, weight: float = DEFAULT_
     number of corners, one more irregular than ``tolerance`` (the message names the deviation and the
     limit), a weight out of range, or a pattern that cannot be filleted in it.
     """
-    if not isinstance(pattern, Pattern):
-        raise GeometryError(f"shape_pattern needs a Pattern (fabpat.pattern('0x0488')), got {type(pattern).__name__}")
-    weight = check("weight", weight, "interface weight", error=GeometryError)
-    if variation is None:
-        variation = PAPER_VARIATION
-    elif not isinstance(variation, Variation):
-        raise GeometryError(f"variation must be a fabpat.Variation, got {type(variation).__name__}")
+    weight, variation = checked_inputs("shape_pattern", pattern, weight, variation)
     P = _polygon(polygon)
     dev = _check_shape(P, pattern.sides, tolerance)
     n = len(P)
