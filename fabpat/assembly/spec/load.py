@@ -144,10 +144,7 @@ def _sized_by_radius(source: str, tiling: TilingSpec, plates: PlateSpec, sleeve:
 
     assert tiling.radius is not None
     unit = replace(tiling, radius=None).skeleton()
-    printed = {}  # each joint's printed angle (rad), as placement.sleeve_kinds prints it
-    for k, label in joint_labels(unit).items():
-        listed = sleeve.listed_angle(label)
-        printed[k] = printed_angle(sleeve.angle, float(unit.dihedral[k])) if listed is None else math.radians(listed)
+    printed = {k: joint_angle(sleeve, label, float(unit.dihedral[k])) for k, label in joint_labels(unit).items()}
     allowance = skeleton_edge(unit, 0.0, plates.thickest, sleeve.clearance, sleeve.wall, printed)
     axis = RADIUS_KINDS[tiling.kind]
     # the smallest edge a sleeve fits on (placement.check_geometry), the largest the edge's range
@@ -268,12 +265,12 @@ def printed_angle(angle: str | float, dihedral: float) -> float:
     return math.radians(float(angle))
 
 
-def joint_angle(spec: AssemblySpec, label: str, dihedral: float) -> float:
+def joint_angle(sleeve: SleeveSpec, label: str, dihedral: float) -> float:
     """The angle (rad) joint ``label``'s sleeve is printed at, its skeleton dihedral angle being
     ``dihedral`` (rad): its entry of ``[sleeve] angles``, rounded to :data:`ANGLE_STEP`
-    (:meth:`SleeveSpec.listed_angle`), else :func:`sleeve_angle`."""
-    listed = spec.sleeve.listed_angle(label)
-    return sleeve_angle(spec, dihedral) if listed is None else math.radians(listed)
+    (:meth:`SleeveSpec.listed_angle`), else :func:`printed_angle` of ``[sleeve] angle``."""
+    listed = sleeve.listed_angle(label)
+    return printed_angle(sleeve.angle, dihedral) if listed is None else math.radians(listed)
 
 
 def _sleeve(source: str, data: Any, tiling: TilingSpec | None) -> SleeveSpec:
