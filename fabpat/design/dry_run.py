@@ -106,7 +106,7 @@ def _closed_plan(tgt: ClosedTarget, base: DesignBase) -> dict[str, Any]:
     assert base.rows is not None
     spec = base.spec
     skel = build_tiling(spec)  # edge 1: scaled to the kit's skeleton edge (mm), as the placement does
-    E = skeleton_edge(skel, spec.tiling.edge, spec.plates.thickness, spec.sleeve.clearance, spec.sleeve.wall,
+    E = skeleton_edge(skel, spec.tiling.edge, spec.plates.thickest, spec.sleeve.clearance, spec.sleeve.wall,
                       printed_angles(spec, skel))
     fit = tgt.fit(E * np.asarray(skel.V, dtype=np.float64), design_axis(skel.V, skel.faces))
     groups, _ = face_groups(skel.V, skel.faces, tgt.bands)

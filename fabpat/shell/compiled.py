@@ -16,6 +16,7 @@ import os
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
+from dataclasses import replace
 
 import numba
 import numpy as np
@@ -25,10 +26,11 @@ from numpy.typing import NDArray
 import fabpat.shell.kernel_cache  # noqa: F401 - numba's cache folder, chosen before the kernels are defined
 from fabpat.shell.assembly import Assembler
 from fabpat.shell.corotational import CorotationalTriangles
-from fabpat.shell.element import Material
+from fabpat.shell.element import LocalStiffness, Material, local_stiffness
 from fabpat.shell.kernels import counting_order, element_kernels, gather_sum, link_transform
 from fabpat.shell.linalg import mkl
 from fabpat.shell.news import tell
+from fabpat.shell.strain import thickness_groups
 
 Arr = NDArray[np.float64]
 
@@ -113,16 +115,36 @@ def load_kernels() -> float:
     return time.perf_counter() - t
 
 
+def graded_local_stiffness(x: Arr, y: Arr, mat: Material, thickness: Arr) -> LocalStiffness:
+    """:func:`fabpat.shell.element.local_stiffness` of triangles of per-element ``thickness`` (m,) mm: each
+    group of one thickness (:func:`fabpat.shell.strain.thickness_groups`) is one batch with ``mat``'s E and
+    ν at that t, so an element's matrices are those of a mesh of its thickness alone. x, y: (m, 3) local
+    corner coordinates (mm). Raises GeometryError on a ``thickness`` of the wrong shape or not positive."""
+    m = x.shape[0]
+    Km, Kb, Ks = np.empty((m, 9, 9)), np.empty((m, 9, 9)), np.empty((m, 9, 9))
+    K, area = np.empty((m, 18, 18)), np.empty(m)
+    for t, idx in thickness_groups(thickness, m):
+        part = local_stiffness(x[idx], y[idx], replace(mat, t=t))
+        for whole, piece in ((Km, part.Km), (Kb, part.Kb), (Ks, part.Ks), (K, part.K), (area, part.area)):
+            whole[idx] = piece
+    return LocalStiffness(Km, Kb, Ks, K, area)
+
+
 class CompiledTriangles(CorotationalTriangles):
     """:class:`CorotationalTriangles` whose unbatched force and tangent evaluations run compiled on
     ``threads`` threads (default :func:`cores`). Same shapes and units; the numbers agree with the numpy
     kernels to round-off (~1e-13 relative), not bitwise.
 
-    X: (n, 3) node coordinates (mm); F: (m, 3) triangles; mat: material and thickness.
+    X: (n, 3) node coordinates (mm); F: (m, 3) triangles; mat: material and thickness; ``thickness``
+    (m,) mm per element overrides ``mat.t`` (None: ``mat.t`` everywhere, the numbers unchanged;
+    :func:`graded_local_stiffness`). Raises GeometryError on a ``thickness`` of the wrong shape or not positive.
     """
 
-    def __init__(self, X: Arr, F: NDArray[np.int64], mat: Material, *, threads: int | None = None) -> None:
+    def __init__(self, X: Arr, F: NDArray[np.int64], mat: Material, *, threads: int | None = None,
+                 thickness: Arr | None = None) -> None:
         super().__init__(X, F, mat)
+        if thickness is not None:  # computed twice for such a mesh: the base class's numbers stay untouched
+            self.local = graded_local_stiffness(self.xl0[..., 0], self.xl0[..., 1], mat, thickness)
         self.threads = max(1, min(threads or cores(), numba.config.NUMBA_NUM_THREADS))
         self._consts = tuple(np.ascontiguousarray(a) for a in
                              (self.gN, self.xl0, self.E0, self.local.K, self._stiffness_root()))

@@ -57,6 +57,8 @@ class LinkedProblem:
     bifurcation's knee it rounds the knee off; ramping it, rather than applying it at once, lets a
     halved increment carry less of it where the structure is too soft to take it in one step
     (docs/assembly-solver.md, Solver speed).
+    thickness: (m,) mm per triangle, for plates of different thickness (default None: ``material.t``
+    everywhere; :class:`fabpat.shell.compiled.CompiledTriangles`).
     Raises ValueError on inconsistent shapes, a slave linked twice or fixed, or a partly prescribed
     nonzero rotation.
     """
@@ -74,6 +76,7 @@ class LinkedProblem:
     link_offset: Arr | None = None
     dead_loads: Arr | None = None
     dead_ramp: float = 0.0
+    thickness: Arr | None = None
 
     def load_at(self, lam: float) -> Arr:
         """(N, 6) external forces (N) and moments (N·mm) at load fraction ``lam``: λ·loads plus the
@@ -112,6 +115,11 @@ class LinkedProblem:
                 else np.asarray(self.dead_loads, dtype=np.float64).reshape(-1, 6))
         if dead.shape != loads.shape:
             raise ValueError(f"dead_loads has {len(dead)} rows for {len(loads)} nodes")
+        if self.thickness is not None:
+            t = np.asarray(self.thickness, dtype=np.float64)
+            if t.shape != (len(self.F),) or not np.all(np.isfinite(t)) or not np.all(t > 0.0):
+                raise ValueError(f"thickness must be {len(self.F)} finite positive numbers (mm), one per triangle")
+            object.__setattr__(self, "thickness", t)
         if not 0.0 <= self.dead_ramp <= 1.0:
             raise ValueError(f"dead_ramp must lie in [0, 1], got {self.dead_ramp!r}")
         for name, v in (("X", X), ("masters", M), ("link_spin", sp), ("prescribed", pres), ("loads", loads),
@@ -143,7 +151,7 @@ class _Reduced:
     def __init__(self, p: LinkedProblem, threads: int | None = None) -> None:
         n, N = len(p.X), p.n_nodes
         self.n, self.N = n, N
-        self.model = CompiledTriangles(p.X, p.F, p.material, threads=threads)
+        self.model = CompiledTriangles(p.X, p.F, p.material, threads=threads, thickness=p.thickness)
         rep = np.arange(N)
         rep[p.link_slave] = n + p.link_master
         self.slave_mask = np.zeros(N, dtype=bool)

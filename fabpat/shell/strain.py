@@ -27,7 +27,7 @@ Shapes: n nodes, m elements; units mm, rad, strains dimensionless, curvature 1/m
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -109,12 +109,33 @@ def principal_2d(e: Arr) -> Arr:
     return np.stack([c + r, c - r], axis=-1)
 
 
-def strain_from_dofs(model: CorotationalTriangles, d: Arr) -> SurfaceStrain:
-    """Surface strains of local deformational dofs d (m, 18) of ``model`` (see module doc)."""
+def thickness_groups(thickness: Arr, m: int) -> list[tuple[float, NDArray[np.int64]]]:
+    """The elements of each distinct thickness: [(t mm, element indices), …] for a per-element ``thickness``
+    (m,) in mm, thinnest first. A mesh whose plates differ in thickness computes each group's element
+    matrices with ``Material(E, nu, t)`` as one batch (every element's matrices depend on its own
+    corners and thickness only). Raises GeometryError unless ``thickness`` is m finite positive numbers."""
+    t = np.asarray(thickness, dtype=np.float64)
+    if t.shape != (m,) or not np.all(np.isfinite(t)) or not np.all(t > 0.0):
+        raise GeometryError(f"thickness must be {m} finite positive numbers (mm), one per element, got shape "
+                            f"{t.shape}")
+    values, which = np.unique(t, return_inverse=True)
+    return [(float(v), np.flatnonzero(which == i)) for i, v in enumerate(values)]
+
+
+def strain_from_dofs(model: CorotationalTriangles, d: Arr, thickness: Arr | None = None) -> SurfaceStrain:
+    """Surface strains of local deformational dofs d (m, 18) of ``model`` (see module doc); ``thickness``
+    (m,) mm per element, None: every element has ``model.mat.t`` (:func:`thickness_groups`)."""
     x, y = model.xl0[..., 0], model.xl0[..., 1]
     em = (opt_basic_strain(x, y) @ d[:, MEMBRANE_DOFS, None])[..., 0]
-    kap = (dkmt_mean_curvature(x, y, model.mat) @ d[:, BENDING_DOFS, None])[..., 0]
-    h = 0.5 * model.mat.t
+    if thickness is None:
+        kap = (dkmt_mean_curvature(x, y, model.mat) @ d[:, BENDING_DOFS, None])[..., 0]
+        h: float | Arr = 0.5 * model.mat.t
+    else:
+        kap = np.empty_like(em)
+        for t, idx in thickness_groups(thickness, len(d)):
+            C = dkmt_mean_curvature(x[idx], y[idx], replace(model.mat, t=t))  # the shear ratio depends on t
+            kap[idx] = (C @ d[idx][:, BENDING_DOFS, None])[..., 0]
+        h = 0.5 * np.asarray(thickness, dtype=np.float64)[:, None]
     principal = np.stack([principal_2d(em - h * kap), principal_2d(em + h * kap)], axis=1)
     return SurfaceStrain(em, kap, principal)
 
@@ -129,13 +150,15 @@ def _rotations(R: Arr, n: int) -> Arr:
     return R
 
 
-def surface_strain_field(X: Arr, F: NDArray[np.int64], material: Material, x: Arr, R: Arr) -> SurfaceStrain:
+def surface_strain_field(X: Arr, F: NDArray[np.int64], material: Material, x: Arr, R: Arr,
+                         thickness: Arr | None = None) -> SurfaceStrain:
     """Per-element membrane strain, curvature and surface principal strains of a deformed shell.
 
     X: (n, 3) or (n, 2) initial node coordinates (mm, flat or not); F: (m, 3) triangles; x: (n, 3)
     deformed coordinates (mm); R: (n, 3, 3) nodal rotation matrices, or (n, 3) rotation vectors
-    (rad, e.g. ``ShellResult.rotation``). Raises GeometryError on mismatched shapes or degenerate
-    (zero-area) triangles. Formulas and sources: module doc.
+    (rad, e.g. ``ShellResult.rotation``); ``thickness`` (m,) mm per element (None: ``material.t``
+    everywhere; the surfaces are then at ±t/2 of each element's own t). Raises GeometryError on
+    mismatched shapes or degenerate (zero-area) triangles. Formulas and sources: module doc.
     """
     X = np.asarray(X, dtype=np.float64)
     if X.ndim == 2 and X.shape[1] == 2:
@@ -151,14 +174,15 @@ def surface_strain_field(X: Arr, F: NDArray[np.int64], material: Material, x: Ar
         model = CorotationalTriangles(X, F, material)
         xe, Re = model.gather(x, Rm)
         d, _ = model.deformational(xe, Re)
-        out = strain_from_dofs(model, d)
+        out = strain_from_dofs(model, d, thickness)
     if not np.all(np.isfinite(out.principal)):
         raise GeometryError("degenerate (zero-area) triangle in the reference or deformed mesh")
     return out
 
 
-def surface_strains(X: Arr, F: NDArray[np.int64], material: Material, x: Arr, R: Arr) -> Arr:
+def surface_strains(X: Arr, F: NDArray[np.int64], material: Material, x: Arr, R: Arr,
+                    thickness: Arr | None = None) -> Arr:
     """(m,) per element, the largest principal strain magnitude on either surface z = ±t/2
     (membrane plus bending, ≥ 0, dimensionless): :attr:`SurfaceStrain.peak` of
     :func:`surface_strain_field` (same arguments; its ``peak_signed`` keeps the sign)."""
-    return surface_strain_field(X, F, material, x, R).peak
+    return surface_strain_field(X, F, material, x, R, thickness).peak

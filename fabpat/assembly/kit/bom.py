@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from fabpat.assembly.choose.provenance import PatternRecord
 from fabpat.assembly.place.nesting import Nesting
 from fabpat.assembly.place.parts import PartLibrary
+from fabpat.assembly.place.placement import Assembly
 
 COLUMNS = ("part", "kind", "process", "count", "file", "unit_area_mm2", "unit_volume_mm3", "unit_mass_g",
            "total_mass_g", "unit_cut_length_mm", "total_time_min", "pattern", "chosen_by", "energy_cantilever_Nmm",
@@ -79,7 +80,7 @@ def bom_rows(lib: PartLibrary, files: dict[str, str], nesting: Nesting | None,
         pt = lib.plate_type(key)
         if pt is not None:
             outline = lib.filleted[pt].outline
-            area, vol = outline.area, outline.area * spec.plates.thickness
+            area, vol = outline.area, outline.area * asm.type_thickness(pt)
             process = spec.plates.process
             cut = outline.perimeter if process == "laser" else None
             unit_s = cut / spec.estimates.cut_speed if cut is not None else vol / spec.estimates.print_rate
@@ -146,7 +147,7 @@ def bom_markdown(lib: PartLibrary, rows: list[BomRow], nesting: Nesting | None, 
     spec = asm.spec
     out = [f"# Bill of materials — {spec.name}", "",
            f"Tiling: {spec.tiling.kind}, plate edge {asm.plate_edge:g} mm, skeleton edge "
-           f"{asm.skeleton.edge_length():.3f} mm, thickness {spec.plates.thickness:g} mm; plates by "
+           f"{asm.skeleton.edge_length():.3f} mm, thickness {_thicknesses(asm)} mm; plates by "
            f"{spec.plates.process}, sleeves printed.", "",
            "| part | kind | process | count | file | area (mm²) | volume (mm³) | mass each (g) | mass total (g) "
            "| cut length (mm) | time total (min) |",
@@ -163,6 +164,7 @@ def bom_markdown(lib: PartLibrary, rows: list[BomRow], nesting: Nesting | None, 
             f"Estimates: cutting = cut length / {spec.estimates.cut_speed:g} mm/s; printing = volume / "
             f"{spec.estimates.print_rate:g} mm³/s (effective rate, travel included); masses at "
             f"{spec.plates.density:g} g/cm³. Change them under [estimates] and [plates] in the spec.", ""]
+    out += _sleeve_section(lib, rows)
     out += _patterns_section(rows, patterns)
     if nesting is not None:
         out += ["## Sheets", "",
@@ -224,6 +226,27 @@ def energy_source(patterns: Sequence[PatternRecord]) -> str:
         "; ".join(sorted({f"{p.catalog} catalog" for p in patterns}))
     notes = sorted({f"{p.part}: {p.note}" for p in patterns if p.note})
     return (where or "no catalog") + (f"; {'; '.join(notes)}" if notes else "")
+
+
+def _thicknesses(asm: Assembly) -> str:
+    """The plates' thickness (mm) for the BOM's head line: the one thickness, or the range of their own."""
+    ts = sorted({p.thickness for p in asm.plates})
+    return f"{ts[0]:g}" if len(ts) == 1 else f"{ts[0]:g}–{ts[-1]:g} (each plate's own)"
+
+
+def _sleeve_section(lib: PartLibrary, rows: list[BomRow]) -> list[str]:
+    """The Markdown table of the sleeve parts: each part's printed angle (°), slot width (mm) and count; the
+    joints printed at each are in the joint table."""
+    sleeves = [r for r in rows if r.kind == "sleeve"]
+    if not sleeves:
+        return []
+    out = ["## Sleeve parts", "", "Each sleeve part is printed at one angle between its slots (180°: straight) and "
+           "takes plates up to its slot width minus sleeve.clearance thick.", "",
+           "| part | printed angle (°) | slot width (mm) | count |", "|---|---:|---:|---:|"]
+    for r in sleeves:
+        sl = lib.assembly.sleeve_types[r.part]
+        out.append(f"| {r.part} | {math.degrees(sl.dihedral):.2f} | {sl.slot_width:g} | {r.count} |")
+    return [*out, ""]
 
 
 def _patterns_section(rows: list[BomRow], patterns: Sequence[PatternRecord]) -> list[str]:

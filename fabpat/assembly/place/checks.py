@@ -158,7 +158,7 @@ def _interface_frame(lib: PartLibrary, s: PlacedSleeve, side: int) -> tuple[NDAr
     p, i = s.plates[side]
     plate = asm.plates[p]
     seg = lib.filleted[plate.type].interface_segments[i]
-    mid = apply(plate.transform, np.array([[*seg.mean(axis=0), 0.5 * asm.spec.plates.thickness]]))[0]
+    mid = apply(plate.transform, np.array([[*seg.mean(axis=0), 0.5 * plate.thickness]]))[0]
     R, T = plate.transform[:3, :3], s.transform[:3, :3]
     d, n = joint_direction(s.dihedral, side), joint_normal(s.dihedral, side)
     along = R @ np.array([*(seg[-1] - seg[0]), 0.0])

@@ -50,8 +50,8 @@ class PartLibrary:
         if pt is None:
             return self.assembly.sleeve_types[key].name
         spec = self.assembly.spec
-        return part_name(pt.pattern_id, pt.sides, self.assembly.plate_edge, spec.plates.thickness, spec.plates.weight,
-                         pt.variation.label())
+        return part_name(pt.pattern_id, pt.sides, self.assembly.plate_edge, self.assembly.type_thickness(pt),
+                         spec.plates.weight, pt.variation.label())
 
     def support(self, pt: PlateType) -> tuple[Any, ...]:
         """The whole interface arcs whose halves the plate outline keeps (exact STEP weights)."""
@@ -66,7 +66,7 @@ class PartLibrary:
             if pt is None:
                 self._solids[key] = self.assembly.sleeve_types[key].solid()
             else:
-                self._solids[key] = make_solid(self.filleted[pt].outline, self.assembly.spec.plates.thickness,
+                self._solids[key] = make_solid(self.filleted[pt].outline, self.assembly.type_thickness(pt),
                                                self.support(pt))
         return self._solids[key]
 
@@ -79,9 +79,9 @@ class PartLibrary:
             # is also written to STEP and STL at other tolerances.
             pt = self.plate_type(key)
             if pt is not None:
-                check_plate_mesh(self.filleted[pt].outline, self.assembly.spec.plates.thickness, tolerance)
+                check_plate_mesh(self.filleted[pt].outline, self.assembly.type_thickness(pt), tolerance)
             shape = (self.assembly.sleeve_types[key].solid() if pt is None else
-                     make_solid(self.filleted[pt].outline, self.assembly.spec.plates.thickness, self.support(pt)))
+                     make_solid(self.filleted[pt].outline, self.assembly.type_thickness(pt), self.support(pt)))
             self._meshes[key, tolerance] = triangulate(shape, tolerance)
         return self._meshes[key, tolerance]
 

@@ -25,7 +25,6 @@ each :class:`PlacedSleeve` carries both the joint's skeleton ``dihedral`` and it
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -33,8 +32,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.assembly.place.sleeve import Sleeve
-from fabpat.assembly.spec.load import RADIUS_KINDS, AssemblySpec, sleeve_angle
-from fabpat.assembly.surface.joints import joint_direction, min_plate_edge, setback, skeleton_edge
+from fabpat.assembly.spec.load import ANGLE_STEP, RADIUS_KINDS, AssemblySpec, sleeve_angle
+from fabpat.assembly.surface.joints import joint_direction, joint_labels, min_plate_edge, setback, skeleton_edge
 from fabpat.assembly.surface.tiling import FACE_LETTERS, Tiling, mean_distance
 from fabpat.errors import GeometryError, SpecError
 from fabpat.geometry.fillet import interface_half_length
@@ -44,24 +43,30 @@ SHORT_NAMES = {3: "tri", 4: "quad", 5: "pent", 6: "hex"}
 #: degrees: on a tiling whose joints of one polygon pair have several dihedral angles (a mesh), sleeves
 #: printed at the joints' angles are one part per angle rounded to this step; a joint then closes by
 #: the rest (at most half a step, 0.05°), which the closure solver models like any sleeve angle
-DIHEDRAL_STEP = 0.1
+DIHEDRAL_STEP = ANGLE_STEP
 
 
 @dataclass(frozen=True)
 class PlateType:
     """One distinct plate: polygon ``sides``, pattern ID and family member (``bridge_weight``, the
-    paper's 1 by default; :mod:`fabpat.patterns.variation`); ``label`` like "hex 0x0488" or "hex 0x0488 b0.5"."""
+    paper's 1 by default; :mod:`fabpat.patterns.variation`); ``label`` like "hex 0x0488" or "hex 0x0488 b0.5".
+    ``thickness`` (mm) is set when the spec gives plates their own thicknesses (``[plates] thicknesses``):
+    plates of different thickness are then different parts, "hex 0x0488 t1.1"; None: the spec's one
+    ``plates.thickness``."""
 
     sides: int
     pattern_id: str
     bridge_weight: float = 1.0
+    thickness: float | None = None
 
     @property
     def label(self) -> str:
         """Part key shown everywhere: polygon short name, pattern ID and, for a family member, its
-        bridge_weight, e.g. ``"hex 0x0488"``, ``"hex 0x0488 b0.5"``."""
+        bridge_weight, e.g. ``"hex 0x0488"``, ``"hex 0x0488 b0.5"``, and a thickness of its own in mm
+        (``"hex 0x0488 t1.1"``)."""
         tag = self.variation.tag()
-        return f"{SHORT_NAMES.get(self.sides, f'{self.sides}-gon')} {self.pattern_id}" + (f" {tag}" if tag else "")
+        return (f"{SHORT_NAMES.get(self.sides, f'{self.sides}-gon')} {self.pattern_id}" + (f" {tag}" if tag else "")
+                + (f" t{self.thickness:g}" if self.thickness is not None else ""))
 
     @property
     def variation(self) -> Variation:
@@ -78,7 +83,8 @@ class PlateType:
 class PlacedPlate:
     """Plate ``label`` on face ``face``: ``transform`` (4, 4) maps its solid (z from 0 to t) to the world.
 
-    ``edge_labels[i]``: the joint label on polygon edge i ("E07"), "PIN" for a pinned end, "" if free.
+    ``edge_labels[i]``: the joint label on polygon edge i ("E07"), "PIN" for a pinned end, "" if free;
+    ``thickness`` (mm): the plate's (``[plates] thickness``, or its entry of ``thicknesses``).
     """
 
     label: str
@@ -86,6 +92,7 @@ class PlacedPlate:
     type: PlateType
     transform: NDArray[np.float64]
     edge_labels: tuple[str, ...]
+    thickness: float = 2.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -125,6 +132,10 @@ class Assembly:
         """Distinct plates, in order of first use."""
         return tuple(dict.fromkeys(p.type for p in self.plates))
 
+    def type_thickness(self, pt: PlateType) -> float:
+        """The thickness (mm) of plate type ``pt``'s solid: its own, else ``plates.thickness``."""
+        return self.spec.plates.thickness if pt.thickness is None else pt.thickness
+
     def counts(self) -> dict[str, int]:
         """How many of each distinct part (plate type label or sleeve kind)."""
         out: dict[str, int] = {}
@@ -143,7 +154,7 @@ class Assembly:
         loops = []
         for p in self.plates:
             C = polygon_vertices(p.type.sides, self.plate_edge)
-            Q = np.column_stack([C, np.full(len(C), 0.5 * self.spec.plates.thickness), np.ones(len(C))])
+            Q = np.column_stack([C, np.full(len(C), 0.5 * p.thickness), np.ones(len(C))])
             loops.append((p.transform @ Q.T).T[:, :3])
         return mean_distance(loops, self.skeleton.V.mean(axis=0), axis)
 
@@ -160,26 +171,42 @@ def _pair_name(skel: Tiling, k: int) -> str:
     return "".join(FACE_LETTERS.get(n, str(n)) for n in ns)
 
 
+def joint_thickness(spec: AssemblySpec, skel: Tiling, k: int) -> float:
+    """The slot thickness (mm) of the sleeve on interior edge k: the thicker of its two plates
+    (``[plates] thicknesses``). Both slots are that thickness + clearance wide, so the sleeve stays
+    symmetric (it cannot be mounted the wrong way round) and the thinner plate has the difference as
+    extra play; the plates' mid-surfaces stay on the slots' mid-planes."""
+    return max(spec.plates.thickness_of(skel.labels[int(f)]) for f, _ in skel.edge_faces[k])
+
+
 def sleeve_kinds(spec: AssemblySpec, skel: Tiling) -> dict[int, tuple[str, float, float]]:
     """Interior edge k → (sleeve part key, skeleton dihedral rad, printed angle rad).
 
     One key per printed angle: "S-flat" at 180°; at each joint's dihedral the polygon pair names it
     ("S-HH", "S-HP") when all its joints share one angle (printed at it) or one angle rounded to
     :data:`DIHEDRAL_STEP` (printed at that), else the rounded angle joins it ("S-HH-141.3deg"); one number
-    of degrees in between gives one part, e.g. "S-160deg".
+    of degrees in between gives one part, e.g. "S-160deg". A joint listed in ``[sleeve] angles`` is printed
+    at its own angle rounded to :data:`DIHEDRAL_STEP` (:meth:`~fabpat.assembly.spec.types.SleeveSpec.listed_angle`),
+    one part per rounded angle ("S-171.3deg", "S-flat" at 180°), whatever ``[sleeve] angle`` says. A slot
+    thickness other than ``plates.thickness`` (:func:`joint_thickness`) is a part of its own: "S-HH-t1.1".
     """
+    labels = joint_labels(skel)
     pairs: dict[str, list[float]] = {}
     for k in skel.interior_edges:
-        pairs.setdefault(_pair_name(skel, int(k)), []).append(float(skel.dihedral[k]))
+        if spec.sleeve.listed_angle(labels[int(k)]) is None:
+            pairs.setdefault(_pair_name(skel, int(k)), []).append(float(skel.dihedral[k]))
     single = {pair for pair, phis in pairs.items() if max(phis) - min(phis) < 1e-9}
     one_bin = {pair for pair, phis in pairs.items()
                if len({round(math.degrees(p) / DIHEDRAL_STEP) for p in phis}) == 1}
     out = {}
     for k in skel.interior_edges:
         phi = float(skel.dihedral[k])
+        listed = spec.sleeve.listed_angle(labels[int(k)])
         angle = sleeve_angle(spec, phi)
         pair = _pair_name(skel, int(k))
-        if abs(angle - math.pi) < 1e-9:
+        if listed is not None:
+            key, angle = ("flat", math.pi) if listed >= 180.0 else (f"{listed:g}deg", math.radians(listed))
+        elif abs(angle - math.pi) < 1e-9:
             key = "flat"
         elif spec.sleeve.angle != "dihedral":
             key = f"{math.degrees(angle):g}deg"
@@ -189,18 +216,21 @@ def sleeve_kinds(spec: AssemblySpec, skel: Tiling) -> dict[int, tuple[str, float
             step = min(DIHEDRAL_STEP * round(math.degrees(phi) / DIHEDRAL_STEP), 180.0)
             name = pair if pair in one_bin else f"{pair}-{step:.1f}deg"
             key, angle = (name, math.radians(step)) if step < 180.0 else ("flat", math.pi)
+        t = joint_thickness(spec, skel, int(k))
+        if t != spec.plates.thickness:
+            key += f"-t{t:g}"
         out[int(k)] = (f"S-{key}", phi, angle)
     return out
 
 
-def printed_angles(spec: AssemblySpec, skel: Tiling) -> Callable[[float], float]:
-    """A joint's skeleton dihedral (rad) → the angle (rad) its sleeve part is printed at, as
-    :func:`sleeve_kinds` prints it: on a mesh whose joints of one polygon pair differ, the dihedral
-    rounded to :data:`DIHEDRAL_STEP`. The skeleton edge must leave the web at that angle, not only at
-    the exact one: an angle rounded down needs a larger setback (a cube sheared by 5 % has joints of
-    87.1376°, printed at 87.1°, whose web the exact angle's edge leaves 0.001 mm too thin)."""
-    angle_of = {phi: angle for _, phi, angle in sleeve_kinds(spec, skel).values()}
-    return lambda phi: angle_of.get(float(phi), sleeve_angle(spec, phi))
+def printed_angles(spec: AssemblySpec, skel: Tiling) -> dict[int, float]:
+    """Interior edge k → the angle (rad) its sleeve part is printed at, as :func:`sleeve_kinds` prints it
+    (for :func:`~fabpat.assembly.surface.joints.skeleton_edge`): on a mesh whose joints of one polygon pair
+    differ, the dihedral rounded to :data:`DIHEDRAL_STEP`; a joint of ``[sleeve] angles``, its own angle.
+    The skeleton edge must leave the web at that angle, not only at the exact one: an angle rounded down
+    needs a larger setback (a cube sheared by 5 % has joints of 87.1376°, printed at 87.1°, whose web the
+    exact angle's edge leaves 0.001 mm too thin)."""
+    return {k: angle for k, (_, _, angle) in sleeve_kinds(spec, skel).items()}
 
 
 def _setbacks(skel: Tiling, k: int, edge: float, plate: float) -> list[float]:
@@ -290,7 +320,7 @@ def check_geometry(spec: AssemblySpec) -> None:
                         f"sleeve.margin = {s.margin:g} + 2 × sleeve.wall = {s.wall:g}) must fit on the plate's edge")
     check_interface_chords(spec)
     unit = build_tiling(spec)
-    E = skeleton_edge(unit, e, spec.plates.thickness, s.clearance, s.wall, printed_angles(spec, unit))
+    E = skeleton_edge(unit, e, spec.plates.thickest, s.clearance, s.wall, printed_angles(spec, unit))
     lo: dict[str, float] = {}
     hi: dict[str, float] = {}
     for k, (key, _, _) in sleeve_kinds(spec, unit).items():
@@ -315,9 +345,9 @@ def place(spec: AssemblySpec, face_patterns: list[str]) -> Assembly:
     unit = build_tiling(spec)
     if len(face_patterns) != len(unit.faces):
         raise ValueError(f"need {len(unit.faces)} pattern IDs, got {len(face_patterns)}")
-    t, s = spec.plates.thickness, spec.sleeve
+    s = spec.sleeve
     e = spec.tiling.edge
-    E = skeleton_edge(unit, e, t, s.clearance, s.wall, printed_angles(spec, unit))
+    E = skeleton_edge(unit, e, spec.plates.thickest, s.clearance, s.wall, printed_angles(spec, unit))
     skel = unit.scaled(E)
     slot_length = 2.0 * interface_half_length(e, weight=spec.plates.weight) + s.margin  # segment 2d + margin
 
@@ -329,29 +359,30 @@ def place(spec: AssemblySpec, face_patterns: list[str]) -> Assembly:
     for k, (key, phi, angle) in kind_of.items():
         if key not in kinds:
             try:
-                kinds[key] = Sleeve(angle, g_of[key], t, s.clearance, slot_length, s.wall, s.depth)
+                kinds[key] = Sleeve(angle, g_of[key], joint_thickness(spec, skel, k), s.clearance, slot_length,
+                                    s.wall, s.depth)
             except GeometryError as err:  # the skeleton edge leaves every web: a bug if it is reached
                 a, b = (int(v) + 1 for v in skel.edges[k])
                 raise GeometryError(f"{spec.source}: sleeve part {key} (first at the edge between vertices {a} and "
                                     f"{b}, dihedral {math.degrees(phi):.4f}°, printed at "
                                     f"{math.degrees(angle):.4f}°): {err}") from None
 
-    width = len(str(len(skel.interior_edges)))
-    joint = {int(k): f"E{n + 1:0{width}d}" for n, k in enumerate(skel.interior_edges)}
+    joint = joint_labels(skel)
     pins = end_interfaces(skel)
     pin_set = set(pins)
-
-    shift = np.eye(4)
-    shift[2, 3] = -0.5 * t  # plate solids span z ∈ [0, t]: centre the mid-surface on the face plane
+    own = bool(spec.plates.thicknesses)  # plates of their own thickness: distinct parts by thickness
     frames = skel.frames()
     plates = []
     for f, loop in enumerate(skel.faces):
         edge_labels = tuple(
             joint.get(k, "PIN" if (f, i) in pin_set else "") for i, k in enumerate(skel.face_edges[f])
         )
-        plates.append(PlacedPlate(skel.labels[f], f, PlateType(len(loop), face_patterns[f],
-                                                               _bridge_weight(spec, f)),
-                                  frames[f] @ shift, edge_labels))
+        t = spec.plates.thickness_of(skel.labels[f])
+        shift = np.eye(4)
+        shift[2, 3] = -0.5 * t  # plate solids span z ∈ [0, t]: centre the mid-surface on the face plane
+        plates.append(PlacedPlate(skel.labels[f], f, PlateType(len(loop), face_patterns[f], _bridge_weight(spec, f),
+                                                               t if own else None),
+                                  frames[f] @ shift, edge_labels, t))
     sleeves = []
     for k in skel.interior_edges:
         key, phi, angle = kind_of[int(k)]

@@ -303,7 +303,6 @@ def write_3dm(lib: PartLibrary, path: str | os.PathLike[str], mesh_tolerance: fl
     from fabpat.exchange.rhino import Block, write_assembly
 
     cols = colours(lib)
-    thickness = lib.assembly.spec.plates.thickness
     blocks = []
     for key in lib.keys:
         rgb = (int(cols[key][1:3], 16), int(cols[key][3:5], 16), int(cols[key][5:7], 16))
@@ -311,5 +310,6 @@ def write_3dm(lib: PartLibrary, path: str | os.PathLike[str], mesh_tolerance: fl
         if pt is None:
             blocks.append(Block(key, lib.name(key), rgb, mesh=lib.mesh(key, mesh_tolerance)))
         else:
-            blocks.append(Block(key, lib.name(key), rgb, outline=lib.filleted[pt].outline, thickness=thickness))
+            blocks.append(Block(key, lib.name(key), rgb, outline=lib.filleted[pt].outline,
+                                thickness=lib.assembly.type_thickness(pt)))
     write_assembly(blocks, lib.placed() if placed is None else placed, path, timestamp=timestamp)

@@ -100,16 +100,15 @@ def render_png(lib: PartLibrary, path: str | os.PathLike[str], title: str, dpi: 
     aspect = float((hi[1] - lo[1]) / (hi[0] - lo[0]))
     fig, ax = plt.subplots(figsize=(9, min(9.0, max(3.5, 9 * aspect + 1.0))))  # fit long strips, no blank bands
     draw(ax, P2, S)
-    t = asm.spec.plates.thickness
     for p in asm.plates:
         n_world = p.transform[:3, 2]
         if (C @ n_world)[2] > 0.3 and len(asm.plates) <= 60:
-            c = apply(p.transform, np.array([[0.0, 0.0, t]]))[0] @ C.T
+            c = apply(p.transform, np.array([[0.0, 0.0, p.thickness]]))[0] @ C.T
             ax.text(c[0], c[1], p.label, ha="center", va="center", fontsize=7, color="black", zorder=5)
     for f, i in asm.pins:
         plate = asm.plates[f]
         seg = lib.filleted[plate.type].interface_segments[i]
-        m = apply(plate.transform, np.array([[*seg.mean(axis=0), 0.5 * t]]))[0] @ C.T
+        m = apply(plate.transform, np.array([[*seg.mean(axis=0), 0.5 * plate.thickness]]))[0] @ C.T
         ax.plot(m[0], m[1], marker="^", color="#d00000", markersize=8, zorder=6)
     counts = ", ".join(f"{v} × {k}" for k, v in asm.counts().items())
     ax.set_title(f"{plain_text(title)}\n{counts}" + ("\n▲ pinned interfaces" if asm.pins else ""), fontsize=9)

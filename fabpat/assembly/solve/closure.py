@@ -358,10 +358,9 @@ def closure_setup(spec: AssemblySpec, face_patterns: list[str], *, h: float = 3.
     from fabpat.assembly.place.placement import place
 
     asm = place(spec, face_patterns) if placed is None else placed
-    t = spec.plates.thickness
     w = spec.plates.weight
     check_h(h, asm.plate_edge, w)
-    plates = model_plates(asm, h, t, w, filleted)
+    plates = model_plates(asm, h, w, filleted)
     sleeves = [ModelSleeve(s.label, s.transform, s.plates, float(s.dihedral - s.angle), slot_motions(asm, s, plates))
                for s in asm.sleeves]
     setup = closure_model(plates, sleeves, plate_material(spec, E, nu))
@@ -464,7 +463,7 @@ def run_closure(setup: ClosureSetup, *, steps: int = CLOSURE_STEPS, strain_limit
     sphere = shape_sphere(P)
     # a tube is no sphere, however well one fits a short one (6 × 2: 9.44 % RMS): its read-outs give the cylinder
     cylinder = shape_cylinder(P) if setup.tube else (None, None)
-    eps = surface_strains(m.X, m.F, m.material, P, expmap(fin.rotation[:n]))
+    eps = surface_strains(m.X, m.F, m.material, P, expmap(fin.rotation[:n]), m.element_thickness)
     plate_peak = m.per_plate(eps, np.max)
     worst = max(plate_peak, key=lambda k: plate_peak[k])
     check_plausible(m, float(ee.sum()), fin.displacement, plate_peak[worst], "closure by the sleeves")

@@ -48,11 +48,13 @@ Arr = NDArray[np.float64]
 @dataclass(frozen=True, eq=False)
 class ModelPlate:
     """One plate: ``label``, its flat ``mesh`` (polygon frame, interfaces tagged) and ``transform``
-    (4, 4) sending polygon-frame points (x, y, 0) of the mid-surface to the world (mm)."""
+    (4, 4) sending polygon-frame points (x, y, 0) of the mid-surface to the world (mm); ``thickness``
+    (mm) its own, None: the model's ``material.t``."""
 
     label: str
     mesh: ShellMesh
     transform: Arr
+    thickness: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -76,7 +78,8 @@ class ModelSleeve:
 class AssemblyModel:
     """Placed plates + sleeves as one mesh. ``X`` (n, 3) world coordinates (mm) of every plate node,
     plate p's nodes at ``offsets[p]`` … ``offsets[p + 1]``; ``F`` (m, 3) triangles, plate p's at
-    ``element_offsets[p]`` …; sleeve j is master node n + j. ``material`` is shared by all plates."""
+    ``element_offsets[p]`` …; sleeve j is master node n + j. ``material`` is shared by all plates; a
+    plate's own ``thickness`` replaces its ``t`` on that plate's elements (:attr:`element_thickness`)."""
 
     plates: tuple[ModelPlate, ...]
     sleeves: tuple[ModelSleeve, ...]
@@ -110,6 +113,15 @@ class AssemblyModel:
         """{plate label: ``reduce`` of its elements' ``values``} for per-element ``values`` (m,): e.g. a plate's
         strain energy (N·mm, ``np.sum``) or its peak strain (``np.max``)."""
         return {p.label: float(reduce(values[self.plate_slices(i)[1]])) for i, p in enumerate(self.plates)}
+
+    @property
+    def element_thickness(self) -> Arr | None:
+        """(m,) each element's thickness (mm) when a plate's own differs from ``material.t``, else None
+        (every element has ``material.t``: the solver's numbers are then those of one material)."""
+        own = [self.material.t if p.thickness is None else p.thickness for p in self.plates]
+        if all(t == self.material.t for t in own):
+            return None
+        return np.repeat(np.array(own, dtype=np.float64), np.diff(self.element_offsets))
 
     def links(self) -> tuple[NDArray[np.int64], NDArray[np.int64], Arr, NDArray[np.int64]]:
         """Slave nodes, their sleeve numbers, their relative spins at λ = 1 (k, 3) and their slot (0 A, 1 B)."""
@@ -146,7 +158,7 @@ class AssemblyModel:
         sl, ma, sp, _, off = self._links()
         masters = np.array([s.frame[:3, 3] for s in self.sleeves]).reshape(-1, 3)
         return LinkedProblem(self.X, self.F, self.material, masters, sl, ma, sp, fixed, prescribed, loads, off,
-                             dead_loads, dead_ramp)
+                             dead_loads, dead_ramp, self.element_thickness)
 
     def lumped_area(self) -> Arr:
         """(n,) nodal share of the plates' area (mm²), a third of each triangle's area."""
@@ -186,10 +198,10 @@ def check_h(h: float, plate_edge: float, weight: float) -> None:
                             f"long; use h ≤ {math.floor(MAX_H_PER_INTERFACE * seg * 1000) / 1000:g} mm")
 
 
-def model_plates(asm: Assembly, h: float, thickness: float, weight: float,
-                 filleted: dict[Any, Any] | None = None) -> list[ModelPlate]:
+def model_plates(asm: Assembly, h: float, weight: float, filleted: dict[Any, Any] | None = None) -> list[ModelPlate]:
     """The placed plates of a kit's Assembly as model plates: each type meshed once (target edge h, mm),
-    its mid-surface placed at half the thickness (mm) of the solid the placement maps. ``filleted``:
+    its mid-surface placed at half the thickness (mm) of the solid the placement maps, each plate of its
+    own thickness (:attr:`~fabpat.assembly.place.placement.PlacedPlate.thickness`). ``filleted``:
     the kit's FilletedPattern per plate type, meshed instead of filleting the type again (the same
     outline: :func:`plate_mesh` fillets it as the kit does)."""
     from fabpat.simulation.mesh import mesh_outline
@@ -206,8 +218,8 @@ def model_plates(asm: Assembly, h: float, thickness: float, weight: float,
             mesh = plate_mesh(pl.type.pattern_id, pl.type.sides, asm.plate_edge, weight, h,
                               pl.type.bridge_weight)
         T = pl.transform.copy()
-        T[:3, 3] += T[:3, 2] * (0.5 * thickness)  # the transform maps the solid z ∈ [0, t]: mid-surface at t/2
-        plates.append(ModelPlate(pl.label, mesh, T))
+        T[:3, 3] += T[:3, 2] * (0.5 * pl.thickness)  # the transform maps the solid z ∈ [0, t]: mid-surface at t/2
+        plates.append(ModelPlate(pl.label, mesh, T, pl.thickness))
     return plates
 
 
@@ -215,7 +227,7 @@ def plate_material(spec: AssemblySpec, E: float | None = None, nu: float | None 
     """The plates' :class:`~fabpat.shell.element.Material` for every kind of assembly: Young's modulus ``E``
     (N/mm²) and Poisson's ratio ``nu``, each defaulting to the spec's ``[material]``
     (:class:`fabpat.assembly.spec.types.MaterialSpec`: 1000 N/mm² and 0.35, the scenarios' own), and the spec's
-    plate thickness (mm)."""
+    plate thickness (mm; a plate of ``[plates] thicknesses`` has its own, :class:`ModelPlate`)."""
     m = spec.material
     return Material(m.youngs_modulus if E is None else E, m.poisson if nu is None else nu,
                     spec.plates.thickness)

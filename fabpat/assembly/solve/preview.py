@@ -46,7 +46,8 @@ DENSITY_UNIT = "N·mm/mm²"
 class PredictedPlate:
     """One deformed plate: ``label`` ("H01"), ``key`` its part key ("hex 0x0488"); mid-surface ``V``
     (n, 3) mm and ``F`` (m, 3); unit directors ``N`` (n, 3); ``density`` (m,) element strain-energy
-    density and ``vertex_density`` (n,) its area-weighted vertex average (N·mm/mm²)."""
+    density and ``vertex_density`` (n,) its area-weighted vertex average (N·mm/mm²); ``thickness`` (mm) its
+    own (``[plates] thicknesses``), None: the shape's."""
 
     label: str
     key: str
@@ -55,6 +56,7 @@ class PredictedPlate:
     N: Arr
     density: Arr
     vertex_density: Arr
+    thickness: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -130,7 +132,7 @@ def predicted_shape(run: Any, assembly: Any) -> PredictedShape:
         vd = np.bincount(F.ravel(), np.repeat(area0[elements] * dens[elements], 3), minlength=b - a) / np.maximum(w,
         1e-300)
         plates.append(PredictedPlate(mp.label, assembly.plates[p].type.label, x[a:b].copy(), F, N,
-                                     dens[elements].copy(), vd))
+                                     dens[elements].copy(), vd, mp.thickness))
     hi = max(float(pl.vertex_density.max()) for pl in plates) if plates else 0.0
     sleeves = tuple((s.label, ps.kind, T) for s, ps, T in zip(m.sleeves, assembly.sleeves, sleeve_poses(run),
                                                               strict=True))
@@ -199,7 +201,8 @@ def solid_meshes(shape: PredictedShape, lib: Any, tolerance: float) -> list[tupl
     (``lib`` a :class:`PartLibrary` whose sleeve types are the printed ones, meshed within ``tolerance`` mm)."""
     from fabpat.assembly.place.parts import apply
 
-    out = [(pl.label, *thickened(pl.V, pl.F, pl.N, shape.thickness)) for pl in shape.plates]
+    out = [(pl.label, *thickened(pl.V, pl.F, pl.N, shape.thickness if pl.thickness is None else pl.thickness))
+           for pl in shape.plates]
     for label, key, T in shape.sleeves:
         V, F = lib.mesh(key, tolerance)
         out.append((label, apply(T, V), F))
@@ -223,7 +226,7 @@ def predicted_scene(shape: PredictedShape, lib: Any, name: str, tolerance: float
     root = f"{name} predicted (strain-energy density {lo:.3g}–{hi:.3g} {DENSITY_UNIT})"
     sc.graph.update(frame_from=sc.graph.base_frame, frame_to=root, matrix=np.eye(4))
     for pl in shape.plates:
-        W, F = thickened(pl.V, pl.F, pl.N, shape.thickness)
+        W, F = thickened(pl.V, pl.F, pl.N, shape.thickness if pl.thickness is None else pl.thickness)
         rgba = colour_of(np.concatenate([pl.vertex_density, pl.vertex_density]), lo, hi)
         mesh = trimesh.Trimesh(W * GLB_UNIT, F, vertex_colors=(255 * rgba).round().astype(np.uint8), process=False)
         sc.add_geometry(mesh, node_name=pl.label, geom_name=pl.label, parent_node_name=root)

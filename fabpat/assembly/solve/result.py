@@ -243,7 +243,7 @@ def read_outs(kind: str, name: str, model: AssemblyModel, run: Any, seconds: flo
     x = model.X + fin.displacement[:n]
     eps = getattr(run, "element_strain", None)
     if eps is None:
-        eps = surface_strains(model.X, model.F, model.material, x, expmap(fin.rotation[:n]))
+        eps = surface_strains(model.X, model.F, model.material, x, expmap(fin.rotation[:n]), model.element_thickness)
     centre = getattr(run, "centre", None)
     if centre is None:  # a strip: its plates bend away from a point far below (the arch is convex upwards)
         centre = model.X.mean(axis=0) - np.array([0.0, 0.0, 1e6])

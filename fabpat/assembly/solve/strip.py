@@ -114,10 +114,9 @@ def strip_setup(spec: AssemblySpec, face_patterns: list[str], *, h: float = 3.0,
     from fabpat.assembly.place.placement import place
 
     asm = place(spec, face_patterns) if placed is None else placed
-    t = spec.plates.thickness
     w = spec.plates.weight
     check_h(h, asm.plate_edge, w)
-    plates = model_plates(asm, h, t, w, filleted)
+    plates = model_plates(asm, h, w, filleted)
     sleeves = [ModelSleeve(s.label, s.transform, s.plates) for s in asm.sleeves]
     model = assembly_model(plates, sleeves, plate_material(spec, E, nu))
     grid = asm.skeleton.grid
@@ -238,7 +237,8 @@ def run_strip(setup: StripSetup, end_shortening: float = END_SHORTENING, *, step
     X = np.vstack([m.X, m.problem(fixed, pres, loads).masters])
     moments = np.max([sleeve_moments(m, X + pt.displacement, pt.link_forces) for pt in r.points], axis=0) \
         if m.sleeves else np.zeros(0)
-    eps = surface_strains(m.X, m.F, m.material, m.X + fin.displacement[:n], expmap(fin.rotation[:n]))
+    eps = surface_strains(m.X, m.F, m.material, m.X + fin.displacement[:n], expmap(fin.rotation[:n]),
+                          m.element_thickness)
     peak = m.per_plate(eps, np.max)
     worst = max(peak, key=lambda k: peak[k])
     check_plausible(m, float(ee.sum()), fin.displacement, peak[worst],

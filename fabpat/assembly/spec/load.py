@@ -31,14 +31,24 @@ A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented 
   similar-energy pairs, default 8, of which the closure solver keeps the roundest under the strain limit),
   read from the catalog (``catalog`` = path, default the built-in one).
 * ``[plates]``  ``thickness``, ``weight`` (interface fillet weight), ``process`` ("print" | "laser"),
-  ``density`` (g/cm³, for masses).
+  ``density`` (g/cm³, for masses), ``thicknesses`` = {plate label = mm, …} (e.g. ``{H01 = 1.1, P03 = 0.9}``,
+  the labels the kit gives its plates; a plate not listed keeps ``thickness``; not on a ``panel``) and
+  ``thickness_range`` = [MIN, MAX] (mm, default [0.01, 100]): the range a design may choose thicknesses
+  from, holding every entry of ``thicknesses``. Plates of different thickness are different parts; a
+  sleeve's slots are as wide as the thicker of its two plates + ``clearance``.
 * ``[sleeve]``  ``clearance`` (slot width = thickness + clearance), ``margin`` (slot length =
   interface segment + margin), ``wall``, ``depth`` (how far a plate enters its slot), ``angle``: the
   angle the sleeves are printed at — "dihedral" (each joint's dihedral angle, the plates stay flat on a
   rigid polyhedron), "flat" (180°: straight sleeves that bend the plates when they close the sphere,
   paper §5) or a number of degrees from the tiling's smallest dihedral to 180 (:func:`sleeve_angle`);
-  default "flat" on a ``goldberg`` sphere, "dihedral" on every other kind (:data:`DEFAULT_SLEEVE_ANGLE`).
-  A honeycomb strip's joints are flat, so it takes "dihedral", "flat" or 180.
+  default "flat" on a ``goldberg`` sphere, "dihedral" on every other kind (:data:`DEFAULT_SLEEVE_ANGLE`);
+  ``angles`` = {joint label = degrees, …} (e.g. ``{E01 = 171.3, E02 = 165.0}``, the joints' labels in the
+  kit, "E01" … :func:`fabpat.assembly.surface.joints.joint_labels`): the angle each listed joint's sleeve is
+  printed at, rounded to :data:`ANGLE_STEP` (joints within it share one part); a joint not listed
+  keeps ``angle``; ``angle_range`` = [MIN, MAX] (degrees in (90, 180], default [150, 180]): the range a
+  design may choose angles from, holding every entry of ``angles``.
+  A honeycomb strip's joints are flat, so it takes "dihedral", "flat" or 180 (and neither ``angles`` nor
+  ``angle_range``).
 * ``[material]`` the plates' material for the closure solver: ``youngs_modulus`` (N/mm², default
   1000), ``poisson`` (default 0.35), ``strain_limit`` (largest allowed principal strain, default
   0.02: see :class:`MaterialSpec`).
@@ -83,8 +93,11 @@ from fabpat.assembly.spec.tables import problems_of as _problems_of
 from fabpat.assembly.spec.tables import show as _show
 from fabpat.assembly.spec.tiling import read_tiling
 from fabpat.assembly.spec.types import (  # noqa: F401 - the spec's names, read from here too
+    ANGLE_STEP,
     BUILTIN_TOLERANCE,
+    DEFAULT_ANGLE_RANGE,
     DEFAULT_SLEEVE_ANGLE,
+    DEFAULT_THICKNESS_RANGE,
     FORMATS,
     MAX_CANDIDATES,
     MAX_CAP_RINGS,
@@ -126,13 +139,13 @@ def _sized_by_radius(source: str, tiling: TilingSpec, plates: PlateSpec, sleeve:
     (:func:`fabpat.assembly.surface.joints.skeleton_edge`). That is the kit as placed: with ``sleeve.angle =
     "dihedral"`` the closed shape; straight sleeves bend the plates as they close, and the prediction's
     ``radius`` says where they end (docs/tilings.md gives measured ratios)."""
-    from fabpat.assembly.surface.joints import min_plate_edge, skeleton_edge
+    from fabpat.assembly.surface.joints import joint_labels, min_plate_edge, skeleton_edge
     from fabpat.assembly.surface.tiling import edge_for_radius
 
     assert tiling.radius is not None
     unit = replace(tiling, radius=None).skeleton()
-    allowance = skeleton_edge(unit, 0.0, plates.thickness, sleeve.clearance, sleeve.wall,
-                              lambda phi: printed_angle(sleeve.angle, phi))
+    printed = {k: joint_angle(sleeve, label, float(unit.dihedral[k])) for k, label in joint_labels(unit).items()}
+    allowance = skeleton_edge(unit, 0.0, plates.thickest, sleeve.clearance, sleeve.wall, printed)
     axis = RADIUS_KINDS[tiling.kind]
     # the smallest edge a sleeve fits on (placement.check_geometry), the largest the edge's range
     lo = max(RANGES["edge"].low, min_plate_edge(sleeve.margin, sleeve.wall, plates.weight))
@@ -154,11 +167,43 @@ def _load(source: str, data: Any, kind: str) -> float | None:
     return t.number("end_shortening", None, "end_shortening") if t.has("end_shortening") else None
 
 
-def _plates(source: str, data: Any) -> PlateSpec:
-    t = _Table(source, "plates", data, ("thickness", "weight", "process", "density"))
+def _plates(source: str, data: Any, tiling: TilingSpec | None) -> PlateSpec:
+    """``[plates]``; ``thicknesses`` are checked against the ``tiling``'s plate labels (None: the tiling is
+    wrong, they are checked on the next run)."""
+    t = _Table(source, "plates", data, ("thickness", "weight", "process", "density", "thicknesses",
+                                        "thickness_range"))
+    low, high = DEFAULT_THICKNESS_RANGE  # fabpat.validate's plate thickness
+    before = len(t.problems)
+    lo, hi = t.pair("thickness_range", DEFAULT_THICKNESS_RANGE,
+                    f"two thicknesses [MIN, MAX] in mm with {low:g} ≤ MIN ≤ MAX ≤ {high:g}",
+                    lambda a, b: low <= a <= b <= high)
+    thicknesses: tuple[tuple[str, float], ...] = ()
+    if t.has("thicknesses") and tiling is not None:
+        if tiling.panel:
+            t.note(t.fail("thicknesses", "applies to kits of plates joined by sleeves; tiling.kind = \"panel\" is "
+                          "one part of one thickness: give plates.thickness"), None)
+        else:
+            labels = tiling.skeleton().labels
+            given = t.labelled("thicknesses", "plate")
+            for label, v in given.items():
+                if label not in labels:
+                    t.note(t.fail("thicknesses", f"names {_show(label)}, a plate this tiling lacks: its "
+                                  f"{len(labels)} plates are {_span(labels)}"), None)
+                elif len(t.problems) == before and not lo <= v <= hi:  # a wrong range says nothing of v
+                    t.note(t.fail(f"thicknesses.{label}", f"= {v:g} mm is outside plates.thickness_range = "
+                                  f"[{lo:g}, {hi:g}]"), None)
+            thicknesses = tuple((label, given[label]) for label in labels if label in given)
     return PlateSpec(t.number("thickness", 2.0, "thickness"), t.number("weight", 0.2, "weight"),
                      t.choice("process", PROCESSES, "print"),
-                     t.number("density", 1.24, "density"))
+                     t.number("density", 1.24, "density"), thicknesses, (lo, hi))
+
+
+def _span(labels: tuple[str, ...] | list[str]) -> str:
+    """Labels in a message, first … last of each letter: "H01 … H20, P01 … P12", "E01 … E90"."""
+    runs: dict[str, list[str]] = {}
+    for label in labels:
+        runs.setdefault(label.rstrip("0123456789"), []).append(label)
+    return ", ".join(r[0] if len(r) == 1 else f"{r[0]} … {r[-1]}" for r in runs.values())
 
 
 def smallest_dihedral(tiling: TilingSpec) -> float:
@@ -220,13 +265,50 @@ def printed_angle(angle: str | float, dihedral: float) -> float:
     return math.radians(float(angle))
 
 
+def joint_angle(sleeve: SleeveSpec, label: str, dihedral: float) -> float:
+    """The angle (rad) joint ``label``'s sleeve is printed at, its skeleton dihedral angle being
+    ``dihedral`` (rad): its entry of ``[sleeve] angles``, rounded to :data:`ANGLE_STEP`
+    (:meth:`SleeveSpec.listed_angle`), else :func:`printed_angle` of ``[sleeve] angle``."""
+    listed = sleeve.listed_angle(label)
+    return printed_angle(sleeve.angle, dihedral) if listed is None else math.radians(listed)
+
+
 def _sleeve(source: str, data: Any, tiling: TilingSpec | None) -> SleeveSpec:
-    """``[sleeve]``; its angle is checked against the ``tiling`` (None: the tiling is wrong, the angle
-    is checked on the next run)."""
-    t = _Table(source, "sleeve", data, ("clearance", "margin", "wall", "depth", "angle"))
+    """``[sleeve]``; its angles are checked against the ``tiling`` (None: the tiling is wrong, the angles
+    are checked on the next run)."""
+    t = _Table(source, "sleeve", data, ("clearance", "margin", "wall", "depth", "angle", "angles", "angle_range"))
     return SleeveSpec(t.number("clearance", 0.2, "clearance"), t.number("margin", 1.0, "gap"),
                       t.number("wall", 1.2, "sleeve_length"), t.number("depth", 3.0, "sleeve_length"),
-                      _sleeve_angle(t, tiling) if tiling is not None else "dihedral")
+                      _sleeve_angle(t, tiling) if tiling is not None else "dihedral",
+                      *_joint_angles(t, tiling))
+
+
+def _joint_angles(t: _Table, tiling: TilingSpec | None) -> tuple[tuple[tuple[str, float], ...], tuple[float, float]]:
+    """``[sleeve] angles`` (joint label → degrees, in joint order) and ``angle_range`` (degrees): the range
+    in (90, 180] each listed angle must lie in; the labels are the ``tiling``'s joints'
+    (:func:`fabpat.assembly.surface.joints.joint_labels`)."""
+    from fabpat.assembly.surface.joints import joint_labels
+
+    if tiling is not None and tiling.pushed:
+        for key in ("angles", "angle_range"):
+            if t.has(key):
+                t.note(t.fail(key, "applies to closed tilings (a strip's joints are flat and straight): leave it "
+                              "out"), None)
+        return (), DEFAULT_ANGLE_RANGE
+    before = len(t.problems)
+    lo, hi = t.pair("angle_range", DEFAULT_ANGLE_RANGE, "two angles [MIN, MAX] in degrees with 90 < MIN ≤ MAX ≤ 180",
+                    lambda a, b: 90.0 < a <= b <= 180.0)
+    if not t.has("angles") or tiling is None:
+        return (), (lo, hi)
+    labels = list(joint_labels(tiling.skeleton()).values())
+    given = t.labelled("angles", "joint")
+    for label, v in given.items():
+        if label not in labels:
+            have = f"its {len(labels)} joints are {_span(labels)}" if labels else "it has no joints"
+            t.note(t.fail("angles", f"names {_show(label)}, a joint this tiling lacks: {have}"), None)
+        elif len(t.problems) == before and not lo <= v <= hi:  # a wrong range says nothing of the angles
+            t.note(t.fail(f"angles.{label}", f"= {v:g}° is outside sleeve.angle_range = [{lo:g}, {hi:g}]"), None)
+    return tuple((label, given[label]) for label in labels if label in given), (lo, hi)
 
 
 def _material(source: str, data: Any) -> MaterialSpec:
@@ -377,7 +459,7 @@ def _read_tables(data: Mapping[str, Any], source: str, need_sheet: bool, problem
                 if key == "sheet" else ""))
     name = read(lambda: _name(source, data))
     tiling = read(lambda: read_tiling(source, data["tiling"])) if "tiling" in data else None
-    plates = read(lambda: _plates(source, data.get("plates", {})))
+    plates = read(lambda: _plates(source, data.get("plates", {}), tiling))
     process = plates.process if plates is not None else None
     kind = tiling.kind if tiling is not None else None
     if kind == "panel" and "sleeve" in data:

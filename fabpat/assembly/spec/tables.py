@@ -13,7 +13,7 @@ import math
 import os
 import stat
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from contextvars import ContextVar
 from pathlib import Path
 from typing import Any
@@ -140,6 +140,27 @@ class Table:
         if not isinstance(v, bool):
             return self.note(self.fail(key, f"= {show(v)} must be true or false"), default)
         return v
+
+    def pair(self, key: str, default: tuple[float, float], allowed: str,
+             ok: Callable[[float, float], bool]) -> tuple[float, float]:
+        """Two numbers ``[low, high]`` (``default`` when absent) for which ``ok(low, high)`` holds (a NaN fails
+        every comparison); ``allowed`` says what is allowed, in the message."""
+        if key not in self.data:
+            return default
+        v = self.data[key]
+        numbers = isinstance(v, list) and len(v) == 2 and all(
+            not isinstance(x, bool) and isinstance(x, int | float) for x in v)
+        if not numbers or not ok(float(v[0]), float(v[1])):
+            return self.note(self.fail(key, f"= {show(v)} must be {allowed}"), default)
+        return float(v[0]), float(v[1])
+
+    def labelled(self, key: str, what: str) -> dict[str, float]:
+        """A table ``{label = number, …}`` of finite numbers (empty when absent); ``what`` names the labels."""
+        v = self.data.get(key, {})
+        if not isinstance(v, Mapping) or not all(
+                not isinstance(x, bool) and isinstance(x, int | float) and math.isfinite(x) for x in v.values()):
+            return self.note(self.fail(key, f"= {show(v)} must be a table {{{what} label = number, …}}"), {})
+        return {str(k): float(x) for k, x in v.items()}
 
     def string(self, key: str) -> str | None:
         """A string, or None when absent."""

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fabpat.assembly.surface.tiling import Tiling, honeycomb_strip, truncated_icosahedron
+from fabpat.validate import RANGES
 
 TILINGS = ("honeycomb-strip", "truncated-icosahedron", "mesh", "goldberg", "hex-tube", "hex-cap", "panel")
 #: the flat kinds of rows × columns hexagons, pushed into an arch by ``simulate-assembly``; their patterns are
@@ -43,6 +44,14 @@ SLEEVE_ANGLES = ("dihedral", "flat")  # the named values of [sleeve] angle; a nu
 #: like the shipped sphere (straight sleeves, paper §5); at its dihedral angles it is a nearly rigid polyhedron
 #: whose patterns barely matter. The truncated icosahedron keeps "dihedral": both shipped specs name their angle
 DEFAULT_SLEEVE_ANGLE = {"goldberg": "flat"}
+#: ``[sleeve] angle_range`` when the spec gives none (degrees): the printed angles a design may choose joints from
+DEFAULT_ANGLE_RANGE = (150.0, 180.0)
+#: degrees: the angles of ``[sleeve] angles`` are printed rounded to this step, so that joints within it share
+#: one sleeve part (as a mesh's dihedral angles are, fabpat.assembly.place.placement.DIHEDRAL_STEP)
+ANGLE_STEP = 0.1
+#: ``[plates] thickness_range`` when the spec gives none (mm): the range every plate thickness must lie in
+#: (fabpat.validate's "thickness")
+DEFAULT_THICKNESS_RANGE = (RANGES["thickness"].low, RANGES["thickness"].high)
 #: largest ``patterns.candidates``: each candidate pair is one closure of the sphere (8 took 4 min 49 s at
 #: h = 3 on the shared 2-core machine, docs/fabrication-files.md), so 20 bound the choice to about
 #: 12 minutes; the similar-energy ranking puts the likely winners first anyway
@@ -153,22 +162,52 @@ class PatternSpec:
 
 @dataclass(frozen=True)
 class PlateSpec:
-    """``[plates]``: thickness (mm), interface fillet weight, process and density (g/cm³)."""
+    """``[plates]``: thickness (mm), interface fillet weight, process and density (g/cm³); ``thicknesses``
+    the (plate label, thickness mm) of each plate given its own thickness, ``thickness_range`` (mm) the
+    range they lie in (a design chooses from it)."""
     thickness: float = 2.0  # mm
     weight: float = 0.2  # interface fillet weight (paper §3.3)
     process: str = "print"
     density: float = 1.24  # g/cm³: PLA (notes, §4.1)
+    thicknesses: tuple[tuple[str, float], ...] = ()
+    thickness_range: tuple[float, float] = DEFAULT_THICKNESS_RANGE
+
+    def thickness_of(self, label: str) -> float:
+        """Plate ``label``'s thickness (mm): its entry of ``thicknesses``, else ``thickness``."""
+        return dict(self.thicknesses).get(label, self.thickness)
+
+    @property
+    def thickest(self) -> float:
+        """The largest plate thickness (mm): ``thickness`` or an entry of ``thicknesses``."""
+        return max([self.thickness, *(t for _, t in self.thicknesses)])
+
+    @property
+    def uniform(self) -> bool:
+        """Every plate has the one ``thickness`` (no entry of ``thicknesses`` differs from it)."""
+        return all(t == self.thickness for _, t in self.thicknesses)
 
 
 @dataclass(frozen=True)
 class SleeveSpec:
     """``[sleeve]``: clearance, margin, wall and depth of the sleeve connectors (mm) and the angle they
-    are printed at: ``"dihedral"``, ``"flat"`` or a number of degrees (see :func:`sleeve_angle`)."""
+    are printed at: ``"dihedral"``, ``"flat"`` or a number of degrees (see :func:`sleeve_angle`);
+    ``angles`` the (joint label, degrees) of each joint printed at its own angle, ``angle_range``
+    (degrees) the range they lie in (a design chooses from it)."""
     clearance: float = 0.2  # mm: slot width − plate thickness
     margin: float = 1.0  # mm: slot length − interface segment length
     wall: float = 1.2  # mm: three 0.4 mm perimeters
     depth: float = 3.0  # mm: how far a plate enters the slot
     angle: str | float = "dihedral"  # "dihedral" | "flat" | degrees
+    angles: tuple[tuple[str, float], ...] = ()
+    angle_range: tuple[float, float] = DEFAULT_ANGLE_RANGE
+
+    def listed_angle(self, label: str) -> float | None:
+        """The angle (degrees) joint ``label`` is printed at if ``angles`` lists it, rounded to
+        :data:`ANGLE_STEP` (at most 180), else None (the joint follows ``angle``)."""
+        value = dict(self.angles).get(label)
+        if value is None:
+            return None
+        return min(round(ANGLE_STEP * round(value / ANGLE_STEP), 6), 180.0)
 
 
 @dataclass(frozen=True)

@@ -7,7 +7,7 @@ directions of the two plates in a joint's cross-section. The sleeve's solid is
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -40,21 +40,39 @@ def min_plate_edge(margin: float, wall: float, weight: float) -> float:
 
 
 def skeleton_edge(tiling: Tiling, plate_edge: float, thickness: float, clearance: float, wall: float,
-                  printed: Callable[[float], float] | None = None) -> float:
+                  printed: Callable[[float], float] | Mapping[int, float] | None = None) -> float:
     """Smallest skeleton edge (mm) for which every joint's slots are separated by ``wall`` mm: the plate
     edge plus a sleeve allowance that depends on the joints' angles, the thickness, the clearance and the
     wall only (so a plate edge for a wanted skeleton size is a subtraction).
 
-    ``printed`` maps a joint's dihedral angle (rad) to the angle its sleeve is printed at (default: the
-    same); the web must hold at both angles, the printed part's and the start state's.
+    ``printed`` gives the angle (rad) each joint's sleeve is printed at: a map of a joint's dihedral
+    angle (rad) to it, or {interior edge k: angle} (a joint it lacks: its dihedral); default the
+    dihedral. The web must hold at both angles, the printed part's and the start state's. With plates
+    of several thicknesses, ``thickness`` is the thickest (mm): every slot is then at least as far out
+    as its own plate needs.
     """
     need = 0.0
     for k in tiling.interior_edges:
         phi = float(tiling.dihedral[k])
-        g = max(required_setback(a, thickness, clearance, wall) for a in (phi, printed(phi) if printed else phi))
+        if printed is None:
+            angle = phi
+        elif isinstance(printed, Mapping):
+            angle = float(printed.get(int(k), phi))
+        else:
+            angle = printed(phi)
+        g = max(required_setback(a, thickness, clearance, wall) for a in (phi, angle))
         for f, _ in tiling.edge_faces[k]:
             need = max(need, 2.0 * g * math.tan(math.pi / len(tiling.faces[f])))
     return plate_edge + need
+
+
+def joint_labels(tiling: Tiling) -> dict[int, str]:
+    """Interior edge k → its joint's label, "E01" … in the order of ``tiling.interior_edges``, zero-padded
+    to the digits of their count ("E1" … "E7" for 7 joints): the labels the kit prints on plates and
+    sleeves and ``[sleeve] angles`` names."""
+    width = len(str(len(tiling.interior_edges)))
+    return {int(k): f"E{n + 1:0{width}d}" for n, k in enumerate(tiling.interior_edges)}
+
 
 def joint_direction(dihedral: float, side: int) -> NDArray[np.float64]:
     """(2,) unit vector (Y, Z) from the edge into plate A (side 0) or B (side 1) of a joint at ``dihedral`` rad.
