@@ -154,7 +154,7 @@ def test_escapes_from_the_type_checker_do_not_grow() -> None:
     anys = sum(t.count(": Any") for t in text)
     assert ignores <= TYPE_IGNORES, f"{ignores} `type: ignore` in fabpat/, at most {TYPE_IGNORES}"
     assert anys <= ANY_ANNOTATIONS, f"{anys} `: Any` in fabpat/, at most {ANY_ANNOTATIONS}"
-    assert ignores > 50 and anys > 50  # the walk finds the package (a wrong path would pass vacuously)
+    assert ignores > 10 and anys > 10  # the walk finds the package (a wrong path would pass vacuously)
 
 
 def test_the_assembly_is_rooms_behind_a_face() -> None:
