@@ -47,7 +47,6 @@ from fabpat.assembly.place.placement import (
     PlateType,
     build_tiling,
     check_geometry,
-    place,
     radius_line,
     sleeve_kinds,
 )
@@ -79,8 +78,7 @@ def plan(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | None 
     ``ids``: the face pattern IDs, if already chosen (else :func:`face_patterns`, progress step
     "patterns"). Raises :class:`SpecError` when a plate's neck does not fit the sleeve's slot.
     """
-    from fabpat.geometry.fillet import fillet_pattern
-    from fabpat.patterns.library import get_pattern
+    from fabpat.assembly.place.shaped import place_assembly, plate_outline
 
     tell = progress or (lambda _step: None)
     check_geometry(spec)
@@ -88,9 +86,9 @@ def plan(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | None 
         tell("patterns")
         ids = face_patterns(spec, energies)
     tell("placement")
-    assembly = place(spec, ids)
-    filleted = {pt: fillet_pattern(get_pattern(pt.pattern_id, pt.sides, pt.depth, assembly.plate_edge),
-                                   spec.plates.weight, pt.variation) for pt in assembly.plate_types}
+    assembly = place_assembly(spec, ids)
+    filleted = {pt: plate_outline(pt, assembly.plate_edge, spec.plates.weight, spec.source)
+                for pt in assembly.plate_types}
     check_necks(assembly, filleted)
     return assembly, filleted
 

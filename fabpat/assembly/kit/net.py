@@ -74,10 +74,20 @@ def _hinge(child: NDArray[np.float64], i: int, p: NDArray[np.float64], q: NDArra
     return (child - a) @ R.T + p
 
 
-def _unfold(tiling: Tiling, root: int, reverse: bool) -> Net:
+def _face_shapes(tiling: Tiling) -> list[NDArray[np.float64]]:
+    """Each face's polygon (n_f, 2) mm: the regular n-gon of the tiling's edge, or on a tiling of shaped plates
+    (:class:`~fabpat.assembly.surface.shaped.ShapedTiling`) the face's own."""
+    from fabpat.assembly.surface.shaped import ShapedTiling
+
+    if isinstance(tiling, ShapedTiling):
+        return tiling.face_polygons()
     E = tiling.edge_length()
     shapes = {n: polygon_vertices(n, E) for n in set(tiling.sides.tolist())}
-    polys: dict[int, NDArray[np.float64]] = {root: shapes[len(tiling.faces[root])].copy()}
+    return [shapes[len(loop)] for loop in tiling.faces]
+
+
+def _unfold(tiling: Tiling, root: int, reverse: bool, shapes: list[NDArray[np.float64]]) -> Net:
+    polys: dict[int, NDArray[np.float64]] = {root: shapes[root].copy()}
     parent = {root: -1}
     folds = set()
     queue = deque([root])
@@ -94,7 +104,7 @@ def _unfold(tiling: Tiling, root: int, reverse: bool) -> Net:
             P = polys[f]
             n = len(P)
             # The shared edge runs v_i → v_{i+1} in f and v_{i+1} → v_i in g (both loops CCW from outside).
-            polys[g] = _hinge(shapes[len(tiling.faces[g])], j, P[(i + 1) % n], P[i])
+            polys[g] = _hinge(shapes[g], j, P[(i + 1) % n], P[i])
             parent[g] = f
             folds.add(int(k))
             queue.append(g)
@@ -110,9 +120,10 @@ def unfold(tiling: Tiling) -> Net:
     Raises :class:`GeometryError` if none of the trees tried unfolds without overlaps.
     """
     roots = sorted(range(len(tiling.faces)), key=lambda f: (-len(tiling.faces[f]), f))
+    shapes = _face_shapes(tiling)
     for root in roots:
         for reverse in (False, True):
-            net = _unfold(tiling, root, reverse)
+            net = _unfold(tiling, root, reverse, shapes)
             if not net.overlaps():
                 return net
     raise GeometryError(f"no overlap-free net found for the {tiling.name}")

@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 
 from fabpat.assembly.place.nesting import Nesting, nest
 from fabpat.assembly.place.placement import Assembly, PlateType
+from fabpat.assembly.place.shaped import ShapedPlateType, is_shaped, shaped_kerf
 
 SHEET_LAYER = "SHEET"
 SHEET_COLOR = 8  # ACI grey: reference only, not cut
@@ -34,10 +35,11 @@ LINE_GAP = 0.3  # mm between the joint label line and the plate label line
 
 
 def plate_polygon(pt: PlateType, edge: float) -> NDArray[np.float64]:
-    """(n, 2) polygon that contains the plate (the plate's frame, mm)."""
-    from fabpat.patterns.lattice import polygon_vertices
+    """(n, 2) polygon that contains the plate (the plate's frame, mm): the regular n-gon of ``edge`` or a
+    shaped plate's own (:func:`fabpat.assembly.place.shaped.plate_corners`)."""
+    from fabpat.assembly.place.shaped import plate_corners
 
-    return polygon_vertices(pt.sides, edge)
+    return plate_corners(pt, edge)
 
 
 def nest_plates(assembly: Assembly) -> Nesting:
@@ -49,7 +51,9 @@ def nest_plates(assembly: Assembly) -> Nesting:
     polys = []
     for p in assembly.plates:
         P = plate_polygon(p.type, assembly.plate_edge)
-        if s.kerf > 0:
+        if is_shaped(p.type):
+            P = shaped_kerf(P, s.kerf if s is not None else 0.0)
+        elif s.kerf > 0:
             apothem = assembly.plate_edge / (2 * math.tan(math.pi / p.type.sides))
             P = P * (1.0 + 0.5 * s.kerf / apothem)  # similar polygon whose edges lie kerf/2 further out
         polys.append(P)
@@ -71,6 +75,8 @@ def edge_label_spots(pt: PlateType, edge: float, chars: int = 3
     """
     from fabpat.exchange.labels import CHAR_WIDTH, MIN_TEXT_HEIGHT
 
+    if isinstance(pt, ShapedPlateType):
+        return shaped_label_spots(pt, chars)
     n, depth = pt.sides, pt.depth
     apothem = edge / (2 * math.tan(math.pi / n))
     row = apothem / 2**depth
@@ -91,6 +97,48 @@ def edge_label_spots(pt: PlateType, edge: float, chars: int = 3
         u = np.array([math.cos(t), math.sin(t)])
         own = (apothem - (d1 + 1.5 * h + LINE_GAP)) * u if both else None
         out.append(((apothem - (d1 + 0.5 * h)) * u, own, 2 * math.pi * i / n, h))
+    return out
+
+
+def _label_heights(row: float, k: float, chars: int) -> tuple[float, float]:
+    """(height of two label lines, of one line) mm that fit a solid sub-triangle of height ``row`` mm whose
+    width grows by ``k`` per mm from its apex, ``chars`` characters a line (:func:`edge_label_spots`)."""
+    from fabpat.exchange.labels import CHAR_WIDTH
+
+    a, c = CHAR_WIDTH * chars, LABEL_CLEARANCE
+    return (min(EDGE_LABEL_HEIGHT, (row - c - LINE_GAP - 2 * c / k) / (a / k + 2)),
+            min(EDGE_LABEL_HEIGHT, (row - 2 * c - 2 * c / k) / (a / k + 1)))
+
+
+def shaped_label_spots(pt: ShapedPlateType, chars: int = 3
+                       ) -> list[tuple[NDArray[np.float64], NDArray[np.float64] | None, float, float]]:
+    """:func:`edge_label_spots` of a shaped plate (:mod:`fabpat.geometry.shaped`): its solid sub-triangle at
+    edge i is isosceles, apex at the edge's midpoint M_i, top side one lattice row in (the distance a_i of the
+    fans' apex, the vertex centroid, from the edge, over 2**depth) and L_i / 2**depth wide, so each edge gets
+    the regular layout with apothem a_i and edge L_i, along its own direction; one height for every edge,
+    the smallest that fits all. [] when some edge has no room for a label."""
+    from fabpat.exchange.labels import CHAR_WIDTH, MIN_TEXT_HEIGHT
+
+    P = pt.polygon
+    centre, N = P.mean(axis=0), 2**pt.depth
+    rows = []
+    for i in range(len(P)):
+        a, b = P[i], P[(i + 1) % len(P)]
+        t = (b - a) / np.linalg.norm(b - a)
+        u = np.array([t[1], -t[0]])  # outward, square to the edge
+        apothem = float((0.5 * (a + b) - centre) @ u)
+        k = float(np.linalg.norm(b - a)) / apothem  # the sub-triangle's width over its height
+        rows.append((0.5 * (a + b), u, math.atan2(t[1], t[0]), k, *_label_heights(apothem / N, k, chars)))
+    two, one = min(r[4] for r in rows), min(r[5] for r in rows)
+    if two < MIN_TEXT_HEIGHT and one < MIN_TEXT_HEIGHT:
+        return []
+    both = two >= MIN_TEXT_HEIGHT
+    h = two if both else one
+    out = []
+    for M, u, angle, k, *_ in rows:
+        d1 = (CHAR_WIDTH * chars * h + 2 * LABEL_CLEARANCE) / k
+        own = M - (d1 + 1.5 * h + LINE_GAP) * u if both else None
+        out.append((M - (d1 + 0.5 * h) * u, own, angle, h))
     return out
 
 

@@ -264,10 +264,14 @@ def interface_midpoints(lib: PartLibrary) -> tuple[float, float]:
     the slot's mid-plane) between the slot bottom and its mouth; its distance to the mouth is how deep
     the plate enters. Raises :class:`GeometryError` if a midpoint is off the line (by more than
     :func:`_slot_tolerance`; on a mesh file naming the face, the edge and the tolerance that would
-    refuse the face) or outside the slot. The slot lines are taken at the joint's skeleton dihedral
-    (where the plates are placed): a sleeve printed at another angle turns about the edge line onto
-    each plate, which keeps those distances.
+    refuse the face) or outside the slot. A shaped plate's interface need not be centred in its slot
+    (:mod:`fabpat.assembly.place.shaped`): it must lie inside it with ``sleeve.margin / 2`` to spare at each
+    end (:func:`~fabpat.assembly.place.shaped.slot_excess` counts as the offset). The slot lines are taken
+    at the joint's skeleton dihedral (where the plates are placed): a sleeve printed at another angle turns
+    about the edge line onto each plate, which keeps those distances.
     """
+    from fabpat.assembly.place.shaped import is_shaped, slot_excess
+
     asm = lib.assembly
     tol = _slot_tolerance(asm)
     worst, shallow = 0.0, math.inf
@@ -275,7 +279,11 @@ def interface_midpoints(lib: PartLibrary) -> tuple[float, float]:
         sleeve, plate = asm.sleeve_types[s.kind], asm.plates[p]
         d, n = joint_direction(s.dihedral, side), joint_normal(s.dihedral, side)
         along = float(local[1:] @ d)
-        off = max(abs(local[0]), abs(float(local[1:] @ n)))
+        x = abs(local[0])
+        if is_shaped(plate.type):  # off-centre by design: inside the slot with the margin to spare
+            half = float(lib.filleted[plate.type].interface_half_lengths[s.plates[side][1]])
+            x = slot_excess(asm, s, side, float(local[0]), half)
+        off = max(x, abs(float(local[1:] @ n)))
         expect = setback(plate.type.sides, asm.skeleton.edge_length(), asm.plate_edge)
         off = max(off, abs(along - expect))
         worst = max(worst, off)

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from fabpat.assembly.place.placement import Assembly, PlateType
+from fabpat.assembly.place.shaped import ShapedPlateType, is_shaped
 from fabpat.assembly.surface.joints import setback
 from fabpat.errors import SpecError
 from fabpat.geometry.fillet import interface_half_length
@@ -131,10 +132,13 @@ def neck_advice(assembly: Assembly, filleted: dict[PlateType, Any]) -> str:
 
 def check_necks(assembly: Assembly, filleted: dict[PlateType, Any]) -> None:
     """SpecError if a plate's neck is wider than its slot anywhere within the slot's depth; the message
-    ends with :func:`neck_advice`."""
+    ends with :func:`neck_advice`. A shaped plate's joints are checked one by one
+    (:func:`check_shaped_necks`)."""
     skel, e = assembly.skeleton, assembly.plate_edge
     for key, sleeve in assembly.sleeve_types.items():
         for pt in assembly.plate_types:
+            if is_shaped(pt):
+                continue
             fp = filleted[pt]
             inside = sleeve.arm_end - setback(pt.sides, skel.edge_length(), e)  # depth of the plate in the slot
             apothem = e / (2.0 * math.tan(math.pi / pt.sides))
@@ -146,3 +150,39 @@ def check_necks(assembly: Assembly, filleted: dict[PlateType, Any]) -> None:
                     f"the {key} slot, longer than the slot ({sleeve.slot_length:.2f} mm): "
                     f"{neck_advice(assembly, filleted)}"
                 )
+    check_shaped_necks(assembly, filleted)
+
+
+def check_shaped_necks(asm: Assembly, filleted: dict[PlateType, Any]) -> None:
+    """SpecError if a shaped plate's neck, within its slot's depth of each of its joints, reaches within
+    :data:`NECK_CLEARANCE` of the slot's end walls (as :func:`check_necks` checks a
+    regular plate's edge 0, here on every joint in the sleeve's own frame: the slot is centred on the
+    union of the joint's two interfaces, not on this plate's)."""
+    E, e = asm.skeleton.edge_length(), asm.plate_edge
+    for s in asm.sleeves:
+        sleeve = asm.sleeve_types[s.kind]
+        X, origin = s.transform[:3, 0], s.transform[:3, 3]
+        for p, i in s.plates:
+            plate = asm.plates[p]
+            pt = plate.type
+            if not isinstance(pt, ShapedPlateType):
+                continue
+            C = pt.polygon
+            a, b = C[i], C[(i + 1) % len(C)]
+            t = (b - a) / np.linalg.norm(b - a)
+            inward = np.array([-t[1], t[0]])
+            R, shift = plate.transform[:3, :3], plate.transform[:3, 3]
+            sign = 1.0 if float((R[:, :2] @ t) @ X) >= 0.0 else -1.0
+            mid = float((R[:, :2] @ (0.5 * (a + b)) + shift - origin) @ X)
+            inside = sleeve.arm_end - setback(pt.sides, E, e)  # how deep the plate enters the slot
+            room = 0.5 * sleeve.slot_length - NECK_CLEARANCE
+            worst = 0.0
+            for P in filleted[pt].outline.flatten(0.005):
+                x = mid + sign * ((P - 0.5 * (a + b)) @ t)  # along the sleeve, from its centre
+                m = ((P - 0.5 * (a + b)) @ inward <= inside) & (np.abs(x) <= 0.5 * sleeve.length + 1.0)
+                if m.any():
+                    worst = max(worst, float(np.abs(x[m]).max()))
+            if worst > room:
+                raise SpecError(f"{asm.spec.source}: the {pt.label} neck reaches {worst:.2f} mm from the centre of "
+                                f"sleeve {s.label} ({s.kind}) {inside:.2f} mm into its slot, past the slot's "
+                                f"{0.5 * sleeve.slot_length:.2f} mm: raise sleeve.margin or lower sleeve.depth")

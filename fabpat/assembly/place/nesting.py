@@ -180,7 +180,7 @@ def _fill(polygons: list[NDArray[np.float64]], width: float, height: float, marg
                 a = K.shape[0] // 2
                 # linear (not circular) correlation: pad by the stencil, up to a fast FFT size
                 fy, fx = sfft.next_fast_len(ny + 2 * a, True), sfft.next_fast_len(nx + 2 * a, True)
-                if occ_hat is None or occ_hat.shape[0] != fy:
+                if occ_hat is None or occ_hat.shape != (fy, fx // 2 + 1):  # stencils of other sizes pad otherwise
                     occ_hat = sfft.rfft2(occ.astype(np.float32), s=(fy, fx))
                 if (shape, turn) not in spectra:
                     spectra[shape, turn] = sfft.rfft2(K[::-1, ::-1].astype(np.float32), s=(fy, fx))

@@ -50,8 +50,10 @@ class PartLibrary:
         if pt is None:
             return self.assembly.sleeve_types[key].name
         spec = self.assembly.spec
-        return part_name(pt.pattern_id, pt.sides, self.assembly.plate_edge, self.assembly.type_thickness(pt),
+        name = part_name(pt.pattern_id, pt.sides, self.assembly.plate_edge, self.assembly.type_thickness(pt),
                          spec.plates.weight, pt.variation.label())
+        face = getattr(pt, "face_label", "")  # a shaped plate: its own part, named by its face
+        return f"{name} shaped {face}" if face else name
 
     def support(self, pt: PlateType) -> tuple[Any, ...]:
         """The whole interface arcs whose halves the plate outline keeps (exact STEP weights)."""

@@ -341,7 +341,9 @@ def _bridge_weight(spec: AssemblySpec, face: int) -> float:
 
 
 def place(spec: AssemblySpec, face_patterns: list[str]) -> Assembly:
-    """Place one plate per face (pattern ``face_patterns[f]``) and one sleeve per shared edge."""
+    """Place one plate per face (pattern ``face_patterns[f]``) and one sleeve per shared edge. A spec of shaped
+    plates (``tiling.plates = "shaped"``) is placed by :func:`fabpat.assembly.place.shaped.place_assembly`,
+    which shapes this placement's plates and sleeves."""
     unit = build_tiling(spec)
     if len(face_patterns) != len(unit.faces):
         raise ValueError(f"need {len(unit.faces)} pattern IDs, got {len(face_patterns)}")

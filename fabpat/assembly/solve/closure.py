@@ -315,9 +315,12 @@ def slot_motions(asm: Assembly, s: PlacedSleeve, plates: list[ModelPlate]) -> tu
     tiling of exactly regular faces the plates sit in their slots at the skeleton's dihedral, and
     the motion is the turn by ∓(dihedral − angle)/2 about the edge (:mod:`fabpat.assembly.solve.model`);
     on a tiling only nearly regular (plates placed at their faces' best fit) it also moves the
-    interface along and across the slot, so the closure ramps the whole mismatch to zero.
+    interface along and across the slot, so the closure ramps the whole mismatch to zero. A shaped plate
+    (:mod:`fabpat.assembly.place.shaped`) keeps its place along the slot (its interface is off the slot's
+    centre by design): only the turn and the across-slot mismatch are ramped.
     """
     from fabpat.assembly.place.placement import setback
+    from fabpat.assembly.place.shaped import is_shaped, plate_corners
     from fabpat.assembly.surface.joints import joint_direction
     from fabpat.patterns.lattice import polygon_vertices
     from fabpat.shell.rotations import logmap
@@ -328,14 +331,18 @@ def slot_motions(asm: Assembly, s: PlacedSleeve, plates: list[ModelPlate]) -> tu
     for k, (p, i) in enumerate(s.plates):
         n = asm.plates[p].type.sides
         T = plates[p].transform
-        P = polygon_vertices(n, asm.plate_edge)
+        shaped = is_shaped(asm.plates[p].type)
+        P = plate_corners(asm.plates[p].type, asm.plate_edge) if shaped else polygon_vertices(n, asm.plate_edge)
         a, b = P[i], P[(i + 1) % n]
         mid = T[:3, :3] @ np.array([*(0.5 * (a + b)), 0.0]) + T[:3, 3]
         along = T[:3, :3] @ np.array([*((b - a) / np.linalg.norm(b - a)), 0.0])
         inward = T[:3, :3] @ np.array([*(-0.5 * (a + b) / np.linalg.norm(0.5 * (a + b))), 0.0])
+        if shaped:  # its midpoint is not on a ray from its centre square to the edge
+            inward = T[:3, :3] @ np.array([-(b - a)[1], (b - a)[0], 0.0]) / np.linalg.norm(b - a)
         jd = joint_direction(float(s.angle), k)
         g = setback(n, E, asm.plate_edge)
-        target_mid = origin + SR @ np.array([0.0, g * jd[0], g * jd[1]])
+        x = float((mid - origin) @ SR[:, 0]) if shaped else 0.0
+        target_mid = origin + SR @ np.array([x, g * jd[0], g * jd[1]])
         target_in = SR @ np.array([0.0, jd[0], jd[1]])
         target_along = SR[:, 0] * (1.0 if along @ SR[:, 0] >= 0 else -1.0)
         placed = np.stack([along, inward, np.cross(along, inward)], axis=1)
@@ -355,9 +362,9 @@ def closure_setup(spec: AssemblySpec, face_patterns: list[str], *, h: float = 3.
 
     Raises GeometryError if h is too coarse for the interfaces (as the strip).
     """
-    from fabpat.assembly.place.placement import place
+    from fabpat.assembly.place.shaped import place_assembly
 
-    asm = place(spec, face_patterns) if placed is None else placed
+    asm = place_assembly(spec, face_patterns) if placed is None else placed
     w = spec.plates.weight
     check_h(h, asm.plate_edge, w)
     plates = model_plates(asm, h, w, filleted)

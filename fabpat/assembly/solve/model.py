@@ -203,16 +203,23 @@ def model_plates(asm: Assembly, h: float, weight: float, filleted: dict[Any, Any
     its mid-surface placed at half the thickness (mm) of the solid the placement maps, each plate of its
     own thickness (:attr:`~fabpat.assembly.place.placement.PlacedPlate.thickness`). ``filleted``:
     the kit's FilletedPattern per plate type, meshed instead of filleting the type again (the same
-    outline: :func:`plate_mesh` fillets it as the kit does)."""
+    outline: :func:`plate_mesh` fillets it as the kit does). A shaped plate (:mod:`fabpat.assembly.place.shaped`)
+    meshes its own outline, its interfaces on its polygon's edges."""
+    from fabpat.assembly.place.shaped import is_shaped, plate_outline
     from fabpat.simulation.mesh import mesh_outline
 
     plates = []
     own: dict[Any, Any] = {}
     for pl in asm.plates:
-        if filleted is not None and pl.type in filleted:
-            if pl.type not in own:
-                own[pl.type] = mesh_outline(filleted[pl.type].outline, h, pl.type.sides,
-                                            asm.plate_edge, weight=weight)
+        if is_shaped(pl.type) and pl.type not in own:  # its outline carries its polygon: no common edge
+            fp = filleted[pl.type] if filleted is not None and pl.type in filleted else plate_outline(
+                pl.type, asm.plate_edge, weight, asm.spec.source)
+            own[pl.type] = mesh_outline(fp.outline, h, pl.type.sides, None, weight=weight)
+        if pl.type in own:
+            mesh = own[pl.type]
+        elif filleted is not None and pl.type in filleted:
+            own[pl.type] = mesh_outline(filleted[pl.type].outline, h, pl.type.sides,
+                                        asm.plate_edge, weight=weight)
             mesh = own[pl.type]
         else:
             mesh = plate_mesh(pl.type.pattern_id, pl.type.sides, asm.plate_edge, weight, h,

@@ -14,7 +14,12 @@ A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented 
   :mod:`fabpat.assembly.surface.mesh_tiling`), takes ``edge`` as optional (default: the mesh's mean edge; given,
   it scales the mesh), ``tolerance`` (mm, default 0.01, with ``fit = "best"`` 0.2 × edge; at most 0.5 ×
   edge: how far the faces may be from regular polygons of one edge) and ``fit`` ("exact" | "best":
-  plates at their faces' best fit, the closure takes up the rest); ``goldberg`` reads ``m``, ``n``,
+  plates at their faces' best fit, the closure takes up the rest) and ``plates`` ("regular" | "shaped": each
+  plate its own face's polygon, :mod:`fabpat.assembly.place.shaped`; the faces need then only be within
+  ``tolerance`` mm of their planes and within 20 % / 15° of regular, and ``fit = "best"`` is refused; the
+  outline is exact, rational Béziers in STEP and .3dm; what has a tolerance is the faces' planarity, the
+  sleeve angles' 0.1° step and where a joint's two interfaces lie along it, which the slot's length takes
+  up: docs/tilings.md); ``goldberg`` reads ``m``, ``n``,
   ``realization`` ("dual" | "planar"), ``hex-cap`` ``rings`` and ``centre`` (5 | 6)
   (:mod:`fabpat.assembly.surface.polyhedra`; plates at best fit). The closed kinds
   (:data:`RADIUS_KINDS`) take ``radius`` (mm) instead of ``edge``: the plate edge is then chosen so that

@@ -29,9 +29,9 @@ from fabpat.errors import SpecError
 from fabpat.validate import check
 
 _KIND_KEYS = {"rows": ("honeycomb-strip", "hex-tube", "panel"), "columns": ("honeycomb-strip", "hex-tube", "panel"),
-              "file": ("mesh", "panel"), "tolerance": ("mesh", "panel"), "fit": ("mesh",), "m": ("goldberg",),
-              "n": ("goldberg",), "realization": ("goldberg",), "rings": ("hex-cap",), "centre": ("hex-cap",),
-              "radius": tuple(RADIUS_KINDS)}
+              "file": ("mesh", "panel"), "tolerance": ("mesh", "panel"), "fit": ("mesh",), "plates": ("mesh",),
+              "m": ("goldberg",), "n": ("goldberg",), "realization": ("goldberg",), "rings": ("hex-cap",),
+              "centre": ("hex-cap",), "radius": tuple(RADIUS_KINDS)}
 
 
 def read_tiling(source: str, data: Any) -> TilingSpec:
@@ -128,10 +128,12 @@ def _mesh_tiling(source: str, t: _Table) -> TilingSpec:
         mesh_tiling,
         read_polygon_mesh,
     )
+    from fabpat.assembly.surface.shaped import PLATE_KINDS
 
     name = t.string("file")
     edge = t.number("edge", None, "edge") if t.has("edge") else None
     fit = t.choice("fit", FITS, "exact")
+    plates = t.choice("plates", PLATE_KINDS, "regular")
     # any positive length here; mesh_tiling bounds it by the edge (MAX_TOLERANCE × edge, as its default)
     tolerance = t.number("tolerance", DEFAULT_TOLERANCE, "sleeve_length") if t.has("tolerance") else None
     if name is None and t.has("file"):
@@ -140,10 +142,13 @@ def _mesh_tiling(source: str, t: _Table) -> TilingSpec:
         raise t.fail("file", f"is {'missing' if name is None else 'empty'}: the polygon mesh (OBJ, PLY or OFF) "
                      "whose faces carry the plates")
     t.settle()
+    if plates == "shaped" and fit == "best":  # a shaped plate is its face: nothing to fit
+        raise t.fail("fit", "= \"best\" places regular plates at their faces' best fit; tiling.plates = \"shaped\" "
+                     "makes each plate its own face's polygon: leave fit out")
     path = Path(name) if Path(name).is_absolute() else Path(source).parent / name
     try:
         V, faces = read_polygon_mesh(path)
-        skel = mesh_tiling(V, faces, tolerance=tolerance, edge=edge, source=str(path), fit=fit)
+        skel = mesh_tiling(V, faces, tolerance=tolerance, edge=edge, source=str(path), fit=fit, plates=plates)
     except SpecError as e:
         raise SpecError(f"{source}: tiling.file: {e}") from None
     if edge is None:  # the plates take the mesh's own (mean) edge
@@ -154,7 +159,7 @@ def _mesh_tiling(source: str, t: _Table) -> TilingSpec:
             raise SpecError(f"{source}: tiling.file: {err}; give tiling.edge to scale the mesh") from None
     if tolerance is None:
         tolerance = DEFAULT_TOLERANCE if fit == "exact" else BEST_FIT_TOLERANCE * edge
-    return TilingSpec("mesh", edge, file=str(path), tolerance=tolerance, fit=fit,
+    return TilingSpec("mesh", edge, file=str(path), tolerance=tolerance, fit=fit, plates=plates,
                       vertices=tuple((float(x), float(y), float(z)) for x, y, z in skel.V), faces=skel.faces)
 
 

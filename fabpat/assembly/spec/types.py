@@ -89,6 +89,9 @@ class TilingSpec:
     #: mm: the size asked for instead of ``edge`` (closed kinds, :data:`RADIUS_KINDS`); ``edge`` is then
     #: the plate edge that puts the placed plates at this mean distance from the centre (the axis)
     radius: float | None = None
+    #: a mesh's plates: "regular" (the regular polygon of ``edge``) or "shaped" (each its own face's polygon,
+    #: :mod:`fabpat.assembly.place.shaped`; the faces' mean edge is ``edge``)
+    plates: str = "regular"
 
     @property
     def strip(self) -> bool:
@@ -114,6 +117,10 @@ class TilingSpec:
         if self.kind in MESH_KINDS:
             # every mesh's plates sit at their faces' best fit: a file's faces are regular only within
             # tiling.tolerance, and the sleeve frames must not demand more of them
+            if self.plates == "shaped":  # its edge is the faces' mean edge (fabpat.assembly.surface.shaped)
+                from fabpat.assembly.surface.shaped import ShapedTiling
+
+                return ShapedTiling(self.kind, np.array(self.vertices) / self.edge, self.faces, best_fit=True)
             return Tiling(self.kind, np.array(self.vertices) / self.edge, self.faces, best_fit=True)
         # a mesh panel's vertices are an exact tiling already (fabpat.assembly.surface.panel_mesh)
         if self.file is not None:

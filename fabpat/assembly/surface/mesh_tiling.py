@@ -238,7 +238,7 @@ def _read_off(p: Path) -> tuple[NDArray[np.float64], Faces]:
 
 def mesh_tiling(V: NDArray[np.float64], faces: Faces, *, tolerance: float | None = None,
                 edge: float | None = None, source: str = "<mesh>", fit: str = "exact", name: str = "mesh",
-                flat: bool = False) -> Tiling:
+                flat: bool = False, plates: str = "regular") -> Tiling:
     """The checked tiling of mesh ``V`` (n, 3) mm, ``faces`` (vertex loops, 0-based), named ``name``.
 
     ``edge`` (mm): scale the mesh so that its mean edge length is ``edge`` (default: the mesh's own).
@@ -251,6 +251,8 @@ def mesh_tiling(V: NDArray[np.float64], faces: Faces, *, tolerance: float | None
     [:data:`MIN_TOLERANCE` mm, :data:`MAX_TOLERANCE` × the edge] (SpecError otherwise). ``flat`` (a one-piece
     panel, :mod:`fabpat.assembly.surface.panel_mesh`): after the faces' checks, every vertex must also lie within
     ``tolerance`` of the best-fit plane of all of them (:func:`check_flat`), instead of the folds being convex.
+    ``plates = "shaped"`` (each plate its face's own polygon): the faces' edges may differ and the faces need
+    only be planar and almost regular (:func:`fabpat.assembly.surface.shaped.check_shaped_faces`).
     """
     if not isinstance(fit, str) or fit not in FITS:
         raise SpecError(f"{source}: fit = {fit!r}: choose one of {', '.join(FITS)}")
@@ -274,6 +276,13 @@ def mesh_tiling(V: NDArray[np.float64], faces: Faces, *, tolerance: float | None
                         f"{MAX_TOLERANCE:g} × the edge = {MAX_TOLERANCE * e:.4g}] mm (edge {e:.4g} mm; the default is "
                         f"{DEFAULT_TOLERANCE:g} mm for fit = \"exact\", {BEST_FIT_TOLERANCE:g} × the edge for "
                         "fit = \"best\")")
+    if plates == "shaped":  # no edge or regular-polygon check: each plate takes its face's polygon
+        from fabpat.assembly.surface.shaped import check_shaped_faces
+
+        check_shaped_faces(V, loops, tolerance, source)
+        tiling = _oriented(Tiling(name, V, loops, best_fit=fit == "best"), source)
+        _check_convex(tiling, source)
+        return tiling
     k = int(np.argmax(np.abs(lengths - e)))
     if abs(lengths[k] - e) > tolerance:
         a, b = ends[k]
