@@ -131,7 +131,7 @@ def cell_features(ids: Sequence[str], sides: int = 6) -> NDArray[np.float64]:
         if sel.size:
             bits = _bits([ids[int(s)] for s in sel], d)
             X[sel, :64] = bits[:, _refinement(d)]
-            X[np.ix_(sel, PHYSICS)] = plate_features(bits, sides, d)
+            X[np.ix_(sel, np.array(PHYSICS))] = plate_features(bits, sides, d)
     cells = X[:, :64]
     row = np.floor(np.sqrt(np.arange(64))).astype(np.int64)
     for r in range(8):

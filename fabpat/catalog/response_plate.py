@@ -94,6 +94,7 @@ class PlateTopology:
     hinge_weight: NDArray[np.float64]
     neck_orbit: NDArray[np.int64]
     neck_weight: NDArray[np.float64]
+    mem_first: NDArray[np.int64]
 
 
 def _pairs(F: NDArray[np.int64]) -> tuple[list[tuple[int, int, int, int]], list[tuple[int, int]]]:
@@ -182,11 +183,16 @@ def plate_topology(sides: int, depth: int) -> PlateTopology:
     rows, turn = _membrane_rows(grad, F, angle)
     hinge_orbit, hinge_weight = _orbits(h[:, :2], sides, depth)
     neck_orbit, neck_weight = _orbits(nk, sides, depth)
+    mem_first = np.arange(2 * (owned + 1))  # the skyline of the one-fan membrane system (u, v per vertex)
+    for verts in [*F[: 4**depth], *F[nk[neck_orbit]].reshape(-1, 6)]:
+        dofs = np.concatenate([2 * rep[verts], 2 * rep[verts] + 1])
+        mem_first[dofs] = np.minimum(mem_first[dofs], dofs.min())
     out = PlateTopology(F, np.asarray(topo.slice_face), grad, area, h[:, :2].copy(), F[h[:, :2]].reshape(-1, 6),
                         hinge_row, 3.0 * L2 / (area[h[:, 0]] + area[h[:, 1]]), nk, F[nk].reshape(-1, 6), neck_rows,
                         NECK * 3.0 * L2 / (area[nk[:, 0]] + area[nk[:, 1]]), np.array(iface, dtype=np.int64),
                         np.array(moment), first, rep, angle, owned + 1, L2, rows, turn,
-                        np.arange(4**depth, dtype=np.int64), hinge_orbit, hinge_weight, neck_orbit, neck_weight)
+                        np.arange(4**depth, dtype=np.int64), hinge_orbit, hinge_weight, neck_orbit, neck_weight,
+                        mem_first)
     for a in vars(out).values():  # noqa: B007 - frozen arrays
         if isinstance(a, np.ndarray):
             a.setflags(write=False)
@@ -200,13 +206,14 @@ def plate_features(cells: NDArray[np.bool_], sides: int, depth: int) -> NDArray[
     t = plate_topology(sides, depth)
     solid = np.ascontiguousarray(np.asarray(cells, dtype=np.bool_)[:, t.slice_face])
     ints = (t.face, t.hinge_faces, t.hinge_vertices, t.neck_faces, t.neck_vertices, t.iface, t.first, t.rep,
-            t.fan0_faces, t.hinge_orbit, t.neck_orbit, np.arange(t.hinge_k.size), np.arange(t.neck_k.size))
+            t.fan0_faces, t.hinge_orbit, t.neck_orbit, np.arange(t.hinge_k.size), np.arange(t.neck_k.size),
+            t.mem_first)
     reals = (t.grad, t.area, t.hinge_row, t.hinge_k, t.neck_rows, t.neck_k, t.moment, t.mem_rows, t.mem_turn,
              t.hinge_weight, t.neck_weight, np.ones(t.hinge_k.size), np.ones(t.neck_k.size))
     return _features(solid, ints, reals, t.n_rep, t.edge2)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=True)  # fastmath: the inner products vectorise (4× on the factorisation)
 def _skyline_solve(A: NDArray[np.float64], first: NDArray[np.int64], b: NDArray[np.float64]) -> NDArray[np.float64]:
     """Solve A x = b for SPD A (its lower triangle within the skyline ``first``), factorising A in place."""
     n = A.shape[0]
@@ -262,14 +269,13 @@ def _pin(K: NDArray[np.float64], iface: NDArray[np.int64], clamp: bool) -> None:
 
 
 @njit(cache=True)
-def _bending(solid: NDArray[np.bool_], face: NDArray[np.int64], hinge_faces: NDArray[np.int64],
-             hinge_vertices: NDArray[np.int64], hinge_row: NDArray[np.float64], hinge_k: NDArray[np.float64],
-             neck_faces: NDArray[np.int64], neck_vertices: NDArray[np.int64], neck_rows: NDArray[np.float64],
-             neck_k: NDArray[np.float64], rep: NDArray[np.int64], hinges: NDArray[np.int64],
-             hinge_weight: NDArray[np.float64], necks: NDArray[np.int64], neck_weight: NDArray[np.float64],
-             K: NDArray[np.float64]) -> None:
+def _bending(solid: NDArray[np.bool_], hinge_faces: NDArray[np.int64], hinge_vertices: NDArray[np.int64],
+             hinge_row: NDArray[np.float64], hinge_k: NDArray[np.float64], neck_faces: NDArray[np.int64],
+             neck_vertices: NDArray[np.int64], neck_rows: NDArray[np.float64], neck_k: NDArray[np.float64],
+             rep: NDArray[np.int64], hinges: NDArray[np.int64], hinge_weight: NDArray[np.float64],
+             necks: NDArray[np.int64], neck_weight: NDArray[np.float64], K: NDArray[np.float64]) -> None:
     """Add the plate's hinges and necks (those listed, each times its weight) to K (lower triangle), vertex v
-    as unknown ``rep[v]``; a vertex of no solid face gets a unit diagonal."""
+    as unknown ``rep[v]``."""
     idx = np.empty(6, dtype=np.int64)
     for m in range(hinges.size):
         h = hinges[m]
@@ -280,15 +286,26 @@ def _bending(solid: NDArray[np.bool_], face: NDArray[np.int64], hinge_faces: NDA
     for m in range(necks.size):
         h = necks[m]
         if solid[neck_faces[h, 0]] and solid[neck_faces[h, 1]]:
+            k = neck_weight[m] * neck_k[h]
             for c in range(6):
                 idx[c] = rep[neck_vertices[h, c]]
-            for r in range(2):
-                _add_pair(K, idx, neck_rows[h, r], neck_weight[m] * neck_k[h])
+            for a in range(6):
+                for b in range(6):
+                    if idx[b] <= idx[a]:
+                        K[idx[a], idx[b]] += k * (neck_rows[h, 0, a] * neck_rows[h, 0, b]
+                                                  + neck_rows[h, 1, a] * neck_rows[h, 1, b])
+
+
+@njit(cache=True)
+def _unit_unused(solid: NDArray[np.bool_], face: NDArray[np.int64], rep: NDArray[np.int64], K: NDArray[np.float64],
+                 dofs: int) -> None:
+    """A unit diagonal for each unknown (``dofs`` per vertex) that no solid face moves."""
     used = np.zeros(K.shape[0], dtype=np.bool_)
     for f in range(face.shape[0]):
         if solid[f]:
             for c in range(3):
-                used[rep[face[f, c]]] = True
+                for d in range(dofs):
+                    used[dofs * rep[face[f, c]] + d] = True
     for v in range(K.shape[0]):
         if not used[v]:
             K[v, v] += 1.0
@@ -299,7 +316,7 @@ def _membrane_energy(solid: NDArray[np.bool_], face: NDArray[np.int64], grad: ND
                      area: NDArray[np.float64], rows: NDArray[np.float64], turn: NDArray[np.float64],
                      fan0_faces: NDArray[np.int64], neck_faces: NDArray[np.int64], neck_orbit: NDArray[np.int64],
                      neck_weight: NDArray[np.float64], rep: NDArray[np.int64], n_rep: int, edge2: float,
-                     w: NDArray[np.float64], outer0: int, n_fans: int) -> float:
+                     w: NDArray[np.float64], outer0: int, n_fans: int, mem_first: NDArray[np.int64]) -> float:
     """The in-plane energy left after the network relaxes the strain ½∇w∇wᵀ of a symmetric deflection w (per
     fan-0 vertex), solved on one fan (module doc): every face of an orbit adds the same, so fan 0's faces
     count n times, and each neck orbit by its size."""
@@ -311,12 +328,6 @@ def _membrane_energy(solid: NDArray[np.bool_], face: NDArray[np.int64], grad: ND
     CB = np.zeros((3, 6))
     idx = np.empty(12, dtype=np.int64)
     row = np.empty(12)
-    used = np.zeros(n, dtype=np.bool_)
-    for f in range(face.shape[0]):
-        if solid[f]:
-            for j in range(3):
-                used[2 * rep[face[f, j]]] = True
-                used[2 * rep[face[f, j]] + 1] = True
     for f in fan0_faces:
         if not solid[f]:
             continue
@@ -347,13 +358,11 @@ def _membrane_energy(solid: NDArray[np.bool_], face: NDArray[np.int64], grad: ND
             for a in range(6):
                 row[a], row[6 + a] = turn[f1, a], -turn[f2, a]
             _add_pair(K, idx, row, neck_weight[m] * NECK * edge2)
-    for v in range(n):
-        if not used[v]:
-            K[v, v] += 1.0
+    _unit_unused(solid, face, rep, K, 2)
     K[0, 0] += PENALTY  # the centre stays put in a symmetric field
     K[1, 1] += PENALTY
     K[2 * rep[outer0], 2 * rep[outer0]] += PENALTY  # no rigid turn: interface 0 does not slide along its edge
-    u = _dense_solve(K, f0)
+    u = _skyline_solve(K, mem_first, f0)
     energy = 0.0
     for f in fan0_faces:
         if not solid[f]:
@@ -375,45 +384,80 @@ def _membrane_energy(solid: NDArray[np.bool_], face: NDArray[np.int64], grad: ND
 
 
 @njit(cache=True)
+def _compact(solid: NDArray[np.bool_], face: NDArray[np.int64], hinge_faces: NDArray[np.int64],
+             hinge_vertices: NDArray[np.int64], neck_faces: NDArray[np.int64], neck_vertices: NDArray[np.int64],
+             index: NDArray[np.int64], first: NDArray[np.int64]) -> int:
+    """Number the vertices of solid faces 0, 1, … in row order (``index``, −1 for the others) and fill
+    ``first``, the skyline of their system; returns their count."""
+    nv = index.size
+    for v in range(nv):
+        index[v] = -1
+    for f in range(face.shape[0]):
+        if solid[f]:
+            for c in range(3):
+                index[face[f, c]] = 0
+    n = 0
+    for v in range(nv):
+        if index[v] == 0:
+            index[v] = n
+            first[n] = n
+            n += 1
+    for pairs, verts in ((hinge_faces, hinge_vertices), (neck_faces, neck_vertices)):
+        for h in range(pairs.shape[0]):
+            if solid[pairs[h, 0]] and solid[pairs[h, 1]]:
+                low = nv
+                for c in range(6):
+                    low = min(low, index[verts[h, c]])
+                for c in range(6):
+                    first[index[verts[h, c]]] = min(first[index[verts[h, c]]], low)
+    return n
+
+
+@njit(cache=True)
 def _one(solid: NDArray[np.bool_], ints: tuple[NDArray[np.int64], ...], reals: tuple[NDArray[np.float64], ...],
-         n_rep: int, edge2: float,
-         K: NDArray[np.float64], Kw: NDArray[np.float64], out: NDArray[np.float64]) -> None:
+         n_rep: int, edge2: float, K: NDArray[np.float64], Kw: NDArray[np.float64], out: NDArray[np.float64]) -> None:
     """The four features of one pattern (``solid`` per face) into ``out``; K, Kw: (nv, nv) work arrays."""
-    (face, hinge_faces, hinge_vertices, neck_faces, neck_vertices, iface, first, rep, fan0_faces, hinge_orbit,
-     neck_orbit, all_hinges, all_necks) = ints
+    (face, hinge_faces, hinge_vertices, neck_faces, neck_vertices, iface, _, rep, fan0_faces, hinge_orbit,
+     neck_orbit, all_hinges, all_necks, mem_first) = ints
     (grad, area, hinge_row, hinge_k, neck_rows, neck_k, moment, rows, turn, hinge_weight, neck_weight,
      ones_h, ones_n) = reals
     nv = K.shape[0]
     n = iface.shape[0]
-    ident = np.arange(nv)
-    for i in range(nv):
+    index = np.empty(nv, dtype=np.int64)
+    first = np.empty(nv, dtype=np.int64)
+    m = _compact(solid, face, hinge_faces, hinge_vertices, neck_faces, neck_vertices, index, first)
+    for i in range(m):
         for j in range(first[i], i + 1):
             K[i, j] = 0.0
-    _bending(solid, face, hinge_faces, hinge_vertices, hinge_row, hinge_k, neck_faces, neck_vertices, neck_rows,
-             neck_k, ident, all_hinges, ones_h, all_necks, ones_n, K)
+    _bending(solid, hinge_faces, hinge_vertices, hinge_row, hinge_k, neck_faces, neck_vertices, neck_rows, neck_k,
+             index, all_hinges, ones_h, all_necks, ones_n, K)
+    pinned = np.empty(4, dtype=np.int64)
     for scenario in range(2):
-        for i in range(nv):
+        for i in range(m):
             for j in range(first[i], i + 1):
                 Kw[i, j] = K[i, j]
-        f = np.zeros(nv)
+        f = np.zeros(m)
         if scenario == 0:  # cantilever: interface 0 clamped, the force on the opposite interface
-            _pin(Kw, iface[0], True)
-            f[iface[n // 2, 1]] = FORCE
+            for c in range(1, 4):
+                pinned[c] = index[iface[0, c]]
+            _pin(Kw, pinned, True)
+            f[index[iface[n // 2, 1]]] = FORCE
         else:  # cylinder: w = 0 along both, a moment on each
             for i in (0, n // 2):
-                _pin(Kw, iface[i], False)
+                for c in range(1, 4):
+                    pinned[c] = index[iface[i, c]]
+                _pin(Kw, pinned, False)
                 for c in range(3):
-                    f[face[iface[i, 0], c]] += CYLINDER * moment[i, c]
-        u = _skyline_solve(Kw, first, f)
+                    f[index[face[iface[i, 0], c]]] += CYLINDER * moment[i, c]
+        u = _skyline_solve(Kw[:m, :m], first[:m], f)
         out[scenario] = math.log(0.5 * (f @ u))
     # dome: symmetric under the polygon's rotations, solved on one fan's vertices (one pair of each orbit)
     Kd = np.zeros((n_rep, n_rep))
-    _bending(solid, face, hinge_faces, hinge_vertices, hinge_row, hinge_k, neck_faces, neck_vertices, neck_rows,
-             neck_k, rep, hinge_orbit, hinge_weight, neck_orbit, neck_weight, Kd)
+    _bending(solid, hinge_faces, hinge_vertices, hinge_row, hinge_k, neck_faces, neck_vertices, neck_rows, neck_k,
+             rep, hinge_orbit, hinge_weight, neck_orbit, neck_weight, Kd)
+    _unit_unused(solid, face, rep, Kd, 1)
     f = np.zeros(n_rep)
-    pinned = np.empty(4, dtype=np.int64)
     for i in range(n):
-        pinned[0] = iface[i, 0]
         for c in range(1, 4):
             pinned[c] = rep[iface[i, c]]
         _pin(Kd, pinned, False)
@@ -422,7 +466,8 @@ def _one(solid: NDArray[np.bool_], ints: tuple[NDArray[np.int64], ...], reals: t
     w = _dense_solve(Kd, f)
     out[2] = math.log(0.5 * (f @ w))
     out[3] = math.log(1.0 + _membrane_energy(solid, face, grad, area, rows, turn, fan0_faces, neck_faces,
-                                               neck_orbit, neck_weight, rep, n_rep, edge2, w, iface[0, 1], n))
+                                             neck_orbit, neck_weight, rep, n_rep, edge2, w, iface[0, 1], n,
+                                             mem_first))
 
 
 @njit(cache=True, parallel=True)
