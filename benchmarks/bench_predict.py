@@ -41,7 +41,7 @@ def cross_validation() -> None:
     print("|---|---:|---:|---:|---:|")
     for sides in (6, 5):
         ids, Y = R.training_arrays(fabpat.catalog(sides=sides))
-        oof = R.out_of_fold(R.cell_features(ids), Y[:, :3])
+        oof = R.out_of_fold(R.cell_features(ids, sides), Y[:, :3])
         resid = oof - np.log(Y[:, :3])
         for j, name in enumerate(ENERGIES):
             q = R.conformal_quantile(resid[0::2, j])

@@ -30,7 +30,7 @@ def main() -> None:
     a = ap.parse_args()
     rows = list(fabpat.catalog(sides=6)) + [r for r in fabpat.catalog(DEPTH3, sides=6) if r["depth"] == 3]
     ids, Y = R.training_arrays(rows)
-    X = R.cell_features(R.check_ids(ids, 6))
+    X = R.cell_features(R.check_ids(ids, 6), 6)
     depth = X[:, 75].astype(int)
     k = len(R.LEARNED)
     resid = R.out_of_fold(X, Y[:, :k]) - np.log(Y[:, :k])

@@ -32,6 +32,7 @@ computes rows.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -56,9 +57,13 @@ LEVEL = 0.90
 #: the depths a response reads (its features are drawn on the depth-3 lattice)
 DEPTHS = (2, 3)
 #: the layout of :func:`cell_features`; a stored model of another layout is refused
-FEATURES_VERSION = 2
+FEATURES_VERSION = 3
 #: columns of :func:`cell_features`
 N_FEATURES = 82
+#: the columns of :func:`cell_features` that the plate model fills (:mod:`fabpat.catalog.response_plate`)
+PHYSICS = (76, 77, 78, 79)
+#: a depth's own linear model on :data:`PHYSICS` needs this many rows of it (fewer: the pooled one)
+MIN_LINEAR_ROWS = 20
 FOLDS = 5
 #: boosting settings, measured on the hexagon catalog by 5-fold cross-validation (docs/learned-response.md)
 TREES, TREE_DEPTH, LEARNING_RATE, SUBSAMPLE = 300, 3, 0.05, 0.8
@@ -108,18 +113,25 @@ def _bits(ids: Sequence[str], depth: int) -> NDArray[np.bool_]:
     return ((nibble[:, :, None] >> shifts) & 1).astype(bool).reshape(len(ids), M)
 
 
-def cell_features(ids: Sequence[str]) -> NDArray[np.float64]:
-    """(k, 82) float features of valid pattern IDs of depth 2 or 3 (checked by :func:`check_ids`).
+def cell_features(ids: Sequence[str], sides: int = 6) -> NDArray[np.float64]:
+    """(k, 82) float features of valid pattern IDs of depth 2 or 3 (checked by :func:`check_ids`) on the
+    ``sides``-gon.
 
     Columns: the 64 depth-3 cells (1 solid), solid cells per row from the centre (8), solid pairs sharing
-    an edge, sharing only a vertex, solid cells, the depth; and 6 zero columns kept for later features."""
+    an edge, sharing only a vertex, solid cells, the depth; the plate model's log cantilever, cylinder and
+    dome compliances and log dome membrane energy (:data:`PHYSICS`,
+    :func:`~fabpat.catalog.response_plate.plate_features`, on the pattern's own lattice); 2 zero columns."""
+    from fabpat.catalog.response_plate import plate_features
+
     k = len(ids)
     X = np.zeros((k, N_FEATURES))
     depths = np.array([depth_of_id(i) for i in ids], dtype=np.int64)
     for d in DEPTHS:
         sel = np.nonzero(depths == d)[0]
         if sel.size:
-            X[sel, :64] = _bits([ids[int(s)] for s in sel], d)[:, _refinement(d)]
+            bits = _bits([ids[int(s)] for s in sel], d)
+            X[sel, :64] = bits[:, _refinement(d)]
+            X[np.ix_(sel, np.array(PHYSICS))] = plate_features(bits, sides, d)
     cells = X[:, :64]
     row = np.floor(np.sqrt(np.arange(64))).astype(np.int64)
     for r in range(8):
@@ -183,8 +195,11 @@ def check_ids(ids: Sequence[str], sides: int) -> list[str]:
 
 @dataclass(frozen=True, eq=False)
 class Trees:
-    """One boosted ensemble as arrays, padded to one node count: ``feature``, ``left``, ``right`` (T, n) int
-    (−1 at a leaf), ``threshold`` and ``value`` (T, n) float; ``init`` and ``rate`` its offset and step."""
+    """One target's model: a linear model per depth on the :data:`PHYSICS` columns plus boosted trees on what
+    it leaves. Trees as arrays padded to one node count: ``feature``, ``left``, ``right`` (T, n) int (−1 at a
+    leaf), ``threshold`` and ``value`` (T, n) float; ``init`` and ``rate`` their offset and step;
+    ``linear`` (len(DEPTHS), len(PHYSICS) + 1): per depth of :data:`DEPTHS`, the coefficients and the
+    intercept (zero: trees alone)."""
 
     feature: NDArray[np.int64]
     threshold: NDArray[np.float64]
@@ -193,6 +208,8 @@ class Trees:
     value: NDArray[np.float64]
     init: float
     rate: float
+    linear: NDArray[np.float64] = dataclasses.field(
+        default_factory=lambda: np.zeros((len(DEPTHS), len(PHYSICS) + 1)))
 
     def predict(self, X: NDArray[np.float64]) -> NDArray[np.float64]:
         """(k,) predictions for (k, f) features (:func:`~fabpat.catalog.response_kernels.walk_trees`)."""
@@ -200,7 +217,7 @@ class Trees:
 
         leaves = walk_trees(np.ascontiguousarray(X, dtype=np.float64), self.feature, self.threshold, self.left,
                             self.right, self.value)
-        return self.init + self.rate * leaves
+        return self.init + self.rate * leaves + _linear(self.linear, X)
 
 
 @dataclass(frozen=True, eq=False)
@@ -248,7 +265,7 @@ class Response:
         claim a coverage they do not have. With ``extrapolate`` such a depth gets the widest spread known.
         ``checked``: the IDs are :func:`check_ids`' answer already (not checked twice)."""
         ids = list(ids) if checked else check_ids(ids, self.sides)
-        X = cell_features(ids)
+        X = cell_features(ids, self.sides)
         depth = X[:, 75].astype(np.int64)
         unseen = sorted(set(depth.tolist()) - set(self.rows))
         if unseen and not extrapolate:
@@ -269,8 +286,35 @@ class Response:
         return Prediction(tuple(ids), self.sides, values, intervals)
 
 
-def _trees(model: GradientBoostingRegressor) -> Trees:
-    """A fitted GradientBoostingRegressor's trees as padded arrays."""
+def _linear(coef: NDArray[np.float64], X: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(k,) the per-depth linear part (:class:`Trees`' ``linear``) of (k, f) features."""
+    row = np.clip(X[:, 75].astype(np.int64) - DEPTHS[0], 0, len(DEPTHS) - 1)
+    c = coef[row]
+    return np.einsum("kj,kj->k", X[:, list(PHYSICS)], c[:, :-1]) + c[:, -1]
+
+
+def _fit_linear(X: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(len(DEPTHS), len(PHYSICS) + 1) least-squares fits of y on the :data:`PHYSICS` columns, one per depth
+    with at least :data:`MIN_LINEAR_ROWS` rows, the fit to every row for the others."""
+    A = np.column_stack([X[:, list(PHYSICS)], np.ones(len(X))])
+    pooled = np.linalg.lstsq(A, y, rcond=None)[0]
+    out = np.tile(pooled, (len(DEPTHS), 1))
+    for k, d in enumerate(DEPTHS):
+        sel = X[:, 75] == d
+        if sel.sum() >= MIN_LINEAR_ROWS:
+            out[k] = np.linalg.lstsq(A[sel], y[sel], rcond=None)[0]
+    return out
+
+
+def _fit_target(X: NDArray[np.float64], y: NDArray[np.float64], seed: int, trees: int) -> Trees:
+    """One target's :class:`Trees`: the linear model per depth, then the boosted trees on its residuals."""
+    coef = _fit_linear(X, y)
+    return _trees(_regressor(seed, trees).fit(X, y - _linear(coef, X)), coef)
+
+
+def _trees(model: GradientBoostingRegressor, linear: NDArray[np.float64] | None = None) -> Trees:
+    """A fitted GradientBoostingRegressor's trees as padded arrays (``linear``: :class:`Trees`' linear part,
+    default none)."""
     est = [e[0].tree_ for e in model.estimators_]
     n = max(t.node_count for t in est)
 
@@ -282,9 +326,10 @@ def _trees(model: GradientBoostingRegressor) -> Trees:
         return out
 
     init = float(np.ravel(model.init_.predict(np.zeros((1, model.n_features_in_))))[0])
+    coef = np.zeros((len(DEPTHS), len(PHYSICS) + 1)) if linear is None else np.asarray(linear, dtype=np.float64)
     return Trees(pad("feature", 0, np.int64), pad("threshold", 0.0, np.float64), pad("children_left", -1, np.int64),
                  pad("children_right", -1, np.int64), pad("value", 0.0, np.float64), init,
-                 float(model.learning_rate))
+                 float(model.learning_rate), coef)
 
 
 def _regressor(seed: int, trees: int = TREES) -> GradientBoostingRegressor:
@@ -324,8 +369,7 @@ def out_of_fold(X: NDArray[np.float64], Y: NDArray[np.float64], seed: int = 0, t
     pred = np.zeros_like(Y)
     for train, test in KFold(FOLDS, shuffle=True, random_state=seed).split(X):
         for j in range(Y.shape[1]):
-            m = _regressor(seed, trees).fit(X[train], np.log(Y[train, j]))
-            pred[test, j] = m.predict(X[test])
+            pred[test, j] = _fit_target(X[train], np.log(Y[train, j]), seed, trees).predict(X[test])
     return pred
 
 
@@ -341,12 +385,12 @@ def fit_response(rows: Sequence[Mapping[str, object]], sides: int, version: str,
         raise CatalogError(f"a learned response needs at least 20 simulated patterns of the {sides}-gon, "
                            f"the catalog has {len(ids)} (run fabpat sweep first)")
     ids = check_ids(ids, sides)
-    X = cell_features(ids)
+    X = cell_features(ids, sides)
     depth = X[:, 75].astype(np.int64)
     resid = out_of_fold(X, Y[:, : len(LEARNED)], seed, trees) - np.log(Y[:, : len(LEARNED)])
     models, spread = {}, {}
     for j, t in enumerate(LEARNED):
-        models[t] = _trees(_regressor(seed, trees).fit(X, np.log(Y[:, j])))
+        models[t] = _fit_target(X, np.log(Y[:, j]), seed, trees)
         spread[t] = {int(d): conformal_quantile(resid[depth == d, j]) for d in np.unique(depth)}
     counts = {int(d): int((depth == d).sum()) for d in np.unique(depth)}
     return Response(sides, models, spread, version, counts, frozenset(ids))

@@ -25,6 +25,7 @@ from fabpat.catalog.response import (
     LEARNED,
     LEVEL,
     N_FEATURES,
+    PHYSICS,
     TREE_ARRAYS,
     Prediction,
     Response,
@@ -69,6 +70,7 @@ def save_responses(responses: Sequence[Response], path: str | Path) -> Path:
             m = r.models[t]
             for field in TREE_ARRAYS:
                 arrays[f"{r.sides}/{t}/{field}"] = getattr(m, field)
+            arrays[f"{r.sides}/{t}/linear"] = m.linear
         arrays[f"{r.sides}/ids"] = np.array(sorted(r.ids), dtype="<U16")
     arrays["meta"] = np.array(json.dumps(meta))
     path = Path(path)
@@ -85,7 +87,12 @@ MAX_RESPONSE_BYTES = 64 * 2**20
 
 def _checked_trees(path: Path, where: str, arrays: dict[str, NDArray], init: float, rate: float) -> Trees:
     """A :class:`Trees` from stored arrays, or CatalogError: the dtypes and shapes a walk relies on, feature
-    indices in range, children after their parent (so every walk ends: sklearn numbers nodes depth first)."""
+    indices in range, children after their parent (so every walk ends: sklearn numbers nodes depth first),
+    a finite linear part of the right shape."""
+    linear = arrays["linear"]
+    if linear.dtype != np.float64 or linear.shape != (len(DEPTHS), len(PHYSICS) + 1) or not np.isfinite(linear).all():
+        raise CatalogError(f"{path}: {where} linear part is not a finite ({len(DEPTHS)}, {len(PHYSICS) + 1}) float64 "
+                           "array")
     want = {"feature": np.int64, "left": np.int64, "right": np.int64, "threshold": np.float64, "value": np.float64}
     for name, dtype in want.items():
         a = arrays[name]
@@ -103,7 +110,7 @@ def _checked_trees(path: Path, where: str, arrays: dict[str, NDArray], init: flo
     if not (np.isfinite(arrays["threshold"]).all() and np.isfinite(arrays["value"]).all() and math.isfinite(init)
             and math.isfinite(rate)):
         raise CatalogError(f"{path}: {where} holds a value that is not finite")
-    return Trees(feature, arrays["threshold"], left, right, arrays["value"], init, rate)
+    return Trees(feature, arrays["threshold"], left, right, arrays["value"], init, rate, linear)
 
 
 def _responses_from(path: Path, z: Mapping[str, NDArray]) -> dict[int, Response]:
@@ -116,7 +123,7 @@ def _responses_from(path: Path, z: Mapping[str, NDArray]) -> dict[int, Response]
     for e in meta["responses"]:
         s = int(e["sides"])
         models = {t: _checked_trees(path, f"the {s}-gon's {t}",
-                                    {f: np.asarray(z[f"{s}/{t}/{f}"]) for f in TREE_ARRAYS},
+                                    {f: np.asarray(z[f"{s}/{t}/{f}"]) for f in (*TREE_ARRAYS, "linear")},
                                     float(e["init"][t]), float(e["rate"][t])) for t in LEARNED}
         spread = {t: {int(d): float(q) for d, q in e["spread"][t].items()} for t in LEARNED}
         if any(not spread[t] or not all(math.isfinite(q) and q >= 0 for q in spread[t].values()) for t in LEARNED):
