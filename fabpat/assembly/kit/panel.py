@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.assembly.place.panel import Panel, build_panel
-from fabpat.assembly.spec.sheet import DEFAULT_RESOLUTION, grown_hull, quarter_turn
+from fabpat.assembly.spec.sheet import DEFAULT_RESOLUTION, grown_hull, quarter_turn, sheet_of
 from fabpat.errors import ExportError
 
 #: relative difference allowed between the fused solid's volume and the plates' volumes summed: both are
@@ -85,7 +85,7 @@ def sheet_document(panel: Panel, nesting: Any, quarter: bool) -> Any:
     from fabpat.exchange.labels import label_at
 
     spec = panel.spec
-    s = spec.sheet
+    s = sheet_of(spec)
     doc = ezdxf.new("R2010", units=ezdxf.units.MM)
     doc.layers.add(CUT_LAYER, color=CUT_COLOR)
     doc.layers.add(ENGRAVE_LAYER, color=ENGRAVE_COLOR)
@@ -215,7 +215,7 @@ def write_panel_files(panel: Panel, nesting: Any, quarter: bool, report: PanelRe
     part = panel.part
     # the part files hold the part as designed (no kerf): the sheet's loops are the cut path, out by kerf/2
     settings = ExportSettings(mesh_tolerance=spec.mesh_tolerance, curve_tolerance=spec.curve_tolerance,
-                              timestamp=timestamp, dxf_entities=spec.sheet.dxf_entities)
+                              timestamp=timestamp, dxf_entities=sheet_of(spec).dxf_entities)
     files: list[str] = []
     for name, (file,) in PANEL_FILES.items():
         if name in f and name != "dxf":
@@ -323,7 +323,7 @@ def print_bed_report(spec: Any, size: tuple[float, float]) -> tuple[list[str], l
     warning when the part fits :data:`COMMON_PRINT_BED` neither way round."""
     if spec.plates.process != "print":
         return [], []
-    s = spec.sheet
+    s = sheet_of(spec)
     w, h = size
     line = (f"printed part {w:.1f} × {h:.1f} mm: on the print bed of [sheet], {s.width:g} × {s.height:g} mm "
             f"(sheet.margin = {s.margin:g} mm)")
@@ -341,7 +341,7 @@ def nest_panel(spec: Any) -> tuple[Any, bool]:
     whether it was turned by 90° first (when only that way fits)."""
     from fabpat.assembly.place.nesting import nest
 
-    s = spec.sheet
+    s = sheet_of(spec)
     room = np.array([s.width, s.height]) - 2 * s.margin - DEFAULT_RESOLUTION
     P = grown_hull(spec)
     quarter = not (np.ptp(P, axis=0) <= room + 1e-9).all()

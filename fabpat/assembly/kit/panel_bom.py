@@ -11,6 +11,7 @@ from typing import Any
 
 from fabpat.assembly.kit.bom import BomRow, bom_csv, energy_source
 from fabpat.assembly.place.panel import Panel
+from fabpat.assembly.spec.sheet import sheet_of
 
 
 def bom_rows(panel: Panel, nesting: Any, files: list[str]) -> list[BomRow]:
@@ -30,7 +31,7 @@ def bom_rows(panel: Panel, nesting: Any, files: list[str]) -> list[BomRow]:
     rows = [BomRow(panel.name, "panel", spec.plates.process, 1, want if want in files else "", area, vol, mass, mass,
                    cut, seconds / 60.0, ids, chosen_by(spec))]
     if nesting is not None:
-        s = spec.sheet
+        s = sheet_of(spec)
         what = "laser sheet" if laser else "print bed"
         # the sheet's file only when the kit wrote it (``dxf`` in output.formats); the plan is the same without
         rows.append(BomRow(f"{what} {s.width:g} × {s.height:g} mm", "sheet", spec.plates.process, nesting.n_sheets,

@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -34,6 +35,9 @@ from fabpat.assembly.place.placement import Assembly, PlacedSleeve, setback
 from fabpat.assembly.surface.joints import joint_direction, joint_normal
 from fabpat.errors import GeometryError
 from fabpat.validate import SAME_POINT
+
+if TYPE_CHECKING:
+    import manifold3d
 
 OVERLAP_VOLUME = 1e-6  # mm³: intersections below this are rounding, not material
 GAP_SEARCH = 1.0  # mm: how far manifold3d looks for the smallest gap between a plate and a sleeve
@@ -288,7 +292,7 @@ def interface_midpoints(lib: PartLibrary) -> tuple[float, float]:
     return worst, shallow
 
 
-def _manifold(V: NDArray[np.float64], F: NDArray[np.int64]):  # type: ignore[no-untyped-def]
+def _manifold(V: NDArray[np.float64], F: NDArray[np.int64]) -> manifold3d.Manifold:
     import manifold3d
 
     m = manifold3d.Manifold(manifold3d.Mesh64(vert_properties=np.ascontiguousarray(V, dtype=np.float64),
