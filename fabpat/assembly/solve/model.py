@@ -39,8 +39,9 @@ from fabpat.shell.rotations import logmap
 from fabpat.simulation.mesh import ShellMesh
 
 if TYPE_CHECKING:  # pragma: no cover
-    from fabpat.assembly.place.placement import Assembly
+    from fabpat.assembly.place.placement import Assembly, PlateType
     from fabpat.assembly.spec.types import AssemblySpec
+    from fabpat.geometry.fillet import FilletedPattern
 
 Arr = NDArray[np.float64]
 
@@ -187,7 +188,7 @@ def check_h(h: float, plate_edge: float, weight: float) -> None:
 
 
 def model_plates(asm: Assembly, h: float, thickness: float, weight: float,
-                 filleted: dict[Any, Any] | None = None) -> list[ModelPlate]:
+                 filleted: dict[PlateType, FilletedPattern] | None = None) -> list[ModelPlate]:
     """The placed plates of a kit's Assembly as model plates: each type meshed once (target edge h, mm),
     its mid-surface placed at half the thickness (mm) of the solid the placement maps. ``filleted``:
     the kit's FilletedPattern per plate type, meshed instead of filleting the type again (the same
@@ -195,7 +196,7 @@ def model_plates(asm: Assembly, h: float, thickness: float, weight: float,
     from fabpat.simulation.mesh import mesh_outline
 
     plates = []
-    own: dict[Any, Any] = {}
+    own: dict[PlateType, ShellMesh] = {}
     for pl in asm.plates:
         if filleted is not None and pl.type in filleted:
             if pl.type not in own:
