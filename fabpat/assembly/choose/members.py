@@ -86,7 +86,7 @@ def member_rows(db: str | Path | None, sides: int, ids: Iterable[str], *, min_wi
     with open_catalog(db) as cat:
         setup = _setup(cat, sides, asked)
         rows = cat.family(None, sides=sides, **setup)
-        paper = {str(r["id"]): r for r in cat.pattern_rows(sides=sides, **setup)} if rows else {}
+        paper = {str(r["id"]): r for r in cat.pattern_rows(pictures=False, sides=sides, **setup)} if rows else {}
         source = "the built-in catalog" if db is None else str(cat.path)
     if not rows:
         return [], (f"{source} has no family rows for {sides}-sided plates (`fabpat sweep --sides {sides} --family` "

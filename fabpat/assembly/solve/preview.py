@@ -145,9 +145,10 @@ def predicted_shape(run: StripRun | ClosureRun, assembly: Assembly) -> Predicted
     sleeves = tuple((s.label, ps.kind, T) for s, ps, T in zip(m.sleeves, assembly.sleeves, sleeve_poses(run),
                                                               strict=True))
     tube = getattr(run, "cylinder_radius", None) is not None  # its cylinder, never a sphere
-    closed = [None if tube else getattr(run, k, None) for k in ("radius", "sphericity_rms", "sphericity_max")]
-    return PredictedShape(tuple(plates), sleeves, float(m.material.t), (0.0, hi),
-                          *(None if v is None else float(v) for v in closed), hasattr(run, "sphere_note"),
+    radius, rms, worst = (None if tube or getattr(run, k, None) is None else float(getattr(run, k))
+                          for k in ("radius", "sphericity_rms", "sphericity_max"))
+    return PredictedShape(tuple(plates), sleeves, float(m.material.t), (0.0, hi), radius, rms, worst,
+                          hasattr(run, "sphere_note"),
                           getattr(run, "cylinder_radius", None), getattr(run, "cylindricity_rms", None))
 
 
