@@ -10,12 +10,16 @@ lives here and nobody reaches into another front door for it.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
-from typing import Any
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING
 
 from fabpat.assembly.place.placement import build_tiling
 from fabpat.assembly.spec.load import POLYGON_KEYS, AssemblySpec
 from fabpat.errors import FabpatError, SpecError
+
+if TYPE_CHECKING:
+    from fabpat.assembly.choose.rules import MemberCurve
+    from fabpat.catalog.family import FamilyCurve
 
 
 def _energies(spec: AssemblySpec, sides: int) -> dict[str, float]:
@@ -129,7 +133,7 @@ def face_patterns(spec: AssemblySpec, energies: Callable[[int], dict[str, float]
     return out
 
 
-def _family_curves(spec: AssemblySpec, sides: int) -> dict[str, Any]:
+def _family_curves(spec: AssemblySpec, sides: int) -> dict[str, FamilyCurve]:
     """Every pattern's family curve in the spec's scenario (:func:`fabpat.catalog.family.family_curves`) at the
     spec's plate set-up, else the catalog's default one (a pattern without family rows: a one-member
     curve, the paper's). Raises SpecError when the catalog holds neither set-up."""
@@ -140,7 +144,8 @@ def _family_curves(spec: AssemblySpec, sides: int) -> dict[str, Any]:
     problem: FabpatError | None = None
     for setup in ({"edge": spec.tiling.edge, "thickness": pl.thickness, "weight": pl.weight}, CATALOG_SETUP):
         try:
-            return family_curves(p.scenario, sides=sides, db=p.catalog, **setup)  # type: ignore[arg-type]
+            return family_curves(p.scenario, sides=sides, db=p.catalog, edge=setup["edge"],
+                                 thickness=setup["thickness"], weight=setup["weight"])
         except FabpatError as e:
             problem = e
     raise SpecError(f"{spec.source}: patterns.bridge_weight = \"rule\" needs the catalog's {p.scenario} energies: "
@@ -148,7 +153,7 @@ def _family_curves(spec: AssemblySpec, sides: int) -> dict[str, Any]:
 
 
 def with_members(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | None = None,
-                 curves: Callable[[int], dict[str, Any]] | None = None) -> AssemblySpec:
+                 curves: Callable[[int], Mapping[str, MemberCurve]] | None = None) -> AssemblySpec:
     """The spec with ``bridge_weight = "rule"`` resolved into every face's pattern and family member; any
     other spec unchanged (:mod:`fabpat.assembly.choose.rules`):
 

@@ -23,10 +23,14 @@ import dataclasses
 import math
 from collections.abc import Iterable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from fabpat.catalog import DEFAULT_SETUP, Catalog, open_catalog
+from fabpat.errors import CatalogError
 from fabpat.patterns.variation import Variation
+
+if TYPE_CHECKING:
+    from fabpat.assembly.spec.types import AssemblySpec
 
 #: the scenarios a member row carries (the catalog's)
 SCENARIOS = ("cantilever", "cylinder", "dome")
@@ -82,14 +86,17 @@ def member_rows(db: str | Path | None, sides: int, ids: Iterable[str], *, min_wi
     with open_catalog(db) as cat:
         setup = _setup(cat, sides, asked)
         rows = cat.family(None, sides=sides, **setup)
-        paper = {str(r["id"]): r for r in cat.pattern_rows(sides=sides, **setup)} if rows else {}
+        paper = {str(r["id"]): r for r in cat.pattern_rows(pictures=False, sides=sides, **setup)} if rows else {}
         source = "the built-in catalog" if db is None else str(cat.path)
     if not rows:
         return [], (f"{source} has no family rows for {sides}-sided plates (`fabpat sweep --sides {sides} --family` "
                     f"adds them): their candidates are the paper's members only")
     out: dict[tuple[str, float], dict[str, Any]] = {}
     for r in rows:
-        pid, w = str(r["id"]), float(r["bridge_weight"])  # type: ignore[arg-type]
+        pid, bw = str(r["id"]), r["bridge_weight"]
+        if isinstance(bw, bool) or not isinstance(bw, int | float):
+            raise CatalogError(f"{source}: the family row of {pid} has bridge_weight = {bw!r}, not a number")
+        w = float(bw)
         if pid not in keep or w == 1.0:
             continue
         row = out.setdefault((pid, w), {"id": member_token(pid, w), "pattern": pid, "sides": sides,
@@ -104,10 +111,10 @@ def member_rows(db: str | Path | None, sides: int, ids: Iterable[str], *, min_wi
     return sorted(found, key=lambda r: (r["pattern"], r["bridge_weight"])), None
 
 
-def _ratio(area: Any, paper: dict[str, Any] | None) -> float | None:
+def _ratio(area: float | None, paper: dict[str, object] | None) -> float | None:
     """4π·area / P² with P the paper member's filleted perimeter (mm); None if either is unknown."""
     p = None if paper is None else paper.get("filleted_perimeter")
-    if area is None or not p:
+    if area is None or not isinstance(p, int | float) or not p:
         return None
     return 4.0 * math.pi * float(area) / float(p) ** 2
 
@@ -118,7 +125,7 @@ def member_energies(rows: Sequence[dict[str, Any]], scenario: str) -> dict[str, 
             if r.get(f"converged_{scenario}") and r.get(f"energy_{scenario}")}
 
 
-def with_candidates(spec: Any, candidates: Sequence[str]) -> tuple[Any, list[str]]:
+def with_candidates(spec: AssemblySpec, candidates: Sequence[str]) -> tuple[AssemblySpec, list[str]]:
     """The spec whose plates are the family members the candidate names say (one per face, in face order;
     :func:`split_member`) and the plain pattern IDs per face; the spec itself when every name is a
     paper's member."""

@@ -12,9 +12,10 @@ or polygon the catalog does not hold has ``null`` energies.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
 
+from fabpat.assembly.place.placement import PlateType
 from fabpat.assembly.spec.load import POLYGON_KEYS, SCENARIOS, AssemblySpec
 from fabpat.errors import FabpatError
 
@@ -41,7 +42,7 @@ class PatternRecord:
     note: str = ""
     bridge_weight: float = 1.0
 
-    def as_dict(self) -> dict[str, Any]:
+    def as_dict(self) -> dict[str, object]:
         """The manifest's record (plain JSON types)."""
         return {"part": self.part, "pattern": self.pattern, "sides": self.sides, "bridge_weight": self.bridge_weight,
                 "chosen_by": self.chosen_by,
@@ -80,7 +81,7 @@ def _lookup(spec: AssemblySpec, sides: int, depth: int) -> tuple[dict[str, dict[
     return {}, None, f"the catalog has no energies for {sides}-gons at depth {depth}"
 
 
-def _member_energies(spec: AssemblySpec, pt: Any, setup: dict[str, float]) -> tuple[dict[str, float | None], str]:
+def _member_energies(spec: AssemblySpec, pt: PlateType, setup: dict[str, float]) -> tuple[dict[str, float | None], str]:
     """A family member's energies interpolated from the catalog's family rows (:mod:`fabpat.catalog.family`),
     None where its curve does not reach the member, with a note saying so."""
     from fabpat.catalog.family import family_curves
@@ -108,7 +109,7 @@ def _member_energies(spec: AssemblySpec, pt: Any, setup: dict[str, float]) -> tu
     return out, note
 
 
-def pattern_records(spec: AssemblySpec, plate_types: list[Any]) -> list[PatternRecord]:
+def pattern_records(spec: AssemblySpec, plate_types: Sequence[PlateType]) -> list[PatternRecord]:
     """One :class:`PatternRecord` per distinct plate type (a :class:`~fabpat.assembly.place.placement.PlateType`,
     in the order given); never raises for a catalog that cannot be read (the note says so)."""
     name = spec.patterns.catalog or "built-in"

@@ -25,12 +25,27 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import Any
+from typing import Protocol
 
 import numpy as np
 
 from fabpat.assembly.choose.members import pattern_of
 from fabpat.errors import SpecError
+
+
+class MemberCurve(Protocol):
+    """What the rules read of a pattern's family curve (:class:`fabpat.catalog.family.FamilyCurve`, or a test's)."""
+
+    @property
+    def range(self) -> tuple[float, float]:
+        """(lowest, highest) bridge_weight the curve reaches."""
+
+    def energy(self, bridge_weight: float) -> float:
+        """The energy (N·mm) of the member ``bridge_weight``."""
+
+    def members_for(self, energy: float) -> list[float]:
+        """The members (bridge_weight) whose energy is ``energy`` (N·mm)."""
+
 
 TRIM = 0.05  # fraction of the catalog ignored at each end: extreme energies are near-mechanisms or outliers
 MIN_SEPARATION = 1.25  # smallest energy ratio between consecutive graded patterns called "well separated"
@@ -109,7 +124,7 @@ def graded_targets(energies: Mapping[str, float], count: int, trim: float = TRIM
     return [float(np.exp(t)) for t in np.linspace(logs[0], logs[-1], count)]
 
 
-def nearest_member(curve: Any, target: float) -> float:
+def nearest_member(curve: MemberCurve, target: float) -> float:
     """The family member (bridge_weight) of ``curve`` whose energy is nearest ``target`` (N·mm): among
     those that hit it exactly, the one closest to the paper's 1 (smallest |ln w|); if the curve does not
     reach it, the end of its range nearer in energy. ``curve``: see the module notes."""
@@ -120,7 +135,7 @@ def nearest_member(curve: Any, target: float) -> float:
     return float(min((lo, hi), key=lambda w: abs(math.log(curve.energy(w) / target))))
 
 
-def graded_members(energies: Mapping[str, float], curves: Mapping[str, Any], count: int,
+def graded_members(energies: Mapping[str, float], curves: Mapping[str, MemberCurve], count: int,
                    trim: float = TRIM) -> list[tuple[str, float]]:
     """``count`` (pattern ID, bridge_weight) pairs, stiff → soft, whose family energies are the targets of
     :func:`graded_targets` exactly where a family reaches them: for each target in turn, the unused

@@ -33,7 +33,7 @@ import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from fabpat.assembly.choose.choice import candidate_pairs, face_patterns, with_members
 from fabpat.assembly.choose.provenance import pattern_records
@@ -66,13 +66,22 @@ from fabpat.assembly.spec.load import AssemblySpec, load_spec
 from fabpat.errors import ExportError, SpecError
 from fabpat.geometry.fillet import interface_half_length
 
+if TYPE_CHECKING:
+    from fabpat.assembly.choose.provenance import PatternRecord
+    from fabpat.assembly.kit.net import Net
+    from fabpat.assembly.place.checks import CheckReport
+    from fabpat.assembly.place.nesting import Nesting
+    from fabpat.assembly.place.parts import PartLibrary
+    from fabpat.assembly.solve.closure import ClosureRun
+    from fabpat.geometry.fillet import FilletedPattern
+
 NOT_NEEDED = "not needed: the sleeves are at the dihedral angles (the plates stay flat)"
 SKIPPED = "skipped (--no-predict)"
 
 
 def plan(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | None = None,
          progress: Callable[[str], None] | None = None,
-         ids: list[str] | None = None) -> tuple[Assembly, dict[PlateType, Any]]:
+         ids: list[str] | None = None) -> tuple[Assembly, dict[PlateType, FilletedPattern]]:
     """The placed assembly and the filleted outline of each distinct plate; no B-rep, no files.
 
     ``ids``: the face pattern IDs, if already chosen (else :func:`face_patterns`, progress step
@@ -247,17 +256,17 @@ class _Kit:
     """Everything :func:`assemble` builds and checks before the first file is written."""
 
     spec: AssemblySpec
-    assembly: Any
-    lib: Any
-    nesting: Any
-    net: Any
-    report: Any
+    assembly: Assembly
+    lib: PartLibrary
+    nesting: Nesting | None  # None: no format needs the sheets
+    net: Net | None  # None: no svg
+    report: CheckReport
     check_lines: list[str]
     first_note: int  # the check lines from here on are told on the terminal too
     problems: list[str]
     prediction: Prediction | None
     status: str
-    records: list[Any]
+    records: list[PatternRecord]
     tried: list[dict[str, Any]] | None
 
 
@@ -271,7 +280,10 @@ def _build(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | Non
 
     f = spec.formats
     spec = with_members(spec, energies)  # bridge_weight = "rule": every face's family member, once
-    ids, chosen, tried, chose = None, None, None, []
+    ids: list[str] | None = None
+    chosen: tuple[ClosureRun, float] | None = None
+    tried: list[dict[str, Any]] | None = None
+    chose: list[str] = []
     if spec.patterns.rule == "roundest":  # its pair, and with bridge_weight = "rule" their members, in the spec
         spec, ids, chosen, tried, chose = _roundest(spec, energies, tell, predict, predict_h, force, predict_progress)
     assembly, filleted = plan(spec, energies, tell, ids)
@@ -346,9 +358,9 @@ def prediction_notes(prediction: Prediction) -> list[str]:
     """The check lines of a kit's prediction: its shape (a closure's radius and sphericity, a strip's arch),
     peak strain and largest sleeve moment, then how well the printed sleeves grip the deformed plates."""
     run, h, fit = prediction.run, prediction.h, prediction.fit
-    if hasattr(run, "sphere_note"):  # a ClosureRun: a sphere's radius, a tube's cylinder or why neither
-        from fabpat.assembly.solve.closure import sphere_text
+    from fabpat.assembly.solve.closure import ClosureRun, sphere_text
 
+    if isinstance(run, ClosureRun):  # a sphere's radius, a tube's cylinder or why neither
         shape = sphere_text(run)
     else:
         shape = (f"pushed together by {100 * run.end_shortening:g} % of its length: arch {run.max_deflection:.1f} mm "
@@ -362,7 +374,7 @@ def prediction_notes(prediction: Prediction) -> list[str]:
 
 def _roundest(spec: AssemblySpec, energies: Callable[[int], dict[str, float]] | None, tell: Callable[[str], None],
               predict: bool, h: float, force: bool, progress: Callable[[float], None] | None
-              ) -> tuple[AssemblySpec, list[str], tuple[Any, float], list[dict[str, Any]], list[str]]:
+              ) -> tuple[AssemblySpec, list[str], tuple[ClosureRun, float], list[dict[str, Any]], list[str]]:
     """``rule = "roundest"``: the candidates' closures (:func:`fabpat.assembly.solve.predict.choose_roundest`);
     returns the spec with the chosen pair's members (:func:`fabpat.assembly.choose.members.with_candidates`), the chosen
     face IDs, (its ClosureRun, seconds), the pairs tried, and the check lines: the pair kept and what the

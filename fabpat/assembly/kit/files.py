@@ -19,12 +19,20 @@ import json
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
 
 from fabpat.assembly.choose.provenance import PatternRecord
 from fabpat.assembly.place.placement import Assembly
 from fabpat.assembly.solve.predict import Prediction
 from fabpat.assembly.spec.load import AssemblySpec
+
+if TYPE_CHECKING:
+    from fabpat.assembly.kit.net import Net
+    from fabpat.assembly.place.nesting import Nesting
+    from fabpat.assembly.place.parts import PartLibrary
 
 PREDICTION = "prediction.json"
 #: the fields of a record that are measured durations (s), left out of a kit written with a time stamp
@@ -48,9 +56,9 @@ class KitOutput:
     (``stl_files`` {part key: path}, ``sheet_files``)."""
 
     spec: AssemblySpec
-    lib: Any
-    nesting: Any
-    net: Any
+    lib: PartLibrary
+    nesting: Nesting | None  # None: no format needs the sheets
+    net: Net | None  # None: no svg
     check_lines: list[str]
     timestamp: str | None
     bent_sleeves: bool
@@ -66,7 +74,7 @@ class KitOutput:
         return not self.bent_sleeves or self.prediction is not None
 
     @property
-    def layout(self) -> Any:
+    def layout(self) -> list[tuple[str, str, NDArray[np.float64]]] | None:
         """With bent sleeves, the distinct flat parts side by side (``parts.step``, ``parts.3dm``)."""
         from fabpat.assembly.show.export import flat_layout
 
@@ -127,6 +135,7 @@ def _3dm(k: KitOutput, tmp: Path) -> list[str]:
 def _sheets(k: KitOutput, tmp: Path) -> list[str]:
     from fabpat.assembly.kit.sheets import write_sheets
 
+    assert k.nesting is not None  # nested whenever dxf is asked for (fabpat.assembly.kit.build)
     (tmp / "sheets").mkdir()
     names = write_sheets(k.lib.assembly, k.nesting, tmp / "sheets", k.lib.filleted, k.timestamp)
     k.sheet_files = [f"sheets/{n}" for n in names]
@@ -137,6 +146,7 @@ def _net(k: KitOutput, tmp: Path) -> list[str]:
     from fabpat.assembly.kit.net import net_svg
     from fabpat.assembly.show.export import colours
 
+    assert k.net is not None  # unfolded whenever svg is asked for (fabpat.assembly.kit.build)
     asm: Assembly = k.lib.assembly
     cols = colours(k.lib)
     svg = net_svg(k.net, [p.label for p in asm.plates], [p.edge_labels for p in asm.plates],

@@ -47,7 +47,8 @@ def digests(folder: Path, files: list[str]) -> dict[str, str]:
 
 def _entries(folder: Path) -> tuple[list[str], list[str]]:
     """(regular files, anything else) under ``folder``, as paths relative to it; links are never followed."""
-    files, other = [], []
+    files: list[str] = []
+    other: list[str] = []
     for root, dirs, names in os.walk(folder, followlinks=False):
         base = Path(root)
         for d in list(dirs):

@@ -24,14 +24,21 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.assembly.place.panel import Panel, build_panel
-from fabpat.assembly.spec.sheet import DEFAULT_RESOLUTION, grown_hull, quarter_turn
+from fabpat.assembly.spec.sheet import DEFAULT_RESOLUTION, grown_hull, quarter_turn, sheet_of
 from fabpat.errors import ExportError
+
+if TYPE_CHECKING:
+    from ezdxf.document import Drawing
+
+    from fabpat.assembly.kit.result import AssembleResult
+    from fabpat.assembly.place.nesting import Nesting
+    from fabpat.assembly.spec.types import AssemblySpec
 
 #: relative difference allowed between the fused solid's volume and the plates' volumes summed: both are
 #: exact (adaptive Gauss–Kronrod at 1e-10, :func:`fabpat.exchange.cad.volume`); measured 4e-16 on a 3 × 4 panel
@@ -72,7 +79,7 @@ class PanelReport:
                 *self.bed]
 
 
-def sheet_document(panel: Panel, nesting: Any, quarter: bool) -> Any:
+def sheet_document(panel: Panel, nesting: Nesting, quarter: bool) -> Drawing:
     """The ezdxf drawing of the panel's sheet (mm): the fused outline's loops on CUT (bulge arcs within
     ``output.curve_tolerance``, moved out by kerf/2), each tile's label on ENGRAVE in the solid sub-triangle at
     its polygon edge 0 (:func:`fabpat.assembly.kit.sheets.edge_label_spots`), the bed on SHEET (unless
@@ -85,7 +92,7 @@ def sheet_document(panel: Panel, nesting: Any, quarter: bool) -> Any:
     from fabpat.exchange.labels import label_at
 
     spec = panel.spec
-    s = spec.sheet
+    s = sheet_of(spec)
     doc = ezdxf.new("R2010", units=ezdxf.units.MM)
     doc.layers.add(CUT_LAYER, color=CUT_COLOR)
     doc.layers.add(ENGRAVE_LAYER, color=ENGRAVE_COLOR)
@@ -144,8 +151,8 @@ def check_panel_part(panel: Panel) -> tuple[float, float]:
     return v, plates
 
 
-def assemble_panel(spec: Any, out: Path, tell: Callable[[str], None], timestamp: str | None,
-                   energies: Callable[[int], dict[str, float]] | None = None, force: bool = False) -> Any:
+def assemble_panel(spec: AssemblySpec, out: Path, tell: Callable[[str], None], timestamp: str | None,
+                   energies: Callable[[int], dict[str, float]] | None = None, force: bool = False) -> AssembleResult:
     """:func:`fabpat.assembly.kit.build.assemble` for ``tiling.kind = "panel"`` (arguments checked there): see the
     module
     docstring. Raises SpecError, ExportError (plates too narrow for the process without ``force``; a fused part
@@ -196,7 +203,7 @@ def assemble_panel(spec: Any, out: Path, tell: Callable[[str], None], timestamp:
 PANEL_STEPS = ("patterns", "fusing", "nesting", "checks")
 
 
-def panel_steps(spec: Any) -> list[str]:
+def panel_steps(spec: AssemblySpec) -> list[str]:
     """The progress steps of :func:`assemble_panel` for ``spec``'s formats, in order."""
     f = spec.formats
     return [*PANEL_STEPS, *(name.upper() for name in PANEL_FILES if name in f and name != "dxf"),
@@ -204,7 +211,7 @@ def panel_steps(spec: Any) -> list[str]:
             *(["BOM"] if "bom" in f else [])]
 
 
-def write_panel_files(panel: Panel, nesting: Any, quarter: bool, report: PanelReport, tmp: Path,
+def write_panel_files(panel: Panel, nesting: Nesting, quarter: bool, report: PanelReport, tmp: Path,
                       tell: Callable[[str], None], timestamp: str | None) -> list[str]:
     """Write the panel kit's files into ``tmp`` (see the module docstring); returns them relative to it. With
     ``timestamp`` (ISO 8601, checked) every file is byte-reproducible: the same panel gives the same bytes."""
@@ -215,7 +222,7 @@ def write_panel_files(panel: Panel, nesting: Any, quarter: bool, report: PanelRe
     part = panel.part
     # the part files hold the part as designed (no kerf): the sheet's loops are the cut path, out by kerf/2
     settings = ExportSettings(mesh_tolerance=spec.mesh_tolerance, curve_tolerance=spec.curve_tolerance,
-                              timestamp=timestamp, dxf_entities=spec.sheet.dxf_entities)
+                              timestamp=timestamp, dxf_entities=sheet_of(spec).dxf_entities)
     files: list[str] = []
     for name, (file,) in PANEL_FILES.items():
         if name in f and name != "dxf":
@@ -317,13 +324,13 @@ def render_png(panel: Panel, path: Path) -> None:
 COMMON_PRINT_BED = (200.0, 200.0)
 
 
-def print_bed_report(spec: Any, size: tuple[float, float]) -> tuple[list[str], list[str]]:
+def print_bed_report(spec: AssemblySpec, size: tuple[float, float]) -> tuple[list[str], list[str]]:
     """For a printed panel (``plates.process = "print"``; else nothing) of footprint ``size`` (width, height) mm:
     the kit's check line (the part on the ``[sheet]`` bed, which the spec's check already holds it to) and a
     warning when the part fits :data:`COMMON_PRINT_BED` neither way round."""
     if spec.plates.process != "print":
         return [], []
-    s = spec.sheet
+    s = sheet_of(spec)
     w, h = size
     line = (f"printed part {w:.1f} × {h:.1f} mm: on the print bed of [sheet], {s.width:g} × {s.height:g} mm "
             f"(sheet.margin = {s.margin:g} mm)")
@@ -336,12 +343,12 @@ def print_bed_report(spec: Any, size: tuple[float, float]) -> tuple[list[str], l
                      "printer's bed, or " + ("fewer rows or columns" if spec.tiling.file is None else "a smaller mesh")]
 
 
-def nest_panel(spec: Any) -> tuple[Any, bool]:
+def nest_panel(spec: AssemblySpec) -> tuple[Nesting, bool]:
     """The panel's hull nested on the spec's sheet (:func:`fabpat.assembly.place.nesting.nest`, one item, no turn) and
     whether it was turned by 90° first (when only that way fits)."""
     from fabpat.assembly.place.nesting import nest
 
-    s = spec.sheet
+    s = sheet_of(spec)
     room = np.array([s.width, s.height]) - 2 * s.margin - DEFAULT_RESOLUTION
     P = grown_hull(spec)
     quarter = not (np.ptp(P, axis=0) <= room + 1e-9).all()

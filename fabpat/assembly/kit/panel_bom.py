@@ -7,13 +7,18 @@ The estimates are a kit's (:mod:`fabpat.assembly.kit.bom`): cutting time = the f
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from fabpat.assembly.kit.bom import BomRow, bom_csv, energy_source
 from fabpat.assembly.place.panel import Panel
+from fabpat.assembly.spec.sheet import sheet_of
+
+if TYPE_CHECKING:
+    from fabpat.assembly.kit.result import KitReport
+    from fabpat.assembly.place.nesting import Nesting
 
 
-def bom_rows(panel: Panel, nesting: Any, files: list[str]) -> list[BomRow]:
+def bom_rows(panel: Panel, nesting: Nesting | None, files: list[str]) -> list[BomRow]:
     """The panel's row (the part, with the file its process uses) and the sheet's (its utilisation: the part's
     hull grown by kerf/2 over the sheet's area, %)."""
     from fabpat.assembly.choose.provenance import chosen_by
@@ -30,7 +35,7 @@ def bom_rows(panel: Panel, nesting: Any, files: list[str]) -> list[BomRow]:
     rows = [BomRow(panel.name, "panel", spec.plates.process, 1, want if want in files else "", area, vol, mass, mass,
                    cut, seconds / 60.0, ids, chosen_by(spec))]
     if nesting is not None:
-        s = spec.sheet
+        s = sheet_of(spec)
         what = "laser sheet" if laser else "print bed"
         # the sheet's file only when the kit wrote it (``dxf`` in output.formats); the plan is the same without
         rows.append(BomRow(f"{what} {s.width:g} × {s.height:g} mm", "sheet", spec.plates.process, nesting.n_sheets,
@@ -83,7 +88,7 @@ def bom_markdown(panel: Panel, rows: list[BomRow], checks: list[str]) -> str:
     return "\n".join(out)
 
 
-def bom_files(panel: Panel, nesting: Any, report: Any, folder: Path, files: list[str]) -> list[str]:
+def bom_files(panel: Panel, nesting: Nesting | None, report: KitReport, folder: Path, files: list[str]) -> list[str]:
     """Write ``bom.csv`` and ``bom.md`` into ``folder`` (``files``: the kit's files so far); returns their names."""
     rows = bom_rows(panel, nesting, files)
     (folder / "bom.csv").write_text(bom_csv(rows), encoding="utf-8")

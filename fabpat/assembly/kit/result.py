@@ -10,6 +10,8 @@ from typing import Any, Protocol
 
 from fabpat.assembly.place.placement import PlateType
 from fabpat.assembly.spec.load import AssemblySpec
+from fabpat.assembly.spec.sheet import sheet_of
+from fabpat.geometry.fillet import FilletedPattern
 
 
 class KitReport(Protocol):
@@ -38,15 +40,16 @@ class AssembleResult:
     notes: tuple[str, ...] = ()
 
 
-def fabrication_problems(spec: AssemblySpec, filleted: dict[PlateType, Any]) -> list[str]:
+def fabrication_problems(spec: AssemblySpec, filleted: dict[PlateType, FilletedPattern]) -> list[str]:
     """The checks ``fabpat export`` makes, for every distinct plate of the kit: one message per plate
     whose narrowest feature is below its process limit (``plates.process``: print → 0.8 mm, laser →
     2 × ``sheet.kerf``; :func:`fabpat.exchange.registry.width_warnings`)."""
     from fabpat.exchange.registry import width_warnings
 
     formats = ["stl"] if spec.plates.process == "print" else ["dxf"]  # the export formats of that process
+    kerf = sheet_of(spec).kerf
     out = []
     for pt, fp in sorted(filleted.items(), key=lambda item: item[0].label):
         out += [f"plate {pt.label}: {m} (plates.process = {spec.plates.process!r}, tiling.edge = "
-                f"{spec.tiling.edge:g} mm)" for m in width_warnings(fp.outline, formats, spec.sheet.kerf)]
+                f"{spec.tiling.edge:g} mm)" for m in width_warnings(fp.outline, formats, kerf)]
     return out

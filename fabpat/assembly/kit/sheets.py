@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 import os
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -26,6 +26,13 @@ from numpy.typing import NDArray
 from fabpat.assembly.place.nesting import Nesting, nest
 from fabpat.assembly.place.placement import Assembly, PlateType
 from fabpat.assembly.place.shaped import ShapedPlateType, is_shaped, shaped_kerf
+from fabpat.assembly.spec.sheet import sheet_of
+
+if TYPE_CHECKING:
+    from ezdxf.document import Drawing
+
+    from fabpat.exchange.contours import BulgeLoop
+    from fabpat.geometry.fillet import FilletedPattern
 
 SHEET_LAYER = "SHEET"
 SHEET_COLOR = 8  # ACI grey: reference only, not cut
@@ -47,7 +54,7 @@ def nest_plates(assembly: Assembly) -> Nesting:
 
     The polygons grow by kerf/2, since the cut path of a plate lies that far outside it.
     """
-    s = assembly.spec.sheet
+    s = sheet_of(assembly.spec)
     polys = []
     for p in assembly.plates:
         P = plate_polygon(p.type, assembly.plate_edge)
@@ -142,7 +149,8 @@ def shaped_label_spots(pt: ShapedPlateType, chars: int = 3
     return out
 
 
-def sheet_document(assembly: Assembly, nesting: Nesting, sheet: int, filleted: dict[PlateType, Any]) -> Any:
+def sheet_document(assembly: Assembly, nesting: Nesting, sheet: int,
+                   filleted: dict[PlateType, FilletedPattern]) -> Drawing:
     """The ezdxf drawing of one sheet (mm; layers CUT, ENGRAVE, SHEET)."""
     import ezdxf
 
@@ -150,19 +158,20 @@ def sheet_document(assembly: Assembly, nesting: Nesting, sheet: int, filleted: d
     from fabpat.exchange.dxf import CUT_COLOR, CUT_LAYER, ENGRAVE_COLOR, ENGRAVE_LAYER, add_bulge_segments, set_extents
     from fabpat.exchange.labels import label_at
 
-    kerf = assembly.spec.sheet.kerf
-    segments = assembly.spec.sheet.dxf_entities == "segments"
+    bed = sheet_of(assembly.spec)
+    kerf = bed.kerf
+    segments = bed.dxf_entities == "segments"
     doc = ezdxf.new("R2010", units=ezdxf.units.MM)
     doc.layers.add(CUT_LAYER, color=CUT_COLOR)
     doc.layers.add(ENGRAVE_LAYER, color=ENGRAVE_COLOR)
     msp = doc.modelspace()
     W, H = nesting.width, nesting.height
-    if assembly.spec.sheet.border:
+    if bed.border:
         layer = doc.layers.add(SHEET_LAYER, color=SHEET_COLOR)
         layer.dxf.plot = 0  # reference only: never plotted or cut
         msp.add_lwpolyline([(0, 0), (W, 0), (W, H), (0, H)], close=True, dxfattribs={"layer": SHEET_LAYER})
     chars = max(len(t) for p in assembly.plates for t in (p.label, *p.edge_labels))
-    loops_of: dict[PlateType, list[Any]] = {}
+    loops_of: dict[PlateType, list[BulgeLoop]] = {}
     for item in nesting.on_sheet(sheet):
         plate = assembly.plates[item]
         pt = plate.type
@@ -192,7 +201,7 @@ def sheet_document(assembly: Assembly, nesting: Nesting, sheet: int, filleted: d
 
 
 def write_sheets(assembly: Assembly, nesting: Nesting, folder: os.PathLike[str] | str,
-                 filleted: dict[PlateType, Any], timestamp: str | None = None) -> list[str]:
+                 filleted: dict[PlateType, FilletedPattern], timestamp: str | None = None) -> list[str]:
     """Write ``sheet-01.dxf`` … into ``folder``; returns the file names. With ``timestamp`` (ISO 8601) each
     file is byte-reproducible (:func:`fabpat.exchange.dxf.stamp_document`, its GUIDs from the spec's name
     and the file's). Raises :class:`ExportError` (a bad ``timestamp``; an OSError, naming the file)."""

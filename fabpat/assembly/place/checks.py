@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -33,7 +34,11 @@ from fabpat.assembly.place.parts import CHECK_TOLERANCE, PartLibrary, apply
 from fabpat.assembly.place.placement import Assembly, PlacedSleeve, setback
 from fabpat.assembly.surface.joints import joint_direction, joint_normal
 from fabpat.errors import GeometryError
+from fabpat.geometry.shaped import ShapedPattern
 from fabpat.validate import SAME_POINT
+
+if TYPE_CHECKING:
+    import manifold3d
 
 OVERLAP_VOLUME = 1e-6  # mm³: intersections below this are rounding, not material
 GAP_SEARCH = 1.0  # mm: how far manifold3d looks for the smallest gap between a plate and a sleeve
@@ -281,7 +286,9 @@ def interface_midpoints(lib: PartLibrary) -> tuple[float, float]:
         along = float(local[1:] @ d)
         x = abs(local[0])
         if is_shaped(plate.type):  # off-centre by design: inside the slot with the margin to spare
-            half = float(lib.filleted[plate.type].interface_half_lengths[s.plates[side][1]])
+            shaped = lib.filleted[plate.type]
+            assert isinstance(shaped, ShapedPattern)  # a shaped plate type is filleted in its own polygon
+            half = float(shaped.interface_half_lengths[s.plates[side][1]])
             x = slot_excess(asm, s, side, float(local[0]), half)
         off = max(x, abs(float(local[1:] @ n)))
         expect = setback(plate.type.sides, asm.skeleton.edge_length(), asm.plate_edge)
@@ -296,7 +303,7 @@ def interface_midpoints(lib: PartLibrary) -> tuple[float, float]:
     return worst, shallow
 
 
-def _manifold(V: NDArray[np.float64], F: NDArray[np.int64]):  # type: ignore[no-untyped-def]
+def _manifold(V: NDArray[np.float64], F: NDArray[np.int64]) -> manifold3d.Manifold:
     import manifold3d
 
     m = manifold3d.Manifold(manifold3d.Mesh64(vert_properties=np.ascontiguousarray(V, dtype=np.float64),

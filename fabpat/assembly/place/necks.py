@@ -7,7 +7,6 @@ sleeve.depth, measured on the outlines). Lengths in mm.
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 
@@ -15,12 +14,13 @@ from fabpat.assembly.place.placement import Assembly, PlateType
 from fabpat.assembly.place.shaped import ShapedPlateType, is_shaped
 from fabpat.assembly.surface.joints import setback
 from fabpat.errors import SpecError
-from fabpat.geometry.fillet import interface_half_length
+from fabpat.geometry.fillet import FilletedPattern, interface_half_length
+from fabpat.geometry.outline import Outline
 
 NECK_CLEARANCE = 0.05  # mm: least gap required between the neck and a slot's end wall
 
 
-def neck_half_width(outline: Any, edge_y: float, depth: float, reach: float) -> float:
+def neck_half_width(outline: Outline, edge_y: float, depth: float, reach: float) -> float:
     """Largest |x| of the plate outline within ``depth`` mm of polygon edge 0 and |x| ≤ ``reach``.
 
     ``edge_y`` is the y of edge 0 (−apothem); edge 0 is centred on x = 0, so this is how far the
@@ -39,7 +39,7 @@ def neck_half_width(outline: Any, edge_y: float, depth: float, reach: float) -> 
     return best
 
 
-def neck_extent(outline: Any, edge_y: float, depth: float, reach: float) -> float:
+def neck_extent(outline: Outline, edge_y: float, depth: float, reach: float) -> float:
     """Largest |x| (mm) of the plate material's boundary within ``depth`` mm of polygon edge 0 and
     |x| ≤ ``reach``, the outline flattened within 0.005 mm: as :func:`neck_half_width`, but each chord
     clipped to that region, so that where a chord crosses the depth line counts too (an upper bound
@@ -67,7 +67,7 @@ def neck_extent(outline: Any, edge_y: float, depth: float, reach: float) -> floa
     return best
 
 
-def neck_advice(assembly: Assembly, filleted: dict[PlateType, Any]) -> str:
+def neck_advice(assembly: Assembly, filleted: dict[PlateType, FilletedPattern]) -> str:
     """What to change so that every plate's neck fits its slots (:func:`check_necks`), measured with
     :func:`neck_extent`: "raise sleeve.margin to ≥ M or lower sleeve.depth to ≤ D", either alone when the
     other cannot help, or "no sleeve.margin or sleeve.depth fits" (mm, M rounded up and D down to 0.01).
@@ -130,7 +130,7 @@ def neck_advice(assembly: Assembly, filleted: dict[PlateType, Any]) -> str:
                                    "fits on the edge): choose another pattern or a larger tiling.edge")
 
 
-def check_necks(assembly: Assembly, filleted: dict[PlateType, Any]) -> None:
+def check_necks(assembly: Assembly, filleted: dict[PlateType, FilletedPattern]) -> None:
     """SpecError if a plate's neck is wider than its slot anywhere within the slot's depth; the message
     ends with :func:`neck_advice`. A shaped plate's joints are checked one by one
     (:func:`check_shaped_necks`)."""
@@ -153,7 +153,7 @@ def check_necks(assembly: Assembly, filleted: dict[PlateType, Any]) -> None:
     check_shaped_necks(assembly, filleted)
 
 
-def check_shaped_necks(asm: Assembly, filleted: dict[PlateType, Any]) -> None:
+def check_shaped_necks(asm: Assembly, filleted: dict[PlateType, FilletedPattern]) -> None:
     """SpecError if a shaped plate's neck, within its slot's depth of each of its joints, reaches within
     :data:`NECK_CLEARANCE` of the slot's end walls (as :func:`check_necks` checks a
     regular plate's edge 0, here on every joint in the sleeve's own frame: the slot is centred on the

@@ -54,13 +54,22 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import GeometryError
 from fabpat.geometry.outline import Line, Loop, Outline, RationalQuad, Segment
+
+if TYPE_CHECKING:
+    from OCP.TopoDS import TopoDS_Solid
+
+    from fabpat.assembly.place.placement import PlateType
+    from fabpat.assembly.spec.types import AssemblySpec
+    from fabpat.assembly.surface.tiling import Tiling
+    from fabpat.exchange.registry import Part
+    from fabpat.geometry.fillet import FilletedPattern
 
 Arr = NDArray[np.float64]
 #: mm: two world points of neighbouring plates closer than this are the same point (the plates' shared
@@ -75,7 +84,12 @@ def _moved(seg: Segment, R: Arr, t: Arr) -> Segment:
     """``seg`` under the rigid 2D motion x → R x + t (a rational arc keeps its weight)."""
     if isinstance(seg, Line):
         return Line(R @ seg.p0 + t, R @ seg.p1 + t)
-    return RationalQuad(R @ seg.P0 + t, R @ seg.P1 + t, R @ seg.P2 + t, seg.w)
+    return _moved_arc(seg, R, t)
+
+
+def _moved_arc(arc: RationalQuad, R: Arr, t: Arr) -> RationalQuad:
+    """``arc`` under the rigid 2D motion x → R x + t, its weight kept."""
+    return RationalQuad(R @ arc.P0 + t, R @ arc.P1 + t, R @ arc.P2 + t, arc.w)
 
 
 def _same_arc(a: RationalQuad, b: RationalQuad) -> bool:
@@ -87,7 +101,7 @@ class PlacedOutline:
     """One plate of a panel: its ``filleted`` pattern (:class:`~fabpat.geometry.fillet.FilletedPattern`) and the rigid
     2D motion ``R`` (2, 2), ``t`` (2,) mm from its polygon frame to the panel's plane."""
 
-    filleted: Any
+    filleted: FilletedPattern
     R: Arr
     t: Arr
 
@@ -104,7 +118,7 @@ class PlacedOutline:
     def arcs(self, i: int) -> tuple[RationalQuad, RationalQuad]:
         """Interface i's two whole bow-tie arcs (into, out of the segment) in the panel's plane."""
         into, out = self.filleted.interface_arcs[i]
-        return _moved(into, self.R, self.t), _moved(out, self.R, self.t)  # type: ignore[return-value]
+        return _moved_arc(into, self.R, self.t), _moved_arc(out, self.R, self.t)
 
     def line_index(self, i: int) -> int:
         """Index in the outer loop of interface i's straight segment; GeometryError if it is not there."""
@@ -138,7 +152,8 @@ def fuse(plates: Sequence[PlacedOutline], joints: Sequence[tuple[tuple[int, int]
     directions, and be flanked by the two halves of one bow-tie arc at each end (within
     :data:`MATCH_TOL` mm); GeometryError otherwise, or if the union is not one piece (one outer loop).
     """
-    lines = [{} for _ in plates]  # plate → {interface: index of its straight segment in the outer loop}
+    # plate → {interface: index of its straight segment in the outer loop}
+    lines: list[dict[int, int]] = [{} for _ in plates]
     nxt: dict[tuple[int, int], tuple[int, int]] = {}
     for p, pl in enumerate(plates):
         n = len(pl.loops[0])
@@ -243,10 +258,10 @@ class Panel:
     (by :class:`~fabpat.assembly.place.placement.PlateType`), each face's ``types`` and ``plates`` (placed
     outlines) and the ``fused`` outline. Lengths in mm."""
 
-    spec: Any
-    tiling: Any
-    types: tuple[Any, ...]
-    filleted: dict[Any, Any]
+    spec: AssemblySpec
+    tiling: Tiling
+    types: tuple[PlateType, ...]
+    filleted: dict[PlateType, FilletedPattern]
     plates: tuple[PlacedOutline, ...]
     fused: Fused
 
@@ -271,7 +286,7 @@ class Panel:
         return f"panel {size} e{s.tiling.edge:g} t{s.plates.thickness:g} w{s.plates.weight:g} ({ids})"
 
     @cached_property
-    def part(self) -> Any:
+    def part(self) -> Part:
         """The panel as a :class:`~fabpat.exchange.registry.Part` (z from 0 to the plate thickness) named
         :attr:`name`, its free interfaces' whole bow-tie arcs as ``support``; built once, so every writer
         shares its solid. No engraved label: finding a box for one on the whole panel's material
@@ -282,7 +297,7 @@ class Panel:
         return Part(self.outline, self.spec.plates.thickness, self.name, support=self.fused.support)
 
     @property
-    def solid(self) -> Any:
+    def solid(self) -> TopoDS_Solid:
         """The exact ``TopoDS_Solid`` (BRepCheck valid; :func:`fabpat.exchange.cad.make_solid`), built on first use."""
         return self.part.solid
 
@@ -306,13 +321,12 @@ class Panel:
         return [(f, i, *self.plates[f].interface(i)) for end in self.ends() for f, i in end]
 
 
-def joints(tiling: Any) -> list[tuple[tuple[int, int], tuple[int, int]]]:
+def joints(tiling: Tiling) -> list[tuple[tuple[int, int], tuple[int, int]]]:
     """((face, polygon edge), (face, polygon edge)) of every edge two faces of ``tiling`` share."""
-    return [tuple(tuple(int(x) for x in pair) for pair in tiling.edge_faces[k])  # type: ignore[misc]
-            for k in tiling.interior_edges]
+    return [((int(a[0]), int(a[1])), (int(b[0]), int(b[1]))) for a, b in tiling.edge_faces[tiling.interior_edges]]
 
 
-def build_panel(spec: Any, face_patterns: Sequence[str]) -> Panel:
+def build_panel(spec: AssemblySpec, face_patterns: Sequence[str]) -> Panel:
     """Fillet, place and fuse the plates of a ``kind = "panel"`` spec (an AssemblySpec); ``face_patterns`` the
     face pattern IDs (face order; default :func:`fabpat.assembly.kit.build.face_patterns`). Raises SpecError
     (patterns, geometry limits: :func:`check_panel`) or GeometryError (plates that do not fuse)."""
@@ -337,7 +351,7 @@ def build_panel(spec: Any, face_patterns: Sequence[str]) -> Panel:
     return Panel(spec, tiling, types, filleted, plates, fuse(plates, joints(tiling)))
 
 
-def check_panel(spec: Any) -> None:
+def check_panel(spec: AssemblySpec) -> None:
     """Refuse (SpecError naming the key and its range) a panel whose interface segment is shorter than
     :data:`fabpat.assembly.place.placement.MIN_INTERFACE_CHORDS` STL chords, as for a kit's plates
     (:func:`fabpat.assembly.place.placement.check_interface_chords`)."""

@@ -8,13 +8,20 @@ e.g. ``"hex 0x0488"``, or the sleeve kind, e.g. ``"S-HH"``) and places it with a
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.assembly.place.placement import Assembly, PlateType
 from fabpat.exchange.threemf import triangulate
+
+if TYPE_CHECKING:
+    from OCP.gp import gp_Trsf
+    from OCP.TopoDS import TopoDS_Shape
+
+    from fabpat.geometry.fillet import FilletedPattern
+    from fabpat.geometry.outline import Outline, RationalQuad
 
 CHECK_TOLERANCE = 0.02  # mm: chord height of the meshes used for the checks and the GLB preview
 PICTURE_TOLERANCE = 0.1  # mm: coarse meshes for the PNG (60 k triangles for a sphere)
@@ -25,8 +32,8 @@ class PartLibrary:
     """Solids and meshes of ``assembly``'s distinct parts; ``filleted`` maps plate type → FilletedPattern."""
 
     assembly: Assembly
-    filleted: dict[PlateType, Any]
-    _solids: dict[str, Any] = field(default_factory=dict)
+    filleted: dict[PlateType, FilletedPattern]
+    _solids: dict[str, TopoDS_Shape] = field(default_factory=dict)
     _meshes: dict[tuple[str, float], tuple[NDArray[np.float64], NDArray[np.int64]]] = field(default_factory=dict)
 
     @property
@@ -55,11 +62,11 @@ class PartLibrary:
         face = getattr(pt, "face_label", "")  # a shaped plate: its own part, named by its face
         return f"{name} shaped {face}" if face else name
 
-    def support(self, pt: PlateType) -> tuple[Any, ...]:
+    def support(self, pt: PlateType) -> tuple[RationalQuad, ...]:
         """The whole interface arcs whose halves the plate outline keeps (exact STEP weights)."""
         return tuple(arc for pair in self.filleted[pt].interface_arcs for arc in pair)
 
-    def solid(self, key: str) -> Any:
+    def solid(self, key: str) -> TopoDS_Shape:
         """``TopoDS_Solid`` of the part in its own frame: plates z ∈ [0, t]; sleeves in the joint frame."""
         if key not in self._solids:
             from fabpat.exchange.cad import make_solid
@@ -94,7 +101,7 @@ class PartLibrary:
         return out
 
 
-def check_plate_mesh(outline: Any, thickness: float, tolerance: float) -> None:
+def check_plate_mesh(outline: Outline, thickness: float, tolerance: float) -> None:
     """Refuse (ExportError) a plate mesh estimated above the export limit, before OCCT starts on it."""
     from fabpat.errors import ExportError
     from fabpat.exchange.registry import DEFAULT_MAX_EXPORT_ELEMENTS, estimate_triangles
@@ -105,14 +112,14 @@ def check_plate_mesh(outline: Any, thickness: float, tolerance: float) -> None:
                "use a larger output.mesh_tolerance", error=ExportError)
 
 
-def transformed(shape: Any, T: NDArray[np.float64]) -> Any:
+def transformed(shape: TopoDS_Shape, T: NDArray[np.float64]) -> TopoDS_Shape:
     """A copy of ``shape`` moved by the rigid 4 × 4 transform ``T``."""
     from OCP.BRepBuilderAPI import BRepBuilderAPI_Transform
 
     return BRepBuilderAPI_Transform(shape, gp_trsf(T), True).Shape()
 
 
-def gp_trsf(T: NDArray[np.float64]) -> Any:
+def gp_trsf(T: NDArray[np.float64]) -> gp_Trsf:
     """OCCT ``gp_Trsf`` of a rigid 4 × 4 transform."""
     from OCP.gp import gp_Trsf
 

@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -27,6 +27,9 @@ from numpy.typing import NDArray
 from fabpat.assembly.surface.joints import joint_direction, joint_normal, required_setback
 from fabpat.errors import GeometryError
 from fabpat.geometry.polygons import signed_area
+
+if TYPE_CHECKING:
+    from OCP.TopoDS import TopoDS_Shape, TopoDS_Solid
 
 SLOT_OVERSHOOT = 1.0  # mm: the slot cutter runs past the arm's end so the mouth is cleanly open
 
@@ -143,7 +146,7 @@ class Sleeve:
         """(3,) local point (X, Y, Z) where plate A / B's interface midpoint must sit."""
         return np.array([0.0, *(self.setback * self.direction(side))])
 
-    def solid(self) -> Any:
+    def solid(self) -> TopoDS_Solid:
         """The sleeve as a BRepCheck-valid ``TopoDS_Solid`` in the local frame."""
         from OCP.BRepAlgoAPI import BRepAlgoAPI_Cut
 
@@ -169,7 +172,7 @@ class Sleeve:
         return T
 
 
-def _prism(polygon: NDArray[np.float64], x0: float, length: float) -> Any:
+def _prism(polygon: NDArray[np.float64], x0: float, length: float) -> TopoDS_Shape:
     """Polygon in the (Y, Z) plane at X = x0, extruded along +X by ``length`` (TopoDS_Shape)."""
     from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace, BRepBuilderAPI_MakePolygon
     from OCP.BRepPrimAPI import BRepPrimAPI_MakePrism
@@ -185,7 +188,7 @@ def _prism(polygon: NDArray[np.float64], x0: float, length: float) -> Any:
     return BRepPrimAPI_MakePrism(face.Face(), gp_Vec(float(length), 0.0, 0.0)).Shape()
 
 
-def _single_solid(shape: Any) -> Any:
+def _single_solid(shape: TopoDS_Shape) -> TopoDS_Solid:
     from OCP.TopAbs import TopAbs_SOLID
     from OCP.TopExp import TopExp_Explorer
     from OCP.TopoDS import TopoDS

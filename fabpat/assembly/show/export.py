@@ -20,12 +20,17 @@ from __future__ import annotations
 import os
 import re
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from fabpat.assembly.place.parts import CHECK_TOLERANCE, PartLibrary, gp_trsf, transformed
 from fabpat.errors import ExportError
 from fabpat.exchange.cad import DEFAULT_CHORD
+
+if TYPE_CHECKING:
+    import trimesh
+    from OCP.TDF import TDF_Label
 
 PALETTE = ["#f2a541", "#4a90d9", "#7bc67b", "#d96c6c", "#a57fd1", "#5cc4c4", "#c9b458"]
 SLEEVE_COLOUR = "#5a5a5a"
@@ -77,7 +82,7 @@ def write_step_assembly(lib: PartLibrary, path: str | os.PathLike[str], name: st
 
     from fabpat.exchange.step import write_document
 
-    def named(label, text: str):  # type: ignore[no-untyped-def]
+    def named(label: TDF_Label, text: str) -> TDF_Label:
         TDataStd_Name.Set_s(label, TCollection_ExtendedString(text))
         return label
 
@@ -143,11 +148,11 @@ def read_step_tree(path: str | os.PathLike[str]) -> tuple[str, list[tuple[str, s
     from OCP.TopExp import TopExp_Explorer
     from OCP.XCAFDoc import XCAFDoc_DocumentTool, XCAFDoc_ShapeTool
 
-    def name_of(label) -> str:  # type: ignore[no-untyped-def]
+    def name_of(label: TDF_Label) -> str:
         attr = TDataStd_Name()
         return attr.Get().ToExtString() if label.FindAttribute(TDataStd_Name.GetID_s(), attr) else ""
 
-    def components(label) -> list:  # type: ignore[no-untyped-def]
+    def components(label: TDF_Label) -> list[TDF_Label]:
         out, it = [], TDF_ChildIterator(label, False)
         while it.More():
             if XCAFDoc_ShapeTool.IsComponent_s(it.Value()):
@@ -155,7 +160,7 @@ def read_step_tree(path: str | os.PathLike[str]) -> tuple[str, list[tuple[str, s
             it.Next()
         return out
 
-    def referred(comp):  # type: ignore[no-untyped-def]
+    def referred(comp: TDF_Label) -> TDF_Label:
         ref = TDF_Label()
         XCAFDoc_ShapeTool.GetReferredShape_s(comp, ref)
         return ref
@@ -222,7 +227,7 @@ GLB_ROUGHNESS = 0.6  # matte plastic
 Y_UP = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
 
 
-def glb_bytes(sc) -> bytes:  # type: ignore[no-untyped-def]
+def glb_bytes(sc: trimesh.Scene) -> bytes:
     """Binary glTF 2.0 of the ``trimesh.Scene`` ``sc`` (metres, z up) that has one top node: that node gets
     the z-up → y-up turn :data:`Y_UP` (4 × 4) and no normals are written (viewers then shade every
     triangle flat, glTF 2.0 §3.7.2.1, which keeps the parts' sharp edges sharp). Every kit GLB is written
@@ -244,7 +249,7 @@ def srgb_to_linear(hex_colour: str) -> list[float]:
     return [float(v) for v in np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)]
 
 
-def scene(lib: PartLibrary, tolerance: float = CHECK_TOLERANCE):  # type: ignore[no-untyped-def]
+def scene(lib: PartLibrary, tolerance: float = CHECK_TOLERANCE) -> trimesh.Scene:
     """A ``trimesh.Scene`` of the assembled object in metres (z up, as the model; :func:`glb_bytes` turns it
     y-up when it is written): one mesh per distinct part, instanced.
 

@@ -10,13 +10,16 @@ pinned interfaces of a strip are marked with red triangles.
 from __future__ import annotations
 
 import os
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.assembly.place.parts import PICTURE_TOLERANCE, PartLibrary, apply
 from fabpat.assembly.show.export import colours
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
 
 LIGHT = np.array([0.4, -0.5, 0.77])  # towards the light, camera-ish side (unit-normalised below)
 
@@ -66,7 +69,7 @@ def project(items: list[Item], C: NDArray[np.float64]) -> tuple[NDArray[np.float
     return np.concatenate(tris)[order], np.concatenate(shades)[order]
 
 
-def draw(ax: Any, P2: NDArray[np.float64], S: NDArray[np.float64]) -> None:
+def draw(ax: Axes, P2: NDArray[np.float64], S: NDArray[np.float64]) -> None:
     """Put projected triangles (:func:`project`) on ``ax`` with equal axes and a small margin."""
     from matplotlib.collections import PolyCollection
 

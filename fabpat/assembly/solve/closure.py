@@ -42,8 +42,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -63,8 +64,10 @@ from fabpat.shell.element import Material
 from fabpat.shell.linked import PathResult, solve_path
 
 if TYPE_CHECKING:
-    from fabpat.assembly.place.placement import Assembly, PlacedSleeve
+    from fabpat.assembly.place.placement import Assembly, PlacedSleeve, PlateType
     from fabpat.assembly.spec.types import AssemblySpec
+    from fabpat.geometry.fillet import FilletedPattern
+    from fabpat.shell.linked import PathPoint
 
 Arr = NDArray[np.float64]
 
@@ -119,7 +122,7 @@ def determinate_supports(M: Arr, held: int = 0) -> NDArray[np.bool_]:
     return fixed
 
 
-def _held_frame(points: list[Any], X: Arr, node: int) -> list[Any]:
+def _held_frame(points: list[PathPoint], X: Arr, node: int) -> list[PathPoint]:
     """The path points moved rigidly so that ``node`` is at its reference X[node] with its reference
     orientation (displacements, rotations, reactions and link forces; energies are unchanged)."""
     from fabpat.shell.linked import PathPoint
@@ -354,7 +357,7 @@ def slot_motions(asm: Assembly, s: PlacedSleeve, plates: list[ModelPlate]) -> tu
 
 def closure_setup(spec: AssemblySpec, face_patterns: list[str], *, h: float = 3.0, E: float | None = None,
                   nu: float | None = None, placed: Assembly | None = None,
-                  filleted: dict[Any, Any] | None = None) -> ClosureSetup:
+                  filleted: dict[PlateType, FilletedPattern] | None = None) -> ClosureSetup:
     """Mesh, place and join the plates of a closed spec (an AssemblySpec), sleeves turning from each
     joint's dihedral to the spec's sleeve angle. ``E`` (N/mm²) and ``nu`` default to ``[material]``.
     ``placed`` and ``filleted``: the kit's Assembly and outlines, if already made
@@ -427,7 +430,7 @@ def warm_start(previous: ClosureRun, setup: ClosureSetup) -> tuple[Arr, Arr]:
 
 
 def run_closure(setup: ClosureSetup, *, steps: int = CLOSURE_STEPS, strain_limit: float = 0.02,
-                progress: object = None, start: tuple[Arr, Arr] | None = None) -> ClosureRun:
+                progress: Callable[[float], None] | None = None, start: tuple[Arr, Arr] | None = None) -> ClosureRun:
     """Turn every sleeve from its start angle by its ``angle`` in ``steps`` report increments.
 
     ``progress``: optional callable(λ) told after every report step. ``start``: a warm start (the

@@ -39,8 +39,9 @@ from fabpat.shell.rotations import logmap
 from fabpat.simulation.mesh import ShellMesh
 
 if TYPE_CHECKING:  # pragma: no cover
-    from fabpat.assembly.place.placement import Assembly
+    from fabpat.assembly.place.placement import Assembly, PlateType
     from fabpat.assembly.spec.types import AssemblySpec
+    from fabpat.geometry.fillet import FilletedPattern
 
 Arr = NDArray[np.float64]
 
@@ -198,7 +199,8 @@ def check_h(h: float, plate_edge: float, weight: float) -> None:
                             f"long; use h ≤ {math.floor(MAX_H_PER_INTERFACE * seg * 1000) / 1000:g} mm")
 
 
-def model_plates(asm: Assembly, h: float, weight: float, filleted: dict[Any, Any] | None = None) -> list[ModelPlate]:
+def model_plates(asm: Assembly, h: float, weight: float,
+                 filleted: dict[PlateType, FilletedPattern] | None = None) -> list[ModelPlate]:
     """The placed plates of a kit's Assembly as model plates: each type meshed once (target edge h, mm),
     its mid-surface placed at half the thickness (mm) of the solid the placement maps, each plate of its
     own thickness (:attr:`~fabpat.assembly.place.placement.PlacedPlate.thickness`). ``filleted``:
@@ -209,7 +211,7 @@ def model_plates(asm: Assembly, h: float, weight: float, filleted: dict[Any, Any
     from fabpat.simulation.mesh import mesh_outline
 
     plates = []
-    own: dict[Any, Any] = {}
+    own: dict[PlateType, ShellMesh] = {}
     for pl in asm.plates:
         if is_shaped(pl.type) and pl.type not in own:  # its outline carries its polygon: no common edge
             fp = filleted[pl.type] if filleted is not None and pl.type in filleted else plate_outline(

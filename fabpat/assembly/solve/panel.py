@@ -4,16 +4,20 @@ meshed as ONE shell plate and pinned at its ends' free interfaces."""
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from fabpat.assembly.place.panel import build_panel
 from fabpat.errors import GeometryError
 
+if TYPE_CHECKING:
+    from fabpat.assembly.solve.strip import StripSetup
+    from fabpat.assembly.spec.types import AssemblySpec
 
-def panel_setup(spec: Any, face_patterns: Sequence[str], *, h: float = 3.0, E: float | None = None,
-                nu: float | None = None) -> Any:
+
+def panel_setup(spec: AssemblySpec, face_patterns: Sequence[str], *, h: float = 3.0, E: float | None = None,
+                nu: float | None = None) -> StripSetup:
     """The fused panel as the strip's end-shortening experiment (:class:`fabpat.assembly.solve.strip.StripSetup`):
     ONE shell plate, the fused outline meshed at target edge ``h`` (mm) by Triangle (curves flattened at
     :data:`fabpat.simulation.mesh.FLATTEN_TOL_PER_H` × h, chords moved towards their arcs,

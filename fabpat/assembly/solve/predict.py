@@ -18,12 +18,23 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from fabpat.assembly.place.placement import Assembly
 from fabpat.assembly.spec.load import AssemblySpec
 from fabpat.errors import ExportError, FabpatError
 from fabpat.simulation.mesh import ASSEMBLY_MAX_ELEMENTS
+
+if TYPE_CHECKING:
+    from fabpat.assembly.place.placement import PlateType
+    from fabpat.assembly.solve.closure import ClosureRun
+    from fabpat.assembly.solve.preview import PredictedShape
+    from fabpat.assembly.solve.strip import StripRun
+    from fabpat.geometry.fillet import FilletedPattern
+    from fabpat.geometry.outline import Outline
+
+    #: the kit's FilletedPattern per plate type, when it has made them
+    Filleted = dict[PlateType, FilletedPattern]
 
 #: default mesh edge (mm) of the kit's closure prediction, the simulate-assembly default: the shipped
 #: sphere's whole kit takes 26 s on the shared 2-core machine with it, and h = 2 or 1.5 move the radius
@@ -64,15 +75,15 @@ class Prediction:
     ``h`` (mm), ``seconds``, and ``record``: its ``prediction.json`` fields
     (:func:`fabpat.assembly.solve.result.prediction_record`), computed once here for the file and the caller."""
 
-    run: Any
-    shape: Any
+    run: StripRun | ClosureRun
+    shape: PredictedShape
     fit: tuple[float, float]
     h: float
     seconds: float
     record: dict[str, Any]
 
 
-def _outlines(filleted: dict[Any, Any] | None) -> dict[tuple[str, int, float], Any] | None:
+def _outlines(filleted: Filleted | None) -> dict[tuple[str, int, float], Outline] | None:
     """The kit's outlines by (pattern ID, sides, bridge weight), as the size check looks them up."""
     if filleted is None:
         return None
@@ -80,7 +91,7 @@ def _outlines(filleted: dict[Any, Any] | None) -> dict[tuple[str, int, float], A
 
 
 def close(spec: AssemblySpec, ids: list[str], h: float, progress: Callable[[float], None] | None = None,
-          assembly: Assembly | None = None, filleted: dict[Any, Any] | None = None) -> Any:
+          assembly: Assembly | None = None, filleted: Filleted | None = None) -> ClosureRun:
     """The ClosureRun of the spec with face pattern IDs ``ids`` at mesh edge h (mm), checked against
     ``[material] strain_limit``; ``assembly`` and ``filleted``: the kit's placement and outlines, if made
     (nothing is placed or filleted again). Raises GeometryError (h too coarse) or SolverError (path lost)."""
@@ -93,7 +104,7 @@ def close(spec: AssemblySpec, ids: list[str], h: float, progress: Callable[[floa
     return run_closure(setup, strain_limit=spec.material.strain_limit, progress=progress)
 
 
-def finish(run: Any, assembly: Assembly, h: float, seconds: float) -> Prediction:
+def finish(run: StripRun | ClosureRun, assembly: Assembly, h: float, seconds: float) -> Prediction:
     """The :class:`Prediction` of a ClosureRun of ``assembly`` (its sleeve types the printed ones)."""
     from fabpat.assembly.solve.preview import joint_fit, predicted_shape
     from fabpat.assembly.solve.result import prediction_record
@@ -104,7 +115,7 @@ def finish(run: Any, assembly: Assembly, h: float, seconds: float) -> Prediction
 
 
 def push(spec: AssemblySpec, ids: list[str], h: float, progress: Callable[[float], None] | None = None,
-         assembly: Assembly | None = None, filleted: dict[Any, Any] | None = None) -> Any:
+         assembly: Assembly | None = None, filleted: Filleted | None = None) -> StripRun:
     """The StripRun of a strip spec with face pattern IDs ``ids`` at mesh edge h (mm): the end pins pushed
     together by :func:`fabpat.assembly.solve.strip.kit_end_shortening` of the length, as ``simulate-assembly``
     does with its defaults, checked against ``[material] strain_limit``; ``assembly`` and ``filleted`` as
@@ -121,17 +132,20 @@ def push(spec: AssemblySpec, ids: list[str], h: float, progress: Callable[[float
 
 
 def predict(spec: AssemblySpec, assembly: Assembly, h: float,
-            progress: Callable[[float], None] | None = None, filleted: dict[Any, Any] | None = None) -> Prediction:
+            progress: Callable[[float], None] | None = None, filleted: Filleted | None = None) -> Prediction:
     """Solve the placed ``assembly`` in use (:func:`predicted`: closed by its sleeves, or a strip pushed
     together) at mesh edge h (mm); ``progress(λ)`` per report step. The assembly itself is solved, not
     placed again, with ``filleted`` (the kit's FilletedPattern per plate type) meshed if given."""
     t0 = time.perf_counter()
     ids = [p.type.pattern_id for p in assembly.plates]
-    run = (push if spec.tiling.kind == "honeycomb-strip" else close)(spec, ids, h, progress, assembly, filleted)
+    if spec.tiling.kind == "honeycomb-strip":
+        run: StripRun | ClosureRun = push(spec, ids, h, progress, assembly, filleted)
+    else:
+        run = close(spec, ids, h, progress, assembly, filleted)
     return finish(run, assembly, h, time.perf_counter() - t0)
 
 
-def strain_problems(spec: AssemblySpec, run: Any, force: bool) -> list[str]:
+def strain_problems(spec: AssemblySpec, run: StripRun | ClosureRun, force: bool) -> list[str]:
     """Refuse (ExportError, one line naming the worst plate, its peak strain and the limit) a kit whose
     plates would exceed ``material.strain_limit``, or with ``force`` one warning line per such plate,
     worst first."""
@@ -172,7 +186,7 @@ def grip_problems(spec: AssemblySpec, fit: tuple[float, float], force: bool) -> 
 
 def choose_roundest(spec: AssemblySpec, pairs: list[tuple[str, str]], faces: list[int], h: float, force: bool,
                     fits: Callable[[AssemblySpec, list[str]], None],
-                    progress: Callable[[float], None] | None = None) -> tuple[list[str], Any, float, list[dict]]:
+                    progress: Callable[[float], None] | None = None) -> tuple[list[str], ClosureRun, float, list[dict]]:
     """``rule = "roundest"``: close the object with every (hexagon, pentagon) of ``pairs`` and keep the
     roundest (smallest ``sphericity_rms``) whose plates all stay under ``material.strain_limit``.
 
@@ -190,7 +204,7 @@ def choose_roundest(spec: AssemblySpec, pairs: list[tuple[str, str]], faces: lis
     from fabpat.assembly.choose.members import with_candidates
 
     tried: list[dict] = []
-    runs: list[tuple[list[str], Any, float, dict]] = []
+    runs: list[tuple[list[str], ClosureRun, float, dict]] = []
     for i, (hid, pid) in enumerate(pairs):
         names = [hid if n == 6 else pid for n in faces]
         member_spec, ids = with_candidates(spec, names)

@@ -28,12 +28,22 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.geometry.polygons import boundary_edges, triangle_areas
+
+if TYPE_CHECKING:
+    import trimesh
+
+    from fabpat.assembly.place.parts import PartLibrary
+    from fabpat.assembly.place.placement import Assembly
+    from fabpat.assembly.place.sleeve import Sleeve
+    from fabpat.assembly.solve.closure import ClosureRun
+    from fabpat.assembly.solve.model import AssemblyModel
+    from fabpat.assembly.solve.strip import StripRun
 
 Arr = NDArray[np.float64]
 
@@ -80,7 +90,7 @@ class PredictedShape:
     cylindricity_rms: float | None = None
 
 
-def positions(run: Any) -> Arr:
+def positions(run: StripRun | ClosureRun) -> Arr:
     """(n + s, 3) deformed positions (mm) of every node of a ClosureRun or StripRun at λ = 1: the plates'
     nodes, then one per sleeve (its centre)."""
     m = run.setup.model
@@ -88,7 +98,7 @@ def positions(run: Any) -> Arr:
     return np.vstack([m.X, masters]) + np.asarray(run.result.final.displacement)[:, :3]
 
 
-def sleeve_poses(run: Any) -> list[Arr]:
+def sleeve_poses(run: StripRun | ClosureRun) -> list[Arr]:
     """(4, 4) pose of every sleeve body at λ = 1: ``[expmap(θ_s) · frame rotation | x_s]`` (mm)."""
     from fabpat.shell.rotations import expmap
 
@@ -104,7 +114,7 @@ def sleeve_poses(run: Any) -> list[Arr]:
     return out
 
 
-def predicted_shape(run: Any, assembly: Any) -> PredictedShape:
+def predicted_shape(run: StripRun | ClosureRun, assembly: Assembly) -> PredictedShape:
     """The deformed plates and placed sleeves of a ClosureRun or StripRun of ``assembly`` (plain arrays, mm).
 
     ``assembly`` (:class:`~fabpat.assembly.place.placement.Assembly`) gives each plate's part key and each
@@ -137,13 +147,14 @@ def predicted_shape(run: Any, assembly: Any) -> PredictedShape:
     sleeves = tuple((s.label, ps.kind, T) for s, ps, T in zip(m.sleeves, assembly.sleeves, sleeve_poses(run),
                                                               strict=True))
     tube = getattr(run, "cylinder_radius", None) is not None  # its cylinder, never a sphere
-    closed = [None if tube else getattr(run, k, None) for k in ("radius", "sphericity_rms", "sphericity_max")]
-    return PredictedShape(tuple(plates), sleeves, float(m.material.t), (0.0, hi),
-                          *(None if v is None else float(v) for v in closed), hasattr(run, "sphere_note"),
+    radius, rms, worst = (None if tube or getattr(run, k, None) is None else float(getattr(run, k))
+                          for k in ("radius", "sphericity_rms", "sphericity_max"))
+    return PredictedShape(tuple(plates), sleeves, float(m.material.t), (0.0, hi), radius, rms, worst,
+                          hasattr(run, "sphere_note"),
                           getattr(run, "cylinder_radius", None), getattr(run, "cylindricity_rms", None))
 
 
-def joint_fit(run: Any, sleeve_types: dict[str, Any], kinds: list[str]) -> tuple[float, float]:
+def joint_fit(run: StripRun | ClosureRun, sleeve_types: dict[str, Sleeve], kinds: list[str]) -> tuple[float, float]:
     """How well the printed sleeves, placed by :func:`sleeve_poses`, grip the deformed plates (mm).
 
     For every sleeve (kind ``kinds[j]``, type ``sleeve_types[kind]``, a :class:`Sleeve` at the printed
@@ -196,7 +207,7 @@ def colour_of(values: Arr, lo: float, hi: float) -> Arr:
     return np.asarray(cmap(np.clip((np.asarray(values) - lo) / span, 0.0, 1.0)), dtype=np.float64)
 
 
-def solid_meshes(shape: PredictedShape, lib: Any, tolerance: float) -> list[tuple[str, Arr, NDArray[np.int64]]]:
+def solid_meshes(shape: PredictedShape, lib: PartLibrary, tolerance: float) -> list[tuple[str, Arr, NDArray[np.int64]]]:
     """(label, V (mm), F) of every predicted part as a closed mesh: thickened plates, then placed sleeves
     (``lib`` a :class:`PartLibrary` whose sleeve types are the printed ones, meshed within ``tolerance`` mm)."""
     from fabpat.assembly.place.parts import apply
@@ -212,7 +223,7 @@ def solid_meshes(shape: PredictedShape, lib: Any, tolerance: float) -> list[tupl
 # -- writers ------------------------------------------------------------------------------------------
 
 
-def predicted_scene(shape: PredictedShape, lib: Any, name: str, tolerance: float):  # type: ignore[no-untyped-def]
+def predicted_scene(shape: PredictedShape, lib: PartLibrary, name: str, tolerance: float) -> trimesh.Scene:
     """``trimesh.Scene`` in metres: one mesh per plate (its own deformed, thickened geometry, vertex
     colours of the strain-energy density, named by its label) and one shared mesh per sleeve kind
     placed by one node per sleeve (named by its label). The colour map's range is in the scene's
@@ -252,7 +263,7 @@ def predicted_scene(shape: PredictedShape, lib: Any, name: str, tolerance: float
     return sc
 
 
-def write_predicted_glb(shape: PredictedShape, lib: Any, path: str | os.PathLike[str], name: str,
+def write_predicted_glb(shape: PredictedShape, lib: PartLibrary, path: str | os.PathLike[str], name: str,
                         tolerance: float) -> None:
     """The predicted object as binary glTF 2.0 (metres), see :func:`predicted_scene`. Plates are closed
     shells ±t/2 about the deformed mid-surface (so a viewer shows their thickness from both sides).
@@ -267,7 +278,7 @@ def write_predicted_glb(shape: PredictedShape, lib: Any, path: str | os.PathLike
         raise writer_failed(path, "cannot write the GLB file", exc) from exc
 
 
-def write_predicted_stl(shape: PredictedShape, lib: Any, path: str | os.PathLike[str], tolerance: float) -> int:
+def write_predicted_stl(shape: PredictedShape, lib: PartLibrary, path: str | os.PathLike[str], tolerance: float) -> int:
     """The predicted object as one binary STL (mm): every plate a closed shell (±t/2 about the deformed
     mid-surface) and every sleeve placed on its deformed joint, as separate closed shells (plates and
     sleeves do not overlap: the slots leave ``clearance``/2 on each face). Returns the triangle count.
@@ -331,7 +342,7 @@ def _paint_png(plates: list[tuple[Arr, NDArray[np.int64], Arr]], sleeves: list[t
     plt.close(fig)
 
 
-def render_predicted_png(shape: PredictedShape, lib: Any, path: str | os.PathLike[str], title: str,
+def render_predicted_png(shape: PredictedShape, lib: PartLibrary, path: str | os.PathLike[str], title: str,
                          dpi: int = 110) -> None:
     """Draw the predicted object: plates coloured by strain-energy density (:data:`COLOUR_MAP`, the GLB's
     range) with a colour bar, sleeves grey on their deformed joints; ``title`` on top."""
@@ -353,7 +364,25 @@ FIELD_LABELS = {"energy": f"strain-energy density ({DENSITY_UNIT})", "strain": "
                 "mean_curvature": "mean curvature (1/mm)", "gaussian_curvature": "gaussian curvature (1/mm²)"}
 
 
-def render_prediction_png(sim: Any, path: str | os.PathLike[str], field: str = "energy", dpi: int = 110) -> None:
+class _Solved(Protocol):
+    """What :func:`render_prediction_png` reads of an :class:`~fabpat.assembly.solve.result.AssemblySimulation` (a
+    module that imports this one)."""
+
+    @property
+    def name(self) -> str: ...
+    @property
+    def h(self) -> float: ...
+    @property
+    def model(self) -> AssemblyModel: ...
+    @property
+    def run(self) -> StripRun | ClosureRun: ...
+    @property
+    def element_strain(self) -> Arr: ...
+    @property
+    def curvature(self) -> dict[str, Arr]: ...
+
+
+def render_prediction_png(sim: _Solved, path: str | os.PathLike[str], field: str = "energy", dpi: int = 110) -> None:
     """Draw a closed assembly of ``fabpat simulate-assembly`` (an :class:`~fabpat.assembly.solve.simulation.
     AssemblySimulation`): its deformed plates (mid-surfaces; no sleeve solids: the simulation keeps no
     part geometry) coloured by ``field``: ``energy`` (strain-energy density, N·mm/mm², per element over
@@ -385,20 +414,22 @@ def render_prediction_png(sim: Any, path: str | os.PathLike[str], field: str = "
         nodes, elements = m.plate_slices(p)
         plates.append((x[nodes], m.F[elements] - nodes.start, cell[elements]))
     from fabpat.assembly.show.render import plain_text
-    from fabpat.assembly.solve.closure import sphere_text
+    from fabpat.assembly.solve.closure import ClosureRun, sphere_text
 
+    assert isinstance(run, ClosureRun)  # a closed kind is solved by run_closure
     title = (f"{plain_text(sim.name)}: closed by its sleeves (shell solver, h = {sim.h:g} mm), coloured by {field}\n"
              f"{sphere_text(run)}")
     _paint_png(plates, [], path, title, FIELD_LABELS[field], cmap, lo, hi, dpi)
 
 
-def prediction_title(name: str, run: Any, h: float) -> str:
+def prediction_title(name: str, run: StripRun | ClosureRun, h: float) -> str:
     """Title of the predicted picture: what it is, radius and sphericity (a closure) or the arch's peak
     and height (a strip), peak strain."""
     from fabpat.assembly.show.render import plain_text
+    from fabpat.assembly.solve.strip import StripRun
 
     name = plain_text(name)
-    if not hasattr(run, "sphere_note"):  # a StripRun
+    if isinstance(run, StripRun):
         return (f"{name}: predicted shape once its end pins push it together by {100 * run.end_shortening:g} % of "
                 f"its length (shell solver, h = {h:g} mm)\npeak of the arch at {run.peak:.3f} of the length, "
                 f"{run.max_deflection:.1f} mm high; peak strain {100 * run.peak_strain:.2f} % on "

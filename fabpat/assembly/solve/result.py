@@ -9,15 +9,19 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.assembly.solve.closure import shape_cylinder
+from fabpat.assembly.solve.closure import ClosureRun, shape_cylinder
 from fabpat.assembly.solve.model import AssemblyModel
 from fabpat.assembly.spec.types import STRIP_KINDS
 from fabpat.errors import SpecError
+
+if TYPE_CHECKING:
+    from fabpat.assembly.solve.strip import StripRun
+    from fabpat.shell.results import ShellResult
 
 Arr = NDArray[np.float64]
 #: what an output path may be
@@ -38,7 +42,7 @@ class AssemblySimulation:
     kind: str
     name: str
     model: AssemblyModel
-    run: Any
+    run: StripRun | ClosureRun
     seconds: float
     element_strain: Arr
     curvature: dict[str, Arr]
@@ -131,15 +135,16 @@ class AssemblySimulation:
             if field is not None:
                 raise SpecError(f"png field {field!r} colours a closed assembly's bent shape; a strip's PNG is its "
                                 "deflection profile: leave the field out")
-            from fabpat.assembly.solve.strip import write_profiles_png
+            from fabpat.assembly.solve.strip import StripRun, write_profiles_png
 
+            assert isinstance(self.run, StripRun)  # a pushed kind is solved by run_strip
             write_profiles_png(path, [(self.name, self.run)])
             return
         from fabpat.assembly.solve.preview import render_prediction_png
 
         render_prediction_png(self, path, field or "energy")
 
-    def shell_result(self) -> Any:
+    def shell_result(self) -> ShellResult:
         """The final state of the plates as a :class:`fabpat.shell.ShellResult`."""
         from fabpat.shell.results import ShellResult
 
@@ -157,8 +162,8 @@ def plate_peak_strain(model: AssemblyModel, element_strain: Arr) -> dict[str, fl
     return m.per_plate(e, np.max)
 
 
-def record(kind: str, model: AssemblyModel, run: Any, seconds: float, element_strain: Arr, strain_limit: float,
-           h: float) -> dict[str, Any]:
+def record(kind: str, model: AssemblyModel, run: StripRun | ClosureRun, seconds: float, element_strain: Arr,
+           strain_limit: float, h: float) -> dict[str, Any]:
     """The ``simulate-assembly`` fields (``--json``, :meth:`AssemblySimulation.fields`, a kit's
     ``prediction.json``) of a solver ``run`` (StripRun or ClosureRun) of ``model`` of tiling ``kind``, solved
     in ``seconds`` at mesh edge ``h`` (mm) with per-element peak surface strain ``element_strain`` (m,):
@@ -172,19 +177,11 @@ def record(kind: str, model: AssemblyModel, run: Any, seconds: float, element_st
     res = r.result
     peak = plate_peak_strain(model, element_strain)
     worst = max(peak, key=lambda k: peak[k])
-    # a closed assembly has no deflection profile; a strip that never left its plane has a flat one
-    flat = closed or not abs(r.max_deflection) > 1e-9 * r.setup.length
-    row: dict[str, Any] = {
+    row: dict[str, object] = {
         "converged": True, "plates": len(m.plates), "sleeves": len(m.sleeves), "nodes": m.n_nodes,
         "dofs": res.dofs, "iterations": res.iterations, "seconds": seconds, "energy": r.energy,
         "plate_energies": r.plate_energies, "sleeve_moments": r.sleeve_moments, "reaction": r.reaction,
-        "max_deflection": r.max_deflection, "peak": None if flat else r.peak,
-        "half_ratio": None if flat else r.half_ratio, "path": r.path,
-        "radius": r.radius if sphere else None,
-        "sphericity_rms": r.sphericity_rms if sphere else None,
-        "sphericity_max": r.sphericity_max if sphere else None,
-        "mesh_deviation_rms": r.mesh_deviation_rms if closed else None,
-        "mesh_deviation_max": r.mesh_deviation_max if closed else None,
+        "max_deflection": r.max_deflection, **_arch(r, closed), "path": r.path, **_closure(r, closed, sphere),
         **cylinder,
         "peak_strain": peak[worst], "peak_strain_plate": worst, "strain_limit": strain_limit,
         "over_limit": [k for k, v in peak.items() if v > strain_limit], "factorizations": res.factorizations,
@@ -193,13 +190,34 @@ def record(kind: str, model: AssemblyModel, run: Any, seconds: float, element_st
     return row
 
 
-def _cylinder(kind: str, model: AssemblyModel, run: Any) -> dict[str, float | None]:
+def _arch(run: StripRun | ClosureRun, closed: bool) -> dict[str, float | None]:
+    """A strip's arch: ``peak`` and ``half_ratio`` of its deflection profile; None for a closed assembly, which has
+    no profile, and for a strip that never left its plane (a flat profile)."""
+    if isinstance(run, ClosureRun) or closed:
+        return {"peak": None, "half_ratio": None}
+    flat = not abs(run.max_deflection) > 1e-9 * run.setup.length
+    return {"peak": None if flat else run.peak, "half_ratio": None if flat else run.half_ratio}
+
+
+def _closure(run: StripRun | ClosureRun, closed: bool, sphere: bool) -> dict[str, float | None]:
+    """A closure's sphere (``radius`` mm, ``sphericity_rms``, ``sphericity_max``: None unless ``sphere``) and how far
+    its plates end from the mesh (``mesh_deviation_rms``/``_max`` mm); None for a strip."""
+    if not isinstance(run, ClosureRun) or not closed:
+        return {"radius": None, "sphericity_rms": None, "sphericity_max": None, "mesh_deviation_rms": None,
+                "mesh_deviation_max": None}
+    return {"radius": run.radius if sphere else None,
+            "sphericity_rms": run.sphericity_rms if sphere else None,
+            "sphericity_max": run.sphericity_max if sphere else None,
+            "mesh_deviation_rms": run.mesh_deviation_rms, "mesh_deviation_max": run.mesh_deviation_max}
+
+
+def _cylinder(kind: str, model: AssemblyModel, run: StripRun | ClosureRun) -> dict[str, float | None]:
     """A tube's least-squares cylinder: ``cylinder_radius`` (mm) and ``cylindricity_rms`` (RMS radial
     deviation over the radius), the run's own (:func:`fabpat.assembly.solve.closure.shape_cylinder`) or, for a run
     of a tube made without its ``ClosureSetup.tube``, fitted here; None for other kinds."""
     if kind != "hex-tube":
         return {"cylinder_radius": None, "cylindricity_rms": None}
-    if getattr(run, "cylinder_radius", None) is not None:
+    if isinstance(run, ClosureRun) and run.cylinder_radius is not None:
         return {"cylinder_radius": run.cylinder_radius, "cylindricity_rms": run.cylindricity_rms}
     radius, rms = shape_cylinder(model.X + run.result.final.displacement[: len(model.X)])
     return {"cylinder_radius": radius, "cylindricity_rms": rms}
@@ -230,8 +248,8 @@ def _check_path(path: object) -> None:
         raise ExportError(f"cannot write {p}: it exists and is not a regular file (a device or FIFO)")
 
 
-def read_outs(kind: str, name: str, model: AssemblyModel, run: Any, seconds: float, strain_limit: float,
-              h: float) -> AssemblySimulation:
+def read_outs(kind: str, name: str, model: AssemblyModel, run: StripRun | ClosureRun, seconds: float,
+              strain_limit: float, h: float) -> AssemblySimulation:
     """The :class:`AssemblySimulation` of a solver ``run`` of ``model``: per-element peak surface strain (the
     run's, else :func:`fabpat.shell.strain.surface_strains`) and the deformed mid-surface's curvature fields."""
     from fabpat.shell.curvature import curvature_fields
@@ -251,7 +269,7 @@ def read_outs(kind: str, name: str, model: AssemblyModel, run: Any, seconds: flo
     return AssemblySimulation(kind, name, model, run, seconds, np.asarray(eps), curv, strain_limit, h)
 
 
-def prediction_record(run: Any, seconds: float, h: float, kind: str) -> dict[str, Any]:
+def prediction_record(run: StripRun | ClosureRun, seconds: float, h: float, kind: str) -> dict[str, Any]:
     """A kit's ``prediction.json`` fields: :func:`record` of a ClosureRun or StripRun solved in ``seconds``
     at mesh edge ``h`` (mm), with the run's own element strains and strain limit — exactly the fields of
     ``fabpat simulate-assembly --json`` on the same spec."""

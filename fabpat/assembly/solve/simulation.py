@@ -20,7 +20,7 @@ import dataclasses
 import os
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -30,6 +30,11 @@ from fabpat.assembly.solve.result import PNG_FIELDS, AssemblySimulation, read_ou
 from fabpat.assembly.solve.sizing import check_assembly_size
 from fabpat.errors import SpecError
 from fabpat.simulation.mesh import ASSEMBLY_MAX_ELEMENTS
+
+if TYPE_CHECKING:
+    from fabpat.assembly.solve.closure import ClosureRun
+    from fabpat.assembly.solve.strip import StripRun
+    from fabpat.assembly.spec.types import AssemblySpec
 
 Arr = NDArray[np.float64]
 #: the front door's return type and its picture fields, importable from here as from their room
@@ -42,7 +47,8 @@ DEFAULT_STEPS = {"honeycomb-strip": 10, "truncated-icosahedron": 4, "mesh": 4, "
 _SPEC_TYPES = (str, os.PathLike)
 
 
-def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, end_shortening: float | None = None,
+def simulate_assembly(spec: AssemblySpec | str | os.PathLike[str], *, h: float = 3.0, steps: int | None = None,
+                      end_shortening: float | None = None,
                       imperfection: float | None = None, youngs_modulus: float | None = None,
                       poisson: float | None = None, progress: Callable[[float], None] | None = None,
                       max_elements: int = ASSEMBLY_MAX_ELEMENTS,
@@ -81,7 +87,7 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
         raise SpecError(f"progress must be a callable or None, got {type(progress).__name__}")
     kind = spec.tiling.kind
     closed = not spec.tiling.pushed  # a strip or a panel is pushed together; the rest is closed by its sleeves
-    steps = DEFAULT_STEPS[kind] if steps is None else check("steps", steps, "steps", error=SpecError)
+    n_steps = DEFAULT_STEPS[kind] if steps is None else int(check("steps", steps, "steps", error=SpecError))
     for name, value in (("end_shortening", end_shortening), ("imperfection", imperfection)):
         if value is not None and closed:
             raise SpecError(f"{spec.source}: {name} applies to strips (end shortening and the buckle it "
@@ -92,8 +98,8 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
     if not closed:
         from fabpat.assembly.solve.strip import kit_end_shortening
 
-        end_shortening = kit_end_shortening(spec) if end_shortening is None else check("end_shortening", end_shortening,
-                                                                    "end_shortening", error=SpecError)
+        shortening = kit_end_shortening(spec) if end_shortening is None else check("end_shortening", end_shortening,
+                                                                                 "end_shortening", error=SpecError)
         if imperfection is not None:
             imperfection = check("imperfection_force", imperfection, "imperfection", error=SpecError)
     mat = spec.material
@@ -130,8 +136,8 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
         faces = [len(f) for f in build_tiling(spec).faces]
         check_assembly_size(*with_candidates(spec, [pairs[0][0] if n == 6 else pairs[0][1] for n in faces]), h,
                             max_elements)
-        _, run, _, _ = choose_roundest(spec, pairs, faces, h, True, lambda _spec, _ids: None, progress)
-        return read_outs(kind, spec.name, run.setup.model, run, time.perf_counter() - t0, mat.strain_limit, h)
+        _, best, _, _ = choose_roundest(spec, pairs, faces, h, True, lambda _spec, _ids: None, progress)
+        return read_outs(kind, spec.name, best.setup.model, best, time.perf_counter() - t0, mat.strain_limit, h)
     from fabpat.assembly.choose.choice import with_members
 
     spec = with_members(spec)  # bridge_weight = "rule": the members the kit would get
@@ -146,7 +152,7 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
             setup = panel_setup(spec, patterns, h=h, E=E, nu=nu)
         else:
             setup = strip_setup(spec, patterns, h=h, E=E, nu=nu)
-        run = run_strip(setup, float(end_shortening), steps=steps,  # type: ignore[arg-type]
+        run: StripRun | ClosureRun = run_strip(setup, shortening, steps=n_steps,
                         imperfection=IMPERFECTION if imperfection is None else imperfection, progress=progress,
                         strain_limit=mat.strain_limit, start=guess(setup.model))
         model = setup.model
@@ -154,7 +160,7 @@ def simulate_assembly(spec: Any, *, h: float = 3.0, steps: int | None = None, en
         from fabpat.assembly.solve.closure import closure_setup, run_closure
 
         csetup = closure_setup(spec, patterns, h=h, E=E, nu=nu)
-        run = run_closure(csetup, steps=steps, strain_limit=mat.strain_limit, progress=progress,
+        run = run_closure(csetup, steps=n_steps, strain_limit=mat.strain_limit, progress=progress,
                           start=guess(csetup.model))
         model = csetup.model
     return read_outs(kind, spec.name, model, run, time.perf_counter() - t0, mat.strain_limit, h)

@@ -7,7 +7,11 @@ Used by ``simulate_assembly`` and by a kit's prediction alike. Units: mm, bytes.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from fabpat.assembly.spec.types import AssemblySpec
+    from fabpat.geometry.outline import Outline
 
 #: peak memory of an assembly solve per plate element (bytes) and its fixed part: measured with
 #: ``/usr/bin/time -v`` on 1 × 3 and 1 × 12 strips of 0x0488 (0.8 mm plates) through simulate_assembly at
@@ -79,9 +83,9 @@ def check_assembly_memory(elements: float, what: str) -> float:
     return need
 
 
-def check_assembly_size(spec: Any, patterns: list[str], h: float, max_elements: int,
+def check_assembly_size(spec: AssemblySpec, patterns: list[str], h: float, max_elements: int,
                         option: str = "raise it with --max-elements", h_name: str = "h",
-                        outlines: dict[tuple[str, int, float], Any] | None = None) -> float:
+                        outlines: dict[tuple[str, int, float], Outline] | None = None) -> float:
     """Refuse (GeometryError, naming --max-elements and an h that passes) an assembly whose plate meshes
     at edge h (mm) would hold more than ``max_elements`` triangles in total, or whose solve would need
     more memory than the machine has (:func:`check_assembly_memory`), before any meshing; the estimate is

@@ -31,7 +31,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -50,8 +50,9 @@ from fabpat.errors import GeometryError
 from fabpat.shell.linked import PathResult, solve_path
 
 if TYPE_CHECKING:  # pragma: no cover
-    from fabpat.assembly.place.placement import Assembly
+    from fabpat.assembly.place.placement import Assembly, PlateType
     from fabpat.assembly.spec.types import AssemblySpec
+    from fabpat.geometry.fillet import FilletedPattern
 
 Arr = NDArray[np.float64]
 
@@ -103,7 +104,7 @@ class StripSetup:
 
 def strip_setup(spec: AssemblySpec, face_patterns: list[str], *, h: float = 3.0, E: float | None = None,
                 nu: float | None = None, placed: Assembly | None = None,
-                filleted: dict[Any, Any] | None = None) -> StripSetup:
+                filleted: dict[PlateType, FilletedPattern] | None = None) -> StripSetup:
     """Mesh, place and join the plates of a ``honeycomb-strip`` spec (an AssemblySpec). ``placed``: the
     kit's Assembly of these patterns, if already placed, and ``filleted`` its outlines per plate type
     (:func:`~fabpat.assembly.solve.model.model_plates`): nothing is placed or filleted again. ``E`` (N/mm²) and

@@ -163,7 +163,7 @@ def _sized_by_radius(source: str, tiling: TilingSpec, plates: PlateSpec, sleeve:
     return replace(tiling, edge=edge, vertices=tuple((x * scale, y * scale, z * scale) for x, y, z in tiling.vertices))
 
 
-def _load(source: str, data: Any, kind: str) -> float | None:
+def _load(source: str, data: object, kind: str) -> float | None:
     """``[load] end_shortening``: the strip's default end-pin travel over its length (simulate-assembly)."""
     t = _Table(source, "load", data, ("end_shortening",))
     if kind not in STRIP_KINDS and t.has("end_shortening"):
@@ -172,7 +172,7 @@ def _load(source: str, data: Any, kind: str) -> float | None:
     return t.number("end_shortening", None, "end_shortening") if t.has("end_shortening") else None
 
 
-def _plates(source: str, data: Any, tiling: TilingSpec | None) -> PlateSpec:
+def _plates(source: str, data: object, tiling: TilingSpec | None) -> PlateSpec:
     """``[plates]``; ``thicknesses`` are checked against the ``tiling``'s plate labels (None: the tiling is
     wrong, they are checked on the next run)."""
     t = _Table(source, "plates", data, ("thickness", "weight", "process", "density", "thicknesses",
@@ -278,7 +278,7 @@ def joint_angle(sleeve: SleeveSpec, label: str, dihedral: float) -> float:
     return printed_angle(sleeve.angle, dihedral) if listed is None else math.radians(listed)
 
 
-def _sleeve(source: str, data: Any, tiling: TilingSpec | None) -> SleeveSpec:
+def _sleeve(source: str, data: object, tiling: TilingSpec | None) -> SleeveSpec:
     """``[sleeve]``; its angles are checked against the ``tiling`` (None: the tiling is wrong, the angles
     are checked on the next run)."""
     t = _Table(source, "sleeve", data, ("clearance", "margin", "wall", "depth", "angle", "angles", "angle_range"))
@@ -316,7 +316,7 @@ def _joint_angles(t: _Table, tiling: TilingSpec | None) -> tuple[tuple[tuple[str
     return tuple((label, given[label]) for label in labels if label in given), (lo, hi)
 
 
-def _material(source: str, data: Any) -> MaterialSpec:
+def _material(source: str, data: object) -> MaterialSpec:
     t = _Table(source, "material", data, ("youngs_modulus", "poisson", "strain_limit"))
     d = MaterialSpec()
     return MaterialSpec(t.number("youngs_modulus", d.youngs_modulus, "youngs_modulus"),
@@ -324,7 +324,7 @@ def _material(source: str, data: Any) -> MaterialSpec:
                         t.number("strain_limit", d.strain_limit, "strain_limit"))
 
 
-def _sheet(source: str, data: Any, process: str | None) -> SheetSpec:
+def _sheet(source: str, data: object, process: str | None) -> SheetSpec:
     from fabpat.exchange.dxf import ENTITY_MODES
 
     t = _Table(source, "sheet", data, ("width", "height", "margin", "spacing", "kerf", "border", "dxf_entities"))
@@ -335,13 +335,13 @@ def _sheet(source: str, data: Any, process: str | None) -> SheetSpec:
                      t.boolean("border", True), t.choice("dxf_entities", ENTITY_MODES, "polyline"))
 
 
-def _estimates(source: str, data: Any, process: str | None) -> EstimateSpec:
+def _estimates(source: str, data: object, process: str | None) -> EstimateSpec:
     t = _Table(source, "estimates", data, ("cut_speed", "print_rate"))
     t.only_for("cut_speed", process, "laser")  # print_rate applies to both: sleeves are always printed
     return EstimateSpec(t.number("cut_speed", 15.0, "rate"), t.number("print_rate", 3.0, "rate"))
 
 
-def _output(source: str, data: Any, kind: str | None = None) -> tuple[tuple[str, ...], float, float]:
+def _output(source: str, data: object, kind: str | None = None) -> tuple[tuple[str, ...], float, float]:
     """Formats (a panel's: :data:`PANEL_FORMATS`), STL chord (mm) and DXF arc tolerance (mm) of ``[output]``."""
     t = _Table(source, "output", data, ("formats", "mesh_tolerance", "curve_tolerance"))
     tolerances = (t.number("mesh_tolerance", AssemblySpec.mesh_tolerance, "mesh_tolerance"),
@@ -394,7 +394,7 @@ def check_sheet_fits(spec: AssemblySpec) -> None:
             )
 
 
-def _name(source: str, data: Mapping[str, Any]) -> str:
+def _name(source: str, data: Mapping[str, object]) -> str:
     """``name``: printable characters (letters, digits, punctuation and spaces of any script; no control
     characters such as NUL, tab or newline), at most :data:`MAX_NAME_LENGTH` after stripping spaces. It
     titles the pictures, the STEP product and the net, so it must be text every format can hold."""
@@ -411,7 +411,7 @@ def _name(source: str, data: Mapping[str, Any]) -> str:
     return name
 
 
-def parse_spec(data: Mapping[str, Any], source: str = "<spec>", *, need_sheet: bool = False) -> AssemblySpec:
+def parse_spec(data: Mapping[str, object], source: str = "<spec>", *, need_sheet: bool = False) -> AssemblySpec:
     """Validate a decoded TOML document (a mapping of tables) and return the spec.
 
     ``[sheet]`` may be left out (``sheet`` is then None) unless ``need_sheet`` (``fabpat assemble``
@@ -440,7 +440,7 @@ def parse_spec(data: Mapping[str, Any], source: str = "<spec>", *, need_sheet: b
     return spec
 
 
-def _read_tables(data: Mapping[str, Any], source: str, need_sheet: bool, problems: list[str]) -> AssemblySpec | None:
+def _read_tables(data: Mapping[str, object], source: str, need_sheet: bool, problems: list[str]) -> AssemblySpec | None:
     """Every table of :func:`parse_spec`, each read on after another's problems (collected in ``problems``)."""
     def read(f: Callable[[], Any]) -> Any:  # a table with a problem gives None: nothing reads its fallbacks
         before = len(problems)

@@ -8,7 +8,6 @@ import dataclasses
 import math
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
 
 from fabpat.assembly.spec.tables import Table as _Table
 from fabpat.assembly.spec.types import (
@@ -31,7 +30,7 @@ _GOES_WITH = {"scenario": ("rule",), "count": ("rule",), "catalog": ("rule",), "
 _ONLY_RULE = {"candidates": "roundest"}
 
 
-def pattern_id_of(source: str, key: str, pid: Any, sides: tuple[int, ...]) -> str:
+def pattern_id_of(source: str, key: str, pid: object, sides: tuple[int, ...]) -> str:
     """The canonical ID if it is a library pattern for every polygon in ``sides``; SpecError otherwise."""
     from fabpat.patterns.lattice import normalize_id
     from fabpat.patterns.library import get_pattern
@@ -55,7 +54,7 @@ def pattern_id_of(source: str, key: str, pid: Any, sides: tuple[int, ...]) -> st
 
 #: [tiling] keys that only some kinds read: key → those kinds
 
-def read_patterns(source: str, data: Any, tiling: TilingSpec) -> PatternSpec:
+def read_patterns(source: str, data: object, tiling: TilingSpec) -> PatternSpec:
     """The ``[patterns]`` table ``data`` of the spec ``source`` for ``tiling``: exactly one way of choosing
     (:class:`PatternSpec`), every ID a library pattern of its polygon. Raises :class:`SpecError`, one line
     per problem."""
@@ -81,13 +80,13 @@ def read_patterns(source: str, data: Any, tiling: TilingSpec) -> PatternSpec:
 MEMBER_RULES = ("graded", "similar-energy", "roundest")
 
 
-def _bridge_weights(source: str, value: Any, tiling: TilingSpec) -> tuple[float, ...]:
+def _bridge_weights(source: str, value: object, tiling: TilingSpec) -> tuple[float, ...]:
     """``patterns.bridge_weight``: one number for every plate, or a table {plate label = number} (plates
     it does not name keep the paper's 1); per face, in face order. Each value in its range
     (:data:`fabpat.validate.RANGES`)."""
     labels = _labels(tiling)
 
-    def weight(v: Any, label: str) -> float:
+    def weight(v: object, label: str) -> float:
         try:
             return check("bridge_weight", v, label, error=SpecError)
         except SpecError as e:
@@ -251,7 +250,7 @@ def strip_labels(rows: int, columns: int) -> list[str]:
     return [f"T{f + 1:0{len(str(n))}d}" for f in range(n)]
 
 
-def _check_labels(source: str, table: Mapping[str, Any], labels: list[str], unknown_why: str, noun: str,
+def _check_labels(source: str, table: Mapping[str, object], labels: list[str], unknown_why: str, noun: str,
                   missing_hint: str) -> None:
     """SpecError (one line) for the first key of a ``tiles`` table that is not a label, then for the first
     label it lacks."""
@@ -263,7 +262,7 @@ def _check_labels(source: str, table: Mapping[str, Any], labels: list[str], unkn
         raise SpecError(f"{source}: patterns.tiles has no pattern for {noun} {missing[0]} ({missing_hint})")
 
 
-def _face_table(source: str, table: Mapping[str, Any], tiling: TilingSpec) -> tuple[str, ...]:
+def _face_table(source: str, table: Mapping[str, object], tiling: TilingSpec) -> tuple[str, ...]:
     """``tiles = {LABEL = "0x....", …}`` on a polyhedron: every face's pattern in face order, each ID checked
     for its face's polygon."""
     from fabpat.assembly.surface.tiling import FACE_LETTERS
@@ -278,7 +277,7 @@ def _face_table(source: str, table: Mapping[str, Any], tiling: TilingSpec) -> tu
                  for lab, n in zip(labels, skel.sides, strict=True))
 
 
-def _tile_table(source: str, table: Mapping[str, Any], tiling: TilingSpec,
+def _tile_table(source: str, table: Mapping[str, object], tiling: TilingSpec,
                 sides: tuple[int, ...]) -> tuple[tuple[str, ...], ...]:
     """``tiles = {LABEL = "0x....", …}``: one pattern per plate label, every label of the strip once; the
     rows × columns IDs it stands for."""

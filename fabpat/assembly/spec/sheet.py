@@ -5,30 +5,42 @@ part."""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import SpecError
 
+if TYPE_CHECKING:
+    from fabpat.assembly.spec.types import AssemblySpec, SheetSpec, TilingSpec
+
 #: mm: the nesting grid's step (:func:`fabpat.assembly.place.nesting.nest`), here because the spec's sheet check
 #: leaves room for one step: finer packs a little denser, costs ∝ 1/step²
 DEFAULT_RESOLUTION = 1.0
 
 
-def hull(panel_or_spec: Any) -> NDArray[np.float64]:
+def sheet_of(spec: AssemblySpec) -> SheetSpec:
+    """``spec``'s ``[sheet]``: what nesting, the sheets and the BOM lay the plates on. Raises SpecError (one line)
+    for a spec without one (read without ``need_sheet``, :func:`fabpat.assembly.spec.load.load_spec`)."""
+    if spec.sheet is None:
+        raise SpecError(f"{spec.source}: missing table [sheet] (fabpat assemble nests the plates on this laser sheet "
+                        "or print bed: give its width and height)")
+    return spec.sheet
+
+
+def hull(spec: AssemblySpec) -> NDArray[np.float64]:
     """(k, 2) convex hull (counter-clockwise, mm, panel plane) of the panel's polygons: the part lies inside it
     (a plate never leaves its polygon), so nesting it keeps the part ``sheet.spacing`` from anything else."""
     from scipy.spatial import ConvexHull
 
     from fabpat.assembly.surface.panel_mesh import panel_tiling
 
-    V = panel_tiling(getattr(panel_or_spec, "spec", panel_or_spec).tiling).V[:, :2]
+    V = panel_tiling(spec.tiling).V[:, :2]
     return V[ConvexHull(V).vertices]
 
 
-def size_words(t: Any) -> str:
+def size_words(t: TilingSpec) -> str:
     """The panel's size in words: "3 × 4 panel", or "panel of flat.obj (12 tiles)" for a mesh's."""
     from pathlib import Path
 
@@ -40,19 +52,22 @@ def quarter_turn(P: NDArray[np.float64], quarter: bool) -> NDArray[np.float64]:
     return np.stack([-P[:, 1], P[:, 0]], axis=1) if quarter else P
 
 
-def grown_hull(spec: Any) -> NDArray[np.float64]:
+def grown_hull(spec: AssemblySpec) -> NDArray[np.float64]:
     """The hull grown by kerf/2 about its centre (the cut path lies that far outside the part)."""
     H = hull(spec)
     c = H.mean(axis=0)
     d = H - c
     r = np.linalg.norm(d, axis=1)
-    return c + d * (1.0 + 0.5 * spec.sheet.kerf / r.min())[..., None] if spec.sheet.kerf > 0 else H
+    kerf = spec.sheet.kerf if spec.sheet is not None else 0.0  # no sheet: nothing is cut
+    return c + d * (1.0 + 0.5 * kerf / r.min())[..., None] if kerf > 0 else H
 
 
-def check_panel_fits(spec: Any) -> None:
+def check_panel_fits(spec: AssemblySpec) -> None:
     """SpecError unless the panel's hull (plus kerf, margins and one nesting step) lies on the sheet, as it is or
-    turned by 90°."""
+    turned by 90° (a spec without ``[sheet]`` has nothing to fit on)."""
     s, t = spec.sheet, spec.tiling
+    if s is None:
+        return
     room = np.array([s.width, s.height]) - 2 * s.margin - DEFAULT_RESOLUTION
     P = grown_hull(spec)
     sizes = [np.ptp(quarter_turn(P, q), axis=0) for q in (False, True)]

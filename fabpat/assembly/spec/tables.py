@@ -16,7 +16,7 @@ import tomllib
 from collections.abc import Callable, Mapping
 from contextvars import ContextVar
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from fabpat.errors import RangeError, SpecError
 from fabpat.validate import RANGES, check
@@ -24,6 +24,7 @@ from fabpat.validate import RANGES, check
 #: largest spec file read (bytes): the shipped specs are 1–3 kB; a larger file is not a spec (or is
 #: /dev/zero), and reading it whole would only use memory
 MAX_SPEC_BYTES = 1024 * 1024
+_T = TypeVar("_T")
 
 
 class SpecProblems(SpecError):
@@ -56,7 +57,7 @@ class Table:
     reports every problem of the spec; :meth:`settle` stops the table before a check that would
     read a fallback. Outside it (no collector) the first problem is raised, one line."""
 
-    def __init__(self, source: str, name: str, data: Any, allowed: tuple[str, ...]) -> None:
+    def __init__(self, source: str, name: str, data: object, allowed: tuple[str, ...]) -> None:
         if not isinstance(data, Mapping):
             raise SpecError(f"{source}: [{name}] must be a table")
         self.source, self.name, self.data = source, name, dict(data)
@@ -71,7 +72,7 @@ class Table:
         """The error for ``key``: ``<source>: <table>.<key> <message>``."""
         return SpecError(f"{self.source}: {self.name}.{key} {message}")
 
-    def note(self, e: SpecError, fallback: Any) -> Any:
+    def note(self, e: SpecError, fallback: _T) -> _T:
         """Collect the problem ``e`` and go on with ``fallback`` (outside ``parse_spec``: raise it)."""
         if self._collected is None:
             raise e
@@ -170,12 +171,12 @@ class Table:
         return v
 
 
-def key_text(key: Any) -> str:
+def key_text(key: object) -> str:
     """A table key as a message shows it: itself when it is plain text, else its short repr."""
     return key if isinstance(key, str) and key.isprintable() and 0 < len(key) <= 60 else show(key)
 
 
-def show(value: Any, limit: int = 60) -> str:
+def show(value: object, limit: int = 60) -> str:
     """``repr(value)`` for a message, cut to ``limit`` characters (a pasted table or a deep list stays one
     short line)."""
     try:

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -34,7 +33,7 @@ _KIND_KEYS = {"rows": ("honeycomb-strip", "hex-tube", "panel"), "columns": ("hon
               "centre": ("hex-cap",), "radius": tuple(RADIUS_KINDS)}
 
 
-def read_tiling(source: str, data: Any) -> TilingSpec:
+def read_tiling(source: str, data: object) -> TilingSpec:
     """The ``[tiling]`` table ``data`` of the spec file ``source`` as a :class:`TilingSpec` (lengths in mm).
 
     Which keys apply depends on ``kind`` (:data:`_KIND_KEYS`; the format: :mod:`fabpat.assembly.spec.load`): a
@@ -99,24 +98,24 @@ def _builtin_tiling(source: str, t: _Table, kind: str, edge: float) -> TilingSpe
             raise t.fail("n", f"= {n} with tiling.m = {m} makes GP({m}, {n}) of {plates} plates: at most m² + mn + "
                          f"n² = {MAX_GOLDBERG_M ** 2} (GP({MAX_GOLDBERG_M}, 0), {10 * MAX_GOLDBERG_M ** 2 + 2} plates)")
         V, faces = polyhedra.goldberg(m, n, realization)
-        extra: dict[str, Any] = {"m": m, "n": n, "realization": realization}
+        shape = TilingSpec(kind, edge, m=m, n=n, realization=realization)
     elif kind == "hex-tube":
         rows, columns = t.integer("rows", None, 3, MAX_TUBE_ROWS), t.integer("columns", None, 1, MAX_TUBE_COLUMNS)
         t.settle()
         V, faces = polyhedra.hex_tube(rows, columns)
-        extra = {"rows": rows, "columns": columns}
+        shape = TilingSpec(kind, edge, rows=rows, columns=columns)
     else:
         rings = t.integer("rings", None, 1, MAX_CAP_RINGS)
         centre = t.integer("centre", 5, 5, 6)
         t.settle()
         V, faces = polyhedra.hex_cap(rings, centre)
-        extra = {"rings": rings, "centre": centre}
+        shape = TilingSpec(kind, edge, rings=rings, centre=centre)
     # our own surfaces are near-regular by construction: the bound only guards the closure's start (the
     # roughest, hex-cap rings = 8 and GP(6, 0) planar, need 0.3 and 0.4 of the edge)
     skel = mesh_tiling(V, faces, edge=edge, fit="best", name=kind, tolerance=BUILTIN_TOLERANCE * edge,
                        source=f"{source}: tiling.kind = {kind!r}")
-    return TilingSpec(kind, edge, vertices=tuple((float(x), float(y), float(z)) for x, y, z in skel.V),
-                      faces=skel.faces, fit="best", **extra)
+    return replace(shape, vertices=tuple((float(x), float(y), float(z)) for x, y, z in skel.V),
+                   faces=skel.faces, fit="best")
 
 
 def _mesh_tiling(source: str, t: _Table) -> TilingSpec:

@@ -36,7 +36,8 @@ from __future__ import annotations
 import math
 import os
 from collections import deque
-from typing import Any
+from collections.abc import Sequence
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -188,7 +189,25 @@ def end_interfaces(t: Tiling) -> tuple[list[tuple[int, int]], list[tuple[int, in
     return low, high
 
 
-def panel_tiling(t: Any) -> Any:
+class _PanelTable(Protocol):
+    """What :func:`panel_tiling` reads of a panel's ``[tiling]`` (a :class:`~fabpat.assembly.spec.types.TilingSpec`,
+    a later room's type)."""
+
+    @property
+    def file(self) -> str | None: ...
+    @property
+    def rows(self) -> int: ...
+    @property
+    def columns(self) -> int: ...
+    @property
+    def edge(self) -> float: ...
+    @property
+    def vertices(self) -> Sequence[Sequence[float]]: ...
+    @property
+    def faces(self) -> tuple[tuple[int, ...], ...]: ...
+
+
+def panel_tiling(t: _PanelTable) -> Tiling:
     """The panel's :class:`~fabpat.assembly.surface.tiling.Tiling` at its plate edge (mm, z = 0) from its ``[tiling]``
     (a :class:`~fabpat.assembly.spec.types.TilingSpec`): rows × columns hexagons
     (:func:`fabpat.assembly.surface.tiling.honeycomb_strip`), or the exact flat tiling of a mesh file kept in the spec

@@ -35,7 +35,7 @@ import numbers
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.assembly.surface.tiling import icosahedron, weld
+from fabpat.assembly.surface.tiling import edge_key, icosahedron, weld
 from fabpat.errors import SpecError
 
 Arr = NDArray[np.float64]
@@ -183,7 +183,7 @@ def _rings(faces: Faces, start: int, rings: int) -> list[int]:
     by_edge: dict[tuple[int, int], list[int]] = {}
     for f, loop in enumerate(faces):
         for i, a in enumerate(loop):
-            by_edge.setdefault(tuple(sorted((a, loop[(i + 1) % len(loop)]))), []).append(f)  # type: ignore[arg-type]
+            by_edge.setdefault(edge_key(a, loop[(i + 1) % len(loop)]), []).append(f)
     dist = {start: 0}
     frontier = [start]
     for d in range(1, rings + 1):
@@ -191,7 +191,7 @@ def _rings(faces: Faces, start: int, rings: int) -> list[int]:
         for f in frontier:
             loop = faces[f]
             for i, a in enumerate(loop):
-                for g in by_edge[tuple(sorted((a, loop[(i + 1) % len(loop)])))]:  # type: ignore[index]
+                for g in by_edge[edge_key(a, loop[(i + 1) % len(loop)])]:
                     if g not in dist:
                         dist[g] = d
                         nxt.append(g)

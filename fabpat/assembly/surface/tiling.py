@@ -34,6 +34,11 @@ HEX_PENT_DIHEDRAL = math.acos(-math.sqrt((5.0 + 2.0 * math.sqrt(5.0)) / 15.0))  
 FACE_LETTERS = {3: "T", 4: "Q", 5: "P", 6: "H"}
 
 
+def edge_key(a: int, b: int) -> tuple[int, int]:
+    """The undirected edge between vertices ``a`` and ``b`` as (low, high) vertex indices."""
+    return (a, b) if a <= b else (b, a)
+
+
 @dataclass(frozen=True, eq=False)
 class Tiling:
     """A surface of regular polygons: ``V`` (nv, 3) float mm, ``faces`` vertex loops (CCW from outside).
@@ -76,8 +81,7 @@ class Tiling:
         seen: dict[tuple[int, int], int] = {}
         for loop in self.faces:
             for i, a in enumerate(loop):
-                key = tuple(sorted((a, loop[(i + 1) % len(loop)])))
-                seen.setdefault(key, len(seen))  # type: ignore[arg-type]
+                seen.setdefault(edge_key(a, loop[(i + 1) % len(loop)]), len(seen))
         return np.array(list(seen), dtype=np.int64).reshape(-1, 2)
 
     @cached_property
@@ -90,7 +94,7 @@ class Tiling:
         out = np.full((len(self.edges), 2, 2), -1, dtype=np.int64)
         for f, loop in enumerate(self.faces):
             for i, a in enumerate(loop):
-                k = index[tuple(sorted((a, loop[(i + 1) % len(loop)])))]  # type: ignore[index]
+                k = index[edge_key(a, loop[(i + 1) % len(loop)])]
                 slot = 0 if out[k, 0, 0] < 0 else 1
                 if slot == 1 and out[k, 1, 0] >= 0:
                     raise ValueError(f"edge {k} is shared by more than two faces")
