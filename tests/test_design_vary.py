@@ -87,3 +87,18 @@ def test_the_truncated_icosahedron_mapped_onto_an_ellipsoid_has_flat_nearly_regu
     # the sphere's mapped corners are one sphere's: every corner at the same distance from their centre
     r = np.linalg.norm(round_.V - round_.V.mean(axis=0), axis=1)
     assert np.ptp(r) < 1e-9 * r.mean()
+
+
+def test_a_target_whose_mapped_faces_are_too_irregular_is_refused_naming_the_face(tmp_path: Path,
+                                                                                  no_solve: None) -> None:
+    """The shipped egg (1.25 : 1, tapered) bends the truncated icosahedron's pentagons 24° out of regular, past the
+    shaped plates' 15°: one line naming the face, before any solve, nothing written."""
+    from click.testing import CliRunner
+
+    from fabpat.cli import cli
+
+    out = tmp_path / "out"
+    r = CliRunner().invoke(cli, ["design", str(ROOT / "assemblies" / "egg.obj"), "--spec", str(SPHERE), "--out",
+                                 str(out), "--no-progress"])
+    one_line_error(r, "from regular, over the shaped plates' limit of 20 % / 15°", "face P")
+    assert not out.exists()
