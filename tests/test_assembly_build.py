@@ -258,8 +258,8 @@ def test_assemble_places_the_sphere_and_fillets_its_plates_once(tmp_path: Path, 
                                                                  ) -> None:
     """A default ``assemble`` of the shipped sphere (its prediction included) places the assembly once and
     fillets each of its two plate types once: the prediction solves the kit's own placement and outlines."""
-    import fabpat.assembly.kit.build as build
     import fabpat.assembly.place.placement as placement
+    import fabpat.assembly.place.shaped as shaped
     import fabpat.geometry.fillet as fillet
 
     calls = {"place": 0, "fillet": 0}
@@ -274,7 +274,7 @@ def test_assemble_places_the_sphere_and_fillets_its_plates_once(tmp_path: Path, 
         return fillet_pattern(*args, **kwargs)  # type: ignore[arg-type]
 
     monkeypatch.setattr(placement, "place", counted_place)
-    monkeypatch.setattr(build, "place", counted_place)  # bound at build's import
+    monkeypatch.setattr(shaped, "place", counted_place)  # bound at import by the placement of every kind
     monkeypatch.setattr(fillet, "fillet_pattern", counted_fillet)
     spec = edited(ROOT / "assemblies" / "truncated-icosahedron.toml", tmp_path / "sphere.toml", formats='["bom"]')
     r = invoke("assemble", str(spec), "--out", str(tmp_path / "kit"), "--predict-h", "7.5", "--no-progress")

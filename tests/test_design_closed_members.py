@@ -109,7 +109,7 @@ def test_a_target_only_a_member_reaches_is_designed_with_that_member(base: Path,
     from fabpat.design import design
 
     out = tmp_path / "d"
-    res = design("sphere", base, out=out, h=6.0, max_solves=30, workers=1)
+    res = design("sphere", base, out=out, h=6.0, max_solves=30, workers=1, per="group")
     rec = json.loads((out / "design.json").read_text(encoding="utf-8"))
     hexes = {v for k, v in rec["patterns"].items() if k.startswith("H")}
     pents = {v for k, v in rec["patterns"].items() if k.startswith("P")}
@@ -129,7 +129,7 @@ def test_without_variations_the_same_target_is_out_of_reach(base: Path, closure:
     off = base.with_name("off.toml")
     off.write_text(base.read_text(encoding="utf-8").replace("[patterns]\n", "[patterns]\nvariations = false\n"),
                    encoding="utf-8")
-    res = design("sphere", off, h=6.0, max_solves=30, workers=1)
+    res = design("sphere", off, h=6.0, max_solves=30, workers=1, per="group")
     # the best paper member is 0x0508 on the hexagons (0.3 %): 20 of 32 plates at 0.3 % within
     assert {v for k, v in res.record["patterns"].items() if k.startswith("H")} == {"0x0508"}
     assert res.record["relative_rms"] == pytest.approx(0.003 * np.sqrt(20 / 32), rel=0.02)
@@ -142,7 +142,7 @@ def test_members_are_searched_after_the_patterns_and_around_the_best(base: Path,
     family members: the hexagon 0x0508 (0.3 %, the best paper hexagon) with 0.4 and 1.6, the pentagon 0x0588."""
     from fabpat.design import design
 
-    design("sphere", base, h=6.0, max_solves=30, workers=1)
+    design("sphere", base, h=6.0, max_solves=30, workers=1, per="group")
     weights = [{w for f in faces for w in [f.split()[1]]} for faces in closure]
     first = next(k for k, ws in enumerate(weights) if ws != {"1.0"})
     assert len({faces for faces in closure[:first]}) == 9  # every paper design before any member

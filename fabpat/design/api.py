@@ -191,6 +191,8 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
         from fabpat.design.closed_api import design_closed
 
         mapped = None
+        if "shapes" in vary_words and tgt.kind == "sphere":  # the base's faces are a sphere's already: kept, and
+            vary_words = tuple(w for w in vary_words if w != "shapes")  # their plates stay a few part types
         if "shapes" in vary_words:
             from fabpat.design.mapped import mapped_base
 
