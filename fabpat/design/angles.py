@@ -196,7 +196,9 @@ def gradient_check(model: AngleModel, angles: Arr, run: ClosureRun, target: Clos
 
 @dataclass
 class AngleSearch:
-    """State of :func:`optimise_angles`: every solve's angles (rad), J (mm²) and run, the best of them."""
+    """State of :func:`optimise_angles`: every solve's relative rms, J (mm²), seconds and peak strain in
+    ``history``, the best (angles rad, J, run, fit) in ``best``; ``before()`` is called before every solve (it
+    may raise to stop the search, the solves done kept here) and ``after()`` after it."""
 
     model: AngleModel
     target: ClosedTarget
@@ -204,56 +206,59 @@ class AngleSearch:
     history: list[dict[str, Any]] = field(default_factory=list)
     best: tuple[Arr, float, ClosureRun, SurfaceFit] | None = None
     last: ClosureRun | None = None
+    best_gradient: Arr = field(default_factory=lambda: np.zeros(0))
+    before: Callable[[], None] | None = None
+    after: Callable[[], None] | None = None
 
     def evaluate(self, angles: Arr) -> tuple[float, Arr]:
         """J (mm²) and dJ/dα (mm² per rad) at ``angles`` (rad): one full solve warm-started from the last."""
         t0 = time.perf_counter()
+        if self.before is not None:
+            self.before()
         run = solve_angles(self.model, angles, self.last)
+        if self.after is not None:
+            self.after()
         self.last = run
         J, fit = design_error(run, self.target, self.axis)
         grad = angle_gradient(self.model, angles, run, fit)
         if self.best is None or J < self.best[1]:
             self.best = (angles.copy(), J, run, fit)
+            self.best_gradient = grad
         self.history.append({"relative_rms": float(fit.relative_rms), "J": J, "seconds": time.perf_counter() - t0,
                              "peak_strain": float(run.peak_strain)})
         return J, grad
 
 
-def optimise_angles(search: AngleSearch, start: Arr, bounds: tuple[float, float], budget: int,
-                    before: Callable[[], None] | None = None) -> None:
+def optimise_angles(search: AngleSearch, start: Arr, bounds: tuple[float, float], budget: int) -> None:
     """L-BFGS-B on the printed angles (rad) from ``start`` within ``bounds`` (rad) for at most ``budget`` full
-    solves (module doc); ``before()`` is called before every solve (it may raise to stop the search: the
-    solves done are kept in ``search``). The variables are scaled so that the first step, a unit one along
-    the projected steepest descent, turns the most sensitive joint by about 1°. Stops when a step lowers J
-    by less than :data:`ANGLE_FTOL` of it."""
+    solves (module doc; ``start`` is solved first unless it is ``search``'s best already); every solve is in
+    ``search``. The variables are scaled so that the first step, a unit one along the projected steepest
+    descent, turns the most sensitive joint by 1°. Stops when a step lowers J by less than :data:`ANGLE_FTOL`
+    of it, or when no joint can move downhill within its bounds."""
     from scipy.optimize import minimize
 
-    if budget <= 0:
-        return
     lo, hi = bounds
     x0 = np.clip(start, lo, hi)
+    if search.best is None or not np.array_equal(search.best[0], x0):
+        if budget <= 0:
+            return
+        search.evaluate(x0)
+        budget -= 1
+    assert search.best is not None
+    J, g = search.best[1], search.best_gradient
+    gp = np.where(((x0 <= lo) & (g > 0)) | ((x0 >= hi) & (g < 0)), 0.0, g)
+    if budget <= 0 or not np.any(gp):
+        return
+    scale = math.radians(1.0) * float(np.linalg.norm(gp)) / float(np.abs(gp).max())
+    J0 = max(J, 1e-300)
 
     def objective(y: Arr) -> tuple[float, Arr]:
-        x = np.clip(y * scale[0], lo, hi)
+        x = np.clip(y * scale, lo, hi)
         if np.array_equal(x, x0):  # L-BFGS-B's first call: the start, solved already
-            return 1.0, g * scale[0] / J0[0]
-        if before is not None:
-            before()
+            return J / J0, g * scale / J0
         Jx, gx = search.evaluate(x)
-        return Jx / J0[0], gx * scale[0] / J0[0]
+        return Jx / J0, gx * scale / J0
 
-    scale, J0 = [1.0], [1.0]
-    if before is not None:
-        before()
-    J, g = search.evaluate(x0)
-    if budget == 1 or not np.any(g):
-        return
-    gp = np.where(((x0 <= lo) & (g > 0)) | ((x0 >= hi) & (g < 0)), 0.0, g)
-    norm = float(np.linalg.norm(gp))
-    if norm == 0.0:
-        return
-    scale[0] = math.radians(1.0) * norm / float(np.abs(gp).max())
-    J0[0] = max(J, 1e-300)
-    minimize(objective, x0 / scale[0], jac=True, method="L-BFGS-B",
-             bounds=[(lo / scale[0], hi / scale[0])] * len(x0),
-             options={"maxfun": budget - 1, "maxiter": budget - 1, "ftol": ANGLE_FTOL, "gtol": 1e-12})
+    # maxfun counts the start's value, which costs no solve
+    minimize(objective, x0 / scale, jac=True, method="L-BFGS-B", bounds=[(lo / scale, hi / scale)] * len(x0),
+             options={"maxfun": budget + 1, "maxiter": budget, "ftol": ANGLE_FTOL, "gtol": 1e-12})
