@@ -8,8 +8,6 @@ distance gradients (the envelope theorem). The assembly is a cube of six 36 mm s
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from fabpat.design.angles import SPEC_STEP, AngleSearch, angle_gradient, angle_model, gradient_check, optimise_angles
+from fabpat.design.angles import SPEC_STEP, AngleSearch, angle_model, gradient_check, optimise_angles
 from fabpat.design.closed import ClosedEvaluated, solve_closed
 from fabpat.design.search import Runner, solve_news
 

@@ -11,7 +11,7 @@ is moved, turned and scaled onto P (a similarity transform) and the distances ar
   (:func:`scipy.optimize.least_squares`) on the first-order (Sampson) distance g/|∇g| with
   g(q) = |q / (sA, sB, sC)| − 1 (Hartley & Zisserman, *Multiple View Geometry*, 2nd ed., §4.2.6): exact on
   the surface, within 1 % of the Euclidean distance for deviations below 1 % of the size; fitted to a
-  seeded subset of :data:`FIT_POINTS` nodes, the distances then measured at every node. Started
+  seeded subset of :data:`FIT_POINTS` nodes and polished on every node, where the distances are measured. Started
   twice, with the axis that differs most from the other two along ``axis`` (the tiling's design axis)
   and along the points' most distinct principal axis; the better fit is kept.
   ``scale`` = s (mm per unit of the ratios).
@@ -153,6 +153,9 @@ def fit_to_ellipsoid(P: Arr, axes: tuple[float, float, float], axis: Arr) -> Sur
     sol = min((least_squares(dist, np.concatenate([c0, w, [s0]]), method="lm", xtol=1e-10, ftol=1e-10,
                              max_nfev=FIT_EVALUATIONS)
                for w in (w0, w1)), key=lambda r: float(r.cost))
+    if len(sub) < len(P):  # polished on every node: the distances are measured there, and at their own best fit
+        # the fit's parameters are stationary (the envelope theorem the angles' gradient rests on)
+        sol = least_squares(dist, sol.x, args=(P,), method="lm", xtol=1e-10, ftol=1e-10, max_nfev=FIT_EVALUATIONS)
     s = float(sol.x[6])
     # the Sampson distance is a closed form per node: its gradient by central differences of each coordinate
     # (step 1e-6 of the size: truncation and round-off both ≲ 1e-9 relative)
