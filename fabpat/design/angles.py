@@ -46,10 +46,12 @@ from numpy.typing import NDArray
 if TYPE_CHECKING:  # pragma: no cover
     from fabpat.assembly.place.placement import Assembly
     from fabpat.assembly.solve.closure import ClosureRun, ClosureSetup
-    from fabpat.assembly.solve.model import ModelPlate
+    from fabpat.assembly.solve.model import ModelPlate, ModelSleeve
     from fabpat.assembly.spec.types import AssemblySpec
     from fabpat.design.surface import SurfaceFit
     from fabpat.design.target import ClosedTarget
+    from fabpat.shell.element import Material
+    from fabpat.shell.linked import LinkedState
 
 Arr = NDArray[np.float64]
 
@@ -80,22 +82,24 @@ class AngleModel:
     labels: list[str]
     dihedral: Arr
     angle0: Arr
-    material: Any
+    material: Material
     strain_limit: float
 
     def setup(self, angles: Arr) -> ClosureSetup:
         """The closure with sleeve j printed at ``angles[j]`` (rad; not rounded)."""
         from fabpat.assembly.solve.closure import closure_model
+
+        return closure_model(self.plates, [self.sleeve(j, float(a)) for j, a in enumerate(angles)], self.material)
+
+    def sleeve(self, j: int, angle: float) -> ModelSleeve:
+        """Sleeve j of the model printed at ``angle`` (rad): its turn and slot motions
+        (:func:`fabpat.assembly.solve.closure.slot_motions`)."""
+        from fabpat.assembly.solve.closure import slot_motions
         from fabpat.assembly.solve.model import ModelSleeve
 
-        return closure_model(self.plates, [self._sleeve(j, float(a), ModelSleeve) for j, a in enumerate(angles)],
-                             self.material)
-
-    def _sleeve(self, j: int, angle: float, cls: Any) -> Any:
-        from fabpat.assembly.solve.closure import slot_motions
-
         s = dataclasses.replace(self.asm.sleeves[j], angle=angle)
-        return cls(s.label, s.transform, s.plates, float(s.dihedral - angle), slot_motions(self.asm, s, self.plates))
+        return ModelSleeve(s.label, s.transform, s.plates, float(s.dihedral - angle),
+                           slot_motions(self.asm, s, self.plates))
 
 
 def angle_model(spec: AssemblySpec, face_patterns: list[str], h: float) -> AngleModel:
@@ -130,7 +134,7 @@ def design_error(run: ClosureRun, target: ClosedTarget, axis: Arr) -> tuple[floa
     return float(np.sum(fit.signed ** 2)), fit
 
 
-def _support(run: ClosureRun) -> Any:
+def _support(run: ClosureRun) -> LinkedState:
     """The run's linked problem (held as :func:`fabpat.assembly.solve.closure.run_closure` holds it) and the
     shell engine's hook on its closed state."""
     from fabpat.assembly.solve.closure import determinate_supports
@@ -148,8 +152,6 @@ def _support(run: ClosureRun) -> Any:
 def angle_gradient(model: AngleModel, angles: Arr, run: ClosureRun, fit: SurfaceFit) -> Arr:
     """(s,) dJ/dα (mm² per rad) at the closed state ``run`` (a :func:`solve_angles` at ``angles``) with the
     target's ``fit`` to it (module doc: the adjoint). Raises SolverError if the tangent is singular."""
-    from fabpat.assembly.solve.model import ModelSleeve
-
     assert fit.gradient is not None
     state = _support(run)
     m = run.setup.model
@@ -164,7 +166,7 @@ def angle_gradient(model: AngleModel, angles: Arr, run: ClosureRun, fit: Surface
         params = []
         for sign in (1.0, -1.0):
             sleeves = base.copy()
-            sleeves[j] = model._sleeve(j, float(a) + sign * ANGLE_STEP, ModelSleeve)
+            sleeves[j] = model.sleeve(j, float(a) + sign * ANGLE_STEP)
             p = dataclasses.replace(m, sleeves=tuple(sleeves))._links()
             params.append((p[2], p[4]))
         dR = (state.residual(*params[0]) - state.residual(*params[1])) / (2.0 * ANGLE_STEP)

@@ -13,8 +13,9 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -22,6 +23,10 @@ from numpy.typing import NDArray
 from fabpat.design.angles import SPEC_STEP, AngleSearch, angle_model, gradient_check, optimise_angles
 from fabpat.design.closed import ClosedEvaluated, solve_closed
 from fabpat.design.search import Runner, solve_news
+
+if TYPE_CHECKING:  # pragma: no cover
+    from fabpat.assembly.spec.types import AssemblySpec
+    from fabpat.design.target import ClosedTarget
 
 Arr = NDArray[np.float64]
 
@@ -46,7 +51,7 @@ class AnglePhase:
     gradient_check: float | None = None
 
 
-def _counted(runner: Runner) -> tuple[Any, Any]:
+def _counted(runner: Runner) -> tuple[Callable[[], None], Callable[[], None]]:
     """(before, after): before a solve, stop at the runner's deadline; after it, count it and tell the
     runner's progress."""
     from fabpat.design.stop import OutOfTime
@@ -63,7 +68,7 @@ def _counted(runner: Runner) -> tuple[Any, Any]:
     return before, after
 
 
-def vary_angles(phase: AnglePhase, tgt: Any, spec: Any, best: ClosedEvaluated, h: float, budget: int,
+def vary_angles(phase: AnglePhase, tgt: ClosedTarget, spec: AssemblySpec, best: ClosedEvaluated, h: float, budget: int,
                 runner: Runner, axis: Arr) -> None:
     """Run the angle phase (module doc) from the pattern design ``best`` of ``spec`` (its AssemblySpec) with
     ``budget`` solves for the search, filling ``phase`` as it goes (a stop keeps what is in it). Raises
