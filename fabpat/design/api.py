@@ -199,7 +199,7 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
             base, mapped = mapped_base(tgt, base)
             runner = Runner(base.spec, h, (), workers, dask, progress, status=status, deadline=deadline)
         res = design_closed(tgt, base, h, MAX_SOLVES_CLOSED if max_solves is None else max_solves, tolerance,
-                            runner, t0, DesignResult, per=per)
+                            runner, t0, DesignResult, per=per, angles="angles" in vary_words)
         res.record["per"] = per
         res.record["vary"] = list(vary_words)
         if mapped is not None:
@@ -211,11 +211,15 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
         res = _design_strip(tgt, base, h, MAX_SOLVES if max_solves is None else max_solves, tolerance,
                             scale_target, runner, t0)
     res.record["variables"] = _variables(res, vary_words)
-    fixed = [w for w in ("angles", "thickness") if w in vary_words]
+    # a closed target's angles are varied (fabpat.design.closed_angles); a strip's and the thickness are not
+    fixed = [w for w in ("angles", "thickness") if w in vary_words
+             and not (w == "angles" and isinstance(tgt, ClosedTarget))]
     if fixed:  # said, not silently dropped: the search's variables are the patterns (and a closed target's shapes)
+        keeps = {"angles": "the sleeves keep [sleeve] angle", "thickness": "the plates keep [plates] thickness"}
+        gives = {"angles": "[sleeve] angles", "thickness": "[plates] thicknesses"}
         res.record.setdefault("notes", []).append(
-            f"{' and '.join(fixed)}: not varied by this search; the sleeves keep [sleeve] angle and the plates "
-            "[plates] thickness of the base (give [sleeve] angles or [plates] thicknesses in the spec to set them)")
+            f"{' and '.join(fixed)}: not varied by this search; {' and '.join(keeps[w] for w in fixed)} of the base "
+            f"(give {' or '.join(gives[w] for w in fixed)} in the spec to set them)")
     stopped = res.record.get("stopped_by")
     res.record["interrupted"] = stopped is not None
     res.record["abandoned"] = list(runner.failures)
@@ -234,7 +238,7 @@ def _variables(res: DesignResult, vary: tuple[str, ...]) -> dict[str, int]:
     and ``thickness`` (sleeves and plates given their own; 0 when not varied)."""
     out = {"patterns": len(set(res.face_col)) if "patterns" in vary else 0,
            "shapes": 3 * len(res.files and res.base.spec.tiling.vertices or ()) if "shapes" in vary else 0,
-           "angles": 0, "thickness": 0}
+           "angles": len(res.record.get("sleeve_angles") or ()) if "angles" in vary else 0, "thickness": 0}
     return out
 
 

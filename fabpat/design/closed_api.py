@@ -46,11 +46,14 @@ def _single_key(search: ClosedSearch) -> tuple[int, ...] | None:
 
 
 def design_closed(tgt: ClosedTarget, base: DesignBase, h: float, max_solves: int, tolerance: float, runner: Runner,
-                  t0: float, result: Callable[..., Any], per: str = "group") -> Any:
+                  t0: float, result: Callable[..., Any], per: str = "group", angles: bool = False) -> Any:
     """Design a closed tiling for ``tgt`` (module doc) with ``runner`` (its deadline and a signal stop the
     search early, :mod:`fabpat.design.stop`); ``result`` builds the DesignResult. ``per``: a pattern per face
-    group (polygon and latitude band: :func:`fabpat.design.closed.face_groups`) or per ``"face"``."""
+    group (polygon and latitude band: :func:`fabpat.design.closed.face_groups`) or per ``"face"``. ``angles``:
+    then the best design's sleeve angles (:mod:`fabpat.design.closed_angles`), with
+    :func:`~fabpat.design.closed_angles.angle_budget` of ``max_solves``."""
     from fabpat.assembly.place.placement import build_tiling
+    from fabpat.design.closed_angles import AnglePhase, angle_budget, vary_angles
 
     assert base.rows is not None
     skel = build_tiling(base.spec)
@@ -63,6 +66,8 @@ def design_closed(tgt: ClosedTarget, base: DesignBase, h: float, max_solves: int
                           base.spec.material.strain_limit, base.max_distinct, runner)
     labels = list(skel.labels)
     runs: dict[str, ClosedEvaluated] = {}
+    for_angles = angle_budget(max_solves) if angles else 0
+    max_solves -= for_angles
 
     def work() -> None:  # every solve finished is kept in runs and search.seen, stopped or not
         _baselines(search, base, runner, tgt, runs)
@@ -81,8 +86,19 @@ def design_closed(tgt: ClosedTarget, base: DesignBase, h: float, max_solves: int
     if not candidates:
         nothing_solved(stopped, runner.solves, runner.failures, h)
     best = min(candidates, key=lambda ev: ev.score)
+    phase = AnglePhase()
+    if angles and stopped is None:
+        patterns_best = best
+        stopped = until_stopped(lambda: vary_angles(phase, tgt, base.spec, patterns_best, h, for_angles, runner,
+                                                    search.axis), runner.deadline)
+        if phase.best is not None:
+            best = phase.best
     faces = list(best.data["faces"])
     rec = _record(tgt, base, best, labels, faces, runner.solves, time.perf_counter() - t0, tolerance, runs)
+    if angles:
+        rec["angles"] = phase.record
+        rec["gradient_check"] = phase.gradient_check
+        rec["sleeve_angles"] = phase.angles
     rec["history"] = [_brief(ev, labels) for ev in search.seen.values() if ev is not None]
     rec["candidates"] = {POLYGONS.get(n, f"{n}-gon"): _pool_counts(base.rows[n])
                          for n in sorted(base.rows, reverse=True)}

@@ -111,6 +111,11 @@ def design_spec_data(res: Any) -> dict[str, Any]:
     varied = {lab: w for lab, (_, w) in members.items() if w != 1.0}
     if varied:  # family members: each plate's bridge_weight (fabpat.patterns.variation); the others keep the paper's
         data["patterns"]["bridge_weight"] = varied
+    if res.record.get("sleeve_angles"):  # a closed design's own angles (fabpat.design.closed_angles), in their range
+        sleeve = dict(data.get("sleeve", {}))
+        sleeve["angles"] = dict(res.record["sleeve_angles"])
+        sleeve["angle_range"] = list(res.base.spec.sleeve.angle_range)
+        data["sleeve"] = sleeve
     if "end_shortening" in res.record:
         data["load"] = {"end_shortening": float(res.record["end_shortening"])}
     return data

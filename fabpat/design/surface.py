@@ -11,7 +11,7 @@ is moved, turned and scaled onto P (a similarity transform) and the distances ar
   (:func:`scipy.optimize.least_squares`) on the first-order (Sampson) distance g/|∇g| with
   g(q) = |q / (sA, sB, sC)| − 1 (Hartley & Zisserman, *Multiple View Geometry*, 2nd ed., §4.2.6): exact on
   the surface, within 1 % of the Euclidean distance for deviations below 1 % of the size; fitted to a
-  seeded subset of :data:`FIT_POINTS` nodes, the distances then measured at every node. Started
+  seeded subset of :data:`FIT_POINTS` nodes and polished on every node, where the distances are measured. Started
   twice, with the axis that differs most from the other two along ``axis`` (the tiling's design axis)
   and along the points' most distinct principal axis; the better fit is kept.
   ``scale`` = s (mm per unit of the ratios).
@@ -53,11 +53,15 @@ FIT_EVALUATIONS = 300
 class SurfaceFit:
     """Distances of the nodes from the fitted target: ``signed`` (n,) mm (positive outside the target;
     a mesh target that is not watertight has no inside: its distances are all ≥ 0), ``rms``/``max`` mm,
-    ``scale`` (mm per target unit), ``radius`` (mm, the size that ``relative_rms`` divides by)."""
+    ``scale`` (mm per target unit), ``radius`` (mm, the size that ``relative_rms`` divides by); ``gradient``
+    (n, 3) the derivative of each node's signed distance with respect to that node's position (a unit vector
+    for a sphere or a mesh; dimensionless) with the fitted similarity held, None if not computed: by the
+    envelope theorem it is all the derivative of the summed squared distances at the best fit."""
 
     signed: Arr
     scale: float
     radius: float
+    gradient: Arr | None = None
 
     @property
     def distance(self) -> Arr:
@@ -89,7 +93,8 @@ def fit_to_sphere(P: Arr) -> SurfaceFit:
     from fabpat.assembly.solve.closure import fit_sphere
 
     c, r = fit_sphere(P)
-    return SurfaceFit(np.linalg.norm(P - c, axis=1) - r, r, r)
+    d = np.linalg.norm(P - c, axis=1)
+    return SurfaceFit(d - r, r, r, (P - c) / np.maximum(d, 1e-300)[:, None])
 
 
 def distinct_axis(axes: tuple[float, float, float]) -> int:
@@ -148,8 +153,15 @@ def fit_to_ellipsoid(P: Arr, axes: tuple[float, float, float], axis: Arr) -> Sur
     sol = min((least_squares(dist, np.concatenate([c0, w, [s0]]), method="lm", xtol=1e-10, ftol=1e-10,
                              max_nfev=FIT_EVALUATIONS)
                for w in (w0, w1)), key=lambda r: float(r.cost))
+    if len(sub) < len(P):  # polished on every node: the distances are measured there, and at their own best fit
+        # the fit's parameters are stationary (the envelope theorem the angles' gradient rests on)
+        sol = least_squares(dist, sol.x, args=(P,), method="lm", xtol=1e-10, ftol=1e-10, max_nfev=FIT_EVALUATIONS)
     s = float(sol.x[6])
-    return SurfaceFit(dist(sol.x, P), s, _rms_radius(P))
+    # the Sampson distance is a closed form per node: its gradient by central differences of each coordinate
+    # (step 1e-6 of the size: truncation and round-off both ≲ 1e-9 relative)
+    step = 1e-6 * s * float(np.max(a))
+    grad = np.column_stack([(dist(sol.x, P + step * e) - dist(sol.x, P - step * e)) / (2.0 * step) for e in np.eye(3)])
+    return SurfaceFit(dist(sol.x, P), s, _rms_radius(P), grad)
 
 
 def fit_to_mesh(P: Arr, mesh: trimesh.Trimesh) -> SurfaceFit:
@@ -185,8 +197,9 @@ def fit_to_mesh(P: Arr, mesh: trimesh.Trimesh) -> SurfaceFit:
                                        reflection=False, scale=True)
     scale = float(np.cbrt(abs(np.linalg.det(T[:3, :3]))))  # file units per mm
     Q = P @ T[:3, :3].T + T[:3, 3]
-    _, d, _ = trimesh.proximity.closest_point(m, Q)
+    C, d, _ = trimesh.proximity.closest_point(m, Q)
     d = np.asarray(d, dtype=np.float64) / scale
-    if m.is_watertight:  # trimesh's sign is positive inside; ours outside, as the sphere's
-        d = d * np.where(m.contains(Q), -1.0, 1.0)
-    return SurfaceFit(d, 1.0 / scale, _rms_radius(P))
+    sign = np.where(m.contains(Q), -1.0, 1.0) if m.is_watertight else np.ones(len(Q))
+    # trimesh's sign is positive inside; ours outside, as the sphere's
+    away = (Q - np.asarray(C, dtype=np.float64)) / np.maximum(d * scale, 1e-300)[:, None]
+    return SurfaceFit(d * sign, 1.0 / scale, _rms_radius(P), sign[:, None] * away @ T[:3, :3] / scale)

@@ -403,3 +403,80 @@ def solve_path(
     ee = red.model.energy_split(nw.state[3])
     seconds = {"tangent": nw.t_tan, "factor_solve": nw.t_lu, "residual": nw.t_res, "total": time.perf_counter() - t0}
     return PathResult(points, ee, nw.iterations, incs, cuts, nw.factorizations, red.asm.n_free, seconds, warm)
+
+
+class LinkedState:
+    """A converged state of a :class:`~fabpat.shell.rigid_links.LinkedProblem` at λ = 1, for exact
+    sensitivities of a quantity of the state to the link parameters (adjoint method; e.g. Bendsøe &
+    Sigmund, *Topology Optimization*, 2003, §1.2.3, for the nonlinear case Haftka & Gürdal, *Elements of
+    Structural Optimization*, 1992, §7.3).
+
+    ``displacement`` and ``rotation`` (N, 3): the state (mm, rotation vectors rad), e.g. a
+    :class:`PathPoint`'s at λ = 1 (any rigid motion of an unloaded, self-equilibrated state is one too).
+    The unknowns ``u`` are those of :func:`solve_path`: the nodes that are neither slaves nor fixed at 0,
+    as translations (mm) and spatial spins (rad). :meth:`residual` is the reduced net force as a function
+    of the link parameters (``link_spin``, ``link_offset``) with those unknowns held, :meth:`adjoint`
+    solves Kᵀ λ = b with K the reduced tangent at the state (one factorization, the one the path's
+    last Newton step would take). Prescribed nonzero dofs are not supported (ValueError).
+    """
+
+    def __init__(self, p: LinkedProblem, displacement: Arr, rotation: Arr, threads: int | None = None) -> None:
+        if (p.fixed & (p.prescribed != 0)).any():
+            raise ValueError("LinkedState takes problems whose prescribed dofs are all 0")
+        ensure_kernels()
+        self.p = p
+        self.red = _Reduced(p, threads)
+        X = np.vstack([p.X, p.masters])
+        self.x = X + np.asarray(displacement, dtype=np.float64)
+        self.R = expmap(np.asarray(rotation, dtype=np.float64))
+        self._factor: Factor | None = None
+
+    def placed(self, link_spin: Arr | None = None, link_offset: Arr | None = None) -> tuple[Arr, Arr]:
+        """Positions (N, 3) mm and rotations (N, 3, 3) of every node with the slaves placed from their
+        masters by the given link parameters ((k, 3) rad and mm; None: the problem's)."""
+        p = self._with(link_spin, link_offset)
+        x, R = self.x.copy(), self.R.copy()
+        self.red.place_slaves(p, x, R, 1.0)
+        return x, R
+
+    def residual(self, link_spin: Arr | None = None, link_offset: Arr | None = None) -> Arr:
+        """(N, 6) reduced net force (N, N·mm: the slaves' forces moved to their masters) at the state
+        with the slaves placed by the given link parameters; zero at the slaves, the reactions at the
+        fixed dofs. At the problem's own parameters it is the equilibrium's residual (round-off)."""
+        p = self._with(link_spin, link_offset)
+        x, R = self.placed(link_spin, link_offset)
+        g, _, _, _ = self.red.forces(p, x, R, 1.0)
+        return self.red.reduce(p, g, x)
+
+    def reduce(self, G: Arr) -> Arr:
+        """(N, 6) a gradient G (N, 6) with respect to every node's translation and spin moved to the
+        unknowns: a slave's onto its master (as its force, :meth:`residual`), zero at the slaves."""
+        return self.red.reduce(self.p, np.asarray(G, dtype=np.float64), self.x)
+
+    @property
+    def free(self) -> NDArray[np.bool_]:
+        """(N, 6) the unknowns: dofs neither fixed nor of a slave."""
+        out = np.zeros(6 * self.red.N, dtype=bool)
+        out[self.red.asm.free] = True
+        return out.reshape(-1, 6)
+
+    def adjoint(self, b: Arr) -> Arr:
+        """(N, 6) λ with Kᵀ λ = b on the unknowns (zero elsewhere), K the reduced tangent at the state;
+        b (N, 6) is read on the unknowns. The factorization is kept for later calls. Raises SolverError
+        when K is singular (a state with a rigid-body motion left free)."""
+        red = self.red
+        if self._factor is None:
+            g, _, _, d = red.forces(self.p, self.x, self.R, 1.0)
+            K = red.matrix(self.p, self.x, self.R, d, g, 1.0)
+            with _PATH_LOCK, pardiso_threads(red.model.threads):
+                self._factor = factorizer().factor(sp.csc_matrix(K.T))
+        lam = np.zeros(6 * red.N)
+        with _PATH_LOCK, pardiso_threads(red.model.threads):
+            lam[red.asm.free] = self._factor.solve(np.asarray(b, dtype=np.float64).ravel()[red.asm.free])
+        return lam.reshape(-1, 6)
+
+    def _with(self, link_spin: Arr | None, link_offset: Arr | None) -> LinkedProblem:
+        if link_spin is None and link_offset is None:
+            return self.p
+        return replace(self.p, link_spin=self.p.link_spin if link_spin is None else link_spin,
+                       link_offset=self.p.link_offset if link_offset is None else link_offset)

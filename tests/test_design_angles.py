@@ -1,0 +1,91 @@
+"""Sleeve angles by exact sensitivities (fabpat.design.angles): the adjoint gradient of the design error.
+
+References outside the code under test: central differences of *full solves* (the closure solved again at
+perturbed angles) for the adjoint gradient, and central differences of the refitted target for the fit's
+distance gradients (the envelope theorem). The assembly is a cube of six 36 mm squares typed in by hand
+(12 joints at 90°), meshed coarsely (h = 6 mm), its sleeves printed a few degrees open.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fabpat.assembly.spec.load import parse_spec
+from fabpat.design.angles import AngleSearch, angle_gradient, angle_model, design_error, optimise_angles, solve_angles
+from fabpat.design.target import read_target
+
+CUBE_V = [(0, 0, 0), (36, 0, 0), (36, 36, 0), (0, 36, 0), (0, 0, 36), (36, 0, 36), (36, 36, 36), (0, 36, 36)]
+CUBE_F = [(0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7)]
+AXIS = np.array([0.0, 0.0, 1.0])
+
+
+@pytest.fixture(scope="module")
+def cube(tmp_path_factory: pytest.TempPathFactory):  # noqa: ANN201 - an AngleModel
+    d = tmp_path_factory.mktemp("cube")
+    (d / "m.obj").write_text("".join(f"v {x} {y} {z}\n" for x, y, z in CUBE_V)
+                             + "".join("f " + " ".join(str(i + 1) for i in f) + "\n" for f in CUBE_F))
+    spec = parse_spec({"tiling": {"kind": "mesh", "file": "m.obj"}, "patterns": {"square": "0x0488"},
+                       "sleeve": {"margin": 2.8}}, str(d / "spec.toml"))
+    return angle_model(spec, ["0x0488"] * 6, 6.0)
+
+
+def test_adjoint_gradient_matches_full_solves_on_random_directions(cube) -> None:
+    # a sphere: the cube's best ellipsoid of any other ratios turns freely (its rotation runs off to 1e6 rad),
+    # so its error is no smooth function of the angles; the design run checks its own tiling on its own target
+    tgt = read_target("sphere")
+    rng = np.random.default_rng(1)
+    assert np.allclose(cube.angle0, np.pi / 2)  # printed at the cube's dihedral: nothing moves
+    a = cube.angle0 + np.radians(rng.uniform(3.0, 8.0, len(cube.labels)))
+    run = solve_angles(cube, a)
+    J, fit = design_error(run, tgt, AXIS)
+    assert J > 0.0
+    g = angle_gradient(cube, a, run, fit)
+    step, worst = 1e-3, 0.0
+    for _ in range(3):
+        v = rng.normal(size=len(a))
+        v /= np.linalg.norm(v)
+        Jp, Jm = (design_error(solve_angles(cube, a + s * step * v, run), tgt, AXIS)[0] for s in (1.0, -1.0))
+        fd = (Jp - Jm) / (2.0 * step)
+        assert abs(fd) > 1e-3 * np.linalg.norm(g)  # a direction the error depends on
+        worst = max(worst, abs(g @ v - fd) / abs(fd))
+    assert worst < 1e-3, worst
+
+
+def test_the_converged_state_is_an_equilibrium_of_its_own_link_parameters(cube) -> None:
+    from fabpat.design.angles import _support
+
+    run = solve_angles(cube, cube.angle0 + np.radians(5.0))
+    state = _support(run)
+    r = state.residual()
+    free = state.free
+    links = np.abs(run.result.final.link_forces).max()
+    assert np.abs(r[free]).max() < 1e-6 * links
+    moved = state.residual(state.p.link_spin * 1.01)  # other angles: out of balance
+    assert np.abs(moved[free]).max() > 1e-3 * links
+
+
+@pytest.mark.parametrize("target", ["sphere", "ellipsoid:1,1.1,1.3"])
+def test_fit_gradient_is_the_derivative_of_the_refitted_squared_distances(target: str) -> None:
+    rng = np.random.default_rng(2)
+    u = rng.normal(size=(600, 3))
+    P = 50.0 * u / np.linalg.norm(u, axis=1)[:, None] * np.array([1.0, 1.05, 1.25]) + rng.normal(0.0, 0.5, (600, 3))
+    tgt = read_target(target)
+    fit = tgt.fit(P, AXIS)
+    assert fit.gradient is not None and fit.gradient.shape == P.shape
+    V = rng.normal(size=P.shape)
+    step = 1e-4
+    Jp, Jm = (float(np.sum(tgt.fit(P + s * step * V, AXIS).signed ** 2)) for s in (1.0, -1.0))
+    assert np.isclose(float(np.sum(2.0 * fit.signed[:, None] * fit.gradient * V)), (Jp - Jm) / (2.0 * step),
+                      rtol=1e-3)
+
+
+def test_bounded_quasi_newton_lowers_the_error_within_the_range(cube) -> None:
+    tgt = read_target("sphere")
+    search = AngleSearch(cube, tgt, AXIS)
+    lo, hi = np.radians(91.0), np.radians(100.0)
+    optimise_angles(search, np.full(len(cube.labels), np.radians(92.0)), (lo, hi), 4)
+    assert 2 <= len(search.history) <= 4
+    assert search.best is not None
+    assert np.all((search.best[0] >= lo) & (search.best[0] <= hi))
+    assert search.best[1] < search.history[0]["J"]  # (a cube closes into a sphere only so far)
