@@ -13,18 +13,18 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 from numpy.typing import NDArray
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def walk_trees(X: NDArray[np.float64], feature: NDArray[np.int64], threshold: NDArray[np.float64],
                left: NDArray[np.int64], right: NDArray[np.int64], value: NDArray[np.float64]) -> NDArray[np.float64]:
     """(k,) sum over the trees of the leaf each row of ``X`` (k, f) reaches; trees as (T, n) arrays
     (``left`` −1 at a leaf; a row goes left where its feature ≤ the node's threshold)."""
     k, T = X.shape[0], feature.shape[0]
     out = np.zeros(k)
-    for i in range(k):
+    for i in prange(k):  # rows are independent: spread over the cores
         s = 0.0
         for t in range(T):
             node = 0
@@ -46,37 +46,44 @@ def _root(parent: NDArray[np.int64], a: int) -> int:
     return a
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def one_piece(solid: NDArray[np.bool_], F: NDArray[np.int64], nv: int) -> NDArray[np.bool_]:
     """(k,) bool: are the solid faces of each row of ``solid`` (k, nf) one piece, faces joined through shared
     vertices (the face–vertex incidence graph of paper §3.2), ``F`` (nf, 3) the faces' vertices (< ``nv``)?
     A row with no solid face is not."""
-    k, nf = solid.shape
+    k = solid.shape[0]
     out = np.zeros(k, dtype=np.bool_)
-    parent = np.empty(nv, dtype=np.int64)
-    for i in range(k):
-        for v in range(nv):
-            parent[v] = v
-        first = -1
-        for f in range(nf):
-            if solid[i, f]:
-                a = _root(parent, F[f, 0])
-                for c in range(1, 3):
-                    b = _root(parent, F[f, c])
-                    if a != b:
-                        parent[b] = a
-                if first < 0:
-                    first = F[f, 0]
-        if first < 0:
-            continue
-        r = _root(parent, first)
-        ok = True
-        for f in range(nf):
-            if solid[i, f] and _root(parent, F[f, 0]) != r:
-                ok = False
-                break
-        out[i] = ok
+    chunks = min(k, 8)
+    # one union-find array per chunk, allocated here: numba would hoist one allocated in the prange body
+    parents = np.empty((chunks, nv), dtype=np.int64)
+    for c in prange(chunks):
+        for i in range(c * k // chunks, (c + 1) * k // chunks):
+            out[i] = _one_piece(solid[i], F, parents[c])
     return out
+
+
+@njit(cache=True)
+def _one_piece(solid: NDArray[np.bool_], F: NDArray[np.int64], parent: NDArray[np.int64]) -> bool:
+    """:func:`one_piece` of one row, ``parent`` a work array of one entry per vertex."""
+    for v in range(parent.size):
+        parent[v] = v
+    first = -1
+    for f in range(solid.size):
+        if solid[f]:
+            a = _root(parent, F[f, 0])
+            for c in range(1, 3):
+                b = _root(parent, F[f, c])
+                if a != b:
+                    parent[b] = a
+            if first < 0:
+                first = F[f, 0]
+    if first < 0:
+        return False
+    r = _root(parent, first)
+    for f in range(solid.size):
+        if solid[f] and _root(parent, F[f, 0]) != r:
+            return False
+    return True
 
 
 # --- the plate model's solves (fabpat.catalog.response_plate) ---------------------------------------------
