@@ -27,8 +27,19 @@ spring), and what stays is the energy that makes the real (nonlinear) dome stiff
 dome is symmetric under the polygon's rotations, so its deflection and its relaxation are solved on one fan
 (the symmetric Fourier mode: a vertex of fan f is the fan-0 vertex rotated by 2πf/n).
 
-All four are returned as logarithms. Solves: a skyline (envelope) Cholesky on the vertices ordered row by row
-across the polygon, and dense Cholesky on the one-fan systems; compiled (numba) and spread over the cores.
+The cantilever and cylinder break the rotational symmetry only at two interfaces, so the polygon is solved
+mode by mode: the stiffness commutes with the rotation by one fan, so in the discrete Fourier basis of the fans
+(a vertex of fan f moves as ω^{kf} times its fan-0 representative, ω = e^{2πi/n}; mode k and n − k are
+conjugate, modes 0 and n/2 real) it falls into n blocks of one fan's vertices, each assembled from one pair
+of each orbit. Each block is condensed onto the interface's three vertices (a partial Cholesky factorisation,
+the interface last); the condensed blocks, transformed back, give the stiffness on the 3n interface vertices,
+where the supports and loads are: each scenario is then a solve of 3n unknowns. The dome is the symmetric
+mode alone, and its deflection away from the interface comes from the same factorisation. Equal, but for
+round-off, to solving each scenario on every vertex (tests/test_response_plate.py; the penalties bring that
+round-off to ~1e-7 in the logarithms), at a third of the cost.
+
+All four are returned as logarithms. Compiled (numba): skyline (envelope) Cholesky factorisations in reverse
+Cuthill–McKee order, spread over the cores.
 """
 
 from __future__ import annotations
@@ -40,7 +51,10 @@ from functools import cache
 import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import reverse_cuthill_mckee
 
+from fabpat.catalog.response_kernels import add_pair, condense, dense_solve, skyline_solve, unit_unused
 from fabpat.patterns.lattice import edge_row
 from fabpat.patterns.pattern import DEFAULT_EDGE, pattern_topology
 
@@ -54,7 +68,7 @@ NU = 0.35
 FORCE, CYLINDER, DOME = 1.5, 50.0, 100.0
 #: how many physics features :func:`plate_features` returns per pattern
 N_PHYSICS = 4
-#: patterns are solved in this many chunks at most, spread over the cores (each holds two (nv, nv) arrays)
+#: patterns are solved in this many chunks at most, spread over the cores (each holds two one-fan blocks)
 CHUNKS = 8
 
 
@@ -65,8 +79,10 @@ class PlateTopology:
     ``face`` (nf, 3) vertices, ``slice_face`` (nf,), ``grad`` (nf, 2, 3) slope of w per vertex value (1/mm),
     ``area`` (nf,) mm²; ``hinge_*`` and ``neck_*``: the face pairs, their 6 vertices, their slope-jump rows
     and stiffnesses; ``iface`` (n, 4) face, outer vertex, inner vertices; ``moment`` (n, 3) the unit moment's
-    load on the interface face's vertices; ``first`` (nv,) the skyline of the w system; ``rep`` (nv,) the fan-0
-    vertex each vertex is a rotation of, ``angle`` (nv,) that rotation (rad)."""
+    load on the interface's outer and inner vertices; ``rep`` (nv,) the fan-0 vertex each vertex is a rotation
+    of, ``angle`` (nv,) that rotation (rad), ``fan`` (nv,) its fan; ``pos`` (n_rep,) each fan-0 vertex's
+    unknown in a mode's block (the interface's three last), ``first`` (n_rep,) the blocks' skyline; ``phase``
+    (n//2 + 1, nv) ω^{k·fan} per mode k (ω = e^{2πi/n}), ``turn`` (n//2 + 1, n) ω^{k·d}."""
 
     face: NDArray[np.int64]
     slice_face: NDArray[np.int64]
@@ -95,6 +111,10 @@ class PlateTopology:
     neck_orbit: NDArray[np.int64]
     neck_weight: NDArray[np.float64]
     mem_first: NDArray[np.int64]
+    fan: NDArray[np.int64]
+    pos: NDArray[np.int64]
+    phase: NDArray[np.complex128]
+    turn: NDArray[np.complex128]
 
 
 def _pairs(F: NDArray[np.int64]) -> tuple[list[tuple[int, int, int, int]], list[tuple[int, int]]]:
@@ -142,6 +162,25 @@ def _membrane_rows(grad: NDArray[np.float64], F: NDArray[np.int64], angle: NDArr
     return B, turn
 
 
+def _block_order(elements: NDArray[np.int64], last: NDArray[np.int64], m: int
+                 ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Each fan-0 vertex's unknown in a mode's block (``pos`` (m,)) and the block's skyline (``first`` (m,)):
+    the vertices ``last`` (the interface's) at the end in their order, the others in reverse Cuthill–McKee
+    order of the coupling by ``elements`` (e, 6) (fan-0 vertices of the hinges and necks), which keeps the
+    profile small."""
+    rest = np.setdiff1d(np.arange(m), last)
+    a = np.repeat(elements, 6, axis=1).ravel()
+    b = np.tile(elements, (1, 6)).ravel()
+    G = coo_matrix((np.ones(a.size), (a, b)), shape=(m, m)).tocsr()[rest][:, rest]
+    pos = np.empty(m, dtype=np.int64)
+    pos[rest[reverse_cuthill_mckee(G, symmetric_mode=True)]] = np.arange(rest.size)
+    pos[last] = rest.size + np.arange(last.size)
+    first = np.arange(m)
+    for e in pos[elements]:
+        first[e] = np.minimum(first[e], e.min())
+    return pos, first
+
+
 @cache
 def plate_topology(sides: int, depth: int) -> PlateTopology:
     """The :class:`PlateTopology` of the ``sides``-gon at ``depth`` (cached; the polygon of the default edge)."""
@@ -172,14 +211,13 @@ def plate_topology(sides: int, depth: int) -> PlateTopology:
         inner = [int(t) for t in tri if t != outer]
         iface.append([f, outer, *inner])
         c = V[tri].mean(axis=0)
-        moment.append((c / np.linalg.norm(c)) @ grad[f])
-    first = np.arange(len(V))
-    for tri in np.concatenate([F[h[:, :2]].reshape(-1, 6), F[nk].reshape(-1, 6)]):
-        first[tri] = np.minimum(first[tri], tri.min())
+        load = dict(zip(tri.tolist(), ((c / np.linalg.norm(c)) @ grad[f]).tolist(), strict=True))
+        moment.append([load[v] for v in iface[-1][1:]])
     n = sides
     owned = (len(V0) - 1) // n
     rep = np.where(order == 0, 0, 1 + (order - 1) % owned)
-    angle = 2.0 * math.pi * np.where(order == 0, 0, (order - 1) // owned) / n
+    fan = np.where(order == 0, 0, (order - 1) // owned)
+    angle = 2.0 * math.pi * fan / n
     rows, turn = _membrane_rows(grad, F, angle)
     hinge_orbit, hinge_weight = _orbits(h[:, :2], sides, depth)
     neck_orbit, neck_weight = _orbits(nk, sides, depth)
@@ -187,12 +225,16 @@ def plate_topology(sides: int, depth: int) -> PlateTopology:
     for verts in [*F[: 4**depth], *F[nk[neck_orbit]].reshape(-1, 6)]:
         dofs = np.concatenate([2 * rep[verts], 2 * rep[verts] + 1])
         mem_first[dofs] = np.minimum(mem_first[dofs], dofs.min())
+    iface_ = np.array(iface, dtype=np.int64)
+    pos, first = _block_order(rep[np.concatenate([F[h[:, :2]].reshape(-1, 6), F[nk].reshape(-1, 6)])],
+                              rep[iface_[0, 1:]], owned + 1)
+    k = np.arange(n // 2 + 1)[:, None]
     out = PlateTopology(F, np.asarray(topo.slice_face), grad, area, h[:, :2].copy(), F[h[:, :2]].reshape(-1, 6),
                         hinge_row, 3.0 * L2 / (area[h[:, 0]] + area[h[:, 1]]), nk, F[nk].reshape(-1, 6), neck_rows,
-                        NECK * 3.0 * L2 / (area[nk[:, 0]] + area[nk[:, 1]]), np.array(iface, dtype=np.int64),
-                        np.array(moment), first, rep, angle, owned + 1, L2, rows, turn,
-                        np.arange(4**depth, dtype=np.int64), hinge_orbit, hinge_weight, neck_orbit, neck_weight,
-                        mem_first)
+                        NECK * 3.0 * L2 / (area[nk[:, 0]] + area[nk[:, 1]]), iface_, np.array(moment), first, rep,
+                        angle, owned + 1, L2, rows, turn, np.arange(4**depth, dtype=np.int64), hinge_orbit,
+                        hinge_weight, neck_orbit, neck_weight, mem_first, fan, pos,
+                        np.exp(2j * math.pi * k * fan[None, :] / n), np.exp(2j * math.pi * k * np.arange(n) / n))
     for a in vars(out).values():  # noqa: B007 - frozen arrays
         if isinstance(a, np.ndarray):
             a.setflags(write=False)
@@ -205,110 +247,11 @@ def plate_features(cells: NDArray[np.bool_], sides: int, depth: int) -> NDArray[
     Units are the model's (plate stiffness D = 1), the same for every pattern: features, not energies."""
     t = plate_topology(sides, depth)
     solid = np.ascontiguousarray(np.asarray(cells, dtype=np.bool_)[:, t.slice_face])
-    ints = (t.face, t.hinge_faces, t.hinge_vertices, t.neck_faces, t.neck_vertices, t.iface, t.first, t.rep,
-            t.fan0_faces, t.hinge_orbit, t.neck_orbit, np.arange(t.hinge_k.size), np.arange(t.neck_k.size),
-            t.mem_first)
-    reals = (t.grad, t.area, t.hinge_row, t.hinge_k, t.neck_rows, t.neck_k, t.moment, t.mem_rows, t.mem_turn,
-             t.hinge_weight, t.neck_weight, np.ones(t.hinge_k.size), np.ones(t.neck_k.size))
-    return _features(solid, ints, reals, t.n_rep, t.edge2)
-
-
-@njit(cache=True, fastmath=True)  # fastmath: the inner products vectorise (4× on the factorisation)
-def _skyline_solve(A: NDArray[np.float64], first: NDArray[np.int64], b: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Solve A x = b for SPD A (its lower triangle within the skyline ``first``), factorising A in place."""
-    n = A.shape[0]
-    for i in range(n):
-        for j in range(first[i], i + 1):
-            s = A[i, j]
-            for k in range(max(first[i], first[j]), j):
-                s -= A[i, k] * A[j, k]
-            if j < i:
-                A[i, j] = s / A[j, j]
-            else:
-                A[i, i] = math.sqrt(max(s, 1e-300))
-    x = b.copy()
-    for i in range(n):
-        s = x[i]
-        for k in range(first[i], i):
-            s -= A[i, k] * x[k]
-        x[i] = s / A[i, i]
-    for i in range(n - 1, -1, -1):
-        x[i] /= A[i, i]
-        for k in range(first[i], i):
-            x[k] -= A[i, k] * x[i]
-    return x
-
-
-@njit(cache=True)
-def _dense_solve(A: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
-    first = np.zeros(A.shape[0], dtype=np.int64)
-    return _skyline_solve(A, first, b)
-
-
-@njit(cache=True)
-def _add_pair(K: NDArray[np.float64], idx: NDArray[np.int64], row: NDArray[np.float64], k: float) -> None:
-    """K[idx, idx] += k · row rowᵀ, lower triangle (idx may repeat)."""
-    for a in range(idx.size):
-        for b in range(idx.size):
-            if idx[b] <= idx[a]:
-                K[idx[a], idx[b]] += k * row[a] * row[b]
-
-
-@njit(cache=True)
-def _pin(K: NDArray[np.float64], iface: NDArray[np.int64], clamp: bool) -> None:
-    """w = 0 along an interface (outer vertex fixed, inner ones level); ``clamp``: its whole triangle fixed."""
-    o, a, b = iface[1], iface[2], iface[3]
-    K[o, o] += PENALTY
-    if clamp:
-        K[a, a] += PENALTY
-        K[b, b] += PENALTY
-    else:
-        K[a, a] += PENALTY
-        K[b, b] += PENALTY
-        K[max(a, b), min(a, b)] -= PENALTY
-
-
-@njit(cache=True)
-def _bending(solid: NDArray[np.bool_], hinge_faces: NDArray[np.int64], hinge_vertices: NDArray[np.int64],
-             hinge_row: NDArray[np.float64], hinge_k: NDArray[np.float64], neck_faces: NDArray[np.int64],
-             neck_vertices: NDArray[np.int64], neck_rows: NDArray[np.float64], neck_k: NDArray[np.float64],
-             rep: NDArray[np.int64], hinges: NDArray[np.int64], hinge_weight: NDArray[np.float64],
-             necks: NDArray[np.int64], neck_weight: NDArray[np.float64], K: NDArray[np.float64]) -> None:
-    """Add the plate's hinges and necks (those listed, each times its weight) to K (lower triangle), vertex v
-    as unknown ``rep[v]``."""
-    idx = np.empty(6, dtype=np.int64)
-    for m in range(hinges.size):
-        h = hinges[m]
-        if solid[hinge_faces[h, 0]] and solid[hinge_faces[h, 1]]:
-            for c in range(6):
-                idx[c] = rep[hinge_vertices[h, c]]
-            _add_pair(K, idx, hinge_row[h], hinge_weight[m] * hinge_k[h])
-    for m in range(necks.size):
-        h = necks[m]
-        if solid[neck_faces[h, 0]] and solid[neck_faces[h, 1]]:
-            k = neck_weight[m] * neck_k[h]
-            for c in range(6):
-                idx[c] = rep[neck_vertices[h, c]]
-            for a in range(6):
-                for b in range(6):
-                    if idx[b] <= idx[a]:
-                        K[idx[a], idx[b]] += k * (neck_rows[h, 0, a] * neck_rows[h, 0, b]
-                                                  + neck_rows[h, 1, a] * neck_rows[h, 1, b])
-
-
-@njit(cache=True)
-def _unit_unused(solid: NDArray[np.bool_], face: NDArray[np.int64], rep: NDArray[np.int64], K: NDArray[np.float64],
-                 dofs: int) -> None:
-    """A unit diagonal for each unknown (``dofs`` per vertex) that no solid face moves."""
-    used = np.zeros(K.shape[0], dtype=np.bool_)
-    for f in range(face.shape[0]):
-        if solid[f]:
-            for c in range(3):
-                for d in range(dofs):
-                    used[dofs * rep[face[f, c]] + d] = True
-    for v in range(K.shape[0]):
-        if not used[v]:
-            K[v, v] += 1.0
+    pairs = (t.hinge_faces, t.hinge_vertices, t.hinge_orbit, t.neck_faces, t.neck_vertices, t.neck_orbit)
+    rows = (t.hinge_row, t.hinge_k, t.hinge_weight, t.neck_rows, t.neck_k, t.neck_weight)
+    mem = (t.pos, t.rep, t.first, t.iface, t.fan0_faces, t.mem_first)
+    reals = (t.grad, t.area, t.mem_rows, t.mem_turn, t.moment, np.ascontiguousarray(t.phase.real))
+    return _features(solid, t.face, pairs, rows, mem, reals, (t.phase, t.turn), t.n_rep, t.edge2)
 
 
 @njit(cache=True)
@@ -357,12 +300,12 @@ def _membrane_energy(solid: NDArray[np.bool_], face: NDArray[np.int64], grad: ND
                 idx[6 + 2 * j], idx[7 + 2 * j] = 2 * rep[face[f2, j]], 2 * rep[face[f2, j]] + 1
             for a in range(6):
                 row[a], row[6 + a] = turn[f1, a], -turn[f2, a]
-            _add_pair(K, idx, row, neck_weight[m] * NECK * edge2)
-    _unit_unused(solid, face, rep, K, 2)
+            add_pair(K, idx, row, neck_weight[m] * NECK * edge2)
+    unit_unused(solid, face, rep, K, 2)
     K[0, 0] += PENALTY  # the centre stays put in a symmetric field
     K[1, 1] += PENALTY
     K[2 * rep[outer0], 2 * rep[outer0]] += PENALTY  # no rigid turn: interface 0 does not slide along its edge
-    u = _skyline_solve(K, mem_first, f0)
+    u = skyline_solve(K, mem_first, f0)
     energy = 0.0
     for f in fan0_faces:
         if not solid[f]:
@@ -384,105 +327,164 @@ def _membrane_energy(solid: NDArray[np.bool_], face: NDArray[np.int64], grad: ND
 
 
 @njit(cache=True)
-def _compact(solid: NDArray[np.bool_], face: NDArray[np.int64], hinge_faces: NDArray[np.int64],
-             hinge_vertices: NDArray[np.int64], neck_faces: NDArray[np.int64], neck_vertices: NDArray[np.int64],
-             index: NDArray[np.int64], first: NDArray[np.int64]) -> int:
-    """Number the vertices of solid faces 0, 1, … in row order (``index``, −1 for the others) and fill
-    ``first``, the skyline of their system; returns their count."""
-    nv = index.size
-    for v in range(nv):
-        index[v] = -1
+def _mode_block(solid: NDArray[np.bool_], face: NDArray[np.int64], pairs: tuple[NDArray[np.int64], ...],
+                rows: tuple[NDArray[np.float64], ...], pos: NDArray[np.int64], rep: NDArray[np.int64],
+                phase: NDArray, turning: bool, K: NDArray) -> None:
+    """K (m, m), lower triangle, := the plate's block of one Fourier mode of the polygon's rotations (module
+    doc): Σ over the listed hinge and neck orbits of weight · k · conj(p_a) · (row_a · row_b) · p_b, vertex v as
+    unknown ``pos[rep[v]]`` with phase p = ``phase[v]``; ``turning`` (a mode other than the symmetric one): the
+    centre does not move. An unknown that no solid face moves gets a unit diagonal."""
+    hinge_faces, hinge_vertices, hinges, neck_faces, neck_vertices, necks = pairs
+    hinge_row, hinge_k, hinge_weight, neck_rows, neck_k, neck_weight = rows
+    m = K.shape[0]
+    for i in range(m):
+        for j in range(i + 1):
+            K[i, j] = 0.0
+    idx = np.empty(6, dtype=np.int64)
+    ph = np.empty(6, dtype=phase.dtype)
+    for kind in range(2):
+        orbits = hinges if kind == 0 else necks
+        faces = hinge_faces if kind == 0 else neck_faces
+        verts = hinge_vertices if kind == 0 else neck_vertices
+        for o in range(orbits.size):
+            h = orbits[o]
+            if not (solid[faces[h, 0]] and solid[faces[h, 1]]):
+                continue
+            for c in range(6):
+                v = verts[h, c]
+                idx[c] = -1 if turning and rep[v] == 0 else pos[rep[v]]
+                ph[c] = phase[v]
+            k = (hinge_weight[o] * hinge_k[h]) if kind == 0 else (neck_weight[o] * neck_k[h])
+            for a in range(6):
+                if idx[a] < 0:
+                    continue
+                for b in range(6):
+                    if 0 <= idx[b] <= idx[a]:
+                        if kind == 0:
+                            r = hinge_row[h, a] * hinge_row[h, b]
+                        else:
+                            r = neck_rows[h, 0, a] * neck_rows[h, 0, b] + neck_rows[h, 1, a] * neck_rows[h, 1, b]
+                        K[idx[a], idx[b]] += k * r * np.conj(ph[a]) * ph[b]
+    used = np.zeros(m, dtype=np.bool_)
     for f in range(face.shape[0]):
         if solid[f]:
             for c in range(3):
-                index[face[f, c]] = 0
-    n = 0
-    for v in range(nv):
-        if index[v] == 0:
-            index[v] = n
-            first[n] = n
-            n += 1
-    for pairs, verts in ((hinge_faces, hinge_vertices), (neck_faces, neck_vertices)):
-        for h in range(pairs.shape[0]):
-            if solid[pairs[h, 0]] and solid[pairs[h, 1]]:
-                low = nv
-                for c in range(6):
-                    low = min(low, index[verts[h, c]])
-                for c in range(6):
-                    first[index[verts[h, c]]] = min(first[index[verts[h, c]]], low)
-    return n
+                if not (turning and rep[face[f, c]] == 0):
+                    used[pos[rep[face[f, c]]]] = True
+    for i in range(m):
+        if not used[i]:
+            K[i, i] += 1.0
 
 
 @njit(cache=True)
-def _one(solid: NDArray[np.bool_], ints: tuple[NDArray[np.int64], ...], reals: tuple[NDArray[np.float64], ...],
-         n_rep: int, edge2: float, K: NDArray[np.float64], Kw: NDArray[np.float64], out: NDArray[np.float64]) -> None:
-    """The four features of one pattern (``solid`` per face) into ``out``; K, Kw: (nv, nv) work arrays."""
-    (face, hinge_faces, hinge_vertices, neck_faces, neck_vertices, iface, _, rep, fan0_faces, hinge_orbit,
-     neck_orbit, all_hinges, all_necks, mem_first) = ints
-    (grad, area, hinge_row, hinge_k, neck_rows, neck_k, moment, rows, turn, hinge_weight, neck_weight,
-     ones_h, ones_n) = reals
-    nv = K.shape[0]
+def _add_mode(S: NDArray[np.float64], K: NDArray, m: int, turn: NDArray[np.complex128], weight: float) -> None:
+    """S (3n, 3n) += weight · Re(ω^{k(f−g)} Ŝ_k[i, j]) at interface dof (f, i), (g, j): one mode's share of the
+    stiffness condensed onto the interfaces, Ŝ_k the Schur complement in K's last 3 rows (``turn[d]`` = ω^{kd})."""
+    n = turn.size
+    for i in range(3):
+        for j in range(3):
+            s = K[m + i, m + j] if j <= i else np.conj(K[m + j, m + i])
+            for f in range(n):
+                for g in range(n):
+                    S[3 * f + i, 3 * g + j] += weight * (turn[(f - g) % n] * s).real
+
+
+@njit(cache=True)
+def _compliance(S: NDArray[np.float64], pins: NDArray[np.int64], clamp: bool, f: NDArray[np.float64],
+                scale: float) -> float:
+    """½ fᵀu for (S + the pins) u = f, S (3m, 3m) the stiffness on m interfaces' dofs (outer vertex, inner
+    ones): each listed interface w = 0 along it (outer fixed, inner ones level) or, ``clamp``, fixed
+    altogether, by penalties ``scale`` · :data:`PENALTY`."""
+    A = S.copy()
+    for i in pins:
+        p = scale * PENALTY
+        A[3 * i, 3 * i] += p
+        A[3 * i + 1, 3 * i + 1] += p
+        A[3 * i + 2, 3 * i + 2] += p
+        if not clamp:
+            A[3 * i + 2, 3 * i + 1] -= p
+    return float(0.5 * (f @ dense_solve(A, f)))
+
+
+@njit(cache=True)
+def _one(solid: NDArray[np.bool_], face: NDArray[np.int64], pairs: tuple[NDArray[np.int64], ...],
+         rows: tuple[NDArray[np.float64], ...], mem: tuple[NDArray[np.int64], ...],
+         reals: tuple[NDArray[np.float64], ...], waves: tuple[NDArray[np.complex128], ...], n_rep: int,
+         edge2: float, Kr: NDArray[np.float64], Kc: NDArray[np.complex128], out: NDArray[np.float64]) -> None:
+    """The four features of one pattern (``solid`` per face) into ``out``; Kr, Kc: (n_rep, n_rep) work arrays."""
+    pos, rep, first, iface, fan0_faces, mem_first = mem
+    grad, area, mem_rows, mem_turn, moment, phase_re = reals
+    phase, turn = waves
     n = iface.shape[0]
-    index = np.empty(nv, dtype=np.int64)
-    first = np.empty(nv, dtype=np.int64)
-    m = _compact(solid, face, hinge_faces, hinge_vertices, neck_faces, neck_vertices, index, first)
-    for i in range(m):
-        for j in range(first[i], i + 1):
-            K[i, j] = 0.0
-    _bending(solid, hinge_faces, hinge_vertices, hinge_row, hinge_k, neck_faces, neck_vertices, neck_rows, neck_k,
-             index, all_hinges, ones_h, all_necks, ones_n, K)
-    pinned = np.empty(4, dtype=np.int64)
-    for scenario in range(2):
-        for i in range(m):
-            for j in range(first[i], i + 1):
-                Kw[i, j] = K[i, j]
-        f = np.zeros(m)
-        if scenario == 0:  # cantilever: interface 0 clamped, the force on the opposite interface
-            for c in range(1, 4):
-                pinned[c] = index[iface[0, c]]
-            _pin(Kw, pinned, True)
-            f[index[iface[n // 2, 1]]] = FORCE
-        else:  # cylinder: w = 0 along both, a moment on each
-            for i in (0, n // 2):
-                for c in range(1, 4):
-                    pinned[c] = index[iface[i, c]]
-                _pin(Kw, pinned, False)
-                for c in range(3):
-                    f[index[face[iface[i, 0], c]]] += CYLINDER * moment[i, c]
-        u = _skyline_solve(Kw[:m, :m], first[:m], f)
-        out[scenario] = math.log(0.5 * (f @ u))
-    # dome: symmetric under the polygon's rotations, solved on one fan's vertices (one pair of each orbit)
-    Kd = np.zeros((n_rep, n_rep))
-    _bending(solid, hinge_faces, hinge_vertices, hinge_row, hinge_k, neck_faces, neck_vertices, neck_rows, neck_k,
-             rep, hinge_orbit, hinge_weight, neck_orbit, neck_weight, Kd)
-    _unit_unused(solid, face, rep, Kd, 1)
-    f = np.zeros(n_rep)
-    for i in range(n):
-        for c in range(1, 4):
-            pinned[c] = rep[iface[i, c]]
-        _pin(Kd, pinned, False)
-        for c in range(3):
-            f[rep[face[iface[i, 0], c]]] += DOME * moment[i, c]
-    w = _dense_solve(Kd, f)
-    out[2] = math.log(0.5 * (f @ w))
-    out[3] = math.log(1.0 + _membrane_energy(solid, face, grad, area, rows, turn, fan0_faces, neck_faces,
-                                             neck_orbit, neck_weight, rep, n_rep, edge2, w, iface[0, 1], n,
-                                             mem_first))
+    m = n_rep - 3  # the unknowns condensed out; the last three are the interface's
+    S = np.zeros((3 * n, 3 * n))
+    w = np.zeros(n_rep)
+    for k in range(n // 2 + 1):
+        if k == 0 or 2 * k == n:  # the symmetric and the alternating modes are real
+            _mode_block(solid, face, pairs, rows, pos, rep, phase_re[k], k > 0, Kr)
+            condense(Kr, first, m)
+            _add_mode(S, Kr, m, turn[k], 1.0 / (n * n))
+        else:  # modes k and n − k are conjugate: one complex block counts twice
+            _mode_block(solid, face, pairs, rows, pos, rep, phase[k], True, Kc)
+            condense(Kc, first, m)
+            _add_mode(S, Kc, m, turn[k], 2.0 / (n * n))
+        if k == 0:  # the dome: every interface pinned and loaded alike, the symmetric mode alone
+            fb = n * DOME * moment[0]
+            Sb = np.zeros((3, 3))
+            for i in range(3):
+                for j in range(i + 1):
+                    Sb[i, j] = Kr[m + i, m + j]
+            wb = dense_solve(_pinned(Sb, n), fb)
+            out[2] = math.log(0.5 * (fb @ wb))
+            w[m:] = wb
+            for j in range(m):  # the rest: −L_aa⁻ᴴ L_baᴴ w_b
+                for i in range(3):
+                    w[j] -= Kr[m + i, j] * wb[i]
+            for i in range(m - 1, -1, -1):
+                w[i] /= Kr[i, i]
+                for j in range(first[i], i):
+                    w[j] -= Kr[i, j] * w[i]
+    fc = np.zeros(3 * n)
+    fc[3 * (n // 2)] = FORCE
+    out[0] = math.log(_compliance(S, np.array([0]), True, fc, 1.0))
+    fy = np.zeros(3 * n)
+    for i in (0, n // 2):
+        fy[3 * i: 3 * i + 3] += CYLINDER * moment[i]
+    out[1] = math.log(_compliance(S, np.array([0, n // 2]), False, fy, 1.0))
+    w_rep = np.empty(n_rep)
+    for r in range(n_rep):
+        w_rep[r] = w[pos[r]]
+    hinge_faces, hinge_vertices, hinges, neck_faces, neck_vertices, necks = pairs
+    out[3] = math.log(1.0 + _membrane_energy(solid, face, grad, area, mem_rows, mem_turn, fan0_faces, neck_faces,
+                                             necks, rows[5], rep, n_rep, edge2, w_rep, iface[0, 1], n, mem_first))
+
+
+@njit(cache=True)
+def _pinned(Sb: NDArray[np.float64], n: int) -> NDArray[np.float64]:
+    """One interface's 3×3 lower stiffness with w = 0 along it, penalties n · :data:`PENALTY` (n interfaces
+    folded onto one)."""
+    A = Sb.copy()
+    A[0, 0] += n * PENALTY
+    A[1, 1] += n * PENALTY
+    A[2, 2] += n * PENALTY
+    A[2, 1] -= n * PENALTY
+    return A
 
 
 @njit(cache=True, parallel=True)
-def _features(solid: NDArray[np.bool_], ints: tuple[NDArray[np.int64], ...], reals: tuple[NDArray[np.float64], ...],
-              n_rep: int,
+def _features(solid: NDArray[np.bool_], face: NDArray[np.int64], pairs: tuple[NDArray[np.int64], ...],
+              rows: tuple[NDArray[np.float64], ...], mem: tuple[NDArray[np.int64], ...],
+              reals: tuple[NDArray[np.float64], ...], waves: tuple[NDArray[np.complex128], ...], n_rep: int,
               edge2: float) -> NDArray[np.float64]:
     """(k, 4) features of k patterns (``solid`` (k, nf)), in chunks spread over the cores."""
     k = solid.shape[0]
-    nv = ints[6].size
     out = np.zeros((k, N_PHYSICS))
     chunks = min(k, CHUNKS)
     # work arrays per chunk allocated here: numba hoists an allocation inside a prange body out of the loop,
     # which would share it between threads
-    work = np.zeros((chunks, 2, nv, nv))
+    work_r = np.zeros((chunks, n_rep, n_rep))
+    work_c = np.zeros((chunks, n_rep, n_rep), dtype=np.complex128)
     for c in prange(chunks):
         for p in range(c * k // chunks, (c + 1) * k // chunks):
-            _one(solid[p], ints, reals, n_rep, edge2, work[c, 0], work[c, 1], out[p])
+            _one(solid[p], face, pairs, rows, mem, reals, waves, n_rep, edge2, work_r[c], work_c[c], out[p])
     return out
