@@ -128,6 +128,8 @@ def test_bad_joint_angles_are_one_line(sleeve: dict, words: tuple[str, ...]) -> 
     ({"thicknesses": {"H01": 0.0}}, ("plates.thicknesses.H01 = 0 mm is outside plates.thickness_range = [0.01, 100]",)),
     ({"thicknesses": {"X01": 1.0}}, ("plates.thicknesses names 'X01'", "its 32 plates are H01 … H20, P01 … P12")),
     ({"thicknesses": {"H01": True}}, ("plates.thicknesses", "must be a table {plate label = number")),
+    ({"thicknesses": {"H01": 1.2, "P03": 0.9}, "thickness": 1.0, "process": "laser"},
+     ("plates.thicknesses gives plates of 0.9, 1, 1.2 mm", "same sheets", "plates.process = \"print\"")),
 ])
 def test_bad_plate_thicknesses_are_one_line(plates: dict, words: tuple[str, ...]) -> None:
     _one_line(sphere(plates=plates), *words)

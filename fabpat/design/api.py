@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import os
+import shutil
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -198,8 +199,12 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
 
             base, mapped = mapped_base(tgt, base)
             runner = Runner(base.spec, h, (), workers, dask, progress, status=status, deadline=deadline)
-        res = design_closed(tgt, base, h, MAX_SOLVES_CLOSED if max_solves is None else max_solves, tolerance,
-                            runner, t0, DesignResult, per=per, angles="angles" in vary_words)
+        try:
+            res = design_closed(tgt, base, h, MAX_SOLVES_CLOSED if max_solves is None else max_solves, tolerance,
+                                runner, t0, DesignResult, per=per, angles="angles" in vary_words)
+        finally:  # the mapped mesh's temporary folder: design.toml's own copy is written with the outputs
+            if mapped is not None:
+                shutil.rmtree(mapped.folder, ignore_errors=True)
         res.record["per"] = per
         res.record["vary"] = list(vary_words)
         if mapped is not None:

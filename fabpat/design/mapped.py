@@ -91,6 +91,8 @@ class MappedTiling:
     planarity: float
     distance_rms: float
     seconds: float
+    #: the temporary folder the design's spec reads the mesh from while it runs ("" before); removed after it
+    folder: str = ""
 
 
 def map_base(tgt: ClosedTarget, base: DesignBase) -> MappedTiling:
@@ -116,8 +118,8 @@ def map_base(tgt: ClosedTarget, base: DesignBase) -> MappedTiling:
         e_w, a_w = 100 * float(m.edge_deviation[worst]), math.degrees(float(m.angle_deviation[worst]))
         raise SpecError(f"{tgt.source}: the base tiling mapped onto the target has face {label} "
                         f"{e_w:.1f} % / {a_w:.1f}° from regular, over the shaped plates' limit of "
-                        f"{100 * MAX_IRREGULARITY[0]:g} % / {math.degrees(MAX_IRREGULARITY[1]):g}°: use a finer base "
-                        "tiling (a Goldberg polyhedron of higher m)")
+                        f"{100 * MAX_IRREGULARITY[0]:g} % / {math.degrees(MAX_IRREGULARITY[1]):g}°: flat faces of "
+                        "this base cannot follow the target's curvature there (docs/design.md, Reachability)")
     return MappedTiling(r.V, faces, write_obj(r.V, faces),
                         {"edge": edge, "angle_deg": math.degrees(angle)},
                         float(np.max(m.planarity)) / m.size, float(m.distance_rms), float(r.seconds))
@@ -135,6 +137,8 @@ def mapped_base(tgt: ClosedTarget, base: DesignBase) -> tuple[DesignBase, Mapped
     tiling = {"kind": "mesh", "file": MESH_NAME, "edge": float(base.spec.tiling.edge), "plates": "shaped"}
     data = copy.deepcopy(base.data)
     data["tiling"] = tiling
-    pats = {"pattern": "0x0488"}  # a placeholder, as the base's: the design names every plate's pattern
-    spec = parse_spec(dict(data, patterns=pats), str(folder / "design.toml"))
-    return replace(base, spec=spec, data=data), mapped
+    # the base's own way of choosing (its "spec" baseline: one key per polygon reads the same on a mesh), else a
+    # placeholder, as load_base puts: the design names every plate's pattern
+    pats = data.get("patterns") if base.way is not None else None
+    spec = parse_spec(dict(data, patterns=pats or {"pattern": "0x0488"}), str(folder / "design.toml"))
+    return replace(base, spec=spec, data=data), replace(mapped, folder=str(folder))

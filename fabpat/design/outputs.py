@@ -22,6 +22,8 @@ from fabpat.errors import ExportError
 
 GENERATOR = "fabpat design"
 FILES = ("design.toml", "design.json", "design.png")
+#: the files a design may write beside them: a mapped tiling's mesh (fabpat.design.mapped.MESH_NAME)
+EXTRA_FILES = ("mapped.obj",)
 
 
 def design_in_the_way(p: Path) -> str | None:
@@ -49,7 +51,7 @@ def design_in_the_way(p: Path) -> str | None:
             why = foreign_entries(entry)
             if why is not None:
                 return f"its kit/ {why}"
-        elif name not in FILES or entry.is_symlink() or not entry.is_file():
+        elif name not in FILES + EXTRA_FILES or entry.is_symlink() or not entry.is_file():
             return f"it holds {name}, which fabpat design did not write"
     return None
 

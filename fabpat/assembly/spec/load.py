@@ -198,8 +198,13 @@ def _plates(source: str, data: object, tiling: TilingSpec | None) -> PlateSpec:
                     t.note(t.fail(f"thicknesses.{label}", f"= {v:g} mm is outside plates.thickness_range = "
                                   f"[{lo:g}, {hi:g}]"), None)
             thicknesses = tuple((label, given[label]) for label in labels if label in given)
-    return PlateSpec(t.number("thickness", 2.0, "thickness"), t.number("weight", 0.2, "weight"),
-                     t.choice("process", PROCESSES, "print"),
+    thickness, process = t.number("thickness", 2.0, "thickness"), t.choice("process", PROCESSES, "print")
+    several = sorted({thickness, *(v for _, v in thicknesses)}) if thickness is not None else []
+    if process == "laser" and len(several) > 1:  # one sheet is one thickness: the kit nests every plate on one
+        t.note(t.fail("thicknesses", f"gives plates of {', '.join(f'{v:g}' for v in several)} mm, and "
+                      "plates.process = \"laser\" cuts every plate from the same sheets: give each thickness its "
+                      "own spec, or print the plates (plates.process = \"print\")"), None)
+    return PlateSpec(thickness, t.number("weight", 0.2, "weight"), process,
                      t.number("density", 1.24, "density"), thicknesses, (lo, hi))
 
 
