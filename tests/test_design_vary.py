@@ -102,3 +102,17 @@ def test_a_target_whose_mapped_faces_are_too_irregular_is_refused_naming_the_fac
                                  str(out), "--no-progress"])
     one_line_error(r, "from regular, over the shaped plates' limit of 20 % / 15°", "face P")
     assert not out.exists()
+
+
+def test_an_earlier_design_with_its_mapped_mesh_may_be_replaced(tmp_path: Path) -> None:
+    """mapped.obj is a design's own output: a re-run into the folder replaces it; a user's file still stops it."""
+    import json
+
+    from fabpat.design.outputs import GENERATOR, design_in_the_way
+
+    (tmp_path / "design.json").write_text(json.dumps({"generator": GENERATOR}), encoding="utf-8")
+    for name in ("design.toml", "design.png", "mapped.obj"):
+        (tmp_path / name).write_text("x", encoding="utf-8")
+    assert design_in_the_way(tmp_path) is None
+    (tmp_path / "notes.txt").write_text("mine", encoding="utf-8")
+    assert design_in_the_way(tmp_path) == "it holds notes.txt, which fabpat design did not write"
