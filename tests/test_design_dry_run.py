@@ -67,3 +67,79 @@ def test_a_dry_run_refuses_what_the_design_would(tmp_path: Path) -> None:
                str(tmp_path / "d"), "--h", "6", "--dry-run")
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "--scale-target" in r.stderr, r.stderr
     assert r.stdout == ""
+
+
+SPHERE = Path(__file__).resolve().parents[1] / "assemblies" / "truncated-icosahedron.toml"
+STRIP = Path(__file__).resolve().parents[1] / "assemblies" / "graded-strip.toml"
+
+
+def _open_sphere(folder: Path) -> Path:
+    """The shipped truncated icosahedron with its [patterns] left open (no pattern named)."""
+    text = SPHERE.read_text(encoding="utf-8")
+    head, _, rest = text.partition("[patterns]")
+    path = folder / "open.toml"
+    path.write_text(head + "[patterns]\nvariations = false\n\n" + rest[rest.index("[plates]"):], encoding="utf-8")
+    return path
+
+
+@pytest.mark.parametrize(("case", "words"), [
+    ("bogus", ("unknown word 'bogus'", "thickness")),
+    ("empty", ("--vary", "shapes, patterns, angles, thickness")),
+    ("per", ("--per",)),
+    ("strip-shapes", ("--vary shapes", "leave shapes out")),
+    ("irregular", ("face H07", "17.7°", "over the shaped plates' limit")),
+    ("no-patterns", ("--vary without patterns keeps the base spec's patterns: name them in its [patterns]",)),
+])
+def test_a_dry_run_refuses_per_vary_and_mapped_faces_as_the_design_does(tmp_path: Path, case: str,
+                                                                       words: tuple[str, ...]) -> None:
+    """Each of these was a plan and exit 0 from --dry-run while the design refused it before its first solve:
+    the words of --vary and --per, shapes with a strip target, a closed target whose mapped faces are too
+    irregular (the 1.3 : 1 ellipsoid bends hexagon H07 17.7° out of regular, past the shaped plates' 15°) and a
+    design without patterns on a base that names none. One line, exit 2, nothing written."""
+    from click.testing import CliRunner
+
+    from fabpat.cli import cli
+    from tests.helpers import one_line_error
+
+    arch = tmp_path / "arch.csv"
+    arch.write_text("x,z\n0,0\n100,20\n200,0\n", encoding="utf-8")
+    args = {"bogus": ["sphere", "--spec", str(SPHERE), "--vary", "bogus"],
+            "empty": ["sphere", "--spec", str(SPHERE), "--vary", ""],
+            "per": ["sphere", "--spec", str(SPHERE), "--per", "plate"],
+            "strip-shapes": [str(arch), "--spec", str(STRIP), "--vary", "shapes"],
+            "irregular": ["ellipsoid:1,1,1.3", "--spec", str(SPHERE)],
+            "no-patterns": ["sphere", "--spec", str(_open_sphere(tmp_path)), "--vary", "angles"]}[case]
+    out = tmp_path / "out"
+    r = CliRunner().invoke(cli, ["design", *args, "--out", str(out), "--dry-run"])
+    one_line_error(r, *words)
+    assert r.stdout == "" and not out.exists()
+
+
+def test_dry_run_checks_per_from_python() -> None:
+    from fabpat.design.dry_run import dry_run
+    from fabpat.errors import SpecError
+
+    with pytest.raises(SpecError, match="--per must be one of face, group"):
+        dry_run("sphere", SPHERE, per="plate")
+
+
+def test_a_closed_plan_gives_per_vary_and_the_mapped_faces(tmp_path: Path) -> None:
+    """With shapes the plan measures the tiling mapped onto the target as the design would (flat faces, within
+    the shaped plates' limit, stretched by the 1.15 : 1 ellipsoid); a sphere keeps its base tiling (shapes
+    dropped, nothing mapped); per and vary are the design's."""
+    from fabpat.geometry.shaped import MAX_IRREGULARITY
+
+    out = tmp_path / "d"
+    r = invoke("design", "ellipsoid:1,1,1.15", "--spec", str(SPHERE), "--out", str(out), "--per", "group",
+               "--vary", "angles,shapes", "--dry-run")
+    assert r.returncode == 0, r.stderr
+    plan = json.loads(r.stdout)
+    assert plan["per"] == "group" and plan["vary"] == ["shapes", "angles"]
+    assert plan["planarity"] < 1e-6
+    assert 0.005 < plan["face_irregularity"]["edge"] < MAX_IRREGULARITY[0]
+    assert 1.0 < plan["face_irregularity"]["angle_deg"] < math.degrees(MAX_IRREGULARITY[1])
+    r = invoke("design", "sphere", "--spec", str(SPHERE), "--out", str(out), "--dry-run")
+    assert r.returncode == 0, r.stderr
+    plan = json.loads(r.stdout)
+    assert plan["per"] == "face" and plan["vary"] == ["patterns"] and "face_irregularity" not in plan
+    assert not out.exists()

@@ -116,3 +116,74 @@ def test_an_earlier_design_with_its_mapped_mesh_may_be_replaced(tmp_path: Path) 
     assert design_in_the_way(tmp_path) is None
     (tmp_path / "notes.txt").write_text("mine", encoding="utf-8")
     assert design_in_the_way(tmp_path) == "it holds notes.txt, which fabpat design did not write"
+
+
+def _open_sphere(folder: Path) -> Path:
+    """The shipped truncated icosahedron with its [patterns] left open (no pattern named)."""
+    text = SPHERE.read_text(encoding="utf-8")
+    head, _, rest = text.partition("[patterns]")
+    path = folder / "open.toml"
+    path.write_text(head + "[patterns]\nvariations = false\n\n" + rest[rest.index("[plates]"):], encoding="utf-8")
+    return path
+
+
+def _own(record: dict[str, Any]) -> None:
+    """The design's patterns are the shipped spec's pair: 0x0488 on every hexagon, 0x0508 on every pentagon."""
+    pats = record["patterns"]
+    assert len(pats) == 32
+    assert {p for k, p in pats.items() if k.startswith("H")} == {"0x0488"}
+    assert {p for k, p in pats.items() if k.startswith("P")} == {"0x0508"}
+
+
+def test_vary_without_patterns_keeps_the_base_patterns_and_gives_the_angles_the_budget(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """``--per group --vary angles --max-solves 4`` solved 4 pattern designs (the single baseline among them)
+    while design.json said variables.patterns = 0. Now the spec's own pair is solved alone and the angle phase
+    starts from it with the whole budget (the closure and the angle phase replaced: no real solve)."""
+    from fabpat.design import design
+    from tests.test_design_inputs import _fake_closure
+
+    monkeypatch.setattr("fabpat.design.closed_api.solve_closed", _fake_closure)
+    seen: dict[str, Any] = {}
+
+    def angles(phase: Any, tgt: Any, spec: Any, best: Any, h: float, budget: int, *_a: Any) -> None:
+        seen.update(faces=list(best.data["faces"]), budget=budget)
+
+    monkeypatch.setattr("fabpat.design.closed_angles.vary_angles", angles)
+    rec = design("sphere", SPHERE, h=7.5, max_solves=4, per="group", vary="angles").record
+    _own(rec)
+    assert set(rec["baselines"]) == {"spec"} and rec["solves"] == 1 and len(rec["history"]) == 1
+    assert rec["variables"]["patterns"] == 0 and rec["vary"] == ["angles"]
+    assert seen["budget"] == 4 and seen["faces"] == list(rec["patterns"].values())
+
+
+def test_vary_shapes_without_patterns_keeps_the_base_patterns_on_the_mapped_faces(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The mapped tiling's spec carries a placeholder pattern: the kept patterns are the base's, read before the
+    mapping (0x0508 on the pentagons, not the placeholder's 0x0488)."""
+    from fabpat.design import design
+    from tests.test_design_inputs import _fake_closure
+
+    monkeypatch.setattr("fabpat.design.closed_api.solve_closed", _fake_closure)
+    res = design("ellipsoid:1,1,1.15", SPHERE, h=7.5, max_solves=4, vary="shapes")
+    _own(res.record)
+    assert set(res.record["baselines"]) == {"spec"} and res.record["solves"] == 1
+    assert res.record["variables"]["patterns"] == 0 and res.record["variables"]["shapes"] == 3 * 60
+    assert "mapped.obj" in res.files
+
+
+def test_vary_without_patterns_on_a_base_that_names_none_is_refused(tmp_path: Path, no_solve: None) -> None:
+    from click.testing import CliRunner
+
+    from fabpat.cli import cli
+    from fabpat.design import design
+
+    spec = _open_sphere(tmp_path)
+    with pytest.raises(SpecError, match="--vary without patterns keeps the base spec's patterns") as e:
+        design("sphere", spec, vary="angles")
+    assert "\n" not in str(e.value)
+    out = tmp_path / "out"
+    r = CliRunner().invoke(cli, ["design", "ellipsoid:1,1,1.15", "--spec", str(spec), "--out", str(out),
+                                 "--vary", "shapes,angles", "--no-progress"])
+    one_line_error(r, "name them in its [patterns]")
+    assert not out.exists()

@@ -34,13 +34,15 @@ from fabpat.cli.options import h_option, number_option
 @click.option("--kit", is_flag=True, help="Also run `fabpat assemble` on design.toml into DIR/kit.")
 @click.option("--dry-run", is_flag=True,
               help="Check the inputs and print the plan as JSON (strip: pin length, end shortening, scale, the "
-                   "elastica's peak strain; closed: the target's fitted scale) in seconds: no solve, no file.")
+                   "elastica's peak strain; closed: the target's fitted scale, with shapes the mapped faces' "
+                   "irregularity) in seconds: no solve, no file.")
 @click.option("--per", type=click.Choice(["face", "group"]), default="face", show_default=True,
               help="Closed tilings: a pattern per face, or per face group (polygon and latitude band).")
 @click.option("--vary", metavar="WORDS", default=None,
               help="Design variables, comma-separated: shapes, patterns, angles, thickness [default: shapes,patterns "
                    "for a closed target (shapes: the base tiling mapped onto the target, plates shaped to its faces, "
-                   "its mesh written as DIR/mapped.obj), patterns,angles for a strip].")
+                   "its mesh written as DIR/mapped.obj), patterns,angles for a strip]. Without patterns a closed "
+                   "design keeps the base spec's own [patterns].")
 @click.option("--progress/--no-progress", default=True, show_default=True,
               help="Progress on stderr (solves done; in a solve its increment, λ and factorizations).")
 def design_cmd(target: str, spec: str, out: str, h: float, max_solves: int | None, tolerance: float, scale_target: bool,
@@ -74,7 +76,8 @@ def design_cmd(target: str, spec: str, out: str, h: float, max_solves: int | Non
 
         from fabpat.design.dry_run import dry_run as plan
 
-        click.echo(json.dumps(plan(target, spec, out=out, h=h, scale_target=scale_target), indent=1))
+        click.echo(json.dumps(plan(target, spec, out=out, h=h, scale_target=scale_target, per=per, vary=vary),
+                              indent=1))
         return
     with Progress("design", enabled=progress) as bar:
         bar.update("reading the target, the spec and the catalog")

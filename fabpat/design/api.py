@@ -98,6 +98,46 @@ def _check_arc(target: StripTarget, length: float, scale_target: bool) -> tuple[
     return target.scaled(factor), factor
 
 
+def checked_inputs(target: object, spec: object, out: str | os.PathLike[str] | None, per: object, vary: object,
+                   scale_target: bool) -> tuple[StripTarget | ClosedTarget, DesignBase, str, tuple[str, ...]]:
+    """What :func:`design` and its dry run (:mod:`fabpat.design.dry_run`) check before the first solve, in this
+    order: ``spec`` a path, the output folder ``out`` (None: none), ``per`` and the ``vary`` words
+    (:mod:`fabpat.design.mapped`), the target, the base spec and that they match, ``shapes`` only for a closed
+    target, ``scale_target`` only for a strip, and a closed design without ``patterns`` keeping a base that
+    names its patterns. Returns (target, base, per, vary words; a sphere drops ``shapes``: its base faces are
+    a sphere's already). Raises SpecError, TargetError, ExportError (one line each)."""
+    from fabpat.design.mapped import read_per, read_vary
+    from fabpat.errors import ExportError, SpecError
+    from fabpat.validate import check_path
+
+    if not isinstance(spec, str | os.PathLike):
+        raise SpecError(f"spec must be the path of a TOML spec file, got {type(spec).__name__}")
+    if out is not None:
+        from fabpat.design.outputs import check_design_out
+
+        check_path(out, "out", error=ExportError)
+        check_design_out(out)
+    per_word = read_per(per)
+    read_vary(vary, True)  # its words checked before the target is read
+    tgt = read_target(target)
+    vary_words = read_vary(vary, isinstance(tgt, ClosedTarget))
+    base = load_base(spec)
+    require_match(tgt, base.spec.source, base.spec.tiling.kind)
+    if not isinstance(tgt, ClosedTarget):
+        if "shapes" in vary_words:
+            raise SpecError("--vary shapes maps a closed tiling onto its target; a strip's plates are its own "
+                            "(leave shapes out)")
+        return tgt, base, per_word, vary_words
+    if scale_target:
+        raise SpecError("scale_target applies to strip targets (a closed target has no size: the plates fix it)")
+    if "patterns" not in vary_words and base.way is None:
+        raise SpecError(f"{base.spec.source}: --vary without patterns keeps the base spec's patterns: name them in "
+                        "its [patterns]")
+    if "shapes" in vary_words and tgt.kind == "sphere":  # the base's faces are a sphere's already: kept, and
+        vary_words = tuple(w for w in vary_words if w != "shapes")  # their plates stay a few part types
+    return tgt, base, per_word, vary_words
+
+
 def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[str] | None = None,
            h: float = 3.0, max_solves: int | None = None, tolerance: float = TOLERANCE, scale_target: bool = False,
            workers: int = 1, dask: str | None = None, kit: bool = False,
@@ -124,7 +164,9 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
     :data:`fabpat.design.mapped.VARY` (a comma-separated string or a list; default ``shapes,patterns`` for a closed
     target, ``patterns,angles`` for a strip). With ``shapes`` a closed design's tiling is the base's mapped onto the
     target and relaxed into flat, nearly regular faces, its plates shaped to them (:mod:`fabpat.design.mapped`);
-    a strip's shapes are its target's and take no ``shapes``.
+    a strip's shapes are its target's and take no ``shapes``. Without ``patterns`` a closed design keeps the base
+    spec's own patterns (its ``spec`` or ``rule`` baseline, the only patterns solved; a base that names none is
+    refused before any solve), and ``angles`` get the whole budget.
 
     Stopping early (:mod:`fabpat.design.stop`): a Ctrl-C (KeyboardInterrupt; SIGTERM under the CLI) or the
     time budget ``max_minutes`` (minutes from the call) ends the search, and the best design of the
@@ -162,38 +204,14 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
     for name, fn in (("progress", progress), ("status", status)):
         if fn is not None and not callable(fn):
             raise SpecError(f"{name} must be a callable or None, got {type(fn).__name__}")
-    if not isinstance(spec, str | os.PathLike):
-        raise SpecError(f"spec must be the path of a TOML spec file, got {type(spec).__name__}")
-    if out is not None:
-        from fabpat.errors import ExportError
-        from fabpat.validate import check_path
-
-        check_path(out, "out", error=ExportError)
-    if out is not None:
-        from fabpat.design.outputs import check_design_out
-
-        check_design_out(out)
-    from fabpat.design.mapped import read_per, read_vary
-
-    per = read_per(per)
-    read_vary(vary, True)  # its words checked before the target is read
-    tgt = read_target(target)
-    vary_words = read_vary(vary, isinstance(tgt, ClosedTarget))
-    base = load_base(spec)
-    require_match(tgt, base.spec.source, base.spec.tiling.kind)
-    if not isinstance(tgt, ClosedTarget) and "shapes" in vary_words:
-        raise SpecError("--vary shapes maps a closed tiling onto its target; a strip's plates are its own "
-                        "(leave shapes out)")
-    if isinstance(tgt, ClosedTarget) and scale_target:
-        raise SpecError("scale_target applies to strip targets (a closed target has no size: the plates fix it)")
+    tgt, base, per, vary_words = checked_inputs(target, spec, out, per, vary, scale_target)
     deadline = None if max_minutes is None else t0 + 60.0 * max_minutes
     runner = Runner(base.spec, h, (), workers, dask, progress, status=status, deadline=deadline)
     if isinstance(tgt, ClosedTarget):
         from fabpat.design.closed_api import design_closed
 
         mapped = None
-        if "shapes" in vary_words and tgt.kind == "sphere":  # the base's faces are a sphere's already: kept, and
-            vary_words = tuple(w for w in vary_words if w != "shapes")  # their plates stay a few part types
+        own = base_faces(base)  # before the mapping: a mapped base's patterns are a placeholder
         if "shapes" in vary_words:
             from fabpat.design.mapped import mapped_base
 
@@ -201,7 +219,8 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
             runner = Runner(base.spec, h, (), workers, dask, progress, status=status, deadline=deadline)
         try:
             res = design_closed(tgt, base, h, MAX_SOLVES_CLOSED if max_solves is None else max_solves, tolerance,
-                                runner, t0, DesignResult, per=per, angles="angles" in vary_words)
+                                runner, t0, DesignResult, per=per, angles="angles" in vary_words, own=own,
+                                patterns="patterns" in vary_words)
         finally:  # the mapped mesh's temporary folder: design.toml's own copy is written with the outputs
             if mapped is not None:
                 shutil.rmtree(mapped.folder, ignore_errors=True)

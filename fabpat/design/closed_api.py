@@ -3,7 +3,9 @@
 Order of work: the face groups and candidate pools, then one batch of the baselines (the base spec's
 own patterns, ``spec`` or ``rule``; one single pattern on every face, ``single``), the space-filling
 start designs, the Bayesian-optimisation rounds, and the record. The baselines' solves come on top of
-the budget, as for a strip; every solve is counted in ``solves``.
+the budget, as for a strip; every solve is counted in ``solves``. A design that does not vary its patterns
+solves the base spec's own patterns alone (no ``single`` baseline, no pattern search) and leaves the budget to
+the angles.
 """
 
 from __future__ import annotations
@@ -46,14 +48,19 @@ def _single_key(search: ClosedSearch) -> tuple[int, ...] | None:
 
 
 def design_closed(tgt: ClosedTarget, base: DesignBase, h: float, max_solves: int, tolerance: float, runner: Runner,
-                  t0: float, result: Callable[..., Any], per: str = "group", angles: bool = False) -> Any:
+                  t0: float, result: Callable[..., Any], per: str = "group", angles: bool = False,
+                  own: tuple[str, list[str]] | None = None, patterns: bool = True) -> Any:
     """Design a closed tiling for ``tgt`` (module doc) with ``runner`` (its deadline and a signal stop the
     search early, :mod:`fabpat.design.stop`); ``result`` builds the DesignResult. ``per``: a pattern per face
     group (polygon and latitude band: :func:`fabpat.design.closed.face_groups`) or per ``"face"``. ``angles``:
     then the best design's sleeve angles (:mod:`fabpat.design.closed_angles`), with
-    :func:`~fabpat.design.closed_angles.angle_budget` of ``max_solves``."""
+    :func:`~fabpat.design.closed_angles.angle_budget` of ``max_solves``. ``own``: the base spec's own choice
+    (:func:`fabpat.design.base.base_faces` of the base before any mapping; None: of ``base``). ``patterns``
+    False: ``own`` is the design's patterns (no pattern search; the angles get all of ``max_solves``). Raises
+    SpecError (``patterns`` False and no ``own``), SolverError (nothing solved)."""
     from fabpat.assembly.place.placement import build_tiling
     from fabpat.design.closed_angles import AnglePhase, angle_budget, vary_angles
+    from fabpat.errors import SpecError
 
     assert base.rows is not None
     skel = build_tiling(base.spec)
@@ -66,11 +73,17 @@ def design_closed(tgt: ClosedTarget, base: DesignBase, h: float, max_solves: int
                           base.spec.material.strain_limit, base.max_distinct, runner)
     labels = list(skel.labels)
     runs: dict[str, ClosedEvaluated] = {}
-    for_angles = angle_budget(max_solves) if angles else 0
+    way = base_faces(base) if own is None else own
+    if not patterns and way is None:
+        raise SpecError(f"{base.spec.source}: --vary without patterns keeps the base spec's patterns: name them in "
+                        "its [patterns]")
+    for_angles = (angle_budget(max_solves) if patterns else max_solves) if angles else 0
     max_solves -= for_angles
 
     def work() -> None:  # every solve finished is kept in runs and search.seen, stopped or not
-        _baselines(search, base, runner, tgt, runs)
+        _baselines(search, way, runner, tgt, runs, single=patterns)
+        if not patterns:  # the base's own patterns are the design
+            return
         budget = max_solves + runner.solves
         members = search.has_members()
         if members:  # the paper's members first, then the best design's own families (closed module doc)
@@ -106,7 +119,7 @@ def design_closed(tgt: ClosedTarget, base: DesignBase, h: float, max_solves: int
         rec["notes"] = list(base.notes)
     if stopped is not None:
         rec["stopped_by"] = stopped
-    warning = None if rec["reachable"] else _unreachable(rec, tolerance, max_solves, best)
+    warning = None if rec["reachable"] else _unreachable(rec, tolerance, max_solves, best, patterns)
     return result(rec, base, tgt, best, labels, groups, warning, runs)
 
 
@@ -121,22 +134,22 @@ def _pool_counts(rows: list[dict[str, Any]]) -> dict[str, int]:
     return {"patterns": len(rows) - members, "members": members}
 
 
-def _baselines(search: ClosedSearch, base: DesignBase, runner: Runner, tgt: ClosedTarget,
-               runs: dict[str, ClosedEvaluated]) -> None:
-    """Solve the baselines in one batch into ``runs``: the base spec's own patterns (``spec`` or ``rule``) and
-    the ``single`` pattern; a base choice that is not one pattern per group (per-face tiles) is solved as given."""
+def _baselines(search: ClosedSearch, way: tuple[str, list[str]] | None, runner: Runner, tgt: ClosedTarget,
+               runs: dict[str, ClosedEvaluated], single: bool = True) -> None:
+    """Solve the baselines in one batch into ``runs``: the base spec's own patterns ``way`` (``spec`` or ``rule``,
+    :func:`fabpat.design.base.base_faces`) and, with ``single``, the ``single`` pattern; a base choice that is not
+    one pattern per group (per-face tiles) is solved as given."""
     keyed: dict[str, tuple[int, ...]] = {}
     given: dict[str, tuple[str, ...]] = {}
-    way = base_faces(base)
     if way is not None:
         key = search.key_of(way[1])
         if key is None:
             given[way[0]] = tuple(way[1])
         else:
             keyed[way[0]] = key
-    single = _single_key(search)
-    if single is not None:
-        keyed["single"] = single
+    one = _single_key(search) if single else None
+    if one is not None:
+        keyed["single"] = one
     try:
         search.evaluate(list(keyed.values()))
     finally:  # a stop in the batch keeps the baselines that finished
@@ -190,7 +203,8 @@ def _record(tgt: ClosedTarget, base: DesignBase, best: ClosedEvaluated, labels: 
     }
 
 
-def _unreachable(rec: dict[str, Any], tolerance: float, max_solves: int, best: ClosedEvaluated) -> str:
+def _unreachable(rec: dict[str, Any], tolerance: float, max_solves: int, best: ClosedEvaluated,
+                 patterns: bool = True) -> str:
     head = (f"target not reached: rms error {rec['rms_error']:.3g} mm is {rec['relative_rms']:.2%} of the radius "
             f"(tolerance {tolerance:.2%})")
     if best.over_limit and rec["relative_rms"] <= tolerance:
@@ -200,6 +214,8 @@ def _unreachable(rec: dict[str, Any], tolerance: float, max_solves: int, best: C
     if best.over_limit:
         why = (f"the closest design found strains its plates to {rec['peak_strain']:.2%}, over the strain limit "
                f"{rec['strain_limit']:.2%} (thinner plates, [plates] thickness, strain less)")
+    elif not patterns:
+        why = "the base spec's own patterns, kept (--vary without patterns): add patterns to --vary to search them"
     else:
         why = (f"the best of {rec['solves']} solves (--max-solves {max_solves}), whose designs ranged from "
                f"{min(errs):.2%} to {max(errs):.2%} of the radius: more solves may get closer, but the patterns "

@@ -1,8 +1,10 @@
 """``fabpat design --dry-run``: what a design would start from, in seconds and before any shell solve.
 
-Everything :func:`fabpat.design.design` checks before its first solve is checked here the same way (the
-target, the base spec, the output folder, the arc length of a strip target), and the numbers that
-decide whether the run is worth its hours are reported:
+Everything :func:`fabpat.design.design` checks before its first solve is checked here the same way and in
+the same order (:func:`fabpat.design.api.checked_inputs`: the output folder, ``per`` and ``vary``, the target,
+the base spec; then the arc length of a strip target, or a closed target's tiling mapped onto it with
+``shapes``: :func:`fabpat.design.mapped.map_base`, seconds, no solve), and the numbers that decide whether
+the run is worth its hours are reported:
 
 * a strip: the pin-to-pin length and the end shortening that makes the target's span, the target's
   scale (``--scale-target``), and the **elastica's predicted peak strain**: the strip's reduced model
@@ -13,7 +15,7 @@ decide whether the run is worth its hours are reported:
 * a closed tiling: the target fitted to the vertices of the kit's polyhedron (its skeleton, mm): the
   scale (mm per target unit), radius and relative rms, where the closure starts from (the flat plates
   bent by straight sleeves land near it, not on it: the solves decide); the face groups and the
-  candidates per polygon.
+  candidates per polygon; with ``shapes`` the mapped tiling's ``face_irregularity`` and ``planarity``.
 """
 
 from __future__ import annotations
@@ -23,37 +25,32 @@ from typing import Any
 
 import numpy as np
 
-from fabpat.design.base import DesignBase, load_base
-from fabpat.design.target import ClosedTarget, StripTarget, TargetError, read_target, require_match
+from fabpat.design.base import DesignBase
+from fabpat.design.target import ClosedTarget, StripTarget, TargetError
 
 
 def dry_run(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[str] | None = None,
-            h: float = 3.0, scale_target: bool = False) -> dict[str, Any]:
+            h: float = 3.0, scale_target: bool = False, per: str = "face",
+            vary: str | list[str] | tuple[str, ...] | None = None) -> dict[str, Any]:
     """The plan of :func:`fabpat.design.design` for these arguments (module doc) as plain data: ``kind``,
     ``target``, and for a strip ``pin_length`` (mm), ``span`` (mm), ``end_shortening``, ``scale``,
     ``elastica_peak_strain`` (its κ t / 2 at the sharpest bend), ``strain_limit``, ``thickness`` (mm),
     ``columns``; for a closed tiling ``scale`` (mm per target unit), ``radius`` (mm), ``relative_rms`` of
-    the target fitted to the polyhedron's vertices, ``groups`` (face groups) and ``candidates``. Writes
-    nothing. Raises what design raises before its first solve: TargetError, SpecError, ExportError."""
-    from fabpat.errors import ExportError, SpecError
-    from fabpat.validate import check, check_path
+    the target fitted to the polyhedron's vertices, ``groups`` (face groups) and ``candidates``, with ``shapes``
+    ``face_irregularity`` and ``planarity`` of the mapped tiling (as design.json's); both ``per`` and ``vary``
+    (the words the design would use, :func:`fabpat.design.design`). Writes nothing. Raises what design raises
+    before its first solve: TargetError, SpecError, ExportError."""
+    from fabpat.design.api import checked_inputs
+    from fabpat.errors import SpecError
+    from fabpat.validate import check
 
     h = check("h", h, "h", error=SpecError)
     if not isinstance(scale_target, bool):
         raise SpecError(f"scale_target must be True or False, got {scale_target!r}")
-    if out is not None:
-        from fabpat.design.outputs import check_design_out
-
-        check_path(out, "out", error=ExportError)
-        check_design_out(out)
-    tgt = read_target(target)
-    base = load_base(spec)
-    require_match(tgt, base.spec.source, base.spec.tiling.kind)
-    if isinstance(tgt, ClosedTarget):
-        if scale_target:
-            raise SpecError("scale_target applies to strip targets (a closed target has no size: the plates fix it)")
-        return _closed_plan(tgt, base)
-    return _strip_plan(tgt, base, h, scale_target)
+    tgt, base, per, words = checked_inputs(target, spec, out, per, vary, scale_target)
+    plan = _closed_plan(tgt, base, "shapes" in words) if isinstance(tgt, ClosedTarget) else \
+        _strip_plan(tgt, base, h, scale_target)
+    return {**plan, "per": per, "vary": list(words)}
 
 
 def _strip_plan(strip: StripTarget, base: DesignBase, h: float, scale_target: bool) -> dict[str, Any]:
@@ -97,7 +94,7 @@ def _elastica_curvature(beam: Any, strip: StripTarget, base: DesignBase, ids: li
         return float(np.max(np.abs(np.diff(t)) / (0.5 * (s[:-1] + s[1:])))), "target"
 
 
-def _closed_plan(tgt: ClosedTarget, base: DesignBase) -> dict[str, Any]:
+def _closed_plan(tgt: ClosedTarget, base: DesignBase, shapes: bool) -> dict[str, Any]:
     from fabpat.assembly.place.placement import build_tiling, printed_angles
     from fabpat.assembly.surface.joints import skeleton_edge
     from fabpat.design.closed import design_axis, face_groups
@@ -110,7 +107,13 @@ def _closed_plan(tgt: ClosedTarget, base: DesignBase) -> dict[str, Any]:
                       printed_angles(spec, skel))
     fit = tgt.fit(E * np.asarray(skel.V, dtype=np.float64), design_axis(skel.V, skel.faces))
     groups, _ = face_groups(skel.V, skel.faces, tgt.bands)
-    return {"kind": base.spec.tiling.kind, "target": tgt.source, "scale": float(fit.scale),
+    mapped: dict[str, Any] = {}
+    if shapes:  # as the design maps it before its first solve (it refuses a face too far from regular)
+        from fabpat.design.mapped import map_base
+
+        m = map_base(tgt, base)
+        mapped = {"face_irregularity": m.face_irregularity, "planarity": m.planarity}
+    return {**mapped, "kind": base.spec.tiling.kind, "target": tgt.source, "scale": float(fit.scale),
             "radius": float(fit.radius), "relative_rms": float(fit.relative_rms), "groups": len(set(groups)),
             "faces": len(skel.faces), "candidates": {POLYGONS.get(n, f"{n}-gon"): _pool_counts(base.rows[n])
                                                      for n in sorted(base.rows, reverse=True)},
