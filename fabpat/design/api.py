@@ -142,7 +142,7 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
            h: float = 3.0, max_solves: int | None = None, tolerance: float = TOLERANCE, scale_target: bool = False,
            workers: int = 1, dask: str | None = None, kit: bool = False,
            progress: Callable[[int, float], None] | None = None, max_minutes: float | None = None,
-           status: Callable[[str], None] | None = None, per: str = "face",
+           status: Callable[[str], None] | None = None, per: str = "group",
            vary: str | list[str] | tuple[str, ...] | None = None) -> DesignResult:
     """Design an assembly whose predicted shape matches ``target``: one pattern per tile.
 
