@@ -10,7 +10,8 @@ is moved, turned and scaled onto P (a similarity transform) and the distances ar
 * ``ellipsoid:A,B,C``: semi-axes s·(A, B, C), centre c and rotation R fitted by nonlinear least squares
   (:func:`scipy.optimize.least_squares`) on the first-order (Sampson) distance g/|∇g| with
   g(q) = |q / (sA, sB, sC)| − 1 (Hartley & Zisserman, *Multiple View Geometry*, 2nd ed., §4.2.6): exact on
-  the surface, within 1 % of the Euclidean distance for deviations below 1 % of the size; fitted to a
+  the surface, within 1 % of the Euclidean distance for deviations below 1 % of the size; Levenberg–Marquardt
+  with a Jacobian by central differences of absolute steps (:data:`FIT_STEP`), fitted to a
   seeded subset of :data:`FIT_POINTS` nodes and polished on every node, where the distances are measured. Started
   twice, with the axis that differs most from the other two along ``axis`` (the tiling's design axis)
   and along the points' most distinct principal axis; the better fit is kept.
@@ -47,6 +48,9 @@ FIT_POINTS = 2000
 #: near-round shape leaves the ellipsoid's turn about its axis of symmetry free, which costs evaluations
 #: and changes nothing
 FIT_EVALUATIONS = 300
+#: the ellipsoid fit's Jacobian: central differences of the distances with this step (relative to the size for
+#: the centre and the scale, rad for the rotation): truncation ~ step², round-off ~ 1e-16 / step, both ≲ 1e-10
+FIT_STEP = 1e-6
 
 
 @dataclass(frozen=True, eq=False)
@@ -150,12 +154,23 @@ def fit_to_ellipsoid(P: Arr, axes: tuple[float, float, float], axis: Arr) -> Sur
     val, vec = np.linalg.eigh(np.cov((P - c0).T))
     pca = vec[:, int(np.argmax([abs(val[i] - 0.5 * (val.sum() - val[i])) for i in range(3)]))]
     w1 = Rotation.from_matrix(_frame_with(pca, distinct_axis(axes))).as_rotvec()
-    sol = min((least_squares(dist, np.concatenate([c0, w, [s0]]), method="lm", xtol=1e-10, ftol=1e-10,
+    def jac(x: Arr, P: Arr = sub) -> Arr:
+        # central differences with absolute steps (1e-6 of the size for c and s, 1e-6 rad for w): MINPACK's own
+        # forward differences step each parameter by 1.5e-8 of its value, ~1e-11 rad on the rotation's small
+        # components; that Jacobian stalled the fit 1e-5 of J short of its optimum, by a different amount for
+        # nodes a 1e-4 rad turn of the angles apart (J's differences then missed its adjoint gradient by up to 64 %)
+        steps = np.full(7, FIT_STEP * float(x[6]))
+        steps[3:6] = FIT_STEP
+        cols = [(dist(x + e, P) - dist(x - e, P)) / (2.0 * e[j]) for j, e in enumerate(np.diag(steps))]
+        return np.column_stack(cols)
+
+    sol = min((least_squares(dist, np.concatenate([c0, w, [s0]]), jac=jac, method="lm", xtol=1e-10, ftol=1e-10,
                              max_nfev=FIT_EVALUATIONS)
                for w in (w0, w1)), key=lambda r: float(r.cost))
     if len(sub) < len(P):  # polished on every node: the distances are measured there, and at their own best fit
         # the fit's parameters are stationary (the envelope theorem the angles' gradient rests on)
-        sol = least_squares(dist, sol.x, args=(P,), method="lm", xtol=1e-10, ftol=1e-10, max_nfev=FIT_EVALUATIONS)
+        sol = least_squares(dist, sol.x, jac=jac, args=(P,), method="lm", xtol=1e-10, ftol=1e-10,
+                            max_nfev=FIT_EVALUATIONS)
     s = float(sol.x[6])
     # the Sampson distance is a closed form per node: its gradient by central differences of each coordinate
     # (step 1e-6 of the size: truncation and round-off both ≲ 1e-9 relative)
