@@ -34,6 +34,10 @@ Arr = NDArray[np.float64]
 ANGLE_SHARE = 1 / 2
 
 
+#: the smallest relative gain in the design error for which the angles are kept (round-off is ~1e-12)
+KEEP_GAIN = 1e-6
+
+
 def angle_budget(max_solves: int) -> int:
     """The solves of ``max_solves`` that the angles get (:data:`ANGLE_SHARE`); the patterns get the rest."""
     return int(max_solves * ANGLE_SHARE)
@@ -99,5 +103,7 @@ def vary_angles(phase: AnglePhase, tgt: ClosedTarget, spec: AssemblySpec, best: 
     ev = ClosedEvaluated(best.key, tgt.fit(res["P"], axis), res, res["peak_strain"] > model.strain_limit)
     phase.record.update(after_relative_rms=float(ev.fit.relative_rms), seconds=time.perf_counter() - t0,
                         continuous_relative_rms=float(search.best[3].relative_rms))
-    if ev.score < best.score:
+    # kept only for a real gain: angles all left at [sleeve] angle give the same solve to round-off, and would add
+    # 90 spec entries and part names for nothing
+    if ev.score < best.score * (1.0 - KEEP_GAIN):
         phase.best, phase.angles = ev, angles
