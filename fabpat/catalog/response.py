@@ -89,17 +89,12 @@ def _refinement(depth: int) -> NDArray[np.int64]:
 @cache
 def _adjacency() -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """Pairs of depth-3 cells sharing an edge (e, 2) and sharing only a vertex (v, 2)."""
+    from fabpat.catalog.response_plate import face_pairs
+
     _, F = slice_lattice(_LATTICE)
-    edges: dict[tuple[int, int], list[int]] = {}
-    verts: dict[int, list[int]] = {}
-    for f, tri in enumerate(F.tolist()):
-        for a, b in ((tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])):
-            edges.setdefault((min(a, b), max(a, b)), []).append(f)
-        for a in tri:
-            verts.setdefault(a, []).append(f)
-    by_edge = {tuple(sorted(v)) for v in edges.values() if len(v) == 2}
-    by_vertex = {(a, b) for fs in verts.values() for a in fs for b in fs if a < b} - by_edge
-    return np.array(sorted(by_edge), dtype=np.int64), np.array(sorted(by_vertex), dtype=np.int64)
+    hinges, necks = face_pairs(F)
+    by_edge = sorted({(h[0], h[1]) for h in hinges})
+    return np.array(by_edge, dtype=np.int64).reshape(-1, 2), np.array(necks, dtype=np.int64).reshape(-1, 2)
 
 
 def _bits(ids: Sequence[str], depth: int) -> NDArray[np.bool_]:

@@ -117,8 +117,9 @@ class PlateTopology:
     turn: NDArray[np.complex128]
 
 
-def _pairs(F: NDArray[np.int64]) -> tuple[list[tuple[int, int, int, int]], list[tuple[int, int]]]:
-    """Faces sharing an edge (f1, f2, a, b: the edge's vertices) and sharing only a vertex (f1, f2)."""
+def face_pairs(F: NDArray[np.int64]) -> tuple[list[tuple[int, int, int, int]], list[tuple[int, int]]]:
+    """Faces of the triangles ``F`` (m, 3) sharing an edge (f1 < f2, a, b: the edge's vertices, in edge order)
+    and sharing only a vertex (f1 < f2, sorted); the learned response's cell adjacency reads the same pairs."""
     edges: dict[tuple[int, int], list[int]] = {}
     verts: dict[int, list[int]] = {}
     for f, tri in enumerate(F.tolist()):
@@ -194,7 +195,7 @@ def plate_topology(sides: int, depth: int) -> PlateTopology:
     M = np.stack([P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]], axis=2)  # (nf, 2, 2): columns the two edge vectors
     area = 0.5 * np.abs(np.linalg.det(M))
     grad = np.linalg.inv(np.transpose(M, (0, 2, 1))) @ np.array([[-1.0, 1.0, 0.0], [-1.0, 0.0, 1.0]])
-    hinges, necks = _pairs(F)
+    hinges, necks = face_pairs(F)
     L2 = float(np.sum((V[F[0, 0]] - V[F[0, 1]]) ** 2))  # every lattice edge has this length
     h = np.array(hinges, dtype=np.int64)
     e = V[h[:, 3]] - V[h[:, 2]]
