@@ -55,12 +55,12 @@ def write_spec(folder: Path, V: list, plates: str = 'plates = "shaped"', tiling:
 
 def test_a_face_sheared_past_the_limit_is_named_with_its_angle(tmp_path: Path) -> None:
     with pytest.raises(SpecError) as err:
-        load_spec(write_spec(tmp_path, box(0.3, 1.0)))
+        load_spec(write_spec(tmp_path, box(0.45, 1.0)))
     line = str(err.value)
     assert "\n" not in line
-    # face 3 (0, 1, 5, 4) is the first sheared one: a parallelogram whose corners are atan(0.3) off 90°
+    # face 3 (0, 1, 5, 4) is the first sheared one: a parallelogram whose corners are atan(0.45) off 90°
     assert "face Q3 (face 3 of the file) is too irregular for a shaped plate" in line
-    assert f"{math.degrees(math.atan(0.3)):.1f}°" in line and "limit 20 % / 15°" in line
+    assert f"{math.degrees(math.atan(0.45)):.1f}°" in line and "limit 20 % / 20°" in line
 
 
 def test_a_face_stretched_past_the_limit_is_named_with_its_edge_deviation(tmp_path: Path) -> None:

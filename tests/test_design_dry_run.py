@@ -87,14 +87,14 @@ def _open_sphere(folder: Path) -> Path:
     ("empty", ("--vary", "shapes, patterns, angles, thickness")),
     ("per", ("--per",)),
     ("strip-shapes", ("--vary shapes", "leave shapes out")),
-    ("irregular", ("face H07", "17.7°", "over the shaped plates' limit")),
+    ("irregular", ("face P09", "24.1°", "over the shaped plates' limit")),
     ("no-patterns", ("--vary without patterns keeps the base spec's patterns: name them in its [patterns]",)),
 ])
 def test_a_dry_run_refuses_per_vary_and_mapped_faces_as_the_design_does(tmp_path: Path, case: str,
                                                                        words: tuple[str, ...]) -> None:
     """Each of these was a plan and exit 0 from --dry-run while the design refused it before its first solve:
     the words of --vary and --per, shapes with a strip target, a closed target whose mapped faces are too
-    irregular (the 1.3 : 1 ellipsoid bends hexagon H07 17.7° out of regular, past the shaped plates' 15°) and a
+    irregular (the shipped egg bends pentagon P09 24.1° out of regular, past the shaped plates' 20°) and a
     design without patterns on a base that names none. One line, exit 2, nothing written."""
     from click.testing import CliRunner
 
@@ -107,7 +107,7 @@ def test_a_dry_run_refuses_per_vary_and_mapped_faces_as_the_design_does(tmp_path
             "empty": ["sphere", "--spec", str(SPHERE), "--vary", ""],
             "per": ["sphere", "--spec", str(SPHERE), "--per", "plate"],
             "strip-shapes": [str(arch), "--spec", str(STRIP), "--vary", "shapes"],
-            "irregular": ["ellipsoid:1,1,1.3", "--spec", str(SPHERE)],
+            "irregular": [str(SPHERE.parent / "egg.obj"), "--spec", str(SPHERE)],
             "no-patterns": ["sphere", "--spec", str(_open_sphere(tmp_path)), "--vary", "angles"]}[case]
     out = tmp_path / "out"
     r = CliRunner().invoke(cli, ["design", *args, "--out", str(out), "--dry-run"])

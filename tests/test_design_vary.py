@@ -92,7 +92,7 @@ def test_the_truncated_icosahedron_mapped_onto_an_ellipsoid_has_flat_nearly_regu
 def test_a_target_whose_mapped_faces_are_too_irregular_is_refused_naming_the_face(tmp_path: Path,
                                                                                   no_solve: None) -> None:
     """The shipped egg (1.25 : 1, tapered) bends the truncated icosahedron's pentagons 24° out of regular, past the
-    shaped plates' 15°: one line naming the face, before any solve, nothing written."""
+    shaped plates' 20°: one line naming the face, before any solve, nothing written."""
     from click.testing import CliRunner
 
     from fabpat.cli import cli
@@ -100,7 +100,7 @@ def test_a_target_whose_mapped_faces_are_too_irregular_is_refused_naming_the_fac
     out = tmp_path / "out"
     r = CliRunner().invoke(cli, ["design", str(ROOT / "assemblies" / "egg.obj"), "--spec", str(SPHERE), "--out",
                                  str(out), "--no-progress"])
-    one_line_error(r, "from regular, over the shaped plates' limit of 20 % / 15°", "face P")
+    one_line_error(r, "from regular, over the shaped plates' limit of 20 % / 20°", "face P")
     assert not out.exists()
 
 

@@ -59,6 +59,11 @@ stayed ≥ 0.61× the regular plate's for n = 3…6 and ≥ 0.49× for n = 8 (�
 down to 0.45× within 25 % / 20°); the library's narrowest regular neck being 1.95 mm at the paper's
 36 mm edge, 20 % / 15° keeps every plate ≥ 0.95 mm wide there, and admits the faces of the geodesic
 Goldberg spheres (≤ 8.1 % / 6.0° up to GP(5, 0)) and the planar ones up to GP(4, 0) (18.4 % / 5.1°).
+The limit is 20 % / 20°: a target's mapped faces need the corners (an egg of 1.1 : 1 bends GP(3, 0)'s faces
+16.5° out of regular), the narrowest neck stays ≥ 0.45× the regular plate's for n = 3…6 (≥ 0.88 mm at 36 mm,
+above the 0.8 mm a print or a cut holds), the one polygon that broke every pattern inside it (an octagon,
+20.7 % / 15.6°) is refused by the centroid-foot check, and a kit's own width check still refuses a plate too
+narrow for its process.
 """
 
 from __future__ import annotations
@@ -85,7 +90,7 @@ from fabpat.patterns.variation import PAPER_VARIATION, Variation
 
 __all__ = ["MAX_IRREGULARITY", "ShapedPattern", "irregularity", "shape_pattern"]
 
-MAX_IRREGULARITY: tuple[float, float] = (0.20, math.radians(15.0))
+MAX_IRREGULARITY: tuple[float, float] = (0.20, math.radians(20.0))
 """(relative edge deviation, angle deviation in rad) beyond which :func:`shape_pattern` refuses a polygon."""
 
 

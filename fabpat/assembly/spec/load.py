@@ -16,7 +16,7 @@ A spec has these tables (lengths in mm; see ``assemblies/*.toml`` for commented 
   edge: how far the faces may be from regular polygons of one edge) and ``fit`` ("exact" | "best":
   plates at their faces' best fit, the closure takes up the rest) and ``plates`` ("regular" | "shaped": each
   plate its own face's polygon, :mod:`fabpat.assembly.place.shaped`; the faces need then only be within
-  ``tolerance`` mm of their planes and within 20 % / 15° of regular, and ``fit = "best"`` is refused; the
+  ``tolerance`` mm of their planes and within 20 % / 20° of regular, and ``fit = "best"`` is refused; the
   outline is exact, rational Béziers in STEP and .3dm; what has a tolerance is the faces' planarity, the
   sleeve angles' 0.1° step and where a joint's two interfaces lie along it, which the slot's length takes
   up: docs/tilings.md); ``goldberg`` reads ``m``, ``n``,

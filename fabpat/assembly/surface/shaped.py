@@ -3,7 +3,7 @@ its own face's polygon (:mod:`fabpat.geometry.shaped`), not the regular polygon 
 
 A shaped face need not be regular, nor its edges equal: it must be **planar** (every corner within
 ``tiling.tolerance`` mm of the face's best-fit plane: a plate is flat) and **almost regular** (within
-:data:`~fabpat.geometry.shaped.MAX_IRREGULARITY`, 20 % of the mean edge and 15° from the regular angle,
+:data:`~fabpat.geometry.shaped.MAX_IRREGULARITY`, 20 % of the mean edge and 20° from the regular angle,
 with the centroid's foot inside every edge: what :func:`~fabpat.geometry.shaped.shape_pattern` takes).
 :func:`check_shaped_faces` refuses any other face when the spec is read, naming it by its plate label
 ("H07", :attr:`~fabpat.assembly.surface.tiling.Tiling.labels`). :class:`ShapedTiling` is the skeleton of
