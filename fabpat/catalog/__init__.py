@@ -50,6 +50,7 @@ from __future__ import annotations
 from fabpat._callable import make_callable
 from fabpat.catalog.read import (
     catalog,
+    default_depth,
     energies,
     held_setups,
     missing_polygon_message,
@@ -80,8 +81,9 @@ from fabpat.catalog.version import input_hash, pipeline_modules, solver_version
 __all__ = [
     "ADDED_COLUMNS", "BUILTIN_NAME", "DEFAULT_SETUP", "FAMILY_COLUMNS", "FAMILY_KEY", "KEY", "LOCK_TIMEOUT",
     "METRICS", "PATTERN_COLUMNS", "RESULT_COLUMNS", "SCHEMA_VERSION", "Catalog", "CatalogError", "CatalogRows",
-    "builtin_path", "catalog", "check_row", "energies", "held_setups", "input_hash", "missing_polygon_message",
-    "no_filter_match_message", "no_match_message", "open_catalog", "pattern_problem", "pipeline_modules",
+    "builtin_path", "catalog", "check_row", "default_depth", "energies", "held_setups", "input_hash",
+    "missing_polygon_message", "no_filter_match_message", "no_match_message", "open_catalog", "pattern_problem",
+    "pipeline_modules",
     "polygon_energies", "require_polygon", "result_problem", "solver_version", "specific_stiffness",
 ]
 

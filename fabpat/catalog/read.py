@@ -116,6 +116,17 @@ def held_setups(cat: Catalog) -> str:
                      f"weight={s['weight']:g} ({s['patterns']} patterns)" for s in cat.setups()) or "nothing"
 
 
+def default_depth(cat: Catalog, sides: int | None) -> int | None:
+    """The depth a reading shows when none is asked for: the paper's library (depth 2, :data:`DEFAULT_SETUP`) if
+    the catalog holds depth-2 patterns of the polygon (``sides``; None: of any polygon), else None (every depth:
+    a catalog a ``fabpat sweep --depth 3`` filled alone). The built-in catalog holds depth-3 patterns beside the
+    430 per polygon (docs/learned-response.md); they are read with ``depth=3``, so that a default reading stays
+    the paper's library."""
+    depth = int(DEFAULT_SETUP["depth"])
+    held = any(s["depth"] == depth and (sides is None or s["sides"] == sides) for s in cat.setups())
+    return depth if held else None
+
+
 def catalog(path: str | Path | None = None, *, sides: int | float | None = 6, where: Sequence[str] | str = (),
             sort: str | None = None, top: int | None = None, **setup: object) -> CatalogRows:
     """The rows of a catalog (``None``: the built-in one) — ``fabpat.catalog()``.
@@ -127,7 +138,9 @@ def catalog(path: str | Path | None = None, *, sides: int | float | None = 6, wh
     :func:`~fabpat.catalog.rows.specific_stiffness`).
 
     ``sides``: the polygon (default 6, the hexagon; None: every polygon, whose energies do not compare), a
-    whole number in [3, 64]; other set-up keys filter too (finite numbers). ``where``: filters
+    whole number in [3, 64]; other set-up keys filter too (finite numbers). Without ``depth`` the rows are the
+    paper's depth-2 library where the catalog holds it (:func:`default_depth`); ``depth=3`` gives the built-in
+    catalog's depth-3 patterns. ``where``: filters
     ``"FIELD OP NUMBER"`` that all hold (``OP`` one of ``< <= > >= = !=``), ``sort``: ``"FIELD"``
     ascending or ``"-FIELD"`` descending, ``top``: keep the first N (:func:`~fabpat.catalog.rows.find_rows`;
     ``sort="id"`` orders by pattern ID). The stiffest patterns per gram in the Dome scenario:
@@ -153,6 +166,8 @@ def catalog(path: str | Path | None = None, *, sides: int | float | None = 6, wh
         if sides is not None:
             require_polygon(cat, sides)
             setup["sides"] = sides
+        if "depth" not in setup and (depth := default_depth(cat, sides)) is not None:
+            setup["depth"] = depth
         rows = cat.pattern_rows(pictures=False, **setup)  # setup: checked keys of KEY above
         if not rows and setup:
             raise CatalogError(no_match_message(cat, setup))

@@ -216,12 +216,14 @@ def refit_responses(catalog: str | Path | None, *, also: Sequence[str | Path] = 
                            f"not {current}: run fabpat sweep on it before fitting a learned response")
     fitted = []
     def rows_of(path: str | Path | None, sides: int) -> list[dict[str, object]]:
-        try:
-            found = read_catalog(path, sides=sides, edge=DEFAULT_SETUP["edge"], thickness=DEFAULT_SETUP["thickness"],
-                                 weight=DEFAULT_SETUP["weight"])
-        except CatalogError:  # another catalog without this polygon or set-up adds nothing
-            return []
-        return [r for r in found if r["depth"] in DEPTHS]
+        found: list[dict[str, object]] = []
+        for depth in DEPTHS:  # each asked for: a reading without depth is the paper's depth 2 alone
+            try:
+                found += read_catalog(path, sides=sides, depth=depth, edge=DEFAULT_SETUP["edge"],
+                                      thickness=DEFAULT_SETUP["thickness"], weight=DEFAULT_SETUP["weight"])
+            except CatalogError:  # a catalog without this polygon, depth or set-up adds nothing
+                pass
+        return found
 
     for s in polygons:
         rows = rows_of(catalog, s) + [r for extra in also for r in rows_of(extra, s)]

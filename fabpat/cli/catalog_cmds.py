@@ -240,8 +240,9 @@ _sides_help = "Polygon whose patterns and energies to use (each polygon has its 
                    "Rows without a value come last.")
 @number_option("--top", range_name="sample", default=None, help="Print only the first N rows (after --sort).")
 @number_option("--depth", range_name="depth", default=None,
-               help="Only the patterns of this subdivision depth (2: the paper's library; 3: the deeper patterns a "
-                    "`sweep --depth 3` stored) [default: every depth].")
+               help="Only the patterns of this subdivision depth (2: the paper's library; 3: the deeper patterns "
+                    "the built-in catalog ships or a `sweep --depth 3` stored) [default: 2 where the catalog holds "
+                    "depth 2, else every depth].")
 def catalog_cmd(db: str | None, fmt: str, long_: bool, sides: int, where: tuple[str, ...], sort: str | None,
                 top: int | None, depth: int | None) -> None:
     """Print a catalog: one row per pattern with its metrics and energies (N·mm) per scenario.
@@ -258,7 +259,7 @@ def catalog_cmd(db: str | None, fmt: str, long_: bool, sides: int, where: tuple[
       fabpat catalog --sort=-specific_stiffness_dome --top 5     # the stiffest per gram (Dome)
       fabpat catalog --where "filleted_area<1200" --sort energy_dome --top 5
     """
-    from fabpat.catalog import open_catalog, require_polygon
+    from fabpat.catalog import default_depth, open_catalog, require_polygon
     from fabpat.catalog.rows import find_rows, parse_condition, parse_sort
     from fabpat.cli.library_cmds import _print_rows
     from fabpat.io import check_distinct
@@ -266,6 +267,7 @@ def catalog_cmd(db: str | None, fmt: str, long_: bool, sides: int, where: tuple[
     check_distinct([], inputs={"--db": db})
     with open_catalog(db) as cat:
         require_polygon(cat, sides)
+        depth = default_depth(cat, sides) if depth is None else depth
         fields = cat.number_columns(long=long_)
         if long_:
             rows = cat.results(sides=sides, **({} if depth is None else {"depth": depth}))
@@ -301,13 +303,16 @@ def catalog_cmd(db: str | None, fmt: str, long_: bool, sides: int, where: tuple[
 @click.option("--out", type=click.Path(dir_okay=False), required=True, help="HTML file to write.")
 @click.option("--open", "open_", is_flag=True, help="Open the page in the default web browser.")
 @number_option("--sides", range_name="sides", default=6, show_default=True, help=_sides_help)
-def browse_cmd(db: str | None, out: str, open_: bool, sides: int) -> None:
+@number_option("--depth", range_name="depth", default=None,
+               help="Show the patterns of this subdivision depth (3: the built-in catalog's depth-3 patterns) "
+                    "[default: 2, the paper's library, where the catalog holds it].")
+def browse_cmd(db: str | None, out: str, open_: bool, sides: int, depth: int | None) -> None:
     """Write the browsing page: linked scatter plots of the catalog in one offline HTML file.
 
     Hover a dot for the pattern's picture; box/lasso-select in any plot to highlight the patterns in
     all plots and list them with `fabpat export` lines.
 
-    Example: fabpat browse --out library.html --open
+    Examples: fabpat browse --out library.html --open;  fabpat browse --depth 3 --out depth3.html
     """
     from fabpat.catalog import open_catalog
     from fabpat.io import check_distinct, check_suffix
@@ -316,7 +321,7 @@ def browse_cmd(db: str | None, out: str, open_: bool, sides: int) -> None:
     check_distinct([out], inputs={"--db": db})  # first: writing over the catalog is the graver mistake
     check_suffix(out, (".html", ".htm"), "--out (the browsing page)")
     with open_catalog(db) as cat:
-        n = write_page(cat, out, sides)
+        n = write_page(cat, out, sides, depth)
     size = os.path.getsize(out) / 1e6
     click.echo(f"wrote {out} ({n} patterns, {size:.1f} MB, works offline)")
     if open_:

@@ -13,8 +13,9 @@ and its tiling must be a honeycomb strip or one of :data:`CLOSED_KINDS` (:func:`
   (:mod:`fabpat.patterns.variation`) the catalog's ``family`` table holds (``fabpat sweep --family``), a strip's
   and a closed tiling's alike (:mod:`fabpat.assembly.choose.members`).
 * ``depth``: ``2`` (default) or ``3``: a strip's candidates also include the depth-3 patterns the catalog
-  (``catalog`` key) has simulated — ``fabpat sweep --depth 3 --learn N --db mine.sqlite`` makes such rows; the
-  depth-2 candidates then come from that catalog if it has them, else from the built-in one.
+  (``catalog`` key, else the built-in one, which ships depth-3 hexagons) has simulated — ``fabpat sweep --depth 3
+  --learn N --db mine.sqlite`` makes more such rows; the depth-2 candidates then come from that catalog if it has
+  them, else from the built-in one.
 
 Candidates of a strip are the hexagon patterns with a converged Cylinder energy in the catalog
 (``catalog`` key or the built-in one), at the base's plate set-up when the catalog has it, else at the
@@ -37,6 +38,7 @@ A base that names its patterns (``pattern``, ``hexagon`` + ``pentagon``, ``group
 from __future__ import annotations
 
 import copy
+import itertools
 import math
 import os
 from dataclasses import dataclass
@@ -127,7 +129,7 @@ def load_base(path: str | os.PathLike[str]) -> DesignBase:
     if spec.tiling.kind != STRIP_KIND:
         if keys.get("depth", 2) != 2:
             raise SpecError(f"{source}: patterns.depth = {keys['depth']!r}: depth-3 candidates are for strip designs "
-                            "(the closed tilings' pentagons have no depth-3 rows yet); leave it out")
+                            "(a closed tiling's design chooses among the depth-2 patterns); leave it out")
         notes: list[str] = []
         rows = closed_rows(spec, source, catalog, keys, notes)
         return DesignBase(spec, clean, {}, k, spec.patterns.rule is not None, way, rows, tuple(notes))
@@ -168,7 +170,7 @@ def _depth3_energies(spec: AssemblySpec, source: str, catalog: str | None, keys:
                         "catalog's depth-3 patterns)")
     if depth == 2:
         return {}
-    found = _catalog_energies(spec, catalog, 3) if catalog is not None else {}
+    found = _catalog_energies(spec, catalog, 3)  # None: the built-in catalog's shipped depth-3 rows
     if not found:
         raise SpecError(f"{source}: patterns.depth = 3 adds the depth-3 patterns a catalog has simulated, but "
                         f"{'the built-in catalog has' if catalog is None else catalog + ' has'} none: run fabpat "
@@ -238,12 +240,13 @@ def _min_widths(spec: AssemblySpec, catalog: str | None) -> dict[str, float]:
 
     pl = spec.plates
     widths: dict[str, float] = {}
-    for where in dict.fromkeys([None, catalog]):  # the built-in's depth-2 rows, then the catalog's own
+    for where, depth in itertools.product(dict.fromkeys([None, catalog]), (2, 3)):  # the built-in's, the catalog's
         try:
-            rows = cat.catalog(where, sides=6, edge=spec.tiling.edge, thickness=pl.thickness, weight=pl.weight)
+            rows = cat.catalog(where, sides=6, depth=depth, edge=spec.tiling.edge, thickness=pl.thickness,
+                               weight=pl.weight)
         except FabpatError:
             try:
-                rows = cat.catalog(where, sides=6)
+                rows = cat.catalog(where, sides=6, depth=depth)
             except FabpatError:
                 continue
         widths.update({str(r["id"]): float(str(r["min_width"])) for r in rows if r.get("min_width") is not None})

@@ -76,17 +76,23 @@ def _setup(row: Mapping[str, object]) -> Setup:
                  edge=as_float(row["edge"]), thickness=as_float(row["thickness"]), weight=as_float(row["weight"]))
 
 
-def choose_setup(cat: Catalog, sides: int | None = None) -> Setup:
-    """The set-up to show: the default one if present (and matching ``sides``), else the largest of
-    that polygon. :class:`CatalogError` if the catalog has no patterns (of that polygon: the message
-    names the ``fabpat sweep --sides`` command that adds them)."""
+def choose_setup(cat: Catalog, sides: int | None = None, depth: int | None = None) -> Setup:
+    """The set-up to show: the default one if present (and matching ``sides`` and ``depth``), else the largest
+    of that polygon (and depth). :class:`CatalogError` if the catalog has no patterns (of that polygon: the
+    message names the ``fabpat sweep --sides`` command that adds them; of that depth: the depths it holds)."""
     setups = [s for s in cat.setups() if sides is None or s["sides"] == sides]
     if not setups:
         if sides is not None:
             raise CatalogError(missing_polygon_message(cat, sides))
         raise CatalogError(f"catalog {cat.path} has no patterns; fill it with `fabpat sweep --db {cat.path}`")
+    if depth is not None:
+        held = sorted({int(as_float(s["depth"])) for s in setups})
+        setups = [s for s in setups if s["depth"] == depth]
+        if not setups:
+            raise CatalogError(f"catalog {cat.path} has no depth-{depth} patterns of that polygon: it holds depth "
+                               f"{', '.join(map(str, held))} (`fabpat sweep --depth {depth} --sample N` adds some)")
     for s in setups:
-        if all(s[k] == v for k, v in DEFAULT_SETUP.items()):
+        if all(s[k] == v for k, v in DEFAULT_SETUP.items() if k != "depth" or depth is None):
             return _setup(s)
     return _setup(max(setups, key=lambda s: as_float(s["patterns"])))
 
@@ -108,11 +114,12 @@ def _lattice_path(pattern_id: str, sides: int, depth: int, edge: float) -> str:
     return " ".join("M " + " L ".join(f"{x:.2f} {y:.2f}" for x, y in t) + " Z" for t in tris)
 
 
-def page_data(cat: Catalog, sides: int | None = None) -> PageData:
-    """Everything the page shows, as one JSON-ready dict (columnar values, one entry per pattern)."""
+def page_data(cat: Catalog, sides: int | None = None, depth: int | None = None) -> PageData:
+    """Everything the page shows, as one JSON-ready dict (columnar values, one entry per pattern) for the set-up
+    :func:`choose_setup` picks."""
     from fabpat.patterns.lattice import polygon_vertices
 
-    setup = choose_setup(cat, sides)
+    setup = choose_setup(cat, sides, depth)
     rows = cat.pattern_rows(pictures=True, **setup)
     keys = [k for k in rows[0] if k not in ("id", "sides", "depth", "edge", "thickness", "weight", "svg_path")
             and not k.startswith("converged_")] if rows else []
@@ -206,19 +213,21 @@ def render_page(data: PageData) -> str:
     from fabpat.catalog.rows import polygon_name
 
     sides = int(data["setup"]["sides"])
-    title = f"fabpat library: {len(data['ids'])} {polygon_name(sides)}"
+    depth = int(data["setup"]["depth"])
+    deeper = "" if depth == 2 else f"depth-{depth} "  # the paper's library is depth 2; others are said
+    title = f"fabpat library: {len(data['ids'])} {deeper}{polygon_name(sides)}"
     return (template.replace("{{TITLE}}", title)
             .replace("{{DATA}}", blob)
             .replace("{{PLOTLYJS}}", get_plotlyjs()))
 
 
-def write_page(cat: Catalog, out: str, sides: int | None = None) -> int:
-    """Write the browsing page of the polygon ``sides`` (None: the default set-up's) to ``out``
-    atomically; returns the number of patterns shown. :class:`CatalogError` as :func:`choose_setup`, or
-    for a bad stored value."""
+def write_page(cat: Catalog, out: str, sides: int | None = None, depth: int | None = None) -> int:
+    """Write the browsing page of the polygon ``sides`` (None: the default set-up's) and subdivision ``depth``
+    (None: the paper's 2 where held) to ``out`` atomically; returns the number of patterns shown.
+    :class:`CatalogError` as :func:`choose_setup`, or for a bad stored value."""
     from fabpat.io import atomic_outputs
 
-    data = page_data(cat, sides)
+    data = page_data(cat, sides, depth)
     html = render_page(data)
     with atomic_outputs(out) as (tmp,):
         tmp.write_text(html, encoding="utf-8")
