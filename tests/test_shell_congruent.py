@@ -108,3 +108,17 @@ def test_the_assembly_model_names_the_plates_of_one_mesh_and_thickness_congruent
     assert len(shared.reference.F) == 4 * m
     fe = CompiledTriangles(model.X, model.F, MAT, threads=1, thickness=t).forces_at(x, R)[0]
     assert np.abs(shared.forces_at(x, R)[0] - fe).max() <= 1e-11 * np.abs(fe).max()
+
+
+def test_surface_strains_of_shared_data_are_those_of_the_numpy_read_out() -> None:
+    from fabpat.shell.strain import surface_strains
+
+    turns = [expmap(np.array(w)) for w in ([0.0, 0.0, 0.0], [0.3, -1.1, 0.7], [2.0, 0.4, -0.9])]
+    X, F, hint = _copies(turns, [np.zeros(3), np.array([40.0, -3.0, 7.5]), np.array([-12.0, 55.0, 1.25])])
+    rng = np.random.default_rng(2)
+    x, R = X + rng.normal(scale=0.05, size=X.shape), expmap(rng.normal(scale=0.05, size=X.shape))
+    t = np.repeat([1.2, 1.2, 2.0], len(F) // 3)  # the third copy thicker: its own rows
+    hint[-(len(F) // 3):] += 2 * (len(F) // 3)
+    want = surface_strains(X, F, MAT, x, R, t)
+    got = CongruentTriangles(X, F, MAT, hint, threads=1, thickness=t).surface_strains(x, R)
+    assert np.abs(got - want).max() <= 1e-10 * want.max() and want.min() > 0.0

@@ -28,9 +28,11 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from fabpat.errors import GeometryError
 from fabpat.shell.compiled import _KERNEL_LOCK, CompiledTriangles
 from fabpat.shell.element import BENDING_DOFS, MEMBRANE_DOFS, Material, element_frames
 from fabpat.shell.kernels import shared_element_kernels
+from fabpat.shell.strain import strain_from_dofs
 
 Arr = NDArray[np.float64]
 
@@ -56,7 +58,8 @@ class CongruentTriangles:
     """The compiled corotational triangles of a mesh whose congruent triangles share their reference data
     (module doc): the interface the linked solver uses of :class:`~fabpat.shell.compiled.CompiledTriangles`
     (``F``, ``edofs``, ``threads``, :meth:`forces_at`, :meth:`tangents_at`, :meth:`linear_diagonal`,
-    :meth:`energy_split`), same shapes and units, and for the same numbers the same results bitwise.
+    :meth:`energy_split`), same shapes and units, and for the same numbers the same results bitwise; and
+    the surface strains of a state (:meth:`surface_strains`).
 
     X: (n, 3) node coordinates (mm); F: (m, 3) triangles; mat: material and thickness; congruent: (m,)
     the hint; ``thickness`` (m,) mm per triangle (None: ``mat.t``). ``reference`` is the compiled triangles of
@@ -78,7 +81,9 @@ class CongruentTriangles:
         own_t = None if thickness is None else np.asarray(thickness, dtype=np.float64)[reps]
         self.reference = CompiledTriangles(self.X, self.F[reps], mat, threads=threads, thickness=own_t)
         self.E0, x, y = element_frames(self.X, self.F)
-        ref = self.reference.xl0[self.rows]
+        self.thickness = None if thickness is None else np.asarray(thickness, dtype=np.float64)
+        #: (m, 3, 2) each triangle's corners in its initial frame (mm): its representative's
+        self.xl0 = ref = self.reference.xl0[self.rows]
         scale = max(float(np.abs(self.X).max(initial=0.0)), 1.0)
         worst = max(float(np.abs(x - ref[..., 0]).max(initial=0.0)), float(np.abs(y - ref[..., 1]).max(initial=0.0)))
         if not worst <= CONGRUENT_TOLERANCE * scale:
@@ -121,6 +126,17 @@ class CongruentTriangles:
         K = self.reference.local.K.reshape(-1, 6, 3, 6, 3)
         blocks = K[:, np.arange(6), :, np.arange(6), :][:, self.rows]  # (6, m, 3, 3) node-dof diagonal blocks
         return np.einsum("mij,bmjk,mik->mbi", self.E0, blocks, self.E0).reshape(len(self.F), 18)
+
+    def surface_strains(self, x: Arr, R: Arr) -> Arr:
+        """(m,) per triangle the largest principal strain magnitude on either surface (dimensionless,
+        :func:`fabpat.shell.strain.surface_strains`) at node positions x (n, 3) mm and rotations R (n, 3, 3),
+        of the local dofs the compiled kernels give (no local stiffness per triangle). Raises GeometryError
+        on a degenerate (zero-area) deformed triangle."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out = strain_from_dofs(self, self.forces_at(x, R)[2], self.thickness).peak
+        if not np.all(np.isfinite(out)):
+            raise GeometryError("degenerate (zero-area) triangle in the deformed mesh")
+        return out
 
     def energy_split(self, d: Arr) -> Arr:
         """(m, 3) element energies (membrane, bending, transverse shear) N·mm of local dofs d (m, 18)

@@ -181,6 +181,16 @@ class AssemblyModel:
         return LinkedProblem(self.X, self.F, self.material, masters, sl, ma, sp, fixed, prescribed, loads, off,
                              dead_loads, dead_ramp, self.element_thickness, self.congruent)
 
+    def surface_strains(self, x: Arr, R: Arr) -> Arr:
+        """(m,) per element the peak surface strain (dimensionless, :func:`fabpat.shell.strain.surface_strains`)
+        of the plates at node positions x (n, 3) mm and rotations R (n, 3, 3), from the compiled kernels'
+        local dofs on the congruent triangles' shared data (:attr:`congruent`; no local stiffness per
+        element). Raises GeometryError on a degenerate deformed triangle."""
+        from fabpat.shell.congruent import CongruentTriangles
+
+        tri = CongruentTriangles(self.X, self.F, self.material, self.congruent, thickness=self.element_thickness)
+        return tri.surface_strains(x, R)
+
     def lumped_area(self) -> Arr:
         """(n,) nodal share of the plates' area (mm²), a third of each triangle's area."""
         tri = triangle_areas(self.X, self.F)
