@@ -10,13 +10,13 @@ Output folders go to a temporary directory that is removed afterwards.
 assembly solver alone (``simulate_assembly``) on the shipped graded strip (2 × 15, 10 % end shortening)
 and the shipped sphere closure: nodes, dofs, Newton iterations, factorizations, seconds in the tangent
 (element tangents, transformation, sparse assembly), in factorization and solves, in the residuals
-(element forces), in the rest of the path (the linked solver's set-up, state updates between iterations), in set-up and
-read-outs outside the path, the process's CPU seconds (every thread; less sensitive to a shared machine's
-load than the wall seconds) and the answers (peak, reaction, radius, sphericity). The compiled kernels
-are loaded first (their seconds printed apart), and the machine's calibration, the "fixed sparse LU"
-timing goals are scaled by (``bench_linalg.calibration``), is printed above the table. ``--save`` keeps
-the rows as JSON; ``--before`` adds
-the saved rows of an earlier version beside them and the relative change of every answer.
+(element forces), in the rest of the path (the linked solver's set-up, state updates between
+iterations), in set-up and read-outs outside the path, the process's CPU seconds (every thread; less
+sensitive to a shared machine's load than the wall seconds) and the answers (peak, reaction, radius,
+sphericity, peak strain). The compiled kernels are loaded first (their seconds printed apart), and the
+machine's calibration, the "fixed sparse LU" by which timing goals are scaled
+(``bench_linalg.calibration``), is printed above the table. ``--save`` keeps the rows as JSON;
+``--before`` adds the saved rows of an earlier version beside them and the relative change of every answer.
 ``--goldberg M N`` (with ``--solve``) adds the Goldberg sphere GP(M, N) at its best-fit placement, of the shipped
 sphere's plates (0x0488 hexagons, 0x0508 pentagons, 1 mm, straight sleeves, edge 36 mm); ``--only-goldberg``
 solves it alone.
@@ -56,7 +56,7 @@ def run(spec_path: Path, out: Path) -> tuple[dict[str, float], float, dict[str, 
 
 
 SOLVE_SPECS = ("graded-strip", "truncated-icosahedron")
-ANSWERS = ("peak", "reaction", "radius", "sphericity_rms", "energy")
+ANSWERS = ("peak", "reaction", "radius", "sphericity_rms", "peak_strain", "energy")
 
 
 def goldberg_spec(m: int, n: int) -> object:
