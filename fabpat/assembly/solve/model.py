@@ -126,11 +126,10 @@ class AssemblyModel:
 
     @property
     def congruent(self) -> NDArray[np.int64]:
-        """(m,) for each triangle the same triangle of the first plate of its mesh and thickness placed by a
-        proper rigid motion, the engine's hint that their reference data are equal
-        (:mod:`fabpat.shell.congruent`): plates of one type share one mesh (:func:`plate_mesh`), and a
-        placement is an isometry (of a flat mesh, a mirror image is a half turn). A plate whose transform is
-        not one (a scale) keeps its own triangles."""
+        """(m,) for each triangle the same triangle of the first plate of its mesh and thickness, the engine's
+        hint that their reference data are equal (:mod:`fabpat.shell.congruent`): plates of one type share one
+        mesh (:func:`plate_mesh`), and a placement is an isometry (of a flat mesh, a mirror image is a half
+        turn). A plate whose transform is not one (a scale) keeps its own triangles."""
         out = np.arange(len(self.F), dtype=np.int64)
         first: dict[tuple[int, float], int] = {}
         for i, p in enumerate(self.plates):
