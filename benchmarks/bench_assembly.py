@@ -10,10 +10,13 @@ Output folders go to a temporary directory that is removed afterwards.
 assembly solver alone (``simulate_assembly``) on the shipped graded strip (2 × 15, 10 % end shortening)
 and the shipped sphere closure: nodes, dofs, Newton iterations, factorizations, seconds in the tangent
 (element tangents, transformation, sparse assembly), in factorization and solves, in the residuals
-(element forces), in the rest of the path (state updates, read-outs between iterations) and set-up and
-read-outs outside the path, and the answers (peak, reaction, radius, sphericity). The compiled kernels
-are loaded first (their seconds printed apart). ``--save`` keeps the rows as JSON; ``--before`` adds
-the saved rows of an earlier version beside them and the relative change of every answer.
+(element forces), in the rest of the path (the linked solver's set-up, state updates between
+iterations), in set-up and read-outs outside the path, the process's CPU seconds (every thread; less
+sensitive to a shared machine's load than the wall seconds) and the answers (peak, reaction, radius,
+sphericity, peak strain). The compiled kernels are loaded first (their seconds printed apart), and the
+machine's calibration, the "fixed sparse LU" by which timing goals are scaled
+(``bench_linalg.calibration``), is printed above the table. ``--save`` keeps the rows as JSON;
+``--before`` adds the saved rows of an earlier version beside them and the relative change of every answer.
 ``--goldberg M N`` (with ``--solve``) adds the Goldberg sphere GP(M, N) at its best-fit placement, of the shipped
 sphere's plates (0x0488 hexagons, 0x0508 pentagons, 1 mm, straight sleeves, edge 36 mm); ``--only-goldberg``
 solves it alone.
@@ -53,7 +56,7 @@ def run(spec_path: Path, out: Path) -> tuple[dict[str, float], float, dict[str, 
 
 
 SOLVE_SPECS = ("graded-strip", "truncated-icosahedron")
-ANSWERS = ("peak", "reaction", "radius", "sphericity_rms", "energy")
+ANSWERS = ("peak", "reaction", "radius", "sphericity_rms", "peak_strain", "energy")
 
 
 def goldberg_spec(m: int, n: int) -> object:
@@ -74,9 +77,9 @@ def solve_row(name: str, h: float) -> dict[str, object]:
         spec = goldberg_spec(m, n)
     else:
         spec = load_spec(ROOT / "assemblies" / f"{name}.toml")
-    t = time.perf_counter()
+    t, cpu = time.perf_counter(), time.process_time()
     sim = simulate_assembly(spec, h=h)
-    wall = time.perf_counter() - t
+    wall, cpu = time.perf_counter() - t, time.process_time() - cpu
     f = sim.fields()
     sec = dict(sim.run.result.seconds)
     return {"spec": name, "h": h, "nodes": f["nodes"], "dofs": f["dofs"], "iterations": f["iterations"],
@@ -84,22 +87,26 @@ def solve_row(name: str, h: float) -> dict[str, object]:
             "residual_s": sec.get("residual"),
             "rest_of_path_s": sec["total"] - sec["tangent"] - sec["factor_solve"] - sec.get("residual", 0.0),
             "outside_path_s": wall - sec["total"],
-            "total_s": wall, "plate_energies": f["plate_energies"], **{k: f.get(k) for k in ANSWERS}}
+            "total_s": wall, "cpu_s": cpu, "plate_energies": f["plate_energies"], **{k: f.get(k) for k in ANSWERS}}
 
 
 def solve_table(hs: list[float], save: Path | None, before: Path | None, rows_file: Path | None = None,
                 names: tuple[str, ...] = SOLVE_SPECS) -> None:
     """Solve ``names`` (or read ``rows_file``, rows of an earlier ``--save``) and print the tables."""
     if rows_file is None:
+        from bench_linalg import calibration
+
         from fabpat.shell.compiled import load_kernels
 
-        print(f"compiled kernels loaded in {load_kernels():.1f} s (not in the rows below)\n")
+        print(f"compiled kernels loaded in {load_kernels():.1f} s (not in the rows below)")
+        print(f"calibration (SuperLU factorisation of 0x2d08's Dome tangent at h = 0.7 mm, least of 5): "
+              f"{calibration():.3f} s\n")
     rows = json.loads(rows_file.read_text()) if rows_file else [solve_row(name, h) for h in hs for name in names]
     if save is not None:
         save.write_text(json.dumps(rows, indent=1))
     old = {(r["spec"], r["h"]): r for r in json.loads(before.read_text())} if before else {}
     cols = ("nodes", "dofs", "iterations", "factorizations", "tangent_s", "factor_solve_s", "residual_s",
-            "rest_of_path_s", "outside_path_s", "total_s")
+            "rest_of_path_s", "outside_path_s", "total_s", "cpu_s")
     print("| assembly | h mm | " + " | ".join(cols) + " |")
     print("|---|---:|" + "---:|" * len(cols))
     for r in rows:

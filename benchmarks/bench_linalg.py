@@ -13,6 +13,7 @@ import time
 from collections.abc import Callable
 
 import numpy as np
+import scipy.sparse as sp
 
 from fabpat.geometry.fillet import fillet_pattern
 from fabpat.patterns.library import enumerate_library
@@ -31,14 +32,27 @@ def best(fn: Callable[[], object], k: int = 5) -> float:
     return t
 
 
-def measure(fz: Pardiso, outline: object, h: float) -> tuple[float, float, float, float, float, float, object]:
-    """Times (s) and the largest relative difference of the two solutions, for one mesh."""
+def dome_tangent(outline: object, h: float) -> sp.csc_matrix:
+    """The Dome scenario's tangent (CSC) of a mesh of ``outline`` (edge h, mm) at a perturbed state."""
     p = build_problem(mesh_outline(outline, h, 6, 36.0), "dome", sides=6)
     model, asm, _ = _setup(p)
     x = p.X + np.random.default_rng(0).normal(0, 0.3, p.X.shape)
     R = np.broadcast_to(np.eye(3), (p.X.shape[0], 3, 3)).copy()
     _, _, d = model.element_forces(*model.gather(x, R))
-    K = asm.matrix(model.element_tangents(*model.gather(x, R), d))
+    return asm.matrix(model.element_tangents(*model.gather(x, R), d))
+
+
+def calibration() -> float:
+    """Seconds of the machine's "fixed sparse LU", by which timing goals are scaled: SuperLU's factorisation
+    of 0x2d08's Dome tangent at h = 0.7 mm (23 430 dofs; the row of the table below), least of 5."""
+    K = dome_tangent(fillet_pattern(enumerate_library(6, 2).pattern("0x2d08"), 0.2).outline, 0.7)
+    slu = SuperLUFactorizer()
+    return best(lambda: slu.factor(K))
+
+
+def measure(fz: Pardiso, outline: object, h: float) -> tuple[float, float, float, float, float, float, object]:
+    """Times (s) and the largest relative difference of the two solutions, for one mesh."""
+    K = dome_tangent(outline, h)
     b = np.random.default_rng(1).normal(size=K.shape[0])
     slu = SuperLUFactorizer()
     t_slu = best(lambda: slu.factor(K))

@@ -42,10 +42,12 @@ def _eta(t2: float) -> float:
 
 @njit(cache=True)
 def _state(
-    e: int, x: Arr, R: Arr, F: Arr, gN: Arr, xl0: Arr, E0: Arr, K: Arr, cols: Arr, lx: Arr, ly: Arr, th: Arr, d: Arr,
-    ft: Arr, ml: Arr, mg: Arr, fx: Arr, v: Arr, q: Arr, h: Arr, r: Arr, Q0: Arr, RQ: Arr,
+    e: int, ref: int, x: Arr, R: Arr, F: Arr | NDArray[np.int64], gN: Arr, xl0: Arr, E0: Arr, K: Arr, cols: Arr,
+    lx: Arr, ly: Arr, th: Arr, d: Arr, ft: Arr, ml: Arr, mg: Arr, fx: Arr, v: Arr, q: Arr, h: Arr, r: Arr, Q0: Arr,
+    RQ: Arr,
 ) -> tuple[float, float, float]:
-    """Frame of element e (corners F[e] of node positions x (n, 3) mm, rotations R (n, 3, 3)), local dofs
+    """Frame of element e (corners F[e] of node positions x (n, 3) mm, rotations R (n, 3, 3); initial
+    frame E0[e]; its reference data gN, xl0, K in row ref, :func:`element_kernels`), local dofs
     d (18), local force K d split per node and the force's local parts; returns (energy, |a × b|, tr F).
     cols[k] = e1, e2, n; v, q (2, 3): (vx, vy), (qx, qy) per node."""
     # frame (CorotationalTriangles.deformational); r, Q0, RQ (3, 3) scratch
@@ -65,10 +67,10 @@ def _state(
     for a in range(3):
         p1 = r[a, 0] * u0 + r[a, 1] * u1 + r[a, 2] * u2
         p2 = r[a, 0] * w0 + r[a, 1] * w1 + r[a, 2] * w2
-        F00 += p1 * gN[e, a, 0]
-        F01 += p1 * gN[e, a, 1]
-        F10 += p2 * gN[e, a, 0]
-        F11 += p2 * gN[e, a, 1]
+        F00 += p1 * gN[ref, a, 0]
+        F01 += p1 * gN[ref, a, 1]
+        F10 += p2 * gN[ref, a, 0]
+        F11 += p2 * gN[ref, a, 1]
     phi = math.atan2(F10 - F01, F00 + F11)
     cp, sp = math.cos(phi), math.sin(phi)
     cols[0, 0], cols[0, 1], cols[0, 2] = cp * u0 + sp * w0, cp * u1 + sp * w1, cp * u2 + sp * w2
@@ -78,7 +80,7 @@ def _state(
     for a in range(3):
         lx[a] = r[a, 0] * cols[0, 0] + r[a, 1] * cols[0, 1] + r[a, 2] * cols[0, 2]
         ly[a] = r[a, 0] * cols[1, 0] + r[a, 1] * cols[1, 1] + r[a, 2] * cols[1, 2]
-        trF += lx[a] * gN[e, a, 0] + ly[a] * gN[e, a, 1]
+        trF += lx[a] * gN[ref, a, 0] + ly[a] * gN[ref, a, 1]
     # θ_a = log(Eᵀ R_a E₀) through the axial vector of R_a (E₀ Eᵀ)
     for i in range(3):
         for k in range(3):
@@ -97,8 +99,8 @@ def _state(
         f = 1.0 + s * s / 6.0 if s < 1e-7 else math.atan2(s, cos_t) / s
         for k in range(3):
             th[a, k] *= f
-        d[6 * a] = lx[a] - xl0[e, a, 0]
-        d[6 * a + 1] = ly[a] - xl0[e, a, 1]
+        d[6 * a] = lx[a] - xl0[ref, a, 0]
+        d[6 * a + 1] = ly[a] - xl0[ref, a, 1]
         d[6 * a + 2] = 0.0
         for k in range(3):
             d[6 * a + 3 + k] = th[a, k]
@@ -110,7 +112,7 @@ def _state(
                 row = 6 * a + 3 * t + i
                 s = 0.0
                 for j in range(18):
-                    s += K[e, row, j] * d[j]
+                    s += K[ref, row, j] * d[j]
                 U += 0.5 * d[row] * s
                 if t == 0:
                     ft[a, i] = s
@@ -135,8 +137,8 @@ def _state(
         b1, b2 = (b + 2) % 3, (b + 1) % 3  # v_b = (x_{b+2} − x_{b+1}) / |a × b| (sides, cyclic)
         v[0, b] = (lx[b1] - lx[b2]) / cn
         v[1, b] = (ly[b1] - ly[b2]) / cn
-        q[0, b] = -gN[e, b, 1] / trF
-        q[1, b] = gN[e, b, 0] / trF
+        q[0, b] = -gN[ref, b, 1] / trF
+        q[1, b] = gN[ref, b, 0] / trF
     for i in range(3):
         mean = (ft[0, i] + ft[1, i] + ft[2, i]) / 3.0
         for a in range(3):
@@ -200,7 +202,8 @@ def _geometric(
     trF: float, Lg: Arr, Rg: Arr, S: Arr, G: Arr,
 ) -> None:
     """Rows L_g, R_g (10, 18) of the geometric tangent L_gᵀ R_g in element-frame columns
-    (fabpat.shell.geometric.geometric_rows, which has the derivation); S (3, 3), G (3) scratch."""
+    (fabpat.shell.geometric.geometric_rows, which has the derivation), e the element's row of gN;
+    S (3, 3), G (3) scratch."""
     Lg[:] = 0.0
     Rg[:] = 0.0
     nh = h[2]
@@ -270,10 +273,10 @@ def _geometric(
 
 @njit(cache=True)
 def _tangent(
-    e: int, Q: Arr, lx: Arr, ly: Arr, cols: Arr, H: Arr, M: Arr, Lg: Arr, Rg: Arr, Kt: Arr, QY: Arr, C: Arr,
-    CE: Arr, LE: Arr, RE: Arr,
+    e: int, ref: int, Q: Arr, lx: Arr, ly: Arr, cols: Arr, H: Arr, M: Arr, Lg: Arr, Rg: Arr, Kt: Arr, QY: Arr,
+    C: Arr, CE: Arr, LE: Arr, RE: Arr,
 ) -> None:
-    """Kt[e] (18, 18) = [L_g ; C]ᵀ [R_g ; C] in global columns + the M_a blocks, C = Q B̃ (the material
+    """Kt[e] (18, 18) = [L_g ; C]ᵀ [R_g ; C] in global columns + the M_a blocks, C = Q[ref] B̃ (the material
     part; ``CorotationalTriangles.element_tangents``), from the geometric rows and H_a⁻¹, M_a; QY (r, 3),
     C (18), CE (r, 18), LE, RE (10, 18) scratch (r the rows of Q)."""
     r = Q.shape[1]
@@ -282,20 +285,20 @@ def _tangent(
         for a in range(3):
             c = 6 * a
             # Y_a = [[r_a]× ; −H_a⁻¹]: translations (0, 0, ly), (0, 0, −lx), (−ly, lx, 0)
-            QY[rr, 0] -= Q[e, rr, c + 2] * ly[a]
-            QY[rr, 1] += Q[e, rr, c + 2] * lx[a]
-            QY[rr, 2] += Q[e, rr, c] * ly[a] - Q[e, rr, c + 1] * lx[a]
+            QY[rr, 0] -= Q[ref, rr, c + 2] * ly[a]
+            QY[rr, 1] += Q[ref, rr, c + 2] * lx[a]
+            QY[rr, 2] += Q[ref, rr, c] * ly[a] - Q[ref, rr, c + 1] * lx[a]
             for i in range(3):
                 for j in range(3):
-                    QY[rr, j] -= Q[e, rr, c + 3 + i] * H[a, i, j]
+                    QY[rr, j] -= Q[ref, rr, c + 3 + i] * H[a, i, j]
     for rr in range(r):
         for k in range(3):
-            mean = (Q[e, rr, k] + Q[e, rr, 6 + k] + Q[e, rr, 12 + k]) / 3.0
+            mean = (Q[ref, rr, k] + Q[ref, rr, 6 + k] + Q[ref, rr, 12 + k]) / 3.0
             for b in range(3):
                 C[6 * b + k] = (QY[rr, 0] * Rg[0, 6 * b + k] + QY[rr, 1] * Rg[1, 6 * b + k]
-                                + QY[rr, 2] * Rg[2, 6 * b + k] + Q[e, rr, 6 * b + k] - mean)
-                C[6 * b + 3 + k] = (Q[e, rr, 6 * b + 3] * H[b, 0, k] + Q[e, rr, 6 * b + 4] * H[b, 1, k]
-                                    + Q[e, rr, 6 * b + 5] * H[b, 2, k])
+                                + QY[rr, 2] * Rg[2, 6 * b + k] + Q[ref, rr, 6 * b + k] - mean)
+                C[6 * b + 3 + k] = (Q[ref, rr, 6 * b + 3] * H[b, 0, k] + Q[ref, rr, 6 * b + 4] * H[b, 1, k]
+                                    + Q[ref, rr, 6 * b + 5] * H[b, 2, k])
         _to_global(C, cols, CE, rr)
     for rr in range(10):
         _to_global(Lg[rr], cols, LE, rr)
@@ -322,7 +325,7 @@ def _tangent(
                 Kt[e, 6 * a + 3 + i, 6 * a + 3 + k] += s
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def element_kernels(
     x: Arr, R: Arr, F: Arr, gN: Arr, xl0: Arr, E0: Arr, K: Arr, Q: Arr, fe: Arr, U: Arr, d: Arr, Kt: Arr,
     tangent: bool,
@@ -330,7 +333,19 @@ def element_kernels(
     """Element forces fe (m, 18), energies U (m,), local dofs d (m, 18) and, if ``tangent``, tangents
     Kt (m, 18, 18) of the triangles F (m, 3) at node positions x (n, 3) mm and rotations R (n, 3, 3), with
     the element constants of a
-    ``CorotationalTriangles`` (gN, xl0, E0, local K, its root Q); outputs are filled in place.
+    ``CorotationalTriangles`` (gN, xl0, E0, local K, its root Q); outputs are filled in place: each
+    element its own constants (:func:`shared_element_kernels` with rows 0 … m − 1)."""
+    shared_element_kernels(x, R, F, gN, xl0, E0, K, Q, np.arange(F.shape[0]), fe, U, d, Kt, tangent)
+
+
+@njit(cache=True, parallel=True)
+def shared_element_kernels(
+    x: Arr, R: Arr, F: Arr | NDArray[np.int64], gN: Arr, xl0: Arr, E0: Arr, K: Arr, Q: Arr, rows: NDArray[np.int64],
+    fe: Arr, U: Arr, d: Arr, Kt: Arr, tangent: bool,
+) -> None:
+    """:func:`element_kernels` of elements that share their reference data: element e reads its gN, xl0,
+    K and Q in row rows[e] (m,) and only its initial frame E0[e] (m, 3, 3) is its own, so congruent
+    elements need one row (:mod:`fabpat.shell.congruent`).
 
     The elements go in blocks, each with its scratch arrays (allocating them per element cost more
     than the arithmetic)."""
@@ -347,7 +362,9 @@ def element_kernels(
         Lg, Rg = np.empty((10, 18)), np.empty((10, 18))
         QY, CE, LE, RE = np.empty((r, 3)), np.empty((r, 18)), np.empty((10, 18)), np.empty((10, 18))
         for e in range(blk * _BLOCK, min(m, (blk + 1) * _BLOCK)):
-            Ue, cn, trF = _state(e, x, R, F, gN, xl0, E0, K, cols, lx, ly, th, de, ft, ml, mg, fx, v, q, h, r3, Q0, RQ)
+            ref = rows[e]
+            Ue, cn, trF = _state(e, ref, x, R, F, gN, xl0, E0, K, cols, lx, ly, th, de, ft, ml, mg, fx, v, q, h, r3,
+                                 Q0, RQ)
             U[e] = Ue
             for j in range(18):
                 d[e, j] = de[j]
@@ -357,8 +374,8 @@ def element_kernels(
                     fe[e, 6 * a + 3 + k] = mg[a, 0] * cols[0, k] + mg[a, 1] * cols[1, k] + mg[a, 2] * cols[2, k]
             if tangent:
                 _moment_jacobians(th, ml, H, M, J)
-                _geometric(e, gN, lx, ly, ft, mg, fx, v, q, h, M, cn, trF, Lg, Rg, S, G)
-                _tangent(e, Q, lx, ly, cols, H, M, Lg, Rg, Kt, QY, C, CE, LE, RE)
+                _geometric(ref, gN, lx, ly, ft, mg, fx, v, q, h, M, cn, trF, Lg, Rg, S, G)
+                _tangent(e, ref, Q, lx, ly, cols, H, M, Lg, Rg, Kt, QY, C, CE, LE, RE)
 
 
 @njit(cache=True, parallel=True)

@@ -34,6 +34,7 @@ from numpy.typing import NDArray
 
 from fabpat.shell.assembly import Assembler
 from fabpat.shell.compiled import CompiledAssembler, CompiledTriangles, transform_elements
+from fabpat.shell.congruent import CongruentTriangles, representatives
 from fabpat.shell.element import Material
 from fabpat.shell.rotations import expmap, skew
 
@@ -59,8 +60,11 @@ class LinkedProblem:
     (docs/assembly-solver.md, Solver speed).
     thickness: (m,) mm per triangle, for plates of different thickness (default None: ``material.t``
     everywhere; :class:`fabpat.shell.compiled.CompiledTriangles`).
-    Raises ValueError on inconsistent shapes, a slave linked twice or fixed, or a partly prescribed
-    nonzero rotation.
+    congruent: (m,) a hint, for each triangle another whose reference geometry equals its own up to a rigid
+    motion (same corner order, same thickness), its own number where it has none: congruent triangles then
+    share their local stiffness (:mod:`fabpat.shell.congruent`; default None: each its own).
+    Raises ValueError on inconsistent shapes, a slave linked twice or fixed, a partly prescribed
+    nonzero rotation, or a ``congruent`` hint that is not one triangle number per triangle.
     """
 
     X: Arr
@@ -77,6 +81,7 @@ class LinkedProblem:
     dead_loads: Arr | None = None
     dead_ramp: float = 0.0
     thickness: Arr | None = None
+    congruent: NDArray[np.int64] | None = None
 
     def load_at(self, lam: float) -> Arr:
         """(N, 6) external forces (N) and moments (N·mm) at load fraction ``lam``: λ·loads plus the
@@ -120,6 +125,9 @@ class LinkedProblem:
             if t.shape != (len(self.F),) or not np.all(np.isfinite(t)) or not np.all(t > 0.0):
                 raise ValueError(f"thickness must be {len(self.F)} finite positive numbers (mm), one per triangle")
             object.__setattr__(self, "thickness", t)
+        if self.congruent is not None:
+            representatives(self.congruent, len(self.F))  # ValueError on a malformed hint
+            object.__setattr__(self, "congruent", np.asarray(self.congruent, dtype=np.int64))
         if not 0.0 <= self.dead_ramp <= 1.0:
             raise ValueError(f"dead_ramp must lie in [0, 1], got {self.dead_ramp!r}")
         for name, v in (("X", X), ("masters", M), ("link_spin", sp), ("prescribed", pres), ("loads", loads),
@@ -151,7 +159,9 @@ class _Reduced:
     def __init__(self, p: LinkedProblem, threads: int | None = None) -> None:
         n, N = len(p.X), p.n_nodes
         self.n, self.N = n, N
-        self.model = CompiledTriangles(p.X, p.F, p.material, threads=threads, thickness=p.thickness)
+        self.model: CompiledTriangles | CongruentTriangles = (
+            CompiledTriangles(p.X, p.F, p.material, threads=threads, thickness=p.thickness) if p.congruent is None
+            else CongruentTriangles(p.X, p.F, p.material, p.congruent, threads=threads, thickness=p.thickness))
         rep = np.arange(N)
         rep[p.link_slave] = n + p.link_master
         self.slave_mask = np.zeros(N, dtype=bool)

@@ -28,6 +28,7 @@ Shapes: n nodes, m elements; units mm, rad, strains dimensionless, curvature 1/m
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -122,7 +123,16 @@ def thickness_groups(thickness: Arr, m: int) -> list[tuple[float, NDArray[np.int
     return [(float(v), np.flatnonzero(which == i)) for i, v in enumerate(values)]
 
 
-def strain_from_dofs(model: CorotationalTriangles, d: Arr, thickness: Arr | None = None) -> SurfaceStrain:
+class LocalCorners(Protocol):
+    """What :func:`strain_from_dofs` reads of a mesh: ``xl0`` (m, 3, 2) each element's corners in its initial
+    frame (mm) and ``mat`` its material (a :class:`~fabpat.shell.corotational.CorotationalTriangles`, or
+    the congruent triangles of :mod:`fabpat.shell.congruent`)."""
+
+    xl0: Arr
+    mat: Material
+
+
+def strain_from_dofs(model: LocalCorners, d: Arr, thickness: Arr | None = None) -> SurfaceStrain:
     """Surface strains of local deformational dofs d (m, 18) of ``model`` (see module doc); ``thickness``
     (m,) mm per element, None: every element has ``model.mat.t`` (:func:`thickness_groups`)."""
     x, y = model.xl0[..., 0], model.xl0[..., 1]

@@ -440,7 +440,6 @@ def run_closure(setup: ClosureSetup, *, steps: int = CLOSURE_STEPS, strain_limit
     reached) if the path is lost.
     """
     from fabpat.shell.rotations import expmap
-    from fabpat.shell.strain import surface_strains
 
     m = setup.model
     N, n = m.n_nodes, len(m.X)
@@ -473,7 +472,7 @@ def run_closure(setup: ClosureSetup, *, steps: int = CLOSURE_STEPS, strain_limit
     sphere = shape_sphere(P)
     # a tube is no sphere, however well one fits a short one (6 × 2: 9.44 % RMS): its read-outs give the cylinder
     cylinder = shape_cylinder(P) if setup.tube else (None, None)
-    eps = surface_strains(m.X, m.F, m.material, P, expmap(fin.rotation[:n]), m.element_thickness)
+    eps = m.surface_strains(P, expmap(fin.rotation[:n]))
     plate_peak = m.per_plate(eps, np.max)
     worst = max(plate_peak, key=lambda k: plate_peak[k])
     check_plausible(m, float(ee.sum()), fin.displacement, plate_peak[worst], "closure by the sleeves")

@@ -124,6 +124,24 @@ class AssemblyModel:
             return None
         return np.repeat(np.array(own, dtype=np.float64), np.diff(self.element_offsets))
 
+    @property
+    def congruent(self) -> NDArray[np.int64]:
+        """(m,) for each triangle the same triangle of the first plate of its mesh and thickness, the engine's
+        hint that their reference data are equal (:mod:`fabpat.shell.congruent`): plates of one type share one
+        mesh (:func:`plate_mesh`), and a placement is an isometry (of a flat mesh, a mirror image is a half
+        turn). A plate whose transform is not one (a scale) keeps its own triangles."""
+        out = np.arange(len(self.F), dtype=np.int64)
+        first: dict[tuple[int, float], int] = {}
+        for i, p in enumerate(self.plates):
+            A = np.asarray(p.transform, dtype=np.float64)[:3, :3]
+            if not np.allclose(A.T @ A, np.eye(3), rtol=0.0, atol=1e-12):
+                continue
+            key = (id(p.mesh), self.material.t if p.thickness is None else float(p.thickness))
+            j = first.setdefault(key, i)
+            a, b = self.element_offsets[i], self.element_offsets[i + 1]
+            out[a:b] = np.arange(len(p.mesh.F), dtype=np.int64) + self.element_offsets[j]
+        return out
+
     def links(self) -> tuple[NDArray[np.int64], NDArray[np.int64], Arr, NDArray[np.int64]]:
         """Slave nodes, their sleeve numbers, their relative spins at λ = 1 (k, 3) and their slot (0 A, 1 B)."""
         sl, ma, sp, slot, _ = self._links()
@@ -155,11 +173,22 @@ class AssemblyModel:
                 dead_loads: Arr | None = None, dead_ramp: float = 0.0) -> LinkedProblem:
         """The linked shell problem with (n + s, 6) supports, prescribed values and loads (λ = 1), and
         ``dead_loads`` reached at λ = ``dead_ramp`` and held after it
-        (:class:`fabpat.shell.rigid_links.LinkedProblem`)."""
+        (:class:`fabpat.shell.rigid_links.LinkedProblem`); plates of one mesh share their triangles'
+        reference data (:attr:`congruent`)."""
         sl, ma, sp, _, off = self._links()
         masters = np.array([s.frame[:3, 3] for s in self.sleeves]).reshape(-1, 3)
         return LinkedProblem(self.X, self.F, self.material, masters, sl, ma, sp, fixed, prescribed, loads, off,
-                             dead_loads, dead_ramp, self.element_thickness)
+                             dead_loads, dead_ramp, self.element_thickness, self.congruent)
+
+    def surface_strains(self, x: Arr, R: Arr) -> Arr:
+        """(m,) per element the peak surface strain (dimensionless, :func:`fabpat.shell.strain.surface_strains`)
+        of the plates at node positions x (n, 3) mm and rotations R (n, 3, 3), from the compiled kernels'
+        local dofs on the congruent triangles' shared data (:attr:`congruent`; no local stiffness per
+        element). Raises GeometryError on a degenerate deformed triangle."""
+        from fabpat.shell.congruent import CongruentTriangles
+
+        tri = CongruentTriangles(self.X, self.F, self.material, self.congruent, thickness=self.element_thickness)
+        return tri.surface_strains(x, R)
 
     def lumped_area(self) -> Arr:
         """(n,) nodal share of the plates' area (mm²), a third of each triangle's area."""

@@ -251,17 +251,17 @@ def _check_path(path: object) -> None:
 def read_outs(kind: str, name: str, model: AssemblyModel, run: StripRun | ClosureRun, seconds: float,
               strain_limit: float, h: float) -> AssemblySimulation:
     """The :class:`AssemblySimulation` of a solver ``run`` of ``model``: per-element peak surface strain (the
-    run's, else :func:`fabpat.shell.strain.surface_strains`) and the deformed mid-surface's curvature fields."""
+    run's, else :meth:`~fabpat.assembly.solve.model.AssemblyModel.surface_strains`) and the deformed
+    mid-surface's curvature fields."""
     from fabpat.shell.curvature import curvature_fields
     from fabpat.shell.rotations import expmap
-    from fabpat.shell.strain import surface_strains
 
     n = len(model.X)
     fin = run.result.final
     x = model.X + fin.displacement[:n]
     eps = getattr(run, "element_strain", None)
     if eps is None:
-        eps = surface_strains(model.X, model.F, model.material, x, expmap(fin.rotation[:n]), model.element_thickness)
+        eps = model.surface_strains(x, expmap(fin.rotation[:n]))
     centre = getattr(run, "centre", None)
     if centre is None:  # a strip: its plates bend away from a point far below (the arch is convex upwards)
         centre = model.X.mean(axis=0) - np.array([0.0, 0.0, 1e6])
