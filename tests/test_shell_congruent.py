@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from fabpat.errors import GeometryError
 from fabpat.shell.compiled import CompiledTriangles
 from fabpat.shell.congruent import CongruentTriangles, representatives
 from fabpat.shell.element import Material
@@ -74,14 +75,14 @@ def test_a_hint_naming_another_shape_or_another_thickness_is_refused() -> None:
     X, F, hint = _copies([np.eye(3), np.diag([-1.0, 1.0, 1.0]), QUARTER[1]], [np.zeros(3)] * 3)
     CongruentTriangles(X, F, MAT, hint, threads=1)
     X, F, hint = _copies([np.eye(3), QUARTER[1], 1.001 * np.eye(3)], [np.zeros(3)] * 3)
-    with pytest.raises(ValueError, match="are not"):
+    with pytest.raises(GeometryError, match="are not"):
         CongruentTriangles(X, F, MAT, hint, threads=1)  # the third copy is 0.1 % larger
     X, F, hint = _copies(QUARTER, [np.zeros(3)] * 3)
     t = np.full(len(F), MAT.t)
     t[-1] = 2.0
-    with pytest.raises(ValueError, match="thickness"):
+    with pytest.raises(GeometryError, match="thickness"):
         CongruentTriangles(X, F, MAT, hint, threads=1, thickness=t)
-    with pytest.raises(ValueError, match="one triangle number"):
+    with pytest.raises(GeometryError, match="one triangle number"):
         representatives(np.full(len(F), len(F)), len(F))
 
 

@@ -14,7 +14,7 @@ every triangle reads its row (:func:`fabpat.shell.kernels.shared_element_kernels
 knows triangles, not plates: the assembly model gives the hint (:class:`fabpat.assembly.solve.model.AssemblyModel`).
 
 The hint is checked, not trusted: every triangle's corners in its own initial frame must match its
-representative's to :data:`CONGRUENT_TOLERANCE` of the mesh's size (mm), else ValueError. Shared rows
+representative's to :data:`CONGRUENT_TOLERANCE` of the mesh's size (mm), else GeometryError. Shared rows
 change nothing but round-off: a copy's data computed from its placed coordinates differ from its
 representative's by ~1e-16 relative (bitwise equal for copies turned by quarter turns about the axes,
 tested), and the forces and tangents of the shared rows are those of the representative's numbers,
@@ -46,10 +46,10 @@ _CHUNK = 8192
 
 def representatives(congruent: NDArray[np.int64], m: int) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """(distinct triangle numbers (k,), each triangle's row among them (m,)) of a hint ``congruent`` (m,)
-    (module doc). Raises ValueError unless it holds m triangle numbers 0 … m − 1."""
+    (module doc). Raises GeometryError unless it holds m triangle numbers 0 … m − 1."""
     c = np.asarray(congruent)
     if c.shape != (m,) or not np.issubdtype(c.dtype, np.integer) or (m and (c.min() < 0 or c.max() >= m)):
-        raise ValueError(f"congruent must hold one triangle number 0 … {m - 1} per triangle ({m})")
+        raise GeometryError(f"congruent must hold one triangle number 0 … {m - 1} per triangle ({m})")
     reps, rows = np.unique(c.astype(np.int64), return_inverse=True)
     return reps, rows.astype(np.int64).reshape(m)
 
@@ -63,7 +63,7 @@ class CongruentTriangles:
 
     X: (n, 3) node coordinates (mm); F: (m, 3) triangles; mat: material and thickness; congruent: (m,)
     the hint; ``thickness`` (m,) mm per triangle (None: ``mat.t``). ``reference`` is the compiled triangles of
-    the representatives alone. Raises ValueError on a hint that names a non-congruent triangle or one of
+    the representatives alone. Raises GeometryError on a hint that names a non-congruent triangle or one of
     another thickness, GeometryError on a ``thickness`` of the wrong shape or not positive.
     """
 
@@ -77,7 +77,7 @@ class CongruentTriangles:
         if thickness is not None:
             t = np.asarray(thickness, dtype=np.float64)
             if t.shape == (m,) and not np.array_equal(t, t[reps][self.rows]):
-                raise ValueError("congruent triangles must have the same thickness")
+                raise GeometryError("congruent triangles must have the same thickness")
         own_t = None if thickness is None else np.asarray(thickness, dtype=np.float64)[reps]
         self.reference = CompiledTriangles(self.X, self.F[reps], mat, threads=threads, thickness=own_t)
         self.E0, x, y = element_frames(self.X, self.F)
@@ -87,7 +87,7 @@ class CongruentTriangles:
         scale = max(float(np.abs(self.X).max(initial=0.0)), 1.0)
         worst = max(float(np.abs(x - ref[..., 0]).max(initial=0.0)), float(np.abs(y - ref[..., 1]).max(initial=0.0)))
         if not worst <= CONGRUENT_TOLERANCE * scale:
-            raise ValueError(f"the triangles named congruent are not: corners {worst:.3g} mm apart in their own "
+            raise GeometryError(f"the triangles named congruent are not: corners {worst:.3g} mm apart in their own "
                              "frames (another shape, a mirror image or another corner order)")
         self.threads = self.reference.threads
         self.edofs = (6 * self.F[:, :, None] + np.arange(6)).reshape(-1, 18)
