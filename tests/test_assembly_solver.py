@@ -230,6 +230,17 @@ def test_straight_strip_stays_flat_then_buckles_into_a_symmetric_arch(uniform_st
     assert r.half_ratio == pytest.approx(1.0, abs=0.02)
 
 
+def test_the_strip_leaps_from_its_knee_to_the_end_of_its_path(uniform_strip) -> None:  # noqa: ANN001
+    """After its first increment (the knee) a strip tries the rest of its path in one increment (strip.
+    LEAP_ITERATIONS): this strip takes 2 increments and 16 factorizations (13 increments and 48 before); the
+    report points in between are interpolated, λ = 1 is an equilibrium (the test below compares it with a
+    path that doubles its increments)."""
+    r = uniform_strip.result
+    assert r.increments == 2 and r.cuts == 0, (r.increments, r.cuts)
+    assert r.factorizations <= 24, r.factorizations
+    assert [p.exact for p in r.points] == [False] * 4 + [True]
+
+
 def test_a_dead_imperfection_reaches_the_equilibrium_of_a_ramped_one(uniform_strip) -> None:  # noqa: ANN001
     """The strip's imperfection load reaches its full size early on the path and is held (which rounds off
     the knee of the path); an elastic equilibrium does not depend on the path to it, so the same load

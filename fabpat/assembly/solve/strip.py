@@ -81,9 +81,10 @@ MIN_STEP = 2.0**-20
 #: (shell.linked.solve_path, ``max_step``): the shipped strip at h = 3 in 54 factorizations, not 64
 MAX_STEP = 0.25
 #: after the first increment (past the knee), the rest of the path is tried in one increment of at most this
-#: many Newton iterations (shell.linked.solve_path, ``leap``): the shipped strip at h = 3 then takes 23
-#: factorizations, not 54 (its leap converges in 25 iterations and 20 factorizations, 31 at h = 6 mm); a leap that stops
-#: halving its residual is given up after a few factorizations and the path doubles its increments as before
+#: many Newton iterations (shell.linked.solve_path, ``leap``): the shipped strip then takes 23 factorizations
+#: at h = 3, not 54 (its leap: 25 iterations, 20 factorizations), 24 at h = 2 and 53 at h = 6, where its leap
+#: creeps (55 iterations); the 1 × 3 test strip 30 at h = 3, not 50. A leap that stops halving its residual
+#: is given up (shell.linked.LEAP_PATIENCE) and the path doubles its increments from the first as before
 LEAP_ITERATIONS = 60
 
 
