@@ -9,7 +9,9 @@ Model (every decision in one place):
   interfaces hold ux, uy, uz; those of the last column hold uy, uz and are moved along −x by
   ``end_shortening`` × L (L the strip's x-extent); rotations are free (hinges). The reaction is the
   x-force on the moving pins (positive in compression).
-* Path: displacement control in ``steps`` equal report increments (:func:`fabpat.shell.linked.solve_path`).
+* Path: displacement control in ``steps`` equal report increments (:func:`fabpat.shell.linked.solve_path`):
+  a first increment of :data:`FIRST_STEP` to the knee, then the rest of the path tried in one leap
+  (:data:`LEAP_ITERATIONS`; the report points it jumps over interpolated), else increments doubling from there.
   The flat strip is a symmetric bifurcation; an upward imperfection load selects the branch: a
   uniform out-of-plane force of ``imperfection`` N in total (default ``IMPERFECTION``), spread by
   lumped area and reached in full early on the path (``IMPERFECTION_RAMP``), then held: it only selects
