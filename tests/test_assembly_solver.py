@@ -230,6 +230,17 @@ def test_straight_strip_stays_flat_then_buckles_into_a_symmetric_arch(uniform_st
     assert r.half_ratio == pytest.approx(1.0, abs=0.02)
 
 
+def test_the_strip_leaps_from_its_knee_to_the_end_of_its_path(uniform_strip) -> None:  # noqa: ANN001
+    """After its first increment (the knee) a strip tries the rest of its path in one increment (strip.
+    LEAP_ITERATIONS): this strip takes 2 increments and 16 factorizations (13 increments and 48 before); the
+    report points in between are interpolated, λ = 1 is an equilibrium (the test below compares it with a
+    path that doubles its increments)."""
+    r = uniform_strip.result
+    assert r.increments == 2 and r.cuts == 0, (r.increments, r.cuts)
+    assert r.factorizations <= 24, r.factorizations
+    assert [p.exact for p in r.points] == [False] * 4 + [True]
+
+
 def test_a_dead_imperfection_reaches_the_equilibrium_of_a_ramped_one(uniform_strip) -> None:  # noqa: ANN001
     """The strip's imperfection load reaches its full size early on the path and is held (which rounds off
     the knee of the path); an elastic equilibrium does not depend on the path to it, so the same load
@@ -310,3 +321,24 @@ def test_a_path_tells_its_increments_and_a_stalled_one_is_abandoned_with_its_rea
     with pytest.raises(SolverError, match=r"stalled: abandoned at load fraction λ = 0\.0\d+, which [23] factoriz"):
         solve_path(prob, steps=2, first_step=1.0 / 64, stall=(2, 0.5))
     assert not news.listened()
+
+
+def test_a_warm_start_too_far_off_costs_little_more_than_a_cold_start() -> None:
+    """A warm start that does not converge is given up after a few factorizations (linked.WARM_FALL), so the
+    path after it costs at most the cold path plus those: a guess of 3× the cantilever's deflection crept
+    for 25 iterations and 23 factorizations before (34 against 11 cold, two report steps). A guess near the
+    equilibrium (0.9× it) still converges as a warm start."""
+    from fabpat.simulation.scenarios import build_problem
+
+    mesh = plate_mesh(PATTERN, 6, 36.0, 0.2, 6.0)
+    p = build_problem(mesh, "cantilever", sides=6)
+    prob = LinkedProblem(p.X, p.F, p.material, np.zeros((0, 3)), [], [], np.zeros((0, 3)), p.fixed,
+                         np.zeros((mesh.n_nodes, 6)), p.loads)
+    cold = solve_path(prob, steps=1)
+    far = solve_path(prob, steps=1, start=(3.0 * cold.final.displacement, 3.0 * cold.final.rotation))
+    assert not far.warm
+    assert far.factorizations <= cold.factorizations + 3, (far.factorizations, cold.factorizations)
+    assert np.abs(far.final.displacement - cold.final.displacement).max() < 1e-9
+    near = solve_path(prob, steps=1, start=(0.9 * cold.final.displacement, 0.9 * cold.final.rotation))
+    assert near.warm
+    assert np.abs(near.final.displacement - cold.final.displacement).max() < 1e-5

@@ -151,6 +151,26 @@ def test_the_kernels_are_cached_in_the_users_cache_folder(tmp_path: Path, monkey
     assert kernel_cache.choose_cache_dir() is None
 
 
+def test_the_catalogs_compiled_kernels_are_kept_in_the_users_cache_folder_too(tmp_path: Path) -> None:
+    """The prediction kernels (fabpat.catalog.response_kernels, response_plate) go where the shell's do,
+    $XDG_CACHE_HOME/fabpat/numba, never beside the source, which an install may not let anyone write (they
+    were kept in fabpat/catalog/__pycache__). Only imported: the folder is chosen when they are defined."""
+    import subprocess
+    import sys
+
+    import fabpat
+
+    code = ("import fabpat.catalog.response_kernels as k, fabpat.catalog.response_plate as p\n"
+            "print(k.skyline_solve._cache._cache_path)\nprint(p._membrane_energy._cache._cache_path)")
+    env = {k: v for k, v in os.environ.items() if k not in ("FABPAT_CACHE", "NUMBA_CACHE_DIR")}
+    env.update(XDG_CACHE_HOME=str(tmp_path / "cache"), PYTHONPATH=str(Path(fabpat.__file__).parents[1]))
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
+    folders = out.split()
+    assert len(folders) == 2
+    for folder in folders:
+        assert Path(folder).is_relative_to(tmp_path / "cache" / "fabpat" / "numba"), folder
+
+
 def test_a_first_compilation_is_announced_and_a_cached_load_is_not(monkeypatch: pytest.MonkeyPatch) -> None:
     from fabpat.shell import compiled, news
 

@@ -16,6 +16,8 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
+import fabpat.shell.kernel_cache  # noqa: F401 - sets numba.config.CACHE_DIR (the user's cache), read by the decorators below
+
 
 @njit(cache=True, parallel=True)
 def walk_trees(X: NDArray[np.float64], feature: NDArray[np.int64], threshold: NDArray[np.float64],

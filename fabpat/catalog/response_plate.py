@@ -54,6 +54,7 @@ from numpy.typing import NDArray
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import reverse_cuthill_mckee
 
+import fabpat.shell.kernel_cache  # noqa: F401 - sets numba.config.CACHE_DIR (the user's cache), read by the decorators below
 from fabpat.catalog.response_kernels import add_pair, condense, dense_solve, skyline_solve, unit_unused
 from fabpat.patterns.lattice import edge_row
 from fabpat.patterns.pattern import DEFAULT_EDGE, pattern_topology

@@ -61,6 +61,20 @@ STALL_ADVANCE = 0.01
 #: many an increment of the path may take: a guess near the equilibrium converges in 5–10, and a longer
 #: try only adds to the cold path that follows it
 WARM_ITERATIONS = 25
+#: … and given up sooner when it is not converging: after its k-th factorization (k ≥ 2) its smallest
+#: residual must be below WARM_FALL^(k−1) of the guess's own. A guess within Newton's reach gets there
+#: with room (the 1 × 3 test strip with a column changed: 505 N → 9.9 N after 4 factorizations, a
+#: flipped cantilever 2.1e4 → 14 N), where a guess too far off creeps (3× a cantilever's deflection:
+#: 5.2e4 → 1.2e4 N over 10 factorizations, unconverged after 25) and its factorizations would only
+#: be added to the cold path's
+WARM_FALL = 0.5
+#: a leap (``leap`` of :func:`solve_path`: the rest of the path in one increment) is given up once this many
+#: iterations in a row have not halved its smallest residual. Its residual falls through spikes of membrane
+#: stretch: leaps that converged went up to 12 iterations without a halving (the 1 × 3 test strip at h = 3,
+#: the shipped graded strip at h = 6, which creeps), 4 for the shipped strip at h = 3; a 1 × 4 strip of two
+#: stiff and two soft tiles stalls near 20 N and would spend 42 factorizations in 60 iterations before
+#: failing (given up after 21 iterations instead)
+LEAP_PATIENCE = 15
 
 
 @dataclass(frozen=True, eq=False)
@@ -144,6 +158,10 @@ class _Newton:
     target: float = 0.0
     _gr: Arr = field(default_factory=lambda: np.zeros(0))  # reduced net force of the last evaluated iterate
     _inc: Arr = field(default_factory=lambda: np.zeros(0))  # its increments still missing at prescribed dofs
+    #: a warm start under way: (factorizations when it began, its guess's residual, its smallest so far)
+    warm: tuple[int, float, float] | None = None
+    #: a leap under way: (iterations since its residual last halved, that residual)
+    leap: tuple[int, float] | None = None
 
     @property
     def dofs(self) -> NDArray[np.int64]:
@@ -190,7 +208,34 @@ class _Newton:
         pending = float(np.abs(self._inc).max())
         if pending <= 1e-12 * (1.0 + float(np.abs(self.X).max())):
             pending = 0.0
-        return Residual(float(np.linalg.norm(self._gr.ravel()[red.test])), ref, pending != 0.0)
+        norm = float(np.linalg.norm(self._gr.ravel()[red.test]))
+        if (self.warm is not None and not self._warm_on(norm)) or (self.leap is not None and not self._leap_on(
+                norm, pending != 0.0)):
+            norm = np.inf  # a non-finite residual ends the Newton run unconverged (newton.iterate)
+        return Residual(norm, ref, pending != 0.0)
+
+    def _leap_on(self, norm: float, pending: bool) -> bool:
+        """Whether a leap is converging (:data:`LEAP_PATIENCE`), its last halving updated with ``norm``."""
+        assert self.leap is not None
+        if pending:  # the predictor's residual (prescribed dofs still moving) is no measure of it
+            return True
+        since, mark = self.leap
+        if not np.isfinite(mark) or norm <= 0.5 * mark:
+            self.leap = (0, norm)
+            return True
+        self.leap = (since + 1, mark)
+        return since + 1 < LEAP_PATIENCE
+
+    def _warm_on(self, norm: float) -> bool:
+        """Whether a warm start is converging (:data:`WARM_FALL`), its smallest residual updated with ``norm``."""
+        assert self.warm is not None
+        f0, first, best = self.warm
+        if not np.isfinite(first):
+            first = best = norm
+        best = min(best, norm)
+        self.warm = (f0, first, best)
+        k = self.factorizations - f0
+        return k < 2 or best <= first * WARM_FALL ** (k - 1)
 
     def tangent(self, x: Arr, R: Arr, iteration: int) -> sp.csc_matrix:
         """The reduced tangent of the last evaluated iterate, prescribed rows scaled by ``dscale``."""
@@ -256,6 +301,7 @@ def solve_path(
     threads: int | None = None,
     max_step: float | None = None,
     stall: tuple[int, float] | None = (STALL_FACTORIZATIONS, STALL_ADVANCE),
+    leap: int | None = None,
 ) -> PathResult:
     """Follow λ = 0 → 1 (loads λ·loads, prescribed dofs λ·prescribed, joint angles λ·φ); see module doc.
 
@@ -288,6 +334,12 @@ def solve_path(
     states around it (``PathPoint.exact`` False), and λ = 1 is always an equilibrium.
     ``threads``: threads for the element kernels, the matrix sums and the factorisations (default: the
     cores this process may use, :func:`fabpat.shell.compiled.cores`).
+    ``leap``: after the first increment, try the rest of the path in one increment of at most ``leap``
+    iterations (default None: no leap), given up once :data:`LEAP_PATIENCE` iterations in a row have not
+    halved its residual; the path then goes on from the first increment as without it (the leap counted
+    as a step cut). For a path whose only hard stretch is near its start, a buckling knee: the shipped
+    graded strip reaches λ = 1 in 23 factorizations rather than 54 (docs/assembly-solver.md). The report
+    points it jumps over are interpolated (``max_step``).
     ``stall``: (factorizations n, advance a): abandon the path (SolverError, "stalled") when n
     factorizations have moved λ by less than a (defaults :data:`STALL_FACTORIZATIONS`,
     :data:`STALL_ADVANCE`); None follows a crawling path however long it takes.
@@ -331,6 +383,7 @@ def solve_path(
     next_report = 1
     unstable = warm = False
     guess, kept = start, None
+    leapt = False  # the leap (``leap``) tried
     here = PathPoint(0.0, np.zeros((N, 3)), np.zeros((N, 3)), np.zeros((N, 6)), 0.0, np.zeros((len(p.link_slave), 6)))
     anchor = (0, 0.0)  # (factorizations, λ) when λ last advanced by stall[1]
     with _PATH_LOCK, pardiso_threads(red.model.threads):  # one large matrix: its factorisations may use every core
@@ -338,7 +391,9 @@ def solve_path(
             if guess is not None:
                 next_report = steps  # one increment to λ = 1
             goal = next_report / steps if largest <= 1.0 / steps else 1.0
-            target = min(goal, lam + dlam) if guess is None else 1.0
+            leaping = leap is not None and guess is None and incs >= 1 and not leapt
+            leapt = leapt or leaping
+            target = min(goal, lam + dlam) if guess is None and not leaping else 1.0
             if goal - target < 1e-9:
                 target = goal
             xt, Rt = x.copy(), R.copy()
@@ -349,8 +404,12 @@ def solve_path(
                 red.place_slaves(p, xt, Rt, target)
             f0 = nw.factorizations
             nw.label = f"increment {incs + cuts + 1}, λ = {lam:.3f} → {target:.3f}"
+            nw.warm = None if guess is None else (f0, np.inf, np.inf)
+            nw.leap = (0, np.inf) if leaping else None
+            tries = max_iter if guess is None else min(max_iter, WARM_ITERATIONS)
             ok, its, xt, Rt, lu = nw.run(xt, Rt, target, kept if guess is None else None,
-                                         max_iter if guess is None else min(max_iter, WARM_ITERATIONS))
+                                         leap if leaping and leap is not None else tries)
+            nw.warm = nw.leap = None
             if ok and not _on_branch(X, xt, Rt, direction):
                 ok, unstable = False, True  # the other branch (see ``direction``)
             if guess is not None:
@@ -359,6 +418,9 @@ def solve_path(
                     next_report = 1
                     continue
                 warm = True
+            if leaping and not ok:  # the path goes on from the first increment, as without the leap
+                cuts += 1
+                continue
             kept = lu if ok else None
             if ok:
                 unstable = False
