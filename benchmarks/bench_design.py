@@ -4,7 +4,9 @@ shipped truncated-icosahedron sphere against closed targets.
 
 Run: ``python benchmarks/bench_design.py [--count 10] [--h 3] [--max-solves 12] [--workers 2]
 [--shapes circle,parabola,skewed | none] [--closed "sphere;ellipsoid:1,1,1.15" | none]
-[--closed-solves 40] [--pictures DIR]`` — prints one Markdown table per kind. A random strip's target is the
+[--closed-solves 40] [--pictures DIR] [--depth 3]`` — prints one Markdown table per kind (``--depth 3``: the
+shipped strip's candidates also take the built-in catalog's depth-3 hexagons, ``[patterns] depth = 3``).
+A random strip's target is the
 mid-line the assembly solver predicts for random per-column patterns at 10 % end shortening; each design
 is re-simulated with ``simulate_assembly(design.toml)`` (its ``[load] end_shortening``) and that
 re-simulation's error against the target is the table's rms.
@@ -100,6 +102,7 @@ def main() -> None:
     ap.add_argument("--closed", default="sphere;ellipsoid:1,1,1.15")
     ap.add_argument("--closed-solves", type=int, default=40)
     ap.add_argument("--pictures", default=None, help="copy each closed and shipped-strip design.png here")
+    ap.add_argument("--depth", type=int, choices=(2, 3), default=2, help="the shipped strip's [patterns] depth")
     a = ap.parse_args()
     strips(a)
     if a.closed != "none":
@@ -149,10 +152,16 @@ def strips(a: argparse.Namespace) -> None:
             runs.append(("1 × 9", f"random seed {seed}", spec9, t))
         shapes = [] if a.shapes == "none" else a.shapes.split(",")
         if shapes:
-            base = load_base(GRADED)
+            graded = GRADED
+            if a.depth == 3:  # the shipped spec with the depth-3 candidates added
+                graded = folder / "graded-strip-depth3.toml"
+                graded.write_text(GRADED.read_text(encoding="utf-8").replace(
+                    'rule = "graded"\n', 'rule = "graded"\ndepth = 3\n', 1), encoding="utf-8")
+            base = load_base(graded)
             length = _geometry(base, sorted(base.energies)[0], a.h)[0]
             for kind in shapes:
-                runs.append(("2 × 15 graded", kind, GRADED, shape_target(kind, length, folder / f"{kind}.csv")))
+                runs.append((f"2 × 15 graded{', depth 3' if a.depth == 3 else ''}", kind, graded,
+                             shape_target(kind, length, folder / f"{kind}.csv")))
         for n, (strip, what, spec, target) in enumerate(runs):
             out = folder / f"out-{n}"
             r = design(target, spec, out=out, h=a.h, max_solves=a.max_solves, workers=a.workers).record

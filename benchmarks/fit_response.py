@@ -1,8 +1,7 @@
 """Refit the built-in learned response and measure it on the depth-3 patterns by cross-validation.
 
-Run: ``python benchmarks/fit_response.py [--write]`` — the built-in catalog's rows (depth 2, hexagons and
-pentagons) and the depth-3 hexagon rows of ``benchmarks/data/depth3-hexagons.sqlite`` (a seeded uniform sample,
-``fabpat sweep --depth 3 --sample 200 --seed 20261207``), 5-fold cross-validated as
+Run: ``python benchmarks/fit_response.py [--write]`` — the built-in catalog's hexagon rows (the depth-2 library and
+the shipped depth-3 patterns: docs/learned-response.md, "The shipped depth-3 patterns"), 5-fold cross-validated as
 :func:`fabpat.catalog.response.fit_response` does; prints, per depth, the Spearman rank correlation and median
 relative error of the out-of-fold predictions and the coverage of 90 % intervals calibrated on the even-numbered
 rows' residuals and checked on the odd-numbered ones. ``--write`` then stores the fitted responses beside the
@@ -12,7 +11,6 @@ built-in catalog (``fabpat/data/catalog.sqlite.response.npz``).
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 import numpy as np
 from scipy.stats import spearmanr
@@ -21,14 +19,12 @@ import fabpat
 from fabpat.catalog import response as R
 from fabpat.catalog import response_file as RF
 
-DEPTH3 = Path(__file__).parent / "data" / "depth3-hexagons.sqlite"
-
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--write", action="store_true", help="store the refitted built-in responses")
     a = ap.parse_args()
-    rows = list(fabpat.catalog(sides=6)) + [r for r in fabpat.catalog(DEPTH3, sides=6) if r["depth"] == 3]
+    rows = list(fabpat.catalog(sides=6)) + list(fabpat.catalog(sides=6, depth=3))
     ids, Y = R.training_arrays(rows)
     X = R.cell_features(R.check_ids(ids, 6), 6)
     depth = X[:, 75].astype(int)
@@ -46,7 +42,7 @@ def main() -> None:
             print(f"| {name} | {d} | {len(sel)} | {rho:.3f} | {100 * np.median(np.abs(pred / y - 1)):.1f} % | "
                   f"{100 * odd.mean():.0f} % |")
     if a.write:
-        print(RF.refit_responses(None, also=[DEPTH3]))
+        print(RF.refit_responses(None))
 
 
 if __name__ == "__main__":

@@ -1,8 +1,11 @@
 """Copy simulated depth-3 patterns into the built-in catalog (how its depth-3 rows were made).
 
 Run: ``python benchmarks/ship_depth3.py SOURCE.sqlite [SOURCE.sqlite …]`` — every depth-3 pattern of each source
-catalog whose three scenario energies converged, at the default set-up (36 mm, 2 mm, w = 0.2), with its stored
-metrics, outline and results, goes into ``fabpat/data/catalog.sqlite`` (a pattern already there is replaced).
+catalog with its three scenarios stored and its Cylinder energy converged (the scenario the depth-3 rows serve:
+the strips' designs and the range ``--learn`` widens), at the default set-up (36 mm, 2 mm, w = 0.2), with its
+stored metrics, outline and results, goes into ``fabpat/data/catalog.sqlite`` (a pattern already there is
+replaced). A scenario that did not converge keeps its row with its error and no energy, as every sweep stores it:
+the softest depth-3 patterns snap under the Dome's load (a load-controlled solve cannot follow that).
 Refused, with nothing written, if a source's rows come from another solver version than the built-in catalog's
 (rows of one catalog share one solver; restamp first, as ``fabpat.catalog.restamp`` says). Afterwards refit the
 learned response: ``python benchmarks/fit_response.py --write``.
@@ -24,11 +27,11 @@ KEY = ("id", "sides", "depth", "edge", "thickness", "weight")
 
 
 def _complete(src: sqlite3.Connection) -> list[tuple[object, ...]]:
-    """Keys of the source's depth-3 patterns at the default set-up with three converged scenarios."""
+    """Keys of the source's depth-3 patterns at the default set-up with three scenarios stored, Cylinder converged."""
     return src.execute(
         "SELECT id, sides, depth, edge, thickness, weight FROM results WHERE depth = 3 AND edge = ? AND "
         "thickness = ? AND weight = ? GROUP BY id, sides, depth, edge, thickness, weight "
-        "HAVING SUM(converged) = 3 AND COUNT(*) = 3",
+        "HAVING COUNT(*) = 3 AND SUM(converged * (scenario = 'cylinder')) = 1",
         (DEFAULT_SETUP["edge"], DEFAULT_SETUP["thickness"], DEFAULT_SETUP["weight"])).fetchall()
 
 

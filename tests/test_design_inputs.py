@@ -222,8 +222,11 @@ def test_depth_3_adds_the_catalogs_depth_3_patterns_to_a_strips_candidates(tmp_p
     assert sum(len(k) == 6 for k in base.energies) == 430  # the built-in depth-2 candidates stay
     plain = load_base(_strip_base(tmp_path, "variations = false"))
     assert not set(deep) & set(plain.energies)
-    with pytest.raises(SpecError, match="built-in catalog has none"):
-        load_base(_strip_base(tmp_path, "depth = 3"))
+    shipped = load_base(_strip_base(tmp_path, "depth = 3\nvariations = false"))  # the built-in's depth-3 hexagons
+    import fabpat
+
+    want = {str(r["id"]) for r in fabpat.catalog(depth=3) if r["energy_cylinder"] is not None}
+    assert {k for k in shipped.energies if len(k) == 18} == want and len(want) >= 100
     with pytest.raises(SpecError, match="must be 2"):
         load_base(_strip_base(tmp_path, "depth = 4"))
 
