@@ -63,7 +63,7 @@ def face_budget(max_solves: int) -> int:
 
 
 def design_closed(tgt: ClosedTarget, base: DesignBase, h: float, max_solves: int, tolerance: float, runner: Runner,
-                  t0: float, result: Callable[..., Any], per: str = "group", angles: bool = False,
+                  t0: float, result: Callable[..., Any], per: str = "face", angles: bool = False,
                   own: tuple[str, list[str]] | None = None, patterns: bool = True) -> Any:
     """Design a closed tiling for ``tgt`` (module doc) with ``runner`` (its deadline and a signal stop the
     search early, :mod:`fabpat.design.stop`); ``result`` builds the DesignResult. ``per``: a pattern per face
