@@ -138,3 +138,30 @@ def test_bounded_quasi_newton_lowers_the_error_within_the_range(cube) -> None:
     assert search.best is not None
     assert np.all((search.best[0] >= lo) & (search.best[0] <= hi))
     assert search.best[1] < search.history[0]["J"]  # (a cube closes into a sphere only so far)
+
+
+@pytest.mark.slow
+def test_thickness_gradient_matches_full_solves(cube) -> None:
+    """The adjoint gradient of J in each plate's thickness (fabpat.design.thickness) against central differences of
+    full solves along two random directions of the six thicknesses: within 1e-3."""
+    import dataclasses
+
+    from fabpat.design.thickness import solve_thickness, thickness_gradient
+
+    rng = np.random.default_rng(6)
+    model = dataclasses.replace(cube, angle0=cube.angle0 + np.radians(rng.uniform(3.0, 8.0, len(cube.labels))))
+    t = cube.material.t * rng.uniform(0.8, 1.2, len(cube.plates))
+    tgt = read_target("sphere")
+    run = solve_thickness(model, t)
+    J, fit = design_error(run, tgt, AXIS)
+    g = thickness_gradient(model, t, run, fit)
+    assert J > 0.0 and g.shape == (6,)
+    step, worst = 1e-3 * cube.material.t, 0.0
+    for _ in range(2):
+        v = rng.normal(size=len(t))
+        v /= np.linalg.norm(v)
+        Jp, Jm = (design_error(solve_thickness(model, t + s * step * v, run), tgt, AXIS)[0] for s in (1.0, -1.0))
+        fd = (Jp - Jm) / (2.0 * step)
+        assert abs(fd) > 1e-3 * np.linalg.norm(g)  # a direction the error depends on
+        worst = max(worst, abs(g @ v - fd) / abs(fd))
+    assert worst < 1e-3, worst
