@@ -69,7 +69,7 @@ POLISH_ITERATIONS = 60
 #: the polish stops when a step lowers Σ d² by less than this fraction: on the subset, where it only starts the
 #: polish on every node, and on every node. An axisymmetric target (the mild egg) turns freely about its axis, where
 #: Gauss–Newton converges only linearly (a factor ~4 a step) and J does not move; 1e-10 of J left the distances'
-#: gradient within 1e-7 of central differences of the refitted J (tests)
+#: gradient within 1e-6 of central differences of the refitted J
 POLISH_START = 1e-6
 POLISH_TOL = 1e-10
 #: the ellipsoid fit's Jacobian: central differences of the distances with this step (relative to the size for
