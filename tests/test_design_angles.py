@@ -116,7 +116,8 @@ def test_mesh_target_distances_are_smooth_in_the_nodes(tmp_path) -> None:  # noq
 @pytest.mark.slow
 def test_adjoint_gradient_on_a_mesh_target_matches_full_solves(cube, tmp_path) -> None:  # noqa: ANN001
     """The cube's angle gradient with a mesh target (a rounded cube, which the cube's closed shape fits in one
-    orientation): within 1e-3 of central differences of full solves, as design.json's gradient_check measures it."""
+    orientation): within 1e-3 of central differences of full solves on a random direction, as design.json's
+    gradient_check measures it (one direction: the suite's time)."""
     from fabpat.design.angles import gradient_check
 
     tgt = _mesh_target(tmp_path / "rounded.obj", (1.0, 1.0, 1.0), norm=4.0)
@@ -124,7 +125,7 @@ def test_adjoint_gradient_on_a_mesh_target_matches_full_solves(cube, tmp_path) -
     run = solve_angles(cube, a)
     J, fit = design_error(run, tgt, AXIS)
     assert J > 0.0
-    check = gradient_check(cube, a, run, tgt, AXIS, angle_gradient(cube, a, run, fit), directions=2)
+    check = gradient_check(cube, a, run, tgt, AXIS, angle_gradient(cube, a, run, fit), directions=1)
     assert all(abs(r["differences"]) > 0.0 for r in check["directions"])
     assert check["max_relative_error"] <= 1e-3, check
 
@@ -143,7 +144,7 @@ def test_bounded_quasi_newton_lowers_the_error_within_the_range(cube) -> None:
 @pytest.mark.slow
 def test_thickness_gradient_matches_full_solves(cube) -> None:
     """The adjoint gradient of J in each plate's thickness (fabpat.design.thickness) against central differences of
-    full solves along two random directions of the six thicknesses: within 1e-3."""
+    full solves along a random direction of the six thicknesses: within 1e-3 (one direction: the suite's time)."""
     import dataclasses
 
     from fabpat.design.thickness import solve_thickness, thickness_gradient
@@ -156,12 +157,10 @@ def test_thickness_gradient_matches_full_solves(cube) -> None:
     J, fit = design_error(run, tgt, AXIS)
     g = thickness_gradient(model, t, run, fit)
     assert J > 0.0 and g.shape == (6,)
-    step, worst = 1e-3 * cube.material.t, 0.0
-    for _ in range(2):
-        v = rng.normal(size=len(t))
-        v /= np.linalg.norm(v)
-        Jp, Jm = (design_error(solve_thickness(model, t + s * step * v, run), tgt, AXIS)[0] for s in (1.0, -1.0))
-        fd = (Jp - Jm) / (2.0 * step)
-        assert abs(fd) > 1e-3 * np.linalg.norm(g)  # a direction the error depends on
-        worst = max(worst, abs(g @ v - fd) / abs(fd))
-    assert worst < 1e-3, worst
+    step = 1e-3 * cube.material.t
+    v = rng.normal(size=len(t))
+    v /= np.linalg.norm(v)
+    Jp, Jm = (design_error(solve_thickness(model, t + s * step * v, run), tgt, AXIS)[0] for s in (1.0, -1.0))
+    fd = (Jp - Jm) / (2.0 * step)
+    assert abs(fd) > 1e-3 * np.linalg.norm(g)  # a direction the error depends on
+    assert abs(g @ v - fd) < 1e-3 * abs(fd), (g @ v, fd)
