@@ -80,6 +80,56 @@ def test_fit_gradient_is_the_derivative_of_the_refitted_squared_distances(target
                       rtol=1e-3)
 
 
+def _mesh_target(path, stretch: tuple[float, float, float] = (1.0, 1.05, 1.25), norm: float = 2.0):  # noqa: ANN001, ANN202
+    """A watertight icosphere (162 vertices) made a ball of the ``norm``-norm (2: round, larger: a rounded cube)
+    and stretched by ``stretch``, written as an OBJ and read as a target."""
+    import trimesh
+
+    ico = trimesh.creation.icosphere(subdivisions=2)
+    V = np.asarray(ico.vertices)
+    ico.vertices = V / (np.abs(V) ** norm).sum(axis=1)[:, None] ** (1.0 / norm) * np.asarray(stretch)
+    ico.export(path)
+    return read_target(str(path))
+
+
+def test_mesh_target_distances_are_smooth_in_the_nodes(tmp_path) -> None:  # noqa: ANN001
+    """A mesh target's refitted squared distances: their derivative along a random direction of 600 nodes is the
+    fit's 2 d ∇d to 1e-4 (the nearest point of the facets, refitted by ICP, missed it by orders of magnitude), and
+    nodes on the surface the mesh was made from are at a distance small against the nodes' spread."""
+    tgt = _mesh_target(tmp_path / "egg.obj")
+    assert tgt.implicit is not None
+    rng = np.random.default_rng(2)
+    u = rng.normal(size=(600, 3))
+    on = 50.0 * u / np.linalg.norm(u, axis=1)[:, None] * np.array([1.0, 1.05, 1.25])
+    assert tgt.fit(on, AXIS).relative_rms < 2e-3  # the icosphere's facets sag ≲ 1 % of its size
+    P = on + rng.normal(0.0, 0.5, (600, 3))
+    fit = tgt.fit(P, AXIS)
+    assert fit.gradient is not None and fit.gradient.shape == P.shape
+    assert np.allclose(np.linalg.norm(fit.gradient, axis=1), 1.0, atol=0.05)  # a distance to first order
+    V = rng.normal(size=P.shape)
+    step = 1e-4
+    Jp, Jm = (float(np.sum(tgt.fit(P + s * step * V, AXIS).signed ** 2)) for s in (1.0, -1.0))
+    fd = (Jp - Jm) / (2.0 * step)
+    assert abs(float(np.sum(2.0 * fit.signed[:, None] * fit.gradient * V)) - fd) <= 1e-4 * abs(fd)
+
+
+@pytest.mark.slow
+def test_adjoint_gradient_on_a_mesh_target_matches_full_solves(cube, tmp_path) -> None:  # noqa: ANN001
+    """The cube's angle gradient with a mesh target (a rounded cube, which the cube's closed shape fits in one
+    orientation): within 1e-3 of central differences of full solves on a random direction, as design.json's
+    gradient_check measures it (one direction: the suite's time)."""
+    from fabpat.design.angles import gradient_check
+
+    tgt = _mesh_target(tmp_path / "rounded.obj", (1.0, 1.0, 1.0), norm=4.0)
+    a = cube.angle0 + np.radians(np.random.default_rng(4).uniform(3.0, 8.0, len(cube.labels)))
+    run = solve_angles(cube, a)
+    J, fit = design_error(run, tgt, AXIS)
+    assert J > 0.0
+    check = gradient_check(cube, a, run, tgt, AXIS, angle_gradient(cube, a, run, fit), directions=1)
+    assert all(abs(r["differences"]) > 0.0 for r in check["directions"])
+    assert check["max_relative_error"] <= 1e-3, check
+
+
 def test_bounded_quasi_newton_lowers_the_error_within_the_range(cube) -> None:
     tgt = read_target("sphere")
     search = AngleSearch(cube, tgt, AXIS)
@@ -89,3 +139,28 @@ def test_bounded_quasi_newton_lowers_the_error_within_the_range(cube) -> None:
     assert search.best is not None
     assert np.all((search.best[0] >= lo) & (search.best[0] <= hi))
     assert search.best[1] < search.history[0]["J"]  # (a cube closes into a sphere only so far)
+
+
+@pytest.mark.slow
+def test_thickness_gradient_matches_full_solves(cube) -> None:
+    """The adjoint gradient of J in each plate's thickness (fabpat.design.thickness) against central differences of
+    full solves along a random direction of the six thicknesses: within 1e-3 (one direction: the suite's time)."""
+    import dataclasses
+
+    from fabpat.design.thickness import solve_thickness, thickness_gradient
+
+    rng = np.random.default_rng(6)
+    model = dataclasses.replace(cube, angle0=cube.angle0 + np.radians(rng.uniform(3.0, 8.0, len(cube.labels))))
+    t = cube.material.t * rng.uniform(0.8, 1.2, len(cube.plates))
+    tgt = read_target("sphere")
+    run = solve_thickness(model, t)
+    J, fit = design_error(run, tgt, AXIS)
+    g = thickness_gradient(model, t, run, fit)
+    assert J > 0.0 and g.shape == (6,)
+    step = 1e-3 * cube.material.t
+    v = rng.normal(size=len(t))
+    v /= np.linalg.norm(v)
+    Jp, Jm = (design_error(solve_thickness(model, t + s * step * v, run), tgt, AXIS)[0] for s in (1.0, -1.0))
+    fd = (Jp - Jm) / (2.0 * step)
+    assert abs(fd) > 1e-3 * np.linalg.norm(g)  # a direction the error depends on
+    assert abs(g @ v - fd) < 1e-3 * abs(fd), (g @ v, fd)

@@ -197,6 +197,35 @@ def test_search_finds_a_hidden_optimum_with_few_solves() -> None:
     assert len(s.seen) == runner.solves  # nothing solved twice
 
 
+def test_face_search_seeded_from_the_group_optimum_keeps_only_confirmed_gains() -> None:
+    """Four faces in two groups whose faces want different patterns: the face search starts at the group search's
+    best with every group solve counted as its own, solves nothing twice, and ends better than the groups did."""
+    from fabpat.design.closed import ClosedSearch
+
+    rng = np.random.default_rng(7)
+    hexes = ([f"0x{i:04x}" for i in range(40)], rng.normal(size=(40, 5)))
+    pents = ([f"0x{i:04x}" for i in range(40, 80)], rng.normal(size=(40, 5)))
+    runner = _FakeRunner([hexes, hexes, pents, pents], [3, 29, 11, 35])  # faces of one group differ
+    groups = ClosedSearch([hexes, pents], [0, 0, 1, 1], [6, 5], _FakeTarget(), np.zeros(3), 0.02, None, runner)
+    groups.evaluate(groups.start())
+    groups.refine(10, 2)
+    assert groups.best is not None
+    at_groups = runner.solves
+    faces = ClosedSearch([hexes, hexes, pents, pents], [0, 1, 2, 3], [6, 6, 5, 5], _FakeTarget(), np.zeros(3), 0.02,
+                         None, runner)
+    faces.seeded(groups)
+    assert faces.best is not None and faces.best.score == groups.best.score
+    g = groups.best.key
+    assert faces.best.key == (g[0], g[0], g[1], g[1]) and len(faces.seen) == len(groups.seen)
+    faces.refine(at_groups + 6, 2)
+    assert at_groups < runner.solves <= at_groups + 6
+    assert len(faces.seen) == runner.solves  # nothing solved twice, the group solves among them
+    assert faces.best.score < groups.best.score
+    # the best is the least error over every solve: a change is kept only when its solve is better
+    assert faces.best.score == min(ev.score for ev in faces.seen.values() if ev is not None)
+    assert len(set(faces.best.key[:2])) == 2 or len(set(faces.best.key[2:])) == 2  # the faces of a group split
+
+
 def test_max_distinct_caps_the_proposals() -> None:
     from fabpat.design.closed import ClosedSearch
 

@@ -141,5 +141,5 @@ def test_a_closed_plan_gives_per_vary_and_the_mapped_faces(tmp_path: Path) -> No
     r = invoke("design", "sphere", "--spec", str(SPHERE), "--out", str(out), "--dry-run")
     assert r.returncode == 0, r.stderr
     plan = json.loads(r.stdout)
-    assert plan["per"] == "group" and plan["vary"] == ["patterns"] and "face_irregularity" not in plan
+    assert plan["per"] == "face" and plan["vary"] == ["patterns"] and "face_irregularity" not in plan
     assert not out.exists()

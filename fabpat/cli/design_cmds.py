@@ -36,8 +36,9 @@ from fabpat.cli.options import h_option, number_option
               help="Check the inputs and print the plan as JSON (strip: pin length, end shortening, scale, the "
                    "elastica's peak strain; closed: the target's fitted scale, with shapes the mapped faces' "
                    "irregularity) in seconds: no solve, no file.")
-@click.option("--per", type=click.Choice(["face", "group"]), default="group", show_default=True,
-              help="Closed tilings: a pattern per face, or per face group (polygon and latitude band).")
+@click.option("--per", type=click.Choice(["face", "group"]), default="face", show_default=True,
+              help="Closed tilings: a pattern per face (refined from the best group design), or per face group "
+                   "(polygon and latitude band).")
 @click.option("--vary", metavar="WORDS", default=None,
               help="Design variables, comma-separated: shapes, patterns, angles, thickness [default: shapes,patterns "
                    "for a closed target (shapes: the base tiling mapped onto the target, plates shaped to its faces, "

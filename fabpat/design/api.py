@@ -142,7 +142,7 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
            h: float = 3.0, max_solves: int | None = None, tolerance: float = TOLERANCE, scale_target: bool = False,
            workers: int = 1, dask: str | None = None, kit: bool = False,
            progress: Callable[[int, float], None] | None = None, max_minutes: float | None = None,
-           status: Callable[[str], None] | None = None, per: str = "group",
+           status: Callable[[str], None] | None = None, per: str = "face",
            vary: str | list[str] | tuple[str, ...] | None = None) -> DesignResult:
     """Design an assembly whose predicted shape matches ``target``: one pattern per tile.
 
@@ -159,8 +159,9 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
     what the solves are doing (increment, λ, factorizations; the kernels' first compilation; an abandoned
     solve and why).
 
-    ``per`` ("face" or "group"): a closed design's pattern per face, or per face group (polygon and latitude
-    band, :func:`fabpat.design.closed.face_groups`); ``vary``: the design variables, words of
+    ``per`` ("face" or "group"): a closed design's pattern per face (the group search, then per face from its best:
+    :mod:`fabpat.design.closed_api`), or per face group (polygon and latitude band,
+    :func:`fabpat.design.closed.face_groups`); ``vary``: the design variables, words of
     :data:`fabpat.design.mapped.VARY` (a comma-separated string or a list; default ``shapes,patterns`` for a closed
     target, ``patterns,angles`` for a strip). With ``shapes`` a closed design's tiling is the base's mapped onto the
     target and relaxed into flat, nearly regular faces, its plates shaped to them (:mod:`fabpat.design.mapped`);

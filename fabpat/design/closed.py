@@ -221,6 +221,9 @@ class ClosedSearch:
     #: per group the pool indices the search may propose (None: the whole pool): :meth:`papers_only`,
     #: :meth:`around_best`
     allowed: list[list[int]] | None = None
+    #: propose only changes of the best design (one group, or every group of a polygon), no random designs: a
+    #: refinement from a seeded best (:meth:`seeded`)
+    local: bool = False
 
     def choices(self, g: int) -> list[int]:
         """Pool indices of group g that the search may propose now."""
@@ -255,6 +258,29 @@ class ClosedSearch:
                 return None
             key.append(self.pools[g][0].index(next(iter(ids))))
         return tuple(key)
+
+    def seeded(self, coarse: ClosedSearch) -> None:
+        """Take every solve of ``coarse``, a search over coarser groups of the same faces and the same pools per
+        polygon (face f's group there: ``coarse.face_group[f]``), as solves of this one, its best as this one's
+        best, and propose only changes of the best from now on (:attr:`local`): the refinement that starts at
+        the coarse optimum, so it ends no worse than it (a change is kept only when its solve is better)."""
+        def key(k: tuple[int, ...]) -> tuple[int, ...]:
+            return tuple(k[coarse.face_group[f]] for f in range(len(self.face_group)))
+
+        for k, ev in coarse.seen.items():
+            self.seen[key(k)] = None if ev is None else ClosedEvaluated(key(k), ev.fit, ev.data, ev.over_limit)
+        if coarse.best is not None:
+            self.best = self.seen[key(coarse.best.key)]
+        self.local = True
+        # per face the candidates the groups' solves tried on its polygon, and the best's own pattern with its family
+        # members: the surrogate knows those, and 32 faces × every candidate would be ~80 000 designs a batch
+        tried = {s: {k[g] for k in coarse.seen for g, gs in enumerate(coarse.group_sides) if gs == s}
+                 for s in set(self.group_sides)}
+        self.allowed = []
+        for f, (ids, _) in enumerate(self.pools):
+            own = pattern_of(ids[self.best.key[f]]) if self.best is not None else None
+            family = {i for i, pid in enumerate(ids) if pattern_of(pid) == own}
+            self.allowed.append(sorted(tried[self.group_sides[f]] | family))
 
     def evaluate(self, keys: list[tuple[int, ...]]) -> list[ClosedEvaluated | None]:
         """Solve the designs not seen yet (one batch, warm-started from the best design so far); None for a
@@ -317,7 +343,7 @@ class ClosedSearch:
             gs = [g for g, s in enumerate(self.group_sides) if s == sides]
             for i in choices[gs[0]]:
                 out.add(tuple(i if g in gs else b[g] for g in range(len(b))))
-        for _ in range(RANDOM_DESIGNS):
+        for _ in range(0 if self.local else RANDOM_DESIGNS):
             out.add(tuple(c[int(rng.integers(len(c)))] for c in choices))
         return [k for k in out if k not in self.seen and self.distinct_ok(k)]
 

@@ -2,10 +2,14 @@
 
 Order of work: the face groups and candidate pools, then one batch of the baselines (the base spec's
 own patterns, ``spec`` or ``rule``; one single pattern on every face, ``single``), the space-filling
-start designs, the Bayesian-optimisation rounds, and the record. The baselines' solves come on top of
-the budget, as for a strip; every solve is counted in ``solves``. A design that does not vary its patterns
-solves the base spec's own patterns alone (no ``single`` baseline, no pattern search) and leaves the budget to
-the angles.
+start designs, the Bayesian-optimisation rounds, and the record. With a pattern per face (``per`` "face") the
+search runs over the face groups first, as ``per`` "group" does with the same budget, and then per face from the
+groups' best design (:meth:`fabpat.design.closed.ClosedSearch.seeded`: every group solve is a face solve too, and
+only changes of the best design are proposed) for :func:`face_budget` more solves; a face change is kept only when
+its full solve is better, so a design per face is never worse than the design per group. The baselines' solves
+come on top of the budget, as for a strip; every solve is counted in ``solves``. A design that does not vary its
+patterns solves the base spec's own patterns alone (no ``single`` baseline, no pattern search) and leaves the budget
+to the angles.
 """
 
 from __future__ import annotations
@@ -47,8 +51,19 @@ def _single_key(search: ClosedSearch) -> tuple[int, ...] | None:
     return tuple(ids.index(pid) for ids, _ in search.pools)
 
 
+#: with ``--per face``, the per-face refinement's solves after the group search, as a share of the patterns' budget
+#: (rounded down), on top of it as the baselines are: the group search keeps its whole budget, so a design per face
+#: is the design per group or one a solve showed better
+FACE_SHARE = 1 / 3
+
+
+def face_budget(max_solves: int) -> int:
+    """The solves of the per-face refinement after a group search of ``max_solves`` (:data:`FACE_SHARE`)."""
+    return int(max_solves * FACE_SHARE)
+
+
 def design_closed(tgt: ClosedTarget, base: DesignBase, h: float, max_solves: int, tolerance: float, runner: Runner,
-                  t0: float, result: Callable[..., Any], per: str = "group", angles: bool = False,
+                  t0: float, result: Callable[..., Any], per: str = "face", angles: bool = False,
                   own: tuple[str, list[str]] | None = None, patterns: bool = True) -> Any:
     """Design a closed tiling for ``tgt`` (module doc) with ``runner`` (its deadline and a signal stop the
     search early, :mod:`fabpat.design.stop`); ``result`` builds the DesignResult. ``per``: a pattern per face
@@ -65,12 +80,16 @@ def design_closed(tgt: ClosedTarget, base: DesignBase, h: float, max_solves: int
     assert base.rows is not None
     skel = build_tiling(base.spec)
     groups, sides = face_groups(skel.V, skel.faces, tgt.bands)
-    if per == "face":  # every face its own group: the search's variables are the faces
-        groups, sides = list(range(len(skel.faces))), [len(loop) for loop in skel.faces]
-    pools = [pattern_features(base.rows[s]) for s in sides]
+    pool = {n: pattern_features(base.rows[n]) for n in set(sides)}
     runner.solve = solve_closed
-    search = ClosedSearch(pools, groups, sides, tgt, design_axis(skel.V, skel.faces),
-                          base.spec.material.strain_limit, base.max_distinct, runner)
+    axis = design_axis(skel.V, skel.faces)
+    search = ClosedSearch([pool[s] for s in sides], groups, sides, tgt, axis, base.spec.material.strain_limit,
+                          base.max_distinct, runner)
+    faces_search = None
+    if per == "face":  # every face its own group, refined from the groups' best (module doc)
+        face_sides = [len(loop) for loop in skel.faces]
+        faces_search = ClosedSearch([pool[s] for s in face_sides], list(range(len(skel.faces))), face_sides, tgt, axis,
+                                    base.spec.material.strain_limit, base.max_distinct, runner)
     labels = list(skel.labels)
     runs: dict[str, ClosedEvaluated] = {}
     way = base_faces(base) if own is None else own
@@ -93,8 +112,14 @@ def design_closed(tgt: ClosedTarget, base: DesignBase, h: float, max_solves: int
         if members and search.best is not None:
             search.around_best()
             search.refine(budget, max(2, runner.workers))
+        if faces_search is not None and search.best is not None:
+            faces_search.seeded(search)
+            faces_search.refine(runner.solves + face_budget(max_solves), max(2, runner.workers))
 
     stopped = until_stopped(work, runner.deadline)
+    if faces_search is not None and faces_search.best is not None:  # per face: the groups' solves are in it
+        search = faces_search
+        groups = list(range(len(skel.faces)))
     candidates = [ev for ev in (search.best, *runs.values()) if ev is not None]
     if not candidates:
         nothing_solved(stopped, runner.solves, runner.failures, h)

@@ -43,7 +43,8 @@ VARY = ("shapes", "patterns", "angles", "thickness")
 #: ``--vary`` by default: a closed target's metric needs its shapes; an open one's stiffness and joints
 DEFAULT_VARY_CLOSED = ("shapes", "patterns")
 DEFAULT_VARY_OPEN = ("patterns", "angles")
-#: ``--per``: a pattern per face group (polygon and latitude band; the default) or per face
+#: ``--per``: a pattern per face (the default; refined from the best group design) or per face group (polygon and
+#: latitude band)
 PER = ("face", "group")
 #: the mapped mesh's file name, beside design.toml
 MESH_NAME = "mapped.obj"

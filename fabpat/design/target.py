@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -30,7 +31,7 @@ from fabpat.errors import FabpatError
 if TYPE_CHECKING:  # pragma: no cover
     import trimesh
 
-    from fabpat.design.surface import SurfaceFit
+    from fabpat.design.surface import Implicit, SurfaceFit
 
 Arr = NDArray[np.float64]
 
@@ -111,7 +112,18 @@ class ClosedTarget:
             assert self.axes is not None
             return fit_to_ellipsoid(P, self.axes, axis)
         assert self.mesh is not None
-        return fit_to_mesh(P, self.mesh)
+        return fit_to_mesh(P, self.mesh, self.implicit)
+
+    @cached_property
+    def implicit(self) -> Implicit | None:
+        """A watertight mesh target's smooth implicit surface (:func:`fabpat.design.surface.implicit_surface`,
+        made once), so that its distances are smooth functions of the nodes; None for a named target or a mesh
+        that is not watertight (its distances are to the nearest point of the mesh)."""
+        from fabpat.design.surface import implicit_surface
+
+        if self.mesh is None or not (self.mesh.is_watertight and self.mesh.is_winding_consistent):
+            return None
+        return implicit_surface(self.mesh)
 
 
 def target_file(target: object) -> str | None:
