@@ -11,12 +11,13 @@ Cases (name: target, base spec, ``--vary``, ``--per``):
 * ``dome``: ``cap:0.75`` on ``assemblies/hex-cap-dome.toml``, patterns,angles, group;
 * ``barrel``: ``revolution:0.45,0.5,0.45`` on ``assemblies/hex-tube-revolution.toml``, patterns,angles, group.
 
-An open target (``cap:H``, ``revolution:…``) is fitted here by its own definition (docs/design.md, "Open surfaces"),
-coded apart from :mod:`fabpat.design.revolution`: the target as large as the nodes (the RMS distance from the
-centroid, the target's by quadrature of its area), the distance in closed form for the cap (from the sphere inside
-the cap's cone, else from the rim circle) and from the nearest of 20 001 points of the meridian for a revolution (within 2.5e-5 of its length),
-the origin and axis by least squares started along each principal axis of the nodes, the best kept; rms over the
-nodes' RMS distance from their centroid, as the design's. ``--reuse`` measures designs already in ``--out``.
+An open target (``cap:H``, ``revolution:…``) is fitted here by its own definition (docs/design.md, "Open
+surfaces"), coded apart from :mod:`fabpat.design.revolution`: the target as large as the nodes (the RMS distance
+from the centroid, the target's by quadrature of its area), the distance in closed form for the cap (from the
+sphere inside the cap's cone, else from the rim circle) and from the nearest of 20 001 points of the meridian for
+a revolution (within 2.5e-5 of its length), the origin and axis by least squares started along each principal
+axis of the nodes, the best kept; rms over the nodes' RMS distance from their centroid, as the design's.
+``--reuse`` measures designs already in ``--out``.
 
 Each row: the design's own ``relative_rms``, the re-simulated one (the deformed plate nodes of the VTU, fitted
 here: centre, rotation and scale of the target by nonlinear least squares on the first-order distance

@@ -167,3 +167,13 @@ def test_open_design_angle_gradient_matches_full_solves() -> None:
     fd = (Jp - Jm) / (2.0 * step)
     assert J > 0.0 and abs(fd) > 1e-3 * np.linalg.norm(g)  # a direction the error depends on
     assert abs(g @ v - fd) < 1e-3 * abs(fd), (g @ v, fd)
+
+
+@pytest.mark.parametrize(("target", "spec", "groups"), [("cap:0.6", CAP, 3), ("revolution:0.45,0.5,0.45", TUBE, 2)])
+def test_the_shipped_open_specs_are_planned_with_patterns_and_angles(target: str, spec: Path, groups: int) -> None:
+    from fabpat.design.dry_run import dry_run
+
+    plan = dry_run(target, spec, h=6.0)
+    # the cap: a pentagon and two rings of hexagons; the tube: its middle column and its two ends (bands about x)
+    assert plan["groups"] == groups and plan["vary"] == ["patterns", "angles"]
+    assert 0.0 < plan["relative_rms"] < 0.2  # the placed tiling against its fitted target
