@@ -104,18 +104,19 @@ def _turned(P: np.ndarray) -> np.ndarray:
 
 
 def test_points_on_a_cap_fit_it_and_an_offset_is_measured() -> None:
-    # points spread evenly by area over a spherical cap of rim radius 100 mm and height 50 mm (H = 0.5), then
-    # moved off it radially by δ: their distance from the cap is δ, whatever the fit does
+    # points spread evenly by area (a Fibonacci spiral) over a spherical cap of rim radius 100 mm and height 50 mm
+    # (H = 0.5), then moved off it radially by δ: their distance from the cap is δ, whatever the fit does
     H, rim = 0.5, 100.0
     R = rim * (1.0 + H * H) / (2.0 * H)
     rng = np.random.default_rng(0)
-    z = rng.uniform(R - H * rim, R, 1500)  # uniform in z: uniform in area on a sphere (Archimedes)
-    phi = rng.uniform(0.0, 2.0 * math.pi, 1500)
+    k = np.arange(1500) + 0.5  # even in z: even in area on a sphere (Archimedes); a golden-angle spiral around
+    z = R - H * rim * k / 1500
+    phi = k * math.pi * (3.0 - math.sqrt(5.0))
     r = np.sqrt(R * R - z * z)
     U = np.column_stack([r * np.cos(phi), r * np.sin(phi), z]) / R
     tgt = _target("cap:0.5")
     on = tgt.fit(_turned(R * U), np.array([0.0, 0.0, 1.0]))
-    assert on.rms < 2e-3 * rim and abs(on.scale - rim) < 5e-3 * rim  # the size of 1500 random points
+    assert on.rms < 2e-3 * rim and abs(on.scale - rim) < 2e-3 * rim
     delta = 0.01 * rim * np.sign(rng.normal(size=1500))
     off = tgt.fit(_turned((R + delta)[:, None] * U), np.array([0.0, 0.0, 1.0]))
     assert np.isclose(off.rms, 0.01 * rim, rtol=0.05)
