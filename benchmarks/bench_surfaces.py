@@ -9,7 +9,8 @@ Cases (name: target, base spec, ``--vary``, ``--per``):
 * ``ellipsoid-flat``: the same target with ``--vary patterns --per group`` (the design before shapes);
 * ``sphere``: ``sphere`` on the same base, patterns,angles, group;
 * ``dome``: ``cap:0.75`` on ``assemblies/hex-cap-dome.toml``, patterns,angles, group;
-* ``barrel``: ``revolution:0.45,0.5,0.45`` on ``assemblies/hex-tube-revolution.toml``, patterns,angles, group.
+* ``barrel``: ``revolution:0.45,0.5,0.45`` on ``assemblies/hex-tube-revolution.toml``, patterns,angles, group;
+* ``tube``: ``revolution:0.45,0.475,0.5,0.5,0.5,0.475,0.45`` (a cylinder with tipped ends) on the same base.
 
 An open target (``cap:H``, ``revolution:…``) is fitted here by its own definition (docs/design.md, "Open
 surfaces"), coded apart from :mod:`fabpat.design.revolution`: the target as large as the nodes (the RMS distance
@@ -49,6 +50,7 @@ CASES = {
     "sphere": ("sphere", TI, "patterns,angles", "group"),
     "dome": ("cap:0.75", CAP, "patterns,angles", "group"),
     "barrel": ("revolution:0.45,0.5,0.45", TUBE, "patterns,angles", "group"),
+    "tube": ("revolution:0.45,0.475,0.5,0.5,0.5,0.475,0.45", TUBE, "patterns,angles", "group"),
 }
 
 
