@@ -151,7 +151,8 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
 
     ``target``: for a honeycomb-strip spec a CSV path (header x,z, mm) or an (n, 2) array of (x, z) mm; for a
     closed tiling (:data:`fabpat.design.base.CLOSED_KINDS`) "sphere", "ellipsoid:A,B,C" or a surface mesh file
-    (OBJ, STL, PLY; :mod:`fabpat.design.closed`); a path that exists is a file, whatever its name
+    (OBJ, STL, PLY; :mod:`fabpat.design.closed`); for a hex-cap "cap:H", for a hex-tube "revolution:R0,…,Rk"
+    (:mod:`fabpat.design.revolution`); a path that exists is a file, whatever its name
     (:func:`fabpat.design.target.read_target`); ``spec``: the base spec (TOML path; :mod:`fabpat.design.base`).
     ``h`` mesh edge (mm) of every solve; ``max_solves`` the search's budget of full assembly solves (the baselines come
     on top; default :data:`MAX_SOLVES` for a strip, :data:`MAX_SOLVES_CLOSED` for a closed tiling);
