@@ -54,7 +54,9 @@ def design_cmd(target: str, spec: str, out: str, h: float, max_solves: int | Non
     For a honeycomb-strip spec, TARGET is a CSV of the arch's mid-line (header x,z, mm; x from column 0's
     pin, z up, both pins at z = 0). For a closed tiling (truncated-icosahedron or goldberg; other kinds are
     refused) it is `sphere`, `ellipsoid:A,B,C` (axis ratios 0.1 to 10) or a surface mesh file (.obj, .stl,
-    .ply); the plates fix its size. A TARGET that names an existing file is that file.
+    .ply); the plates fix its size. An open tiling takes a surface of revolution: a hex-cap `cap:H` (a
+    spherical cap of rim radius 1 and height H in (0, 1]), a hex-tube `revolution:R0,R1,…,Rk` (radii at equal
+    steps along an axis of length 1). A TARGET that names an existing file is that file.
     Writes DIR/design.toml (a spec for `fabpat assemble` and `fabpat simulate-assembly`, with every
     tile's pattern and, for a strip, [load] end_shortening), DIR/design.json and DIR/design.png.
 

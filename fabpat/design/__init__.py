@@ -5,7 +5,9 @@
 a first guess from the reduced elastica model (:mod:`fabpat.design.strip`) is refined with full assembly
 solves (:mod:`fabpat.design.search`). A closed tiling's target is a surface (``sphere``,
 ``ellipsoid:A,B,C`` or a mesh file), reached by a Bayesian search over face groups
-(:mod:`fabpat.design.closed`); the closed kinds designed are :data:`fabpat.design.base.CLOSED_KINDS`.
+(:mod:`fabpat.design.closed`); the closed kinds designed are :data:`fabpat.design.base.CLOSED_KINDS`. An
+open tiling (:data:`fabpat.design.base.OPEN_KINDS`) takes a surface of revolution (``cap:H``, ``revolution:…``;
+:mod:`fabpat.design.revolution`), designed the same way.
 The outputs are design.toml, design.json and design.png (:mod:`fabpat.design.outputs`). See docs/design.md.
 
 The module is callable: ``fabpat.design(target, spec, ...)`` calls :func:`design`, whichever of

@@ -3,7 +3,8 @@
 **The error.** J(α) = Σ_i d_i² over the plate nodes of the closed assembly, d_i the signed distance of node i
 from the target after the best similarity fit (:meth:`fabpat.design.target.ClosedTarget.fit`); α (s,) the
 angles (rad) the s sleeves are printed at. By the envelope theorem the fit's parameters are held at their
-optimum, so ∂J/∂x_i = 2 d_i ∇d_i (:attr:`fabpat.design.surface.SurfaceFit.gradient`).
+optimum, so ∂J/∂x_i = 2 d_i ∇d_i (:attr:`fabpat.design.surface.SurfaceFit.gradient`), plus the term of a fit
+parameter that follows from the nodes instead (an open target's scale: :attr:`~fabpat.design.surface.SurfaceFit.extra`).
 
 **The adjoint.** The closed state u (translations and spins of the nodes that are neither slaves of a sleeve
 nor held) solves R(u, α) = 0, R the reduced net force of :func:`fabpat.shell.linked.solve_path`. Then
@@ -157,7 +158,7 @@ def angle_gradient(model: AngleModel, angles: Arr, run: ClosureRun, fit: Surface
     m = run.setup.model
     n = len(m.X)
     G = np.zeros((m.n_nodes, 6))
-    G[:n, :3] = 2.0 * fit.signed[:, None] * fit.gradient
+    G[:n, :3] = fit.error_gradient
     lam = state.adjoint(state.reduce(G))
     free = state.free
     base = list(m.sleeves)

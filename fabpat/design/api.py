@@ -120,7 +120,7 @@ def checked_inputs(target: object, spec: object, out: str | os.PathLike[str] | N
     per_word = read_per(per)
     read_vary(vary, True)  # its words checked before the target is read
     tgt = read_target(target)
-    vary_words = read_vary(vary, isinstance(tgt, ClosedTarget))
+    vary_words = read_vary(vary, isinstance(tgt, ClosedTarget) and not tgt.open)
     base = load_base(spec)
     require_match(tgt, base.spec.source, base.spec.tiling.kind)
     if not isinstance(tgt, ClosedTarget):
@@ -133,6 +133,9 @@ def checked_inputs(target: object, spec: object, out: str | os.PathLike[str] | N
     if "patterns" not in vary_words and base.way is None:
         raise SpecError(f"{base.spec.source}: --vary without patterns keeps the base spec's patterns: name them in "
                         "its [patterns]")
+    if "shapes" in vary_words and tgt.open:
+        raise SpecError(f"--vary shapes maps a closed tiling onto its target; an open tiling ({base.spec.tiling.kind}) "
+                        "keeps its own faces: give --vary among patterns, angles, thickness")
     if "shapes" in vary_words and tgt.kind == "sphere":  # the base's faces are a sphere's already: kept, and
         vary_words = tuple(w for w in vary_words if w != "shapes")  # their plates stay a few part types
     return tgt, base, per_word, vary_words
@@ -148,7 +151,8 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
 
     ``target``: for a honeycomb-strip spec a CSV path (header x,z, mm) or an (n, 2) array of (x, z) mm; for a
     closed tiling (:data:`fabpat.design.base.CLOSED_KINDS`) "sphere", "ellipsoid:A,B,C" or a surface mesh file
-    (OBJ, STL, PLY; :mod:`fabpat.design.closed`); a path that exists is a file, whatever its name
+    (OBJ, STL, PLY; :mod:`fabpat.design.closed`); for a hex-cap "cap:H", for a hex-tube "revolution:R0,…,Rk"
+    (:mod:`fabpat.design.revolution`); a path that exists is a file, whatever its name
     (:func:`fabpat.design.target.read_target`); ``spec``: the base spec (TOML path; :mod:`fabpat.design.base`).
     ``h`` mesh edge (mm) of every solve; ``max_solves`` the search's budget of full assembly solves (the baselines come
     on top; default :data:`MAX_SOLVES` for a strip, :data:`MAX_SOLVES_CLOSED` for a closed tiling);

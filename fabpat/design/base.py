@@ -1,7 +1,8 @@
 """The base spec of a design: an assembly spec whose pattern choice is left open, and its candidates.
 
 The spec file is read as every spec is (a regular file of at most 1 MiB; a FIFO or device is refused unread),
-and its tiling must be a honeycomb strip or one of :data:`CLOSED_KINDS` (:func:`check_kind`), before any solve.
+and its tiling must be a honeycomb strip or one of :data:`CLOSED_KINDS` or :data:`OPEN_KINDS` (:func:`check_kind`),
+before any solve.
 
 ``[patterns]`` of the base may hold, besides (optionally) one of the spec's ways of choosing patterns
 (a ``rule`` there is the design's second baseline), the design keys:
@@ -61,10 +62,13 @@ SCENARIO = "cylinder"
 #: the tiling kind whose design target is an arch (a strip's mid-line)
 STRIP_KIND = "honeycomb-strip"
 #: the closed tilings a design takes (a target surface): spheres of hexagons and pentagons, whose closure has a
-#: least-squares sphere and whose polygons both catalogs hold. A tube, a cap, a panel or a mesh file is refused
-#: before any solve: no sphere describes a tube's or a flat panel's shape, and a mesh file's faces may be any
-#: polygon (docs/design.md, "Which tilings")
+#: least-squares sphere and whose polygons both catalogs hold. A panel or a mesh file is refused before any solve:
+#: a flat panel has no sleeves to bend it, and a mesh file's faces may be any polygon (docs/design.md, "Which
+#: tilings")
 CLOSED_KINDS = ("truncated-icosahedron", "goldberg")
+#: the open tilings a design takes: a dome (``cap:H``) on a hex-cap, a surface of revolution
+#: (``revolution:…``) on a hex-tube (:mod:`fabpat.design.revolution`); designed as the closed ones are
+OPEN_KINDS = ("hex-cap", "hex-tube")
 
 
 @dataclass(frozen=True, eq=False)
@@ -139,11 +143,12 @@ def load_base(path: str | os.PathLike[str]) -> DesignBase:
 
 def check_kind(source: str, kind: str) -> None:
     """:class:`SpecError` (one line) unless a design takes the tiling ``kind``: :data:`STRIP_KIND` or one of
-    :data:`CLOSED_KINDS`."""
-    if kind != STRIP_KIND and kind not in CLOSED_KINDS:
+    :data:`CLOSED_KINDS` or :data:`OPEN_KINDS`."""
+    if kind != STRIP_KIND and kind not in CLOSED_KINDS + OPEN_KINDS:
         closed = " or ".join(f'"{k}"' for k in CLOSED_KINDS)
         raise SpecError(f'{source}: tiling.kind = "{kind}" cannot be designed: fabpat design takes a "{STRIP_KIND}" '
-                        f"(a target arch) or a closed tiling of kind {closed} (a target surface)")
+                        f'(a target arch), a closed tiling of kind {closed} (a target surface), a "hex-cap" '
+                        f'(cap:H) or a "hex-tube" (revolution:R0,…,Rk)')
 
 
 def _catalog_energies(spec: AssemblySpec, catalog: str | None, depth: int = 2) -> dict[str, float]:

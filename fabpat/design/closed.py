@@ -59,6 +59,12 @@ START_DESIGNS = 4
 #: warm-start every solve from the best design's closed state (the same equilibrium, measured: 5
 #: factorizations instead of 20 for a changed pentagon pattern on the shipped sphere)
 WARM_START = True
+#: a pentagon-free tiling whose unit face normals' mean is at least this long is a cap (:func:`design_axis`): a
+#: one-ring flat cap's is 1, a two-ring pentagon dome's 0.93, a closed tiling's 0
+CAP_MEAN_NORMAL = 0.5
+#: ... and one whose normals' Σ n nᵀ has an eigenvalue at most this fraction of the face count is a tube (0 for a
+#: cylinder's faces, 1/3 for a sphere's)
+TUBE_EIGENVALUE = 0.05
 #: with family members among the candidates, the share of the budget (rounded down) spent on the best
 #: design's own patterns and their members after the search over the paper's members (module doc)
 MEMBER_SHARE = 1 / 3
@@ -87,9 +93,26 @@ def pattern_of(candidate: str) -> str:
 
 
 def design_axis(V: Arr, faces: tuple[tuple[int, ...], ...]) -> Arr:
-    """Unit design axis: from the polyhedron's centre to the centre of its first pentagon (else face 0)."""
+    """Unit design axis: from the polyhedron's centre to the centre of its first pentagon. A tiling without one:
+    a cap's (its faces' unit normals' mean, when that is at least :data:`CAP_MEAN_NORMAL` long: they lean round
+    one direction), else a tube's (the direction that every face normal is nearly square to: the eigenvector of
+    Σ n nᵀ of the smallest eigenvalue, when that is at most :data:`TUBE_EIGENVALUE` of their count; its largest
+    component positive), else from the centre to face 0's centre."""
     c = V.mean(axis=0)
-    f = next((k for k, loop in enumerate(faces) if len(loop) == 5), 0)
+    f = next((k for k, loop in enumerate(faces) if len(loop) == 5), None)
+    if f is None:
+        from fabpat.geometry.polygons import newell_normal
+
+        N = np.array([newell_normal(V[list(loop)] - V[list(loop)].mean(axis=0)) for loop in faces])
+        N /= np.maximum(np.linalg.norm(N, axis=1), 1e-300)[:, None]
+        mean = N.mean(axis=0)
+        if np.linalg.norm(mean) >= CAP_MEAN_NORMAL:
+            return mean / np.linalg.norm(mean)
+        val, vec = np.linalg.eigh(N.T @ N)
+        if val[0] <= TUBE_EIGENVALUE * len(N):
+            a = vec[:, 0]
+            return a if a[int(np.argmax(np.abs(a)))] > 0 else -a
+        f = 0
     a = V[list(faces[f])].mean(axis=0) - c
     return a / np.linalg.norm(a)
 

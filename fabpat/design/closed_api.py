@@ -148,6 +148,11 @@ def design_closed(tgt: ClosedTarget, base: DesignBase, h: float, max_solves: int
     return result(rec, base, tgt, best, labels, groups, warning, runs)
 
 
+def _float(v: float | None) -> float | None:
+    """A read-out that may be None (a tube has no sphere: JSON null)."""
+    return None if v is None else float(v)
+
+
 #: polygon names of design.json's ``candidates``
 POLYGONS = {6: "hexagon", 5: "pentagon"}
 
@@ -208,7 +213,7 @@ def _summary(ev: ClosedEvaluated, faces: list[str], labels: list[str]) -> dict[s
     ids = sorted(set(faces))
     what: dict[str, Any] = {"pattern": ids[0]} if len(ids) == 1 else {"patterns": _group_ids(faces, labels)}
     return {**what, "rms_error": ev.rms, "max_error": ev.max, "relative_rms": float(ev.fit.relative_rms),
-            "peak_strain": float(ev.data["peak_strain"]), "sphericity_rms": float(ev.data["sphericity_rms"])}
+            "peak_strain": float(ev.data["peak_strain"]), "sphericity_rms": _float(ev.data["sphericity_rms"])}
 
 
 def _record(tgt: ClosedTarget, base: DesignBase, best: ClosedEvaluated, labels: list[str], faces: list[str],
@@ -221,7 +226,7 @@ def _record(tgt: ClosedTarget, base: DesignBase, best: ClosedEvaluated, labels: 
         "target": tgt.source, "kind": base.spec.tiling.kind,
         "patterns": dict(zip(labels, faces, strict=True)),
         "rms_error": best.rms, "max_error": best.max, "relative_rms": rel, "scale": float(best.fit.scale),
-        "radius": float(best.fit.radius), "sphericity_rms": float(best.data["sphericity_rms"]),
+        "radius": float(best.fit.radius), "sphericity_rms": _float(best.data["sphericity_rms"]),
         "peak_strain": float(best.data["peak_strain"]), "strain_limit": base.spec.material.strain_limit,
         "solves": solves, "seconds": seconds, "reachable": bool(rel <= tolerance and not best.over_limit),
         "tolerance": tolerance, "baselines": baselines,

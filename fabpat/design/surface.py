@@ -90,6 +90,16 @@ class SurfaceFit:
     scale: float
     radius: float
     gradient: Arr | None = None
+    #: (n, 3) mm: what the summed squared distances' derivative has besides Σ 2 d ∇d, when a parameter of the fit
+    #: is not fitted but follows from the nodes (an open target's scale, :mod:`fabpat.design.revolution`); None: none
+    extra: Arr | None = None
+
+    @property
+    def error_gradient(self) -> Arr:
+        """(n, 3) mm: the derivative of Σ d² (mm²) with respect to the nodes: 2 d ∇d, plus :attr:`extra`."""
+        assert self.gradient is not None
+        g = 2.0 * self.signed[:, None] * self.gradient
+        return g if self.extra is None else g + self.extra
 
     @property
     def distance(self) -> Arr:

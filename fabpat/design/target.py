@@ -6,6 +6,10 @@
   0.1 … 10: the range ``axis_ratio`` of :mod:`fabpat.design.ranges`) or a surface mesh file (``.obj``,
   ``.stl``, ``.ply``, read by trimesh; at least 4 faces with a positive area). They have no size: the plates
   fix it (:mod:`fabpat.design.surface`).
+* **Open-tiling targets** (a :class:`ClosedTarget` too: the same fit and design, :mod:`fabpat.design.revolution`):
+  ``cap:H`` for a ``hex-cap`` (a spherical cap of rim radius 1 and height H, in the range ``cap_height``) and
+  ``revolution:R0,R1,…,Rk`` for a ``hex-tube`` (radii at equal steps along an axis of length 1, each in the range
+  ``profile_radius``; 2 to :data:`MAX_RADII` of them). :data:`OPEN_TARGETS` says which tiling takes which.
 
 A path that exists is a file, whatever its name (a CSV called ``sphere`` or ``ellipsoid-arch.csv`` is a
 strip target); a folder is not (a folder ``sphere`` left by ``--out sphere`` leaves the keyword alone). A
@@ -43,6 +47,10 @@ END_TOLERANCE = 0.005
 MESH_SUFFIXES = (".obj", ".stl", ".ply")
 #: the named closed-tiling targets
 CLOSED_NAMES = ("sphere", "ellipsoid:A,B,C")
+#: the open tilings' targets: {target kind: (the tiling kind that takes it, its syntax)}
+OPEN_TARGETS = {"cap": ("hex-cap", "cap:H"), "revolution": ("hex-tube", "revolution:R0,R1,…,Rk")}
+#: most radii of a revolution target (a profile finer than the tube's rings of plates is not reachable)
+MAX_RADII = 50
 #: largest strip target file read (bytes): a mid-line of some 50 000 points; the design compares it column by
 #: column, and a 200 MB file read whole ran out of memory instead of being refused
 MAX_CSV_BYTES = 1024 * 1024
@@ -85,13 +93,20 @@ BANDS = 3
 @dataclass(frozen=True, eq=False)
 class ClosedTarget:
     """A closed-tiling target: ``kind`` "sphere", "ellipsoid" (``axes`` the three ratios) or "mesh"
-    (``path`` the surface file, ``mesh`` it read by trimesh)."""
+    (``path`` the surface file, ``mesh`` it read by trimesh); or an open tiling's, ``kind`` "cap" or
+    "revolution" (``profile`` the cap's height, or the radii; :mod:`fabpat.design.revolution`)."""
 
     source: str
     kind: str
     axes: tuple[float, float, float] | None = None
     path: str | None = None
     mesh: trimesh.Trimesh | None = None
+    profile: tuple[float, ...] | None = None
+
+    @property
+    def open(self) -> bool:
+        """Whether the target is an open tiling's (:data:`OPEN_TARGETS`)."""
+        return self.kind in OPEN_TARGETS
 
     @property
     def bands(self) -> int:
@@ -106,6 +121,12 @@ class ClosedTarget:
         axis, where an ellipsoid's distinct axis starts."""
         from fabpat.design.surface import fit_to_ellipsoid, fit_to_mesh, fit_to_sphere
 
+        if self.profile is not None:
+            from fabpat.design.revolution import cap_profile, fit_to_profile, revolution_profile
+
+            cap = self.kind == "cap"
+            S = cap_profile(self.profile[0]) if cap else revolution_profile(self.profile)
+            return fit_to_profile(P, S, axis, cap)
         if self.kind == "sphere":
             return fit_to_sphere(P)
         if self.kind == "ellipsoid":
@@ -142,7 +163,8 @@ def target_file(target: object) -> str | None:
 def _named(text: str) -> bool:
     """Whether ``text`` is spelled as a named closed target (``sphere``, ``ellipsoid``, ``ellipsoid:…``)."""
     low = text.strip().lower()
-    return low in ("sphere", "ellipsoid") or low.startswith("ellipsoid:")
+    return low in ("sphere", "ellipsoid", *OPEN_TARGETS) or low.startswith(("ellipsoid:", *(f"{k}:" for k in
+                                                                                          OPEN_TARGETS)))
 
 
 def read_target(target: object) -> StripTarget | ClosedTarget:
@@ -174,6 +196,9 @@ def _closed(text: str) -> ClosedTarget | None:
     low = text.strip().lower()
     if low == "sphere":
         return ClosedTarget("sphere", "sphere")
+    for kind in OPEN_TARGETS:
+        if low == kind or low.startswith(f"{kind}:"):
+            return ClosedTarget(text, kind, profile=_profile(text, kind, low.removeprefix(kind).removeprefix(":")))
     if _named(text):  # an ellipsoid
         return ClosedTarget(text, "ellipsoid", _axes(text, low.removeprefix("ellipsoid").removeprefix(":")))
     if Path(text).suffix.lower() in MESH_SUFFIXES:  # a path that exists was read as a file (read_target)
@@ -201,6 +226,33 @@ def _axes(text: str, spec: str) -> tuple[float, float, float]:
         except TargetError as e:
             raise TargetError(f"target {text!r}: {e} (ellipsoid:A,B,C, e.g. ellipsoid:1,1,1.15)") from None
     return axes[0], axes[1], axes[2]
+
+
+def _profile(text: str, kind: str, spec: str) -> tuple[float, ...]:
+    """The numbers of ``cap:H`` (one height in the range ``cap_height``) or ``revolution:R0,…,Rk`` (2 to
+    :data:`MAX_RADII` radii in the range ``profile_radius``); ``spec`` the part after the colon. TargetError (one
+    line) otherwise."""
+    import fabpat.design.ranges  # noqa: F401 - registers the ranges
+    from fabpat.validate import RANGES, check
+
+    cap = kind == "cap"
+    name = "cap_height" if cap else "profile_radius"
+    what = (f"target {text!r}: a dome is cap:H, a spherical cap of rim radius 1 and height H in "
+            f"{RANGES[name].describe()}, e.g. cap:0.5" if cap else
+            f"target {text!r}: a surface of revolution is revolution:R0,R1,…,Rk, 2 to {MAX_RADII} radii at equal "
+            f"steps along an axis of length 1, each in {RANGES[name].describe()}, e.g. revolution:0.45,0.5,0.45")
+    try:
+        values = tuple(float(p) for p in spec.split(","))
+    except ValueError:
+        raise TargetError(what) from None
+    if len(values) != 1 if cap else not 2 <= len(values) <= MAX_RADII:
+        raise TargetError(what)
+    for v in values:
+        try:
+            check(name, v, "the height H" if cap else "a radius", error=TargetError)
+        except TargetError as e:
+            raise TargetError(f"{what}: {e}") from None
+    return values
 
 
 #: a mesh target whose thinnest principal extent (singular value of its centred vertices) is at most this
@@ -324,9 +376,19 @@ def check_strip(source: str, x: Arr, z: Arr) -> StripTarget:
 
 def require_match(target: StripTarget | ClosedTarget, spec_source: str, kind: str) -> None:
     """:class:`TargetError` unless the target fits the spec's tiling: a strip target (CSV mid-line) for a
-    honeycomb strip, a closed target (sphere, ellipsoid, mesh) for a closed tiling (the kind itself is checked
-    by :func:`fabpat.design.base.check_kind`)."""
+    honeycomb strip, a closed target (sphere, ellipsoid, mesh) for a closed tiling, ``cap:H`` for a ``hex-cap``
+    and ``revolution:…`` for a ``hex-tube`` (:data:`OPEN_TARGETS`; the kind itself is checked by
+    :func:`fabpat.design.base.check_kind`)."""
     from fabpat.design.base import CLOSED_KINDS, STRIP_KIND
+
+    takes = dict(OPEN_TARGETS.values())
+    if kind in takes and not (isinstance(target, ClosedTarget) and OPEN_TARGETS.get(target.kind, ("",))[0] == kind):
+        raise TargetError(f"target {target.source!r} does not fit {spec_source}: a {kind} (an open surface) takes "
+                          f"the target {takes[kind]}")
+    if kind not in takes and isinstance(target, ClosedTarget) and target.kind in OPEN_TARGETS:
+        tiling, syntax = OPEN_TARGETS[target.kind]
+        raise TargetError(f"target {target.source!r} ({syntax}) is an open surface for a tiling of kind {tiling!r}, "
+                          f"but {spec_source} has tiling.kind = {kind!r}")
 
     strip = kind == STRIP_KIND
     if strip and isinstance(target, ClosedTarget):
