@@ -89,3 +89,20 @@ def test_bounded_quasi_newton_lowers_the_error_within_the_range(cube) -> None:
     assert search.best is not None
     assert np.all((search.best[0] >= lo) & (search.best[0] <= hi))
     assert search.best[1] < search.history[0]["J"]  # (a cube closes into a sphere only so far)
+
+
+def test_a_models_closures_share_one_pattern_and_one_analysis(cube, monkeypatch: pytest.MonkeyPatch) -> None:
+    import dataclasses
+
+    from fabpat.shell.linalg import Pardiso, mkl
+    from fabpat.shell.rigid_links import SolverSetup
+
+    assert mkl() is not None  # PARDISO ships with the test dependencies on Linux x86-64
+    monkeypatch.delenv("FABPAT_LINEAR_SOLVER", raising=False)
+    model = dataclasses.replace(cube, solver=SolverSetup())
+    first = solve_angles(model, cube.angle0 + np.radians(4.0))
+    second = solve_angles(model, cube.angle0 + np.radians(6.0), first)
+    fz = model.solver.factorizer()
+    assert isinstance(fz, Pardiso)
+    assert first.result.factorizations + second.result.factorizations >= 2
+    assert fz.analyses == 1 and model.solver.assemblers == 1

@@ -52,6 +52,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from fabpat.design.target import ClosedTarget
     from fabpat.shell.element import Material
     from fabpat.shell.linked import LinkedState
+    from fabpat.shell.rigid_links import SolverSetup
 
 Arr = NDArray[np.float64]
 
@@ -75,7 +76,9 @@ SPEC_STEP = 0.1
 class AngleModel:
     """A closed assembly whose sleeves' printed angles vary: the placed ``asm`` and its ``plates`` (meshed
     once), the ``labels`` of the sleeves, each one's ``dihedral`` (s,) and printed ``angle0`` (s,) rad as the
-    spec places it, and the plates' ``material`` and strain limit."""
+    spec places it, and the plates' ``material`` and strain limit. ``solver``: the sparse pattern and PARDISO
+    analysis its closures share (:class:`fabpat.shell.rigid_links.SolverSetup`): the meshes and supports
+    stay, only the angles change, so every closure after the first only refactors."""
 
     asm: Assembly
     plates: list[ModelPlate]
@@ -84,6 +87,7 @@ class AngleModel:
     angle0: Arr
     material: Material
     strain_limit: float
+    solver: SolverSetup = field(default_factory=lambda: _solver_setup(), repr=False)
 
     def setup(self, angles: Arr) -> ClosureSetup:
         """The closure with sleeve j printed at ``angles[j]`` (rad; not rounded)."""
@@ -100,6 +104,13 @@ class AngleModel:
         s = dataclasses.replace(self.asm.sleeves[j], angle=angle)
         return ModelSleeve(s.label, s.transform, s.plates, float(s.dihedral - angle),
                            slot_motions(self.asm, s, self.plates))
+
+
+def _solver_setup() -> SolverSetup:
+    """A fresh :class:`fabpat.shell.rigid_links.SolverSetup` (the shell engine imported when a model is made)."""
+    from fabpat.shell.rigid_links import SolverSetup
+
+    return SolverSetup()
 
 
 def angle_model(spec: AssemblySpec, face_patterns: list[str], h: float) -> AngleModel:
@@ -124,7 +135,7 @@ def solve_angles(model: AngleModel, angles: Arr, start: ClosureRun | None = None
 
     setup = model.setup(angles)
     return run_closure(setup, strain_limit=model.strain_limit,
-                       start=None if start is None else warm_start(start, setup))
+                       start=None if start is None else warm_start(start, setup), solver=model.solver)
 
 
 def design_error(run: ClosureRun, target: ClosedTarget, axis: Arr) -> tuple[float, SurfaceFit]:

@@ -33,7 +33,7 @@ from fabpat.shell import news
 from fabpat.shell.compiled import ensure_kernels, pardiso_threads
 from fabpat.shell.linalg import Factor, Pardiso, SuperLUFactorizer, factorizer
 from fabpat.shell.newton import Convergence, Residual, Rules, iterate, roundoff_noise
-from fabpat.shell.rigid_links import LinkedProblem, _Reduced
+from fabpat.shell.rigid_links import LinkedProblem, SolverSetup, _Reduced
 from fabpat.shell.rotations import expmap, logmap
 
 Arr = NDArray[np.float64]
@@ -256,6 +256,7 @@ def solve_path(
     threads: int | None = None,
     max_step: float | None = None,
     stall: tuple[int, float] | None = (STALL_FACTORIZATIONS, STALL_ADVANCE),
+    setup: SolverSetup | None = None,
 ) -> PathResult:
     """Follow λ = 0 → 1 (loads λ·loads, prescribed dofs λ·prescribed, joint angles λ·φ); see module doc.
 
@@ -291,6 +292,8 @@ def solve_path(
     ``stall``: (factorizations n, advance a): abandon the path (SolverError, "stalled") when n
     factorizations have moved λ by less than a (defaults :data:`STALL_FACTORIZATIONS`,
     :data:`STALL_ADVANCE`); None follows a crawling path however long it takes.
+    ``setup``: the assembler and factoriser shared with earlier solves of the same mesh
+    (:class:`fabpat.shell.rigid_links.SolverSetup`; default: this solve's own).
     The solver's listeners (:mod:`fabpat.shell.news`) are told the increment, λ and the factorizations
     so far after every increment, and the increment's target and iteration after every factorization.
 
@@ -313,7 +316,7 @@ def solve_path(
         raise ValueError(f"steps must be ≥ 1, got {steps}")
     t0 = time.perf_counter()
     ensure_kernels()  # compiled once per process (and said so: the first run after an install takes ~40 s)
-    red = _Reduced(p, threads)
+    red = _Reduced(p, threads, setup)
     N, n = red.N, red.n
     X = np.vstack([p.X, p.masters])
     diagK: Arr = np.asarray(np.bincount(red.model.edofs.ravel(), weights=red.model.linear_diagonal().ravel(),
@@ -322,7 +325,8 @@ def solve_path(
     # the first iteration of an increment is its predictor (prescribed dofs moved, the last increment's
     # factorization): the increment's baseline residual is the second's
     nw = _Newton(p, red, X, p.fixed[:, 3:].all(axis=1), dscale, Convergence.at_roundoff(rtol, roundoff_noise(X, diagK)),
-                 Rules(max_iter, reuse_ratio, max_rotation_step, baseline=2), link_reference, factorizer())
+                 Rules(max_iter, reuse_ratio, max_rotation_step, baseline=2), link_reference,
+                 factorizer() if setup is None else setup.factorizer())
     x, R = X.copy(), np.broadcast_to(np.eye(3), (N, 3, 3)).copy()
     largest = 1.0 / steps if max_step is None else max(float(max_step), 1.0 / steps)
     lam, dlam = 0.0, min(first_step, largest) if first_step else 1.0 / steps
