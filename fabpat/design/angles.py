@@ -145,9 +145,9 @@ def design_error(run: ClosureRun, target: ClosedTarget, axis: Arr) -> tuple[floa
     return float(np.sum(fit.signed ** 2)), fit
 
 
-def _support(run: ClosureRun) -> LinkedState:
+def _support(run: ClosureRun, solver: SolverSetup | None = None) -> LinkedState:
     """The run's linked problem (held as :func:`fabpat.assembly.solve.closure.run_closure` holds it) and the
-    shell engine's hook on its closed state."""
+    shell engine's hook on its closed state; ``solver``: the model's shared set-up (:attr:`AngleModel.solver`)."""
     from fabpat.assembly.solve.closure import determinate_supports
     from fabpat.shell.linked import LinkedState
 
@@ -157,14 +157,14 @@ def _support(run: ClosureRun) -> LinkedState:
     if m.sleeves:
         fixed[n:] = determinate_supports(m.problem(fixed, zero, zero).masters, run.setup.held)
     fin = run.result.final
-    return LinkedState(m.problem(fixed, zero, zero), fin.displacement, fin.rotation)
+    return LinkedState(m.problem(fixed, zero, zero), fin.displacement, fin.rotation, setup=solver)
 
 
 def angle_gradient(model: AngleModel, angles: Arr, run: ClosureRun, fit: SurfaceFit) -> Arr:
     """(s,) dJ/dα (mm² per rad) at the closed state ``run`` (a :func:`solve_angles` at ``angles``) with the
     target's ``fit`` to it (module doc: the adjoint). Raises SolverError if the tangent is singular."""
     assert fit.gradient is not None
-    state = _support(run)
+    state = _support(run, model.solver)
     m = run.setup.model
     n = len(m.X)
     G = np.zeros((m.n_nodes, 6))

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import threading
 import time
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
@@ -421,15 +422,19 @@ class LinkedState:
     as translations (mm) and spatial spins (rad). :meth:`residual` is the reduced net force as a function
     of the link parameters (``link_spin``, ``link_offset``) with those unknowns held, :meth:`adjoint`
     solves Kᵀ λ = b with K the reduced tangent at the state (one factorization, the one the path's
-    last Newton step would take). Prescribed nonzero dofs are not supported (ValueError).
+    last Newton step would take). Prescribed nonzero dofs are not supported (ValueError). ``setup``: the
+    assembler and analyses shared with the solves of the same mesh (:class:`SolverSetup`; the adjoint's
+    transposed tangent has its own factoriser there).
     """
 
-    def __init__(self, p: LinkedProblem, displacement: Arr, rotation: Arr, threads: int | None = None) -> None:
+    def __init__(self, p: LinkedProblem, displacement: Arr, rotation: Arr, threads: int | None = None,
+                 setup: SolverSetup | None = None) -> None:
         if (p.fixed & (p.prescribed != 0)).any():
             raise ValueError("LinkedState takes problems whose prescribed dofs are all 0")
         ensure_kernels()
         self.p = p
-        self.red = _Reduced(p, threads)
+        self.setup = setup
+        self.red = _Reduced(p, threads, setup)
         X = np.vstack([p.X, p.masters])
         self.x = X + np.asarray(displacement, dtype=np.float64)
         self.R = expmap(np.asarray(rotation, dtype=np.float64))
@@ -468,12 +473,17 @@ class LinkedState:
         """(N, 6) λ with Kᵀ λ = b on the unknowns (zero elsewhere), K the reduced tangent at the state;
         b (N, 6) is read on the unknowns. The factorization is kept for later calls. Raises SolverError
         when K is singular (a state with a rigid-body motion left free)."""
-        red = self.red
-        if self._factor is None:
+        red, setup = self.red, self.setup
+        # a shared factoriser solves with the latest matrix it factored: another state's, if it took it since
+        mine = setup is None or (setup.transposed_of is not None and setup.transposed_of() is self)
+        if self._factor is None or not mine:
             g, _, _, d = red.forces(self.p, self.x, self.R, 1.0)
             K = red.matrix(self.p, self.x, self.R, d, g, 1.0)
             with _PATH_LOCK, pardiso_threads(red.model.threads):
-                self._factor = factorizer().factor(sp.csc_matrix(K.T))
+                fz = factorizer() if setup is None else setup.factorizer(transposed=True)
+                self._factor = fz.factor(sp.csc_matrix(K.T))
+            if setup is not None:
+                setup.transposed_of = weakref.ref(self)
         lam = np.zeros(6 * red.N)
         with _PATH_LOCK, pardiso_threads(red.model.threads):
             lam[red.asm.free] = self._factor.solve(np.asarray(b, dtype=np.float64).ravel()[red.asm.free])

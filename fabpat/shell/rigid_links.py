@@ -27,6 +27,7 @@ Methods*, ch. 9, master–slave elimination; Crisfield vol. 2 §17 for the rotat
 from __future__ import annotations
 
 import hashlib
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -171,10 +172,14 @@ class SolverSetup:
         self._key = b""
         self._asm: CompiledAssembler | None = None
         self._fz: Pardiso | SuperLUFactorizer | None = None
+        self._fzT: Pardiso | SuperLUFactorizer | None = None
         self.assemblers = 0
+        #: whose matrix the transposed factoriser holds (a PARDISO factoriser solves with its latest one)
+        self.transposed_of: weakref.ref[object] | None = None
 
     def _empty(self) -> None:
-        self._key, self._asm, self._fz, self.assemblers = b"", None, None, 0
+        self._key, self._asm, self._fz, self._fzT, self.assemblers = b"", None, None, None, 0
+        self.transposed_of = None
 
     def assembler(self, edofs: NDArray[np.int64], free: NDArray[np.bool_], threads: int | None) -> CompiledAssembler:
         """The compiled assembler of element dofs ``edofs`` (m, 18) and free mask ``free`` (N,), the kept one
@@ -190,9 +195,14 @@ class SolverSetup:
             self.assemblers += 1
         return self._asm
 
-    def factorizer(self) -> Pardiso | SuperLUFactorizer:
-        """The shared factoriser (:func:`fabpat.shell.linalg.factorizer`, made on first use). Raises
-        SolverError as that function."""
+    def factorizer(self, transposed: bool = False) -> Pardiso | SuperLUFactorizer:
+        """The shared factoriser (:func:`fabpat.shell.linalg.factorizer`, made on first use); ``transposed``:
+        the one kept for the transposed tangents of adjoint solves, whose pattern (Kᵀ's) is another
+        but as fixed by the mesh. Raises SolverError as that function."""
+        if transposed:
+            if self._fzT is None:
+                self._fzT = factorizer()
+            return self._fzT
         if self._fz is None:
             self._fz = factorizer()
         return self._fz
