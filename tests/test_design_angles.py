@@ -164,3 +164,34 @@ def test_thickness_gradient_matches_full_solves(cube) -> None:
     fd = (Jp - Jm) / (2.0 * step)
     assert abs(fd) > 1e-3 * np.linalg.norm(g)  # a direction the error depends on
     assert abs(g @ v - fd) < 1e-3 * abs(fd), (g @ v, fd)
+
+
+def test_a_models_closures_share_one_pattern_and_one_analysis(cube, monkeypatch: pytest.MonkeyPatch) -> None:
+    import dataclasses
+
+    from fabpat.shell.linalg import Pardiso, mkl
+    from fabpat.shell.rigid_links import SolverSetup
+
+    assert mkl() is not None  # PARDISO ships with the test dependencies on Linux x86-64
+    monkeypatch.delenv("FABPAT_LINEAR_SOLVER", raising=False)
+    model = dataclasses.replace(cube, solver=SolverSetup())
+    first = solve_angles(model, cube.angle0 + np.radians(4.0))
+    second = solve_angles(model, cube.angle0 + np.radians(6.0), first)
+    fz = model.solver.factorizer()
+    assert isinstance(fz, Pardiso)
+    assert first.result.factorizations + second.result.factorizations >= 2
+    assert fz.analyses == 1 and model.solver.assemblers == 1
+    # the adjoints share them too (their transposed tangents one analysis), and a state whose factorisation
+    # another state's replaced in the shared factoriser factors its own again: the same answers as unshared
+    from fabpat.design.angles import _support
+
+    a, b = _support(first, model.solver), _support(second, model.solver)
+    rhs = np.random.default_rng(3).normal(size=a.free.shape)
+    lam_a, lam_b, lam_a2 = a.adjoint(rhs), b.adjoint(rhs), a.adjoint(rhs)
+    fzT = model.solver.factorizer(transposed=True)
+    assert isinstance(fzT, Pardiso)
+    assert fzT.analyses == 1 and model.solver.assemblers == 1
+    for got, run in ((lam_a, first), (lam_b, second), (lam_a2, first)):
+        alone = _support(run).adjoint(rhs)
+        assert np.abs(got - alone).max() <= 1e-9 * np.abs(alone).max()
+    assert np.abs(lam_a - lam_b).max() > 1e-6 * np.abs(lam_a).max()  # two states, two answers

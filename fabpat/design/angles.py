@@ -53,6 +53,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from fabpat.design.target import ClosedTarget
     from fabpat.shell.element import Material
     from fabpat.shell.linked import LinkedState
+    from fabpat.shell.rigid_links import SolverSetup
 
 Arr = NDArray[np.float64]
 
@@ -76,7 +77,9 @@ SPEC_STEP = 0.1
 class AngleModel:
     """A closed assembly whose sleeves' printed angles vary: the placed ``asm`` and its ``plates`` (meshed
     once), the ``labels`` of the sleeves, each one's ``dihedral`` (s,) and printed ``angle0`` (s,) rad as the
-    spec places it, and the plates' ``material`` and strain limit."""
+    spec places it, and the plates' ``material`` and strain limit. ``solver``: the sparse pattern and PARDISO
+    analysis its closures share (:class:`fabpat.shell.rigid_links.SolverSetup`): the meshes and supports
+    stay, only the angles change, so every closure after the first only refactors."""
 
     asm: Assembly
     plates: list[ModelPlate]
@@ -85,6 +88,7 @@ class AngleModel:
     angle0: Arr
     material: Material
     strain_limit: float
+    solver: SolverSetup = field(default_factory=lambda: _solver_setup(), repr=False)
 
     def setup(self, angles: Arr) -> ClosureSetup:
         """The closure with sleeve j printed at ``angles[j]`` (rad; not rounded)."""
@@ -101,6 +105,13 @@ class AngleModel:
         s = dataclasses.replace(self.asm.sleeves[j], angle=angle)
         return ModelSleeve(s.label, s.transform, s.plates, float(s.dihedral - angle),
                            slot_motions(self.asm, s, self.plates))
+
+
+def _solver_setup() -> SolverSetup:
+    """A fresh :class:`fabpat.shell.rigid_links.SolverSetup` (the shell engine imported when a model is made)."""
+    from fabpat.shell.rigid_links import SolverSetup
+
+    return SolverSetup()
 
 
 def angle_model(spec: AssemblySpec, face_patterns: list[str], h: float) -> AngleModel:
@@ -125,7 +136,7 @@ def solve_angles(model: AngleModel, angles: Arr, start: ClosureRun | None = None
 
     setup = model.setup(angles)
     return run_closure(setup, strain_limit=model.strain_limit,
-                       start=None if start is None else warm_start(start, setup))
+                       start=None if start is None else warm_start(start, setup), solver=model.solver)
 
 
 def design_error(run: ClosureRun, target: ClosedTarget, axis: Arr) -> tuple[float, SurfaceFit]:
@@ -135,9 +146,9 @@ def design_error(run: ClosureRun, target: ClosedTarget, axis: Arr) -> tuple[floa
     return float(np.sum(fit.signed ** 2)), fit
 
 
-def _support(run: ClosureRun) -> LinkedState:
+def _support(run: ClosureRun, solver: SolverSetup | None = None) -> LinkedState:
     """The run's linked problem (held as :func:`fabpat.assembly.solve.closure.run_closure` holds it) and the
-    shell engine's hook on its closed state."""
+    shell engine's hook on its closed state; ``solver``: the model's shared set-up (:attr:`AngleModel.solver`)."""
     from fabpat.assembly.solve.closure import determinate_supports
     from fabpat.shell.linked import LinkedState
 
@@ -147,14 +158,14 @@ def _support(run: ClosureRun) -> LinkedState:
     if m.sleeves:
         fixed[n:] = determinate_supports(m.problem(fixed, zero, zero).masters, run.setup.held)
     fin = run.result.final
-    return LinkedState(m.problem(fixed, zero, zero), fin.displacement, fin.rotation)
+    return LinkedState(m.problem(fixed, zero, zero), fin.displacement, fin.rotation, setup=solver)
 
 
 def angle_gradient(model: AngleModel, angles: Arr, run: ClosureRun, fit: SurfaceFit) -> Arr:
     """(s,) dJ/dα (mm² per rad) at the closed state ``run`` (a :func:`solve_angles` at ``angles``) with the
     target's ``fit`` to it (module doc: the adjoint). Raises SolverError if the tangent is singular."""
     assert fit.gradient is not None
-    state = _support(run)
+    state = _support(run, model.solver)
     m = run.setup.model
     n = len(m.X)
     G = np.zeros((m.n_nodes, 6))

@@ -54,9 +54,8 @@ class Assembler:
         # sort) and expanded to blocks: CSC column (J, q) lists the free dofs of J's neighbour nodes I
         # in rank order, so entry (I p, J q) sits at base_J + q'·colnnz_J + rowoff_IJ + p', with p', q'
         # the indices among the nodes' free dofs.
-        RI = np.broadcast_to(order[Fn][:, :, None], (m, 3, 3))
-        RJ3 = np.broadcast_to(order[Fn][:, None, :], (m, 3, 3))
-        uniq, inv = np.unique((RJ3 * n + RI).ravel(), return_inverse=True)
+        RJ = order[Fn]  # (m, 3) rank of each element node
+        uniq, inv = np.unique((RJ[:, None, :] * n + RJ[:, :, None]).ravel(), return_inverse=True)
         uJ, uI = uniq // n, uniq % n
         nf_r = nf[by_rank]
         w = nf_r[uI]
@@ -66,22 +65,28 @@ class Assembler:
         colnnz = np.bincount(uJ, weights=w, minlength=n).astype(np.int64)  # per rank
         base = np.concatenate([[0], np.cumsum(nf_r * colnnz)[:-1]])  # per rank
         self._nnz = int(np.sum(nf_r * colnnz))
-        RJ = order[Fn]  # (m, b)
-        pI = pf[Fn]  # (m, a, p)
-        pos = (base[RJ][:, None, None, :, None] + (pf[Fn] * colnnz[RJ][..., None])[:, None, None, :, :]
-               + rowoff[inv.reshape(m, 3, 3)][:, :, None, :, None] + pI[:, :, :, None, None])
-        valid = (pI >= 0)[:, :, :, None, None] & (pf[Fn] >= 0)[:, None, None, :, :]
-        rows = np.broadcast_to((start[Fn][..., None] + pI)[:, :, :, None, None], pos.shape)
+        # the (m, 3, 6, 3, 6) positions are summed from small per-element parts, only the last sum full
+        # size; the rows of an entry depend on its (element, a, p) only, so they are repeated from an
+        # (m, 18) table in int32 (the indices' type), not expanded to every entry in int64 and gathered:
+        # a third less peak memory on 71 k triangles with fixed dofs (tracemalloc, 983 → 630 MB; 0.72 → 0.57 CPU s)
+        pI = pf[Fn]  # (m, 3, 6) index among the node's free dofs, −1 if fixed
+        col = base[RJ][..., None] + pI * colnnz[RJ][..., None]  # (m, b, q)
+        blk = col[:, None, :, :] + rowoff[inv.reshape(m, 3, 3)][..., None]  # (m, a, b, q)
+        pos = (blk[:, :, None, :, :] + pI[:, :, :, None, None]).reshape(-1)
+        rows18 = (start[Fn][..., None] + pI).reshape(-1).astype(np.int32)  # matrix row of each element row
+        ok = (pI >= 0).reshape(m, 18)
         # _valid: the element-matrix entries on free rows and columns; None when all are (the shared
         # all-dofs assembler of solve.py), which skips three gathers of m·324 entries here and one per matrix
         self._valid: NDArray[np.int64] | None = None
-        if valid.all():
-            self._inv = pos.reshape(-1)
-            rows = rows.reshape(-1)
+        if ok.all():
+            self._inv = pos
+            rows = np.repeat(rows18, 18)
         else:
-            self._valid = np.flatnonzero(valid)
-            self._inv = pos.ravel()[self._valid]
-            rows = rows.ravel()[self._valid]
+            self._valid = np.flatnonzero(ok[:, :, None] & ok[:, None, :])
+            self._inv = pos[self._valid]
+            del pos
+            k = np.repeat(ok.sum(axis=1), 18).reshape(m, 18)  # free columns of each element
+            rows = np.repeat(rows18[ok.ravel()], k[ok])
         self._indices = np.zeros(self._nnz, dtype=np.int32)
         self._indices[self._inv] = rows
         nfree = glob.size

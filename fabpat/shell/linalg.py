@@ -131,6 +131,7 @@ class Pardiso:
         self._n = 0
         self._data = np.zeros(0)
         self._fallback: Factor | None = None
+        self.analyses = 0  # symbolic analyses so far (phase 11): one per pattern it has seen in turn
         self._finalizer = weakref.finalize(self, Pardiso._release, lib, self._pt, self._iparm)
 
     def _call(self, phase: int, data: Arr, b: Arr | None = None) -> Arr:
@@ -176,6 +177,7 @@ class Pardiso:
             self._indices = indices
             self._pattern = True
             self._call(11, data)
+            self.analyses += 1
         self._call(22, data)
         self._data = data  # phase 33 refines iteratively against K when pivots were perturbed
         self._fallback = superlu(K) if self._iparm[13] > 0 else None  # iparm(14): perturbed pivots
@@ -189,10 +191,15 @@ class Pardiso:
 
 
 class SuperLUFactorizer:
-    """A complete SuperLU factorisation per matrix (the fallback; same interface as :class:`Pardiso`)."""
+    """A complete SuperLU factorisation per matrix (the fallback; same interface as :class:`Pardiso`).
+    ``analyses`` counts them: SuperLU orders every matrix again."""
+
+    def __init__(self) -> None:
+        self.analyses = 0
 
     def factor(self, K: sp.csc_matrix) -> Factor:
         """SuperLU factor of K (CSC). Raises SolverError if K is exactly singular."""
+        self.analyses += 1
         return superlu(K)
 
 

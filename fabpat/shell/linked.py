@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import threading
 import time
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
@@ -33,7 +34,7 @@ from fabpat.shell import news
 from fabpat.shell.compiled import ensure_kernels, pardiso_threads
 from fabpat.shell.linalg import Factor, Pardiso, SuperLUFactorizer, factorizer
 from fabpat.shell.newton import Convergence, Residual, Rules, iterate, roundoff_noise
-from fabpat.shell.rigid_links import LinkedProblem, _Reduced
+from fabpat.shell.rigid_links import LinkedProblem, SolverSetup, _Reduced
 from fabpat.shell.rotations import expmap, logmap
 
 Arr = NDArray[np.float64]
@@ -302,6 +303,7 @@ def solve_path(
     max_step: float | None = None,
     stall: tuple[int, float] | None = (STALL_FACTORIZATIONS, STALL_ADVANCE),
     leap: int | None = None,
+    setup: SolverSetup | None = None,
 ) -> PathResult:
     """Follow λ = 0 → 1 (loads λ·loads, prescribed dofs λ·prescribed, joint angles λ·φ); see module doc.
 
@@ -343,6 +345,8 @@ def solve_path(
     ``stall``: (factorizations n, advance a): abandon the path (SolverError, "stalled") when n
     factorizations have moved λ by less than a (defaults :data:`STALL_FACTORIZATIONS`,
     :data:`STALL_ADVANCE`); None follows a crawling path however long it takes.
+    ``setup``: the assembler and factoriser shared with earlier solves of the same mesh
+    (:class:`fabpat.shell.rigid_links.SolverSetup`; default: this solve's own).
     The solver's listeners (:mod:`fabpat.shell.news`) are told the increment, λ and the factorizations
     so far after every increment, and the increment's target and iteration after every factorization.
 
@@ -365,7 +369,7 @@ def solve_path(
         raise ValueError(f"steps must be ≥ 1, got {steps}")
     t0 = time.perf_counter()
     ensure_kernels()  # compiled once per process (and said so: the first run after an install takes ~40 s)
-    red = _Reduced(p, threads)
+    red = _Reduced(p, threads, setup)
     N, n = red.N, red.n
     X = np.vstack([p.X, p.masters])
     diagK: Arr = np.asarray(np.bincount(red.model.edofs.ravel(), weights=red.model.linear_diagonal().ravel(),
@@ -374,7 +378,8 @@ def solve_path(
     # the first iteration of an increment is its predictor (prescribed dofs moved, the last increment's
     # factorization): the increment's baseline residual is the second's
     nw = _Newton(p, red, X, p.fixed[:, 3:].all(axis=1), dscale, Convergence.at_roundoff(rtol, roundoff_noise(X, diagK)),
-                 Rules(max_iter, reuse_ratio, max_rotation_step, baseline=2), link_reference, factorizer())
+                 Rules(max_iter, reuse_ratio, max_rotation_step, baseline=2), link_reference,
+                 factorizer() if setup is None else setup.factorizer())
     x, R = X.copy(), np.broadcast_to(np.eye(3), (N, 3, 3)).copy()
     largest = 1.0 / steps if max_step is None else max(float(max_step), 1.0 / steps)
     lam, dlam = 0.0, min(first_step, largest) if first_step else 1.0 / steps
@@ -479,15 +484,19 @@ class LinkedState:
     as translations (mm) and spatial spins (rad). :meth:`residual` is the reduced net force as a function
     of the link parameters (``link_spin``, ``link_offset``) with those unknowns held, :meth:`adjoint`
     solves Kᵀ λ = b with K the reduced tangent at the state (one factorization, the one the path's
-    last Newton step would take). Prescribed nonzero dofs are not supported (ValueError).
+    last Newton step would take). Prescribed nonzero dofs are not supported (ValueError). ``setup``: the
+    assembler and analyses shared with the solves of the same mesh (:class:`SolverSetup`; the adjoint's
+    transposed tangent has its own factoriser there).
     """
 
-    def __init__(self, p: LinkedProblem, displacement: Arr, rotation: Arr, threads: int | None = None) -> None:
+    def __init__(self, p: LinkedProblem, displacement: Arr, rotation: Arr, threads: int | None = None,
+                 setup: SolverSetup | None = None) -> None:
         if (p.fixed & (p.prescribed != 0)).any():
             raise ValueError("LinkedState takes problems whose prescribed dofs are all 0")
         ensure_kernels()
         self.p = p
-        self.red = _Reduced(p, threads)
+        self.setup = setup
+        self.red = _Reduced(p, threads, setup)
         X = np.vstack([p.X, p.masters])
         self.x = X + np.asarray(displacement, dtype=np.float64)
         self.R = expmap(np.asarray(rotation, dtype=np.float64))
@@ -526,12 +535,17 @@ class LinkedState:
         """(N, 6) λ with Kᵀ λ = b on the unknowns (zero elsewhere), K the reduced tangent at the state;
         b (N, 6) is read on the unknowns. The factorization is kept for later calls. Raises SolverError
         when K is singular (a state with a rigid-body motion left free)."""
-        red = self.red
-        if self._factor is None:
+        red, setup = self.red, self.setup
+        # a shared factoriser solves with the latest matrix it factored: another state's, if it took it since
+        mine = setup is None or (setup.transposed_of is not None and setup.transposed_of() is self)
+        if self._factor is None or not mine:
             g, _, _, d = red.forces(self.p, self.x, self.R, 1.0)
             K = red.matrix(self.p, self.x, self.R, d, g, 1.0)
             with _PATH_LOCK, pardiso_threads(red.model.threads):
-                self._factor = factorizer().factor(sp.csc_matrix(K.T))
+                fz = factorizer() if setup is None else setup.factorizer(transposed=True)
+                self._factor = fz.factor(sp.csc_matrix(K.T))
+            if setup is not None:
+                setup.transposed_of = weakref.ref(self)
         lam = np.zeros(6 * red.N)
         with _PATH_LOCK, pardiso_threads(red.model.threads):
             lam[red.asm.free] = self._factor.solve(np.asarray(b, dtype=np.float64).ravel()[red.asm.free])

@@ -26,6 +26,8 @@ Methods*, ch. 9, master–slave elimination; Crisfield vol. 2 §17 for the rotat
 
 from __future__ import annotations
 
+import hashlib
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,6 +38,7 @@ from fabpat.shell.assembly import Assembler
 from fabpat.shell.compiled import CompiledAssembler, CompiledTriangles, transform_elements
 from fabpat.shell.congruent import CongruentTriangles, representatives
 from fabpat.shell.element import Material
+from fabpat.shell.linalg import Pardiso, SuperLUFactorizer, factorizer
 from fabpat.shell.rotations import expmap, skew
 
 Arr = NDArray[np.float64]
@@ -152,11 +155,71 @@ class LinkedProblem:
         return int(np.sum(~(self.fixed & (self.prescribed == 0)) & ~slave[:, None]))
 
 
+class SolverSetup:
+    """What the solves of one mesh share: the reduced system's assembler (sparse pattern and scatter, the
+    largest set-up outside the Newton iterations) and the factoriser holding PARDISO's symbolic analysis of
+    that pattern. A caller that solves one tiling again and again (a design's angle search: the same
+    meshes and supports, other sleeve angles) holds one and passes it to each solve
+    (:func:`fabpat.shell.linked.solve_path`'s ``setup``); the second solve then builds no pattern and
+    analyses nothing, only refactors. The assembler is keyed by a digest of its inputs (element dofs,
+    free mask, threads), which fix the pattern; another mesh replaces it (one is kept: a design's meshes
+    do not alternate). The factoriser re-analyses by itself when the pattern changes
+    (:class:`fabpat.shell.linalg.Pardiso`). ``assemblers`` counts the assemblers built. A copy sent to
+    another process (pickle) arrives empty: a compiled assembler and a PARDISO handle stay in their
+    process."""
+
+    def __init__(self) -> None:
+        self._key = b""
+        self._asm: CompiledAssembler | None = None
+        self._fz: Pardiso | SuperLUFactorizer | None = None
+        self._fzT: Pardiso | SuperLUFactorizer | None = None
+        self.assemblers = 0
+        #: whose matrix the transposed factoriser holds (a PARDISO factoriser solves with its latest one)
+        self.transposed_of: weakref.ref[object] | None = None
+
+    def _empty(self) -> None:
+        self._key, self._asm, self._fz, self._fzT, self.assemblers = b"", None, None, None, 0
+        self.transposed_of = None
+
+    def assembler(self, edofs: NDArray[np.int64], free: NDArray[np.bool_], threads: int | None) -> CompiledAssembler:
+        """The compiled assembler of element dofs ``edofs`` (m, 18) and free mask ``free`` (N,), the kept one
+        if its inputs were these."""
+        h = hashlib.blake2b(digest_size=16)
+        for a in (np.ascontiguousarray(edofs, dtype=np.int64), np.ascontiguousarray(free, dtype=bool)):
+            h.update(str(a.shape).encode())
+            h.update(a.tobytes())
+        h.update(str(threads).encode())
+        key = h.digest()
+        if self._asm is None or key != self._key:
+            self._asm, self._key = CompiledAssembler(Assembler(edofs, free), threads), key
+            self.assemblers += 1
+        return self._asm
+
+    def factorizer(self, transposed: bool = False) -> Pardiso | SuperLUFactorizer:
+        """The shared factoriser (:func:`fabpat.shell.linalg.factorizer`, made on first use); ``transposed``:
+        the one kept for the transposed tangents of adjoint solves, whose pattern (Kᵀ's) is another
+        but as fixed by the mesh. Raises SolverError as that function."""
+        if transposed:
+            if self._fzT is None:
+                self._fzT = factorizer()
+            return self._fzT
+        if self._fz is None:
+            self._fz = factorizer()
+        return self._fz
+
+    def __getstate__(self) -> dict[str, object]:
+        return {}
+
+    def __setstate__(self, state: dict[str, object]) -> None:
+        self._empty()
+
+
 class _Reduced:
     """Index maps and operators of the reduced (slave-free) system of a LinkedProblem; the element
-    kernels and the matrix sums run compiled on ``threads`` threads (:mod:`fabpat.shell.compiled`)."""
+    kernels and the matrix sums run compiled on ``threads`` threads (:mod:`fabpat.shell.compiled`);
+    the assembler comes from ``setup`` when given (:class:`SolverSetup`)."""
 
-    def __init__(self, p: LinkedProblem, threads: int | None = None) -> None:
+    def __init__(self, p: LinkedProblem, threads: int | None = None, setup: SolverSetup | None = None) -> None:
         n, N = len(p.X), p.n_nodes
         self.n, self.N = n, N
         self.model: CompiledTriangles | CongruentTriangles = (
@@ -171,7 +234,8 @@ class _Reduced:
         edofs = (6 * Fr[:, :, None] + np.arange(6)).reshape(-1, 18)
         zero_fixed = p.fixed & (p.prescribed == 0)
         free = ~zero_fixed & ~self.slave_mask[:, None]
-        self.asm = CompiledAssembler(Assembler(edofs, free.ravel()), threads)
+        self.asm = (CompiledAssembler(Assembler(edofs, free.ravel()), threads) if setup is None
+                    else setup.assembler(edofs, free.ravel(), threads))
         # prescribed (nonzero) dofs: identity rows in the matrix, excluded from the residual test
         self.moving = (p.fixed & ~zero_fixed).ravel()
         pos = np.full(6 * N, -1)

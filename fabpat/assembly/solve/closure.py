@@ -68,6 +68,7 @@ if TYPE_CHECKING:
     from fabpat.assembly.spec.types import AssemblySpec
     from fabpat.geometry.fillet import FilletedPattern
     from fabpat.shell.linked import PathPoint
+    from fabpat.shell.rigid_links import SolverSetup
 
 Arr = NDArray[np.float64]
 
@@ -430,14 +431,16 @@ def warm_start(previous: ClosureRun, setup: ClosureSetup) -> tuple[Arr, Arr]:
 
 
 def run_closure(setup: ClosureSetup, *, steps: int = CLOSURE_STEPS, strain_limit: float = 0.02,
-                progress: Callable[[float], None] | None = None, start: tuple[Arr, Arr] | None = None) -> ClosureRun:
+                progress: Callable[[float], None] | None = None, start: tuple[Arr, Arr] | None = None,
+                solver: SolverSetup | None = None) -> ClosureRun:
     """Turn every sleeve from its start angle by its ``angle`` in ``steps`` report increments.
 
     ``progress``: optional callable(λ) told after every report step. ``start``: a warm start (the
     displacement and rotation guess of :func:`fabpat.assembly.solve.model.warm_guess`, e.g. from
     :func:`warm_start`): tried at λ = 1 first, the path followed from the start if it fails (``path``
-    then has the one point λ = 1 when it converges). Raises SolverError (naming the angle fraction λ
-    reached) if the path is lost.
+    then has the one point λ = 1 when it converges). ``solver``: the assembler and PARDISO analysis shared
+    with earlier closures of the same meshes (:class:`fabpat.shell.rigid_links.SolverSetup`). Raises
+    SolverError (naming the angle fraction λ reached) if the path is lost.
     """
     from fabpat.shell.rotations import expmap
 
@@ -454,7 +457,7 @@ def run_closure(setup: ClosureSetup, *, steps: int = CLOSURE_STEPS, strain_limit
         start = _onto_supports(start, X, fixed, n + setup.held)
     r = solve_path(prob, steps=steps, rtol=CLOSURE_RTOL, link_reference=True, progress=progress,
                    first_step=CLOSURE_FIRST_STEP, max_step=CLOSURE_FIRST_STEP, max_iter=CLOSURE_MAX_ITER,
-                   start=start)
+                   start=start, setup=solver)
     if m.sleeves:  # the result with the held sleeve where it was placed (module doc, rigid-body motion)
         r = dataclasses.replace(r, points=_held_frame(r.points, X, n + setup.held))
     fin = r.final
