@@ -74,3 +74,14 @@ def test_the_shipped_depth_3_hexagons_widen_the_printable_cylinder_range_by_half
 
     two, three = list(fabpat.catalog(sides=6)), list(fabpat.catalog(sides=6, depth=3))
     assert span(two + three) >= 1.5 * span(two)
+
+
+def test_a_shipped_depth_3_hexagon_is_meshed_as_a_plate_of_its_own_depth() -> None:
+    # a strip designed with [patterns] depth = 3 places depth-3 plates; the model once read every ID as depth 2
+    from fabpat.assembly.solve.model import plate_mesh
+
+    row = fabpat.catalog(depth=3, sort="energy_cylinder", top=1)[0]
+    mesh = plate_mesh(str(row["id"]), 6, 36.0, 0.2, 3.0)
+    e1, e2 = mesh.V[mesh.F[:, 1]] - mesh.V[mesh.F[:, 0]], mesh.V[mesh.F[:, 2]] - mesh.V[mesh.F[:, 0]]
+    area = 0.5 * float(abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum())
+    assert abs(area / as_float(row["filleted_area"]) - 1.0) < 0.01  # the depth-3 outline, meshed

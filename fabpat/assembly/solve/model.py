@@ -206,7 +206,8 @@ MAX_H_PER_INTERFACE = 2.0
 def plate_mesh(pattern_id: str, sides: int, edge: float, weight: float, h: float,  # noqa: ANN201 - ShellMesh
                bridge_weight: float = 1.0):
     """The filleted pattern's mesh (target edge h, mm) with its interfaces tagged, cached per type and
-    family member (``bridge_weight``, :mod:`fabpat.patterns.variation`).
+    family member (``bridge_weight``, :mod:`fabpat.patterns.variation`); the pattern's depth is its ID's (a strip
+    designed with ``[patterns] depth = 3`` has depth-3 plates).
 
     Raises GeometryError when an interface gets fewer than 2 nodes (h too coarse).
     """
@@ -215,7 +216,7 @@ def plate_mesh(pattern_id: str, sides: int, edge: float, weight: float, h: float
     from fabpat.patterns.variation import Variation
     from fabpat.simulation.mesh import mesh_outline
 
-    outline = fillet_pattern(get_pattern(pattern_id, sides, 2, edge), weight, Variation(bridge_weight)).outline
+    outline = fillet_pattern(get_pattern(pattern_id, sides, None, edge), weight, Variation(bridge_weight)).outline
     return mesh_outline(outline, h, sides, edge, weight=weight)
 
 
