@@ -35,12 +35,13 @@ def test_builtin_catalog_is_the_default_library(hex_library) -> None:
 
     default = {"depth": 2, "edge": 36.0, "thickness": 2.0, "weight": 0.2, "patterns": 430}
     with open_catalog() as cat:
-        setups = cat.setups()
+        setups = [s for s in cat.setups() if s["depth"] == 2]  # the depth-3 patterns: tests/test_catalog_depths.py
         assert {"sides": 6, **default} in setups
         assert all(s == {"sides": s["sides"], **default} and s["sides"] in (5, 6) for s in setups), setups
+        assert {(s["sides"], s["depth"]) for s in cat.setups()} == {(5, 2), (6, 2), (5, 3), (6, 3)}
         assert cat.scenarios() == list(SCENARIOS)
-        polygons = {int(s["sides"]): (cat.pattern_rows(pictures=True, sides=s["sides"]), cat.results(sides=s["sides"]))
-                    for s in setups}
+        polygons = {int(s["sides"]): (cat.pattern_rows(pictures=True, sides=s["sides"], depth=2),
+                                      cat.results(sides=s["sides"], depth=2)) for s in setups}
     for sides, (rows, results) in polygons.items():
         library = hex_library if sides == 6 else enumerate_library(sides, 2)
         assert [r["id"] for r in rows] == sorted(library.ids)

@@ -57,6 +57,7 @@ from fabpat.catalog.read import (
     no_filter_match_message,
     no_match_message,
     polygon_energies,
+    require_depth,
     require_polygon,
 )
 from fabpat.catalog.rows import CatalogRows, check_row, pattern_problem, result_problem, specific_stiffness
@@ -84,7 +85,7 @@ __all__ = [
     "builtin_path", "catalog", "check_row", "default_depth", "energies", "held_setups", "input_hash",
     "missing_polygon_message", "no_filter_match_message", "no_match_message", "open_catalog", "pattern_problem",
     "pipeline_modules",
-    "polygon_energies", "require_polygon", "result_problem", "solver_version", "specific_stiffness",
+    "polygon_energies", "require_depth", "require_polygon", "result_problem", "solver_version", "specific_stiffness",
 ]
 
 make_callable(__name__, catalog)

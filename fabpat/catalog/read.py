@@ -127,6 +127,15 @@ def default_depth(cat: Catalog, sides: int | None) -> int | None:
     return depth if held else None
 
 
+def require_depth(cat: Catalog, sides: int, depth: int) -> None:
+    """:class:`CatalogError` naming the depths the catalog holds of the polygon unless it holds ``depth`` (rather
+    than an empty answer: ``fabpat catalog --depth 4``)."""
+    held = sorted({int(as_float(s["depth"])) for s in cat.setups() if s["sides"] == sides})
+    if depth not in held:
+        raise CatalogError(f"catalog {cat.path.name} has no depth-{depth} patterns of {polygon_name(sides)}: it holds "
+                           f"depth {', '.join(map(str, held))} (`fabpat sweep --depth {depth} --sample N` adds some)")
+
+
 def catalog(path: str | Path | None = None, *, sides: int | float | None = 6, where: Sequence[str] | str = (),
             sort: str | None = None, top: int | None = None, **setup: object) -> CatalogRows:
     """The rows of a catalog (``None``: the built-in one) — ``fabpat.catalog()``.

@@ -259,7 +259,7 @@ def catalog_cmd(db: str | None, fmt: str, long_: bool, sides: int, where: tuple[
       fabpat catalog --sort=-specific_stiffness_dome --top 5     # the stiffest per gram (Dome)
       fabpat catalog --where "filleted_area<1200" --sort energy_dome --top 5
     """
-    from fabpat.catalog import default_depth, open_catalog, require_polygon
+    from fabpat.catalog import default_depth, open_catalog, require_depth, require_polygon
     from fabpat.catalog.rows import find_rows, parse_condition, parse_sort
     from fabpat.cli.library_cmds import _print_rows
     from fabpat.io import check_distinct
@@ -267,6 +267,8 @@ def catalog_cmd(db: str | None, fmt: str, long_: bool, sides: int, where: tuple[
     check_distinct([], inputs={"--db": db})
     with open_catalog(db) as cat:
         require_polygon(cat, sides)
+        if depth is not None:
+            require_depth(cat, sides, depth)
         depth = default_depth(cat, sides) if depth is None else depth
         fields = cat.number_columns(long=long_)
         if long_:

@@ -99,6 +99,8 @@ def design_cmd(target: str, spec: str, out: str, h: float, max_solves: int | Non
                f"reachable={str(rec['reachable']).lower()}", err=True)
     if res.warning:
         click.echo(f"fabpat: warning: {res.warning}", err=True)
+    for note in rec.get("notes", []):  # e.g. a --vary word this search does not vary: said, not only in design.json
+        click.echo(f"fabpat: note: {note}", err=True)
     for f in ("design.toml", "design.json", "design.png", *sorted(res.files), *(["kit/"] if kit else [])):
         click.echo(f"{out.rstrip('/')}/{f}")
     if rec.get("stopped_by") in ("SIGINT", "SIGTERM"):  # the files are written; the exit still says why it ended

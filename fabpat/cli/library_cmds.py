@@ -128,7 +128,9 @@ def _print_rows(rows: list[dict[str, object]], fmt: str, title: str, header: lis
         from rich.table import Table
 
         table = Table(title=title)
-        cells = [[f"{v:.6g}" if isinstance(v, float) else str(v) for v in r.values()] for r in rows]
+        # a scenario that did not converge has no value: "–" as in the docs' tables, not Python's None
+        cells = [[f"{v:.6g}" if isinstance(v, float) else "–" if v is None else str(v) for v in r.values()]
+                 for r in rows]
         keys = list(rows[0]) if rows else []
         for key in keys:
             table.add_column(key, justify="left" if key == "id" else "right", no_wrap=True)

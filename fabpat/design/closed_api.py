@@ -96,6 +96,7 @@ def design_closed(tgt: ClosedTarget, base: DesignBase, h: float, max_solves: int
     if not patterns and way is None:
         raise SpecError(f"{base.spec.source}: --vary without patterns keeps the base spec's patterns: name them in "
                         "its [patterns]")
+    asked = max_solves  # the user's --max-solves, as messages quote it
     for_angles = (angle_budget(max_solves) if patterns else max_solves) if angles else 0
     max_solves -= for_angles
 
@@ -144,7 +145,7 @@ def design_closed(tgt: ClosedTarget, base: DesignBase, h: float, max_solves: int
         rec["notes"] = list(base.notes)
     if stopped is not None:
         rec["stopped_by"] = stopped
-    warning = None if rec["reachable"] else _unreachable(rec, tolerance, max_solves, best, patterns)
+    warning = None if rec["reachable"] else _unreachable(rec, tolerance, asked, best, patterns)
     return result(rec, base, tgt, best, labels, groups, warning, runs)
 
 
@@ -247,8 +248,9 @@ def _unreachable(rec: dict[str, Any], tolerance: float, max_solves: int, best: C
     elif not patterns:
         why = "the base spec's own patterns, kept (--vary without patterns): add patterns to --vary to search them"
     else:
-        why = (f"the best of {rec['solves']} solves (--max-solves {max_solves}), whose designs ranged from "
-               f"{min(errs):.2%} to {max(errs):.2%} of the radius: more solves may get closer, but the patterns "
-               "move a closed tiling's shape only that much; a shape far from its own closed shape needs another "
-               "tiling or other sleeve angles")
+        why = (f"the best of {rec['solves']} solves (--max-solves {max_solves}; the baselines, the per-face "
+               f"refinement and the gradient check come on top), whose designs ranged from {min(errs):.2%} to "
+               f"{max(errs):.2%} of the radius: more solves may get closer, but the patterns move a tiling's "
+               "shape only that much; a shape far from its own assembled shape needs another tiling or other "
+               "sleeve angles")
     return f"{head}: {why}"

@@ -187,8 +187,10 @@ def sheet_document(assembly: Assembly, nesting: Nesting, sheet: int,
             msp.add_lwpolyline([(float(x), float(y), float(b)) for (x, y), b in zip(V, lp.bulges, strict=True)],
                                format="xyb", close=True, dxfattribs={"layer": CUT_LAYER})
         deg = math.degrees(place.angle)
-        spots = edge_label_spots(pt, assembly.plate_edge, chars)
-        for (joint, own, ang, h), label in zip(spots, plate.edge_labels, strict=True):
+        # [] where no label fits the interface triangles (a depth-3 plate's are a quarter of depth 2's): the plate
+        # is cut unlabelled, as the nets and the BOM still name it
+        spots = edge_label_spots(pt, assembly.plate_edge, chars) or []
+        for (joint, own, ang, h), label in zip(spots, plate.edge_labels if spots else [], strict=True):
             for text, pos in ((label, joint), (plate.label, own)):
                 if not text or pos is None:
                     continue
