@@ -189,3 +189,12 @@ def solid_count(shape: object) -> int:
         n += 1
         ex.Next()
     return n
+
+
+def open_sphere(folder: Path) -> Path:
+    """The shipped truncated icosahedron with its [patterns] left open (no pattern named), written to folder."""
+    text = FLAT_SPHERE.read_text(encoding="utf-8")
+    head, _, rest = text.partition("[patterns]")
+    path = folder / "open.toml"
+    path.write_text(head + "[patterns]\nvariations = false\n\n" + rest[rest.index("[plates]"):], encoding="utf-8")
+    return path

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from fabpat.design import api
-from tests.helpers import invoke
+from tests.helpers import invoke, open_sphere
 from tests.test_design import _base
 
 #: the truncated icosahedron's circumradius over its edge, sqrt(58 + 18 √5) / 4 (its 60 vertices lie on it)
@@ -73,15 +73,6 @@ SPHERE = Path(__file__).resolve().parents[1] / "assemblies" / "truncated-icosahe
 STRIP = Path(__file__).resolve().parents[1] / "assemblies" / "graded-strip.toml"
 
 
-def _open_sphere(folder: Path) -> Path:
-    """The shipped truncated icosahedron with its [patterns] left open (no pattern named)."""
-    text = SPHERE.read_text(encoding="utf-8")
-    head, _, rest = text.partition("[patterns]")
-    path = folder / "open.toml"
-    path.write_text(head + "[patterns]\nvariations = false\n\n" + rest[rest.index("[plates]"):], encoding="utf-8")
-    return path
-
-
 @pytest.mark.parametrize(("case", "words"), [
     ("bogus", ("unknown word 'bogus'", "thickness")),
     ("empty", ("--vary", "shapes, patterns, angles, thickness")),
@@ -108,7 +99,7 @@ def test_a_dry_run_refuses_per_vary_and_mapped_faces_as_the_design_does(tmp_path
             "per": ["sphere", "--spec", str(SPHERE), "--per", "plate"],
             "strip-shapes": [str(arch), "--spec", str(STRIP), "--vary", "shapes"],
             "irregular": [str(SPHERE.parent / "egg.obj"), "--spec", str(SPHERE)],
-            "no-patterns": ["sphere", "--spec", str(_open_sphere(tmp_path)), "--vary", "angles"]}[case]
+            "no-patterns": ["sphere", "--spec", str(open_sphere(tmp_path)), "--vary", "angles"]}[case]
     out = tmp_path / "out"
     r = CliRunner().invoke(cli, ["design", *args, "--out", str(out), "--dry-run"])
     one_line_error(r, *words)

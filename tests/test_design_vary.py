@@ -12,7 +12,7 @@ import pytest
 
 from fabpat.design.mapped import map_base, read_per, read_vary
 from fabpat.errors import SpecError
-from tests.helpers import one_line_error
+from tests.helpers import one_line_error, open_sphere
 
 ROOT = Path(__file__).resolve().parents[1]
 SPHERE = ROOT / "assemblies" / "truncated-icosahedron.toml"
@@ -118,15 +118,6 @@ def test_an_earlier_design_with_its_mapped_mesh_may_be_replaced(tmp_path: Path) 
     assert design_in_the_way(tmp_path) == "it holds notes.txt, which fabpat design did not write"
 
 
-def _open_sphere(folder: Path) -> Path:
-    """The shipped truncated icosahedron with its [patterns] left open (no pattern named)."""
-    text = SPHERE.read_text(encoding="utf-8")
-    head, _, rest = text.partition("[patterns]")
-    path = folder / "open.toml"
-    path.write_text(head + "[patterns]\nvariations = false\n\n" + rest[rest.index("[plates]"):], encoding="utf-8")
-    return path
-
-
 def _own(record: dict[str, Any]) -> None:
     """The design's patterns are the shipped spec's pair: 0x0488 on every hexagon, 0x0508 on every pentagon."""
     pats = record["patterns"]
@@ -178,7 +169,7 @@ def test_vary_without_patterns_on_a_base_that_names_none_is_refused(tmp_path: Pa
     from fabpat.cli import cli
     from fabpat.design import design
 
-    spec = _open_sphere(tmp_path)
+    spec = open_sphere(tmp_path)
     with pytest.raises(SpecError, match="--vary without patterns keeps the base spec's patterns") as e:
         design("sphere", spec, vary="angles")
     assert "\n" not in str(e.value)
