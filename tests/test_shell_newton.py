@@ -88,6 +88,35 @@ def test_a_large_rotation_correction_is_capped_and_the_factorization_reused() ->
     assert run2.converged and s2.factorizations == 1 < s.factorizations
 
 
+class _Scripted(_Springs):
+    """A system whose residual norms follow a script (the corrections themselves are those of _Springs)."""
+
+    def __init__(self, norms: list[float]) -> None:
+        base = _springs()
+        super().__init__(base.K, base.f, base.X)
+        self.norms = norms
+        self.calls = 0
+
+    def evaluate(self, x: np.ndarray, R: np.ndarray) -> Residual:
+        super().evaluate(x, R)
+        self.calls += 1
+        return Residual(self.norms[min(self.calls, len(self.norms)) - 1], 1.0)
+
+
+def test_an_increment_is_given_up_after_its_allowed_rises_in_a_row() -> None:
+    """Residuals 1, 1.1, 1.2, 1.3, then converged: three rises in a row end the run unconverged by default
+    (the increment is halved by the path), a driver that allows four (the closure's) gets to convergence."""
+    script = [1.0, 1.1, 1.2, 1.3, 1e-12]
+    s = _Scripted(script)
+    run = iterate(s, *_start(s), Convergence(1e-10, 0.0), Rules(25, 0.0, 0.5), SuperLUFactorizer())
+    assert not run.converged and run.iterations == 4
+    s4 = _Scripted(script)
+    run4 = iterate(s4, *_start(s4), Convergence(1e-10, 0.0), Rules(25, 0.0, 0.5, rises=4), SuperLUFactorizer())
+    assert run4.converged and run4.iterations == 5
+    s1 = _Scripted([1.0, 0.9, 1.1, 0.8, 1.2, 0.7, 1e-12])  # rises that do not follow each other are no sign
+    assert iterate(s1, *_start(s1), Convergence(1e-10, 0.0), Rules(25, 0.0, 0.5), SuperLUFactorizer()).converged
+
+
 def test_the_convergence_test_has_a_floor_and_a_singular_tangent_ends_the_run_unconverged() -> None:
     test = Convergence.at_roundoff(1e-8, 4.0)  # floor: ROUNDOFF_FACTOR (0.5) × 4 N
     assert test.tolerance(1.0) == 2.0 and test.met(2.0, 1.0) and not test.met(2.01, 1.0)

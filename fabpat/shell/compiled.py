@@ -27,7 +27,7 @@ import fabpat.shell.kernel_cache  # noqa: F401 - numba's cache folder, chosen be
 from fabpat.shell.assembly import Assembler
 from fabpat.shell.corotational import CorotationalTriangles
 from fabpat.shell.element import LocalStiffness, Material, local_stiffness
-from fabpat.shell.kernels import counting_order, element_kernels, gather_sum, link_transform
+from fabpat.shell.kernels import counting_order, element_kernels, gather_sum, link_transform, shared_element_kernels
 from fabpat.shell.linalg import mkl
 from fabpat.shell.news import tell
 from fabpat.shell.strain import thickness_groups
@@ -62,7 +62,7 @@ def cores() -> int:
 #: the kernels of this process are compiled or loaded (:func:`ensure_kernels`)
 _READY: list[bool] = []
 #: the kernels numba compiles and caches (their cache index files tell whether a run compiles them)
-_CACHED = (element_kernels, gather_sum, counting_order, link_transform)
+_CACHED = (element_kernels, shared_element_kernels, gather_sum, counting_order, link_transform)
 
 
 def kernels_cached() -> bool:
@@ -100,6 +100,12 @@ def load_kernels() -> float:
         tri = CompiledTriangles(X, np.array([[0, 1, 2]]), Material(), threads=1)
         xe, Re = tri.gather(X, np.broadcast_to(np.eye(3), (3, 3, 3)).copy())
         tri.element_tangents(xe, Re, tri.element_forces(xe, Re)[2])
+        R = np.broadcast_to(np.eye(3), (3, 3, 3)).copy()
+        tri.tangents_at(X, R)  # the solves' signatures: a mesh's own triangles, and shared element data
+        from fabpat.shell.congruent import CongruentTriangles
+
+        one = np.zeros(1, dtype=np.int64)
+        CongruentTriangles(X, np.array([[0, 1, 2]]), Material(), one, threads=1).tangents_at(X, R)
         asm = Assembler(tri.edofs, np.ones(18, dtype=bool))
         CompiledAssembler(asm, threads=1).matrix(np.zeros((1, 18, 18)))
         transform_elements(np.zeros((1, 18, 18)), np.zeros(1, dtype=np.int64), np.zeros((1, 3, 3)), threads=1)
@@ -146,6 +152,9 @@ class CompiledTriangles(CorotationalTriangles):
         if thickness is not None:  # computed twice for such a mesh: the base class's numbers stay untouched
             self.local = graded_local_stiffness(self.xl0[..., 0], self.xl0[..., 1], mat, thickness)
         self.threads = max(1, min(threads or cores(), numba.config.NUMBA_NUM_THREADS))
+        # the kernels' own copy of the triangles, writable: a read-only array (a frozen mesh's) is another
+        # type to numba, compiled again (seconds, once per install) on the first solve
+        self._F = np.array(self.F, dtype=np.int64, order="C")
         self._consts = tuple(np.ascontiguousarray(a) for a in
                              (self.gN, self.xl0, self.E0, self.local.K, self._stiffness_root()))
         m = len(self.F)
@@ -167,7 +176,7 @@ class CompiledTriangles(CorotationalTriangles):
     def forces_at(self, x: Arr, R: Arr) -> tuple[Arr, Arr, Arr]:
         """:meth:`element_forces` of node positions x (n, 3) mm and rotations R (n, 3, 3), read by the
         kernels through ``F`` (no gathered copies)."""
-        self._run(x, R, self.F, None)
+        self._run(x, R, self._F, None)
         return self._fe.copy(), self._U.copy(), self._d.copy()
 
     def tangents_at(self, x: Arr, R: Arr) -> Arr:
@@ -175,7 +184,7 @@ class CompiledTriangles(CorotationalTriangles):
         overwritten by the next call."""
         if self._Kt is None:
             self._Kt = np.empty((len(self.F), 18, 18))
-        self._run(x, R, self.F, self._Kt)
+        self._run(x, R, self._F, self._Kt)
         return self._Kt
 
     def linear_diagonal(self) -> Arr:

@@ -70,7 +70,7 @@ class CongruentTriangles:
     def __init__(self, X: Arr, F: NDArray[np.int64], mat: Material, congruent: NDArray[np.int64], *,
                  threads: int | None = None, thickness: Arr | None = None) -> None:
         self.X = np.asarray(X, dtype=np.float64)
-        self.F = np.asarray(F, dtype=np.int64)
+        self.F = np.array(F, dtype=np.int64, order="C")  # writable: one compiled signature (CompiledTriangles)
         self.mat = mat
         m = len(self.F)
         reps, self.rows = representatives(congruent, m)

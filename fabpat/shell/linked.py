@@ -304,6 +304,7 @@ def solve_path(
     stall: tuple[int, float] | None = (STALL_FACTORIZATIONS, STALL_ADVANCE),
     leap: int | None = None,
     setup: SolverSetup | None = None,
+    rises: int = 3,
 ) -> PathResult:
     """Follow λ = 0 → 1 (loads λ·loads, prescribed dofs λ·prescribed, joint angles λ·φ); see module doc.
 
@@ -345,6 +346,9 @@ def solve_path(
     ``stall``: (factorizations n, advance a): abandon the path (SolverError, "stalled") when n
     factorizations have moved λ by less than a (defaults :data:`STALL_FACTORIZATIONS`,
     :data:`STALL_ADVANCE`); None follows a crawling path however long it takes.
+    ``rises``: an increment is given up (and halved) once its residual has risen in this many iterations in a
+    row (:class:`fabpat.shell.newton.Rules`); a path whose one long increment passes a stretch of slowly
+    rising residuals before converging (a large closure: docs/assembly-solver.md) allows more.
     ``setup``: the assembler and factoriser shared with earlier solves of the same mesh
     (:class:`fabpat.shell.rigid_links.SolverSetup`; default: this solve's own).
     The solver's listeners (:mod:`fabpat.shell.news`) are told the increment, λ and the factorizations
@@ -378,7 +382,7 @@ def solve_path(
     # the first iteration of an increment is its predictor (prescribed dofs moved, the last increment's
     # factorization): the increment's baseline residual is the second's
     nw = _Newton(p, red, X, p.fixed[:, 3:].all(axis=1), dscale, Convergence.at_roundoff(rtol, roundoff_noise(X, diagK)),
-                 Rules(max_iter, reuse_ratio, max_rotation_step, baseline=2), link_reference,
+                 Rules(max_iter, reuse_ratio, max_rotation_step, baseline=2, rises=rises), link_reference,
                  factorizer() if setup is None else setup.factorizer())
     x, R = X.copy(), np.broadcast_to(np.eye(3), (N, 3, 3)).copy()
     largest = 1.0 / steps if max_step is None else max(float(max_step), 1.0 / steps)

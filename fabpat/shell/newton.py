@@ -10,8 +10,8 @@ loop around one ``solve(*condense(K, r, D=...))``:
 
 1. the residual and the one convergence test :meth:`Convergence.met`,
    ‖r‖ ≤ max(rtol · reference, floor), with the round-off floor of the internal forces;
-2. the rules that give up on a lost increment (three rises in a row, a blow-up, still 100× its
-   baseline residual after 10 iterations);
+2. the rules that give up on a lost increment (three rises in a row unless the driver allows more, a
+   blow-up, still 100× its baseline residual after 10 iterations);
 3. the tangent and its factorization, kept while the residual falls by ``reuse_ratio`` per
    iteration (a back-substitution is ~50× cheaper than a new tangent and LU);
 4. the correction, scaled down when its largest nodal rotation passes ``max_rotation_step``, and the
@@ -145,14 +145,16 @@ class NewtonSystem(Protocol):
 class Rules:
     """How one increment iterates: at most ``max_iter`` iterations; the factorization kept while the
     residual falls by ``reuse_ratio`` per iteration (0: full Newton); corrections scaled to a largest
-    nodal rotation of ``max_rotation_step`` (rad); given up when the residual passes ``blowup`` (N) or
-    is still 100× the residual of iteration ``baseline`` after 10 iterations."""
+    nodal rotation of ``max_rotation_step`` (rad); given up when the residual rises in ``rises``
+    iterations in a row, passes ``blowup`` (N) or is still 100× the residual of iteration ``baseline``
+    after 10 iterations."""
 
     max_iter: int
     reuse_ratio: float
     max_rotation_step: float
     blowup: float = np.inf
     baseline: int = 1
+    rises: int = 3
 
 
 @dataclass(frozen=True)
@@ -194,9 +196,9 @@ def iterate(system: NewtonSystem, x: Arr, R: Arr, test: Convergence, rules: Rule
         if its == rules.baseline:
             res0 = res
         growth = growth + 1 if res > last and not e.pending else 0
-        # three rises in a row, a blow-up, or still far above the baseline after 10 iterations: the
-        # increment is lost (Newton then wanders between membrane-stretch spikes; a halved step is cheaper)
-        if growth >= 3 or res > rules.blowup or (its >= 10 and res > 100.0 * res0):
+        # rises in a row (three by default), a blow-up, or still far above the baseline after 10 iterations:
+        # the increment is lost (Newton then wanders between membrane-stretch spikes; a halved step is cheaper)
+        if growth >= rules.rises or res > rules.blowup or (its >= 10 and res > 100.0 * res0):
             break
         # keep the factorization while the residual falls fast; the first iteration takes the one given
         reuse = lu is not None and ((not e.pending and res < rules.reuse_ratio * last) or (its == 1 and lu is first))

@@ -89,6 +89,13 @@ CLOSURE_FIRST_STEP = 1.0
 #: three sleeves), the one-ring cap 80 instead of 24 (h = 7.5); the shipped sphere needs 12 iterations
 #: (docs/assembly-solver.md, Solver speed)
 CLOSURE_MAX_ITER = 60
+#: residual rises in a row that give the closure's increment up (the path's default is 3). GP(4, 0) at h = 3
+#: passes, in its third and fourth Newton iterations, a near-singular tangent (steps of 16–32 rad cut to
+#: ``max_rotation_step``) with the residual rising by 4–6 % three times in a row; given up there, the
+#: closure was walked again in halves: 33 factorizations. Allowed four rises it converges in its one
+#: increment in 20 (docs/assembly-solver.md, Solver speed); the shipped sphere and GP(3, 0) never rise three
+#: times and are unchanged (9 and 15)
+CLOSURE_RISES = 4
 
 
 def determinate_supports(M: Arr, held: int = 0) -> NDArray[np.bool_]:
@@ -457,7 +464,7 @@ def run_closure(setup: ClosureSetup, *, steps: int = CLOSURE_STEPS, strain_limit
         start = _onto_supports(start, X, fixed, n + setup.held)
     r = solve_path(prob, steps=steps, rtol=CLOSURE_RTOL, link_reference=True, progress=progress,
                    first_step=CLOSURE_FIRST_STEP, max_step=CLOSURE_FIRST_STEP, max_iter=CLOSURE_MAX_ITER,
-                   start=start, setup=solver)
+                   start=start, setup=solver, rises=CLOSURE_RISES)
     if m.sleeves:  # the result with the held sleeve where it was placed (module doc, rigid-body motion)
         r = dataclasses.replace(r, points=_held_frame(r.points, X, n + setup.held))
     fin = r.final
