@@ -205,3 +205,22 @@ def test_kernels_that_cannot_be_kept_on_a_full_disk_are_one_line(tmp_path: Path)
     res = in_small_tmpfs(cache, f"unset NUMBA_CACHE_DIR; FABPAT_CACHE={cache}/fabpat $FAB simulate-assembly "
                                 f"{SMALL_SPEC} --h 7.5 --no-progress", size="8k")
     one_line_error(tmpfs_error(res), "cannot keep the solver's compiled kernels", "FABPAT_CACHE=off")
+
+
+def test_a_solve_of_read_only_triangles_needs_no_kernel_compiled_after_the_warm_up() -> None:
+    """load_kernels compiles every signature a solve calls: a mesh's triangles arrive read-only (a frozen
+    problem's) and, passed as they are, were another type to numba, compiled silently in the first solve
+    after an install (seconds) rather than with the announced rest."""
+    from fabpat.shell.compiled import load_kernels
+    from fabpat.shell.congruent import CongruentTriangles
+    from fabpat.shell.kernels import element_kernels, shared_element_kernels
+
+    load_kernels()
+    before = (len(element_kernels.signatures), len(shared_element_kernels.signatures))
+    X = np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 2.0, 0.0], [2.0, 2.0, 0.1]])
+    F = np.array([[0, 1, 2], [1, 3, 2]])
+    F.setflags(write=False)
+    R = expmap(np.full((4, 3), 0.01))
+    CompiledTriangles(X, F, Material(), threads=1).tangents_at(X + 0.01, R)
+    CongruentTriangles(X, F, Material(), np.arange(2), threads=1).tangents_at(X + 0.01, R)
+    assert (len(element_kernels.signatures), len(shared_element_kernels.signatures)) == before
