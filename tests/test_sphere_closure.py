@@ -297,6 +297,23 @@ def test_determinate_supports_stop_every_rigid_motion_and_no_more() -> None:
     assert determinate_supports(M[:2], 1).tolist() == [[False] * 6, [True] * 6]
 
 
+def test_a_tube_is_held_at_one_sleeve_and_a_sphere_at_three() -> None:
+    """closure_supports, the one hold of a closure's solves and sensitivities: a closed tiling's statically
+    determinate three sleeves, a tube's held sleeve in all six dofs (on three the open tube closed in 26
+    factorizations, not 16: docs/assembly-solver.md)."""
+    from typing import cast
+
+    from fabpat.assembly.solve.closure import ClosureSetup, closure_supports, determinate_supports
+    from fabpat.assembly.solve.model import AssemblyModel
+
+    M = np.random.default_rng(5).normal(size=(9, 3)) * 80.0
+    no_model = cast(AssemblyModel, None)  # the hold depends on the sleeves' places alone
+    tube = closure_supports(ClosureSetup(no_model, held=2, tube=True), M)
+    assert tube.sum() == 6 and tube[2].all()
+    sphere = closure_supports(ClosureSetup(no_model, held=2), M)
+    assert np.array_equal(sphere, determinate_supports(M, 2)) and not sphere[:, 3:].any()
+
+
 def test_a_warm_start_is_turned_onto_the_supports() -> None:
     """A guess that is the reference turned rigidly (0.3 rad) about the held sleeve is turned back onto
     the supports: nothing left to move."""

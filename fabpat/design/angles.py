@@ -149,14 +149,14 @@ def design_error(run: ClosureRun, target: ClosedTarget, axis: Arr) -> tuple[floa
 def _support(run: ClosureRun, solver: SolverSetup | None = None) -> LinkedState:
     """The run's linked problem (held as :func:`fabpat.assembly.solve.closure.run_closure` holds it) and the
     shell engine's hook on its closed state; ``solver``: the model's shared set-up (:attr:`AngleModel.solver`)."""
-    from fabpat.assembly.solve.closure import determinate_supports
+    from fabpat.assembly.solve.closure import closure_supports
     from fabpat.shell.linked import LinkedState
 
     m = run.setup.model
     N, n = m.n_nodes, len(m.X)
     fixed, zero = np.zeros((N, 6), dtype=bool), np.zeros((N, 6))
     if m.sleeves:
-        fixed[n:] = determinate_supports(m.problem(fixed, zero, zero).masters, run.setup.held)
+        fixed[n:] = closure_supports(run.setup, m.problem(fixed, zero, zero).masters)
     fin = run.result.final
     return LinkedState(m.problem(fixed, zero, zero), fin.displacement, fin.rotation, setup=solver)
 

@@ -56,7 +56,7 @@ def solve_thickness(model: AngleModel, thickness: Arr, start: ClosureRun | None 
 def thickness_gradient(model: AngleModel, thickness: Arr, run: ClosureRun, fit: SurfaceFit) -> Arr:
     """(plates,) dJ/dt (mm² per mm) at the closed state ``run`` (a :func:`solve_thickness` at ``thickness``) with the
     target's ``fit`` to it (module doc: the adjoint). Raises SolverError if the tangent is singular."""
-    from fabpat.assembly.solve.closure import determinate_supports
+    from fabpat.assembly.solve.closure import closure_supports
     from fabpat.design.angles import _support
     from fabpat.shell.linked import LinkedState
 
@@ -79,7 +79,7 @@ def thickness_gradient(model: AngleModel, thickness: Arr, run: ClosureRun, fit: 
             mi = dataclasses.replace(m, plates=tuple(plates))
             fixed = np.zeros((m.n_nodes, 6), dtype=bool)
             if mi.sleeves:  # held as the run held it (fabpat.design.angles._support)
-                fixed[n:] = determinate_supports(mi.problem(fixed, zero, zero).masters, run.setup.held)
+                fixed[n:] = closure_supports(run.setup, mi.problem(fixed, zero, zero).masters)
             R.append(LinkedState(mi.problem(fixed, zero, zero), fin.displacement, fin.rotation).residual())
         dR = (R[0] - R[1]) / (2.0 * THICKNESS_STEP * float(t))
         out[i] = -float(np.sum(lam[free] * dR[free]))

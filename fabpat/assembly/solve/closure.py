@@ -20,7 +20,9 @@ Decisions (each measured on the shipped sphere, 0x0488/0x0508, h = 3):
   reactions vanish at equilibrium as a single held sleeve's do, and moves the result rigidly onto the
   first sleeve afterwards: hung from one sleeve, the far plates swing about that sleeve's necks and Newton
   needed 20–57 iterations for the swing where the shape had converged (docs/assembly-solver.md, Solver
-  speed). The reactions are the equilibrium check: round-off (the ``reaction`` field, N).
+  speed). A tube is held at its one sleeve: open at both ends, on three it took 26 factorizations
+  rather than 16 (the two-ring cap closes in 18 either way). The reactions are the equilibrium check:
+  round-off (the ``reaction`` field, N).
 * **Sign of the angle change**: the model's sleeve angle turns slot B by +α/2 about the sleeve's
   axis; opening a joint from its dihedral φ to the sleeve angle ψ > φ is α = φ − ψ (derived from
   :meth:`fabpat.assembly.place.sleeve.Sleeve.direction`, and checked: the opposite sign folds the joints
@@ -98,16 +100,16 @@ CLOSURE_MAX_ITER = 60
 CLOSURE_RISES = 4
 
 
-def determinate_supports(M: Arr, held: int = 0) -> NDArray[np.bool_]:
+def determinate_supports(M: Arr, held: int = 0, three: bool = True) -> NDArray[np.bool_]:
     """(s, 6) dofs of s sleeves at M (s, 3) mm that hold a floating assembly statically determinately:
     sleeve ``held`` (A) in its three translations, the sleeve farthest from it (B) in two, and the one
     farthest from the line AB (C) in one, the global axes chosen so that the six constraints stop every
     rigid motion best (largest determinant). A self-equilibrated assembly puts no force on them at
-    equilibrium, so its shape is that of any other rigid hold. Fewer than three sleeves, or three in a
-    line: ``held`` in all six dofs."""
+    equilibrium, so its shape is that of any other rigid hold. Fewer than three sleeves, three in a
+    line, or ``three`` False (a tube: module doc): ``held`` in all six dofs."""
     M = np.asarray(M, dtype=np.float64).reshape(-1, 3)
     fixed = np.zeros((len(M), 6), dtype=bool)
-    if len(M) < 3:
+    if len(M) < 3 or not three:
         fixed[held] = True
         return fixed
     d = M - M[held]
@@ -128,6 +130,13 @@ def determinate_supports(M: Arr, held: int = 0) -> NDArray[np.bool_]:
     fixed[b, best[1]] = fixed[b, best[2]] = True
     fixed[c, best[3]] = True
     return fixed
+
+
+def closure_supports(setup: ClosureSetup, masters: Arr) -> NDArray[np.bool_]:
+    """(s, 6) the held dofs of the s sleeves at ``masters`` (s, 3) mm as :func:`run_closure` holds ``setup``'s
+    assembly: statically determinately (:func:`determinate_supports`), a tube at its one held sleeve (module
+    doc). Every solve or sensitivity of a closed state holds it so."""
+    return determinate_supports(masters, setup.held, three=not setup.tube)
 
 
 def _held_frame(points: list[PathPoint], X: Arr, node: int) -> list[PathPoint]:
@@ -457,7 +466,7 @@ def run_closure(setup: ClosureSetup, *, steps: int = CLOSURE_STEPS, strain_limit
     zero = np.zeros((N, 6))
     masters = m.problem(fixed, zero, zero).masters
     if m.sleeves:
-        fixed[n:] = determinate_supports(masters, setup.held)
+        fixed[n:] = closure_supports(setup, masters)
     prob = m.problem(fixed, zero, zero)
     X = np.vstack([m.X, prob.masters])
     if start is not None and m.sleeves:
