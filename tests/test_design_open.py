@@ -87,6 +87,19 @@ def test_design_refuses_a_target_before_any_solve_and_writes_nothing(tmp_path: P
     assert list(tmp_path.iterdir()) == []
 
 
+def test_a_mesh_edge_too_coarse_for_the_interfaces_is_said_as_such_not_as_a_failed_search(tmp_path: Path) -> None:
+    """h = 8 mm on the cap's 3.75 mm interface segments: every solve is refused before it starts, and the design
+    says which h to use (as simulate-assembly does), not that no candidate converged in some number of solves."""
+    from fabpat.design import design
+    from fabpat.errors import GeometryError
+
+    with pytest.raises(GeometryError) as e:
+        design("cap:0.75", CAP, out=tmp_path / "d", h=8.0, max_solves=3)
+    msg = str(e.value)
+    assert "\n" not in msg and "use h ≤ 7.5 mm" in msg and "converged" not in msg
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_design_axis_of_a_tube_and_of_a_hexagon_cap() -> None:
     from fabpat.assembly.surface.polyhedra import hex_cap, hex_tube
     from fabpat.design.closed import design_axis

@@ -73,12 +73,18 @@ def stop_phrase(stopped: str, solves: int, max_minutes: float | None) -> str:
 
 def nothing_solved(stopped: str | None, solves: int, failures: list[dict[str, Any]], h: float) -> NoReturn:
     """No design to keep: a signal's interrupt goes on (KeyboardInterrupt: nothing is written); a spent
-    budget, or a search whose every solve failed, is a SolverError naming the solves' fate."""
+    budget, or a search whose every solve failed, is a SolverError naming the solves' fate, unless every solve
+    failed for a mesh edge too coarse for the spec's interfaces: a GeometryError saying the h to use."""
     from fabpat.errors import SolverError
 
     if stopped is not None and stopped != BUDGET:
         raise KeyboardInterrupt
     why = f"; the last was abandoned: {failures[-1]['reason']}" if failures else ""
+    if failures and all(str(f.get("reason", "")).startswith("mesh too coarse") for f in failures):
+        from fabpat.errors import GeometryError
+
+        # the mesh edge, not the search, is what failed: said as simulate-assembly says it
+        raise GeometryError(f"no design can be solved at h = {h:g} mm: {failures[-1]['reason']}")
     if stopped == BUDGET:
         raise SolverError(f"the time budget ran out before any design was solved ({solves} solves finished{why})")
     raise SolverError(f"no candidate design converged in {solves} solves (h = {h:g} mm){why}")
