@@ -27,12 +27,13 @@ import fabpat.shell.kernel_cache  # noqa: F401 - numba's cache folder, chosen be
 from fabpat.shell.assembly import Assembler
 from fabpat.shell.corotational import CorotationalTriangles
 from fabpat.shell.element import LocalStiffness, Material, local_stiffness
-from fabpat.shell.kernels import counting_order, element_kernels, gather_sum, link_transform
+from fabpat.shell.kernels import block_sum, element_kernels, link_transform
 from fabpat.shell.linalg import mkl
 from fabpat.shell.news import tell
 from fabpat.shell.strain import thickness_groups
 
 Arr = NDArray[np.float64]
+Ints = NDArray[np.int64]
 
 # numba's own work queue, not OpenMP: after a kernel has run on GNU OpenMP threads, a fork()ed child
 # (the design loop's and the sweep's worker processes) terminates at once ("fork() called from a process
@@ -62,15 +63,15 @@ def cores() -> int:
 #: the kernels of this process are compiled or loaded (:func:`ensure_kernels`)
 _READY: list[bool] = []
 #: the kernels numba compiles and caches (their cache index files tell whether a run compiles them)
-_CACHED = (element_kernels, gather_sum, counting_order, link_transform)
+_CACHED = (element_kernels, block_sum, link_transform)
 
 
 def kernels_cached() -> bool:
     """Whether numba's cache holds every kernel (an index file each), so this process loads them in a
     fraction of a second rather than compiling them (about 40 s). An unreadable cache counts as absent."""
     try:
-        return all(os.path.exists(f._cache._cache_file._index_path) for f in _CACHED)  # numba's cache layout
-    except AttributeError:  # another numba's layout: say nothing rather than guess
+        return all(os.path.exists(vars(f)["_cache"]._cache_file._index_path) for f in _CACHED)  # numba's cache layout
+    except (AttributeError, KeyError):  # another numba's layout: say nothing rather than guess
         return True
 
 
@@ -204,27 +205,53 @@ class CompiledTriangles(CorotationalTriangles):
         return self._Kt
 
 
-def _entry_count(asm: Assembler) -> int:
-    """Entries of the element matrices an assembler sums (m · 324 plus its tail of pseudo-elements)."""
-    return int(asm.edofs.shape[0]) * 324
+def _blocks(asm: Assembler) -> tuple[Ints, Ints, Ints, Ints, Ints, Ints, Ints, Ints]:
+    """The node blocks of an assembler's matrix for :func:`fabpat.shell.kernels.block_sum`: (bases, bstart,
+    rows, cols, first, stride, dofs, nfree) (that kernel's doc), each an int64 array; rows and cols are
+    node numbers, the blocks in the matrix's column order (by column node, then row node)."""
+    Fn = asm.edofs[:, ::6] // 6  # (m, 3) element nodes (the assembler numbers dofs node by node)
+    m, n = Fn.shape[0], asm.n_dofs // 6
+    is_free = np.zeros(asm.n_dofs, dtype=bool)
+    is_free[asm.free] = True
+    freeN = is_free.reshape(n, 6)
+    nfree = freeN.sum(axis=1).astype(np.int64)
+    dofs = np.argsort(~freeN, axis=1, kind="stable").astype(np.int64)  # each node's free local dofs first, ascending
+    # every (element, a, b) corner pair: its 6 × 6 block starts at e·324 + 6a·18 + 6b of the element matrices
+    ri = np.repeat(Fn, 3, axis=1).ravel()  # row node of (e, a, b), in that (increasing position) order
+    cj = np.tile(Fn, (1, 3)).ravel()  # its column node
+    corner = (108 * np.arange(3)[:, None] + 6 * np.arange(3)).ravel()  # 6a·18 + 6b
+    base = (324 * np.arange(m, dtype=np.int64)[:, None] + corner).ravel()
+    keep = np.flatnonzero((nfree[ri] > 0) & (nfree[cj] > 0))
+    key = cj[keep] * n + ri[keep]  # column-node major, as the CSC matrix
+    order = keep[np.argsort(key, kind="stable")]  # within a block, increasing position
+    key = cj[order] * n + ri[order]
+    cut = np.flatnonzero(np.diff(key)) + 1
+    bstart = np.concatenate([[0], cut, [order.size]]).astype(np.int64)
+    head = order[bstart[:-1]]
+    rows, cols = ri[head], cj[head]
+    # the nonzero of the block's first free (row, column) dofs: where the assembler sends that entry
+    flat = base[head] + 18 * dofs[rows, 0] + dofs[cols, 0]
+    first = asm._inv[flat] if asm._valid is None else asm._inv[np.searchsorted(asm._valid, flat)]
+    col = np.searchsorted(asm._indptr, first, side="right") - 1
+    stride = (asm._indptr[col + 1] - asm._indptr[col]).astype(np.int64)
+    return base[order], bstart, rows, cols, np.asarray(first, dtype=np.int64), stride, dofs, nfree
 
 
 class CompiledAssembler:
     """An :class:`Assembler`'s matrix sum as a compiled gather over the matrix entries, on every core.
 
     Each nonzero sums its element entries in the order ``np.bincount`` does, so the matrix is bitwise
-    :meth:`Assembler.matrix`'s. ``free``, ``n_free`` and ``vector`` are the assembler's.
+    :meth:`Assembler.matrix`'s. ``free``, ``n_free`` and ``vector`` are the assembler's. The sum goes node
+    block by node block (:func:`fabpat.shell.kernels.block_sum`): on GP(3, 0)'s tangent at h = 3 (14.5 M
+    element entries into 6.9 M nonzeros, one thread) 0.052 s a matrix rather than 0.078 s for a gather
+    entry by entry in a stable sort of the entries by nonzero, and the blocks are found in 0.09 s rather
+    than that sort's 0.7 s (a sort of the 0.4 M corner pairs rather than of the entries).
     """
 
     def __init__(self, asm: Assembler, threads: int | None = None) -> None:
         self.asm, self.free, self.n_free = asm, asm.free, asm.n_free
         self.threads = max(1, min(threads or cores(), numba.config.NUMBA_NUM_THREADS))
-        order, start = counting_order(asm._inv, asm._nnz)
-        # int32 where it fits: the gather reads these once per matrix, and half the bytes is ~15 % faster
-        small = np.int32 if _entry_count(asm) < np.iinfo(np.int32).max else np.int64
-        # positions in Ke.ravel() of the entries that go to each nonzero, in element order
-        self._order = (order if asm._valid is None else asm._valid[order]).astype(small)
-        self._start = start.astype(small)
+        self._blocks = _blocks(asm)
 
     def matrix(self, Ke: Arr, tail: Arr | None = None) -> sp.csc_matrix:
         """(n_free, n_free) CSC matrix of element matrices Ke (m, 18, 18) followed by ``tail`` (k, 18, 18)
@@ -234,7 +261,9 @@ class CompiledAssembler:
         rest = np.zeros(0) if tail is None else np.ascontiguousarray(tail).reshape(-1)
         with _KERNEL_LOCK:
             numba.set_num_threads(self.threads)
-            gather_sum(np.ascontiguousarray(Ke).reshape(-1), rest, self._order, self._start, data)
+            bases, bstart, rows, cols, first, stride, dofs, nfree = self._blocks
+            block_sum(np.ascontiguousarray(Ke).reshape(-1), rest, bases, bstart, rows, cols, first, stride, dofs,
+                      nfree, data)
         return sp.csc_matrix((data, self.asm._indices, self.asm._indptr), shape=(self.n_free, self.n_free))
 
     def vector(self, fe: Arr) -> Arr:

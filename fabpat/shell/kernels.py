@@ -25,6 +25,7 @@ import fabpat.shell.kernel_cache  # noqa: F401 - sets numba.config.CACHE_DIR, re
 # `fabpat assemble`) and keeps the machine code in the user's cache (cache=True, fabpat.shell.kernel_cache)
 
 Arr = NDArray[np.float64]
+Ints = NDArray[np.int64]
 
 _CYCLIC = ((0, 1, 2), (1, 2, 0), (2, 0, 1))
 #: elements per block of the parallel loop (one set of scratch arrays each)
@@ -379,36 +380,41 @@ def shared_element_kernels(
 
 
 @njit(cache=True, parallel=True)
-def gather_sum(values: Arr, tail: Arr, order: Arr, start: Arr, out: Arr) -> None:
-    """out[j] = Σ_p v[order[p]] over p ∈ [start[j], start[j + 1]), in that order, v = values followed by
-    tail (both flat): a scatter-add written as a gather, so that the cores share the targets without
-    two writing one entry."""
+def block_sum(values: Arr, tail: Arr, bases: Ints, bstart: Ints, rows: Ints, cols: Ints, first: Ints, stride: Ints,
+              dofs: Ints, nfree: Ints, out: Arr) -> None:
+    """out (nnz,): the sparse sum of element matrices, v = values followed by tail (both flat, each
+    matrix 18 × 18 row-major), node block by node block, the cores sharing the blocks (so no two write
+    one entry). Block b holds the entries of the node pair (rows[b], cols[b]) (node numbers); its
+    elements' 6 × 6 blocks start at positions bases[k] of v, k ∈ [bstart[b], bstart[b + 1]),
+    increasing; its nonzero (p', q') (indices among the nodes' free dofs, whose local dof numbers are
+    dofs[node, :nfree[node]], ascending) is out[first[b] + q'·stride[b] + p'].
+
+    Each nonzero adds its entries from 0.0 in increasing position, the order of ``np.bincount``, so the
+    sums are bitwise :meth:`fabpat.shell.assembly.Assembler.matrix`'s. A block lists its elements once
+    (not once per entry: 36× fewer indices to read than a gather by entry) and reads each element's
+    6 × 6 block while it is in cache."""
     nv = values.size
-    for j in prange(out.size):
-        s = 0.0
-        for p in range(start[j], start[j + 1]):
-            o = order[p]
-            s += values[o] if o < nv else tail[o - nv]
-        out[j] = s
-
-
-@njit(cache=True)
-def counting_order(inv: Arr, n: int) -> tuple[Arr, Arr]:
-    """(order, start) of targets inv (k,) in 0 … n − 1: order lists the positions p in increasing
-    target and, within one target, increasing p (a stable argsort, by counting: ~10× faster than
-    numpy's at 9 M entries); start (n + 1,) where each target's run begins."""
-    start = np.zeros(n + 1, dtype=np.int64)
-    for p in range(inv.size):
-        start[inv[p] + 1] += 1
-    for j in range(n):
-        start[j + 1] += start[j]
-    fill = start[:-1].copy()
-    order = np.empty(inv.size, dtype=np.int64)
-    for p in range(inv.size):
-        t = inv[p]
-        order[fill[t]] = p
-        fill[t] += 1
-    return order, start
+    for b in prange(bstart.size - 1):
+        i, j, k0, k1 = rows[b], cols[b], bstart[b], bstart[b + 1]
+        if nfree[i] == 6 and nfree[j] == 6 and bases[k1 - 1] < nv:  # all free, no tail: loops of fixed length
+            for q in range(6):
+                at = first[b] + q * stride[b]
+                for p in range(6):
+                    s = 0.0
+                    for k in range(k0, k1):
+                        s += values[bases[k] + 18 * p + q]
+                    out[at + p] = s
+            continue
+        for qq in range(nfree[j]):
+            q = dofs[j, qq]
+            at = first[b] + qq * stride[b]
+            for pp in range(nfree[i]):
+                off = 18 * dofs[i, pp] + q
+                s = 0.0
+                for k in range(k0, k1):
+                    o = bases[k] + off
+                    s += values[o] if o < nv else tail[o - nv]
+                out[at + pp] = s
 
 
 @njit(cache=True, parallel=True)
