@@ -24,10 +24,10 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 import fabpat.shell.kernel_cache  # noqa: F401 - numba's cache folder, chosen before the kernels are defined
-from fabpat.shell.assembly import Assembler
+from fabpat.shell.assembly import _node_order
 from fabpat.shell.corotational import CorotationalTriangles
 from fabpat.shell.element import LocalStiffness, Material, local_stiffness
-from fabpat.shell.kernels import block_sum, element_kernels, link_transform
+from fabpat.shell.kernels import block_rows, block_sum, element_kernels, link_transform
 from fabpat.shell.linalg import mkl
 from fabpat.shell.news import tell
 from fabpat.shell.strain import thickness_groups
@@ -63,7 +63,7 @@ def cores() -> int:
 #: the kernels of this process are compiled or loaded (:func:`ensure_kernels`)
 _READY: list[bool] = []
 #: the kernels numba compiles and caches (their cache index files tell whether a run compiles them)
-_CACHED = (element_kernels, block_sum, link_transform)
+_CACHED = (element_kernels, block_sum, block_rows, link_transform)
 
 
 def kernels_cached() -> bool:
@@ -101,8 +101,7 @@ def load_kernels() -> float:
         tri = CompiledTriangles(X, np.array([[0, 1, 2]]), Material(), threads=1)
         xe, Re = tri.gather(X, np.broadcast_to(np.eye(3), (3, 3, 3)).copy())
         tri.element_tangents(xe, Re, tri.element_forces(xe, Re)[2])
-        asm = Assembler(tri.edofs, np.ones(18, dtype=bool))
-        CompiledAssembler(asm, threads=1).matrix(np.zeros((1, 18, 18)))
+        CompiledAssembler(tri.edofs, np.ones(18, dtype=bool), threads=1).matrix(np.zeros((1, 18, 18)))
         transform_elements(np.zeros((1, 18, 18)), np.zeros(1, dtype=np.int64), np.zeros((1, 3, 3)), threads=1)
     except OSError as e:  # numba saving the compiled kernels: a full disk, a quota, a folder made read-only
         from fabpat.errors import SolverError
@@ -205,70 +204,83 @@ class CompiledTriangles(CorotationalTriangles):
         return self._Kt
 
 
-def _blocks(asm: Assembler) -> tuple[Ints, Ints, Ints, Ints, Ints, Ints, Ints, Ints]:
-    """The node blocks of an assembler's matrix for :func:`fabpat.shell.kernels.block_sum`: (bases, bstart,
-    rows, cols, first, stride, dofs, nfree) (that kernel's doc), each an int64 array; rows and cols are
-    node numbers, the blocks in the matrix's column order (by column node, then row node)."""
-    Fn = asm.edofs[:, ::6] // 6  # (m, 3) element nodes (the assembler numbers dofs node by node)
-    m, n = Fn.shape[0], asm.n_dofs // 6
-    is_free = np.zeros(asm.n_dofs, dtype=bool)
-    is_free[asm.free] = True
-    freeN = is_free.reshape(n, 6)
-    nfree = freeN.sum(axis=1).astype(np.int64)
-    dofs = np.argsort(~freeN, axis=1, kind="stable").astype(np.int64)  # each node's free local dofs first, ascending
-    # every (element, a, b) corner pair: its 6 × 6 block starts at e·324 + 6a·18 + 6b of the element matrices
-    ri = np.repeat(Fn, 3, axis=1).ravel()  # row node of (e, a, b), in that (increasing position) order
-    cj = np.tile(Fn, (1, 3)).ravel()  # its column node
-    corner = (108 * np.arange(3)[:, None] + 6 * np.arange(3)).ravel()  # 6a·18 + 6b
-    base = (324 * np.arange(m, dtype=np.int64)[:, None] + corner).ravel()
-    keep = np.flatnonzero((nfree[ri] > 0) & (nfree[cj] > 0))
-    key = cj[keep] * n + ri[keep]  # column-node major, as the CSC matrix
-    order = keep[np.argsort(key, kind="stable")]  # within a block, increasing position
-    key = cj[order] * n + ri[order]
-    cut = np.flatnonzero(np.diff(key)) + 1
-    bstart = np.concatenate([[0], cut, [order.size]]).astype(np.int64)
-    head = order[bstart[:-1]]
-    rows, cols = ri[head], cj[head]
-    # the nonzero of the block's first free (row, column) dofs: where the assembler sends that entry
-    flat = base[head] + 18 * dofs[rows, 0] + dofs[cols, 0]
-    first = asm._inv[flat] if asm._valid is None else asm._inv[np.searchsorted(asm._valid, flat)]
-    col = np.searchsorted(asm._indptr, first, side="right") - 1
-    stride = (asm._indptr[col + 1] - asm._indptr[col]).astype(np.int64)
-    return base[order], bstart, rows, cols, np.asarray(first, dtype=np.int64), stride, dofs, nfree
-
-
 class CompiledAssembler:
-    """An :class:`Assembler`'s matrix sum as a compiled gather over the matrix entries, on every core.
+    """The sparse tangent of element matrices as a compiled sum, node block by node block, on every core:
+    :class:`fabpat.shell.assembly.Assembler`'s matrix (the same dof numbering, CSC pattern and sums, bitwise)
+    with its pattern built from the 9 node pairs of each element rather than from its 324 entries.
 
-    Each nonzero sums its element entries in the order ``np.bincount`` does, so the matrix is bitwise
-    :meth:`Assembler.matrix`'s. ``free``, ``n_free`` and ``vector`` are the assembler's. The sum goes node
-    block by node block (:func:`fabpat.shell.kernels.block_sum`): on GP(3, 0)'s tangent at h = 3 (14.5 M
-    element entries into 6.9 M nonzeros, one thread) 0.052 s a matrix rather than 0.078 s for a gather
-    entry by entry in a stable sort of the entries by nonzero, and the blocks are found in 0.09 s rather
-    than that sort's 0.7 s (a sort of the 0.4 M corner pairs rather than of the entries).
+    edofs: (m, 18) global dof numbers of each element (6 per node, node by node); free: (N,) bool mask of the
+    free global dofs. ``free`` lists the global free dofs in matrix order; ``n_free`` counts them.
+    The sum (:func:`fabpat.shell.kernels.block_sum`) reads each node pair's element list once, not one index
+    per element entry: on GP(3, 0)'s tangent at h = 3 (14.5 M element entries into 6.9 M nonzeros, one
+    thread) 0.052 s a matrix rather than 0.078 s for a gather entry by entry; and the pattern's set-up sorts
+    the 0.4 M corner pairs, not the entries.
     """
 
-    def __init__(self, asm: Assembler, threads: int | None = None) -> None:
-        self.asm, self.free, self.n_free = asm, asm.free, asm.n_free
+    def __init__(self, edofs: NDArray[np.int64], free: NDArray[np.bool_], threads: int | None = None) -> None:
         self.threads = max(1, min(threads or cores(), numba.config.NUMBA_NUM_THREADS))
-        self._blocks = _blocks(asm)
+        free = np.asarray(free, dtype=bool).ravel()
+        self.n_dofs = int(free.size)
+        Fn = edofs[:, ::6] // 6  # (m, 3) element nodes
+        n = self.n_dofs // 6
+        # the Assembler's numbering: free dofs node by node in the MMD rank of the node graph
+        rank = _node_order(Fn, n)
+        by_rank = np.argsort(rank)
+        freeN = free.reshape(n, 6)
+        nf = freeN.sum(axis=1)
+        start = np.zeros(n, dtype=np.int64)  # each node's first row
+        start[by_rank] = np.concatenate([[0], np.cumsum(nf[by_rank])[:-1]])
+        pf = np.where(freeN, np.cumsum(freeN, axis=1) - 1, -1)  # (n, 6) index among the node's free dofs
+        glob = np.flatnonzero(free)
+        fidx = start[glob // 6] + pf.ravel()[glob]
+        self.free = np.empty_like(glob)
+        self.free[fidx] = glob
+        self.n_free = int(glob.size)
+        # node pairs (column rank, row rank), as the Assembler; pair u's nonzero (p', q') is at
+        # base[column] + q'·colnnz[column] + rowoff[u] + p'
+        RJ = rank[Fn]
+        uniq, inv = np.unique((RJ[:, None, :] * n + RJ[:, :, None]).ravel(), return_inverse=True)
+        uJ, uI = uniq // n, uniq % n
+        nf_r = nf[by_rank]
+        w = nf_r[uI]
+        cs = np.cumsum(w)
+        head = np.searchsorted(uJ, uJ)  # first pair of each column node
+        rowoff = cs - w - np.where(head > 0, cs[head - 1], 0)
+        colnnz = np.bincount(uJ, weights=w, minlength=n).astype(np.int64)
+        base = np.concatenate([[0], np.cumsum(nf_r * colnnz)[:-1]])
+        self._nnz = int(np.sum(nf_r * colnnz))
+        self._indptr = np.empty(self.n_free + 1, dtype=np.int32)
+        self._indptr[fidx] = base[rank[glob // 6]] + pf.ravel()[glob] * colnnz[rank[glob // 6]]
+        self._indptr[self.n_free] = self._nnz
+        # the blocks: pairs with free dofs on both nodes, each listing its (element, a, b) in increasing
+        # position e·324 + 6a·18 + 6b of the element matrices (inv runs over (e, a, b) in that order)
+        alive = (w > 0) & (nf_r[uJ] > 0)
+        k = np.flatnonzero(alive[inv])
+        k = k[np.argsort(inv[k], kind="stable")]
+        corner = (108 * np.arange(3)[:, None] + 6 * np.arange(3)).ravel()
+        pos = 324 * (k // 9) + corner[k % 9]
+        count = np.bincount(inv, minlength=uniq.size)[alive]
+        rows, cols = by_rank[uI[alive]], by_rank[uJ[alive]]
+        first = (base[uJ] + rowoff)[alive].astype(np.int64)
+        stride = colnnz[uJ[alive]]
+        self._indices = np.empty(self._nnz, dtype=np.int32)
+        block_rows(first, stride, start[rows], nf[rows].astype(np.int64), nf[cols].astype(np.int64), self._indices)
+        dofs = np.argsort(~freeN, axis=1, kind="stable").astype(np.int64)  # free local dofs first, ascending
+        self._blocks = (pos.astype(np.int64), np.concatenate([[0], np.cumsum(count)]).astype(np.int64),
+                        rows.astype(np.int64), cols.astype(np.int64), first, stride, dofs, nf.astype(np.int64))
 
     def matrix(self, Ke: Arr, tail: Arr | None = None) -> sp.csc_matrix:
         """(n_free, n_free) CSC matrix of element matrices Ke (m, 18, 18) followed by ``tail`` (k, 18, 18)
         (the assembler's elements m … m + k − 1; none by default): the sum of the two without
         concatenating them."""
-        data = np.empty(self.asm._nnz)
+        data = np.empty(self._nnz)
         rest = np.zeros(0) if tail is None else np.ascontiguousarray(tail).reshape(-1)
         with _KERNEL_LOCK:
             numba.set_num_threads(self.threads)
             bases, bstart, rows, cols, first, stride, dofs, nfree = self._blocks
             block_sum(np.ascontiguousarray(Ke).reshape(-1), rest, bases, bstart, rows, cols, first, stride, dofs,
                       nfree, data)
-        return sp.csc_matrix((data, self.asm._indices, self.asm._indptr), shape=(self.n_free, self.n_free))
-
-    def vector(self, fe: Arr) -> Arr:
-        """(N,) global vector of element vectors fe (m, 18)."""
-        return self.asm.vector(fe)
+        return sp.csc_matrix((data, self._indices, self._indptr), shape=(self.n_free, self.n_free))
 
 
 def transform_elements(Kt: Arr, elements: NDArray[np.int64], c: Arr, threads: int | None = None) -> None:

@@ -417,6 +417,18 @@ def block_sum(values: Arr, tail: Arr, bases: Ints, bstart: Ints, rows: Ints, col
                 out[at + pp] = s
 
 
+@njit(cache=True)
+def block_rows(first: Ints, stride: Ints, row0: Ints, nrow: Ints, ncol: Ints, out: NDArray[np.int32]) -> None:
+    """The row indices (out, the CSC matrix's ``indices``) of node blocks laid out as :func:`block_sum`'s:
+    block b's nonzero (p', q') at first[b] + q'·stride[b] + p' is in row row0[b] + p', for p' < nrow[b]
+    and q' < ncol[b] (its nodes' free dofs)."""
+    for b in range(first.size):
+        for qq in range(ncol[b]):
+            at = first[b] + qq * stride[b]
+            for pp in range(nrow[b]):
+                out[at + pp] = row0[b] + pp
+
+
 @njit(cache=True, parallel=True)
 def link_transform(Kt: Arr, elements: Arr, c: Arr) -> None:
     """Kt[e] ← Tᵀ Kt[e] T in place for the elements listed, T = I except the blocks −[c_a]× that tie the
