@@ -304,17 +304,34 @@ def _tangent(
     for rr in range(10):
         _to_global(Lg[rr], cols, LE, rr)
         _to_global(Rg[rr], cols, RE, rr)
-    for al in range(18):  # row by row, the innermost loop over a contiguous row (vectorised)
-        for be in range(18):
-            Kt[e, al, be] = 0.0
-        for rr in range(10):
-            c = LE[rr, al]
-            for be in range(18):
-                Kt[e, al, be] += c * RE[rr, be]
-        for rr in range(r):
-            c = CE[rr, al]
-            for be in range(18):
-                Kt[e, al, be] += c * CE[rr, be]
+    # two rows × six columns at a time, their twelve sums in registers (20 % less time for the tangent
+    # than a row at a time summed in Kt, whose stores the compiler could not keep out of the loop); each
+    # entry still adds its terms from 0.0 in the same order (L_gᵀ R_g's, then Cᵀ C's), so bitwise the same
+    for al in range(0, 18, 2):
+        for be in range(0, 18, 6):
+            s0 = s1 = s2 = s3 = s4 = s5 = t0 = t1 = t2 = t3 = t4 = t5 = 0.0
+            for part in range(2):
+                X, Y, rows = (LE, RE, 10) if part == 0 else (CE, CE, r)
+                for rr in range(rows):
+                    c, d = X[rr, al], X[rr, al + 1]
+                    y0, y1, y2 = Y[rr, be], Y[rr, be + 1], Y[rr, be + 2]
+                    y3, y4, y5 = Y[rr, be + 3], Y[rr, be + 4], Y[rr, be + 5]
+                    s0 += c * y0
+                    s1 += c * y1
+                    s2 += c * y2
+                    s3 += c * y3
+                    s4 += c * y4
+                    s5 += c * y5
+                    t0 += d * y0
+                    t1 += d * y1
+                    t2 += d * y2
+                    t3 += d * y3
+                    t4 += d * y4
+                    t5 += d * y5
+            Kt[e, al, be], Kt[e, al, be + 1], Kt[e, al, be + 2] = s0, s1, s2
+            Kt[e, al, be + 3], Kt[e, al, be + 4], Kt[e, al, be + 5] = s3, s4, s5
+            Kt[e, al + 1, be], Kt[e, al + 1, be + 1], Kt[e, al + 1, be + 2] = t0, t1, t2
+            Kt[e, al + 1, be + 3], Kt[e, al + 1, be + 4], Kt[e, al + 1, be + 5] = t3, t4, t5
     # δmg_a = M_a δω_a: E M_a Eᵀ on the (m, ω) diagonal blocks
     for a in range(3):
         for i in range(3):
