@@ -79,7 +79,32 @@ def test_compiled_matrix_sum_is_bitwise_the_assemblers() -> None:
     asm = Assembler(edofs, free)
     Ke = np.random.default_rng(1).normal(size=(len(F), 18, 18))
     A = asm.matrix(Ke)
-    B = CompiledAssembler(asm, threads=2).matrix(Ke[:-4], Ke[-4:])  # the last 4 as the tail
+    B = CompiledAssembler(edofs, free, threads=2).matrix(Ke[:-4], Ke[-4:])  # the last 4 as the tail
+    assert np.array_equal(A.indptr, B.indptr) and np.array_equal(A.indices, B.indices)
+    assert np.array_equal(A.data, B.data)
+
+
+def test_compiled_pattern_and_sum_are_bitwise_the_assemblers_with_linked_corners_and_held_dofs() -> None:
+    # as the linked solver's reduced system: slaves renumbered to their master (triangles with two or three
+    # corners on one node), one pseudo-element per master in the tail, a partly held master and a node
+    # with one dof held (nodes whose free dofs are not all six take the kernel's general loop)
+    X, F = _mesh()
+    n = len(X)
+    rep = np.arange(n + 2)
+    rep[[0, 1, 2, 3]], rep[[10, 11]] = n, n + 1
+    Fr = np.vstack([rep[F], [[n, n, n], [n + 1, n + 1, n + 1]]])
+    assert (Fr[:, 0] == Fr[:, 1]).sum() >= 2  # corners that meet on one node
+    edofs = (6 * Fr[:, :, None] + np.arange(6)).reshape(-1, 18)
+    free = np.ones((n + 2, 6), dtype=bool)
+    free[[0, 1, 2, 3, 10, 11]] = False
+    free[n + 1, [0, 2]] = False
+    free[20, 4] = False
+    asm = Assembler(edofs, free.ravel())
+    Ke = np.random.default_rng(4).normal(size=(len(Fr), 18, 18))
+    A = asm.matrix(Ke)
+    comp = CompiledAssembler(edofs, free.ravel(), threads=2)
+    B = comp.matrix(Ke[:-2], Ke[-2:])
+    assert np.array_equal(comp.free, asm.free) and comp.n_free == asm.n_free  # the same dof numbering
     assert np.array_equal(A.indptr, B.indptr) and np.array_equal(A.indices, B.indices)
     assert np.array_equal(A.data, B.data)
 

@@ -59,6 +59,32 @@ def test_pardiso_refactorisations_solve_like_superlu() -> None:
     assert np.linalg.norm(K2 @ fz.factor(K2).solve(b2) - b2) <= 1e-9 * np.linalg.norm(b2)
 
 
+@pytest.mark.skipif(not ON_MKL_PLATFORM, reason="MKL is installed on Linux x86-64 only")
+def test_large_matrices_take_the_two_level_factorisation_and_small_ones_keep_the_classic(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Above TWO_LEVEL_ROWS rows PARDISO factors with iparm(24) = 1 (the assembly closures' large tangents);
+    below it, as every catalog scenario, the classic factorisation and its numbers stay. The bound is lowered
+    here so that a small plate's tangent crosses it."""
+    import fabpat.shell.linalg as linalg
+
+    p = _plate()
+    model, asm, _ = _setup(p)
+    K = asm.matrix(model.linear_element_matrices())
+    K.data = K.data * (1.0 + 0.05 * np.random.default_rng(4).uniform(-1.0, 1.0, K.nnz))  # nonsymmetric
+    b = np.random.default_rng(5).normal(size=K.shape[0])
+    classic = factorizer("pardiso")
+    x0 = classic.factor(K).solve(b)
+    assert isinstance(classic, Pardiso) and classic._iparm[23] == 0
+    monkeypatch.setattr(linalg, "TWO_LEVEL_ROWS", K.shape[0])
+    two = factorizer("pardiso")
+    x = two.factor(K).solve(b)
+    assert isinstance(two, Pardiso) and two._iparm[23] == 1
+    assert np.linalg.norm(K @ x - b) <= 1e-9 * np.linalg.norm(b)
+    assert np.linalg.norm(x - x0) <= 1e-8 * np.linalg.norm(x0)
+    again = factorizer("pardiso")  # reproducible: the same bits from a fresh analysis
+    assert np.array_equal(again.factor(K).solve(b), x)
+
+
 @pytest.mark.parametrize("backend", ["superlu", "pardiso"] if ON_MKL_PLATFORM else ["superlu"])
 def test_singular_matrix_is_reported(backend: str) -> None:
     """An exactly singular matrix: PARDISO's perturbed pivots hand it to SuperLU, which names it."""

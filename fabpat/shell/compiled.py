@@ -24,10 +24,10 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 import fabpat.shell.kernel_cache  # noqa: F401 - numba's cache folder, chosen before the kernels are defined
-from fabpat.shell.assembly import Assembler
+from fabpat.shell.assembly import _node_order
 from fabpat.shell.corotational import CorotationalTriangles
 from fabpat.shell.element import LocalStiffness, Material, local_stiffness
-from fabpat.shell.kernels import counting_order, element_kernels, gather_sum, link_transform, shared_element_kernels
+from fabpat.shell.kernels import block_rows, block_sum, element_kernels, link_transform, shared_element_kernels
 from fabpat.shell.linalg import mkl
 from fabpat.shell.news import tell
 from fabpat.shell.strain import thickness_groups
@@ -62,15 +62,15 @@ def cores() -> int:
 #: the kernels of this process are compiled or loaded (:func:`ensure_kernels`)
 _READY: list[bool] = []
 #: the kernels numba compiles and caches (their cache index files tell whether a run compiles them)
-_CACHED = (element_kernels, shared_element_kernels, gather_sum, counting_order, link_transform)
+_CACHED = (element_kernels, shared_element_kernels, block_sum, block_rows, link_transform)
 
 
 def kernels_cached() -> bool:
     """Whether numba's cache holds every kernel (an index file each), so this process loads them in a
     fraction of a second rather than compiling them (about 40 s). An unreadable cache counts as absent."""
     try:
-        return all(os.path.exists(f._cache._cache_file._index_path) for f in _CACHED)  # numba's cache layout
-    except AttributeError:  # another numba's layout: say nothing rather than guess
+        return all(os.path.exists(vars(f)["_cache"]._cache_file._index_path) for f in _CACHED)  # numba's cache layout
+    except (AttributeError, KeyError):  # another numba's layout: say nothing rather than guess
         return True
 
 
@@ -106,8 +106,7 @@ def load_kernels() -> float:
 
         one = np.zeros(1, dtype=np.int64)
         CongruentTriangles(X, np.array([[0, 1, 2]]), Material(), one, threads=1).tangents_at(X, R)
-        asm = Assembler(tri.edofs, np.ones(18, dtype=bool))
-        CompiledAssembler(asm, threads=1).matrix(np.zeros((1, 18, 18)))
+        CompiledAssembler(tri.edofs, np.ones(18, dtype=bool), threads=1).matrix(np.zeros((1, 18, 18)))
         transform_elements(np.zeros((1, 18, 18)), np.zeros(1, dtype=np.int64), np.zeros((1, 3, 3)), threads=1)
     except OSError as e:  # numba saving the compiled kernels: a full disk, a quota, a folder made read-only
         from fabpat.errors import SolverError
@@ -213,42 +212,91 @@ class CompiledTriangles(CorotationalTriangles):
         return self._Kt
 
 
-def _entry_count(asm: Assembler) -> int:
-    """Entries of the element matrices an assembler sums (m · 324 plus its tail of pseudo-elements)."""
-    return int(asm.edofs.shape[0]) * 324
-
-
 class CompiledAssembler:
-    """An :class:`Assembler`'s matrix sum as a compiled gather over the matrix entries, on every core.
+    """The sparse tangent of element matrices as a compiled sum, node block by node block, on every core:
+    :class:`fabpat.shell.assembly.Assembler`'s matrix (the same dof numbering, CSC pattern and sums, bitwise)
+    with its pattern built from the 9 node pairs of each element rather than from its 324 entries.
 
-    Each nonzero sums its element entries in the order ``np.bincount`` does, so the matrix is bitwise
-    :meth:`Assembler.matrix`'s. ``free``, ``n_free`` and ``vector`` are the assembler's.
+    edofs: (m, 18) global dof numbers of each element (6 per node, node by node); free: (N,) bool mask of the
+    free global dofs. ``free`` lists the global free dofs in matrix order; ``n_free`` counts them.
+    The sum (:func:`fabpat.shell.kernels.block_sum`) reads each node pair's element list once, not one index
+    per element entry: on GP(3, 0)'s tangent at h = 3 (14.5 M element entries into 6.9 M nonzeros) 0.028 s
+    a matrix on two threads (0.054 s on one) rather than 0.049 s (0.075 s) for a gather entry by entry; and
+    the pattern's set-up sorts the 0.4 M corner pairs, not the entries (0.13 CPU s rather than 0.3 s for
+    the Assembler and 0.3 s for the gather's order).
     """
 
-    def __init__(self, asm: Assembler, threads: int | None = None) -> None:
-        self.asm, self.free, self.n_free = asm, asm.free, asm.n_free
+    def __init__(self, edofs: NDArray[np.int64], free: NDArray[np.bool_], threads: int | None = None) -> None:
         self.threads = max(1, min(threads or cores(), numba.config.NUMBA_NUM_THREADS))
-        order, start = counting_order(asm._inv, asm._nnz)
-        # int32 where it fits: the gather reads these once per matrix, and half the bytes is ~15 % faster
-        small = np.int32 if _entry_count(asm) < np.iinfo(np.int32).max else np.int64
-        # positions in Ke.ravel() of the entries that go to each nonzero, in element order
-        self._order = (order if asm._valid is None else asm._valid[order]).astype(small)
-        self._start = start.astype(small)
+        free = np.asarray(free, dtype=bool).ravel()
+        self.n_dofs = int(free.size)
+        Fn = edofs[:, ::6] // 6  # (m, 3) element nodes
+        n = self.n_dofs // 6
+        # the Assembler's numbering: free dofs node by node in the MMD rank of the node graph
+        rank = _node_order(Fn, n)
+        by_rank = np.argsort(rank)
+        freeN = free.reshape(n, 6)
+        nf = freeN.sum(axis=1)
+        start = np.zeros(n, dtype=np.int64)  # each node's first row
+        start[by_rank] = np.concatenate([[0], np.cumsum(nf[by_rank])[:-1]])
+        pf = np.where(freeN, np.cumsum(freeN, axis=1) - 1, -1)  # (n, 6) index among the node's free dofs
+        glob = np.flatnonzero(free)
+        fidx = start[glob // 6] + pf.ravel()[glob]
+        self.free = np.empty_like(glob)
+        self.free[fidx] = glob
+        self.n_free = int(glob.size)
+        # node pairs (column rank, row rank), as the Assembler; pair u's nonzero (p', q') is at
+        # base[column] + q'·colnnz[column] + rowoff[u] + p'
+        RJ = rank[Fn]
+        uniq, inv = np.unique((RJ[:, None, :] * n + RJ[:, :, None]).ravel(), return_inverse=True)
+        uJ, uI = uniq // n, uniq % n
+        nf_r = nf[by_rank]
+        w = nf_r[uI]
+        cs = np.cumsum(w)
+        head = np.searchsorted(uJ, uJ)  # first pair of each column node
+        rowoff = cs - w - np.where(head > 0, cs[head - 1], 0)
+        colnnz = np.bincount(uJ, weights=w, minlength=n).astype(np.int64)
+        base = np.concatenate([[0], np.cumsum(nf_r * colnnz)[:-1]])
+        self._nnz = int(np.sum(nf_r * colnnz))
+        self._indptr = np.empty(self.n_free + 1, dtype=np.int32)
+        self._indptr[fidx] = base[rank[glob // 6]] + pf.ravel()[glob] * colnnz[rank[glob // 6]]
+        self._indptr[self.n_free] = self._nnz
+        # the blocks: pairs with free dofs on both nodes, in the order of their node numbers (column, then
+        # row), which is close to the elements' order: the sum then reads the element matrices nearly in
+        # turn (in the matrix's column order it was no faster than the gather entry by entry, 0.078 s
+        # against 0.075 s on GP(3, 0), one thread); each lists its (element, a, b) in increasing position
+        # e·324 + 6a·18 + 6b (inv runs over (e, a, b))
+        live = np.flatnonzero((w > 0) & (nf_r[uJ] > 0))
+        live = live[np.argsort(by_rank[uJ[live]] * n + by_rank[uI[live]])]
+        block = np.full(uniq.size, -1)
+        block[live] = np.arange(live.size)
+        g = block[inv]
+        k = np.flatnonzero(g >= 0)
+        k = k[np.argsort(g[k], kind="stable")]
+        corner = (108 * np.arange(3)[:, None] + 6 * np.arange(3)).ravel()
+        pos = 324 * (k // 9) + corner[k % 9]
+        count = np.bincount(g[g >= 0], minlength=live.size)
+        rows, cols = by_rank[uI[live]], by_rank[uJ[live]]
+        first = (base[uJ] + rowoff)[live].astype(np.int64)
+        stride = colnnz[uJ[live]]
+        self._indices = np.empty(self._nnz, dtype=np.int32)
+        block_rows(first, stride, start[rows], nf[rows].astype(np.int64), nf[cols].astype(np.int64), self._indices)
+        dofs = np.argsort(~freeN, axis=1, kind="stable").astype(np.int64)  # free local dofs first, ascending
+        self._blocks = (pos.astype(np.int64), np.concatenate([[0], np.cumsum(count)]).astype(np.int64),
+                        rows.astype(np.int64), cols.astype(np.int64), first, stride, dofs, nf.astype(np.int64))
 
     def matrix(self, Ke: Arr, tail: Arr | None = None) -> sp.csc_matrix:
         """(n_free, n_free) CSC matrix of element matrices Ke (m, 18, 18) followed by ``tail`` (k, 18, 18)
         (the assembler's elements m … m + k − 1; none by default): the sum of the two without
         concatenating them."""
-        data = np.empty(self.asm._nnz)
+        data = np.empty(self._nnz)
         rest = np.zeros(0) if tail is None else np.ascontiguousarray(tail).reshape(-1)
         with _KERNEL_LOCK:
             numba.set_num_threads(self.threads)
-            gather_sum(np.ascontiguousarray(Ke).reshape(-1), rest, self._order, self._start, data)
-        return sp.csc_matrix((data, self.asm._indices, self.asm._indptr), shape=(self.n_free, self.n_free))
-
-    def vector(self, fe: Arr) -> Arr:
-        """(N,) global vector of element vectors fe (m, 18)."""
-        return self.asm.vector(fe)
+            bases, bstart, rows, cols, first, stride, dofs, nfree = self._blocks
+            block_sum(np.ascontiguousarray(Ke).reshape(-1), rest, bases, bstart, rows, cols, first, stride, dofs,
+                      nfree, data)
+        return sp.csc_matrix((data, self._indices, self._indptr), shape=(self.n_free, self.n_free))
 
 
 def transform_elements(Kt: Arr, elements: NDArray[np.int64], c: Arr, threads: int | None = None) -> None:

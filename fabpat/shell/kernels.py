@@ -25,6 +25,7 @@ import fabpat.shell.kernel_cache  # noqa: F401 - sets numba.config.CACHE_DIR, re
 # `fabpat assemble`) and keeps the machine code in the user's cache (cache=True, fabpat.shell.kernel_cache)
 
 Arr = NDArray[np.float64]
+Ints = NDArray[np.int64]
 
 _CYCLIC = ((0, 1, 2), (1, 2, 0), (2, 0, 1))
 #: elements per block of the parallel loop (one set of scratch arrays each)
@@ -303,17 +304,34 @@ def _tangent(
     for rr in range(10):
         _to_global(Lg[rr], cols, LE, rr)
         _to_global(Rg[rr], cols, RE, rr)
-    for al in range(18):  # row by row, the innermost loop over a contiguous row (vectorised)
-        for be in range(18):
-            Kt[e, al, be] = 0.0
-        for rr in range(10):
-            c = LE[rr, al]
-            for be in range(18):
-                Kt[e, al, be] += c * RE[rr, be]
-        for rr in range(r):
-            c = CE[rr, al]
-            for be in range(18):
-                Kt[e, al, be] += c * CE[rr, be]
+    # two rows × six columns at a time, their twelve sums in registers (20 % less time for the tangent
+    # than a row at a time summed in Kt, whose stores the compiler could not keep out of the loop); each
+    # entry still adds its terms from 0.0 in the same order (L_gᵀ R_g's, then Cᵀ C's), so bitwise the same
+    for al in range(0, 18, 2):
+        for be in range(0, 18, 6):
+            s0 = s1 = s2 = s3 = s4 = s5 = t0 = t1 = t2 = t3 = t4 = t5 = 0.0
+            for part in range(2):
+                X, Y, rows = (LE, RE, 10) if part == 0 else (CE, CE, r)
+                for rr in range(rows):
+                    c, d = X[rr, al], X[rr, al + 1]
+                    y0, y1, y2 = Y[rr, be], Y[rr, be + 1], Y[rr, be + 2]
+                    y3, y4, y5 = Y[rr, be + 3], Y[rr, be + 4], Y[rr, be + 5]
+                    s0 += c * y0
+                    s1 += c * y1
+                    s2 += c * y2
+                    s3 += c * y3
+                    s4 += c * y4
+                    s5 += c * y5
+                    t0 += d * y0
+                    t1 += d * y1
+                    t2 += d * y2
+                    t3 += d * y3
+                    t4 += d * y4
+                    t5 += d * y5
+            Kt[e, al, be], Kt[e, al, be + 1], Kt[e, al, be + 2] = s0, s1, s2
+            Kt[e, al, be + 3], Kt[e, al, be + 4], Kt[e, al, be + 5] = s3, s4, s5
+            Kt[e, al + 1, be], Kt[e, al + 1, be + 1], Kt[e, al + 1, be + 2] = t0, t1, t2
+            Kt[e, al + 1, be + 3], Kt[e, al + 1, be + 4], Kt[e, al + 1, be + 5] = t3, t4, t5
     # δmg_a = M_a δω_a: E M_a Eᵀ on the (m, ω) diagonal blocks
     for a in range(3):
         for i in range(3):
@@ -379,36 +397,53 @@ def shared_element_kernels(
 
 
 @njit(cache=True, parallel=True)
-def gather_sum(values: Arr, tail: Arr, order: Arr, start: Arr, out: Arr) -> None:
-    """out[j] = Σ_p v[order[p]] over p ∈ [start[j], start[j + 1]), in that order, v = values followed by
-    tail (both flat): a scatter-add written as a gather, so that the cores share the targets without
-    two writing one entry."""
+def block_sum(values: Arr, tail: Arr, bases: Ints, bstart: Ints, rows: Ints, cols: Ints, first: Ints, stride: Ints,
+              dofs: Ints, nfree: Ints, out: Arr) -> None:
+    """out (nnz,): the sparse sum of element matrices, v = values followed by tail (both flat, each
+    matrix 18 × 18 row-major), node block by node block, the cores sharing the blocks (so no two write
+    one entry). Block b holds the entries of the node pair (rows[b], cols[b]) (node numbers); its
+    elements' 6 × 6 blocks start at positions bases[k] of v, k ∈ [bstart[b], bstart[b + 1]),
+    increasing; its nonzero (p', q') (indices among the nodes' free dofs, whose local dof numbers are
+    dofs[node, :nfree[node]], ascending) is out[first[b] + q'·stride[b] + p'].
+
+    Each nonzero adds its entries from 0.0 in increasing position, the order of ``np.bincount``, so the
+    sums are bitwise :meth:`fabpat.shell.assembly.Assembler.matrix`'s. A block lists its elements once
+    (not once per entry: 36× fewer indices to read than a gather by entry) and reads each element's
+    6 × 6 block while it is in cache."""
     nv = values.size
-    for j in prange(out.size):
-        s = 0.0
-        for p in range(start[j], start[j + 1]):
-            o = order[p]
-            s += values[o] if o < nv else tail[o - nv]
-        out[j] = s
+    for b in prange(bstart.size - 1):
+        i, j, k0, k1 = rows[b], cols[b], bstart[b], bstart[b + 1]
+        if nfree[i] == 6 and nfree[j] == 6 and bases[k1 - 1] < nv:  # all free, no tail: loops of fixed length
+            for q in range(6):
+                at = first[b] + q * stride[b]
+                for p in range(6):
+                    s = 0.0
+                    for k in range(k0, k1):
+                        s += values[bases[k] + 18 * p + q]
+                    out[at + p] = s
+            continue
+        for qq in range(nfree[j]):
+            q = dofs[j, qq]
+            at = first[b] + qq * stride[b]
+            for pp in range(nfree[i]):
+                off = 18 * dofs[i, pp] + q
+                s = 0.0
+                for k in range(k0, k1):
+                    o = bases[k] + off
+                    s += values[o] if o < nv else tail[o - nv]
+                out[at + pp] = s
 
 
 @njit(cache=True)
-def counting_order(inv: Arr, n: int) -> tuple[Arr, Arr]:
-    """(order, start) of targets inv (k,) in 0 … n − 1: order lists the positions p in increasing
-    target and, within one target, increasing p (a stable argsort, by counting: ~10× faster than
-    numpy's at 9 M entries); start (n + 1,) where each target's run begins."""
-    start = np.zeros(n + 1, dtype=np.int64)
-    for p in range(inv.size):
-        start[inv[p] + 1] += 1
-    for j in range(n):
-        start[j + 1] += start[j]
-    fill = start[:-1].copy()
-    order = np.empty(inv.size, dtype=np.int64)
-    for p in range(inv.size):
-        t = inv[p]
-        order[fill[t]] = p
-        fill[t] += 1
-    return order, start
+def block_rows(first: Ints, stride: Ints, row0: Ints, nrow: Ints, ncol: Ints, out: NDArray[np.int32]) -> None:
+    """The row indices (out, the CSC matrix's ``indices``) of node blocks laid out as :func:`block_sum`'s:
+    block b's nonzero (p', q') at first[b] + q'·stride[b] + p' is in row row0[b] + p', for p' < nrow[b]
+    and q' < ncol[b] (its nodes' free dofs)."""
+    for b in range(first.size):
+        for qq in range(ncol[b]):
+            at = first[b] + qq * stride[b]
+            for pp in range(nrow[b]):
+                out[at + pp] = row0[b] + pp
 
 
 @njit(cache=True, parallel=True)

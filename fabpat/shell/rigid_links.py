@@ -34,7 +34,6 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from fabpat.shell.assembly import Assembler
 from fabpat.shell.compiled import CompiledAssembler, CompiledTriangles, transform_elements
 from fabpat.shell.congruent import CongruentTriangles, representatives
 from fabpat.shell.element import Material
@@ -191,7 +190,7 @@ class SolverSetup:
         h.update(str(threads).encode())
         key = h.digest()
         if self._asm is None or key != self._key:
-            self._asm, self._key = CompiledAssembler(Assembler(edofs, free), threads), key
+            self._asm, self._key = CompiledAssembler(edofs, free, threads), key
             self.assemblers += 1
         return self._asm
 
@@ -234,7 +233,7 @@ class _Reduced:
         edofs = (6 * Fr[:, :, None] + np.arange(6)).reshape(-1, 18)
         zero_fixed = p.fixed & (p.prescribed == 0)
         free = ~zero_fixed & ~self.slave_mask[:, None]
-        self.asm = (CompiledAssembler(Assembler(edofs, free.ravel()), threads) if setup is None
+        self.asm = (CompiledAssembler(edofs, free.ravel(), threads) if setup is None
                     else setup.assembler(edofs, free.ravel(), threads))
         # prescribed (nonzero) dofs: identity rows in the matrix, excluded from the residual test
         self.moving = (p.fixed & ~zero_fixed).ravel()
