@@ -117,6 +117,19 @@ def test_an_increment_is_given_up_after_its_allowed_rises_in_a_row() -> None:
     assert iterate(s1, *_start(s1), Convergence(1e-10, 0.0), Rules(25, 0.0, 0.5), SuperLUFactorizer()).converged
 
 
+def test_the_factorization_is_kept_only_after_corrections_within_the_reuse_rotation() -> None:
+    """A residual that falls 1000-fold keeps the factorization for the next correction, unless the correction
+    that took it there turned a node by more than ``reuse_rotation``: then the tangent is formed again."""
+    script = [1.0, 1e-3, 1e-12]
+    kept = _Scripted(script)
+    assert iterate(kept, *_start(kept), Convergence(1e-10, 0.0), Rules(25, 0.1, 0.5), SuperLUFactorizer()).converged
+    assert kept.factorizations == 1
+    fresh = _Scripted(script)
+    run = iterate(fresh, *_start(fresh), Convergence(1e-10, 0.0), Rules(25, 0.1, 0.5, reuse_rotation=1e-9),
+                  SuperLUFactorizer())
+    assert run.converged and fresh.factorizations == 2
+
+
 def test_the_convergence_test_has_a_floor_and_a_singular_tangent_ends_the_run_unconverged() -> None:
     test = Convergence.at_roundoff(1e-8, 4.0)  # floor: ROUNDOFF_FACTOR (0.5) × 4 N
     assert test.tolerance(1.0) == 2.0 and test.met(2.0, 1.0) and not test.met(2.01, 1.0)

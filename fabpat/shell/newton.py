@@ -13,7 +13,8 @@ loop around one ``solve(*condense(K, r, D=...))``:
 2. the rules that give up on a lost increment (three rises in a row unless the driver allows more, a
    blow-up, still 100× its baseline residual after 10 iterations);
 3. the tangent and its factorization, kept while the residual falls by ``reuse_ratio`` per
-   iteration (a back-substitution is ~50× cheaper than a new tangent and LU);
+   iteration (a back-substitution is ~50× cheaper than a new tangent and LU) after corrections no larger
+   than the driver allows (``Rules.reuse_rotation``);
 4. the correction, scaled down when its largest nodal rotation passes ``max_rotation_step``, and the
    update x += Δx, R ← exp([Δθ]×) R (spatial spins: Crisfield vol. 2 §17).
 
@@ -144,7 +145,8 @@ class NewtonSystem(Protocol):
 @dataclass(frozen=True)
 class Rules:
     """How one increment iterates: at most ``max_iter`` iterations; the factorization kept while the
-    residual falls by ``reuse_ratio`` per iteration (0: full Newton); corrections scaled to a largest
+    residual falls by ``reuse_ratio`` per iteration (0: full Newton) after a correction whose largest nodal
+    rotation was at most ``reuse_rotation`` (rad; default any); corrections scaled to a largest
     nodal rotation of ``max_rotation_step`` (rad); given up when the residual rises in ``rises``
     iterations in a row, passes ``blowup`` (N) or is still 100× the residual of iteration ``baseline``
     after 10 iterations."""
@@ -155,6 +157,7 @@ class Rules:
     blowup: float = np.inf
     baseline: int = 1
     rises: int = 3
+    reuse_rotation: float = np.inf
 
 
 @dataclass(frozen=True)
@@ -183,6 +186,7 @@ def iterate(system: NewtonSystem, x: Arr, R: Arr, test: Convergence, rules: Rule
     correction, or a lost increment (:class:`Rules`) ends the run unconverged; nothing is raised.
     """
     first = lu
+    moved = 0.0  # the largest nodal rotation of the last correction (rad)
     ok, its, last, res0, growth = False, 0, np.inf, np.inf, 0
     t_tan = t_lu = 0.0
     for its in range(1, rules.max_iter + 1):  # noqa: B007 (its used after the loop)
@@ -201,7 +205,9 @@ def iterate(system: NewtonSystem, x: Arr, R: Arr, test: Convergence, rules: Rule
         if growth >= rules.rises or res > rules.blowup or (its >= 10 and res > 100.0 * res0):
             break
         # keep the factorization while the residual falls fast; the first iteration takes the one given
-        reuse = lu is not None and ((not e.pending and res < rules.reuse_ratio * last) or (its == 1 and lu is first))
+        # … and only near the equilibrium: after a large correction the old tangent describes another state
+        reuse = lu is not None and ((not e.pending and res < rules.reuse_ratio * last and moved <= rules.reuse_rotation)
+                                    or (its == 1 and lu is first))
         last = res
         ta = time.perf_counter()
         K = None if reuse else system.tangent(x, R, its)
@@ -220,8 +226,8 @@ def iterate(system: NewtonSystem, x: Arr, R: Arr, test: Convergence, rules: Rule
         if not np.all(np.isfinite(du)):
             break
         D = du.reshape(-1, 6)
+        moved = rot = float(np.max(np.linalg.norm(D[:, 3:], axis=1)))
         if not e.pending:  # (prescribed dofs must reach their targets in full)
-            rot = float(np.max(np.linalg.norm(D[:, 3:], axis=1)))
             if rot > rules.max_rotation_step:
                 D = D * (rules.max_rotation_step / rot)
         x, R = system.place(x + D[:, :3], np.einsum("nij,njk->nik", expmap(D[:, 3:]), R), D)
