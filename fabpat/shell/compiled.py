@@ -67,7 +67,8 @@ _CACHED = (element_kernels, shared_element_kernels, block_sum, block_rows, link_
 
 def kernels_cached() -> bool:
     """Whether numba's cache holds every kernel (an index file each), so this process loads them in a
-    fraction of a second rather than compiling them (about 40 s). An unreadable cache counts as absent."""
+    fraction of a second rather than compiling them (about 10 s on two cores). An unreadable cache counts as
+    absent."""
     try:
         return all(os.path.exists(vars(f)["_cache"]._cache_file._index_path) for f in _CACHED)  # numba's cache layout
     except (AttributeError, KeyError):  # another numba's layout: say nothing rather than guess
@@ -76,21 +77,21 @@ def kernels_cached() -> bool:
 
 def ensure_kernels() -> None:
     """Compile or load the kernels once per process (:func:`load_kernels`), first telling the solver's
-    listeners (:mod:`fabpat.shell.news`) when they are being compiled, which takes about 40 s once after
-    an install (or a numba upgrade) and is otherwise silent."""
+    listeners (:mod:`fabpat.shell.news`) when they are being compiled, which takes about 10 s on two cores
+    once after an install (or a numba upgrade) and is otherwise silent."""
     if _READY:
         return
     if not kernels_cached():
         where = fabpat.shell.kernel_cache.CACHE_DIR
-        tell("compiling the solver's kernels (once after an install: about 40 s"
+        tell("compiling the solver's kernels (once after an install: about 10 s"
              + (f"; kept in {where})" if where else ")"))
     load_kernels()
 
 
 def load_kernels() -> float:
     """Compile the kernels (or load them from numba's cache, :mod:`fabpat.shell.kernel_cache`) by
-    calling them once on one triangle; returns the seconds it took (about 40 s the first time on the
-    2-core machine, 0.2 s from the cache). A solve does this on its first call anyway
+    calling them once on one triangle, in every signature a solve uses; returns the seconds it took (about
+    10 s the first time on the 2-core machine, 0.2 s from the cache). A solve does this on its first call anyway
     (:func:`ensure_kernels`); benchmarks call it first so that their timings are of the solver alone."""
     import time
 
@@ -102,10 +103,10 @@ def load_kernels() -> float:
         tri.element_tangents(xe, Re, tri.element_forces(xe, Re)[2])
         R = np.broadcast_to(np.eye(3), (3, 3, 3)).copy()
         tri.tangents_at(X, R)  # the solves' signatures: a mesh's own triangles, and shared element data
-        from fabpat.shell.congruent import CongruentTriangles
-
-        one = np.zeros(1, dtype=np.int64)
-        CongruentTriangles(X, np.array([[0, 1, 2]]), Material(), one, threads=1).tangents_at(X, R)
+        # (fabpat.shell.congruent.CongruentTriangles calls the shared kernel with these types)
+        Kt = np.empty((1, 18, 18))
+        shared_element_kernels(X, R, tri._F, *tri._consts, np.zeros(1, dtype=np.int64), np.empty((1, 18)),
+                               np.empty(1), np.empty((1, 18)), Kt, True)
         CompiledAssembler(tri.edofs, np.ones(18, dtype=bool), threads=1).matrix(np.zeros((1, 18, 18)))
         transform_elements(np.zeros((1, 18, 18)), np.zeros(1, dtype=np.int64), np.zeros((1, 3, 3)), threads=1)
     except OSError as e:  # numba saving the compiled kernels: a full disk, a quota, a folder made read-only

@@ -92,7 +92,8 @@ class CongruentTriangles:
         self.threads = self.reference.threads
         self.edofs = (6 * self.F[:, :, None] + np.arange(6)).reshape(-1, 18)
         r = self.reference
-        self._consts = (r.gN, r.xl0, np.ascontiguousarray(self.E0), r.local.K, r._stiffness_root(), self.rows)
+        gN, xl0, _, K, Q = r._consts  # the representatives' own, as the kernels' warm-up passes them
+        self._consts = (gN, xl0, np.ascontiguousarray(self.E0), K, Q, np.ascontiguousarray(self.rows, dtype=np.int64))
         self._fe, self._U, self._d = np.empty((m, 18)), np.empty(m), np.empty((m, 18))
         self._Kt: Arr | None = None
 

@@ -2,7 +2,7 @@
 
 numba's default is a ``__pycache__`` beside the source, which an installed package may not be allowed to
 write (a system site-packages, a read-only container image): every process would then compile the
-kernels again (about 40 s on the 2-core machine). So, unless ``NUMBA_CACHE_DIR`` is set already, the
+kernels again (about 10 s on the 2-core machine). So, unless ``NUMBA_CACHE_DIR`` is set already, the
 kernels go to ``$FABPAT_CACHE/numba`` (``$XDG_CACHE_HOME/fabpat/numba``, by default
 ``~/.cache/fabpat/numba``), created on demand. A folder that cannot be created or written, or
 ``FABPAT_CACHE=off``, leaves numba's own choice (beside the source, else numba's user-wide cache).
