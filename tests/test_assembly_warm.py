@@ -47,9 +47,8 @@ def test_warm_start_reaches_the_cold_equilibrium_in_fewer_factorizations() -> No
 @pytest.mark.slow
 def test_strip_warm_start_from_a_one_column_change() -> None:
     """test-small (1 × 3) with its middle column changed, warm-started from the original strip's arch:
-    the same equilibrium (nodes within 1e-4 mm, the arch's peak to 1e-6) in half the factorizations or fewer
-    (measured: 11 against 26; the cold path took 64 before it kept its factorization only after small
-    corrections, 120 and 147 earlier still)."""
+    the same equilibrium (nodes within 1e-4 mm, the arch's peak to 1e-6) in a third of the factorizations
+    or fewer (measured: 11 against 120; 147 before the path's predictor reused the last factorization)."""
     spec = load_spec(STRIP)
     shipped = simulate_assembly(spec, h=6.0)
     groups = list(spec.patterns.groups)
@@ -59,7 +58,7 @@ def test_strip_warm_start_from_a_one_column_change() -> None:
     warm = simulate_assembly(other, h=6.0, start=shipped)
     fc, fw = cold.fields(), warm.fields()
     assert fw["warm_start"] is True
-    assert fw["factorizations"] <= 0.5 * fc["factorizations"], (fw["factorizations"], fc["factorizations"])
+    assert fw["factorizations"] <= 0.35 * fc["factorizations"], (fw["factorizations"], fc["factorizations"])
     n = len(cold.model.X)
     moved = np.abs(warm.run.result.final.displacement[:n] - cold.run.result.final.displacement[:n]).max()
     assert moved < 1e-4, moved

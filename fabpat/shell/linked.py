@@ -76,14 +76,6 @@ WARM_FALL = 0.5
 #: stiff and two soft tiles stalls near 20 N and would spend 42 factorizations in 60 iterations before
 #: failing (given up after 21 iterations instead)
 LEAP_PATIENCE = 15
-#: the factorization is reused (``reuse_ratio``) only after a correction whose largest nodal rotation is at
-#: most this (rad): after a larger one the iterate has moved where the old tangent no longer describes it,
-#: and a step on it lifts the residual rather than cutting it (docs/assembly-solver.md, Solver speed).
-#: Factorizations with it against without (h = 3): GP(3, 0) 12 against 15, the shipped strip 21 against 23,
-#: the 1 × 3 test strip 21 against 30, the hex-tube 15 against 16, GP(1, 1) at h = 6 42 against 47; the
-#: two-ring cap 22 against 18 and GP(1, 1) at h = 3 16 against 15; the shipped sphere 9 either way.
-#: The catalog's scenarios (:func:`fabpat.shell.solve.solve_nonlinear`) keep reusing after any correction
-REUSE_ROTATION = 0.01
 
 
 @dataclass(frozen=True, eq=False)
@@ -313,7 +305,7 @@ def solve_path(
     leap: int | None = None,
     setup: SolverSetup | None = None,
     rises: int = 3,
-    reuse_rotation: float = REUSE_ROTATION,
+    reuse_rotation: float = np.inf,
 ) -> PathResult:
     """Follow λ = 0 → 1 (loads λ·loads, prescribed dofs λ·prescribed, joint angles λ·φ); see module doc.
 
@@ -359,7 +351,8 @@ def solve_path(
     row (:class:`fabpat.shell.newton.Rules`); a path whose one long increment passes a stretch of slowly
     rising residuals before converging (a large closure: docs/assembly-solver.md) allows more.
     ``reuse_rotation``: the factorization is reused only after a correction whose largest nodal rotation is at
-    most this (rad; :data:`REUSE_ROTATION`; ``inf``: after any, as :func:`fabpat.shell.solve.solve_nonlinear`).
+    most this (rad; default ``inf``: after any, as :func:`fabpat.shell.solve.solve_nonlinear`); a closure takes
+    0.01 rad (:data:`fabpat.assembly.solve.closure.CLOSURE_REUSE_ROTATION`).
     ``setup``: the assembler and factoriser shared with earlier solves of the same mesh
     (:class:`fabpat.shell.rigid_links.SolverSetup`; default: this solve's own).
     The solver's listeners (:mod:`fabpat.shell.news`) are told the increment, λ and the factorizations
