@@ -21,8 +21,9 @@ from numpy.typing import NDArray
 
 import fabpat.shell.kernel_cache  # noqa: F401 - sets numba.config.CACHE_DIR, read by the decorators below
 
-# numba compiles these on first use (about 40 s on the 2-core machine, measured in a first
-# `fabpat assemble`) and keeps the machine code in the user's cache (cache=True, fabpat.shell.kernel_cache)
+# numba compiles these on first use (9.6 s on the idle 2-core machine, benchmarks/bench_first_run.py; a
+# first `fabpat assemble` takes 17 s rather than 7) and keeps the machine code in the user's cache
+# (cache=True, fabpat.shell.kernel_cache)
 
 Arr = NDArray[np.float64]
 Ints = NDArray[np.int64]
