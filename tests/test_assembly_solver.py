@@ -342,3 +342,23 @@ def test_a_warm_start_too_far_off_costs_little_more_than_a_cold_start() -> None:
     near = solve_path(prob, steps=1, start=(0.9 * cold.final.displacement, 0.9 * cold.final.rotation))
     assert near.warm
     assert np.abs(near.final.displacement - cold.final.displacement).max() < 1e-5
+
+
+def test_curvature_fields_are_fitted_when_first_read_and_pickle_as_plain_fields() -> None:
+    """A solve's curvature fields are the fit of its deformed mid-surface, made when a VTU, a picture or the
+    caller first reads them (not by every solve), and a pickled simulation carries them as a plain dict."""
+    import pickle
+
+    from fabpat.assembly.solve.result import LazyFields
+    from fabpat.assembly.solve.simulation import simulate_assembly
+    from fabpat.shell.curvature import curvature_fields
+
+    sim = simulate_assembly(Path(__file__).resolve().parents[1] / "assemblies" / "test-small.toml", h=6.0)
+    assert isinstance(sim.curvature, LazyFields) and sim.curvature._make is not None  # not fitted yet
+    m, n = sim.model, len(sim.model.X)
+    x = m.X + sim.run.result.final.displacement[:n]
+    want = curvature_fields(x, m.F, m.plate_of_node[:n], center=m.X.mean(axis=0) - np.array([0.0, 0.0, 1e6]))
+    assert sorted(sim.curvature) == sorted(want)
+    assert all(np.array_equal(sim.curvature[k], want[k]) for k in want)
+    back = pickle.loads(pickle.dumps(sim.curvature))
+    assert isinstance(back, dict) and all(np.array_equal(back[k], want[k]) for k in want)

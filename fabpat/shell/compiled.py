@@ -104,9 +104,9 @@ def load_kernels() -> float:
         R = np.broadcast_to(np.eye(3), (3, 3, 3)).copy()
         tri.tangents_at(X, R)  # the solves' signatures: a mesh's own triangles, and shared element data
         # (fabpat.shell.congruent.CongruentTriangles calls the shared kernel with these types)
-        Kt = np.empty((1, 18, 18))
-        shared_element_kernels(X, R, tri._F, *tri._consts, np.zeros(1, dtype=np.int64), np.empty((1, 18)),
-                               np.empty(1), np.empty((1, 18)), Kt, True)
+        gN, xl0, E0, K, Q = tri._consts
+        shared_element_kernels(X, R, tri._F, gN, xl0, E0, K, Q, np.zeros(1, dtype=np.int64), np.empty((1, 18)),
+                               np.empty(1), np.empty((1, 18)), np.empty((1, 18, 18)), True)
         CompiledAssembler(tri.edofs, np.ones(18, dtype=bool), threads=1).matrix(np.zeros((1, 18, 18)))
         transform_elements(np.zeros((1, 18, 18)), np.zeros(1, dtype=np.int64), np.zeros((1, 3, 3)), threads=1)
     except OSError as e:  # numba saving the compiled kernels: a full disk, a quota, a folder made read-only

@@ -26,6 +26,7 @@ Writers (not atomic: :mod:`fabpat.assembly.kit.build` writes into a temporary fo
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
@@ -379,7 +380,7 @@ class _Solved(Protocol):
     @property
     def element_strain(self) -> Arr: ...
     @property
-    def curvature(self) -> dict[str, Arr]: ...
+    def curvature(self) -> Mapping[str, Arr]: ...
 
 
 def render_prediction_png(sim: _Solved, path: str | os.PathLike[str], field: str = "energy", dpi: int = 110) -> None:
