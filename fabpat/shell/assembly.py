@@ -7,6 +7,8 @@ The element → global scatter is computed once per mesh and support set (from t
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
@@ -23,6 +25,81 @@ def _node_order(F: NDArray[np.int64], n: int) -> NDArray[np.int64]:
     return np.asarray(lu.perm_c, dtype=np.int64)
 
 
+@dataclass(frozen=True, eq=False)
+class NodePattern:
+    """The free dofs' numbering and the CSC pattern of a mesh, built on *node* pairs (:func:`node_pattern`).
+
+    ``order`` (n,) each node's rank in the fill-reducing order, ``by_rank`` its inverse; ``nf`` (n,) free dofs
+    per node; ``start`` (n,) the matrix row of each node's first free dof; ``pf`` (n, 6) a dof's index among
+    its node's free dofs (−1 if fixed); ``glob`` the free global dofs ascending and ``fidx`` their matrix rows;
+    ``free`` the free global dofs in matrix order; ``RJ`` (m, 3) each element node's rank; ``uniq`` the
+    distinct node pairs (column rank · n + row rank), ``inv`` (m·9,) each element corner pair's index in them,
+    ``uJ``/``uI`` their column and row ranks, ``nf_r`` free dofs per rank, ``w`` each pair's rows; ``rowoff``,
+    ``colnnz``, ``base``: entry (I p, J q) sits at base_J + q'·colnnz_J + rowoff_IJ + p'; ``nnz`` and the CSC
+    ``indptr`` (n_free + 1,) int32.
+    """
+
+    order: NDArray[np.int64]
+    by_rank: NDArray[np.int64]
+    nf: NDArray[np.int64]
+    start: NDArray[np.int64]
+    pf: NDArray[np.int64]
+    glob: NDArray[np.int64]
+    fidx: NDArray[np.int64]
+    free: NDArray[np.int64]
+    RJ: NDArray[np.int64]
+    uniq: NDArray[np.int64]
+    inv: NDArray[np.int64]
+    uJ: NDArray[np.int64]
+    uI: NDArray[np.int64]
+    nf_r: NDArray[np.int64]
+    w: NDArray[np.int64]
+    rowoff: NDArray[np.int64]
+    colnnz: NDArray[np.int64]
+    base: NDArray[np.int64]
+    nnz: int
+    indptr: NDArray[np.int32]
+
+
+def node_pattern(Fn: NDArray[np.int64], free: NDArray[np.bool_], n: int) -> NodePattern:
+    """The numbering and pattern of the free dofs ``free`` (6 n,) of a mesh of triangles ``Fn`` (m, 3) on n nodes,
+    shared by :class:`Assembler` and :class:`fabpat.shell.compiled.CompiledAssembler` (one fact in one place).
+
+    The free dofs are numbered node by node in a fill-reducing (MMD) order of the *node* graph: SuperLU then
+    factors without its own ordering (symmetric mode), ~1.3× faster, and the order is computed once on a 6×
+    smaller graph. The pattern is built on node pairs (9 per element instead of 324 dof pairs: a 36× smaller
+    sort) and expanded to blocks: CSC column (J, q) lists the free dofs of J's neighbour nodes I in rank order,
+    so entry (I p, J q) sits at base_J + q'·colnnz_J + rowoff_IJ + p', with p', q' the indices among the nodes'
+    free dofs. Raises nothing."""
+    order = _node_order(Fn, n)  # rank of each node
+    by_rank = np.argsort(order)
+    freeN = free.reshape(n, 6)
+    nf = freeN.sum(axis=1)  # free dofs per node
+    start = np.zeros(n, dtype=np.int64)  # first free index of each node (its free dofs are contiguous)
+    start[by_rank] = np.concatenate([[0], np.cumsum(nf[by_rank])[:-1]])
+    pf = np.where(freeN, np.cumsum(freeN, axis=1) - 1, -1)  # (n, 6) index among the node's free dofs
+    glob = np.flatnonzero(free)
+    fidx = start[glob // 6] + pf.ravel()[glob]
+    in_order = np.empty_like(glob)
+    in_order[fidx] = glob
+    RJ = order[Fn]  # (m, 3) rank of each element node
+    uniq, inv = np.unique((RJ[:, None, :] * n + RJ[:, :, None]).ravel(), return_inverse=True)
+    uJ, uI = uniq // n, uniq % n
+    nf_r = nf[by_rank]
+    w = nf_r[uI]
+    cs = np.cumsum(w)
+    first = np.searchsorted(uJ, uJ)  # first pair of each node column
+    rowoff = cs - w - np.where(first > 0, cs[first - 1], 0)
+    colnnz = np.bincount(uJ, weights=w, minlength=n).astype(np.int64)  # per rank
+    base = np.concatenate([[0], np.cumsum(nf_r * colnnz)[:-1]])  # per rank
+    nnz = int(np.sum(nf_r * colnnz))
+    indptr = np.empty(glob.size + 1, dtype=np.int32)
+    indptr[fidx] = base[order[glob // 6]] + pf.ravel()[glob] * colnnz[order[glob // 6]]
+    indptr[glob.size] = nnz
+    return NodePattern(order, by_rank, nf, start, pf, glob, fidx, in_order, RJ, uniq, inv, uJ, uI, nf_r, w, rowoff,
+                       colnnz, base, nnz, indptr)
+
+
 class Assembler:
     """Scatter of (m, 18, 18) element matrices and (m, 18) element vectors.
 
@@ -36,35 +113,10 @@ class Assembler:
         n = self.n_dofs // 6
         Fn = edofs[:, ::6] // 6  # (m, 3) element nodes
         m = Fn.shape[0]
-        # number the free dofs node by node in a fill-reducing (MMD) order of the *node* graph: SuperLU
-        # then factors without its own ordering (symmetric mode), ~1.3× faster, and
-        # the order is computed once on a 6× smaller graph
-        order = _node_order(Fn, n)  # rank of each node
-        by_rank = np.argsort(order)
-        freeN = free.reshape(n, 6)
-        nf = freeN.sum(axis=1)  # free dofs per node
-        start = np.zeros(n, dtype=np.int64)  # first free index of each node (its free dofs are contiguous)
-        start[by_rank] = np.concatenate([[0], np.cumsum(nf[by_rank])[:-1]])
-        pf = np.where(freeN, np.cumsum(freeN, axis=1) - 1, -1)  # (n, 6) index among the node's free dofs
-        glob = np.flatnonzero(free)
-        fidx = start[glob // 6] + pf.ravel()[glob]
-        self.free = np.empty_like(glob)
-        self.free[fidx] = glob
-        # The pattern is built on *node* pairs (9 per element instead of 324 dof pairs: a 36× smaller
-        # sort) and expanded to blocks: CSC column (J, q) lists the free dofs of J's neighbour nodes I
-        # in rank order, so entry (I p, J q) sits at base_J + q'·colnnz_J + rowoff_IJ + p', with p', q'
-        # the indices among the nodes' free dofs.
-        RJ = order[Fn]  # (m, 3) rank of each element node
-        uniq, inv = np.unique((RJ[:, None, :] * n + RJ[:, :, None]).ravel(), return_inverse=True)
-        uJ, uI = uniq // n, uniq % n
-        nf_r = nf[by_rank]
-        w = nf_r[uI]
-        cs = np.cumsum(w)
-        first = np.searchsorted(uJ, uJ)  # first pair of each node column
-        rowoff = cs - w - np.where(first > 0, cs[first - 1], 0)
-        colnnz = np.bincount(uJ, weights=w, minlength=n).astype(np.int64)  # per rank
-        base = np.concatenate([[0], np.cumsum(nf_r * colnnz)[:-1]])  # per rank
-        self._nnz = int(np.sum(nf_r * colnnz))
+        pat = node_pattern(Fn, free, n)  # the numbering (a fill-reducing order of the node graph) and pattern
+        start, pf, RJ, inv, colnnz, base, rowoff = pat.start, pat.pf, pat.RJ, pat.inv, pat.colnnz, pat.base, pat.rowoff
+        self.free = pat.free
+        self._nnz = pat.nnz
         # the (m, 3, 6, 3, 6) positions are summed from small per-element parts, only the last sum full
         # size; the rows of an entry depend on its (element, a, p) only, so they are repeated from an
         # (m, 18) table in int32 (the indices' type), not expanded to every entry in int64 and gathered:
@@ -89,11 +141,8 @@ class Assembler:
             rows = np.repeat(rows18[ok.ravel()], k[ok])
         self._indices = np.zeros(self._nnz, dtype=np.int32)
         self._indices[self._inv] = rows
-        nfree = glob.size
-        self._indptr = np.empty(nfree + 1, dtype=np.int32)
-        self._indptr[fidx] = base[order[glob // 6]] + pf.ravel()[glob] * colnnz[order[glob // 6]]
-        self._indptr[nfree] = self._nnz
-        self.n_free = nfree
+        self._indptr = pat.indptr
+        self.n_free = int(pat.glob.size)
 
     def matrix(self, Ke: NDArray[np.float64]) -> sp.csc_matrix:
         """(n_free, n_free) CSC matrix of element matrices Ke (m, 18, 18) (free rows/columns only)."""

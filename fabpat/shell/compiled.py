@@ -24,7 +24,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 import fabpat.shell.kernel_cache  # noqa: F401 - numba's cache folder, chosen before the kernels are defined
-from fabpat.shell.assembly import _node_order
+from fabpat.shell.assembly import node_pattern
 from fabpat.shell.corotational import CorotationalTriangles
 from fabpat.shell.element import LocalStiffness, Material, local_stiffness
 from fabpat.shell.kernels import block_rows, block_sum, element_kernels, link_transform, shared_element_kernels
@@ -233,35 +233,13 @@ class CompiledAssembler:
         self.n_dofs = int(free.size)
         Fn = edofs[:, ::6] // 6  # (m, 3) element nodes
         n = self.n_dofs // 6
-        # the Assembler's numbering: free dofs node by node in the MMD rank of the node graph
-        rank = _node_order(Fn, n)
-        by_rank = np.argsort(rank)
+        # the Assembler's numbering and pattern (node pairs (column rank, row rank); pair u's nonzero (p', q')
+        # at base[column] + q'·colnnz[column] + rowoff[u] + p')
+        pat = node_pattern(Fn, free, n)
+        by_rank, nf, start, uniq, inv = pat.by_rank, pat.nf, pat.start, pat.uniq, pat.inv
+        uJ, uI, nf_r, w, rowoff, colnnz, base = pat.uJ, pat.uI, pat.nf_r, pat.w, pat.rowoff, pat.colnnz, pat.base
         freeN = free.reshape(n, 6)
-        nf = freeN.sum(axis=1)
-        start = np.zeros(n, dtype=np.int64)  # each node's first row
-        start[by_rank] = np.concatenate([[0], np.cumsum(nf[by_rank])[:-1]])
-        pf = np.where(freeN, np.cumsum(freeN, axis=1) - 1, -1)  # (n, 6) index among the node's free dofs
-        glob = np.flatnonzero(free)
-        fidx = start[glob // 6] + pf.ravel()[glob]
-        self.free = np.empty_like(glob)
-        self.free[fidx] = glob
-        self.n_free = int(glob.size)
-        # node pairs (column rank, row rank), as the Assembler; pair u's nonzero (p', q') is at
-        # base[column] + q'·colnnz[column] + rowoff[u] + p'
-        RJ = rank[Fn]
-        uniq, inv = np.unique((RJ[:, None, :] * n + RJ[:, :, None]).ravel(), return_inverse=True)
-        uJ, uI = uniq // n, uniq % n
-        nf_r = nf[by_rank]
-        w = nf_r[uI]
-        cs = np.cumsum(w)
-        head = np.searchsorted(uJ, uJ)  # first pair of each column node
-        rowoff = cs - w - np.where(head > 0, cs[head - 1], 0)
-        colnnz = np.bincount(uJ, weights=w, minlength=n).astype(np.int64)
-        base = np.concatenate([[0], np.cumsum(nf_r * colnnz)[:-1]])
-        self._nnz = int(np.sum(nf_r * colnnz))
-        self._indptr = np.empty(self.n_free + 1, dtype=np.int32)
-        self._indptr[fidx] = base[rank[glob // 6]] + pf.ravel()[glob] * colnnz[rank[glob // 6]]
-        self._indptr[self.n_free] = self._nnz
+        self.free, self.n_free, self._nnz, self._indptr = pat.free, int(pat.glob.size), pat.nnz, pat.indptr
         # the blocks: pairs with free dofs on both nodes, in the order of their node numbers (column, then
         # row), which is close to the elements' order: the sum then reads the element matrices nearly in
         # turn (in the matrix's column order it was no faster than the gather entry by entry, 0.078 s
