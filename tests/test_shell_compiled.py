@@ -160,6 +160,7 @@ def test_the_kernels_are_cached_in_the_users_cache_folder(tmp_path: Path, monkey
     from fabpat.shell import kernel_cache
 
     monkeypatch.setattr(numba.config, "CACHE_DIR", numba.config.CACHE_DIR)  # restored after the test
+    monkeypatch.setattr(kernel_cache, "REFUSED", None)
     monkeypatch.delenv("FABPAT_CACHE", raising=False)
     monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
@@ -172,6 +173,7 @@ def test_the_kernels_are_cached_in_the_users_cache_folder(tmp_path: Path, monkey
     (tmp_path / "file").write_text("")  # a file where the folder should be: cannot be created (even as root)
     monkeypatch.setenv("FABPAT_CACHE", str(tmp_path / "file"))
     assert kernel_cache.choose_cache_dir() is None and "NUMBA_CACHE_DIR" not in os.environ
+    assert kernel_cache.REFUSED == f"FABPAT_CACHE={tmp_path / 'file'} cannot be written, so numba keeps its own cache"
     monkeypatch.setenv("FABPAT_CACHE", "off")
     assert kernel_cache.choose_cache_dir() is None
 
@@ -210,6 +212,16 @@ def test_a_first_compilation_is_announced_and_a_cached_load_is_not(monkeypatch: 
             compiled.ensure_kernels()
             compiled.ensure_kernels()  # once per process
     assert len(loads) == 2 and len(heard) == 1 and heard[0].startswith("compiling the solver's kernels")
+    # a FABPAT_CACHE that could not be used is said with the compilation, not dropped silently
+    from fabpat.shell import kernel_cache
+
+    monkeypatch.setattr(kernel_cache, "CACHE_DIR", None)
+    monkeypatch.setattr(kernel_cache, "REFUSED", "FABPAT_CACHE=/x cannot be written, so numba keeps its own cache")
+    monkeypatch.setattr(compiled, "_READY", [])
+    monkeypatch.setattr(compiled, "kernels_cached", lambda: False)
+    with news.listening(heard.append):
+        compiled.ensure_kernels()
+    assert heard[-1].endswith("; FABPAT_CACHE=/x cannot be written, so numba keeps its own cache)")
 
 
 def test_the_cache_check_reads_numbas_index_files() -> None:

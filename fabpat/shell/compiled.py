@@ -82,9 +82,9 @@ def ensure_kernels() -> None:
     if _READY:
         return
     if not kernels_cached():
-        where = fabpat.shell.kernel_cache.CACHE_DIR
+        where, refused = fabpat.shell.kernel_cache.CACHE_DIR, fabpat.shell.kernel_cache.REFUSED
         tell("compiling the solver's kernels (once after an install: about 10 s"
-             + (f"; kept in {where})" if where else ")"))
+             + (f"; kept in {where})" if where else f"; {refused})" if refused else ")"))
     load_kernels()
 
 

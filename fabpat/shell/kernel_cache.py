@@ -45,13 +45,22 @@ def _writable(folder: Path) -> bool:
     return True
 
 
+#: why the folder ``FABPAT_CACHE`` names is not used (it cannot be made or written), or None: said with the
+#: first compilation (:func:`fabpat.shell.compiled.ensure_kernels`), so a setting is not dropped silently
+REFUSED: str | None = None
+
+
 def choose_cache_dir() -> str | None:
     """Set numba's cache folder (module doc) unless the user has; returns the folder in use, or None
-    when numba keeps its own choice. Safe to call again (the first choice stays)."""
+    when numba keeps its own choice (:data:`REFUSED` then says why, when ``FABPAT_CACHE`` named a folder).
+    Safe to call again (the first choice stays)."""
+    global REFUSED
     chosen = os.environ.get(NUMBA_VARIABLE)
     if not chosen:
         folder = default_cache_dir()
         if folder is None or not _writable(folder):
+            if folder is not None and os.environ.get("FABPAT_CACHE"):
+                REFUSED = f"FABPAT_CACHE={os.environ['FABPAT_CACHE']} cannot be written, so numba keeps its own cache"
             return None
         chosen = os.environ[NUMBA_VARIABLE] = str(folder)
     numba = sys.modules.get("numba")
