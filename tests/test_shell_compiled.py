@@ -261,3 +261,40 @@ def test_a_solve_of_read_only_triangles_needs_no_kernel_compiled_after_the_warm_
     CompiledTriangles(X, F, Material(), threads=1).tangents_at(X + 0.01, R)
     CongruentTriangles(X, F, Material(), np.arange(2), threads=1).tangents_at(X + 0.01, R)
     assert (len(element_kernels.signatures), len(shared_element_kernels.signatures)) == before
+
+
+def _openblas_threads() -> list[int]:
+    from threadpoolctl import ThreadpoolController
+
+    return [int(c["num_threads"]) for c in ThreadpoolController().select(internal_api="openblas").info()]
+
+
+def test_a_path_runs_on_one_openblas_thread_and_gives_the_callers_back(monkeypatch: pytest.MonkeyPatch) -> None:
+    # OpenBLAS's workers spin ~0.1 s after a threaded call, on the cores the kernels and PARDISO need next:
+    # the shipped sphere took 1.7 s with them, 1.3 s without (benchmarks/bench_assembly.py --solve)
+    from threadpoolctl import threadpool_limits
+
+    from fabpat.assembly.solve.simulation import simulate_assembly
+    from fabpat.assembly.spec.load import parse_spec
+    from fabpat.shell import linalg
+    from fabpat.shell.compiled import solver_threads
+
+    seen: list[list[int]] = []
+    real = linalg.superlu
+
+    def spy(K):  # type: ignore[no-untyped-def]
+        seen.append(_openblas_threads())
+        return real(K)
+
+    monkeypatch.setattr(linalg, "superlu", spy)
+    monkeypatch.setenv("FABPAT_LINEAR_SOLVER", "superlu")  # every factorisation through the spy
+    strip = {"tiling": {"kind": "honeycomb-strip", "edge": 36.0, "rows": 1, "columns": 2},
+             "patterns": {"groups": ["0x0488", "0x0508"], "group_columns": 1}, "plates": {"thickness": 0.8}}
+    with threadpool_limits(2, user_api="blas"):
+        assert _openblas_threads() and set(_openblas_threads()) == {2}
+        with solver_threads(2):
+            assert set(_openblas_threads()) == {1}
+        assert set(_openblas_threads()) == {2}
+        simulate_assembly(parse_spec(strip, "s.toml"), h=6.0)
+        assert seen and all(set(s) == {1} for s in seen)
+        assert set(_openblas_threads()) == {2}

@@ -29,14 +29,13 @@ mapping: the state of the art*, IEEE Trans. MTT 52(1), 2004).
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import SolverError
+from fabpat.shell.compiled import one_blas_thread
 
 Arr = NDArray[np.float64]
 
@@ -170,21 +169,6 @@ def _energy_hessian(c: Arr, k_end: Arr) -> Arr:
     return H
 
 
-@contextmanager
-def one_blas_thread() -> Iterator[None]:
-    """One BLAS thread inside the block: the fits solve hundreds of small systems (the 2 × 15 strip's KKT
-    system is 182 × 182), which several threads only slow down. Measured on the loaded 2-core machine
-    (load average 9), a fit to the 2 × 15 strip took 79 s with the default threads (65 ms per solve) and
-    under 2 s with one; no effect without threadpoolctl."""
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:
-        yield
-        return
-    with threadpool_limits(1):
-        yield
-
-
 def fit_spring(beam: Elastica, u: Arr, span: float, x: Arr, z: Arr) -> Elastica:
     """``beam`` with the end spring k that best reproduces the mid-line (x, z) mm of a strip of
     log-stiffnesses ``u`` (least squares over log k in [−5, 12]: from a pin to a clamp)."""
@@ -197,6 +181,9 @@ def fit_spring(beam: Elastica, u: Arr, span: float, x: Arr, z: Arr) -> Elastica:
         except SolverError:
             return math.inf
 
+    # the fits solve hundreds of small systems (the 2 × 15 strip's KKT system is 182 × 182), which several BLAS
+    # threads only slow down: on the loaded 2-core machine (load average 9) a fit to the 2 × 15 strip took 79 s
+    # with the default threads (65 ms per solve) and under 2 s with one
     with one_blas_thread():
         best = minimize_scalar(cost, bounds=(-5.0, 12.0), method="bounded", options={"xatol": 1e-3})
     return Elastica(beam.length, beam.edges, math.exp(float(best.x)))

@@ -3,7 +3,7 @@
 An assembly's mesh has 10–50 k triangles, and its Newton iterations spend most of their time in the
 element forces and tangents and in summing the element matrices into the sparse tangent. Here those
 run as compiled loops over the elements, shared among the cores, and the PARDISO factorisations of
-the one large matrix use the same cores (:func:`pardiso_threads`). The catalog's per-plate scenarios
+the one large matrix use the same cores (:func:`solver_threads`). The catalog's per-plate scenarios
 keep the numpy kernels of :class:`fabpat.shell.corotational.CorotationalTriangles`: their numbers are
 the catalog's, pinned by its solver version, and their worker processes already fill the cores.
 """
@@ -22,6 +22,7 @@ import numba
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
+from threadpoolctl import ThreadpoolController
 
 import fabpat.shell.kernel_cache  # noqa: F401 - numba's cache folder, chosen before the kernels are defined
 from fabpat.shell.assembly import node_pattern
@@ -287,16 +288,36 @@ def transform_elements(Kt: Arr, elements: NDArray[np.int64], c: Arr, threads: in
         link_transform(Kt, np.ascontiguousarray(elements, dtype=np.int64), np.ascontiguousarray(c, dtype=np.float64))
 
 
+_OPENBLAS: list[ThreadpoolController] = []
+
+
 @contextmanager
-def pardiso_threads(n: int) -> Iterator[None]:
-    """Let PARDISO use ``n`` threads inside the block (one outside it, :mod:`fabpat.shell.linalg`);
-    no effect without MKL."""
+def one_blas_thread() -> Iterator[None]:
+    """One OpenBLAS thread inside the block (numpy's and scipy's; MKL's BLAS is left alone).
+
+    After a BLAS call on several threads OpenBLAS keeps its workers spinning for about 0.1 s, on the very
+    cores the element kernels and PARDISO then run on, and this code's BLAS calls (norms and small products)
+    gain nothing from threads. Measured on the idle 2-core machine with ``python benchmarks/bench_assembly.py
+    --solve --h 3``: the shipped sphere 1.7 → 1.3 s (its factorisations 0.047 → 0.029 s each, its tangents
+    0.06 → 0.045 s), the shipped strip 5.5 → 4.5 s. The libraries are those loaded at the first call
+    (threadpoolctl), which is after numpy and scipy."""
+    if not _OPENBLAS:
+        _OPENBLAS.append(ThreadpoolController())
+    with _OPENBLAS[0].select(internal_api="openblas").limit(limits=1):
+        yield
+
+
+@contextmanager
+def solver_threads(n: int) -> Iterator[None]:
+    """The threads of one large matrix's path inside the block: PARDISO may use ``n`` (one outside it,
+    :mod:`fabpat.shell.linalg`; no effect without MKL), OpenBLAS one (:func:`one_blas_thread`)."""
     lib = mkl()
-    if lib is None or n <= 1:
-        yield
-        return
-    lib.MKL_Domain_Set_Num_Threads(ctypes.c_int(n), ctypes.c_int(4))  # 4: MKL_DOMAIN_PARDISO
-    try:
-        yield
-    finally:
-        lib.MKL_Domain_Set_Num_Threads(ctypes.c_int(1), ctypes.c_int(4))
+    with one_blas_thread():
+        if lib is None or n <= 1:
+            yield
+            return
+        lib.MKL_Domain_Set_Num_Threads(ctypes.c_int(n), ctypes.c_int(4))  # 4: MKL_DOMAIN_PARDISO
+        try:
+            yield
+        finally:
+            lib.MKL_Domain_Set_Num_Threads(ctypes.c_int(1), ctypes.c_int(4))

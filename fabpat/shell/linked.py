@@ -31,7 +31,7 @@ from numpy.typing import NDArray
 
 from fabpat.errors import SolverError
 from fabpat.shell import news
-from fabpat.shell.compiled import ensure_kernels, pardiso_threads
+from fabpat.shell.compiled import ensure_kernels, solver_threads
 from fabpat.shell.linalg import Factor, Pardiso, SuperLUFactorizer, factorizer
 from fabpat.shell.newton import Convergence, Residual, Rules, iterate, roundoff_noise
 from fabpat.shell.rigid_links import LinkedProblem, SolverSetup, _Reduced
@@ -39,7 +39,7 @@ from fabpat.shell.rotations import expmap, logmap
 
 Arr = NDArray[np.float64]
 
-#: one path at a time per process: PARDISO's thread count is process-wide (compiled.pardiso_threads),
+#: one path at a time per process: PARDISO's thread count is process-wide (compiled.solver_threads),
 #: and two overlapping solves from Python threads crashed in PARDISO or lost their path
 _PATH_LOCK = threading.Lock()
 
@@ -401,7 +401,7 @@ def solve_path(
     leapt = False  # the leap (``leap``) tried
     here = PathPoint(0.0, np.zeros((N, 3)), np.zeros((N, 3)), np.zeros((N, 6)), 0.0, np.zeros((len(p.link_slave), 6)))
     anchor = (0, 0.0)  # (factorizations, λ) when λ last advanced by stall[1]
-    with _PATH_LOCK, pardiso_threads(red.model.threads):  # one large matrix: its factorisations may use every core
+    with _PATH_LOCK, solver_threads(red.model.threads):  # one large matrix: its factorisations may use every core
         while lam < 1.0 - 1e-12:
             if guess is not None:
                 next_report = steps  # one increment to λ = 1
@@ -551,13 +551,13 @@ class LinkedState:
         if self._factor is None or not mine:
             g, _, _, d = red.forces(self.p, self.x, self.R, 1.0)
             K = red.matrix(self.p, self.x, self.R, d, g, 1.0)
-            with _PATH_LOCK, pardiso_threads(red.model.threads):
+            with _PATH_LOCK, solver_threads(red.model.threads):
                 fz = factorizer() if setup is None else setup.factorizer(transposed=True)
                 self._factor = fz.factor(sp.csc_matrix(K.T))
             if setup is not None:
                 setup.transposed_of = weakref.ref(self)
         lam = np.zeros(6 * red.N)
-        with _PATH_LOCK, pardiso_threads(red.model.threads):
+        with _PATH_LOCK, solver_threads(red.model.threads):
             lam[red.asm.free] = self._factor.solve(np.asarray(b, dtype=np.float64).ravel()[red.asm.free])
         return lam.reshape(-1, 6)
 
