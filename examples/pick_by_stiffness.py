@@ -4,7 +4,8 @@ The catalog holds every hexagon pattern's metrics and its strain energies in the
 (nonlinear, mesh-converged: each pattern solved on a 2.5 mm mesh — finer, 1.1 × min_width, for necks
 under 2.27 mm — and on its nested refinement, the two energies extrapolated; docs/accuracy.md).
 Under a prescribed moment a stiffer plate stores *less* energy, so the stiffest dome-former is the one
-with the smallest Dome energy. Keep the printable ones (narrowest bar ≥ 2 mm) and print the stiffest and the softest, and the five closest to a target energy.
+with the smallest Dome energy. Keep the printable ones (narrowest bar ≥ 2 mm) and print the stiffest and
+the softest, and the five closest to a target energy.
 Run: ``python examples/pick_by_stiffness.py``.
 """
 
