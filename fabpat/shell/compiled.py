@@ -298,8 +298,8 @@ def one_blas_thread() -> Iterator[None]:
     After a BLAS call on several threads OpenBLAS keeps its workers spinning for about 0.1 s, on the very
     cores the element kernels and PARDISO then run on, and this code's BLAS calls (norms and small products)
     gain nothing from threads. Measured on the idle 2-core machine with ``python benchmarks/bench_assembly.py
-    --solve --h 3``: the shipped sphere 1.7 → 1.3 s (its factorisations 0.047 → 0.029 s each, its tangents
-    0.06 → 0.045 s), the shipped strip 5.5 → 4.5 s. The libraries are those loaded at the first call
+    --solve --h 3``: the shipped sphere 1.7 → 1.3 s (its factorisations 0.047 → 0.028–0.034 s each, its tangents
+    0.06 → 0.03–0.04 s), the shipped strip 5.4 → 4.4 s. The libraries are those loaded at the first call
     (threadpoolctl), which is after numpy and scipy. The limit is the process's while the block runs: another
     Python thread's BLAS calls meanwhile run on one thread too."""
     if not _OPENBLAS:
