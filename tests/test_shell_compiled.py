@@ -298,3 +298,95 @@ def test_a_path_runs_on_one_openblas_thread_and_gives_the_callers_back(monkeypat
         simulate_assembly(parse_spec(strip, "s.toml"), h=6.0)
         assert seen and all(set(s) == {1} for s in seen)
         assert set(_openblas_threads()) == {2}
+
+
+def test_overlapping_blas_limits_of_two_threads_give_the_callers_setting_back() -> None:
+    # each threadpoolctl limiter gives back what it found on entry: two blocks that overlap without nesting
+    # (a design's beam fit beside a solve) left the process on one thread for good
+    import threading
+
+    from threadpoolctl import threadpool_limits
+
+    from fabpat.shell.compiled import one_blas_thread
+
+    a_in, b_in, a_out = threading.Event(), threading.Event(), threading.Event()
+    inside: list[list[int]] = []
+
+    def first() -> None:
+        with one_blas_thread():
+            a_in.set()
+            b_in.wait(10)
+        a_out.set()
+
+    def second() -> None:
+        a_in.wait(10)
+        with one_blas_thread():
+            b_in.set()
+            a_out.wait(10)
+            inside.append(_openblas_threads())  # still limited after the first block ended
+
+    with threadpool_limits(2, user_api="blas"):
+        ts = [threading.Thread(target=first), threading.Thread(target=second)]
+        for t in ts:
+            t.start()
+        for t in ts:
+            t.join(20)
+        assert a_out.is_set() and b_in.is_set()
+        assert len(inside) == 1 and set(inside[0]) == {1}
+        assert set(_openblas_threads()) == {2}
+
+
+def test_a_callers_mkl_limit_does_not_set_pardisos_threads_in_a_path() -> None:
+    # threadpoolctl limits MKL with a thread-local count, which wins over PARDISO's domain count: a caller's
+    # limit of 3 gave a small strip's path 3 PARDISO threads on 2 cores (3.3 s rather than 0.4 s)
+    import ctypes
+
+    from threadpoolctl import threadpool_limits
+
+    from fabpat.shell.compiled import solver_threads
+    from fabpat.shell.linalg import mkl
+
+    lib = mkl()
+    if lib is None:
+        pytest.skip("MKL is not installed on this platform: PARDISO is not used")
+    with threadpool_limits(3):
+        assert lib.MKL_Domain_Get_Max_Threads(ctypes.c_int(4)) == 3  # the caller's limit reaches PARDISO
+        with solver_threads(2):
+            assert lib.MKL_Domain_Get_Max_Threads(ctypes.c_int(4)) == 2
+        assert lib.MKL_Get_Max_Threads() == 3  # the caller's own limit is given back
+
+
+def _child_strip(_: int) -> float:
+    from fabpat.assembly.solve.simulation import simulate_assembly
+    from fabpat.assembly.spec.load import parse_spec
+
+    strip = {"tiling": {"kind": "honeycomb-strip", "edge": 36.0, "rows": 1, "columns": 2},
+             "patterns": {"groups": ["0x0488", "0x0508"], "group_columns": 1}, "plates": {"thickness": 0.8}}
+    return float(simulate_assembly(parse_spec(strip, "s.toml"), h=6.0).fields()["energy"])
+
+
+def test_a_child_forked_while_another_thread_solves_is_not_locked_out() -> None:
+    # the child inherited the path's and the kernels' locks held by the parent's solving thread, and waited
+    import multiprocessing as mp
+    import threading
+
+    from fabpat.shell import compiled, linked
+
+    compiled.load_kernels()
+    held, release = threading.Event(), threading.Event()
+
+    def solving() -> None:  # stands for a path under way in another thread
+        with linked._PATH_LOCK, compiled.kernel_lock():
+            held.set()
+            release.wait(120)
+
+    t = threading.Thread(target=solving)
+    t.start()
+    try:
+        assert held.wait(10)
+        with mp.get_context("fork").Pool(1) as pool:
+            energy = pool.map_async(_child_strip, [0]).get(timeout=120)[0]
+    finally:
+        release.set()
+        t.join(10)
+    assert np.isfinite(energy) and energy > 0.0

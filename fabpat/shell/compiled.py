@@ -11,10 +11,11 @@ the catalog's, pinned by its solver version, and their worker processes already 
 from __future__ import annotations
 
 import ctypes
+import itertools
 import multiprocessing
 import os
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import replace
 
@@ -42,10 +43,17 @@ Arr = NDArray[np.float64]
 if "NUMBA_THREADING_LAYER" not in os.environ:
     numba.config.THREADING_LAYER = "workqueue"
 _KERNEL_LOCK = threading.Lock()
+
 # MKL's OpenMP threads spin for 200 ms after each PARDISO call by default, on the cores the element
 # kernels run on next: without the spin the shipped strip's tangents take 5.5 s rather than 6.0 s.
 # Read when MKL starts its threads (the first factorisation), so it is set here, before any solve.
 os.environ.setdefault("KMP_BLOCKTIME", "0")
+
+
+def kernel_lock() -> threading.Lock:
+    """The lock every compiled kernel call holds (numba's work queue must not be entered from two threads at
+    once); a forked child gets a fresh one (:func:`_fresh_in_child`)."""
+    return _KERNEL_LOCK
 
 
 def cores() -> int:
@@ -288,7 +296,51 @@ def transform_elements(Kt: Arr, elements: NDArray[np.int64], c: Arr, threads: in
         link_transform(Kt, np.ascontiguousarray(elements, dtype=np.int64), np.ascontiguousarray(c, dtype=np.float64))
 
 
-_OPENBLAS: list[ThreadpoolController] = []
+def _openblas_counts() -> list[tuple[Callable[[], int], Callable[[int], object]]]:
+    """(get, set) of the thread count of every OpenBLAS loaded (numpy's and scipy's, found by threadpoolctl),
+    called directly: threadpoolctl's own setter lets only the first Python thread that used it change the count
+    and silently ignores the others, so a limit set in one thread and given back in another would stay."""
+    out: list[tuple[Callable[[], int], Callable[[int], object]]] = []
+    for lib in ThreadpoolController().select(internal_api="openblas").lib_controllers:
+        for prefix, suffix in itertools.product(("", "scipy_"), ("", "64_", "_64")):
+            get = getattr(lib.dynlib, f"{prefix}openblas_get_num_threads{suffix}", None)
+            put = getattr(lib.dynlib, f"{prefix}openblas_set_num_threads{suffix}", None)
+            if get is not None and put is not None:
+                out.append((get, put))
+                break
+    return out
+
+
+class _OneBlasThread:
+    """The one OpenBLAS limit shared by every block that asks for it (:func:`one_blas_thread`): the first to
+    enter sets it, the last to leave gives back the counts the first found, so blocks of several Python threads
+    that overlap leave the caller's setting as it was."""
+
+    def __init__(self) -> None:
+        self.lock = threading.Lock()
+        self.users = 0
+        self.libs: list[tuple[Callable[[], int], Callable[[int], object]]] | None = None
+        self.saved: list[int] = []
+
+    def enter(self) -> None:
+        with self.lock:
+            if self.users == 0:
+                if self.libs is None:  # the libraries loaded by now: numpy's and scipy's
+                    self.libs = _openblas_counts()
+                self.saved = [int(get()) for get, _ in self.libs]
+                for _, put in self.libs:
+                    put(1)
+            self.users += 1
+
+    def leave(self) -> None:
+        with self.lock:
+            self.users -= 1
+            if self.users == 0 and self.libs is not None:
+                for (_, put), n in zip(self.libs, self.saved, strict=True):
+                    put(n)
+
+
+_BLAS = _OneBlasThread()
 
 
 @contextmanager
@@ -300,25 +352,47 @@ def one_blas_thread() -> Iterator[None]:
     gain nothing from threads. Measured on the idle 2-core machine with ``python benchmarks/bench_assembly.py
     --solve --h 3``: the shipped sphere 1.7 → 1.3 s (its factorisations 0.047 → 0.028–0.034 s each, its tangents
     0.06 → 0.03–0.04 s), the shipped strip 5.4 → 4.4 s. The libraries are those loaded at the first call
-    (threadpoolctl), which is after numpy and scipy. The limit is the process's while the block runs: another
-    Python thread's BLAS calls meanwhile run on one thread too."""
-    if not _OPENBLAS:
-        _OPENBLAS.append(ThreadpoolController())
-    with _OPENBLAS[0].select(internal_api="openblas").limit(limits=1):
+    (threadpoolctl), which is after numpy and scipy. The limit is the process's while a block runs: another
+    Python thread's BLAS calls meanwhile run on one thread too. Blocks may overlap from several threads; the
+    last to end gives back the setting the first found."""
+    _BLAS.enter()
+    try:
         yield
+    finally:
+        _BLAS.leave()
 
 
 @contextmanager
 def solver_threads(n: int) -> Iterator[None]:
     """The threads of one large matrix's path inside the block: PARDISO may use ``n`` (one outside it,
-    :mod:`fabpat.shell.linalg`; no effect without MKL), OpenBLAS one (:func:`one_blas_thread`)."""
+    :mod:`fabpat.shell.linalg`; no effect without MKL), OpenBLAS one (:func:`one_blas_thread`).
+
+    A thread-local MKL thread count (what ``threadpoolctl.threadpool_limits`` sets) would override PARDISO's
+    count: a caller's limit of 3 made a small strip's path take 3.3 s rather than 0.4 s on two cores. It is
+    cleared inside the block and given back afterwards."""
     lib = mkl()
     with one_blas_thread():
-        if lib is None or n <= 1:
+        if lib is None:
             yield
             return
-        lib.MKL_Domain_Set_Num_Threads(ctypes.c_int(n), ctypes.c_int(4))  # 4: MKL_DOMAIN_PARDISO
+        local = lib.MKL_Set_Num_Threads_Local(ctypes.c_int(0))  # 0: the global and domain counts apply
+        if n > 1:
+            lib.MKL_Domain_Set_Num_Threads(ctypes.c_int(n), ctypes.c_int(4))  # 4: MKL_DOMAIN_PARDISO
         try:
             yield
         finally:
-            lib.MKL_Domain_Set_Num_Threads(ctypes.c_int(1), ctypes.c_int(4))
+            if n > 1:
+                lib.MKL_Domain_Set_Num_Threads(ctypes.c_int(1), ctypes.c_int(4))
+            lib.MKL_Set_Num_Threads_Local(ctypes.c_int(local))
+
+
+def _fresh_in_child() -> None:
+    """A forked child gets its own kernel lock and BLAS limit: the parent's may have been held by another
+    thread at the fork (a solve under way), and nothing in the child would release them. The child's OpenBLAS
+    keeps the parent's count of the moment (one, if a path was running)."""
+    global _KERNEL_LOCK, _BLAS
+    _KERNEL_LOCK = threading.Lock()
+    _BLAS = _OneBlasThread()
+
+
+os.register_at_fork(after_in_child=_fresh_in_child)

@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabpat.errors import GeometryError
-from fabpat.shell.compiled import _KERNEL_LOCK, CompiledTriangles
+from fabpat.shell.compiled import CompiledTriangles, kernel_lock
 from fabpat.shell.element import BENDING_DOFS, MEMBRANE_DOFS, Material, element_frames
 from fabpat.shell.kernels import shared_element_kernels
 from fabpat.shell.strain import strain_from_dofs
@@ -101,7 +101,7 @@ class CongruentTriangles:
         x = np.ascontiguousarray(x, dtype=np.float64)
         R = np.ascontiguousarray(R, dtype=np.float64)
         gN, xl0, E0, K, Q, rows = self._consts
-        with _KERNEL_LOCK:
+        with kernel_lock():
             numba.set_num_threads(self.threads)
             shared_element_kernels(x, R, self.F, gN, xl0, E0, K, Q, rows, self._fe, self._U, self._d,
                             Kt if Kt is not None else np.empty((0, 18, 18)), Kt is not None)

@@ -19,6 +19,7 @@ load fraction reached.
 
 from __future__ import annotations
 
+import os
 import threading
 import time
 import weakref
@@ -42,6 +43,15 @@ Arr = NDArray[np.float64]
 #: one path at a time per process: PARDISO's thread count is process-wide (compiled.solver_threads),
 #: and two overlapping solves from Python threads crashed in PARDISO or lost their path
 _PATH_LOCK = threading.Lock()
+
+
+def _fresh_lock_in_child() -> None:
+    # a child forked while another thread of the parent was in a path would wait for its lock for ever
+    global _PATH_LOCK
+    _PATH_LOCK = threading.Lock()
+
+
+os.register_at_fork(after_in_child=_fresh_lock_in_child)
 
 #: an increment that converged within this many iterations (the predictor included) doubles the next
 #: one: on the strip's post-buckling branch increments take 6 iterations, and 4 kept them at 1/12 of
