@@ -134,3 +134,21 @@ def test_a_closed_plan_gives_per_vary_and_the_mapped_faces(tmp_path: Path) -> No
     plan = json.loads(r.stdout)
     assert plan["per"] == "face" and plan["vary"] == ["patterns"] and "face_irregularity" not in plan
     assert not out.exists()
+
+
+def test_a_strip_plan_says_which_asked_words_the_search_keeps_fixed(tmp_path: Path) -> None:
+    # the plan listed "angles" among the words a strip's design would vary, and only the real run's design.json
+    # said they are not varied
+    x = np.linspace(0.0, 200.0, 41)
+    target = tmp_path / "sine.csv"
+    target.write_text("x,z\n" + "".join(f"{a:.6f},{20.0 * math.sin(math.pi * a / 200.0):.6f}\n" for a in x))
+    spec = _base(tmp_path, "variations = false")
+    r = invoke("design", str(target), "--spec", str(spec), "--out", str(tmp_path / "d"), "--scale-target",
+               "--vary", "patterns,angles", "--dry-run")
+    assert r.returncode == 0, r.stderr
+    plan = json.loads(r.stdout)
+    assert plan["notes"] == [api.unvaried_note(object(), ["angles"])]
+    assert plan["notes"][0].startswith("angles: not varied by this search")
+    plain = json.loads(invoke("design", str(target), "--spec", str(spec), "--out", str(tmp_path / "d"),
+                              "--scale-target", "--dry-run").stdout)
+    assert "notes" not in plain and plain["vary"] == ["patterns"]  # a strip's search varies its patterns

@@ -98,6 +98,21 @@ def _check_arc(target: StripTarget, length: float, scale_target: bool) -> tuple[
     return target.scaled(factor), factor
 
 
+def unvaried_note(tgt: object, vary_words: tuple[str, ...] | list[str]) -> str | None:
+    """The note saying which asked-for ``--vary`` words this search keeps fixed (None: none), for design.json and
+    the dry run's plan alike: a closed target's angles are varied (fabpat.design.closed_angles); a strip's
+    angles and the thickness are not. Said, not silently dropped: the search's variables are the patterns (and
+    a closed target's shapes)."""
+    fixed = [w for w in ("angles", "thickness") if w in vary_words
+             and not (w == "angles" and isinstance(tgt, ClosedTarget))]
+    if not fixed:
+        return None
+    keeps = {"angles": "the sleeves keep [sleeve] angle", "thickness": "the plates keep [plates] thickness"}
+    gives = {"angles": "[sleeve] angles", "thickness": "[plates] thicknesses"}
+    return (f"{' and '.join(fixed)}: not varied by this search; {' and '.join(keeps[w] for w in fixed)} of the base "
+            f"(give {' or '.join(gives[w] for w in fixed)} in the spec to set them)")
+
+
 def checked_inputs(target: object, spec: object, out: str | os.PathLike[str] | None, per: object, vary: object,
                    scale_target: bool) -> tuple[StripTarget | ClosedTarget, DesignBase, str, tuple[str, ...]]:
     """What :func:`design` and its dry run (:mod:`fabpat.design.dry_run`) check before the first solve, in this
@@ -106,7 +121,7 @@ def checked_inputs(target: object, spec: object, out: str | os.PathLike[str] | N
     target, ``scale_target`` only for a strip, and a closed design without ``patterns`` keeping a base that
     names its patterns. Returns (target, base, per, vary words; a sphere drops ``shapes``: its base faces are
     a sphere's already). Raises SpecError, TargetError, ExportError (one line each)."""
-    from fabpat.design.mapped import read_per, read_vary
+    from fabpat.design.mapped import DEFAULT_VARY_STRIP, read_per, read_vary
     from fabpat.errors import ExportError, SpecError
     from fabpat.validate import check_path
 
@@ -120,7 +135,8 @@ def checked_inputs(target: object, spec: object, out: str | os.PathLike[str] | N
     per_word = read_per(per)
     read_vary(vary, True)  # its words checked before the target is read
     tgt = read_target(target)
-    vary_words = read_vary(vary, isinstance(tgt, ClosedTarget) and not tgt.open)
+    vary_words = read_vary(vary, isinstance(tgt, ClosedTarget) and not tgt.open) if vary is not None or \
+        isinstance(tgt, ClosedTarget) else DEFAULT_VARY_STRIP
     base = load_base(spec)
     require_match(tgt, base.spec.source, base.spec.tiling.kind)
     if not isinstance(tgt, ClosedTarget):
@@ -240,15 +256,9 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
         res = _design_strip(tgt, base, h, MAX_SOLVES if max_solves is None else max_solves, tolerance,
                             scale_target, runner, t0)
     res.record["variables"] = _variables(res, vary_words)
-    # a closed target's angles are varied (fabpat.design.closed_angles); a strip's and the thickness are not
-    fixed = [w for w in ("angles", "thickness") if w in vary_words
-             and not (w == "angles" and isinstance(tgt, ClosedTarget))]
-    if fixed:  # said, not silently dropped: the search's variables are the patterns (and a closed target's shapes)
-        keeps = {"angles": "the sleeves keep [sleeve] angle", "thickness": "the plates keep [plates] thickness"}
-        gives = {"angles": "[sleeve] angles", "thickness": "[plates] thicknesses"}
-        res.record.setdefault("notes", []).append(
-            f"{' and '.join(fixed)}: not varied by this search; {' and '.join(keeps[w] for w in fixed)} of the base "
-            f"(give {' or '.join(gives[w] for w in fixed)} in the spec to set them)")
+    unvaried = unvaried_note(tgt, vary_words)
+    if unvaried is not None:
+        res.record.setdefault("notes", []).append(unvaried)
     stopped = res.record.get("stopped_by")
     res.record["interrupted"] = stopped is not None
     res.record["abandoned"] = list(runner.failures)

@@ -40,9 +40,11 @@ if TYPE_CHECKING:  # pragma: no cover
 
 #: the design variables ``--vary`` may list
 VARY = ("shapes", "patterns", "angles", "thickness")
-#: ``--vary`` by default: a closed target's metric needs its shapes; an open one's stiffness and joints
+#: ``--vary`` by default: a closed target's metric needs its shapes; an open tiling's (a cap, a tube) stiffness and
+#: joints; a strip's patterns (its search keeps the sleeves' angle: asking for angles only adds a note saying so)
 DEFAULT_VARY_CLOSED = ("shapes", "patterns")
 DEFAULT_VARY_OPEN = ("patterns", "angles")
+DEFAULT_VARY_STRIP = ("patterns",)
 #: ``--per``: a pattern per face (the default; refined from the best group design) or per face group (polygon and
 #: latitude band)
 PER = ("face", "group")
