@@ -152,3 +152,11 @@ def test_a_strip_plan_says_which_asked_words_the_search_keeps_fixed(tmp_path: Pa
     plain = json.loads(invoke("design", str(target), "--spec", str(spec), "--out", str(tmp_path / "d"),
                               "--scale-target", "--dry-run").stdout)
     assert "notes" not in plain and plain["vary"] == ["patterns"]  # a strip's search varies its patterns
+    assert "per" not in plain  # a strip has no faces to group
+    assert "give [sleeve]" not in plan["notes"][0]  # a strip's spec cannot set sleeve angles: no such advice
+    # without patterns a strip's search would vary nothing (it used to search the patterns all the same)
+    for words in ("angles", "thickness", "angles,thickness"):
+        r = invoke("design", str(target), "--spec", str(spec), "--out", str(tmp_path / "d"), "--scale-target",
+                   "--vary", words, "--dry-run")
+        assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
+        assert "must include patterns" in r.stderr

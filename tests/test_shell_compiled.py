@@ -356,17 +356,24 @@ def test_a_callers_mkl_limit_does_not_set_pardisos_threads_in_a_path() -> None:
         assert lib.MKL_Get_Max_Threads() == 3  # the caller's own limit is given back
 
 
-def _child_strip(_: int) -> float:
+def _child_strip(_: int) -> tuple[int, float]:
+    import ctypes
+
     from fabpat.assembly.solve.simulation import simulate_assembly
     from fabpat.assembly.spec.load import parse_spec
+    from fabpat.shell.linalg import mkl
+
+    lib = mkl()
+    pardiso = 1 if lib is None else int(lib.MKL_Domain_Get_Max_Threads(ctypes.c_int(4)))
 
     strip = {"tiling": {"kind": "honeycomb-strip", "edge": 36.0, "rows": 1, "columns": 2},
              "patterns": {"groups": ["0x0488", "0x0508"], "group_columns": 1}, "plates": {"thickness": 0.8}}
-    return float(simulate_assembly(parse_spec(strip, "s.toml"), h=6.0).fields()["energy"])
+    return pardiso, float(simulate_assembly(parse_spec(strip, "s.toml"), h=6.0).fields()["energy"])
 
 
 def test_a_child_forked_while_another_thread_solves_is_not_locked_out() -> None:
-    # the child inherited the path's and the kernels' locks held by the parent's solving thread, and waited
+    # the child inherited the path's and the kernels' locks held by the parent's solving thread, and waited; and
+    # the path's PARDISO threads (2), although a worker runs on one
     import multiprocessing as mp
     import threading
 
@@ -376,7 +383,7 @@ def test_a_child_forked_while_another_thread_solves_is_not_locked_out() -> None:
     held, release = threading.Event(), threading.Event()
 
     def solving() -> None:  # stands for a path under way in another thread
-        with linked._PATH_LOCK, compiled.kernel_lock():
+        with linked._PATH_LOCK, compiled.kernel_lock(), compiled.solver_threads(2):
             held.set()
             release.wait(120)
 
@@ -385,8 +392,24 @@ def test_a_child_forked_while_another_thread_solves_is_not_locked_out() -> None:
     try:
         assert held.wait(10)
         with mp.get_context("fork").Pool(1) as pool:
-            energy = pool.map_async(_child_strip, [0]).get(timeout=120)[0]
+            pardiso, energy = pool.map_async(_child_strip, [0]).get(timeout=120)[0]
     finally:
         release.set()
         t.join(10)
     assert np.isfinite(energy) and energy > 0.0
+    assert pardiso == 1
+
+
+def test_a_blas_block_left_in_a_forked_child_changes_nothing() -> None:
+    # os.fork() inside a block: the child's fresh state has no user, and the block's end must not make it −1
+    from fabpat.shell.compiled import _OneBlasThread
+
+    b = _OneBlasThread()
+    b.leave()
+    assert b.users == 0
+    b.enter()
+    b.enter()
+    b.leave()
+    assert b.users == 1 and set(_openblas_threads()) == {1}
+    b.leave()
+    assert b.users == 0

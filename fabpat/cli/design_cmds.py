@@ -42,8 +42,9 @@ from fabpat.cli.options import h_option, number_option
 @click.option("--vary", metavar="WORDS", default=None,
               help="Design variables, comma-separated: shapes, patterns, angles, thickness [default: shapes,patterns "
                    "for a closed target (shapes: the base tiling mapped onto the target, plates shaped to its faces, "
-                   "its mesh written as DIR/mapped.obj), patterns,angles for a cap or a tube, patterns for a strip]. "
-                   "Without patterns a closed design keeps the base spec's own [patterns].")
+                   "its mesh written as DIR/mapped.obj; a sphere keeps its faces: patterns), patterns,angles for a cap "
+                   "or a tube, patterns for a strip (it must include patterns: a strip keeps its flat angle and "
+                   "thickness)]. Without patterns a closed design keeps the base spec's own [patterns].")
 @click.option("--progress/--no-progress", default=True, show_default=True,
               help="Progress on stderr (solves done; in a solve its increment, λ and factorizations).")
 def design_cmd(target: str, spec: str, out: str, h: float, max_solves: int | None, tolerance: float, scale_target: bool,

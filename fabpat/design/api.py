@@ -103,14 +103,14 @@ def unvaried_note(tgt: object, vary_words: tuple[str, ...] | list[str]) -> str |
     the dry run's plan alike: a closed target's angles are varied (fabpat.design.closed_angles); a strip's
     angles and the thickness are not. Said, not silently dropped: the search's variables are the patterns (and
     a closed target's shapes)."""
-    fixed = [w for w in ("angles", "thickness") if w in vary_words
-             and not (w == "angles" and isinstance(tgt, ClosedTarget))]
+    closed = isinstance(tgt, ClosedTarget)
+    fixed = [w for w in ("angles", "thickness") if w in vary_words and not (w == "angles" and closed)]
     if not fixed:
         return None
-    keeps = {"angles": "the sleeves keep [sleeve] angle", "thickness": "the plates keep [plates] thickness"}
-    gives = {"angles": "[sleeve] angles", "thickness": "[plates] thicknesses"}
-    return (f"{' and '.join(fixed)}: not varied by this search; {' and '.join(keeps[w] for w in fixed)} of the base "
-            f"(give {' or '.join(gives[w] for w in fixed)} in the spec to set them)")
+    keeps = {"angles": "a strip's joints are flat and straight: its sleeves keep their flat angle",
+             "thickness": "the plates keep the base's [plates] thickness (give [plates] thicknesses in the spec to "
+                          "set them)"}
+    return f"{' and '.join(fixed)}: not varied by this search; {'; '.join(keeps[w] for w in fixed)}"
 
 
 def checked_inputs(target: object, spec: object, out: str | os.PathLike[str] | None, per: object, vary: object,
@@ -143,6 +143,9 @@ def checked_inputs(target: object, spec: object, out: str | os.PathLike[str] | N
         if "shapes" in vary_words:
             raise SpecError("--vary shapes maps a closed tiling onto its target; a strip's plates are its own "
                             "(leave shapes out)")
+        if "patterns" not in vary_words:  # its angles and thickness are kept: nothing would be varied
+            raise SpecError("a strip's design varies its patterns: --vary must include patterns (a strip's "
+                            "sleeves keep their flat angle and its plates the [plates] thickness)")
         return tgt, base, per_word, vary_words
     if scale_target:
         raise SpecError("scale_target applies to strip targets (a closed target has no size: the plates fix it)")
@@ -246,7 +249,6 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
             if mapped is not None:
                 shutil.rmtree(mapped.folder, ignore_errors=True)
         res.record["per"] = per
-        res.record["vary"] = list(vary_words)
         if mapped is not None:
             res.record["face_irregularity"] = mapped.face_irregularity
             res.record["mapped"] = {"file": "mapped.obj", "planarity": mapped.planarity,
@@ -255,6 +257,7 @@ def design(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike[
     else:
         res = _design_strip(tgt, base, h, MAX_SOLVES if max_solves is None else max_solves, tolerance,
                             scale_target, runner, t0)
+    res.record["vary"] = list(vary_words)
     res.record["variables"] = _variables(res, vary_words)
     unvaried = unvaried_note(tgt, vary_words)
     if unvaried is not None:

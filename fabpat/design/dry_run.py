@@ -37,10 +37,10 @@ def dry_run(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike
     ``elastica_peak_strain`` (its κ t / 2 at the sharpest bend), ``strain_limit``, ``thickness`` (mm),
     ``columns``; for a closed tiling ``scale`` (mm per target unit), ``radius`` (mm), ``relative_rms`` of
     the target fitted to the polyhedron's vertices, ``groups`` (face groups) and ``candidates``, with ``shapes``
-    ``face_irregularity`` and ``planarity`` of the mapped tiling (as design.json's); both ``per`` and ``vary``
-    (the words the design would use, :func:`fabpat.design.design`) and, where the search keeps an asked-for word
-    fixed, ``notes`` (the line design.json's ``notes`` will hold). Writes nothing. Raises what design raises
-    before its first solve: TargetError, SpecError, ExportError."""
+    ``face_irregularity`` and ``planarity`` of the mapped tiling (as design.json's); ``vary`` (the words the
+    design would use, :func:`fabpat.design.design`), for a closed tiling ``per``, and where the search keeps an
+    asked-for word fixed, ``notes`` (the line design.json's ``notes`` will hold). Writes nothing. Raises what
+    design raises before its first solve: TargetError, SpecError, ExportError."""
     from fabpat.design.api import checked_inputs, unvaried_note
     from fabpat.errors import SpecError
     from fabpat.validate import check
@@ -52,7 +52,8 @@ def dry_run(target: Any, spec: str | os.PathLike[str], *, out: str | os.PathLike
     plan = _closed_plan(tgt, base, "shapes" in words) if isinstance(tgt, ClosedTarget) else \
         _strip_plan(tgt, base, h, scale_target)
     unvaried = unvaried_note(tgt, words)
-    return {**plan, "per": per, "vary": list(words), **({"notes": [unvaried]} if unvaried else {})}
+    per_of = {"per": per} if isinstance(tgt, ClosedTarget) else {}  # a strip has no faces to group
+    return {**plan, **per_of, "vary": list(words), **({"notes": [unvaried]} if unvaried else {})}
 
 
 def _strip_plan(strip: StripTarget, base: DesignBase, h: float, scale_target: bool) -> dict[str, Any]:

@@ -328,19 +328,22 @@ class _OneBlasThread:
                 if self.libs is None:  # the libraries loaded by now: numpy's and scipy's
                     self.libs = _openblas_counts()
                 self.saved = [int(get()) for get, _ in self.libs]
-                for _, put in self.libs:
-                    put(1)
+                # the calls made inside one C loop (map), where no KeyboardInterrupt can land between them
+                list(map(lambda lib: lib[1](1), self.libs))  # noqa: C417
             self.users += 1
 
     def leave(self) -> None:
         with self.lock:
+            if self.users == 0:  # a block entered before a fork, left in the child (fresh state, nothing to give)
+                return
             self.users -= 1
             if self.users == 0 and self.libs is not None:
-                for (_, put), n in zip(self.libs, self.saved, strict=True):
-                    put(n)
+                list(map(lambda lib, n: lib[1](n), self.libs, self.saved))  # noqa: C417 - as in enter
 
 
 _BLAS = _OneBlasThread()
+#: whether a path has set PARDISO's threads in this process (then MKL is loaded; a forked child resets them)
+_PARDISO_SET = False
 
 
 @contextmanager
@@ -370,29 +373,35 @@ def solver_threads(n: int) -> Iterator[None]:
     A thread-local MKL thread count (what ``threadpoolctl.threadpool_limits`` sets) would override PARDISO's
     count: a caller's limit of 3 made a small strip's path take 3.3 s rather than 0.4 s on two cores. It is
     cleared inside the block and given back afterwards."""
+    global _PARDISO_SET
     lib = mkl()
     with one_blas_thread():
         if lib is None:
             yield
             return
+        _PARDISO_SET = True
         local = lib.MKL_Set_Num_Threads_Local(ctypes.c_int(0))  # 0: the global and domain counts apply
-        if n > 1:
-            lib.MKL_Domain_Set_Num_Threads(ctypes.c_int(n), ctypes.c_int(4))  # 4: MKL_DOMAIN_PARDISO
         try:
+            # set even for one thread: a child forked during a parent's path inherits the parent's count
+            lib.MKL_Domain_Set_Num_Threads(ctypes.c_int(max(1, n)), ctypes.c_int(4))  # 4: MKL_DOMAIN_PARDISO
             yield
         finally:
-            if n > 1:
-                lib.MKL_Domain_Set_Num_Threads(ctypes.c_int(1), ctypes.c_int(4))
+            lib.MKL_Domain_Set_Num_Threads(ctypes.c_int(1), ctypes.c_int(4))
             lib.MKL_Set_Num_Threads_Local(ctypes.c_int(local))
 
 
 def _fresh_in_child() -> None:
     """A forked child gets its own kernel lock and BLAS limit: the parent's may have been held by another
-    thread at the fork (a solve under way), and nothing in the child would release them. The child's OpenBLAS
-    keeps the parent's count of the moment (one, if a path was running)."""
+    thread at the fork (a solve under way), and nothing in the child would release them. PARDISO is set back to
+    one thread (the parent's path may have had two); the child's OpenBLAS keeps the parent's count of the moment
+    (one, if a path was running)."""
     global _KERNEL_LOCK, _BLAS
     _KERNEL_LOCK = threading.Lock()
     _BLAS = _OneBlasThread()
+    if _PARDISO_SET:  # MKL loaded and a path ran: PARDISO on one thread outside a path, as in the parent
+        lib = mkl()
+        if lib is not None:
+            lib.MKL_Domain_Set_Num_Threads(ctypes.c_int(1), ctypes.c_int(4))
 
 
 os.register_at_fork(after_in_child=_fresh_in_child)
