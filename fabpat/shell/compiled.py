@@ -13,6 +13,7 @@ from __future__ import annotations
 import ctypes
 import itertools
 import multiprocessing
+import operator
 import os
 import threading
 from collections.abc import Callable, Iterator
@@ -328,8 +329,9 @@ class _OneBlasThread:
                 if self.libs is None:  # the libraries loaded by now: numpy's and scipy's
                     self.libs = _openblas_counts()
                 self.saved = [int(get()) for get, _ in self.libs]
-                # the calls made inside one C loop (map), where no KeyboardInterrupt can land between them
-                list(map(lambda lib: lib[1](1), self.libs))  # noqa: C417
+                # the C functions called from one C loop (map, operator.call): no Python code runs between them,
+                # so no KeyboardInterrupt can land with some counts set and others not
+                list(map(operator.call, [put for _, put in self.libs], itertools.repeat(1)))
             self.users += 1
 
     def leave(self) -> None:
@@ -338,7 +340,7 @@ class _OneBlasThread:
                 return
             self.users -= 1
             if self.users == 0 and self.libs is not None:
-                list(map(lambda lib, n: lib[1](n), self.libs, self.saved))  # noqa: C417 - as in enter
+                list(map(operator.call, [put for _, put in self.libs], self.saved))  # as in enter
 
 
 _BLAS = _OneBlasThread()
